@@ -1,0 +1,58 @@
+"""Numba flags and the numerical policy of the engine, in one place.
+
+Every compiled kernel takes its options from here so that caching, the error model and the
+parallel layout are the same everywhere. The policy constants are documented defaults; the
+ones a user may want to change are also keyword arguments of :class:`engine.Simulation`.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+#: Options of every serial kernel. ``error_model="numpy"`` makes a division by zero give inf
+#: (caught by the instability checks) instead of raising inside compiled code, and removes
+#: the exception checks from the hot loops. No fastmath: NaN checks must stay meaningful.
+NJIT = {"cache": True, "nogil": True, "error_model": "numpy"}
+
+#: Options of kernels with ``prange`` loops.
+NJIT_PARALLEL = {**NJIT, "parallel": True}
+
+#: Particles per parallel work item. Fixed (not derived from the thread count) so that every
+#: reduction is summed over the same chunks in the same order whatever the thread count:
+#: results are bit-identical with 1 and with N threads.
+CHUNK = 64
+
+#: ``Simulation(dt=None)`` takes this fraction of the smallest time-step limit of
+#: :func:`engine.critical_time_step` (oscillation limits, Rayleigh time, Hertz contact time).
+DT_FRACTION = 0.15
+
+#: A contact whose overlap exceeds this fraction of the smaller radius stops the run with
+#: :class:`engine.InstabilityError` (the contact laws are meaningless that deep).
+MAX_OVERLAP_FRACTION = 0.5
+
+#: A particle travelling more than this fraction of its radius in one step stops the run with
+#: :class:`engine.InstabilityError` ("runaway kinetic energy": contacts are no longer resolved).
+MAX_STEP_FRACTION = 0.2
+
+#: Default Verlet skin as a fraction of the largest radius [-]. The list is rebuilt when some
+#: particle has moved more than half the skin since the last build.
+SKIN_FRACTION = 0.2
+
+#: Angular speed below which the rolling-resistance torque is skipped [rad/s].
+ROLLING_OMEGA_EPS = 1e-9
+
+#: Largest accepted ratio of the largest to the smallest radius in a scene [-].
+MAX_RADIUS_RATIO = 3.0
+
+
+def cache_dir() -> Path:
+    """Directory of the specialised kernel sources and their numba cache.
+
+    ``DEMSCALE_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/demscale`` or ``~/.cache/demscale``.
+    """
+    env = os.environ.get("DEMSCALE_CACHE_DIR")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "demscale"

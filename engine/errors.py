@@ -1,0 +1,52 @@
+"""Exceptions of the engine. Every message names the field or quantity and the limit."""
+
+from __future__ import annotations
+
+
+class ParameterError(ValueError):
+    """A parameter is outside its allowed range.
+
+    Attributes: ``field`` (dotted name, e.g. ``"BilinearAdhesive.k2"``) and ``limit`` (text of
+    the allowed range).
+    """
+
+    def __init__(self, field: str, value: object, limit: str, why: str = "") -> None:
+        self.field = field
+        self.value = value
+        self.limit = limit
+        msg = f"{field} = {value!r} is not allowed: must be {limit}"
+        if why:
+            msg += f" ({why})"
+        super().__init__(msg)
+
+
+class StabilityError(ValueError):
+    """A requested time step (or parameter set) cannot be integrated stably.
+
+    Attributes: ``dt`` (the requested step [s], or None) and ``limit`` (the stable limit [s]).
+    """
+
+    def __init__(self, message: str, dt: float | None = None, limit: float | None = None):
+        self.dt = dt
+        self.limit = limit
+        super().__init__(message)
+
+
+class InstabilityError(RuntimeError):
+    """A run blew up: NaN/inf, an overlap beyond the allowed fraction of the radius, or a
+    particle moving further than the allowed fraction of its radius in one step.
+
+    Attributes: ``step`` (steps since the simulation started), ``time`` [s], ``particles``
+    (tuple of offending particle ids), ``reason`` (``"nan"``, ``"overlap"``, ``"speed"``).
+    """
+
+    def __init__(self, message: str, *, step: int, time: float, particles: tuple, reason: str):
+        self.step = step
+        self.time = time
+        self.particles = particles
+        self.reason = reason
+        super().__init__(message)
+
+
+class StopRequested(RuntimeError):
+    """Raised out of a stage driver or study when the progress callback asked to stop."""

@@ -1,0 +1,222 @@
+"""Contact-law parameter records: validated once in Python, read by the compiled kernels.
+
+Each record is a frozen dataclass. Construction checks every field and raises
+:class:`engine.ParameterError` naming the field and its allowed range. The records know how to
+pack themselves into the flat ``float64`` parameter arrays that the kernels read.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .errors import ParameterError
+
+
+def _finite(owner: str, name: str, value: float) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{owner}.{name}", value, "a real number") from None
+    if not math.isfinite(v):
+        raise ParameterError(f"{owner}.{name}", value, "finite")
+    return v
+
+
+def _check(owner: str, name: str, value: float, ok: bool, limit: str, why: str = "") -> None:
+    if not ok:
+        raise ParameterError(f"{owner}.{name}", value, limit, why)
+
+
+def damping_ratio(restitution: float) -> float:
+    r"""Viscous damping ratio for a coefficient of restitution [-].
+
+    .. math:: \zeta = -\ln e / \sqrt{\pi^2 + \ln^2 e}
+
+    ``e = 1`` gives 0 (no damping); ``e -> 0`` gives 1 (critical damping).
+    """
+    if restitution >= 1.0:
+        return 0.0
+    ln_e = math.log(restitution)
+    return -ln_e / math.sqrt(math.pi**2 + ln_e**2)
+
+
+def hertz_damping_factor(restitution: float) -> float:
+    r"""Positive Hertz-Mindlin damping factor :math:`-2\sqrt{5/6}\,\beta` [-] (Tsuji et al. 1992).
+
+    .. math:: \beta = \ln e / \sqrt{\ln^2 e + \pi^2}, \quad
+              F_d = -2\sqrt{5/6}\,\beta\,\sqrt{S\,m^*}\; v
+
+    The force opposes the relative velocity ``v``; with ``e = 1`` the factor is 0.
+    """
+    return 2.0 * math.sqrt(5.0 / 6.0) * damping_ratio(restitution)
+
+
+@dataclass(frozen=True)
+class BilinearAdhesive:
+    r"""Bilinear adhesive elasto-plastic pair law (linear EEPA, Thakur et al. 2014).
+
+    .. math::
+        d_p = (1 - K_1/K_2)\,d_{max}, \qquad
+        f_{hys} = f_0 + \min\big(K_1 d,\ \max(K_2 (d - d_p),\ -k_{adh} d)\big)
+
+    plus viscous normal damping :math:`c_n = 2\zeta\sqrt{m_{eff} K_1}`, an incremental linear
+    tangential spring :math:`K_t = \text{kt\_ratio}\,K_1` with damping
+    :math:`c_t = 2\zeta\sqrt{m_{eff} K_t}` and the adhesion-aware Coulomb cap
+    :math:`|F_t| \le \mu_s |f_{hys} - f_0 + k_{adh} d|`, and the constant directional rolling
+    torque :math:`\tau = -\mu_r |f_{hys}| R\,\hat\omega`.
+
+    Attributes:
+        k1: virgin loading stiffness K1 [N/m], > 0.
+        k2: unloading/reloading stiffness K2 [N/m], >= k1 (k2 == k1: elastic, no plasticity).
+        f0: adhesion (pull-off) force f0 [N], <= 0 (0: cohesionless).
+        kadh: slope of the adhesive branch k_adh [N/m], >= 0 (0 in Thakur et al. 2013).
+        kt_ratio: tangential stiffness as a fraction of k1 [-], >= 0 (2/7 by default).
+        mu_s: static (sliding) friction coefficient [-], >= 0 (0: frictionless).
+        mu_r: rolling friction coefficient [-], >= 0.
+        restitution: coefficient of restitution setting the damping ratio [-], in (0, 1].
+    """
+
+    k1: float
+    k2: float
+    f0: float = 0.0
+    kadh: float = 0.0
+    kt_ratio: float = 2.0 / 7.0
+    mu_s: float = 0.5
+    mu_r: float = 0.001
+    restitution: float = 0.4
+
+    def __post_init__(self) -> None:
+        o = "BilinearAdhesive"
+        for name in ("k1", "k2", "f0", "kadh", "kt_ratio", "mu_s", "mu_r", "restitution"):
+            object.__setattr__(self, name, _finite(o, name, getattr(self, name)))
+        _check(o, "k1", self.k1, self.k1 > 0, "> 0 N/m")
+        _check(
+            o,
+            "k2",
+            self.k2,
+            self.k2 >= self.k1,
+            f">= k1 = {self.k1:g} N/m",
+            "unloading must be at least as stiff as loading",
+        )
+        _check(o, "f0", self.f0, self.f0 <= 0, "<= 0 N", "adhesion is an attractive force")
+        _check(o, "kadh", self.kadh, self.kadh >= 0, ">= 0 N/m")
+        _check(o, "kt_ratio", self.kt_ratio, self.kt_ratio >= 0, ">= 0")
+        _check(o, "mu_s", self.mu_s, self.mu_s >= 0, ">= 0")
+        _check(o, "mu_r", self.mu_r, self.mu_r >= 0, ">= 0")
+        _check(o, "restitution", self.restitution, 0 < self.restitution <= 1, "in (0, 1]")
+
+    @property
+    def kt(self) -> float:
+        """Tangential stiffness Kt = kt_ratio * k1 [N/m]."""
+        return self.kt_ratio * self.k1
+
+    @property
+    def zeta(self) -> float:
+        """Damping ratio from the restitution [-]."""
+        return damping_ratio(self.restitution)
+
+    def scaled(self, s: float, stiffness_exponent: float, adhesion_exponent: float):
+        """The law for particles ``s`` times the reference size: K1, K2, kadh (and so Kt)
+        times ``s**stiffness_exponent``, f0 times ``s**adhesion_exponent``. Friction
+        coefficients and restitution do not scale."""
+        ks = s**stiffness_exponent
+        return replace(
+            self,
+            k1=self.k1 * ks,
+            k2=self.k2 * ks,
+            kadh=self.kadh * ks,
+            f0=self.f0 * s**adhesion_exponent,
+        )
+
+    def to_array(self) -> np.ndarray:
+        """Kernel parameter layout: [k1, k2, f0, kadh, kt, zeta, mu_s, mu_r]."""
+        return np.array(
+            [self.k1, self.k2, self.f0, self.kadh, self.kt, self.zeta, self.mu_s, self.mu_r],
+            dtype=np.float64,
+        )
+
+
+@dataclass(frozen=True)
+class HertzMindlin:
+    r"""Hertz-Mindlin (no slip) contact law; for walls and, selectable, for particle pairs.
+
+    .. math::
+        F_n = \tfrac43 E^*\sqrt{R^*}\,d^{3/2},\quad S_n = 2E^*\sqrt{R^* d},\quad
+        S_t = 8G^*\sqrt{R^* d},\quad F_d = -2\sqrt{5/6}\,\beta\sqrt{S m^*}\,v,\quad
+        |F_t| \le \mu F_n
+
+    Attributes:
+        E: Young's modulus of the particle material [Pa], > 0.
+        nu: Poisson's ratio of the particle material [-], in (-1, 0.5).
+        restitution: coefficient of restitution [-], in (0, 1].
+        mu: sliding friction coefficient [-], >= 0.
+        mu_r: rolling friction coefficient [-], >= 0 (constant directional torque).
+    """
+
+    E: float
+    nu: float = 0.25
+    restitution: float = 0.4
+    mu: float = 0.3
+    mu_r: float = 0.0
+
+    def __post_init__(self) -> None:
+        o = "HertzMindlin"
+        for name in ("E", "nu", "restitution", "mu", "mu_r"):
+            object.__setattr__(self, name, _finite(o, name, getattr(self, name)))
+        _check(o, "E", self.E, self.E > 0, "> 0 Pa")
+        _check(o, "nu", self.nu, -1 < self.nu < 0.5, "in (-1, 0.5)")
+        _check(o, "restitution", self.restitution, 0 < self.restitution <= 1, "in (0, 1]")
+        _check(o, "mu", self.mu, self.mu >= 0, ">= 0")
+        _check(o, "mu_r", self.mu_r, self.mu_r >= 0, ">= 0")
+
+    @property
+    def G(self) -> float:
+        """Shear modulus E / (2 (1 + nu)) [Pa]."""
+        return self.E / (2.0 * (1.0 + self.nu))
+
+    def pair_moduli(self) -> tuple[float, float]:
+        """(E*, G*) [Pa] for a contact between two particles of this material."""
+        e_star = 1.0 / (2.0 * (1.0 - self.nu**2) / self.E)
+        g_star = 1.0 / (2.0 * (2.0 - self.nu) / self.G)
+        return e_star, g_star
+
+    def wall_moduli(self, wall: WallMaterial) -> tuple[float, float]:
+        """(E*, G*) [Pa] for a contact between a particle of this material and ``wall``."""
+        e_star = 1.0 / ((1.0 - self.nu**2) / self.E + (1.0 - wall.nu**2) / wall.E)
+        g_star = 1.0 / ((2.0 - self.nu) / self.G + (2.0 - wall.nu) / wall.G)
+        return e_star, g_star
+
+    def to_array(self, e_star: float, g_star: float) -> np.ndarray:
+        """Kernel parameter layout: [E*, G*, damping factor, mu, mu_r]."""
+        return np.array(
+            [e_star, g_star, hertz_damping_factor(self.restitution), self.mu, self.mu_r],
+            dtype=np.float64,
+        )
+
+
+@dataclass(frozen=True)
+class WallMaterial:
+    """Elastic properties of a wall (platen) for the Hertz-Mindlin wall law.
+
+    Attributes:
+        E: Young's modulus [Pa], > 0 (steel: 2e11).
+        nu: Poisson's ratio [-], in (-1, 0.5).
+    """
+
+    E: float = 2e11
+    nu: float = 0.3
+
+    def __post_init__(self) -> None:
+        o = "WallMaterial"
+        for name in ("E", "nu"):
+            object.__setattr__(self, name, _finite(o, name, getattr(self, name)))
+        _check(o, "E", self.E, self.E > 0, "> 0 Pa")
+        _check(o, "nu", self.nu, -1 < self.nu < 0.5, "in (-1, 0.5)")
+
+    @property
+    def G(self) -> float:
+        """Shear modulus [Pa]."""
+        return self.E / (2.0 * (1.0 + self.nu))

@@ -1,0 +1,539 @@
+"""The :class:`Simulation`: state arrays, the compiled step, and the Python-side guards."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import MAX_OVERLAP_FRACTION, MAX_STEP_FRACTION, SKIN_FRACTION
+from .errors import InstabilityError, ParameterError, StabilityError
+from .kernels import load_kernel, scene_features
+from .materials import BilinearAdhesive
+from .neighbour import build_neighbour_list, wrap_positions
+from .scene import Scene
+from .stability import TimeStepLimit, critical_time_step
+
+
+class StabilityWarning(UserWarning):
+    """A time step below the stable limit but above an accuracy limit (Rayleigh time or Hertz
+    contact duration)."""
+
+
+@dataclass(frozen=True)
+class Contacts:
+    """Contacts at the last force evaluation (for analysis).
+
+    Attributes:
+        pairs: (M, 2) particle ids (i < j).
+        overlaps: (M,) overlaps [m].
+        forces: (M, 3) contact force on the first particle of each pair [N].
+        normals: (M, 3) unit vectors from the second particle to the first.
+        wall_particles: (K,) ids of particles touching a wall.
+        wall_ids: (K,) index of the wall each touches.
+        wall_overlaps: (K,) overlaps with the wall [m].
+    """
+
+    pairs: np.ndarray
+    overlaps: np.ndarray
+    forces: np.ndarray
+    normals: np.ndarray
+    wall_particles: np.ndarray
+    wall_ids: np.ndarray
+    wall_overlaps: np.ndarray
+
+
+# status codes of the compiled step (engine/_step_template.py)
+_STATUS_OK, _STATUS_REBUILD, _STATUS_NAN, _STATUS_OVERLAP, _STATUS_SPEED = range(5)
+
+
+def _concat(parts: list, dtype) -> np.ndarray:
+    return np.concatenate(parts) if parts else np.zeros(0, dtype)
+
+
+class Simulation:
+    """A DEM simulation of a :class:`Scene`.
+
+    Args:
+        scene: the scene (copied; later changes to it have no effect).
+        dt: time step [s]; None chooses ``DT_FRACTION`` of the smallest limit of
+            :func:`engine.critical_time_step`. A step above the stable limit raises
+            :class:`engine.StabilityError` naming both numbers.
+        skin: Verlet skin [m]; default ``SKIN_FRACTION`` x the largest radius.
+        max_speed: impact speed assumed by the Hertz time-step limits [m/s].
+        max_overlap_fraction: an overlap beyond this fraction of the (smaller) radius stops
+            the run with :class:`engine.InstabilityError`.
+        max_step_fraction: a particle moving more than this fraction of its radius in one step
+            stops the run with :class:`engine.InstabilityError`.
+
+    Only the features the scene uses are compiled in (see :attr:`features`).
+    """
+
+    def __init__(
+        self,
+        scene: Scene,
+        dt: float | None = None,
+        *,
+        skin: float | None = None,
+        max_speed: float | None = None,
+        max_overlap_fraction: float = MAX_OVERLAP_FRACTION,
+        max_step_fraction: float = MAX_STEP_FRACTION,
+    ) -> None:
+        if not isinstance(scene, Scene):
+            raise ParameterError("Simulation.scene", scene, "an engine.Scene")
+        self.scene = scene
+        for name, v in (
+            ("max_overlap_fraction", max_overlap_fraction),
+            ("max_step_fraction", max_step_fraction),
+        ):
+            if not (isinstance(v, (int, float)) and 0 < v < 1):
+                raise ParameterError(f"Simulation.{name}", v, "in (0, 1)")
+        self.limit: TimeStepLimit = critical_time_step(scene, max_speed)
+        self.dt = self._choose_dt(dt)
+        self._check_adhesion(max_overlap_fraction)
+
+        rmax = float(scene.radii.max())
+        if skin is None:
+            skin = SKIN_FRACTION * rmax
+        if not (isinstance(skin, (int, float)) and math.isfinite(skin) and skin > 0):
+            raise ParameterError("Simulation.skin", skin, "> 0 m")
+        self.skin = float(skin)
+        self._periodic = np.array(scene.periodic, dtype=np.bool_)
+        self._check_box()
+
+        n = scene.n
+        self._pos = scene.positions.copy()
+        self._vel = scene.velocities.copy()
+        self._omg = scene.angular_velocities.copy()
+        self._frc = np.zeros((n, 3))
+        self._trq = np.zeros((n, 3))
+        self._rad = scene.radii.copy()
+        self._mass = scene.masses
+        self._inv_mass = 1.0 / self._mass
+        self._inv_inertia = 1.0 / scene.inertia
+        self._pos_build = self._pos.copy()
+        self._images = np.zeros((n, 3), dtype=np.int64)
+        self._gravity = np.array(scene.gravity)
+        self._lo = scene.box[:, 0].copy()
+        self._length = scene.box_lengths.copy()
+        self._limits = np.array([max_overlap_fraction, max_step_fraction])
+        self._pp = self._pair_params()
+        self._wp = self._wall_params()
+        nw = len(scene.walls)
+        self._wall_point = np.array([w.point for w in scene.walls]).reshape(nw, 3)
+        self._wall_normal = np.array([w.normal for w in scene.walls]).reshape(nw, 3)
+        self._wall_vel = np.array([w.velocity for w in scene.walls]).reshape(nw, 3)
+        self._wall_force = np.zeros((nw, 3))
+
+        self._load(scene_features(scene))
+        wall_friction = self._features["walls"] and self._features["wall_friction"]
+        self._wall_hist = np.zeros((n if wall_friction else 0, nw, 3))
+        nchunk = -(-n // self._k.CHUNK)
+        self._wall_acc = np.zeros((nchunk, nw, 3))
+        self._chunk_stat = np.zeros((nchunk, 4))
+        self._chunk_disp = np.zeros(nchunk)
+        self._n_rebuilds = 0
+        self._info = np.zeros(3)
+        self._nbr_start = np.zeros(n + 1, dtype=np.int64)
+        self._rev_start = np.zeros(n + 1, dtype=np.int64)
+        self._nbr_j = np.zeros(0, dtype=np.int32)
+        self._rev_k = np.zeros(0, dtype=np.int32)
+        self._entry = np.zeros((0, self._k.N_SLOT))
+        self._n_entries = 0
+        self._steps = 0
+        self._failed: InstabilityError | None = None
+        self._rebuild()
+        self._compute_forces()
+
+    # ------------------------------------------------------------------ set-up and checks
+    def _choose_dt(self, dt: float | None) -> float:
+        lim = self.limit
+        if dt is None:
+            if not math.isfinite(lim.recommended):
+                raise ParameterError(
+                    "Simulation.dt",
+                    None,
+                    "given explicitly",
+                    "no contact law limits the time step of this scene",
+                )
+            return lim.recommended
+        if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
+            raise ParameterError("Simulation.dt", dt, "> 0 s and finite")
+        dt = float(dt)
+        if dt > lim.dt:
+            raise StabilityError(
+                f"dt = {dt:.4g} s is above the stable limit {lim.dt:.4g} s set by {lim.reason}; "
+                f"use dt <= {lim.dt:.4g} s (recommended {lim.recommended:.4g} s) or dt=None",
+                dt=dt,
+                limit=lim.dt,
+            )
+        soft = [c for c in lim.candidates if not c.hard and dt > c.value]
+        if soft:
+            c = min(soft, key=lambda c: c.value)
+            warnings.warn(
+                f"dt = {dt:.4g} s exceeds the {c.name} ({c.value:.4g} s): contacts "
+                f"are poorly resolved (recommended {lim.recommended:.4g} s)",
+                StabilityWarning,
+                stacklevel=3,
+            )
+        return dt
+
+    def _check_adhesion(self, ovl: float) -> None:
+        law = self.scene.pair_law
+        if isinstance(law, BilinearAdhesive) and law.f0 < 0:
+            d_eq = -law.f0 / law.k1
+            rmin = float(self.scene.radii.min())
+            if d_eq > ovl * rmin:
+                raise StabilityError(
+                    f"adhesion f0 = {law.f0:g} N pulls contacts to the overlap |f0|/k1 = "
+                    f"{d_eq:.4g} m, beyond max_overlap_fraction {ovl:g} x the smallest radius "
+                    f"{rmin:g} m: raise k1 or reduce |f0|"
+                )
+
+    def _check_box(self) -> None:
+        cut = 2.0 * float(self.scene.radii.max()) + self.skin
+        for a, axis in enumerate("xyz"):
+            if self._periodic[a] and self.scene.box_lengths[a] < 2.0 * cut:
+                raise ParameterError(
+                    "Scene.box",
+                    f"{self.scene.box_lengths[a]:g} m along {axis}",
+                    f">= {2 * cut:.4g} m on a periodic axis (twice the neighbour cut-off "
+                    f"2 Rmax + skin, for the minimum image)",
+                )
+
+    def _pair_params(self) -> np.ndarray:
+        law = self.scene.pair_law
+        if isinstance(law, BilinearAdhesive):
+            return law.to_array()
+        e_star, g_star = law.pair_moduli()
+        return np.concatenate([law.to_array(e_star, g_star), np.zeros(3)])
+
+    def _wall_params(self) -> np.ndarray:
+        if not self.scene.walls:
+            return np.zeros(5)
+        e_star, g_star = self.scene.wall_law.wall_moduli(self.scene.wall_material)
+        return self.scene.wall_law.to_array(e_star, g_star)
+
+    def _load(self, features: dict[str, bool]) -> None:
+        self._features = features
+        self._k = load_kernel(features)
+
+    # ------------------------------------------------------------------ neighbour list
+    def _grow(self, needed: int) -> None:
+        cap = int(needed * 1.25) + 16
+        nbr_j = np.zeros(cap, dtype=np.int32)
+        entry = np.zeros((cap, self._k.N_SLOT))
+        nbr_j[: self._n_entries] = self._nbr_j[: self._n_entries]
+        entry[: self._n_entries] = self._entry[: self._n_entries]
+        self._nbr_j, self._entry = nbr_j, entry
+        self._rev_k = np.zeros(cap, dtype=np.int32)
+
+    def _call(self, nsteps: int, phase: int = 0) -> tuple[int, int]:
+        return self._k.run_steps(
+            nsteps,
+            phase,
+            self.dt,
+            self._pos,
+            self._vel,
+            self._omg,
+            self._frc,
+            self._trq,
+            self._rad,
+            self._mass,
+            self._inv_mass,
+            self._inv_inertia,
+            self._pos_build,
+            self._nbr_start,
+            self._nbr_j,
+            self._entry,
+            self._rev_start,
+            self._rev_k,
+            self._wall_point,
+            self._wall_normal,
+            self._wall_vel,
+            self._wall_hist,
+            self._wall_force,
+            self._pp,
+            self._wp,
+            self._gravity,
+            self._length,
+            self.skin,
+            self._limits,
+            self._wall_acc,
+            self._chunk_stat,
+            self._chunk_disp,
+            self._info,
+        )
+
+    def _rebuild(self) -> None:
+        while True:
+            total = build_neighbour_list(
+                self._pos,
+                self._rad,
+                self._lo,
+                self._length,
+                self._periodic,
+                self.skin,
+                self._images,
+                self._nbr_start,
+                self._nbr_j,
+                self._entry,
+                self._k.N_HIST,
+                self._rev_start,
+                self._rev_k,
+                self._pos_build,
+            )
+            self._n_rebuilds += 1
+            if total >= 0:
+                self._n_entries = int(total)
+                return
+            self._grow(-int(total))
+
+    def _compute_forces(self) -> None:
+        status = self._call(0)[1]
+        if status != _STATUS_OK:
+            self._fail(status, self._steps)
+
+    # ------------------------------------------------------------------ running
+    def run(self, steps: int) -> None:
+        """Advance ``steps`` time steps (``steps * dt`` seconds)."""
+        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 0:
+            raise ParameterError("Simulation.run.steps", steps, "an integer >= 0")
+        if self._failed is not None:
+            raise RuntimeError(
+                f"this simulation stopped with an instability and cannot go on: {self._failed}"
+            )
+        remaining = int(steps)
+        phase = 0
+        while remaining > 0:
+            done, status = self._call(remaining, phase)
+            self._steps += done
+            remaining -= done
+            if status == _STATUS_OK:
+                break
+            if status != _STATUS_REBUILD:
+                self._fail(status, self._steps + 1)
+            self._rebuild()
+            phase = 1
+
+    def _fail(self, status: int, step: int) -> None:
+        i, j, value = int(self._info[0]), int(self._info[1]), float(self._info[2])
+        t = step * self.dt
+        where = f"step {step} (t = {t:.6g} s)"
+        hint = f"; dt = {self.dt:.4g} s, stable limit {self.limit.dt:.4g} s ({self.limit.reason})"
+        if status == _STATUS_NAN:
+            msg, reason, ids = (
+                f"{where}: non-finite force, velocity or position of particle {i}",
+                "nan",
+                (i,),
+            )
+        elif status == _STATUS_OVERLAP:
+            other = f"particle {j}" if j >= 0 else f"wall {-1 - j}"
+            msg = (
+                f"{where}: overlap between particle {i} and {other} is {value:.3g} x the "
+                f"radius, beyond max_overlap_fraction = {self._limits[0]:g}"
+            )
+            reason, ids = "overlap", (i, j) if j >= 0 else (i,)
+        else:
+            msg = (
+                f"{where}: particle {i} moved {value:.3g} x its radius in one step, beyond "
+                f"max_step_fraction = {self._limits[1]:g} (runaway kinetic energy)"
+            )
+            reason, ids = "speed", (i,)
+        err = InstabilityError(msg + hint, step=step, time=t, particles=ids, reason=reason)
+        self._failed = err
+        raise err
+
+    # ------------------------------------------------------------------ changes between runs
+    def set_wall_velocity(self, index: int, velocity) -> None:
+        """Set the velocity [m/s] of wall ``index`` for the following runs."""
+        self._check_wall(index)
+        v = np.asarray(velocity, dtype=np.float64)
+        if v.shape != (3,) or not np.all(np.isfinite(v)):
+            raise ParameterError(
+                "Simulation.set_wall_velocity.velocity", velocity, "3 finite numbers [m/s]"
+            )
+        self._wall_vel[index] = v
+
+    def set_wall_position(self, index: int, point) -> None:
+        """Move wall ``index`` so that it passes through ``point`` [m]; forces are updated."""
+        self._check_wall(index)
+        p = np.asarray(point, dtype=np.float64)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise ParameterError(
+                "Simulation.set_wall_position.point", point, "3 finite numbers [m]"
+            )
+        self._wall_point[index] = p
+        self._compute_forces()
+
+    def set_velocities(self, velocities=None, angular_velocities=None) -> None:
+        """Replace particle velocities [m/s] and/or angular velocities [rad/s] (e.g. zero
+        them to quench a packing); forces are updated."""
+        n = self.n
+        for name, value, target in (
+            ("velocities", velocities, self._vel),
+            ("angular_velocities", angular_velocities, self._omg),
+        ):
+            if value is None:
+                continue
+            a = np.broadcast_to(np.asarray(value, dtype=np.float64), (n, 3))
+            if not np.all(np.isfinite(a)):
+                raise ParameterError(f"Simulation.set_velocities.{name}", "non-finite", "finite")
+            target[:] = a
+        self._compute_forces()
+
+    def set_periodic(self, periodic) -> None:
+        """Change which axes are periodic (e.g. remove the lateral confinement of a sample).
+        Contacts across a face that stops being periodic disappear with their history; the
+        step kernel is re-specialised."""
+        per = np.array([bool(p) for p in periodic], dtype=np.bool_)
+        if per.shape != (3,):
+            raise ParameterError("Simulation.set_periodic.periodic", periodic, "three booleans")
+        if np.any(per & ~self._periodic):
+            raise ParameterError(
+                "Simulation.set_periodic.periodic",
+                tuple(per.tolist()),
+                "a subset of the current periodic axes",
+                "periodicity can be removed, not added",
+            )
+        # the sample is cut at the box faces: wrap once more, then forget the wraps there
+        wrap_positions(self._pos, self._lo, self._length, self._periodic, self._images)
+        self._images[:, ~per] = 0
+        self._periodic = per
+        self._load(scene_features(self.scene, periodic=tuple(per.tolist())))
+        self._rebuild()
+        self._compute_forces()
+
+    def _check_wall(self, index: int) -> None:
+        if not (isinstance(index, (int, np.integer)) and 0 <= index < len(self._wall_point)):
+            raise ParameterError("wall index", index, f"in [0, {len(self._wall_point)})")
+
+    # ------------------------------------------------------------------ state
+    @property
+    def n(self) -> int:
+        """Number of particles."""
+        return self._pos.shape[0]
+
+    @property
+    def time(self) -> float:
+        """Simulated time since the start [s]."""
+        return self._steps * self.dt
+
+    @property
+    def steps(self) -> int:
+        """Steps since the start."""
+        return self._steps
+
+    @property
+    def features(self) -> dict[str, bool]:
+        """The compile-time features of the step kernel in use (see engine.kernels.FEATURES)."""
+        return dict(self._features)
+
+    @property
+    def periodic(self) -> tuple[bool, bool, bool]:
+        """Periodic flags in use."""
+        return tuple(bool(p) for p in self._periodic)
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(N, 3) positions [m], wrapped into the box on periodic axes."""
+        return self._pos.copy()
+
+    @property
+    def unwrapped_positions(self) -> np.ndarray:
+        """(N, 3) positions [m] with the periodic wraps undone."""
+        return self._pos + self._images * self._length
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """(N, 3) velocities [m/s]."""
+        return self._vel.copy()
+
+    @property
+    def angular_velocities(self) -> np.ndarray:
+        """(N, 3) angular velocities [rad/s]."""
+        return self._omg.copy()
+
+    @property
+    def radii(self) -> np.ndarray:
+        """(N,) radii [m]."""
+        return self._rad.copy()
+
+    @property
+    def masses(self) -> np.ndarray:
+        """(N,) masses [kg]."""
+        return self._mass.copy()
+
+    @property
+    def forces(self) -> np.ndarray:
+        """(N, 3) total force on each particle at the last evaluation [N] (gravity included)."""
+        return self._frc.copy()
+
+    @property
+    def wall_forces(self) -> np.ndarray:
+        """(n_walls, 3) force exerted by the particles on each wall [N]."""
+        return self._wall_force.copy()
+
+    @property
+    def wall_positions(self) -> np.ndarray:
+        """(n_walls, 3) current point of each wall [m]."""
+        return self._wall_point.copy()
+
+    @property
+    def wall_velocities(self) -> np.ndarray:
+        """(n_walls, 3) wall velocities [m/s]."""
+        return self._wall_vel.copy()
+
+    @property
+    def n_rebuilds(self) -> int:
+        """Neighbour-list builds so far."""
+        return self._n_rebuilds
+
+    @property
+    def n_neighbour_entries(self) -> int:
+        """Pairs in the neighbour list."""
+        return self._n_entries
+
+    def kinetic_energy(self) -> float:
+        """Translational plus rotational kinetic energy [J]. Velocities are those of the last
+        whole step."""
+        trans = 0.5 * float(np.sum(self._mass * np.sum(self._vel**2, axis=1)))
+        rot = 0.5 * float(np.sum(np.sum(self._omg**2, axis=1) / self._inv_inertia))
+        return trans + rot
+
+    def memory_bytes(self) -> int:
+        """Bytes held by the engine's state arrays (list buffers at their capacity)."""
+        return sum(v.nbytes for v in vars(self).values() if isinstance(v, np.ndarray))
+
+    def contacts(self) -> Contacts:
+        """Particle-particle and particle-wall contacts at the last force evaluation."""
+        m = self._n_entries
+        owner = np.repeat(np.arange(self.n), np.diff(self._nbr_start))
+        active = np.nonzero(self._entry[:m, 0] != 0.0)[0]
+        i = owner[active]
+        j = self._nbr_j[active].astype(np.int64)
+        dx = self._pos[i] - self._pos[j]
+        for a in range(3):
+            if self._periodic[a]:
+                dx[:, a] -= self._length[a] * np.floor(dx[:, a] / self._length[a] + 0.5)
+        dist = np.sqrt(np.sum(dx**2, axis=1))
+        f = self._k.F_SLOT
+        forces = -self._entry[active, f : f + 3]
+        wp, wi, wo = [], [], []
+        for w in range(len(self._wall_point)):
+            d = self._rad - (self._pos - self._wall_point[w]) @ self._wall_normal[w]
+            idx = np.nonzero(d > 0)[0]
+            wp.append(idx)
+            wi.append(np.full(idx.size, w))
+            wo.append(d[idx])
+        return Contacts(
+            np.stack([i, j], axis=1),
+            self._rad[i] + self._rad[j] - dist,
+            forces,
+            dx / dist[:, None],
+            _concat(wp, np.int64),
+            _concat(wi, np.int64),
+            _concat(wo, np.float64),
+        )

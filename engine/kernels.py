@@ -46,7 +46,7 @@ FEATURES: dict[str, str] = {
 
 _HERE = Path(__file__).resolve().parent
 _TEMPLATE = _HERE / "_step_template.py"
-_DEPENDENCIES = ("config.py", "laws.py", "neighbour.py", "_step_template.py")
+_DEPENDENCIES = ("config.py", "laws.py", "step_common.py", "_step_template.py")
 _BLOCK = re.compile(r"# >>> features.*?# <<< features", re.S)
 _loaded: dict[tuple, ModuleType] = {}
 _lock = threading.Lock()
@@ -124,11 +124,17 @@ def load_kernel(features: dict[str, bool]) -> ModuleType:
         digest = kernel_digest(features)
         path = _kernel_dir() / f"step_{digest}.py"
         if not path.exists():
-            # written once and atomically: numba's cache is keyed on this file's mtime
+            # written once, never replaced: numba's cache is keyed on this file's mtime, and
+            # several processes (test workers, service workers) may race to create it
             fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
             with os.fdopen(fd, "w") as fh:
                 fh.write(_source(features))
-            os.replace(tmp, path)
+            try:
+                os.link(tmp, path)
+            except FileExistsError:
+                pass
+            finally:
+                os.unlink(tmp)
         name = f"_demscale_step_{digest}"
         spec = importlib.util.spec_from_file_location(name, path)
         module = importlib.util.module_from_spec(spec)

@@ -15,6 +15,10 @@ from .materials import BilinearAdhesive
 from .neighbour import build_neighbour_list, wrap_positions
 from .scene import Scene
 from .stability import TimeStepLimit, critical_time_step
+from .step_common import NAN as _STATUS_NAN
+from .step_common import OK as _STATUS_OK
+from .step_common import OVERLAP as _STATUS_OVERLAP
+from .step_common import REBUILD as _STATUS_REBUILD
 
 
 class StabilityWarning(UserWarning):
@@ -31,6 +35,10 @@ class Contacts:
         overlaps: (M,) overlaps [m].
         forces: (M, 3) contact force on the first particle of each pair [N].
         normals: (M, 3) unit vectors from the second particle to the first.
+        max_overlaps: (M,) largest overlap of each contact so far [m] (bilinear law; the
+            current overlap for the Hertz law).
+        tangential_springs: (M, 3) stored tangential spring of each contact [m] (zeros
+            without friction).
         wall_particles: (K,) ids of particles touching a wall.
         wall_ids: (K,) index of the wall each touches.
         wall_overlaps: (K,) overlaps with the wall [m].
@@ -40,13 +48,11 @@ class Contacts:
     overlaps: np.ndarray
     forces: np.ndarray
     normals: np.ndarray
+    max_overlaps: np.ndarray
+    tangential_springs: np.ndarray
     wall_particles: np.ndarray
     wall_ids: np.ndarray
     wall_overlaps: np.ndarray
-
-
-# status codes of the compiled step (engine/_step_template.py)
-_STATUS_OK, _STATUS_REBUILD, _STATUS_NAN, _STATUS_OVERLAP, _STATUS_SPEED = range(5)
 
 
 def _concat(parts: list, dtype) -> np.ndarray:
@@ -91,7 +97,7 @@ class Simulation:
             if not (isinstance(v, (int, float)) and 0 < v < 1):
                 raise ParameterError(f"Simulation.{name}", v, "in (0, 1)")
         self.limit: TimeStepLimit = critical_time_step(scene, max_speed)
-        self.dt = self._choose_dt(dt)
+        self._dt = self._choose_dt(dt)
         self._check_adhesion(max_overlap_fraction)
 
         rmax = float(scene.radii.max())
@@ -384,6 +390,27 @@ class Simulation:
             target[:] = a
         self._compute_forces()
 
+    def rebuild_neighbour_list(self) -> None:
+        """Rebuild the neighbour list now (it is rebuilt automatically when needed); the
+        contact history is carried over unchanged."""
+        self._rebuild()
+
+    def set_positions(self, positions) -> None:
+        """Replace particle positions [m] (N, 3). The neighbour list is rebuilt (contact
+        history of pairs still in range is kept) and forces are updated; the contact
+        histories advance exactly as in one force evaluation."""
+        p = np.asarray(positions, dtype=np.float64)
+        if p.shape != (self.n, 3) or not np.all(np.isfinite(p)):
+            raise ParameterError(
+                "Simulation.set_positions.positions",
+                f"shape {p.shape}",
+                f"finite, shape ({self.n}, 3)",
+            )
+        self._pos[:] = p
+        self._images[:] = 0
+        self._rebuild()
+        self._compute_forces()
+
     def set_periodic(self, periodic) -> None:
         """Change which axes are periodic (e.g. remove the lateral confinement of a sample).
         Contacts across a face that stops being periodic disappear with their history; the
@@ -415,6 +442,11 @@ class Simulation:
     def n(self) -> int:
         """Number of particles."""
         return self._pos.shape[0]
+
+    @property
+    def dt(self) -> float:
+        """Time step [s] (fixed for the life of the simulation)."""
+        return self._dt
 
     @property
     def time(self) -> float:
@@ -528,11 +560,14 @@ class Simulation:
             wp.append(idx)
             wi.append(np.full(idx.size, w))
             wo.append(d[idx])
+        springs = self._entry[active, 1:4] if self._k.N_HIST == 4 else np.zeros((active.size, 3))
         return Contacts(
             np.stack([i, j], axis=1),
             self._rad[i] + self._rad[j] - dist,
             forces,
             dx / dist[:, None],
+            self._entry[active, 0].copy(),
+            springs,
             _concat(wp, np.int64),
             _concat(wi, np.int64),
             _concat(wo, np.float64),

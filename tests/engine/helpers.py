@@ -1,0 +1,62 @@
+"""Small scene builders shared by the engine tests."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import engine
+
+
+def pair_scene(
+    law, gap: float = 0.0, v0: float = 0.0, radius: float = 2.5e-3, density: float = 2000.0, **kw
+) -> engine.Scene:
+    """Two equal spheres on the x axis, surfaces ``gap`` apart, approaching at ``v0`` each."""
+    x = radius + 0.5 * gap
+    pos = np.array([[-x, 0.0, 0.0], [x, 0.0, 0.0]])
+    vel = np.array([[v0, 0.0, 0.0], [-v0, 0.0, 0.0]])
+    return engine.Scene(pos, radius, density, velocities=vel, gravity=(0, 0, 0), pair_law=law, **kw)
+
+
+def wall_scene(
+    wall_law,
+    gap: float = 0.0,
+    v0: float = 0.0,
+    radius: float = 2.5e-3,
+    density: float = 2000.0,
+    pair_law=None,
+) -> engine.Scene:
+    """One sphere above a plane z = 0, its surface ``gap`` above it, falling at ``v0``."""
+    pair_law = pair_law or engine.BilinearAdhesive(k1=5e3, k2=5e3, mu_s=0, mu_r=0, restitution=1)
+    return engine.Scene(
+        [[0.0, 0.0, radius + gap]],
+        radius,
+        density,
+        velocities=[[0.0, 0.0, -v0]],
+        gravity=(0, 0, 0),
+        pair_law=pair_law,
+        walls=[engine.Plane((0, 0, 0), (0, 0, 1))],
+        wall_law=wall_law,
+        wall_material=engine.WallMaterial(),
+    )
+
+
+def run_until_separated(sim: engine.Simulation, max_steps: int, chunk: int = 1, wall: bool = False):
+    """Step until the contact has formed and opened again. Returns (largest overlap [m],
+    largest normal force magnitude [N], contact duration [s])."""
+    dmax = fmax = 0.0
+    t_on = t_off = None
+    for _ in range(max_steps // chunk):
+        sim.run(chunk)
+        c = sim.contacts()
+        ovl = c.wall_overlaps if wall else c.overlaps
+        if ovl.size:
+            if t_on is None:
+                t_on = sim.time
+            dmax = max(dmax, float(ovl.max()))
+            f = np.abs(sim.wall_forces[:, 2]).max() if wall else np.abs(c.forces[:, 0]).max()
+            fmax = max(fmax, float(f))
+        elif t_on is not None:
+            t_off = sim.time
+            break
+    assert t_on is not None and t_off is not None, "contact never formed or never opened"
+    return dmax, fmax, t_off - t_on

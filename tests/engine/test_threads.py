@@ -1,0 +1,60 @@
+"""Results independent of the thread count."""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+import pytest
+
+import engine
+from tests import naive
+
+R = 2.5e-3
+
+pytestmark = pytest.mark.skipif(
+    numba.config.NUMBA_NUM_THREADS < 2, reason="needs at least 2 numba threads"
+)
+
+
+def _run(threads: int) -> engine.Simulation:
+    lengths = np.array([0.03, 0.03, 0.04])
+    pos, rad = naive.rsa_packing(
+        700, lengths, 0.8 * R, R, 21, max_overlap=0.05, periodic=(True, True, False)
+    )
+    rng = np.random.default_rng(21)
+    law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001, restitution=0.4)
+    walls = [
+        engine.Plane((0, 0, 0), (0, 0, 1)),
+        engine.Plane((0, 0, 0.04), (0, 0, -1), velocity=(0, 0, -0.1)),
+    ]
+    scene = engine.Scene(
+        pos,
+        rad,
+        2000.0,
+        velocities=rng.normal(0, 0.05, pos.shape),
+        box=[(0, L) for L in lengths],
+        periodic=(True, True, False),
+        walls=walls,
+        pair_law=law,
+        wall_law=engine.HertzMindlin(E=1e8, nu=0.25, mu=0.3),
+        wall_material=engine.WallMaterial(),
+    )
+    old = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        sim = engine.Simulation(scene, dt=1e-5)
+        sim.run(3000)
+    finally:
+        numba.set_num_threads(old)
+    return sim
+
+
+def test_one_and_two_threads_give_the_same_trajectory():
+    a = _run(1)
+    b = _run(2)
+    assert a.n > 250 and len(a.contacts().pairs) > 60  # several chunks per thread
+    # fixed chunks, fixed summation order: identical to the last bit (1e-12 is the spec)
+    np.testing.assert_array_equal(a.positions, b.positions)
+    np.testing.assert_array_equal(a.velocities, b.velocities)
+    np.testing.assert_array_equal(a.angular_velocities, b.angular_velocities)
+    np.testing.assert_array_equal(a.wall_forces, b.wall_forces)

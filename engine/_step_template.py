@@ -61,8 +61,11 @@ ROTATION = PAIR_TORQUE or (WALLS and (WALL_FRICTION or WALL_ROLLING))
 #: history slots: overlap marker / largest overlap, then the tangential spring
 N_HIST = 4 if FRICTION else 1
 F_SLOT = N_HIST
+#: entry slots after the history: force on j (3); friction torque on j (3, with FRICTION);
+#: |f| of the contact for j's rolling resistance (1, with ROLLING)
 T_SLOT = F_SLOT + 3
-N_SLOT = T_SLOT + 3 if PAIR_TORQUE else T_SLOT
+R_SLOT = T_SLOT + 3 if FRICTION else T_SLOT
+N_SLOT = R_SLOT + 1 if ROLLING else R_SLOT
 
 # particle_pass modes
 FORCES = 0  # forces only
@@ -153,6 +156,7 @@ def parallel_pass(
                 wall_normal,
                 wall_vel,
                 wall_hist,
+                pp,
                 wp,
                 gravity,
                 dt,
@@ -192,6 +196,9 @@ def _pair_chunk(
     lx = length[0]
     ly = length[1]
     lz = length[2]
+    ilx = 1.0 / lx
+    ily = 1.0 / ly
+    ilz = 1.0 / lz
     p0 = pp[0]
     p1 = pp[1]
     p2 = pp[2]
@@ -211,7 +218,7 @@ def _pair_chunk(
         wxi = 0.0
         wyi = 0.0
         wzi = 0.0
-        if PAIR_TORQUE:
+        if FRICTION:
             wxi = omg[i, 0]
             wyi = omg[i, 1]
             wzi = omg[i, 2]
@@ -223,17 +230,18 @@ def _pair_chunk(
         tx = 0.0
         ty = 0.0
         tz = 0.0
+        f_abs_sum = 0.0  # sum of |f| over i's contacts, for its rolling resistance
         for k in range(nbr_start[i], nbr_start[i + 1]):
             j = nbr_j[k]
             dx = xi - pos[j, 0]
             dy = yi - pos[j, 1]
             dz = zi - pos[j, 2]
             if PERIODIC_X:
-                dx -= lx * math.floor(dx / lx + 0.5)
+                dx -= lx * math.floor(dx * ilx + 0.5)
             if PERIODIC_Y:
-                dy -= ly * math.floor(dy / ly + 0.5)
+                dy -= ly * math.floor(dy * ily + 0.5)
             if PERIODIC_Z:
-                dz -= lz * math.floor(dz / lz + 0.5)
+                dz -= lz * math.floor(dz * ilz + 0.5)
             r2 = dx * dx + dy * dy + dz * dz
             rj = rad[j]
             rs = ri + rj
@@ -254,18 +262,11 @@ def _pair_chunk(
             vx = vxi - vel[j, 0]
             vy = vyi - vel[j, 1]
             vz = vzi - vel[j, 2]
-            wjx = 0.0
-            wjy = 0.0
-            wjz = 0.0
-            if PAIR_TORQUE:
-                wjx = omg[j, 0]
-                wjy = omg[j, 1]
-                wjz = omg[j, 2]
             if FRICTION:
                 # contact-point velocity: v_rel -= (Ri wi + Rj wj) x n
-                sx = ri * wxi + rj * wjx
-                sy = ri * wyi + rj * wjy
-                sz = ri * wzi + rj * wjz
+                sx = ri * wxi + rj * omg[j, 0]
+                sy = ri * wyi + rj * omg[j, 1]
+                sz = ri * wzi + rj * omg[j, 2]
                 vx -= sy * nz - sz * ny
                 vy -= sz * nx - sx * nz
                 vz -= sx * ny - sy * nx
@@ -342,34 +343,28 @@ def _pair_chunk(
             entry[k, F_SLOT] = -fcx
             entry[k, F_SLOT + 1] = -fcy
             entry[k, F_SLOT + 2] = -fcz
-            if PAIR_TORQUE:
-                tjx = 0.0
-                tjy = 0.0
-                tjz = 0.0
-                if FRICTION:
-                    # both spheres turn the same way: t_i = -Ri n x Ft, t_j = -Rj n x Ft
-                    cx = ny * ftz - nz * fty
-                    cy = nz * ftx - nx * ftz
-                    cz = nx * fty - ny * ftx
-                    tx -= ri * cx
-                    ty -= ri * cy
-                    tz -= ri * cz
-                    tjx = -rj * cx
-                    tjy = -rj * cy
-                    tjz = -rj * cz
-                if ROLLING:
-                    f_abs = abs(f_roll)
-                    ax, ay, az = rolling_torque(wxi, wyi, wzi, mu_r, f_abs, ri)
-                    tx += ax
-                    ty += ay
-                    tz += az
-                    ax, ay, az = rolling_torque(wjx, wjy, wjz, mu_r, f_abs, rj)
-                    tjx += ax
-                    tjy += ay
-                    tjz += az
-                entry[k, T_SLOT] = tjx
-                entry[k, T_SLOT + 1] = tjy
-                entry[k, T_SLOT + 2] = tjz
+            if FRICTION:
+                # both spheres turn the same way: t_i = -Ri n x Ft, t_j = -Rj n x Ft
+                cx = ny * ftz - nz * fty
+                cy = nz * ftx - nx * ftz
+                cz = nx * fty - ny * ftx
+                tx -= ri * cx
+                ty -= ri * cy
+                tz -= ri * cz
+                entry[k, T_SLOT] = -rj * cx
+                entry[k, T_SLOT + 1] = -rj * cy
+                entry[k, T_SLOT + 2] = -rj * cz
+            if ROLLING:
+                # every contact of a particle pulls against the same unit spin vector, so the
+                # torques are applied once per particle with the summed |f| (particle pass)
+                f_abs = abs(f_roll)
+                f_abs_sum += f_abs
+                entry[k, R_SLOT] = f_abs
+        if ROLLING:
+            ax, ay, az = rolling_torque(omg[i, 0], omg[i, 1], omg[i, 2], mu_r, f_abs_sum, ri)
+            tx += ax
+            ty += ay
+            tz += az
         frc[i, 0] = fx
         frc[i, 1] = fy
         frc[i, 2] = fz
@@ -399,6 +394,7 @@ def _particle_chunk(
     wall_normal,
     wall_vel,
     wall_hist,
+    pp,
     wp,
     gravity,
     dt,
@@ -439,15 +435,25 @@ def _particle_chunk(
             ty = trq[i, 1]
             tz = trq[i, 2]
         if mode != OPEN:
+            f_abs_sum = 0.0
             for kk in range(rev_start[i], rev_start[i + 1]):
                 k = rev_k[kk]
                 fx += entry[k, F_SLOT]
                 fy += entry[k, F_SLOT + 1]
                 fz += entry[k, F_SLOT + 2]
-                if PAIR_TORQUE:
+                if FRICTION:
                     tx += entry[k, T_SLOT]
                     ty += entry[k, T_SLOT + 1]
                     tz += entry[k, T_SLOT + 2]
+                if ROLLING:
+                    f_abs_sum += entry[k, R_SLOT]
+            if ROLLING:  # j-side rolling resistance of the pairs, applied once
+                ax, ay, az = rolling_torque(
+                    omg[i, 0], omg[i, 1], omg[i, 2], pp[4] if PAIR_HERTZ else pp[7], f_abs_sum, ri
+                )
+                tx += ax
+                ty += ay
+                tz += az
             if WALLS:
                 for w in range(nw):
                     nx = wall_normal[w, 0]

@@ -7,6 +7,9 @@ Public API (stable names)::
     Plane, Scene                                    what to simulate
     Simulation                                      run it
     critical_time_step                              time-step limits of a scene
+    UniaxialTest, preset, run_uniaxial              the uniaxial test and its stages
+    ScalingRule, StudySpec, run_study               scaling studies, errors and costs
+    default_study                                   the study of the main job
     ParameterError, StabilityError, InstabilityError
 """
 
@@ -16,6 +19,26 @@ from .materials import BilinearAdhesive, HertzMindlin, WallMaterial
 from .scene import Plane, Scene
 from .simulation import Contacts, Simulation, StabilityWarning
 from .stability import TimeStepLimit, critical_time_step
+from .study import (
+    PlannedRun,
+    RunFailed,
+    RunResult,
+    ScalingRule,
+    StudyProgress,
+    StudyResult,
+    StudySpec,
+    default_study,
+    run_study,
+)
+from .uniaxial import (
+    Progress,
+    StageError,
+    StageResult,
+    UniaxialResult,
+    UniaxialTest,
+    preset,
+    run_uniaxial,
+)
 
 __version__ = "0.1.0"
 
@@ -27,12 +50,28 @@ __all__ = [
     "InstabilityError",
     "ParameterError",
     "Plane",
+    "PlannedRun",
+    "Progress",
+    "RunFailed",
+    "RunResult",
+    "ScalingRule",
     "Scene",
     "Simulation",
     "StabilityError",
     "StabilityWarning",
+    "StageError",
+    "StageResult",
     "StopRequested",
+    "StudyProgress",
+    "StudyResult",
+    "StudySpec",
     "TimeStepLimit",
+    "UniaxialResult",
+    "UniaxialTest",
     "WallMaterial",
     "critical_time_step",
+    "default_study",
+    "preset",
+    "run_study",
+    "run_uniaxial",
 ]

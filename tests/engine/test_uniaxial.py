@@ -1,0 +1,137 @@
+"""The uniaxial stage driver on a tiny cell: stages, targets, independent measurements."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+import engine
+from engine.uniaxial import STAGES
+
+R = 2.5e-3
+COHESIVE = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001,
+                                   restitution=0.4)
+
+
+def tiny(**kw) -> engine.UniaxialTest:
+    """About 30 particles in a 15 x 15 x 30 mm fill region: seconds per full test."""
+    base = {"cell": (0.015, 0.015, 0.03), "output_interval": 1e-3, "platen_speed": 0.02}
+    return engine.UniaxialTest(**{**base, **kw})
+
+
+@pytest.fixture(scope="module")
+def cohesionless():
+    seen = []
+    res = engine.run_uniaxial(tiny(), progress=lambda p: seen.append((p.stage, p.fraction)))
+    return res, seen
+
+
+@pytest.fixture(scope="module")
+def cohesive():
+    return engine.run_uniaxial(tiny(pair_law=COHESIVE))
+
+
+def test_stages_run_in_order_and_reach_their_targets(cohesionless):
+    res, seen = cohesionless
+    assert list(res.stages) == list(STAGES)
+    order = [s for i, (s, _) in enumerate(seen) if i == 0 or seen[i - 1][0] != s]
+    assert order == list(STAGES)
+    fractions = [f for _, f in seen]
+    assert all(0 <= f <= 1 for f in fractions) and fractions[-1] == pytest.approx(1.0)
+    assert all(b >= a - 1e-12 for a, b in itertools.pairwise(fractions))
+    t = res.test
+    pre = res.stages["pre_compression"].curves["stress_top"][-1]
+    cons = res.stages["consolidation"].curves["stress_top"][-1]
+    # stages stop at the first sample past the target: within one sample's stress increment
+    assert t.pre_stress <= pre <= 1.2 * t.pre_stress
+    assert t.consolidation_stress <= cons <= 1.1 * t.consolidation_stress
+    assert res.stages["unloading"].curves["stress_top"][-1] <= t.unloaded_stress * cons
+    times = np.concatenate([s.curves["time"] for s in res.stages.values()])
+    assert np.all(np.diff(times) >= 0)
+    for s in res.stages.values():
+        for k, v in s.curves.items():
+            assert np.all(np.isfinite(v)), k
+    assert res.scalars["particles"] == t.n_particles
+    assert res.scalars["max_inertial_number"] < 0.1
+
+
+def _brute_contacts(pos, rad, lengths, periodic):
+    n = len(pos)
+    count = 0
+    for i in range(n):
+        d = pos[i] - pos[i + 1:]
+        for a in range(3):
+            if periodic[a]:
+                d[:, a] -= lengths[a] * np.round(d[:, a] / lengths[a])
+        dist = np.linalg.norm(d, axis=1)
+        count += int(np.count_nonzero(dist < rad[i] + rad[i + 1:]))
+    return count
+
+
+@pytest.mark.parametrize("stage", ["consolidation", "unloading"])
+def test_porosity_and_coordination_match_positions(cohesionless, stage):
+    res, _ = cohesionless
+    st = res.stages[stage]
+    lx, ly, _ = res.test.cell
+    gap = st.curves["platen_gap"][-1]
+    solid = float(np.sum(4.0 / 3.0 * math.pi * st.radii**3))
+    assert st.curves["porosity"][-1] == pytest.approx(1 - solid / (lx * ly * gap), rel=1e-9)
+    contacts = _brute_contacts(st.positions, st.radii, (lx, ly, 1.0), (True, True, False))
+    assert st.curves["coordination"][-1] == pytest.approx(2 * contacts / len(st.radii))
+    assert contacts > 0
+
+
+def test_cohesionless_has_no_strength_cohesive_has_a_peak(cohesionless, cohesive):
+    res, _ = cohesionless
+    assert res.scalars["unconfined_strength"] < 0.02 * res.test.consolidation_stress
+    assert cohesive.scalars["unconfined_strength"] > 0.02 * cohesive.test.consolidation_stress
+    u = cohesive.stages["unconfined"].curves["stress_top"]
+    k = int(np.argmax(u))
+    assert k < len(u) - 1  # a peak, then a drop (failure), not just the end of the stage
+    assert cohesive.scalars["strain_at_peak"] > 0
+
+
+def test_callback_can_stop_a_run():
+    calls = []
+
+    def stop(p):
+        calls.append(p.stage)
+        return p.stage != "pre_compression"
+
+    with pytest.raises(engine.StopRequested):
+        engine.run_uniaxial(tiny(), progress=stop)
+    assert calls[-1] == "pre_compression" and "consolidation" not in calls
+
+
+def test_unreachable_stress_ends_with_stage_error():
+    # a slow platen travels 0.5 mm in max_stage_time: far too little for 1 GPa
+    test = tiny(pre_stress=1e9, consolidation_stress=2e9, platen_speed=1e-3,
+                max_stage_time=0.5, unconfined=False)
+    with pytest.raises(engine.StageError, match="pre-compression stress 1e.09 Pa") as e:
+        engine.run_uniaxial(test)
+    assert e.value.stage == "pre_compression"
+    assert e.value.steps >= 0.5 / 1e-5 - 1
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "match"),
+    [("radius", -1.0, "radius"), ("consolidation_stress", 1e3, "consolidation_stress"),
+     ("cell", (0.005, 0.05, 0.1), "cell"), ("fill_fraction", 0.5, "fill_fraction"),
+     ("platen_speed", 0.0, "platen_speed"), ("seed", -3, "seed")],
+)
+def test_bad_parameters_name_the_field(field, value, match):
+    with pytest.raises(engine.ParameterError, match=match):
+        tiny(**{field: value})
+
+
+def test_presets_and_round_trip():
+    paper = engine.preset("paper")
+    assert paper.cell == (0.05, 0.15, 0.30) and paper.radius == 2.5e-3
+    assert paper.dt == 1e-5 and paper.platen_speed == 0.01
+    q = engine.preset("quick", seed=7)
+    assert engine.UniaxialTest.from_dict(q.to_dict()) == q
+    with pytest.raises(engine.ParameterError, match="preset"):
+        engine.preset("huge")

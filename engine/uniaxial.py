@@ -498,6 +498,9 @@ class _Driver:
             float(np.max(self.stages[k].curves["inertial_number"]))
             for k in ("pre_compression", "consolidation", "unloading", "unconfined")
             if k in self.stages)
+        bad = [k for k, v in s.items() if not math.isfinite(v)]
+        if bad:
+            raise FloatingPointError(f"non-finite scalars {bad}: the run is not usable")
         return UniaxialResult(self.test, self.stages, s)
 
 
@@ -507,7 +510,9 @@ def _secant_slope(strain: np.ndarray, stress: np.ndarray, lo: float, hi: float) 
     smax = float(np.max(stress))
     sel = (stress >= lo * smax) & (stress <= hi * smax)
     if np.count_nonzero(sel) < 2 or np.ptp(strain[sel]) == 0:
-        return float("nan")
+        sel = np.ones(len(stress), dtype=bool)  # too few samples in the window: all of them
+    if np.count_nonzero(sel) < 2 or np.ptp(strain[sel]) == 0:
+        raise FloatingPointError("the platen did not move during the stage: no stiffness")
     return float(np.polyfit(strain[sel], stress[sel], 1)[0])
 
 

@@ -1,0 +1,17 @@
+"""demscale job service: a FastAPI app, a worker process, a SQLite job store (SQLModel) and an
+HDF5 result store (h5py); plots are drawn with matplotlib's object API (no pyplot).
+
+Modules:
+    settings     configuration from DEMSCALE_* environment variables
+    db           SQLite engine (WAL mode) and sessions
+    models       SQLModel classes of studies and runs, the status enum
+    transitions  every status change, as conditional UPDATEs
+    spec         the study spec as a pydantic model with field limits
+    admission    cross-field checks by the engine, size caps, 422 errors
+    h5store      HDF5 result files: atomic write, read back
+    plots        PNG rendering from stored results
+    routes/      the REST endpoints
+    app          the FastAPI application (optionally with an embedded worker)
+    worker       ``python -m service.worker``; execute runs one study
+    main_job     ``python -m service.main_job``: serve, submit the default study, report
+"""

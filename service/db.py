@@ -1,0 +1,62 @@
+"""The SQLite job store: engine (WAL mode, busy timeout), table creation and sessions.
+
+SQLite serialises writers; WAL lets readers (the API) proceed while a worker writes. Status
+changes are single conditional UPDATEs (see :mod:`service.transitions`), so every write
+transaction starts with its write and waits on the busy timeout instead of failing.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from functools import lru_cache
+from pathlib import Path
+
+from sqlalchemy import Engine, event
+from sqlalchemy.engine import make_url
+from sqlalchemy.exc import OperationalError
+from sqlmodel import Session, SQLModel, create_engine
+
+from . import models  # noqa: F401  (registers the tables on SQLModel.metadata)
+from .settings import Settings
+
+#: Seconds a connection waits for the write lock before giving up.
+BUSY_TIMEOUT_S = 30.0
+
+
+def _sqlite_pragmas(dbapi_connection, _record) -> None:
+    cur = dbapi_connection.cursor()
+    cur.execute("PRAGMA journal_mode=WAL")
+    cur.execute("PRAGMA synchronous=NORMAL")
+    cur.execute(f"PRAGMA busy_timeout={int(BUSY_TIMEOUT_S * 1000)}")
+    cur.execute("PRAGMA foreign_keys=ON")
+    cur.close()
+
+
+@lru_cache(maxsize=16)
+def get_engine(url: str) -> Engine:
+    """The SQLAlchemy engine of ``url``, tables created (one per URL and process)."""
+    u = make_url(url)
+    kwargs: dict = {}
+    if u.get_backend_name() == "sqlite":
+        if u.database and u.database != ":memory:":
+            Path(u.database).parent.mkdir(parents=True, exist_ok=True)
+        kwargs["connect_args"] = {"check_same_thread": False, "timeout": BUSY_TIMEOUT_S}
+    engine = create_engine(url, **kwargs)
+    if u.get_backend_name() == "sqlite":
+        event.listen(engine, "connect", _sqlite_pragmas)
+    try:
+        SQLModel.metadata.create_all(engine)
+    except OperationalError:  # another process created the tables at the same moment
+        SQLModel.metadata.create_all(engine)
+    return engine
+
+
+def engine_for(settings: Settings) -> Engine:
+    """The engine of the configured database."""
+    return get_engine(settings.sqlalchemy_url)
+
+
+def session_scope(settings: Settings) -> Iterator[Session]:
+    """A session on the configured database, closed afterwards (a FastAPI dependency body)."""
+    with Session(engine_for(settings)) as session:
+        yield session

@@ -1,0 +1,134 @@
+"""Running one claimed study inside the worker: the engine in the calling thread, a
+heartbeat thread beside it that records liveness and progress and learns of cancel
+requests, and the final status change (succeeded, failed, cancelled, or back to queued on
+shutdown)."""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+import traceback
+import uuid
+
+from sqlmodel import Session
+
+import engine
+
+from . import transitions
+from .db import engine_for
+from .h5store import write_results
+from .models import Status, Study
+from .settings import Settings
+
+log = logging.getLogger("demscale.worker")
+
+
+class StudyExecution:
+    """One attempt at a study by worker ``worker_id``; ``shutdown`` is set on SIGTERM."""
+
+    def __init__(self, settings: Settings, worker_id: str, study: Study, shutdown: threading.Event):
+        self.settings = settings
+        self.worker_id = worker_id
+        self.study_id: uuid.UUID = study.id
+        self.spec_dict = study.spec
+        self.shutdown = shutdown
+        self.db = engine_for(settings)
+        self.latest: engine.StudyProgress | None = None
+        self.current_run: str | None = None
+        self.cancel = False
+        self.lost = False
+        self.done = threading.Event()
+
+    # ------------------------------------------------------------------- heartbeat thread
+    def beat(self) -> None:
+        """Write heartbeat and progress; learn whether to stop."""
+        p = self.latest
+        with Session(self.db) as s:
+            b = transitions.heartbeat(
+                s,
+                self.study_id,
+                self.worker_id,
+                progress=p.fraction if p else 0.0,
+                run_index=p.run_index if p else None,
+                current_run=p.run_key if p else None,
+                current_stage=p.stage if p else None,
+            )
+        if not b.owned and not self.lost:
+            log.warning("study %s is no longer ours (heartbeat missed?): stopping", self.study_id)
+            self.lost = True
+        self.cancel = self.cancel or b.cancel_requested
+
+    def _beat_loop(self) -> None:
+        while not self.done.wait(self.settings.heartbeat_interval):
+            try:
+                self.beat()
+            except Exception:  # a locked or briefly unavailable database: beat again later
+                log.exception("heartbeat of study %s failed", self.study_id)
+
+    # --------------------------------------------------------------------- engine thread
+    def progress(self, p: engine.StudyProgress) -> bool:
+        """The engine's progress callback: returns False to stop the study."""
+        self.latest = p
+        if p.run_key != self.current_run:
+            self.current_run = p.run_key
+            try:
+                with Session(self.db) as s:
+                    transitions.run_started(s, self.study_id, p.run_key)
+            except Exception:  # bookkeeping only: the study goes on
+                log.exception("study %s: could not mark run %s", self.study_id, p.run_key)
+            log.info("study %s: run %d/%d %s", self.study_id, p.run_index + 1, p.n_runs, p.run_key)
+        return not (self.cancel or self.lost or self.shutdown.is_set())
+
+    def run(self) -> Status | None:
+        """Run the study to its end; returns the status it reached (None: no longer ours)."""
+        log.info("study %s: started", self.study_id)
+        t0 = time.perf_counter()
+        beats = threading.Thread(target=self._beat_loop, name="heartbeat", daemon=True)
+        beats.start()
+        try:
+            spec = engine.StudySpec.from_dict(self.spec_dict)
+            result = engine.run_study(spec, progress=self.progress)
+            write_results(self.settings.results_path(self.study_id), self.study_id, result)
+        except engine.StopRequested:
+            return self._stopped(time.perf_counter() - t0)
+        except Exception as e:
+            self._finish_beats(beats)
+            log.error("study %s failed:\n%s", self.study_id, traceback.format_exc())
+            run_key = getattr(e, "run_key", None) or self.current_run
+            with Session(self.db) as s:
+                ok = transitions.fail(
+                    s,
+                    self.study_id,
+                    self.worker_id,
+                    f"{type(e).__name__}: {e}",
+                    time.perf_counter() - t0,
+                    run_key,
+                )
+            return Status.failed if ok else None
+        finally:
+            self._finish_beats(beats)
+        with Session(self.db) as s:
+            ok = transitions.succeed(
+                s, self.study_id, self.worker_id, time.perf_counter() - t0, result.table
+            )
+        log.info("study %s: %s", self.study_id, "succeeded" if ok else "done, but not ours")
+        return Status.succeeded if ok else None
+
+    def _finish_beats(self, beats: threading.Thread) -> None:
+        self.done.set()
+        beats.join()
+
+    def _stopped(self, run_time: float) -> Status | None:
+        with Session(self.db) as s:
+            if self.lost:
+                return None
+            if self.cancel:
+                log.info("study %s: cancelled", self.study_id)
+                return (
+                    Status.cancelled
+                    if transitions.cancelled(s, self.study_id, self.worker_id, run_time)
+                    else None
+                )
+            log.info("study %s: worker shutting down, back to the queue", self.study_id)
+            return Status.queued if transitions.release(s, self.study_id, self.worker_id) else None

@@ -1,0 +1,149 @@
+"""SQLModel classes of the job store, one family per resource (base, table, public).
+
+A study is one submitted :class:`engine.StudySpec`; its runs are the planned runs of the
+spec (the reference of each seed, then every coarse radius x rule). Times are UTC.
+"""
+
+from __future__ import annotations
+
+import uuid
+from datetime import datetime, timezone
+from enum import Enum
+
+from sqlalchemy import JSON, Column, ForeignKey, Uuid
+from sqlmodel import Field, SQLModel
+
+
+class Status(str, Enum):
+    """Status of a study or a run."""
+
+    queued = "queued"
+    running = "running"
+    succeeded = "succeeded"
+    failed = "failed"
+    cancelled = "cancelled"
+
+
+#: Statuses a study never leaves.
+TERMINAL = frozenset({Status.succeeded, Status.failed, Status.cancelled})
+
+
+def utcnow() -> datetime:
+    """Now, UTC (time-zone aware)."""
+    return datetime.now(timezone.utc)
+
+
+# ------------------------------------------------------------------------------------ study
+class StudyBase(SQLModel):
+    """Fields a client chooses."""
+
+    name: str | None = Field(default=None, max_length=100, description="A label.")
+
+
+class Study(StudyBase, table=True):
+    """A study row: the spec, its status and the worker's bookkeeping."""
+
+    id: uuid.UUID = Field(default_factory=uuid.uuid4, primary_key=True)
+    spec: dict = Field(sa_column=Column(JSON, nullable=False))
+    status: Status = Field(default=Status.queued, index=True)
+    progress: float = 0.0
+    n_runs: int = 0
+    run_index: int | None = None
+    current_run: str | None = None
+    current_stage: str | None = None
+    attempts: int = 0
+    worker_id: str | None = None
+    heartbeat_at: datetime | None = None
+    cancel_requested: bool = False
+    created_at: datetime = Field(default_factory=utcnow, index=True)
+    started_at: datetime | None = None
+    finished_at: datetime | None = None
+    run_time: float | None = None
+    error: str | None = None
+    max_particles: int = 0
+    estimated_particle_steps: float = 0.0
+
+
+class StudyPublic(StudyBase):
+    """A study as the API shows it."""
+
+    id: uuid.UUID
+    status: Status
+    progress: float = Field(description="Fraction done, 0..1.")
+    n_runs: int
+    run_index: int | None = Field(description="Index of the current run (0-based).")
+    current_run: str | None
+    current_stage: str | None
+    attempts: int = Field(description="Times a worker has claimed the study.")
+    cancel_requested: bool
+    created_at: datetime | None
+    started_at: datetime | None
+    finished_at: datetime | None
+    heartbeat_at: datetime | None
+    run_time: float | None = Field(description="Seconds the last attempt ran.")
+    error: str | None
+    max_particles: int
+    estimated_particle_steps: float
+    links: dict[str, str] = {}
+
+
+class StudiesPublic(SQLModel):
+    """A page of studies, newest first."""
+
+    data: list[StudyPublic]
+    count: int
+
+
+class StudySubmitted(SQLModel):
+    """Answer of a submission."""
+
+    id: uuid.UUID
+    status: Status
+    links: dict[str, str]
+
+
+# ------------------------------------------------------------------------------------ run
+class RunBase(SQLModel):
+    """What a run is: key, radius, rule and seed (from the spec)."""
+
+    key: str
+    position: int = Field(description="Order of the run in the study.")
+    radius: float = Field(description="Particle radius [m].")
+    rule: str = Field(description="Scaling rule name, 'reference' for the reference.")
+    seed: int
+    particles: int
+
+
+class Run(RunBase, table=True):
+    """A run row; its results live in the study's HDF5 file."""
+
+    id: int | None = Field(default=None, primary_key=True)
+    study_id: uuid.UUID = Field(
+        sa_column=Column(
+            Uuid, ForeignKey("study.id", ondelete="CASCADE"), index=True, nullable=False
+        )
+    )
+    status: Status = Status.queued
+    started_at: datetime | None = None
+    finished_at: datetime | None = None
+    steps: int | None = None
+    wall_time: float | None = None
+    error: str | None = None
+
+
+class RunPublic(RunBase):
+    """A run as the API shows it."""
+
+    status: Status
+    started_at: datetime | None
+    finished_at: datetime | None
+    steps: int | None
+    wall_time: float | None = Field(description="Wall-clock time of the run [s].")
+    error: str | None
+
+
+class StudyDetail(StudyPublic):
+    """A study with its normalised spec (engine.StudySpec.to_dict()) and its runs."""
+
+    spec: dict
+    runs: list[RunPublic] = []

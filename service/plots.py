@@ -1,0 +1,44 @@
+"""PNG plots of a finished study, drawn from its HDF5 file with matplotlib's object API
+(``engine.plots.figure`` on an Agg canvas; pyplot is never imported) and cached next to it.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from pathlib import Path
+
+from engine import plots as engine_plots
+
+from .h5store import read_plot_data
+
+#: Plot kinds the API serves.
+KINDS = tuple(engine_plots.KINDS)
+
+
+def render_png(kind: str, runs: dict, table: list[dict]) -> bytes:
+    """PNG bytes of plot ``kind`` for the given runs and summary table."""
+    fig = engine_plots.figure(kind, runs, table)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    return buf.getvalue()
+
+
+def plot_png(results: Path, kind: str) -> bytes:
+    """PNG of ``kind`` for the study stored in ``results``: from the cache file
+    ``plots/<kind>.png`` beside it when that is newer than the results, else drawn and
+    cached (written atomically, so concurrent requests never see half a file)."""
+    if kind not in KINDS:
+        raise KeyError(f"unknown plot kind {kind!r}; kinds: {list(KINDS)}")
+    cached = results.parent / "plots" / f"{kind}.png"
+    try:
+        if cached.stat().st_mtime >= results.stat().st_mtime:
+            return cached.read_bytes()
+    except FileNotFoundError:
+        pass
+    png = render_png(kind, *read_plot_data(results))
+    cached.parent.mkdir(parents=True, exist_ok=True)
+    tmp = cached.with_name(f".{kind}.{os.getpid()}.{id(png)}.tmp")
+    tmp.write_bytes(png)
+    os.replace(tmp, cached)
+    return png

@@ -1,0 +1,117 @@
+"""Study endpoints: submit, list, status, cancel, delete."""
+
+from __future__ import annotations
+
+import shutil
+
+from fastapi import APIRouter, HTTPException, Response
+from fastapi.exceptions import RequestValidationError
+from sqlmodel import func, select
+
+from .. import transitions
+from ..admission import SpecRejected, admit
+from ..deps import SessionDep, SettingsDep, StudyDep
+from ..models import Run, RunPublic, StudiesPublic, Study, StudyDetail, StudyPublic, StudySubmitted
+from ..plots import KINDS
+from ..spec import StudyCreate
+
+router = APIRouter(prefix="/studies", tags=["studies"])
+
+
+def links(study_id: object) -> dict[str, str]:
+    """URLs (relative to the API root) of a study and its results."""
+    base = f"/studies/{study_id}"
+    out = {
+        "self": base,
+        "summary": f"{base}/summary",
+        "curves": f"{base}/curves",
+        "results": f"{base}/results.h5",
+        "cancel": f"{base}/cancel",
+    }
+    out.update({f"plot_{k}": f"{base}/plots/{k}.png" for k in KINDS})
+    return out
+
+
+def public(study: Study) -> StudyPublic:
+    """The API view of a study row."""
+    return StudyPublic.model_validate(study, update={"links": links(study.id)})
+
+
+@router.post("", status_code=202, response_model=StudySubmitted)
+def submit_study(
+    body: StudyCreate, session: SessionDep, settings: SettingsDep, response: Response
+) -> StudySubmitted:
+    """Queue a study. 422 with field-level errors when the spec is invalid or too large."""
+    try:
+        spec = admit(body, settings)
+    except SpecRejected as e:
+        raise RequestValidationError(e.errors) from e
+    planned = spec.planned_runs()
+    study = Study(
+        name=body.name,
+        spec=spec.to_dict(),
+        n_runs=len(planned),
+        max_particles=max(p.test.n_particles for p in planned),
+        estimated_particle_steps=spec.estimated_particle_steps(),
+    )
+    runs = [
+        Run(
+            study_id=study.id,
+            key=p.key,
+            position=i,
+            radius=p.radius,
+            seed=p.seed,
+            rule="reference" if p.rule is None else p.rule.name,
+            particles=p.test.n_particles,
+        )
+        for i, p in enumerate(planned)
+    ]
+    study = transitions.submit(session, study, runs)
+    response.headers["Location"] = f"/studies/{study.id}"
+    return StudySubmitted(id=study.id, status=study.status, links=links(study.id))
+
+
+@router.get("", response_model=StudiesPublic)
+def list_studies(session: SessionDep, offset: int = 0, limit: int = 100) -> StudiesPublic:
+    """Studies, newest first, with status and progress."""
+    limit = max(1, min(limit, 1000))
+    count = session.exec(select(func.count()).select_from(Study)).one()
+    rows = session.exec(
+        select(Study).order_by(Study.created_at.desc()).offset(max(0, offset)).limit(limit)
+    ).all()
+    return StudiesPublic(data=[public(s) for s in rows], count=count)
+
+
+@router.get("/{study_id}", response_model=StudyDetail)
+def read_study(study: StudyDep, session: SessionDep) -> StudyDetail:
+    """Status, progress (fraction, current run and stage), error, timings and runs."""
+    runs = session.exec(select(Run).where(Run.study_id == study.id).order_by(Run.position)).all()
+    return StudyDetail.model_validate(
+        study,
+        update={"links": links(study.id), "runs": [RunPublic.model_validate(r) for r in runs]},
+    )
+
+
+@router.post("/{study_id}/cancel", status_code=202, response_model=StudyPublic)
+def cancel_study(study: StudyDep, session: SessionDep) -> StudyPublic:
+    """Cancel a queued study now, or ask the worker of a running one to stop (cooperative:
+    the status becomes ``cancelled`` once the worker has stopped). 409 when finished."""
+    if not transitions.request_cancel(session, study.id):
+        raise HTTPException(
+            status_code=409, detail=f"study {study.id} is {study.status.value}: nothing to cancel"
+        )
+    session.refresh(study)
+    return public(study)
+
+
+@router.delete("/{study_id}", status_code=204)
+def delete_study(study: StudyDep, session: SessionDep, settings: SettingsDep) -> Response:
+    """Remove a finished study and its files; 409 while it is queued or running."""
+    if not transitions.remove(session, study.id):
+        raise HTTPException(
+            status_code=409,
+            detail=f"study {study.id} is "
+            f"{study.status.value}: cancel it and wait until it stops first",
+        )
+    shutil.rmtree(settings.study_dir(study.id), ignore_errors=True)
+    return Response(status_code=204)

@@ -1,0 +1,178 @@
+"""Fixtures of the service tests: a temporary database and data directory per test, an app
+(TestClient) and a live uvicorn server on them, and real worker processes."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import httpx
+import pytest
+import uvicorn
+from fastapi.testclient import TestClient
+
+from service.app import create_app
+from service.embedded import settings_env
+from service.settings import Settings
+
+REPO = Path(__file__).resolve().parents[2]
+
+#: About 30 particles, a reference and one coarse run with all stages: seconds per study.
+TINY = {
+    "name": "tiny",
+    "reference": {
+        "cell": [0.015, 0.015, 0.03],
+        "output_interval": 1e-3,
+        "platen_speed": 0.02,
+        "pair_law": {"type": "BilinearAdhesive", "k1": 5e3, "k2": 2.5e4, "f0": -0.05},
+    },
+    "coarse_radii": [3.1e-3],
+    "rules": ["paper"],
+}
+
+#: TINY with a smaller time step: long enough (seconds) to be interrupted mid-study.
+SLOW = {**TINY, "name": "slow", "reference": {**TINY["reference"], "dt": 4e-6}}
+
+#: Smaller still: no unconfined stages, a coarse time step; about a second per study.
+TINIEST = {
+    "name": "tiniest",
+    "reference": {**TINY["reference"], "unconfined": False, "dt": 3e-5, "output_interval": 2e-3},
+    "coarse_radii": [3.1e-3],
+    "rules": ["paper"],
+}
+
+
+@pytest.fixture
+def settings(tmp_path: Path) -> Settings:
+    """Settings on a fresh SQLite file and data directory, with fast worker timings."""
+    return Settings(
+        data_dir=tmp_path / "data",
+        database_url=f"sqlite:///{tmp_path / 'db.sqlite'}",
+        embedded_worker=False,
+        heartbeat_interval=0.2,
+        stale_after=2.0,
+        poll_interval=0.1,
+        shutdown_grace=15.0,
+        max_attempts=3,
+        max_particles_per_run=5000,
+        max_particle_steps=5e8,
+    )
+
+
+@pytest.fixture
+def client(settings: Settings) -> Iterator[TestClient]:
+    """A TestClient on an app bound to the per-test settings."""
+    with TestClient(create_app(settings)) as c:
+        yield c
+
+
+def worker_env(settings: Settings) -> dict[str, str]:
+    """Environment of a worker subprocess: the test settings, one numba thread (workers run
+    side by side on few cores), the repository on the path."""
+    env = settings_env(settings)
+    env["NUMBA_NUM_THREADS"] = "1"
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), env.get("PYTHONPATH")]))
+    return env
+
+
+class Workers:
+    """Starts ``python -m service.worker`` processes; kills leftovers at teardown."""
+
+    def __init__(self, settings: Settings, log_dir: Path):
+        self.settings = settings
+        self.log_dir = log_dir
+        self.procs: list[subprocess.Popen] = []
+
+    def start(self, *args: str) -> subprocess.Popen:
+        log = open(self.log_dir / f"worker-{len(self.procs)}.log", "wb")
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "service.worker", *args],
+            cwd=REPO,
+            env=worker_env(self.settings),
+            stdout=log,
+            stderr=subprocess.STDOUT,
+        )
+        log.close()
+        self.procs.append(proc)
+        return proc
+
+    def logs(self, tail: int | None = 3000) -> str:
+        """The workers' logs (the last ``tail`` characters of each; None: all)."""
+        return "\n".join(
+            p.read_text(errors="replace")[-tail if tail else 0 :]
+            for p in sorted(self.log_dir.glob("worker-*.log"))
+        )
+
+    def stop_all(self) -> None:
+        for p in self.procs:
+            if p.poll() is None:
+                p.send_signal(signal.SIGKILL)
+                p.wait()
+
+
+@pytest.fixture
+def workers(settings: Settings, tmp_path: Path) -> Iterator[Workers]:
+    """Worker processes on the test's store; their logs are shown when the test fails."""
+    w = Workers(settings, tmp_path)
+    yield w
+    w.stop_all()
+    print(w.logs())
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture
+def live_server(settings: Settings) -> Iterator[str]:
+    """The app served by uvicorn on a free local port (real concurrency); yields its URL."""
+    port = free_port()
+    server = uvicorn.Server(
+        uvicorn.Config(create_app(settings), host="127.0.0.1", port=port, log_level="warning")
+    )
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 20
+    while not server.started:
+        assert thread.is_alive() and time.monotonic() < deadline, "uvicorn did not start"
+        time.sleep(0.02)
+    yield f"http://127.0.0.1:{port}"
+    server.should_exit = True
+    thread.join(10)
+
+
+def wait_for(
+    get: Callable[[], dict],
+    ok: Callable[[dict], bool],
+    timeout: float,
+    what: str,
+    workers: Workers | None = None,
+) -> dict:
+    """Poll ``get()`` until ``ok`` holds for its answer; fail after ``timeout`` seconds."""
+    deadline = time.monotonic() + timeout
+    last: dict = {}
+    while time.monotonic() < deadline:
+        last = get()
+        if ok(last):
+            return last
+        time.sleep(0.05)
+    logs = workers.logs() if workers else ""
+    pytest.fail(f"timed out waiting for {what}; last: {last}\n{logs}")
+
+
+def study_getter(client: TestClient | httpx.Client, study_id: str) -> Callable[[], dict]:
+    def get() -> dict:
+        r = client.get(f"/studies/{study_id}")
+        assert r.status_code == 200, r.text
+        return r.json()
+
+    return get

@@ -1,0 +1,209 @@
+"""The REST API without a worker: admission (422 with field-level errors and size caps),
+404 for unknown ids, 409 for results that do not exist yet, cancel and delete of queued
+studies, listing, the OpenAPI docs."""
+
+from __future__ import annotations
+
+import copy
+import uuid
+
+import pytest
+
+import engine
+from service.spec import StudyCreate
+
+from .conftest import TINY
+
+
+def with_changes(path: tuple, value) -> dict:
+    """TINY with the value at ``path`` replaced (or the key deleted when value is ...)."""
+    body = copy.deepcopy(TINY)
+    node = body
+    for key in path[:-1]:
+        node = node[key]
+    if value is ...:
+        del node[path[-1]]
+    else:
+        node[path[-1]] = value
+    return body
+
+
+BAD = [
+    # (what, path, value, expected loc, a word of the message)
+    ("negative radius", ("reference", "radius"), -1e-3, ["reference", "radius"], "greater"),
+    ("huge radius", ("reference", "radius"), 0.5, ["reference", "radius"], "less"),
+    ("no coarse radii", ("coarse_radii",), [], ["coarse_radii"], "at least 1"),
+    ("coarse radius too big", ("coarse_radii",), [1.0], ["coarse_radii", 0], "less"),
+    ("coarse radius = reference", ("coarse_radii",), [2.5e-3], ["coarse_radii", 0], "different"),
+    ("cell too small for coarse", ("coarse_radii",), [9e-3], ["coarse_radii", 0], "cell"),
+    (
+        "exponent out of range",
+        ("rules",),
+        [{"name": "x", "adhesion_exponent": 9}],
+        ["rules", 0, "adhesion_exponent"],
+        "less",
+    ),
+    ("unknown named rule", ("rules",), ["quadratic"], ["rules", 0], "paper"),
+    ("duplicate rules", ("rules",), ["paper", "paper"], ["rules"], "unique"),
+    ("bad dt policy", ("rules",), [{"name": "x", "dt": "adaptive"}], ["rules", 0, "dt"], "fixed"),
+    ("negative stress", ("reference", "pre_stress"), -5.0, ["reference", "pre_stress"], "greater"),
+    (
+        "consolidation below pre-stress",
+        ("reference", "consolidation_stress"),
+        1e3,
+        ["reference", "consolidation_stress"],
+        "pre_stress",
+    ),
+    ("platen too fast", ("reference", "platen_speed"), 50.0, ["reference", "platen_speed"], "less"),
+    ("k2 below k1", ("reference", "pair_law", "k2"), 1e3, ["reference", "pair_law", "k2"], "k1"),
+    (
+        "positive adhesion",
+        ("reference", "pair_law", "f0"),
+        0.5,
+        ["reference", "pair_law", "f0"],
+        "less",
+    ),
+    ("negative seed", ("seeds",), [-1], ["seeds", 0], "greater"),
+    ("too many seeds", ("seeds",), list(range(11)), ["seeds"], "at most 10"),
+    ("duplicate seeds", ("seeds",), [1, 1], ["seeds"], "distinct"),
+    ("zero tolerance", ("tolerance",), 0, ["tolerance"], "greater"),
+    ("unknown field", ("colour",), "blue", ["colour"], "not permitted"),
+    (
+        "Hertz pair law",
+        ("reference", "pair_law"),
+        {"type": "HertzMindlin", "E": 1e8},
+        ["reference", "pair_law", "type"],
+        "BilinearAdhesive",
+    ),
+    (
+        "bad wall modulus",
+        ("reference", "wall_law"),
+        {"E": -1.0},
+        ["reference", "wall_law", "E"],
+        "greater",
+    ),
+    ("unknown preset", ("reference", "preset"), "huge", ["reference", "preset"], "quick"),
+    ("string radius", ("reference", "radius"), "big", ["reference", "radius"], "number"),
+]
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("what,path,value,loc,word", BAD, ids=[b[0] for b in BAD])
+def test_bad_fields_are_refused_with_422_naming_the_field(client, what, path, value, loc, word):
+    r = client.post("/studies", json=with_changes(path, value))
+    assert r.status_code == 422, r.text
+    errors = r.json()["detail"]
+    assert any(e["loc"] == ["body", *loc] for e in errors), errors
+    assert any(word in e["msg"] for e in errors), errors
+    assert client.get("/studies").json()["count"] == 0
+
+
+@pytest.mark.timeout(60)
+def test_too_many_particles_is_refused(client, settings):
+    body = with_changes(("reference",), {"preset": "quick", "radius": 1e-3})
+    body["coarse_radii"] = [2e-3]
+    r = client.post("/studies", json=body)
+    assert r.status_code == 422, r.text
+    (err,) = r.json()["detail"]
+    assert err["loc"] == ["body", "reference"]
+    assert "particles" in err["msg"] and str(settings.max_particles_per_run) in err["msg"]
+    assert err["input"] > settings.max_particles_per_run
+
+
+@pytest.mark.timeout(60)
+def test_too_many_particle_steps_is_refused(client, settings):
+    body = {
+        "reference": {"preset": "quick"},
+        "coarse_radii": [5e-3],
+        "rules": ["paper"],
+        "seeds": [1, 2, 3, 4, 5],
+    }
+    spec = engine.StudySpec.from_dict(body)
+    assert spec.max_particles() <= settings.max_particles_per_run
+    assert spec.estimated_particle_steps() > settings.max_particle_steps
+    r = client.post("/studies", json=body)
+    assert r.status_code == 422, r.text
+    (err,) = r.json()["detail"]
+    assert err["loc"] == ["body"] and "particle-steps" in err["msg"]
+    # the same study with one seed is within the caps
+    assert client.post("/studies", json={**body, "seeds": [1]}).status_code == 202
+
+
+@pytest.mark.timeout(60)
+def test_default_study_is_a_valid_body():
+    body = StudyCreate.model_validate(engine.default_study().to_dict())
+    spec = engine.StudySpec.from_dict(body.engine_dict())
+    assert spec.to_dict() == engine.default_study().to_dict()
+
+
+@pytest.mark.timeout(60)
+def test_submit_list_read_and_unknown_ids(client):
+    ids = []
+    for _ in range(2):
+        r = client.post("/studies", json=TINY)
+        assert r.status_code == 202, r.text
+        assert r.json()["status"] == "queued" and r.headers["location"].endswith(r.json()["id"])
+        ids.append(r.json()["id"])
+    listing = client.get("/studies").json()
+    assert listing["count"] == 2 and [s["id"] for s in listing["data"]] == ids[::-1]
+    study = client.get(f"/studies/{ids[0]}").json()
+    assert study["n_runs"] == 2 and [r["key"] for r in study["runs"]] == [
+        "ref-s1",
+        "r3.1mm-paper-s1",
+    ]
+    assert study["progress"] == 0.0 and study["attempts"] == 0 and study["name"] == "tiny"
+    assert 0 < study["max_particles"] <= 100
+    assert study["spec"]["reference"]["cell"] == [0.015, 0.015, 0.03]
+    assert study["spec"]["rules"][0] == {
+        "name": "paper",
+        "stiffness_exponent": 1.0,
+        "adhesion_exponent": 2.0,
+        "dt": "fixed",
+    }
+    for bad in (str(uuid.uuid4()), "not-a-uuid"):
+        for method, url in (
+            ("get", ""),
+            ("get", "/summary"),
+            ("get", "/curves"),
+            ("get", "/plots/stress_strain.png"),
+            ("get", "/results.h5"),
+            ("post", "/cancel"),
+            ("delete", ""),
+        ):
+            r = client.request(method.upper(), f"/studies/{bad}{url}")
+            assert r.status_code == 404, (method, url, r.text)
+
+
+@pytest.mark.timeout(60)
+def test_results_of_an_unfinished_study_are_409_and_cancel_of_queued(client):
+    sid = client.post("/studies", json=TINY).json()["id"]
+    for url in ("/summary", "/curves", "/plots/stress_strain.png", "/results.h5"):
+        r = client.get(f"/studies/{sid}{url}")
+        assert r.status_code == 409 and "queued" in r.json()["detail"], (url, r.text)
+    assert client.delete(f"/studies/{sid}").status_code == 409
+    r = client.post(f"/studies/{sid}/cancel")
+    assert r.status_code == 202 and r.json()["status"] == "cancelled"
+    assert {x["status"] for x in client.get(f"/studies/{sid}").json()["runs"]} == {"cancelled"}
+    assert client.post(f"/studies/{sid}/cancel").status_code == 409
+    assert client.get(f"/studies/{sid}/summary").status_code == 409
+    assert client.delete(f"/studies/{sid}").status_code == 204
+    assert client.get(f"/studies/{sid}").status_code == 404
+
+
+@pytest.mark.timeout(60)
+def test_health_and_openapi_docs(client):
+    health = client.get("/healthz").json()
+    assert health["status"] == "ok" and health["studies"]["queued"] == 0
+    assert client.get("/docs").status_code == 200
+    paths = client.get("/openapi.json").json()["paths"]
+    for p in (
+        "/studies",
+        "/studies/{study_id}",
+        "/studies/{study_id}/summary",
+        "/studies/{study_id}/curves",
+        "/studies/{study_id}/plots/{kind}.png",
+        "/studies/{study_id}/results.h5",
+        "/studies/{study_id}/cancel",
+        "/healthz",
+    ):
+        assert p in paths, p

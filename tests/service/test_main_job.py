@@ -1,0 +1,59 @@
+"""The main job end to end: API with its embedded worker, a study, progress, URLs, table."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+from sqlmodel import Session, select
+
+from service.db import engine_for
+from service.models import Status, Study
+
+from .conftest import REPO, TINIEST, free_port, worker_env
+
+
+@pytest.mark.timeout(300)
+def test_main_job_runs_a_study_with_the_embedded_worker(settings, tmp_path):
+    spec = tmp_path / "study.json"
+    spec.write_text(json.dumps(TINIEST))
+    port = free_port()
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "service.main_job",
+            "--exit",
+            "--port",
+            str(port),
+            "--study",
+            str(spec),
+        ],
+        cwd=REPO,
+        env=worker_env(settings),
+        capture_output=True,
+        text=True,
+        timeout=280,
+    )
+    out = proc.stdout
+    assert proc.returncode == 0, out + proc.stderr
+    assert "submitted study" in out and "succeeded" in out and "%]" in out
+    base = f"http://127.0.0.1:{port}/studies/"
+    for name in (
+        "summary",
+        "curves",
+        "results.h5",
+        "stress_strain.png",
+        "unconfined.png",
+        "error_vs_runtime.png",
+        "coordination.png",
+        "stress_porosity.png",
+    ):
+        assert base in out and name in out, name
+    assert "ref-s1" in out and "r3.1mm-paper-s1" in out and "speed-up" in out
+    with Session(engine_for(settings)) as s:
+        (study,) = s.exec(select(Study)).all()
+    assert study.status is Status.succeeded and study.attempts == 1
+    assert settings.results_path(study.id).is_file()

@@ -1,0 +1,231 @@
+"""A real worker process runs studies end to end; cancel, SIGTERM and kill -9 mid-study."""
+
+from __future__ import annotations
+
+import io
+import signal
+import time
+
+import h5py
+import numpy as np
+import pytest
+
+from service.plots import KINDS
+
+from .conftest import SLOW, TINY, study_getter, wait_for
+
+PNG = b"\x89PNG\r\n\x1a\n"
+#: Generous: includes a first compilation of the engine's kernels on a cold cache.
+RUN_TIMEOUT = 240
+
+
+def submit(client, body=SLOW) -> str:
+    r = client.post("/studies", json=body)
+    assert r.status_code == 202, r.text
+    return r.json()["id"]
+
+
+def running_mid_study(client, sid, workers) -> dict:
+    """Wait until the worker is inside the reference run (progress reported)."""
+    return wait_for(
+        study_getter(client, sid),
+        lambda s: (
+            s["status"] == "running" and s["progress"] > 0.02 and s["current_run"] == "ref-s1"
+        ),
+        RUN_TIMEOUT,
+        "the study to run",
+        workers,
+    )
+
+
+@pytest.mark.timeout(RUN_TIMEOUT + 60)
+def test_study_runs_end_to_end(client, workers, settings):
+    sid = submit(client, TINY)
+    workers.start()
+    seen = []
+    done = wait_for(
+        study_getter(client, sid),
+        lambda s: seen.append(s) or s["status"] in ("succeeded", "failed"),
+        RUN_TIMEOUT,
+        "the study to finish",
+        workers,
+    )
+    assert done["status"] == "succeeded", done["error"]
+    assert done["progress"] == 1.0 and done["attempts"] == 1 and done["run_time"] > 0
+    assert done["started_at"] <= done["finished_at"]
+    assert any(0 < s["progress"] < 1 and s["current_stage"] for s in seen)
+    assert [(r["key"], r["status"]) for r in done["runs"]] == [
+        ("ref-s1", "succeeded"),
+        ("r3.1mm-paper-s1", "succeeded"),
+    ]
+    assert all(r["steps"] > 0 and r["wall_time"] > 0 for r in done["runs"])
+
+    summary = client.get(f"/studies/{sid}/summary").json()
+    table = {row["run"]: row for row in summary["table"]}
+    assert set(table) == {"ref-s1", "r3.1mm-paper-s1"}
+    assert table["ref-s1"]["err_stress_strain"] == 0.0
+    assert table["r3.1mm-paper-s1"]["particles"] < table["ref-s1"]["particles"]
+    assert table["r3.1mm-paper-s1"]["speedup"] > 0 and summary["units"]["wall_time"] == "s"
+    assert "paper" in summary["advisor"]["rules"]
+
+    curves = client.get(
+        f"/studies/{sid}/curves", params={"run": "ref-s1", "kind": "consolidation"}
+    ).json()
+    cons = curves["runs"]["ref-s1"]["stages"]["consolidation"]
+    assert list(curves["runs"]["ref-s1"]["stages"]) == ["consolidation"]
+    assert len(cons["strain"]) == len(cons["stress_top"]) > 3
+    assert max(cons["stress_top"]) >= 20e3 and curves["units"]["stress_top"] == "Pa"
+    every = client.get(f"/studies/{sid}/curves").json()["runs"]
+    assert set(every) == set(table) and "unconfined" in every["r3.1mm-paper-s1"]["stages"]
+    for params in ({"run": "nope"}, {"kind": "nope"}, {"run": "ref-s1", "kind": "nope"}):
+        assert client.get(f"/studies/{sid}/curves", params=params).status_code == 404
+
+    for kind in KINDS:
+        r = client.get(f"/studies/{sid}/plots/{kind}.png")
+        assert r.status_code == 200 and r.headers["content-type"] == "image/png", kind
+        assert r.content[:8] == PNG and len(r.content) > 10_000, kind
+    assert client.get(f"/studies/{sid}/plots/histogram.png").status_code == 404
+
+    r = client.get(f"/studies/{sid}/results.h5")
+    assert r.status_code == 200 and r.content[:8] == b"\x89HDF\r\n\x1a\n"
+    with h5py.File(io.BytesIO(r.content), "r") as f:
+        assert f.attrs["schema_version"] == 1 and f.attrs["study_id"] == sid
+        assert '"coarse_radii": [0.0031]' in f.attrs["spec"]
+        for pkg in ("demscale", "numpy", "numba", "h5py"):
+            assert f.attrs[f"version_{pkg}"]
+        assert list(f["runs"]) == ["ref-s1", "r3.1mm-paper-s1"]
+        ref = f["runs/ref-s1"]
+        assert ref.attrs["reference"] and ref.attrs["radius_units"] == "m"
+        assert ref.attrs["unconfined_strength_units"] == "Pa"
+        assert list(ref) == [
+            "fill",
+            "pre_compression",
+            "consolidation",
+            "unloading",
+            "release",
+            "unconfined",
+        ]
+        stress = ref["consolidation/stress_top"]
+        assert stress.attrs["units"] == "Pa" and stress.shape == (len(cons["stress_top"]),)
+        np.testing.assert_allclose(stress[()], cons["stress_top"])
+        assert ref["unconfined/positions"].shape[1] == 3
+        assert ref["unconfined/radii"].attrs["units"] == "m"
+        assert f["summary/wall_time"].attrs["units"] == "s"
+        assert [x.decode() for x in f["summary/run"][()]] == ["ref-s1", "r3.1mm-paper-s1"]
+    assert not list(settings.study_dir(sid).glob("*.tmp"))
+
+    assert client.delete(f"/studies/{sid}").status_code == 204
+    assert not settings.study_dir(sid).exists()
+
+
+@pytest.mark.timeout(RUN_TIMEOUT + 60)
+def test_cancel_a_running_study(client, workers):
+    sid = submit(client)
+    worker = workers.start()
+    running_mid_study(client, sid, workers)
+    r = client.post(f"/studies/{sid}/cancel")
+    assert r.status_code == 202 and r.json()["cancel_requested"]
+    done = wait_for(
+        study_getter(client, sid), lambda s: s["status"] != "running", 30, "the cancel", workers
+    )
+    assert done["status"] == "cancelled" and done["progress"] < 1
+    assert {x["status"] for x in done["runs"]} == {"cancelled"}
+    assert client.get(f"/studies/{sid}/summary").status_code == 409
+    assert worker.poll() is None  # the worker goes on serving the queue
+    nxt = submit(client, TINY)
+    wait_for(
+        study_getter(client, nxt),
+        lambda s: s["status"] == "running",
+        60,
+        "the next study to start",
+        workers,
+    )
+
+
+@pytest.mark.timeout(RUN_TIMEOUT + 60)
+def test_sigterm_puts_the_study_back_in_the_queue(client, workers):
+    sid = submit(client)
+    worker = workers.start()
+    running_mid_study(client, sid, workers)
+    worker.send_signal(signal.SIGTERM)
+    assert worker.wait(30) == 0
+    study = client.get(f"/studies/{sid}").json()
+    assert study["status"] == "queued" and study["attempts"] == 0
+    assert {x["status"] for x in study["runs"]} == {"queued"}
+
+
+@pytest.mark.timeout(2 * RUN_TIMEOUT)
+def test_kill_9_mid_study_then_a_new_worker_completes_it(client, workers, settings):
+    sid = submit(client)
+    first = workers.start()
+    running_mid_study(client, sid, workers)
+    first.send_signal(signal.SIGKILL)
+    first.wait()
+    orphan = client.get(f"/studies/{sid}").json()
+    assert orphan["status"] == "running" and orphan["attempts"] == 1
+    t_kill = time.monotonic()
+    workers.start()
+    retaken = wait_for(
+        study_getter(client, sid),
+        lambda s: s["attempts"] == 2,
+        60,
+        "the new worker to take the study over",
+        workers,
+    )
+    # not before the heartbeat went stale
+    assert time.monotonic() - t_kill >= settings.stale_after - 0.5
+    assert retaken["status"] in ("running", "succeeded")
+    done = wait_for(
+        study_getter(client, sid),
+        lambda s: s["status"] != "running",
+        RUN_TIMEOUT,
+        "the study to finish",
+        workers,
+    )
+    assert done["status"] == "succeeded" and done["attempts"] == 2, done["error"]
+    assert [r["status"] for r in done["runs"]] == ["succeeded", "succeeded"]
+    summary = client.get(f"/studies/{sid}/summary").json()
+    assert [row["run"] for row in summary["table"]] == ["ref-s1", "r3.1mm-paper-s1"]
+
+
+@pytest.mark.timeout(RUN_TIMEOUT + 60)
+def test_a_run_that_fails_fails_the_study_with_the_reason(client, workers):
+    body = {**TINY, "reference": {**TINY["reference"], "max_stage_time": 0.02}}
+    sid = submit(client, body)
+    workers.start()
+    done = wait_for(
+        study_getter(client, sid),
+        lambda s: s["status"] in ("succeeded", "failed"),
+        RUN_TIMEOUT,
+        "the study to fail",
+        workers,
+    )
+    assert done["status"] == "failed" and done["attempts"] == 1
+    assert "ref-s1" in done["error"] and "fill" in done["error"], done["error"]
+    assert [(r["status"], bool(r["error"])) for r in done["runs"]] == [
+        ("failed", True),
+        ("cancelled", False),
+    ]
+    r = client.get(f"/studies/{sid}/summary")
+    assert r.status_code == 409 and "failed" in r.json()["detail"]
+
+
+@pytest.mark.timeout(RUN_TIMEOUT + 60)
+def test_a_study_whose_worker_keeps_dying_is_failed_with_the_reason(client, workers, settings):
+    settings.max_attempts = 1
+    sid = submit(client)
+    first = workers.start()
+    running_mid_study(client, sid, workers)
+    first.send_signal(signal.SIGKILL)
+    first.wait()
+    workers.start()
+    done = wait_for(
+        study_getter(client, sid),
+        lambda s: s["status"] != "running",
+        60,
+        "the orphaned study to be failed",
+        workers,
+    )
+    assert done["status"] == "failed" and done["attempts"] == 1
+    assert "gave up after 1 attempts" in done["error"] and "heartbeat" in done["error"]
+    assert {r["status"] for r in done["runs"]} == {"cancelled"}

@@ -190,11 +190,11 @@ def main(argv=None) -> int:
                 continue
             for threads in (1, 2):
                 rate, sim = time_run(pos, rad, lengths, law, threads, steps, args.repeats)
-                rows.append((name, len(pos), law_name, threads, rate))
+                rows.append((name, len(pos), law_name, threads, rate, sim.threads))
                 if law is FULL and threads == 1:
                     stats[name] = (len(sim.contacts().pairs) * 2 / sim.n,
                                    sim.memory_bytes() / sim.n, sim.n_rebuilds)
-                print(f"  {name:10s} {len(pos):6d}  {law_name:26s} {threads} thread(s) "
+                print(f"  {name:10s} {len(pos):6d}  {law_name:26s} {threads} thread(s) ({sim.threads} used) "
                       f"{rate:10.3e} particle-steps/s", flush=True)
 
     lig = {}
@@ -207,15 +207,15 @@ def main(argv=None) -> int:
     def rate(name, law, threads):
         return next(r[4] for r in rows if r[0] == name and r[2] == law and r[3] == threads)
 
-    print("\n| scene | particles | law | threads | particle-steps/s | ratio |")
+    print("\n| scene | particles | law | numba threads (used) | particle-steps/s | ratio |")
     print("|---|---:|---|---:|---:|---|")
-    for name, n, law_name, threads, r in rows:
+    for name, n, law_name, threads, r, used in rows:
         base = rate(name, "full", 1)
         note = ("baseline" if (law_name, threads) == ("full", 1)
                 else f"{r / base:.2f} x full 1-thread")
         if name == "anchor-2k" and lig.get(threads):
             note += f"; {r / lig[threads]:.2f} x LIGGGHTS {threads} rank(s)"
-        print(f"| {name} | {n} | {law_name} | {threads} | {r:.3e} | {note} |")
+        print(f"| {name} | {n} | {law_name} | {threads} ({used}) | {r:.3e} | {note} |")
     for ranks, r in lig.items():
         print(f"| anchor-2k | 2025 | LIGGGHTS hooke/hysteresis | {ranks} MPI | "
               f"{r:.3e} | same deck, same session |" if r else

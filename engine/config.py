@@ -54,6 +54,12 @@ NJIT_PARALLEL = {
 #: results are bit-identical with 1 and with N threads.
 CHUNK = 64
 
+#: ``Simulation(threads=None)`` runs one thread per this many particles [-]. Measured on 2
+#: cores (benchmarks/engine_speed.py): 2,025 particles ran at 6.2e6 particle-steps/s on one
+#: thread and 5.8e6 on two, 16,200 at 4.1e6 and 6.5e6; 143 particles took 5 s on one thread
+#: and 26 s on two (a step is shorter than waking the second thread).
+PARTICLES_PER_THREAD = 4000
+
 #: ``Simulation(dt=None)`` takes this fraction of the smallest time-step limit of
 #: :func:`engine.critical_time_step` (oscillation limits, Rayleigh time, Hertz contact time).
 DT_FRACTION = 0.15

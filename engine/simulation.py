@@ -6,9 +6,15 @@ import math
 import warnings
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
-from .config import MAX_OVERLAP_FRACTION, MAX_STEP_FRACTION, SKIN_FRACTION
+from .config import (
+    MAX_OVERLAP_FRACTION,
+    MAX_STEP_FRACTION,
+    PARTICLES_PER_THREAD,
+    SKIN_FRACTION,
+)
 from .errors import InstabilityError, ParameterError, StabilityError
 from .kernels import load_kernel, scene_features
 from .materials import BilinearAdhesive
@@ -73,6 +79,10 @@ class Simulation:
             the run with :class:`engine.InstabilityError`.
         max_step_fraction: a particle moving more than this fraction of its radius in one step
             stops the run with :class:`engine.InstabilityError`.
+        threads: threads of the parallel passes, at most numba's thread count; None takes one
+            thread per ``PARTICLES_PER_THREAD`` particles (small scenes run on one thread:
+            their passes are too short to pay for waking a second). Results do not depend
+            on it.
 
     Only the features the scene uses are compiled in (see :attr:`features`).
     """
@@ -86,6 +96,7 @@ class Simulation:
         max_speed: float | None = None,
         max_overlap_fraction: float = MAX_OVERLAP_FRACTION,
         max_step_fraction: float = MAX_STEP_FRACTION,
+        threads: int | None = None,
     ) -> None:
         if not isinstance(scene, Scene):
             raise ParameterError("Simulation.scene", scene, "an engine.Scene")
@@ -96,6 +107,11 @@ class Simulation:
         ):
             if not (isinstance(v, (int, float)) and 0 < v < 1):
                 raise ParameterError(f"Simulation.{name}", v, "in (0, 1)")
+        if threads is not None and (
+            isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1
+        ):
+            raise ParameterError("Simulation.threads", threads, "an integer >= 1 or None")
+        self._threads = None if threads is None else int(threads)
         self.limit: TimeStepLimit = critical_time_step(scene, max_speed)
         self._dt = self._choose_dt(dt)
         self._check_adhesion(max_overlap_fraction)
@@ -236,7 +252,26 @@ class Simulation:
         self._nbr_j, self._entry = nbr_j, entry
         self._rev_k = np.zeros(cap, dtype=np.int32)
 
+    @property
+    def threads(self) -> int:
+        """Threads the parallel passes use now (see the ``threads`` argument)."""
+        avail = numba.get_num_threads()
+        if self._threads is not None:
+            return min(self._threads, avail)
+        return max(1, min(avail, self.n // PARTICLES_PER_THREAD))
+
     def _call(self, nsteps: int, phase: int = 0) -> tuple[int, int]:
+        prev = numba.get_num_threads()
+        k = self.threads
+        if k != prev:
+            numba.set_num_threads(k)
+        try:
+            return self._call_kernel(nsteps, phase)
+        finally:
+            if k != prev:
+                numba.set_num_threads(prev)
+
+    def _call_kernel(self, nsteps: int, phase: int) -> tuple[int, int]:
         return self._k.run_steps(
             nsteps,
             phase,

@@ -42,7 +42,8 @@ def _run(threads: int) -> engine.Simulation:
     old = numba.get_num_threads()
     numba.set_num_threads(threads)
     try:
-        sim = engine.Simulation(scene, dt=1e-5)
+        sim = engine.Simulation(scene, dt=1e-5, threads=threads)
+        assert sim.threads == threads
         sim.run(3000)
     finally:
         numba.set_num_threads(old)
@@ -58,3 +59,12 @@ def test_one_and_two_threads_give_the_same_trajectory():
     np.testing.assert_array_equal(a.velocities, b.velocities)
     np.testing.assert_array_equal(a.angular_velocities, b.angular_velocities)
     np.testing.assert_array_equal(a.wall_forces, b.wall_forces)
+
+
+def test_small_scenes_run_on_one_thread_unless_told():
+    scene = engine.Scene([[0.01, 0.01, 0.01], [0.02, 0.01, 0.01]], R, 2000.0,
+                         pair_law=engine.BilinearAdhesive(k1=5e3, k2=2.5e4))
+    assert engine.Simulation(scene, dt=1e-5).threads == 1
+    assert engine.Simulation(scene, dt=1e-5, threads=2).threads == min(2, numba.get_num_threads())
+    with pytest.raises(engine.ParameterError, match="Simulation.threads"):
+        engine.Simulation(scene, dt=1e-5, threads=0)

@@ -194,8 +194,8 @@ def main(argv=None) -> int:
                 if law is FULL and threads == 1:
                     stats[name] = (len(sim.contacts().pairs) * 2 / sim.n,
                                    sim.memory_bytes() / sim.n, sim.n_rebuilds)
-                print(f"  {name:10s} {len(pos):6d}  {law_name:26s} {threads} thread(s) ({sim.threads} used) "
-                      f"{rate:10.3e} particle-steps/s", flush=True)
+                print(f"  {name:10s} {len(pos):6d}  {law_name:26s} {threads} thread(s) "
+                      f"({sim.threads} used) {rate:10.3e} particle-steps/s", flush=True)
 
     lig = {}
     if shutil.which("liggghts"):

@@ -574,6 +574,11 @@ class Simulation:
         """Bytes held by the engine's state arrays (list buffers at their capacity)."""
         return sum(v.nbytes for v in vars(self).values() if isinstance(v, np.ndarray))
 
+    def n_contacts(self) -> int:
+        """Number of particle-particle contacts at the last force evaluation (the count of
+        :meth:`contacts`, without building its arrays)."""
+        return int(np.count_nonzero(self._entry[: self._n_entries, 0]))
+
     def contacts(self) -> Contacts:
         """Particle-particle and particle-wall contacts at the last force evaluation."""
         m = self._n_entries

@@ -303,7 +303,7 @@ class _Recorder:
         s_top = float(f[1, 2]) / area if d.n_walls > 1 else 0.0
         s_bot = -float(f[0, 2]) / area
         porosity = 1.0 - d.solid_volume / (area * gap)
-        coordination = 2.0 * len(sim.contacts().pairs) / sim.n
+        coordination = 2.0 * sim.n_contacts() / sim.n
         ke = sim.kinetic_energy()
         speed = abs(float(sim.wall_velocities[1, 2])) if d.n_walls > 1 else 0.0
         # inertial number with the pressure floored at the weight of one particle layer

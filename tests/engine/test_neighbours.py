@@ -114,6 +114,7 @@ def test_contacts_equal_all_pairs_overlaps():
     got = {tuple(p) for p in c.pairs.tolist()}
     expect = naive.all_pairs_within(sim.positions, rad, lengths, (1, 1, 1), 0.0)
     assert len(expect) > 100 and got == expect
+    assert sim.n_contacts() == len(expect)
     for (i, j), d in zip(c.pairs, c.overlaps):
         dx = naive.minimum_image(sim.positions[i] - sim.positions[j], lengths, (1, 1, 1))
         assert d == pytest.approx(rad[i] + rad[j] - np.linalg.norm(dx), rel=1e-9)

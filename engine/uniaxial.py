@@ -95,7 +95,8 @@ class UniaxialTest:
             consolidation stress [-].
         unconfined: run the release and unconfined compression stages.
         failure_drop: unconfined compression ends when the stress has fallen this fraction
-            below its peak [-].
+            below its peak [-] ...
+        failure_strain: ... and has stayed there for this much further axial strain [-].
         max_unconfined_strain: unconfined compression also ends at this strain [-] (samples
             without a peak, e.g. cohesionless ones).
         settle_ke: a settling stage ends when the kinetic energy is below this fraction of
@@ -126,6 +127,7 @@ class UniaxialTest:
     unloaded_stress: float = 0.01
     unconfined: bool = True
     failure_drop: float = 0.2
+    failure_strain: float = 0.005
     max_unconfined_strain: float = 0.1
     settle_ke: float = 1e-4
     release_time: float = 0.2
@@ -159,6 +161,7 @@ class UniaxialTest:
         num("platen_speed", lambda v: v > 0, "> 0 m/s")
         num("unloaded_stress", lambda v: 0 < v < 1, "in (0, 1)")
         num("failure_drop", lambda v: 0 < v < 1, "in (0, 1)")
+        num("failure_strain", lambda v: 0 <= v < 0.5, "in [0, 0.5)")
         num("max_unconfined_strain", lambda v: 0 < v < 0.8, "in (0, 0.8)")
         num("settle_ke", lambda v: v > 0, "> 0")
         num("release_time", lambda v: v > 0, "> 0 s")
@@ -464,12 +467,19 @@ class _Driver:
         # reached within max_unconfined_strain and has exactly zero strength
         self.move_top(-t.platen_speed)
         h0 = self.gap()
-        peak = [0.0]
+        peak = 0.0
+        below_since = math.inf  # strain at which the stress last fell below the failure line
 
         def done(r) -> bool:
-            peak[0] = max(peak[0], r[2])
-            dropped = peak[0] > 0 and r[2] < (1 - t.failure_drop) * peak[0]
-            return dropped or r[1] >= t.max_unconfined_strain
+            # failure: the stress stays failure_drop below its peak for failure_strain more
+            # strain (a single noisy sample, or the first grains touching, is not a failure)
+            nonlocal peak, below_since
+            peak = max(peak, r[2])
+            if peak > 0 and r[2] < (1 - t.failure_drop) * peak:
+                below_since = min(below_since, r[1])
+            else:
+                below_since = math.inf
+            return r[1] - below_since >= t.failure_strain or r[1] >= t.max_unconfined_strain
 
         self.run_stage("unconfined", h0, done, lambda r: r[1] / t.max_unconfined_strain,
                        "fail (post-peak drop) or reach max_unconfined_strain")

@@ -78,6 +78,7 @@ class ReferenceIn(BaseModel):
     unloaded_stress: Fraction | None = None
     unconfined: bool | None = None
     failure_drop: Fraction | None = None
+    failure_strain: float | None = Field(None, ge=0, lt=0.5)
     max_unconfined_strain: float | None = Field(None, gt=0, lt=0.8)
     settle_ke: float | None = Field(None, gt=0, le=1.0)
     release_time: float | None = Field(None, gt=0, le=10.0, description="[s]")

@@ -185,7 +185,15 @@ def comparison(a: engine.StudyResult, b: engine.StudyResult) -> list[str]:
                       if x.rule is None) / len(b.spec.seeds)
         ucs = ", ".join(f"b = {g['adhesion_exponent']:g}: {g['unconfined_strength']:.0f} Pa"
                         for g in gs)
-        best = min(gs, key=lambda g: g["err_strength"])["adhesion_exponent"]
+        best_g = min(gs, key=lambda g: g["err_strength"])
+        best = best_g["adhesion_exponent"]
+        b2 = next((g for g in gs if g["adhesion_exponent"] == 2), None)
+        spread = ""
+        if b2 is not None and best != 2:
+            within = b2["err_strength"] - best_g["err_strength"] <= b2["err_strength_std"]
+            spread = (f" The gap to b = 2 ({100 * b2['err_strength']:.1f} ± "
+                      f"{100 * b2['err_strength_std']:.1f} %) is "
+                      + ("within" if within else "beyond") + " the seed-to-seed spread.")
         order = [g["unconfined_strength"] for g in gs]
         monotone = all(x < y for x, y in itertools.pairwise(order))
         adv = b.advisor["adhesion_exponent"]["by_radius"].get(f"{r:g}", {}) \
@@ -197,7 +205,16 @@ def comparison(a: engine.StudyResult, b: engine.StudyResult) -> list[str]:
             f"{'rises' if monotone else 'does not rise monotonically'} with b "
             f"(seed: linear under-predicts, cubic over-predicts). "
             + ("Agrees with the seed." if best == 2 and monotone else
-               "Differs from the seed at this reduced scale."))
+               "Differs from the seed at this reduced scale." + spread))
+    cap = b.spec.reference.max_unconfined_strain
+    capped = [k for k, x in b.runs.items()
+              if x.result.scalars["strain_at_peak"] >= 0.95 * cap]
+    out.append(
+        f"- *Unconfined strength.* {len(capped)} of {len(b.runs)} cohesive runs harden up to "
+        f"max_unconfined_strain = {cap:.0%} without a post-peak drop (a squat sample, height "
+        "about its width, between platens with friction 0.3); their strength is the stress "
+        "at that strain, so the strength comparison is one of hardening curves, not of "
+        "failure peaks. The `paper` preset's taller cell is the place to look for peaks.")
     speed = max(g["speedup"] for g in a.groups)
     out.append(
         f"- *Run time.* 2R runs were up to {speed:.1f}x faster than the reference at the same "

@@ -4,9 +4,10 @@ The confined curves are compared on a common axis, the top-platen stress: along 
 branch (consolidation stage) and the unloading branch, the strain, porosity and coordination
 number each run has at the same stress levels. Each error is a normalised RMS difference
 
-.. math:: e = \\sqrt{\\langle (x_c - x_r)^2 \\rangle} / \\max |x_r|
+.. math:: e = \\sqrt{\\langle (x_c - x_r)^2 \\rangle} / (\\max x_r - \\min x_r)
 
-over those levels (dimensionless; 0.1 means "off by 10 % of the reference's range"). The
+over those levels (dimensionless; 0.1 means "off by 10 % of the reference's range": a porosity
+that moves from 0.50 to 0.45 under load is judged against that 0.05, not against 0.5). The
 unconfined strength error is
 :math:`|\\sigma_c - \\sigma_r| / \\max(\\sigma_r, 0.05\\,\\sigma_{cons})`: relative to the reference
 strength, or to 5 % of the consolidation stress when the reference is
@@ -28,13 +29,15 @@ STRENGTH_FLOOR = 0.05
 
 
 def nrmse(x: np.ndarray, ref: np.ndarray) -> float:
-    """Normalised RMS difference sqrt(mean((x - ref)^2)) / max|ref| [-]."""
+    """Normalised RMS difference sqrt(mean((x - ref)^2)) / (max ref - min ref) [-]; a flat
+    reference is judged against max|ref| instead."""
     x = np.asarray(x, dtype=float)
     ref = np.asarray(ref, dtype=float)
-    scale = float(np.max(np.abs(ref)))
-    if x.shape != ref.shape or x.size == 0 or not scale > 0:
-        raise ValueError("nrmse needs two curves of equal, non-zero length and a reference "
-                         "that is not identically zero")
+    if x.shape != ref.shape or x.size == 0:
+        raise ValueError("nrmse needs two curves of equal, non-zero length")
+    scale = float(np.ptp(ref)) or float(np.max(np.abs(ref)))
+    if not scale > 0:
+        raise ValueError("nrmse needs a reference curve that is not identically zero")
     return float(np.sqrt(np.mean((x - ref) ** 2)) / scale)
 
 

@@ -15,12 +15,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .errors import InstabilityError, ParameterError, StabilityError
+from .errors import ParameterError, StopRequested
 from .materials import BilinearAdhesive
 from .metrics import ERROR_NAMES, run_errors
 from .uniaxial import (
     Progress,
-    StageError,
     UniaxialResult,
     UniaxialTest,
     preset,
@@ -130,7 +129,8 @@ class StudySpec:
             reference parameters; must be a :class:`engine.BilinearAdhesive` law).
         coarse_radii: radii of the coarse variants [m], each != the reference radius.
         rules: scaling rules applied to every coarse radius (names unique).
-        seeds: packing seeds; every seed runs the reference and all variants.
+        seeds: packing seeds; every seed runs the reference and all variants (default: the
+            reference's seed).
         tolerance: error tolerance of the advisor (largest accepted error) [-], in (0, 1].
     """
 
@@ -138,7 +138,7 @@ class StudySpec:
     coarse_radii: tuple[float, ...] = (5e-3,)
     rules: tuple[ScalingRule, ...] = field(
         default_factory=lambda: (ScalingRule.named("paper"), ScalingRule.named("unscaled")))
-    seeds: tuple[int, ...] = (1,)
+    seeds: tuple[int, ...] | None = None
     tolerance: float = 0.15
 
     def __post_init__(self) -> None:
@@ -168,7 +168,7 @@ class StudySpec:
         if len({r.name for r in rules}) != len(rules):
             raise ParameterError(f"{o}.rules", [r.name for r in rules], "rules with unique names")
         object.__setattr__(self, "rules", rules)
-        seeds = tuple(self.seeds)
+        seeds = (self.reference.seed,) if self.seeds is None else tuple(self.seeds)
         if not 1 <= len(seeds) <= 10 or len(set(seeds)) != len(seeds) or not all(
             isinstance(s, int) and not isinstance(s, bool) and 0 <= s < 2**31 for s in seeds
         ):
@@ -177,23 +177,28 @@ class StudySpec:
         t = self.tolerance
         if isinstance(t, bool) or not isinstance(t, (int, float)) or not 0 < t <= 1:
             raise ParameterError(f"{o}.tolerance", t, "in (0, 1]")
-        # every coarse test must itself be valid (e.g. the cell must hold the coarse radius)
+        # every coarse test must itself be runnable: the cell holds the coarse radius, the
+        # scaled adhesion and the (fixed or scaled) time step are within the engine's limits
+        dt_ref = self.reference.resolved_dt()
         for i, r in enumerate(self.coarse_radii):
-            try:
-                self.rules[0].apply(self.reference, r, self.reference.dt or 1e-5)
-            except ParameterError as e:
-                raise ParameterError(f"{o}.coarse_radii[{i}]", r, e.limit,
-                                     f"the coarse test is invalid: {e}") from None
+            for rule in self.rules:
+                try:
+                    rule.apply(self.reference, r, dt_ref)
+                except ParameterError as e:
+                    raise ParameterError(f"{o}.coarse_radii[{i}]", r,
+                                         "a radius the reference's cell and laws can run",
+                                         f"with rule {rule.name!r}: {e}") from None
 
     def planned_runs(self) -> list[PlannedRun]:
         """Every run, the reference of each seed first."""
         out = []
+        dt_ref = self.reference.resolved_dt()
         for seed in self.seeds:
             ref = replace(self.reference, seed=seed)
             out.append(PlannedRun(run_key(ref.radius, None, seed), ref.radius, None, seed, ref))
             for r in self.coarse_radii:
                 for rule in self.rules:
-                    test = rule.apply(ref, r, ref.dt or 1e-5)
+                    test = rule.apply(ref, r, dt_ref)
                     out.append(PlannedRun(run_key(r, rule, seed), r, rule, seed, test))
         return out
 
@@ -236,6 +241,11 @@ class StudySpec:
                 base.update(ref)
                 ref = base
             d["reference"] = UniaxialTest.from_dict(ref)
+        for k in ("coarse_radii", "rules", "seeds"):
+            if k == "seeds" and d.get(k, ()) is None:
+                del d[k]  # null: the reference's seed
+            elif k in d and not isinstance(d[k], (list, tuple)):
+                raise ParameterError(f"StudySpec.{k}", d[k], "a list")
         if "rules" in d:
             rules = []
             for i, r in enumerate(d["rules"]):
@@ -268,7 +278,7 @@ def default_study() -> StudySpec:
 def _estimated_steps(test: UniaxialTest) -> float:
     """Rough step count of a test: fill (two free-fall times of the cell), compression of a
     bed of about 0.6 solid fraction by 10 % there and back, release, unconfined strain."""
-    dt = test.dt or 1e-5
+    dt = test.resolved_dt()
     g = 9.81
     height = test.cell[2] * test.fill_fraction / 0.6
     t = 2 * math.sqrt(2 * test.cell[2] / g) + 0.2 * height / test.platen_speed
@@ -389,9 +399,15 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None) -> StudyRe
             return progress(StudyProgress(float(min(frac, 1.0)), i, len(planned), p.key,
                                           pr.stage, pr.time, pr.message))
 
+        # a first report names the run before its packing and kernels are built, so a run
+        # that fails there is not blamed on the previous one
+        if report(Progress(0.0, "setup", 0.0, 0.0, 0, "building the packing")) is False:
+            raise StopRequested(f"stopped by the progress callback before run {p.key}")
         try:
             res = run_uniaxial(test, progress=report)
-        except (StageError, InstabilityError, StabilityError, FloatingPointError) as e:
+        except StopRequested:
+            raise
+        except Exception as e:
             raise RunFailed(p.key, e) from e
         if p.rule is None:
             errors = dict.fromkeys(_error_names(spec), 0.0)

@@ -16,11 +16,13 @@ from dataclasses import asdict, dataclass, field, fields, replace
 
 import numpy as np
 
+from .config import MAX_OVERLAP_FRACTION
 from .errors import ParameterError, StopRequested
 from .materials import BilinearAdhesive, HertzMindlin, WallMaterial
 from .packing import draw_radii, loose_packing, sphere_volume
 from .scene import Plane, Scene
 from .simulation import Simulation
+from .stability import critical_time_step
 
 STAGES = ("fill", "pre_compression", "consolidation", "unloading", "release", "unconfined")
 
@@ -169,6 +171,8 @@ class UniaxialTest:
         num("max_stage_time", lambda v: v > 0, "> 0 s")
         if self.dt is not None:
             num("dt", lambda v: v > 0, "> 0 s or None (automatic)")
+        if not isinstance(self.unconfined, bool):
+            raise ParameterError(f"{o}.unconfined", self.unconfined, "true or false")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ParameterError(f"{o}.seed", self.seed, "an integer >= 0")
         if not isinstance(self.pair_law, (BilinearAdhesive, HertzMindlin)):
@@ -188,6 +192,59 @@ class UniaxialTest:
         if cell[2] < 8 * rmax:
             raise ParameterError(f"{o}.cell", f"{cell[2]:g} m along z",
                                  f">= {8 * rmax:.4g} m (4 largest diameters)")
+        self._check_runnable()
+
+    def _check_runnable(self) -> None:
+        """Refuse, before anything runs, what the engine would refuse in the middle of a run:
+        a fill the packer cannot place, an adhesion that pulls contacts too deep, a time step
+        above the stable limit."""
+        o = "UniaxialTest"
+        rmin = self.radius * (1 - self.polydispersity)
+        law = self.pair_law
+        if isinstance(law, BilinearAdhesive) and law.f0 < 0:
+            d_eq = -law.f0 / law.k1
+            if d_eq > MAX_OVERLAP_FRACTION * rmin:
+                raise ParameterError(f"{o}.pair_law.f0", law.f0,
+                                     f">= {-MAX_OVERLAP_FRACTION * rmin * law.k1:.4g} N",
+                                     f"|f0|/k1 = {d_eq:.3g} m would pull contacts beyond "
+                                     f"{MAX_OVERLAP_FRACTION:g} x the smallest radius")
+        if self.dt is not None:
+            lim = self.time_step_limit()
+            if self.dt > lim.dt:
+                raise ParameterError(f"{o}.dt", self.dt, f"<= {lim.dt:.4g} s, the stable limit "
+                                     f"set by {lim.reason} (recommended {lim.recommended:.4g} s)")
+        # the packer is deterministic for a seed: place the fill now, exactly as the run will
+        try:
+            self.initial_packing()
+        except ParameterError as e:
+            raise ParameterError(f"{o}.fill_fraction", self.fill_fraction,
+                                 "low enough for the fill to be placed without overlap",
+                                 f"{e}; lower fill_fraction or raise cell[2]") from None
+
+    def time_step_limit(self):
+        """:func:`engine.critical_time_step` of this test's laws for its lightest particles
+        and the free fall over its cell height (a two-particle stand-in for the packing)."""
+        rmin = self.radius * (1 - self.polydispersity)
+        lx, ly, lz = self.cell
+        pos = [(lx / 2, ly / 2, rmin), (lx / 2, ly / 2, lz - rmin)]
+        walls = [Plane((0, 0, 0), (0, 0, 1)), Plane((0, 0, lz + 4 * self.radius), (0, 0, -1),
+                                                     velocity=(0, 0, -self.platen_speed))]
+        scene = Scene(pos, rmin, self.density, box=[(0, lx), (0, ly), (0, lz)],
+                      periodic=(True, True, False), walls=walls, gravity=(0, 0, -9.81),
+                      pair_law=self.pair_law, wall_law=self.wall_law,
+                      wall_material=self.wall_material)
+        return critical_time_step(scene)
+
+    def initial_packing(self) -> tuple[np.ndarray, np.ndarray]:
+        """Positions [m] and radii [m] of the poured fill: ``n_particles`` overlap-free
+        spheres in the cell (periodic x and y), from ``seed``."""
+        radii = draw_radii(self.n_particles, self.radius, self.polydispersity, self.seed)
+        lx, ly, lz = self.cell
+        return loose_packing(radii, [(0, lx), (0, ly), (0, lz)], seed=self.seed), radii
+
+    def resolved_dt(self) -> float:
+        """The time step a run of this test takes [s]: ``dt``, or the recommended one."""
+        return self.dt if self.dt is not None else self.time_step_limit().recommended
 
     @property
     def n_particles(self) -> int:
@@ -227,6 +284,8 @@ class UniaxialTest:
         if isinstance(d.get("wall_material"), dict):
             d["wall_material"] = WallMaterial(**d["wall_material"])
         if "cell" in d:
+            if not isinstance(d["cell"], (list, tuple)):
+                raise ParameterError("UniaxialTest.cell", d["cell"], "three lengths > 0 m")
             d["cell"] = tuple(d["cell"])
         return cls(**d)
 
@@ -340,9 +399,8 @@ class _Driver:
         self.scalars: dict[str, float] = {}
         self.t_wall = time.perf_counter()
         n = test.n_particles
-        radii = draw_radii(n, test.radius, test.polydispersity, test.seed)
+        pos, radii = test.initial_packing()
         lx, ly, lz = test.cell
-        pos = loose_packing(radii, [(0, lx), (0, ly), (0, lz)], seed=test.seed)
         self.solid_volume = float(sphere_volume(radii).sum())
         g = 9.81
         self.layer_stress = test.density * g * 2 * test.radius

@@ -57,6 +57,8 @@ def admit(body: StudyCreate, settings: Settings) -> engine.StudySpec:
         spec = engine.StudySpec.from_dict(data)
     except engine.ParameterError as e:
         raise SpecRejected([_error(engine_loc(e.field), str(e), e.value)]) from e
+    except (TypeError, ValueError) as e:  # e.g. an explicit null where a value is needed
+        raise SpecRejected([_error((), f"the spec is not valid: {e}", None)]) from e
     runs = spec.planned_runs()
     if len(runs) > settings.max_runs:
         raise SpecRejected(

@@ -35,6 +35,10 @@ def test_nrmse_zero_for_identical_and_known_for_shifted():
     x = np.linspace(0.0, 2.0, 50)
     assert metrics.nrmse(x, x) == 0.0
     assert metrics.nrmse(x + 0.1, x) == pytest.approx(0.1 / 2.0)
+    # normalised by the range, not the magnitude: 0.45..0.50 off by 0.005 is 10 %
+    y = np.linspace(0.45, 0.50, 20)
+    assert metrics.nrmse(y + 0.005, y) == pytest.approx(0.1)
+    assert metrics.nrmse(np.full(5, 3.3), np.full(5, 3.0)) == pytest.approx(0.1)  # flat
     with pytest.raises(ValueError):
         metrics.nrmse(x, np.zeros_like(x))
 
@@ -61,8 +65,9 @@ def test_run_errors_on_analytic_curves():
     same = metrics.run_errors(_fake_result(), ref)
     assert all(v == pytest.approx(0.0, abs=1e-12) for v in same.values())
     shifted = metrics.run_errors(_fake_result(strain_shift=0.002, strength=1500.0), ref)
-    max_strain = max(2e4 / 1e6, 0.01 + 2e4 / 4e6)  # largest reference strain: end of loading
-    assert shifted["err_stress_strain"] == pytest.approx(0.002 / max_strain, rel=1e-6)
+    # reference strain range over both branches: 5e3/1e6 (start of loading) to 2e4/1e6
+    strain_range = 2e4 / 1e6 - 5e3 / 1e6
+    assert shifted["err_stress_strain"] == pytest.approx(0.002 / strain_range, rel=1e-6)
     assert shifted["err_coordination"] == pytest.approx(0.0, abs=1e-12)
     assert shifted["err_strength"] == pytest.approx(0.5)
     # cohesionless reference: relative to 5 % of the consolidation stress (20 kPa)
@@ -75,6 +80,17 @@ def test_spec_validation_names_fields():
         engine.StudySpec(reference=ref, coarse_radii=(ref.radius,))
     with pytest.raises(engine.ParameterError, match=r"coarse_radii\[1\]"):
         engine.StudySpec(reference=ref, coarse_radii=(3e-3, 8e-3))  # cell too small
+    # refused before running: a time step above the stable limit, adhesion pulling contacts
+    # too deep at the coarse radius, a fill the packer cannot place
+    with pytest.raises(engine.ParameterError, match=r"UniaxialTest.dt .*stable limit"):
+        tiny(dt=1e-3)
+    with pytest.raises(engine.ParameterError, match=r"coarse_radii\[0\].*pair_law.f0"):
+        engine.StudySpec(reference=engine.preset("quick", pair_law=engine.BilinearAdhesive(
+            k1=5e3, k2=2.5e4, f0=-4.0)), coarse_radii=(1e-2,),
+            rules=(engine.ScalingRule.named("cubic_adhesion"),))
+    with pytest.raises(engine.ParameterError, match="fill_fraction"):
+        engine.preset("quick", cell=(0.05, 0.05, 0.04), fill_fraction=0.32)
+    assert engine.StudySpec(reference=tiny(seed=7), coarse_radii=(3.1e-3,)).seeds == (7,)
     with pytest.raises(engine.ParameterError, match="rules"):
         engine.StudySpec(reference=ref, rules=(engine.ScalingRule("x"), engine.ScalingRule("x")))
     with pytest.raises(engine.ParameterError, match="stiffness_exponent"):

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import os
+import uuid
 from datetime import datetime, timezone
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
@@ -105,7 +106,8 @@ def write_results(path: Path, study_id: object, result) -> Path:
     """Write the :class:`engine.StudyResult` ``result`` to ``path`` atomically (a temporary
     file in the same directory, fsynced, then renamed over ``path``)."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f"{path.stem}.{os.getpid()}.h5.tmp")
+    # unique even for two containerised workers that are both PID 1 on a shared volume
+    tmp = path.with_name(f"{path.stem}.{uuid.uuid4().hex}.h5.tmp")
     try:
         with h5py.File(tmp, "w", track_order=True) as f:
             vs = versions()

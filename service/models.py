@@ -10,6 +10,7 @@ import uuid
 from datetime import datetime, timezone
 from enum import Enum
 
+from pydantic import field_validator
 from sqlalchemy import JSON, Column, ForeignKey, Uuid
 from sqlmodel import Field, SQLModel
 
@@ -26,6 +27,13 @@ class Status(str, Enum):
 
 #: Statuses a study never leaves.
 TERMINAL = frozenset({Status.succeeded, Status.failed, Status.cancelled})
+
+
+def _as_utc(value: datetime | None) -> datetime | None:
+    """SQLite keeps no time zone: times come back naive, and are UTC."""
+    if value is not None and value.tzinfo is None:
+        return value.replace(tzinfo=timezone.utc)
+    return value
 
 
 def utcnow() -> datetime:
@@ -81,6 +89,11 @@ class StudyPublic(StudyBase):
     finished_at: datetime | None
     heartbeat_at: datetime | None
     run_time: float | None = Field(description="Seconds the last attempt ran.")
+
+    @field_validator("created_at", "started_at", "finished_at", "heartbeat_at")
+    @classmethod
+    def _utc(cls, v: datetime | None) -> datetime | None:
+        return _as_utc(v)
     error: str | None
     max_particles: int
     estimated_particle_steps: float
@@ -140,6 +153,11 @@ class RunPublic(RunBase):
     steps: int | None
     wall_time: float | None = Field(description="Wall-clock time of the run [s].")
     error: str | None
+
+    @field_validator("started_at", "finished_at")
+    @classmethod
+    def _utc(cls, v: datetime | None) -> datetime | None:
+        return _as_utc(v)
 
 
 class StudyDetail(StudyPublic):

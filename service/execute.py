@@ -17,7 +17,7 @@ import engine
 
 from . import transitions
 from .db import engine_for
-from .h5store import write_results
+from .h5store import NotOurs, write_results
 from .models import Status, Study
 from .settings import Settings
 
@@ -89,9 +89,13 @@ class StudyExecution:
         try:
             spec = engine.StudySpec.from_dict(self.spec_dict)
             result = engine.run_study(spec, progress=self.progress)
-            write_results(self.settings.results_path(self.study_id), self.study_id, result)
+            write_results(self.settings.results_path(self.study_id), self.study_id, result,
+                          still_ours=self._still_ours)
         except engine.StopRequested:
             return self._stopped(time.perf_counter() - t0)
+        except NotOurs:
+            log.warning("study %s was taken over: results dropped", self.study_id)
+            return None
         except Exception as e:
             self._finish_beats(beats)
             log.error("study %s failed:\n%s", self.study_id, traceback.format_exc())
@@ -114,6 +118,11 @@ class StudyExecution:
             )
         log.info("study %s: %s", self.study_id, "succeeded" if ok else "done, but not ours")
         return Status.succeeded if ok else None
+
+    def _still_ours(self) -> bool:
+        """A heartbeat right before the results file is renamed into place."""
+        self.beat()
+        return not self.lost
 
     def _finish_beats(self, beats: threading.Thread) -> None:
         self.done.set()

@@ -102,9 +102,15 @@ def _write_run(g: h5py.Group, position: int, run) -> None:
             ds.attrs["units"] = "m"
 
 
-def write_results(path: Path, study_id: object, result) -> Path:
+class NotOurs(RuntimeError):
+    """The study was taken over while its results were being written: nothing was renamed
+    into place."""
+
+
+def write_results(path: Path, study_id: object, result, still_ours=lambda: True) -> Path:
     """Write the :class:`engine.StudyResult` ``result`` to ``path`` atomically (a temporary
-    file in the same directory, fsynced, then renamed over ``path``)."""
+    file in the same directory, fsynced, then renamed over ``path``). ``still_ours()`` is
+    asked just before the rename; False raises :class:`NotOurs` and leaves ``path`` alone."""
     path.parent.mkdir(parents=True, exist_ok=True)
     # unique even for two containerised workers that are both PID 1 on a shared volume
     tmp = path.with_name(f"{path.stem}.{uuid.uuid4().hex}.h5.tmp")
@@ -136,6 +142,8 @@ def write_results(path: Path, study_id: object, result) -> Path:
                 ds.attrs["units"] = TABLE_UNITS.get(c, "")
         with open(tmp, "rb+") as fh:
             os.fsync(fh.fileno())
+        if not still_ours():
+            raise NotOurs(f"study {study_id} is no longer this worker's: results not stored")
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)

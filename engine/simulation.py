@@ -20,7 +20,7 @@ from .kernels import load_kernel, scene_features
 from .materials import BilinearAdhesive
 from .neighbour import build_neighbour_list, wrap_positions
 from .scene import Scene
-from .stability import TimeStepLimit, critical_time_step
+from .stability import TimeStepLimit, adhesion_overlap, critical_time_step
 from .step_common import NAN as _STATUS_NAN
 from .step_common import OK as _STATUS_OK
 from .step_common import OVERLAP as _STATUS_OVERLAP
@@ -204,15 +204,14 @@ class Simulation:
 
     def _check_adhesion(self, ovl: float) -> None:
         law = self.scene.pair_law
-        if isinstance(law, BilinearAdhesive) and law.f0 < 0:
-            d_eq = -law.f0 / law.k1
-            rmin = float(self.scene.radii.min())
-            if d_eq > ovl * rmin:
-                raise StabilityError(
-                    f"adhesion f0 = {law.f0:g} N pulls contacts to the overlap |f0|/k1 = "
-                    f"{d_eq:.4g} m, beyond max_overlap_fraction {ovl:g} x the smallest radius "
-                    f"{rmin:g} m: raise k1 or reduce |f0|"
-                )
+        rmin = float(self.scene.radii.min())
+        d_eq = adhesion_overlap(law, rmin, ovl)
+        if d_eq is not None:
+            raise StabilityError(
+                f"adhesion f0 = {law.f0:g} N pulls contacts to the overlap |f0|/k1 = "
+                f"{d_eq:.4g} m, beyond max_overlap_fraction {ovl:g} x the smallest radius "
+                f"{rmin:g} m: raise k1 or reduce |f0|"
+            )
 
     def _check_box(self) -> None:
         cut = 2.0 * float(self.scene.radii.max()) + self.skin

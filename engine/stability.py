@@ -60,6 +60,17 @@ class TimeStepLimit:
         return iter((self.dt, self.reason))
 
 
+def adhesion_overlap(law, rmin: float, fraction: float) -> float | None:
+    """Overlap |f0|/k1 [m] at which adhesion alone holds a bilinear contact, when it lies
+    beyond ``fraction`` x the smallest radius ``rmin`` [m] (the overlap guard of a run);
+    None when it does not (or the law has no adhesion)."""
+    if isinstance(law, BilinearAdhesive) and law.f0 < 0:
+        d_eq = -law.f0 / law.k1
+        if d_eq > fraction * rmin:
+            return d_eq
+    return None
+
+
 def oscillator_limit(k: float, m: float, zeta: float) -> float:
     """Stable explicit time step of a damped linear oscillator [s]: 2/w (sqrt(1+z^2) - z),
     w = sqrt(k/m); k [N/m], m [kg], zeta [-]."""

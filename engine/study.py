@@ -19,6 +19,7 @@ from .errors import ParameterError, StopRequested
 from .materials import BilinearAdhesive
 from .metrics import ERROR_NAMES, run_errors
 from .uniaxial import (
+    GRAVITY,
     Progress,
     UniaxialResult,
     UniaxialTest,
@@ -279,9 +280,8 @@ def _estimated_steps(test: UniaxialTest) -> float:
     """Rough step count of a test: fill (two free-fall times of the cell), compression of a
     bed of about 0.6 solid fraction by 10 % there and back, release, unconfined strain."""
     dt = test.resolved_dt()
-    g = 9.81
     height = test.cell[2] * test.fill_fraction / 0.6
-    t = 2 * math.sqrt(2 * test.cell[2] / g) + 0.2 * height / test.platen_speed
+    t = 2 * math.sqrt(2 * test.cell[2] / GRAVITY) + 0.2 * height / test.platen_speed
     if test.unconfined:
         t += test.release_time + test.max_unconfined_strain * height / test.platen_speed
     return t / dt

@@ -9,6 +9,7 @@ fails the run with :class:`StageError` rather than hanging. Curves are sampled e
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Callable
@@ -22,7 +23,9 @@ from .materials import BilinearAdhesive, HertzMindlin, WallMaterial
 from .packing import draw_radii, loose_packing, sphere_volume
 from .scene import Plane, Scene
 from .simulation import Simulation
-from .stability import critical_time_step
+from .stability import adhesion_overlap, critical_time_step
+
+GRAVITY = 9.81  # [m/s^2]
 
 STAGES = ("fill", "pre_compression", "consolidation", "unloading", "release", "unconfined")
 
@@ -201,13 +204,12 @@ class UniaxialTest:
         o = "UniaxialTest"
         rmin = self.radius * (1 - self.polydispersity)
         law = self.pair_law
-        if isinstance(law, BilinearAdhesive) and law.f0 < 0:
-            d_eq = -law.f0 / law.k1
-            if d_eq > MAX_OVERLAP_FRACTION * rmin:
-                raise ParameterError(f"{o}.pair_law.f0", law.f0,
-                                     f">= {-MAX_OVERLAP_FRACTION * rmin * law.k1:.4g} N",
-                                     f"|f0|/k1 = {d_eq:.3g} m would pull contacts beyond "
-                                     f"{MAX_OVERLAP_FRACTION:g} x the smallest radius")
+        d_eq = adhesion_overlap(law, rmin, MAX_OVERLAP_FRACTION)
+        if d_eq is not None:
+            raise ParameterError(f"{o}.pair_law.f0", law.f0,
+                                 f">= {-MAX_OVERLAP_FRACTION * rmin * law.k1:.4g} N",
+                                 f"|f0|/k1 = {d_eq:.3g} m would pull contacts beyond "
+                                 f"{MAX_OVERLAP_FRACTION:g} x the smallest radius")
         if self.dt is not None:
             lim = self.time_step_limit()
             if self.dt > lim.dt:
@@ -226,21 +228,25 @@ class UniaxialTest:
         and the free fall over its cell height (a two-particle stand-in for the packing)."""
         rmin = self.radius * (1 - self.polydispersity)
         lx, ly, lz = self.cell
-        pos = [(lx / 2, ly / 2, rmin), (lx / 2, ly / 2, lz - rmin)]
-        walls = [Plane((0, 0, 0), (0, 0, 1)), Plane((0, 0, lz + 4 * self.radius), (0, 0, -1),
-                                                     velocity=(0, 0, -self.platen_speed))]
-        scene = Scene(pos, rmin, self.density, box=[(0, lx), (0, ly), (0, lz)],
-                      periodic=(True, True, False), walls=walls, gravity=(0, 0, -9.81),
-                      pair_law=self.pair_law, wall_law=self.wall_law,
-                      wall_material=self.wall_material)
-        return critical_time_step(scene)
+        pos = np.array([(lx / 2, ly / 2, rmin), (lx / 2, ly / 2, lz - rmin)])
+        return critical_time_step(self.scene(pos, np.full(2, rmin)))
+
+    def scene(self, positions: np.ndarray, radii: np.ndarray) -> Scene:
+        """The test's scene for particles at ``positions`` [m] with ``radii`` [m]: periodic
+        x and y, gravity, the bottom platen at z = 0 and the top one above the cell."""
+        lx, ly, lz = self.cell
+        walls = [Plane((0, 0, 0), (0, 0, 1)), Plane((0, 0, lz + 4 * self.radius), (0, 0, -1))]
+        return Scene(positions, radii, self.density, box=[(0, lx), (0, ly), (0, lz)],
+                     periodic=(True, True, False), walls=walls, gravity=(0, 0, -GRAVITY),
+                     pair_law=self.pair_law, wall_law=self.wall_law,
+                     wall_material=self.wall_material)
 
     def initial_packing(self) -> tuple[np.ndarray, np.ndarray]:
         """Positions [m] and radii [m] of the poured fill: ``n_particles`` overlap-free
         spheres in the cell (periodic x and y), from ``seed``."""
-        radii = draw_radii(self.n_particles, self.radius, self.polydispersity, self.seed)
-        lx, ly, lz = self.cell
-        return loose_packing(radii, [(0, lx), (0, ly), (0, lz)], seed=self.seed), radii
+        pos, radii = _packing(self.n_particles, self.radius, self.polydispersity, self.seed,
+                              self.cell)
+        return pos.copy(), radii.copy()
 
     def resolved_dt(self) -> float:
         """The time step a run of this test takes [s]: ``dt``, or the recommended one."""
@@ -288,6 +294,16 @@ class UniaxialTest:
                 raise ParameterError("UniaxialTest.cell", d["cell"], "three lengths > 0 m")
             d["cell"] = tuple(d["cell"])
         return cls(**d)
+
+
+@functools.lru_cache(maxsize=16)
+def _packing(n: int, radius: float, polydispersity: float, seed: int,
+             cell: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """The poured fill, computed once: admission (every UniaxialTest places its fill when it
+    is built) and the run use the same one."""
+    radii = draw_radii(n, radius, polydispersity, seed)
+    lx, ly, lz = cell
+    return loose_packing(radii, [(0, lx), (0, ly), (0, lz)], seed=seed), radii
 
 
 def preset(name: str, **overrides) -> UniaxialTest:
@@ -398,21 +414,14 @@ class _Driver:
         self.last_fraction = 0.0
         self.scalars: dict[str, float] = {}
         self.t_wall = time.perf_counter()
-        n = test.n_particles
         pos, radii = test.initial_packing()
-        lx, ly, lz = test.cell
         self.solid_volume = float(sphere_volume(radii).sum())
-        g = 9.81
+        g = GRAVITY
         self.layer_stress = test.density * g * 2 * test.radius
         m = float(test.density * sphere_volume(test.radius))
-        self.settle_energy = test.settle_ke * n * m * g * test.radius
-        # bottom platen at z = 0; the top platen starts above the cell, out of reach
-        walls = [Plane((0, 0, 0), (0, 0, 1)), Plane((0, 0, lz + 4 * test.radius), (0, 0, -1))]
-        self.n_walls = 2
-        scene = Scene(pos, radii, test.density, box=[(0, lx), (0, ly), (0, lz)],
-                      periodic=(True, True, False), walls=walls, gravity=(0, 0, -g),
-                      pair_law=test.pair_law, wall_law=test.wall_law,
-                      wall_material=test.wall_material)
+        self.settle_energy = test.settle_ke * len(radii) * m * g * test.radius
+        self.n_walls = 2  # bottom platen at z = 0; the top one starts above the cell
+        scene = test.scene(pos, radii)
         # kernels are compiled (or loaded from the disk cache) when a Simulation is built and
         # when its periodicity changes: that time is kept out of the run's wall time
         t0 = time.perf_counter()
@@ -480,7 +489,7 @@ class _Driver:
     # ------------------------------------------------------------------ stages
     def fill(self) -> None:
         t0 = self.sim.time
-        t_fall = math.sqrt(2 * self.test.cell[2] / 9.81)
+        t_fall = math.sqrt(2 * self.test.cell[2] / GRAVITY)
         self.run_stage("fill", self.gap(), lambda r: self.settled(r, t_fall, t0),
                        lambda r: min(1.0, (r[0] - t0) / (2 * t_fall)),
                        "settle (kinetic energy below settle_ke x N m g R)")
@@ -511,7 +520,7 @@ class _Driver:
         self.sim.set_periodic((False, False, False))
         self.setup_time += time.perf_counter() - t_setup
         t0 = self.sim.time
-        t_min = 5 * math.sqrt(2 * self.test.radius / 9.81)  # a few particle fall times
+        t_min = 5 * math.sqrt(2 * self.test.radius / GRAVITY)  # a few particle fall times
         t_max = max(t_min, self.test.release_time)
         self.run_stage("release", self.gap(),
                        lambda r: self.settled(r, t_min, t0) or r[0] - t0 >= t_max,

@@ -13,16 +13,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .errors import ParameterError
-
-
-def _finite(owner: str, name: str, value: float) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{owner}.{name}", value, "a real number") from None
-    if not math.isfinite(v):
-        raise ParameterError(f"{owner}.{name}", value, "finite")
-    return v
+from .params import check_fields, param
 
 
 def _check(owner: str, name: str, value: float, ok: bool, limit: str, why: str = "") -> None:
@@ -79,20 +70,18 @@ class BilinearAdhesive:
         restitution: coefficient of restitution setting the damping ratio [-], in (0, 1].
     """
 
-    k1: float
-    k2: float
-    f0: float = 0.0
-    kadh: float = 0.0
-    kt_ratio: float = 2.0 / 7.0
-    mu_s: float = 0.5
-    mu_r: float = 0.001
-    restitution: float = 0.4
+    k1: float = param(unit="N/m", doc="virgin loading stiffness K1", gt=0)
+    k2: float = param(unit="N/m", doc="unloading/reloading stiffness K2 (>= k1)", gt=0)
+    f0: float = param(0.0, unit="N", doc="adhesion (pull-off) force, <= 0", le=0)
+    kadh: float = param(0.0, unit="N/m", doc="slope of the adhesive branch", ge=0)
+    kt_ratio: float = param(2.0 / 7.0, unit="1", doc="tangential stiffness / k1", ge=0)
+    mu_s: float = param(0.5, unit="1", doc="sliding friction coefficient", ge=0)
+    mu_r: float = param(0.001, unit="1", doc="rolling friction coefficient", ge=0)
+    restitution: float = param(0.4, unit="1", doc="coefficient of restitution", gt=0, le=1)
 
     def __post_init__(self) -> None:
         o = "BilinearAdhesive"
-        for name in ("k1", "k2", "f0", "kadh", "kt_ratio", "mu_s", "mu_r", "restitution"):
-            object.__setattr__(self, name, _finite(o, name, getattr(self, name)))
-        _check(o, "k1", self.k1, self.k1 > 0, "> 0 N/m")
+        check_fields(self, o)
         _check(
             o,
             "k2",
@@ -101,12 +90,6 @@ class BilinearAdhesive:
             f">= k1 = {self.k1:g} N/m",
             "unloading must be at least as stiff as loading",
         )
-        _check(o, "f0", self.f0, self.f0 <= 0, "<= 0 N", "adhesion is an attractive force")
-        _check(o, "kadh", self.kadh, self.kadh >= 0, ">= 0 N/m")
-        _check(o, "kt_ratio", self.kt_ratio, self.kt_ratio >= 0, ">= 0")
-        _check(o, "mu_s", self.mu_s, self.mu_s >= 0, ">= 0")
-        _check(o, "mu_r", self.mu_r, self.mu_r >= 0, ">= 0")
-        _check(o, "restitution", self.restitution, 0 < self.restitution <= 1, "in (0, 1]")
 
     @property
     def kt(self) -> float:
@@ -156,21 +139,15 @@ class HertzMindlin:
         mu_r: rolling friction coefficient [-], >= 0 (constant directional torque).
     """
 
-    E: float
-    nu: float = 0.25
-    restitution: float = 0.4
-    mu: float = 0.3
-    mu_r: float = 0.0
+    E: float = param(unit="Pa", doc="Young's modulus of the particle material", gt=0)
+    nu: float = param(0.25, unit="1", doc="Poisson's ratio of the particle material", gt=-1,
+                      lt=0.5)
+    restitution: float = param(0.4, unit="1", doc="coefficient of restitution", gt=0, le=1)
+    mu: float = param(0.3, unit="1", doc="sliding friction coefficient", ge=0)
+    mu_r: float = param(0.0, unit="1", doc="rolling friction coefficient", ge=0)
 
     def __post_init__(self) -> None:
-        o = "HertzMindlin"
-        for name in ("E", "nu", "restitution", "mu", "mu_r"):
-            object.__setattr__(self, name, _finite(o, name, getattr(self, name)))
-        _check(o, "E", self.E, self.E > 0, "> 0 Pa")
-        _check(o, "nu", self.nu, -1 < self.nu < 0.5, "in (-1, 0.5)")
-        _check(o, "restitution", self.restitution, 0 < self.restitution <= 1, "in (0, 1]")
-        _check(o, "mu", self.mu, self.mu >= 0, ">= 0")
-        _check(o, "mu_r", self.mu_r, self.mu_r >= 0, ">= 0")
+        check_fields(self, "HertzMindlin")
 
     @property
     def G(self) -> float:
@@ -206,15 +183,11 @@ class WallMaterial:
         nu: Poisson's ratio [-], in (-1, 0.5).
     """
 
-    E: float = 2e11
-    nu: float = 0.3
+    E: float = param(2e11, unit="Pa", doc="Young's modulus of the wall", gt=0)
+    nu: float = param(0.3, unit="1", doc="Poisson's ratio of the wall", gt=-1, lt=0.5)
 
     def __post_init__(self) -> None:
-        o = "WallMaterial"
-        for name in ("E", "nu"):
-            object.__setattr__(self, name, _finite(o, name, getattr(self, name)))
-        _check(o, "E", self.E, self.E > 0, "> 0 Pa")
-        _check(o, "nu", self.nu, -1 < self.nu < 0.5, "in (-1, 0.5)")
+        check_fields(self, "WallMaterial")
 
     @property
     def G(self) -> float:

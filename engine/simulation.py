@@ -578,6 +578,15 @@ class Simulation:
         :meth:`contacts`, without building its arrays)."""
         return int(np.count_nonzero(self._entry[: self._n_entries, 0]))
 
+    def contact_counts(self) -> np.ndarray:
+        """Particle-particle contacts of every particle at the last force evaluation, (N,)
+        integers (the per-particle coordination number; wall contacts not counted)."""
+        m = self._n_entries
+        active = np.nonzero(self._entry[:m, 0] != 0.0)[0]
+        owner = np.searchsorted(self._nbr_start, active, side="right") - 1
+        j = self._nbr_j[active].astype(np.int64)
+        return np.bincount(owner, minlength=self.n) + np.bincount(j, minlength=self.n)
+
     def contacts(self) -> Contacts:
         """Particle-particle and particle-wall contacts at the last force evaluation."""
         m = self._n_entries

@@ -20,6 +20,7 @@ class ErrorMessage(BaseModel):
 _INT_HEADER = {"schema": {"type": "integer"}, "required": True}
 
 _ANSWERS: dict[int, dict] = {
+    400: {"description": "The body cannot be parsed (not UTF-8 JSON)."},
     401: {
         "description": "No valid bearer token (header `Authorization: Bearer <token>`).",
         "headers": {

@@ -51,7 +51,7 @@ def public(study: Study) -> StudyPublic:
     responses={
         202: {"headers": {"Location": {"schema": {"type": "string"}, "required": True,
                                        "description": "URL of the new study."}}},
-        **answers(413, 429),
+        **answers(400, 413, 429),
     },
 )
 def submit_study(

@@ -100,6 +100,7 @@ def run(scale: str, workers: int, only: list[str] | None) -> None:
 
 
 def main(argv=None) -> int:
+    global STORE
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scale", choices=("paper", "quick"), default="quick")
     ap.add_argument("--workers", type=int, default=1,
@@ -110,10 +111,9 @@ def main(argv=None) -> int:
     ap.add_argument("--only", nargs="*", choices=("a_cohesionless", "b_cohesive"),
                     help="experiments to run, in this order (default: both)")
     ap.add_argument("--store", type=Path, default=None,
-                    help=f"folder of the stored runs (default: {STORE})")
+                    help="folder of the stored runs (default: benchmarks/results)")
     args = ap.parse_args(argv)
     if args.store is not None:
-        global STORE
         STORE = args.store
     t0 = time.perf_counter()
     if not args.report:

@@ -1,246 +1,130 @@
-"""Reduced-scale reproduction of Thakur et al. (DEM 6, 2013) and docs/VALIDATION.md.
+"""Reproduction of Thakur et al. (DEM 6, 2013) and docs/VALIDATION.md.
 
-    python -m benchmarks.reproduce               # both experiments, 2 seeds (~10 min, 2 cores)
-    python -m benchmarks.reproduce --seeds 1     # one seed, faster
+    python -m benchmarks.reproduce --scale paper --workers 2   # the seed's scale (hours)
+    python -m benchmarks.reproduce --scale paper --report      # report from stored runs only
+    python -m benchmarks.reproduce --scale quick               # smoke run (minutes)
 
 (a) cohesionless bed: R_ref = 2.5 mm against 2 R_ref, stiffness unscaled (a = 0) against
-    linearly scaled (a = 1);
+    linearly scaled (a = 1); confined stages only (a cohesionless sample has no unconfined
+    strength to compare);
 (b) cohesive bed (f0 = -0.8 N at R_ref): R = 3.75 and 5 mm with stiffness ~ R and adhesion
     exponent b = 1, 2, 3.
-Both in the ``quick`` cell (50 x 50 x 100 mm fill region, periodic x and y), same platen speed
-and time step as the paper. Writes the figures to docs/figures/ and the report, with every
-number computed in this run, to docs/VALIDATION.md.
+Three reference seeds and two seeds per coarse variant. Every finished run is stored at once
+as ``benchmarks/results/<scale>/<experiment>/<run>.h5``; a rerun resumes with the runs not
+yet stored, and ``--report`` recomputes every metric, verdict and figure from the stored
+curves. ``--scale paper`` writes docs/VALIDATION.md and docs/figures/; ``--scale quick``
+writes benchmarks/.cache/quick/VALIDATION.md (a smoke run, not the validation).
 """
 
 from __future__ import annotations
 
 import argparse
-import itertools
-import os
-import platform
-import sys
+import concurrent.futures as cf
+import multiprocessing as mp
 import time
+from dataclasses import replace
 from pathlib import Path
 
-import numba
-
 import engine
+from benchmarks.runstore import load_all, save_run
 
 ROOT = Path(__file__).resolve().parent.parent
-DOCS = ROOT / "docs"
 R = 2.5e-3
+REFERENCE_SEEDS = (1, 2, 3)
+COARSE_SEEDS = (1, 2)
 
 
-def experiments(seeds: tuple[int, ...]) -> dict[str, engine.StudySpec]:
-    plain = engine.preset("quick")  # f0 = 0: cohesionless
-    cohesive = engine.preset("quick", pair_law=engine.BilinearAdhesive(
+def experiments(scale: str) -> dict[str, engine.StudySpec]:
+    """The two experiments of the seed at ``scale`` ("paper" or "quick")."""
+    plain = replace(engine.preset(scale), unconfined=False)  # f0 = 0: cohesionless
+    cohesive = engine.preset(scale, pair_law=engine.BilinearAdhesive(
         k1=5e3, k2=2.5e4, f0=-0.8, mu_s=0.5, mu_r=0.001, restitution=0.4))
     rule = engine.ScalingRule
+    common = {"reference_seeds": REFERENCE_SEEDS, "seeds": COARSE_SEEDS}
     return {
         "a_cohesionless": engine.StudySpec(
-            reference=plain, coarse_radii=(2 * R,), seeds=seeds, tolerance=0.15,
-            rules=(rule("unscaled", 0.0, 0.0), rule("linear", 1.0, 2.0))),
+            reference=plain, coarse_radii=(2 * R,),
+            rules=(rule("unscaled", 0.0, 0.0), rule("linear", 1.0, 2.0)), **common),
         "b_cohesive": engine.StudySpec(
-            reference=cohesive, coarse_radii=(1.5 * R, 2 * R), seeds=seeds, tolerance=0.15,
-            rules=(rule("b1", 1.0, 1.0), rule("b2", 1.0, 2.0), rule("b3", 1.0, 3.0))),
+            reference=cohesive, coarse_radii=(1.5 * R, 2 * R),
+            rules=(rule("b1", 1.0, 1.0), rule("b2", 1.0, 2.0), rule("b3", 1.0, 3.0)),
+            **common),
     }
 
 
-def _fmt(v, pct=False):
-    if v is None:
-        return "-"
-    return f"{100 * v:.1f} %" if pct else f"{v:.3g}"
+STORE = ROOT / "benchmarks" / "results"
 
 
-def table_md(result: engine.StudyResult) -> str:
-    names = [n for n in ("err_stress_strain", "err_stress_porosity", "err_coordination",
-                         "err_strength") if n in result.table[0]]
-    head = ("| run | R [mm] | particles | steps | wall time [s] | speed-up | UCS [Pa] | "
-            + " | ".join(n.removeprefix("err_") for n in names) + " |")
-    lines = [head, "|" + "---|" * (7 + len(names))]
-    for row in result.table:
-        ucs = result.runs[row["run"]].result.scalars.get("unconfined_strength")
-        lines.append(
-            f"| {row['run']} | {row['radius'] * 1e3:g} | {row['particles']} | {row['steps']} | "
-            f"{row['wall_time']:.1f} | {row['speedup']:.1f} | {_fmt(ucs)} | "
-            + " | ".join(_fmt(row[n], pct=True) for n in names) + " |")
-    return "\n".join(lines)
+def store_dir(scale: str, name: str) -> Path:
+    return STORE / scale / name
 
 
-def groups_md(result: engine.StudyResult) -> str:
-    names = [n for n in ("err_stress_strain", "err_stress_porosity", "err_coordination",
-                         "err_strength") if n in result.groups[0]]
-    lines = ["| R [mm] | rule (a, b) | seeds | speed-up | UCS [Pa] | "
-             + " | ".join(n.removeprefix("err_") for n in names) + " |",
-             "|" + "---|" * (5 + len(names))]
-    for g in result.groups:
-        ucs = (f"{g['unconfined_strength']:.0f} ± {g['unconfined_strength_std']:.0f}"
-               if "unconfined_strength" in g else "-")
-        lines.append(
-            f"| {g['radius'] * 1e3:g} | {g['rule']} ({g['stiffness_exponent']:g}, "
-            f"{g['adhesion_exponent']:g}) | {g['seeds']} | {g['speedup']:.1f} | {ucs} | "
-            + " | ".join(f"{100 * g[n]:.1f} ± {100 * g[n + '_std']:.1f} %" for n in names)
-            + " |")
-    return "\n".join(lines)
-
-
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=2, help="number of packing seeds (1, 2, ...)")
-    args = ap.parse_args(argv)
-    seeds = tuple(range(1, args.seeds + 1))
-    results = {}
-    t0 = time.perf_counter()
-    for name, spec in experiments(seeds).items():
-        print(f"{name}: {len(spec.planned_runs())} runs", flush=True)
-        last = [""]
-
-        def progress(p, last=last):
-            if p.run_key != last[0]:
-                last[0] = p.run_key
-                print(f"  [{p.fraction:5.1%}] {p.run_key}", flush=True)
-
-        results[name] = engine.run_study(spec, progress=progress)
-        results[name].save_plots(DOCS / "figures" / name)
-        print(results[name].advisor["message"], flush=True)
-    total = time.perf_counter() - t0
-    write_report(results, seeds, total)
-    print(f"wrote {DOCS / 'VALIDATION.md'} ({total:.0f} s)")
-    return 0
-
-
-def write_report(results: dict, seeds: tuple[int, ...], total: float) -> None:
-    a, b = results["a_cohesionless"], results["b_cohesive"]
-    machine = (f"{platform.machine()}, {os.cpu_count()} cores, numba {numba.__version__}, "
-               f"Python {sys.version.split()[0]}")
-    parts = [
-        "# Validation: reduced-scale reproduction of Thakur et al. (2013)",
-        "",
-        "Generated by `python -m benchmarks.reproduce"
-        + (f" --seeds {len(seeds)}" if len(seeds) != 2 else "") + f"` ({machine}; "
-        f"{total / 60:.1f} min). Every number below comes from that run; rerun it to "
-        "regenerate this page. Seeds: " + ", ".join(map(str, seeds)) + ".",
-        "",
-        "Scene: the `quick` preset (50 x 50 x 100 mm fill region, periodic in x and y, "
-        "platens at 10 mm/s, dt = 1e-5 s, pre-compression 5 kPa, consolidation 20 kPa), "
-        "K1 = 5e3 N/m, K2 = 2.5e4 N/m, mu_s = 0.5, mu_r = 0.001, restitution 0.4 at "
-        "R_ref = 2.5 mm. The seed used a 50 x 150 x 300 mm cell (preset `paper`); this "
-        "reduced cell holds about 9x fewer particles, so its curves are noisier.",
-        "",
-        "Errors are normalised RMS differences on a common stress axis (engine/metrics.py); "
-        "the strength error is relative to the reference strength (or to 5 % of the "
-        "consolidation stress for a cohesionless reference). Wall times exclude kernel "
-        "compilation. Mean ± sample standard deviation over seeds.",
-        "",
-        "## (a) Cohesionless: R and 2R, stiffness unscaled against linearly scaled",
-        "",
-        groups_md(a),
-        "",
-        "Per run:",
-        "",
-        table_md(a),
-        "",
-        f"Advisor (tolerance {a.spec.tolerance:.0%}): {a.advisor['message']}",
-        "",
-        "![stress-strain](figures/a_cohesionless/stress_strain.png)",
-        "![stress-porosity](figures/a_cohesionless/stress_porosity.png)",
-        "![error vs run time](figures/a_cohesionless/error_vs_runtime.png)",
-        "",
-        "## (b) Cohesive (f0 = -0.8 N at R_ref): adhesion exponent 1, 2 and 3",
-        "",
-        groups_md(b),
-        "",
-        "Per run:",
-        "",
-        table_md(b),
-        "",
-        f"Advisor (tolerance {b.spec.tolerance:.0%}): {b.advisor['message']}",
-        "",
-        "![unconfined](figures/b_cohesive/unconfined.png)",
-        "![stress-strain](figures/b_cohesive/stress_strain.png)",
-        "![error vs run time](figures/b_cohesive/error_vs_runtime.png)",
-        "",
-        "## Against the seed",
-        "",
-        *comparison(a, b),
-        "",
-    ]
-    DOCS.mkdir(exist_ok=True)
-    (DOCS / "VALIDATION.md").write_text("\n".join(parts))
-
-
-def comparison(a: engine.StudyResult, b: engine.StudyResult) -> list[str]:
-    """The seed's three claims, each checked against this run's numbers."""
-    ga = {g["rule"]: g for g in a.groups}
-    out = []
-    lin, uns = ga["linear"], ga["unscaled"]
-    verdict = "agrees" if lin["err_stress_strain"] < uns["err_stress_strain"] else "does NOT agree"
-    out.append(
-        f"- *Stiffness scales linearly with R.* At 2R the linearly scaled run's stress-strain "
-        f"error is {100 * lin['err_stress_strain']:.1f} % against "
-        f"{100 * uns['err_stress_strain']:.1f} % unscaled: this {verdict} with the seed.")
-    for r in b.spec.coarse_radii:
-        gs = sorted((g for g in b.groups if g["radius"] == r), key=lambda g: g["adhesion_exponent"])
-        ref_ucs = sum(x.result.scalars["unconfined_strength"] for x in b.runs.values()
-                      if x.rule is None) / len(b.spec.seeds)
-        ucs = ", ".join(f"b = {g['adhesion_exponent']:g}: {g['unconfined_strength']:.0f} Pa"
-                        for g in gs)
-        best_g = min(gs, key=lambda g: g["err_strength"])
-        best = best_g["adhesion_exponent"]
-        b2 = next((g for g in gs if g["adhesion_exponent"] == 2), None)
-        spread = ""
-        if b2 is not None and best != 2:
-            within = b2["err_strength"] - best_g["err_strength"] <= b2["err_strength_std"]
-            spread = (f" The gap to b = 2 ({100 * b2['err_strength']:.1f} ± "
-                      f"{100 * b2['err_strength_std']:.1f} %) is "
-                      + ("within" if within else "beyond") + " the seed-to-seed spread.")
-        order = [g["unconfined_strength"] for g in gs]
-        monotone = all(x < y for x, y in itertools.pairwise(order))
-        adv = b.advisor["adhesion_exponent"]["by_radius"].get(f"{r:g}", {}) \
-            if b.advisor["adhesion_exponent"] else {}
-        fitted = f"; fitted exponent {adv['fitted']:.2f}" if adv.get("fitted") is not None else ""
-        out.append(
-            f"- *Adhesion scales with R^2* (R = {r * 1e3:g} mm): reference UCS {ref_ucs:.0f} Pa; "
-            f"{ucs}. Closest: b = {best:g}{fitted}. Strength "
-            f"{'rises' if monotone else 'does not rise monotonically'} with b "
-            f"(seed: linear under-predicts, cubic over-predicts). "
-            + ("Agrees with the seed." if best == 2 and monotone else
-               "Differs from the seed at this reduced scale." + spread))
-    for label, res in (("(a)", a), ("(b)", b)):
-        por = {}
-        for x in res.runs.values():
-            por.setdefault(x.radius, []).append(x.result.scalars["consolidated_porosity"])
-        mean = {r: sum(v) / len(v) for r, v in sorted(por.items())}
-        text = ", ".join(f"{m:.3f} at R = {r * 1e3:g} mm" for r, m in mean.items())
-        r_ref = res.spec.reference.radius
-        looser = all(m > mean[r_ref] for r, m in mean.items() if r != r_ref)
-        why = ("Coarser beds in the same cell end looser (more of the bed lies in the loose "
-               "layer next to the platens)" if looser else
-               "The consolidated porosities are close; the coarse curves differ in shape "
-               "(where the loading branch starts and how fast it compacts)")
-        out.append(
-            f"- *Porosity {label}.* Consolidated porosity (mean over runs): {text}. {why}, "
-            "and the porosity error is measured against the small range the reference's "
-            "porosity covers under load, so a difference of a hundredth scores tens of per "
-            "cent. This is the metric that keeps coarse variants out of the "
-            "tolerance here; PHYSICS.md states the seed's conclusions in terms of stiffness "
-            "(stress-strain) and unconfined strength.")
-    cap = b.spec.reference.max_unconfined_strain
-    capped = [k for k, x in b.runs.items()
-              if x.result.scalars["strain_at_peak"] >= 0.95 * cap]
-    out.append(
-        f"- *Unconfined strength.* {len(capped)} of {len(b.runs)} cohesive runs harden up to "
-        f"max_unconfined_strain = {cap:.0%} without a post-peak drop (a squat sample, height "
-        "about its width, between platens with friction 0.3); their strength is the stress "
-        "at that strain, so the strength comparison is one of hardening curves, not of "
-        "failure peaks. The `paper` preset's taller cell is the place to look for peaks.")
-    speed = max(g["speedup"] for g in a.groups)
-    out.append(
-        f"- *Run time.* 2R runs were up to {speed:.1f}x faster than the reference at the same "
-        "time step (the seed reports about 9x from 2 mm to 3.75 mm, a smaller ratio of radii, "
-        "in EDEM). Particle count falls as s^-3 = 8x at 2R; per-particle cost is similar.")
+def stored_runs(spec: engine.StudySpec, directory: Path) -> dict:
+    """Stored outcomes whose test is exactly the planned one (others are rerun)."""
+    planned = {p.key: p.test for p in spec.planned_runs()}
+    out = {}
+    for k, v in load_all(directory, planned).items():
+        if isinstance(v, str) or v.test.to_dict() == planned[k].to_dict():
+            out[k] = v
+        else:
+            print(f"  {k}: stored with other parameters, will run again", flush=True)
     return out
 
 
+def run(scale: str, workers: int, only: list[str] | None) -> None:
+    specs = experiments(scale)
+    for name in only or specs:
+        spec = specs[name]
+        d = store_dir(scale, name)
+        done = stored_runs(spec, d)
+        todo = [p.key for p in spec.planned_runs() if p.key not in done]
+        print(f"{name}: {len(done)} runs stored, {len(todo)} to run: {', '.join(todo)}",
+              flush=True)
+        if not todo:
+            continue
+        t0 = time.perf_counter()
+
+        def on_run(key, outcome, d=d, t0=t0):
+            save_run(d / f"{key}.h5", outcome)
+            what = (outcome if isinstance(outcome, str) else
+                    f"{outcome.scalars['particles']:.0f} particles, "
+                    f"{outcome.scalars['wall_time']:.0f} s")
+            print(f"  [{time.perf_counter() - t0:7.0f} s] {key}: {what}", flush=True)
+
+        if workers > 1:
+            ctx = mp.get_context("spawn")
+            with cf.ProcessPoolExecutor(workers, mp_context=ctx) as pool:
+                engine.run_study(spec, executor=pool, completed=done, on_run=on_run)
+        else:
+            engine.run_study(spec, completed=done, on_run=on_run)
+
+
+def main(argv=None) -> int:
+    global STORE
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scale", choices=("paper", "quick"), default="quick")
+    ap.add_argument("--workers", type=int, default=1,
+                    help="runs side by side (a process pool, one engine thread each); 1: one "
+                         "run at a time with the engine's own threads")
+    ap.add_argument("--report", action="store_true",
+                    help="only recompute the report from the stored runs")
+    ap.add_argument("--only", nargs="*", choices=("a_cohesionless", "b_cohesive"),
+                    help="experiments to run, in this order (default: both)")
+    ap.add_argument("--store", type=Path, default=None,
+                    help="folder of the stored runs (default: benchmarks/results)")
+    args = ap.parse_args(argv)
+    if args.store is not None:
+        STORE = args.store
+    t0 = time.perf_counter()
+    if not args.report:
+        run(args.scale, args.workers, args.only)
+    from benchmarks.report import write_report
+
+    path = write_report(args.scale, {name: (spec, stored_runs(spec, store_dir(args.scale, name)))
+                                     for name, spec in experiments(args.scale).items()})
+    print(f"wrote {path} ({time.perf_counter() - t0:.0f} s)")
+    return 0
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())

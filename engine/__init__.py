@@ -9,6 +9,7 @@ Public API (stable names)::
     critical_time_step                              time-step limits of a scene
     UniaxialTest, preset, run_uniaxial              the uniaxial test and its stages
     ScalingRule, StudySpec, run_study               scaling studies, errors and costs
+    NAMED_RULES, METRICS, DEFAULT_TOLERANCES        named rules, verdict metrics
     default_study                                   the study of the main job
     ParameterError, StabilityError, InstabilityError
 """
@@ -16,10 +17,12 @@ Public API (stable names)::
 from .errors import InstabilityError, ParameterError, StabilityError, StopRequested
 from .kernels import FEATURES
 from .materials import BilinearAdhesive, HertzMindlin, WallMaterial
+from .metrics import DEFAULT_TOLERANCES, METRICS
 from .scene import Plane, Scene
 from .simulation import Contacts, Simulation, StabilityWarning
 from .stability import TimeStepLimit, critical_time_step
 from .study import (
+    NAMED_RULES,
     PlannedRun,
     RunFailed,
     RunResult,
@@ -43,7 +46,10 @@ from .uniaxial import (
 __version__ = "0.1.0"
 
 __all__ = [
+    "DEFAULT_TOLERANCES",
     "FEATURES",
+    "METRICS",
+    "NAMED_RULES",
     "BilinearAdhesive",
     "Contacts",
     "HertzMindlin",

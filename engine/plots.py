@@ -5,6 +5,7 @@ back from its HDF5 file draw the same pictures:
 
 ``runs``  key -> {"label": str, "reference": bool, "stages": {stage: {curve: 1-D array}}}
 ``table`` one dict per run with the columns of :data:`engine.study.TABLE_UNITS`
+``advisor`` the study's advisor (tolerances, noise floor, verdicts), or None
 
 matplotlib is imported only when a figure is drawn (the engine does not depend on it).
 """
@@ -25,22 +26,25 @@ KINDS = {
 }
 
 _CONFINED = ("consolidation", "unloading")
-_ERRORS = {
-    "err_stress_strain": ("stress-strain", "o"),
-    "err_stress_porosity": ("stress-porosity", "s"),
-    "err_coordination": ("coordination", "^"),
-    "err_strength": ("unconfined strength", "D"),
+#: Verdict metrics: table column and panel title.
+_METRIC_PANELS = {
+    "density": ("err_density", "bulk density (interior)"),
+    "loading_stiffness": ("err_loading_stiffness", "loading stiffness"),
+    "unloading_stiffness": ("err_unloading_stiffness", "unloading stiffness"),
+    "coordination": ("err_coordination_interior", "coordination (interior)"),
+    "strength": ("err_strength", "unconfined strength"),
 }
+_MARKERS = "osD^vP*X"
 
 
-def study_plot_data(result) -> tuple[dict, list[dict]]:
-    """``(runs, table)`` of a live :class:`engine.StudyResult`."""
+def study_plot_data(result) -> tuple[dict, list[dict], dict]:
+    """``(runs, table, advisor)`` of a live :class:`engine.StudyResult`."""
     runs = {
         key: {"label": key, "reference": r.rule is None,
               "stages": {name: st.curves for name, st in r.result.stages.items()}}
         for key, r in result.runs.items()
     }
-    return runs, result.table
+    return runs, result.table, result.advisor
 
 
 def _style(i: int, ref: bool) -> dict:
@@ -63,34 +67,55 @@ def _confined(ax, runs: dict, x: str | None, y: str | None, xscale=1.0, yscale=1
                     **st)
 
 
-def _error_vs_runtime(ax, table: list[dict]) -> None:
-    ref_rows = [r for r in table if r["rule"] == "reference"]
-    for row in table:
-        if row["rule"] == "reference":
-            continue
-        for j, (name, (label, marker)) in enumerate(_ERRORS.items()):
-            v = row.get(name)
-            if v is None:
+def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
+    """One panel per verdict metric: each coarse run's error [%] against its wall time, the
+    tolerance (dashed) and the reference's seed-to-seed noise floor (grey band)."""
+    from matplotlib.lines import Line2D
+    from matplotlib.ticker import NullFormatter
+
+    advisor = advisor or {}
+    tol = advisor.get("tolerances", {})
+    noise = advisor.get("noise_floor", {})
+    names = [n for n, (col, _) in _METRIC_PANELS.items() if any(col in r for r in table)]
+    rules = sorted({r["rule"] for r in table if r["rule"] != "reference"})
+    radii = sorted({r["radius"] for r in table if r["rule"] != "reference"})
+    axes = fig.subplots(1, max(1, len(names)), sharex=True, squeeze=False)[0]
+    ref_times = [r["wall_time"] for r in table if r["rule"] == "reference"]
+    for ax, name in zip(axes, names):
+        col, title = _METRIC_PANELS[name]
+        if noise.get(name) is not None:
+            ax.axhspan(0, 100 * noise[name], color="0.85", zorder=0,
+                       label="reference noise (1 sd)")
+        if name in tol:
+            ax.axhline(100 * tol[name], color="black", ls="--", lw=1, label="tolerance")
+        for t in ref_times:
+            ax.axvline(t, color="black", ls=":", lw=0.8)
+        for row in table:
+            if row["rule"] == "reference" or col not in row:
                 continue
-            ax.scatter(row["wall_time"], 100 * v, marker=marker, color=f"C{j}", s=36,
-                       label=label, zorder=3)
-        worst = max(row[n] for n in _ERRORS if row.get(n) is not None)
-        ax.annotate(f"{row['run']}\n{row['speedup']:.1f}x", (row["wall_time"], 100 * worst),
-                    textcoords="offset points", xytext=(5, 4), fontsize=7)
-    for row in ref_rows:
-        ax.axvline(row["wall_time"], color="black", ls=":", lw=1)
-        ax.scatter(row["wall_time"], 0, marker="*", s=160, color="black", zorder=4,
-                   label="reference")
-        ax.annotate(row["run"], (row["wall_time"], 0), textcoords="offset points",
-                    xytext=(5, 4), fontsize=7)
-    ax.set_xscale("log")
-    ax.set_xlabel("run time (wall clock) [s]")
-    ax.set_ylabel("error against the reference [%]")
-    handles, labels = ax.get_legend_handles_labels()
-    seen = {}
-    for h, lab in zip(handles, labels):
-        seen.setdefault(lab, h)
-    ax.legend(seen.values(), seen.keys(), fontsize=8)
+            ax.scatter(row["wall_time"], 100 * row[col], s=30, zorder=3,
+                       color=f"C{rules.index(row['rule']) % 10}",
+                       marker=_MARKERS[radii.index(row["radius"]) % len(_MARKERS)])
+        ax.set_title(title, fontsize=9)
+        ax.set_xscale("log")
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.set_ylim(bottom=0)
+        ax.set_xlabel("run time [s]", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("error against the mean reference [%]", fontsize=8)
+    handles, labels = axes[0].get_legend_handles_labels()
+    for i, rule in enumerate(rules):
+        handles.append(Line2D([], [], ls="", marker="o", color=f"C{i % 10}"))
+        labels.append(f"rule {rule}")
+    for i, r in enumerate(radii):
+        handles.append(Line2D([], [], ls="", marker=_MARKERS[i % len(_MARKERS)], color="0.3"))
+        labels.append(f"R = {r * 1e3:g} mm")
+    handles.append(Line2D([], [], ls=":", color="black"))
+    labels.append("reference run time")
+    fig.legend(handles, labels, loc="outside lower center", ncol=min(6, len(labels)),
+               fontsize=7)
+    fig.suptitle(KINDS["error_vs_runtime"], fontsize=10)
 
 
 def draw(ax, kind: str, runs: dict, table: list[dict]) -> None:
@@ -118,32 +143,37 @@ def draw(ax, kind: str, runs: dict, table: list[dict]) -> None:
         ax.set_xlabel("axial strain since release [%]")
         ax.set_ylabel("top platen stress [kPa]")
     else:
-        _error_vs_runtime(ax, table)
-    if kind != "error_vs_runtime":
-        ax.legend(fontsize=8, title="solid: loading, dashed: unloading"
-                  if kind not in ("unconfined",) else None, title_fontsize=7)
+        raise ValueError("error_vs_runtime is drawn on a whole figure: use figure()")
+    ax.legend(fontsize=8, title="solid: loading, dashed: unloading"
+              if kind != "unconfined" else None, title_fontsize=7)
     ax.set_title(KINDS[kind], fontsize=10)
     ax.grid(alpha=0.3)
 
 
-def figure(kind: str, runs: dict, table: list[dict]):
+def figure(kind: str, runs: dict, table: list[dict], advisor: dict | None = None):
     """A new matplotlib Figure (Agg canvas, no pyplot) with plot ``kind``."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
+    if kind == "error_vs_runtime":
+        fig = Figure(figsize=(12.0, 4.2), dpi=100, layout="constrained")
+        FigureCanvasAgg(fig)
+        _error_vs_runtime(fig, table, advisor)
+        return fig
     fig = Figure(figsize=(7.0, 4.8), dpi=110, layout="constrained")
     FigureCanvasAgg(fig)
     draw(fig.add_subplot(), kind, runs, table)
     return fig
 
 
-def save_all(directory, runs: dict, table: list[dict]) -> list[Path]:
+def save_all(directory, runs: dict, table: list[dict], advisor: dict | None = None
+             ) -> list[Path]:
     """Write ``<kind>.png`` for every kind into ``directory``; returns the paths."""
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
     out = []
     for kind in KINDS:
         path = d / f"{kind}.png"
-        figure(kind, runs, table).savefig(path, format="png")
+        figure(kind, runs, table, advisor).savefig(path, format="png")
         out.append(path)
     return out

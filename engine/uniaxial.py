@@ -1,7 +1,8 @@
-"""The uniaxial test: fill, pre-compression, confined consolidation and unloading, release of
-the periodic confinement, unconfined compression to failure (PHYSICS.md section 4).
+"""The uniaxial test's stage driver: fill, pre-compression, confined consolidation and
+unloading, release of the periodic confinement, unconfined compression to failure
+(docs/PHYSICS.md, "The uniaxial test").
 
-:class:`UniaxialTest` holds every parameter (validated once); :func:`run_uniaxial` runs the
+The parameters and presets are in :mod:`engine.uniaxial_spec`; :func:`run_uniaxial` runs the
 stages in order. Every stage ends on a physical criterion and has a bound on its steps that
 fails the run with :class:`StageError` rather than hanging. Curves are sampled every
 ``output_interval`` seconds of simulated time.
@@ -9,23 +10,21 @@ fails the run with :class:`StageError` rather than hanging. Curves are sampled e
 
 from __future__ import annotations
 
-import functools
 import math
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import dataclass
 
 import numpy as np
 
-from .config import MAX_OVERLAP_FRACTION
-from .errors import ParameterError, StopRequested
-from .materials import BilinearAdhesive, HertzMindlin, WallMaterial
-from .packing import draw_radii, loose_packing, sphere_volume
-from .scene import Plane, Scene
+from .errors import StopRequested
+from .packing import sphere_volume
 from .simulation import Simulation
-from .stability import adhesion_overlap, critical_time_step
+from .uniaxial_spec import GRAVITY, MIN_THICKNESS_DIAMETERS, PRESETS, UniaxialTest, preset
 
-GRAVITY = 9.81  # [m/s^2]
+__all__ = ["CURVE_UNITS", "GRAVITY", "MIN_THICKNESS_DIAMETERS", "PRESETS", "SCALAR_UNITS",
+           "STAGES", "Progress", "StageError", "StageResult", "UniaxialResult", "UniaxialTest",
+           "interior_margin", "interior_measures", "preset", "run_uniaxial", "slab_volumes"]
 
 STAGES = ("fill", "pre_compression", "consolidation", "unloading", "release", "unconfined")
 
@@ -40,6 +39,8 @@ CURVE_UNITS = {
     "kinetic_energy": "J",
     "inertial_number": "1",
     "platen_gap": "m",
+    "porosity_interior": "1",
+    "coordination_interior": "1",
 }
 
 #: Stage weights of the overall progress fraction.
@@ -78,248 +79,6 @@ class Progress:
 ProgressCallback = Callable[[Progress], object]
 
 
-@dataclass(frozen=True)
-class UniaxialTest:
-    """Parameters of one uniaxial test (SI units).
-
-    Attributes:
-        cell: (Lx, Ly, Lz) fill cell [m]; periodic in x and y during filling and
-            consolidation, Lz is the height of the region the particles are poured from.
-        radius: particle radius [m].
-        polydispersity: radii uniform in [R (1 - p), R (1 + p)] [-], in [0, 0.5).
-        density: particle density [kg/m^3].
-        fill_fraction: solid fraction of the poured cloud [-], in (0, 0.32]; it sets the amount
-            of material: N = fill_fraction * cell volume / particle volume.
-        pair_law: particle-particle law (:class:`BilinearAdhesive` or :class:`HertzMindlin`).
-        wall_law: platen law (:class:`HertzMindlin`; its E, nu are the particles').
-        wall_material: platen material.
-        pre_stress: pre-compression stress [Pa].
-        consolidation_stress: consolidation stress [Pa], > pre_stress.
-        platen_speed: top platen speed [m/s].
-        unloaded_stress: unloading ends when the top stress is below this fraction of the
-            consolidation stress [-].
-        unconfined: run the release and unconfined compression stages.
-        failure_drop: unconfined compression ends when the stress has fallen this fraction
-            below its peak [-] ...
-        failure_strain: ... and has stayed there for this much further axial strain [-].
-        max_unconfined_strain: unconfined compression also ends at this strain [-] (samples
-            without a peak, e.g. cohesionless ones).
-        settle_ke: a settling stage ends when the kinetic energy is below this fraction of
-            N m g R (the energy of lifting every particle by one radius) [-].
-        release_time: the release stage also ends after this much simulated time [s]: a
-            sample without cohesion collapses and its particles roll away on the unbounded
-            bottom platen for a long time; by then the collapse is over.
-        seed: random seed of the packing.
-        output_interval: simulated time between curve samples [s].
-        dt: time step [s]; None lets the engine choose from its stability limits.
-        max_stage_time: bound on the simulated time of any single stage [s].
-    """
-
-    cell: tuple[float, float, float] = (0.05, 0.05, 0.1)
-    radius: float = 2.5e-3
-    polydispersity: float = 0.0
-    density: float = 2000.0
-    fill_fraction: float = 0.3
-    pair_law: BilinearAdhesive | HertzMindlin = field(
-        default_factory=lambda: BilinearAdhesive(k1=5e3, k2=2.5e4, f0=0.0, mu_s=0.5,
-                                                 mu_r=0.001, restitution=0.4))
-    wall_law: HertzMindlin = field(
-        default_factory=lambda: HertzMindlin(E=1e8, nu=0.25, restitution=0.4, mu=0.3))
-    wall_material: WallMaterial = field(default_factory=WallMaterial)
-    pre_stress: float = 5e3
-    consolidation_stress: float = 20e3
-    platen_speed: float = 0.01
-    unloaded_stress: float = 0.01
-    unconfined: bool = True
-    failure_drop: float = 0.2
-    failure_strain: float = 0.005
-    max_unconfined_strain: float = 0.1
-    settle_ke: float = 1e-4
-    release_time: float = 0.2
-    seed: int = 1
-    output_interval: float = 1e-3
-    dt: float | None = 1e-5
-    max_stage_time: float = 5.0
-
-    def __post_init__(self) -> None:
-        o = "UniaxialTest"
-        cell = tuple(float(c) for c in self.cell)
-        if len(cell) != 3 or not all(math.isfinite(c) and c > 0 for c in cell):
-            raise ParameterError(f"{o}.cell", self.cell, "three lengths > 0 m")
-        object.__setattr__(self, "cell", cell)
-
-        def num(name, ok, limit):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ParameterError(f"{o}.{name}", v, "a finite number")
-            if not ok(v):
-                raise ParameterError(f"{o}.{name}", v, limit)
-
-        num("radius", lambda v: v > 0, "> 0 m")
-        num("polydispersity", lambda v: 0 <= v < 0.5, "in [0, 0.5)")
-        num("density", lambda v: v > 0, "> 0 kg/m^3")
-        num("fill_fraction", lambda v: 0 < v <= 0.32, "in (0, 0.32] (random addition jams "
-            "near 0.38)")
-        num("pre_stress", lambda v: v > 0, "> 0 Pa")
-        num("consolidation_stress", lambda v: v > self.pre_stress,
-            f"> pre_stress = {self.pre_stress:g} Pa")
-        num("platen_speed", lambda v: v > 0, "> 0 m/s")
-        num("unloaded_stress", lambda v: 0 < v < 1, "in (0, 1)")
-        num("failure_drop", lambda v: 0 < v < 1, "in (0, 1)")
-        num("failure_strain", lambda v: 0 <= v < 0.5, "in [0, 0.5)")
-        num("max_unconfined_strain", lambda v: 0 < v < 0.8, "in (0, 0.8)")
-        num("settle_ke", lambda v: v > 0, "> 0")
-        num("release_time", lambda v: v > 0, "> 0 s")
-        num("output_interval", lambda v: v > 0, "> 0 s")
-        num("max_stage_time", lambda v: v > 0, "> 0 s")
-        if self.dt is not None:
-            num("dt", lambda v: v > 0, "> 0 s or None (automatic)")
-        if not isinstance(self.unconfined, bool):
-            raise ParameterError(f"{o}.unconfined", self.unconfined, "true or false")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise ParameterError(f"{o}.seed", self.seed, "an integer >= 0")
-        if not isinstance(self.pair_law, (BilinearAdhesive, HertzMindlin)):
-            raise ParameterError(f"{o}.pair_law", self.pair_law,
-                                 "an engine.BilinearAdhesive or engine.HertzMindlin")
-        if not isinstance(self.wall_law, HertzMindlin):
-            raise ParameterError(f"{o}.wall_law", self.wall_law, "an engine.HertzMindlin")
-        if not isinstance(self.wall_material, WallMaterial):
-            raise ParameterError(f"{o}.wall_material", self.wall_material,
-                                 "an engine.WallMaterial")
-        rmax = self.radius * (1 + self.polydispersity)
-        for a, name in ((0, "x"), (1, "y")):
-            if cell[a] < 2.4 * 2 * rmax:
-                raise ParameterError(f"{o}.cell", f"{cell[a]:g} m along {name}",
-                                     f">= {4.8 * rmax:.4g} m (2.4 largest diameters) for the "
-                                     "periodic minimum image")
-        if cell[2] < 8 * rmax:
-            raise ParameterError(f"{o}.cell", f"{cell[2]:g} m along z",
-                                 f">= {8 * rmax:.4g} m (4 largest diameters)")
-        self._check_runnable()
-
-    def _check_runnable(self) -> None:
-        """Refuse, before anything runs, what the engine would refuse in the middle of a run:
-        a fill the packer cannot place, an adhesion that pulls contacts too deep, a time step
-        above the stable limit."""
-        o = "UniaxialTest"
-        rmin = self.radius * (1 - self.polydispersity)
-        law = self.pair_law
-        d_eq = adhesion_overlap(law, rmin, MAX_OVERLAP_FRACTION)
-        if d_eq is not None:
-            raise ParameterError(f"{o}.pair_law.f0", law.f0,
-                                 f">= {-MAX_OVERLAP_FRACTION * rmin * law.k1:.4g} N",
-                                 f"|f0|/k1 = {d_eq:.3g} m would pull contacts beyond "
-                                 f"{MAX_OVERLAP_FRACTION:g} x the smallest radius")
-        if self.dt is not None:
-            lim = self.time_step_limit()
-            if self.dt > lim.dt:
-                raise ParameterError(f"{o}.dt", self.dt, f"<= {lim.dt:.4g} s, the stable limit "
-                                     f"set by {lim.reason} (recommended {lim.recommended:.4g} s)")
-        # the packer is deterministic for a seed: place the fill now, exactly as the run will
-        try:
-            self.initial_packing()
-        except ParameterError as e:
-            raise ParameterError(f"{o}.fill_fraction", self.fill_fraction,
-                                 "low enough for the fill to be placed without overlap",
-                                 f"{e}; lower fill_fraction or raise cell[2]") from None
-
-    def time_step_limit(self):
-        """:func:`engine.critical_time_step` of this test's laws for its lightest particles
-        and the free fall over its cell height (a two-particle stand-in for the packing)."""
-        rmin = self.radius * (1 - self.polydispersity)
-        lx, ly, lz = self.cell
-        pos = np.array([(lx / 2, ly / 2, rmin), (lx / 2, ly / 2, lz - rmin)])
-        return critical_time_step(self.scene(pos, np.full(2, rmin)))
-
-    def scene(self, positions: np.ndarray, radii: np.ndarray) -> Scene:
-        """The test's scene for particles at ``positions`` [m] with ``radii`` [m]: periodic
-        x and y, gravity, the bottom platen at z = 0 and the top one above the cell."""
-        lx, ly, lz = self.cell
-        walls = [Plane((0, 0, 0), (0, 0, 1)), Plane((0, 0, lz + 4 * self.radius), (0, 0, -1))]
-        return Scene(positions, radii, self.density, box=[(0, lx), (0, ly), (0, lz)],
-                     periodic=(True, True, False), walls=walls, gravity=(0, 0, -GRAVITY),
-                     pair_law=self.pair_law, wall_law=self.wall_law,
-                     wall_material=self.wall_material)
-
-    def initial_packing(self) -> tuple[np.ndarray, np.ndarray]:
-        """Positions [m] and radii [m] of the poured fill: ``n_particles`` overlap-free
-        spheres in the cell (periodic x and y), from ``seed``."""
-        pos, radii = _packing(self.n_particles, self.radius, self.polydispersity, self.seed,
-                              self.cell)
-        return pos.copy(), radii.copy()
-
-    def resolved_dt(self) -> float:
-        """The time step a run of this test takes [s]: ``dt``, or the recommended one."""
-        return self.dt if self.dt is not None else self.time_step_limit().recommended
-
-    @property
-    def n_particles(self) -> int:
-        """Number of particles: fill_fraction x cell volume / mean particle volume."""
-        mean_vol = sphere_volume(self.radius) * (1 + self.polydispersity**2)  # E[r^3] / R^3
-        return max(2, round(self.fill_fraction * np.prod(self.cell) / mean_vol))
-
-    def to_dict(self) -> dict:
-        """JSON-friendly parameters (laws as nested dicts with a ``type``)."""
-        d = asdict(self)
-        d["cell"] = list(self.cell)
-        d["pair_law"] = {"type": type(self.pair_law).__name__, **asdict(self.pair_law)}
-        d["wall_law"] = {"type": "HertzMindlin", **asdict(self.wall_law)}
-        d["wall_material"] = asdict(self.wall_material)
-        return d
-
-    @classmethod
-    def from_dict(cls, d: dict) -> UniaxialTest:
-        """Inverse of :meth:`to_dict`; unknown keys raise :class:`ParameterError`."""
-        d = dict(d)
-        known = {f.name for f in fields(cls)}
-        unknown = set(d) - known
-        if unknown:
-            raise ParameterError("UniaxialTest", sorted(unknown), f"fields among {sorted(known)}")
-        if isinstance(d.get("pair_law"), dict):
-            pl = dict(d["pair_law"])
-            kind = pl.pop("type", "BilinearAdhesive")
-            law_cls = {"BilinearAdhesive": BilinearAdhesive, "HertzMindlin": HertzMindlin}.get(kind)
-            if law_cls is None:
-                raise ParameterError("UniaxialTest.pair_law.type", kind,
-                                     "BilinearAdhesive or HertzMindlin")
-            d["pair_law"] = law_cls(**pl)
-        if isinstance(d.get("wall_law"), dict):
-            wl = dict(d["wall_law"])
-            wl.pop("type", None)
-            d["wall_law"] = HertzMindlin(**wl)
-        if isinstance(d.get("wall_material"), dict):
-            d["wall_material"] = WallMaterial(**d["wall_material"])
-        if "cell" in d:
-            if not isinstance(d["cell"], (list, tuple)):
-                raise ParameterError("UniaxialTest.cell", d["cell"], "three lengths > 0 m")
-            d["cell"] = tuple(d["cell"])
-        return cls(**d)
-
-
-@functools.lru_cache(maxsize=16)
-def _packing(n: int, radius: float, polydispersity: float, seed: int,
-             cell: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
-    """The poured fill, computed once: admission (every UniaxialTest places its fill when it
-    is built) and the run use the same one."""
-    radii = draw_radii(n, radius, polydispersity, seed)
-    lx, ly, lz = cell
-    return loose_packing(radii, [(0, lx), (0, ly), (0, lz)], seed=seed), radii
-
-
-def preset(name: str, **overrides) -> UniaxialTest:
-    """A named test: ``"paper"`` (Thakur et al. 2013: 50 x 150 x 300 mm cell, R = 2.5 mm,
-    10 mm/s platen, dt = 1e-5 s) or ``"quick"`` (50 x 50 x 100 mm cell: a full reference run
-    in about a minute on 2 cores, same law, speed and step). Keyword overrides replace fields.
-    """
-    if name == "paper":
-        base = UniaxialTest(cell=(0.05, 0.15, 0.30))
-    elif name == "quick":
-        base = UniaxialTest(cell=(0.05, 0.05, 0.1))
-    else:
-        raise ParameterError("preset", name, "'paper' or 'quick'")
-    return replace(base, **overrides) if overrides else base
-
-
 @dataclass
 class StageResult:
     """Curves of one stage (1-D arrays of equal length, units in :data:`CURVE_UNITS`) and the
@@ -348,10 +107,15 @@ class UniaxialResult:
 #: Units of the scalars of a :class:`UniaxialResult`.
 SCALAR_UNITS = {
     "unconfined_strength": "Pa",
+    "unconfined_failure": "1",
     "strain_at_peak": "1",
     "loading_stiffness": "Pa",
     "unloading_stiffness": "Pa",
     "consolidated_porosity": "1",
+    "consolidated_porosity_interior": "1",
+    "thickness_diameters": "1",
+    "interior_margin": "m",
+    "height_diameters": "1",
     "particles": "1",
     "steps": "1",
     "dt": "s",
@@ -381,14 +145,18 @@ class _Recorder:
         s_top = float(f[1, 2]) / area if d.n_walls > 1 else 0.0
         s_bot = -float(f[0, 2]) / area
         porosity = 1.0 - d.solid_volume / (area * gap)
-        coordination = 2.0 * sim.n_contacts() / sim.n
+        counts = sim.contact_counts()
+        coordination = float(counts.sum()) / sim.n
+        bottom = float(sim.wall_positions[0, 2])
+        por_in, coord_in = interior_measures(sim.positions[:, 2] - bottom, sim.radii, counts,
+                                             gap, d.test.margin, area)
         ke = sim.kinetic_energy()
         speed = abs(float(sim.wall_velocities[1, 2])) if d.n_walls > 1 else 0.0
         # inertial number with the pressure floored at the weight of one particle layer
         p = max(abs(s_top), abs(s_bot), d.layer_stress)
         inertial = speed / gap * 2.0 * d.test.radius * math.sqrt(d.test.density / p)
         row = (sim.time, (self.h0 - gap) / self.h0, s_top, s_bot, porosity, coordination, ke,
-               inertial, gap)
+               inertial, gap, por_in, coord_in)
         self.rows.append(row)
         return row
 
@@ -420,6 +188,7 @@ class _Driver:
         self.layer_stress = test.density * g * 2 * test.radius
         m = float(test.density * sphere_volume(test.radius))
         self.settle_energy = test.settle_ke * len(radii) * m * g * test.radius
+        self.unconfined_failed = False
         self.n_walls = 2  # bottom platen at z = 0; the top one starts above the cell
         scene = test.scene(pos, radii)
         # kernels are compiled (or loaded from the disk cache) when a Simulation is built and
@@ -546,7 +315,10 @@ class _Driver:
                 below_since = min(below_since, r[1])
             else:
                 below_since = math.inf
-            return r[1] - below_since >= t.failure_strain or r[1] >= t.max_unconfined_strain
+            if r[1] - below_since >= t.failure_strain:
+                self.unconfined_failed = True
+                return True
+            return r[1] >= t.max_unconfined_strain
 
         self.run_stage("unconfined", h0, done, lambda r: r[1] / t.max_unconfined_strain,
                        "fail (post-peak drop) or reach max_unconfined_strain")
@@ -560,11 +332,19 @@ class _Driver:
         s["unloading_stiffness"] = _secant_slope(unl["strain"][::-1], unl["stress_top"][::-1],
                                                  0.5, 1.0)
         s["consolidated_porosity"] = float(cons["porosity"][-1])
+        s["consolidated_porosity_interior"] = float(cons["porosity_interior"][-1])
+        dmax = 2 * self.test.radius * (1 + self.test.polydispersity)
+        s["thickness_diameters"] = self.test.thickness_diameters
+        gap = float(cons["platen_gap"][-1])
+        s["height_diameters"] = gap / dmax
+        s["interior_margin"] = interior_margin(self.test.margin, gap, dmax / 2)
         if "unconfined" in self.stages:
             u = self.stages["unconfined"].curves
-            k = int(np.argmax(u["stress_top"]))
-            s["unconfined_strength"] = max(0.0, float(u["stress_top"][k]))
-            s["strain_at_peak"] = float(u["strain"][k])
+            strength, strain, failed = unconfined_strength(u["strain"], u["stress_top"],
+                                                           self.unconfined_failed)
+            s["unconfined_strength"] = strength
+            s["strain_at_peak"] = strain
+            s["unconfined_failure"] = 1.0 if failed else 0.0
         s["particles"] = float(self.sim.n)
         s["steps"] = float(self.sim.steps)
         s["dt"] = self.sim.dt
@@ -579,6 +359,62 @@ class _Driver:
         if bad:
             raise FloatingPointError(f"non-finite scalars {bad}: the run is not usable")
         return UniaxialResult(self.test, self.stages, s)
+
+
+def unconfined_strength(strain: np.ndarray, stress: np.ndarray, failed: bool
+                        ) -> tuple[float, float, bool]:
+    """The unconfined strength [Pa], the strain at it [-] and whether the sample failed.
+
+    A sample that failed (its stress fell ``failure_drop`` below the peak and stayed there for
+    ``failure_strain``) has the peak stress as its strength. One that did not fail within
+    ``max_unconfined_strain`` (it hardens, or flows plastically) has the documented fallback:
+    the largest stress reached up to that strain, which for a hardening sample is the stress
+    at the strain limit. Either way the value is the maximum of the curve; ``failed`` tells
+    which definition it is, and a study compares like with like (see engine.metrics).
+    """
+    stress = np.asarray(stress, dtype=float)
+    k = int(np.argmax(stress))
+    return max(0.0, float(stress[k])), float(strain[k]), bool(failed)
+
+
+def slab_volumes(z: np.ndarray, radii: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    r"""Volume of each sphere (centre height ``z`` [m], radius [m]) inside the slab
+    lo <= z <= hi [m]: the integral of the disc area :math:`\pi (r^2 - u^2)` over the part of
+    [-r, r] that lies in the slab, :math:`F(u) = \pi (r^2 u - u^3 / 3)` [m^3]."""
+    z = np.asarray(z, dtype=float)
+    r = np.asarray(radii, dtype=float)
+    a = np.clip(lo - z, -r, r)
+    b = np.clip(hi - z, -r, r)
+    def f(u):
+        return np.pi * (r * r * u - u**3 / 3.0)
+    return np.maximum(f(b) - f(a), 0.0)
+
+
+def interior_margin(margin: float, gap: float, rmax: float) -> float:
+    """The platen layer [m] actually left out of a sample ``gap`` [m] tall: ``margin``, or
+    less in a sample too short for it, so that one largest diameter (2 ``rmax``) remains."""
+    return max(0.0, min(margin, 0.5 * gap - rmax))
+
+
+def interior_measures(z: np.ndarray, radii: np.ndarray, counts: np.ndarray, gap: float,
+                      margin: float, area: float) -> tuple[float, float]:
+    """Porosity [-] and coordination number [-] of the interior slab of a sample between
+    platens at heights 0 and ``gap`` [m] (``z`` measured from the bottom platen [m]).
+
+    The slab leaves out ``margin`` [m] next to each platen, where a wall orders and loosens
+    the packing over a layer that grows with the particle size; it keeps at least one largest
+    diameter (the margin shrinks for a sample too short for it). Porosity: 1 - (the exact
+    volume of the spheres' parts inside the slab) / (slab volume); coordination: the mean
+    contact count (``counts``) of the particles whose centres lie in the slab.
+    """
+    m = interior_margin(margin, gap, float(np.max(radii)))
+    lo, hi = m, gap - m
+    solid = float(slab_volumes(z, radii, lo, hi).sum())
+    porosity = 1.0 - solid / (area * (hi - lo))
+    inside = (z >= lo) & (z <= hi)
+    n_in = int(np.count_nonzero(inside))
+    coordination = float(counts[inside].sum()) / n_in if n_in else 0.0
+    return porosity, coordination
 
 
 def _secant_slope(strain: np.ndarray, stress: np.ndarray, lo: float, hi: float) -> float:

@@ -80,6 +80,12 @@ class StudyExecution:
             log.info("study %s: run %d/%d %s", self.study_id, p.run_index + 1, p.n_runs, p.run_key)
         return not (self.cancel or self.lost or self.shutdown.is_set())
 
+    def on_run(self, key: str, outcome) -> None:
+        """The engine reports a finished run: a failed one fails the study (the service keeps
+        a study whole: its table and verdicts need every run)."""
+        if isinstance(outcome, str):
+            raise engine.RunFailed(key, outcome)
+
     def run(self) -> Status | None:
         """Run the study to its end; returns the status it reached (None: no longer ours)."""
         log.info("study %s: started", self.study_id)
@@ -88,7 +94,7 @@ class StudyExecution:
         beats.start()
         try:
             spec = engine.StudySpec.from_dict(self.spec_dict)
-            result = engine.run_study(spec, progress=self.progress)
+            result = engine.run_study(spec, progress=self.progress, on_run=self.on_run)
             write_results(self.settings.results_path(self.study_id), self.study_id, result,
                           still_ours=self._still_ours)
         except engine.StopRequested:

@@ -208,6 +208,8 @@ def read_runs(
     return {"runs": out, "units": units} if with_units else out
 
 
-def read_plot_data(path: Path) -> tuple[dict, list[dict]]:
-    """``(runs, table)`` as :func:`engine.plots.figure` takes them, from the stored file."""
-    return read_runs(path), read_summary(path)["table"]
+def read_plot_data(path: Path) -> tuple[dict, list[dict], dict | None]:
+    """``(runs, table, advisor)`` as :func:`engine.plots.figure` takes them, from the stored
+    file."""
+    summary = read_summary(path)
+    return read_runs(path), summary["table"], summary.get("advisor")

@@ -16,9 +16,9 @@ from .h5store import read_plot_data
 KINDS = tuple(engine_plots.KINDS)
 
 
-def render_png(kind: str, runs: dict, table: list[dict]) -> bytes:
-    """PNG bytes of plot ``kind`` for the given runs and summary table."""
-    fig = engine_plots.figure(kind, runs, table)
+def render_png(kind: str, runs: dict, table: list[dict], advisor: dict | None = None) -> bytes:
+    """PNG bytes of plot ``kind`` for the given runs, summary table and advisor."""
+    fig = engine_plots.figure(kind, runs, table, advisor)
     buf = io.BytesIO()
     fig.savefig(buf, format="png")
     return buf.getvalue()

@@ -66,7 +66,9 @@ class ReferenceIn(BaseModel):
     radius: Radius | None = None
     polydispersity: float | None = Field(None, ge=0, lt=0.5)
     density: float | None = Field(None, ge=100, le=25_000, description="[kg/m^3]")
-    fill_fraction: float | None = Field(None, gt=0, le=0.32)
+    solid_fraction: float | None = Field(None, gt=0, le=0.74)
+    pour_fraction: float | None = Field(None, gt=0, le=0.32)
+    interior_margin: float | None = Field(None, ge=0, le=2.0, description="[m]")
     pair_law: BilinearAdhesiveIn | None = Field(
         None, description="the scaling rules act on K1, K2, kadh and f0 of this law"
     )
@@ -135,7 +137,8 @@ class StudyCreate(BaseModel):
                 "coarse_radii": [3.75e-3, 5e-3],
                 "rules": ["paper", "unscaled"],
                 "seeds": [1],
-                "tolerance": 0.15,
+                "reference_seeds": [1, 2],
+                "tolerances": {"density": 0.03, "strength": 0.15},
             }
         },
     )
@@ -144,7 +147,9 @@ class StudyCreate(BaseModel):
     coarse_radii: list[Radius] | None = Field(None, min_length=1, max_length=8)
     rules: list[RuleIn] | None = Field(None, min_length=1, max_length=8)
     seeds: list[Seed] | None = Field(None, min_length=1, max_length=10)
-    tolerance: float | None = Field(None, gt=0, le=1)
+    reference_seeds: list[Seed] | None = Field(None, min_length=1, max_length=10)
+    tolerances: dict[str, float] | None = Field(None, description="metric -> tolerance [-]")
+    interior_diameters: float | None = Field(None, ge=2, le=10)
 
     def engine_dict(self) -> dict:
         """The spec as :meth:`engine.StudySpec.from_dict` takes it (unset fields left out)."""

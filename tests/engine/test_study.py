@@ -1,15 +1,18 @@
-"""Scaling rules, error metrics, and a tiny study end to end."""
+"""Scaling rules, the study spec, the advisor, and tiny studies end to end (in process and
+on a process pool)."""
 
 from __future__ import annotations
 
+import concurrent.futures as cf
 import math
+import multiprocessing as mp
 
 import numpy as np
 import pytest
 
 import engine
 from engine import metrics
-from engine.study import advise
+from engine.advisor import adhesion_advice, advise
 from tests.engine.test_uniaxial import COHESIVE, tiny
 
 
@@ -43,37 +46,6 @@ def test_nrmse_zero_for_identical_and_known_for_shifted():
         metrics.nrmse(x, np.zeros_like(x))
 
 
-def _fake_result(strain_shift=0.0, porosity_scale=1.0, strength=1000.0):
-    """A UniaxialResult with analytic confined curves (for the metric, not the engine)."""
-    s_load = np.linspace(5e3, 2e4, 30)
-    s_unl = np.linspace(2e4, 100.0, 20)
-    def curves(stress, strain):
-        return {"stress_top": stress, "strain": strain + strain_shift,
-                "porosity": porosity_scale * (0.5 - 0.1 * strain),
-                "coordination": 4.0 + stress / 1e4}
-    stages = {
-        "consolidation": engine.StageResult("consolidation", curves(s_load, s_load / 1e6),
-                                            None, None, 0),
-        "unloading": engine.StageResult("unloading", curves(s_unl, 0.01 + s_unl / 4e6),
-                                        None, None, 0),
-    }
-    return engine.UniaxialResult(tiny(), stages, {"unconfined_strength": strength})
-
-
-def test_run_errors_on_analytic_curves():
-    ref = _fake_result()
-    same = metrics.run_errors(_fake_result(), ref)
-    assert all(v == pytest.approx(0.0, abs=1e-12) for v in same.values())
-    shifted = metrics.run_errors(_fake_result(strain_shift=0.002, strength=1500.0), ref)
-    # reference strain range over both branches: 5e3/1e6 (start of loading) to 2e4/1e6
-    strain_range = 2e4 / 1e6 - 5e3 / 1e6
-    assert shifted["err_stress_strain"] == pytest.approx(0.002 / strain_range, rel=1e-6)
-    assert shifted["err_coordination"] == pytest.approx(0.0, abs=1e-12)
-    assert shifted["err_strength"] == pytest.approx(0.5)
-    # cohesionless reference: relative to 5 % of the consolidation stress (20 kPa)
-    assert metrics.strength_error(300.0, 0.0, 2e4) == pytest.approx(0.3)
-
-
 def test_spec_validation_names_fields():
     ref = tiny()
     with pytest.raises(engine.ParameterError, match=r"coarse_radii\[0\]"):
@@ -88,19 +60,32 @@ def test_spec_validation_names_fields():
         engine.StudySpec(reference=engine.preset("quick", pair_law=engine.BilinearAdhesive(
             k1=5e3, k2=2.5e4, f0=-4.0)), coarse_radii=(1e-2,),
             rules=(engine.ScalingRule.named("cubic_adhesion"),))
-    with pytest.raises(engine.ParameterError, match="fill_fraction"):
-        engine.preset("quick", cell=(0.05, 0.05, 0.04), fill_fraction=0.32)
-    assert engine.StudySpec(reference=tiny(seed=7), coarse_radii=(3.1e-3,)).seeds == (7,)
+    with pytest.raises(engine.ParameterError, match="pour_fraction"):
+        engine.preset("quick", solid_fraction=0.3, pour_fraction=0.32)
+    one = engine.StudySpec(reference=tiny(seed=7), coarse_radii=(3.1e-3,))
+    assert one.seeds == (7,) and one.reference_seeds == (7,)
+    two = engine.StudySpec(reference=tiny(), coarse_radii=(3.1e-3,), seeds=(1,),
+                           reference_seeds=(1, 2, 3))
+    assert [p.key for p in two.planned_runs()][:3] == ["ref-s1", "ref-s2", "ref-s3"]
+    # one interior window for the study: two diameters of its largest particle
+    assert two.reference.interior_margin == pytest.approx(4 * 3.1e-3)
+    assert two.tolerances == engine.DEFAULT_TOLERANCES
     with pytest.raises(engine.ParameterError, match="rules"):
         engine.StudySpec(reference=ref, rules=(engine.ScalingRule("x"), engine.ScalingRule("x")))
     with pytest.raises(engine.ParameterError, match="stiffness_exponent"):
         engine.ScalingRule("bad", stiffness_exponent=9)
     with pytest.raises(engine.ParameterError, match="ScalingRule.dt"):
         engine.ScalingRule("bad", dt="sometimes")
-    with pytest.raises(engine.ParameterError, match="tolerance"):
-        engine.StudySpec(reference=ref, tolerance=0)
+    with pytest.raises(engine.ParameterError, match="tolerances.density"):
+        engine.StudySpec(reference=ref, coarse_radii=(3e-3,), tolerances={"density": 0})
+    with pytest.raises(engine.ParameterError, match="tolerances"):
+        engine.StudySpec(reference=ref, coarse_radii=(3e-3,), tolerances={"porosity": 0.1})
+    assert engine.StudySpec(reference=ref, coarse_radii=(3e-3,), tolerances={"strength": 0.3}).tolerances[
+        "strength"] == 0.3
+    with pytest.raises(engine.ParameterError, match="interior_diameters"):
+        engine.StudySpec(reference=ref, coarse_radii=(3e-3,), interior_diameters=1)
     with pytest.raises(engine.ParameterError, match="seeds"):
-        engine.StudySpec(reference=ref, seeds=(1, 1))
+        engine.StudySpec(reference=ref, coarse_radii=(3e-3,), seeds=(1, 1))
     spec = engine.default_study()
     again = engine.StudySpec.from_dict(spec.to_dict())
     assert again == spec
@@ -111,11 +96,11 @@ def test_spec_validation_names_fields():
     assert spec.max_particles() == spec.reference.n_particles
 
 
-def test_advisor_picks_coarsest_within_tolerance_and_fits_exponent():
+def test_advisor_picks_coarsest_equivalent_and_fits_exponent():
     spec = engine.StudySpec(reference=engine.preset("quick"), coarse_radii=(3e-3, 3.5e-3),
                             rules=(engine.ScalingRule("b1", 1, 1), engine.ScalingRule("b2", 1, 2),
-                                   engine.ScalingRule("b3", 1, 3)), tolerance=0.2)
-    groups = []
+                                   engine.ScalingRule("b3", 1, 3)))
+    groups, verdicts = [], []
     for r in spec.coarse_radii:
         for rule in spec.rules:
             b = rule.adhesion_exponent
@@ -124,46 +109,109 @@ def test_advisor_picks_coarsest_within_tolerance_and_fits_exponent():
             groups.append({"radius": r, "rule": rule.name, "stiffness_exponent": 1.0,
                            "adhesion_exponent": b, "dt": "fixed", "err_strength": err,
                            "unconfined_strength": strength, "speedup": 2.0,
-                           "max_error": max(err, 0.05 * r / 3e-3)})
-    adv = advise(spec, groups, reference_strength=1000.0)
+                           "thickness_diameters": 8.0})
+            verdicts.append({"radius": r, "rule": rule.name,
+                             "verdict": "equivalent" if err < 0.2 else "differs"})
+    adv = advise(spec, groups, verdicts, reference_strength=1000.0)
     assert adv["rules"]["b2"]["coarsest_radius"] == 3.5e-3
     assert adv["rules"]["b1"]["coarsest_radius"] == 3e-3  # 3.5 mm: 30 % off
+    assert adv["verdicts"] is verdicts and adv["warnings"] == []
     for v in adv["adhesion_exponent"]["by_radius"].values():
         assert v["best"] == 2.0
         assert v["fitted"] == pytest.approx(2.0, abs=1e-9)
+    assert adhesion_advice(spec, groups, None)["by_radius"]
+
+
+def _tiny_spec(**kw):
+    return engine.StudySpec(reference=tiny(pair_law=COHESIVE), coarse_radii=(3.1e-3,),
+                            rules=(engine.ScalingRule.named("paper"),
+                                   engine.ScalingRule.named("unscaled", dt="scaled")),
+                            reference_seeds=(1, 2), seeds=(1,), **kw)
 
 
 @pytest.fixture(scope="module")
 def tiny_study():
-    spec = engine.StudySpec(reference=tiny(pair_law=COHESIVE), coarse_radii=(3.1e-3,),
-                            rules=(engine.ScalingRule.named("paper"),
-                                   engine.ScalingRule.named("unscaled", dt="scaled")))
-    seen = []
-    return spec, engine.run_study(spec, progress=seen.append), seen
+    spec = _tiny_spec()
+    seen, stored = [], {}
+    res = engine.run_study(spec, progress=seen.append,
+                           on_run=lambda k, r: stored.setdefault(k, r))
+    return spec, res, seen, stored
 
 
 def test_tiny_study_end_to_end(tiny_study, tmp_path):
-    _spec, res, seen = tiny_study
-    assert list(res.runs) == ["ref-s1", "r3.1mm-paper-s1", "r3.1mm-unscaled-s1"]
+    spec, res, seen, stored = tiny_study
+    keys = ["ref-s1", "ref-s2", "r3.1mm-paper-s1", "r3.1mm-unscaled-s1"]
+    assert list(res.runs) == keys and list(stored) == keys and not res.failed
     assert next(p.run_key for p in seen) == "ref-s1" and seen[-1].fraction == pytest.approx(1.0)
-    ref = res.runs["ref-s1"]
-    assert all(v == 0.0 for v in ref.errors.values())
+    for k in ("ref-s1", "ref-s2"):
+        assert all(v == 0.0 for v in res.runs[k].errors.values())
     for row in res.table:
         for k, v in row.items():
             if isinstance(v, float):
                 assert math.isfinite(v), (row["run"], k)
+        assert row["thickness_diameters"] > 0 and row["height_diameters"] > 0
+    ref = res.runs["ref-s1"]
     coarse = res.runs["r3.1mm-unscaled-s1"]
     assert coarse.result.scalars["dt"] == pytest.approx(ref.result.scalars["dt"] * 3.1 / 2.5)
     assert coarse.result.scalars["particles"] < ref.result.scalars["particles"]
-    assert coarse.speedup == pytest.approx(ref.result.scalars["wall_time"]
-                                           / coarse.result.scalars["wall_time"])
-    assert set(res.advisor["rules"]) == {"paper", "unscaled"}
+    mean_ref_wall = np.mean([res.runs[k].result.scalars["wall_time"] for k in keys[:2]])
+    assert coarse.speedup == pytest.approx(mean_ref_wall / coarse.result.scalars["wall_time"])
+    adv = res.advisor
+    assert set(adv["rules"]) == {"paper", "unscaled"}
+    assert {(v["radius"], v["rule"]) for v in adv["verdicts"]} == {
+        (3.1e-3, "paper"), (3.1e-3, "unscaled")}
+    for v in adv["verdicts"]:
+        assert v["verdict"] in engine.advisor.VERDICTS and v["reason"]
+        assert {m["metric"] for m in v["metrics"]} == set(engine.METRICS)
+    assert set(adv["noise_floor"]) == set(engine.METRICS)
+    assert all(x is not None and x >= 0 for x in adv["noise_floor"].values())
+    # 15 mm cell, 6.2 mm particles: 2.4 diameters, the finite-size warning
+    assert any("R = 3.1 mm" in w for w in adv["warnings"])
     assert res.to_summary()["units"]["wall_time"] == "s"
     paths = res.save_plots(tmp_path)
     assert len(paths) == 5
     for p in paths:
         data = p.read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
+    # the verdicts recomputed from the stored runs are the same
+    again = engine.study.assemble(spec, spec.planned_runs(), stored)
+    assert again.advisor["verdicts"] == adv["verdicts"]
+
+
+def test_process_pool_gives_the_same_table_and_resumes(tiny_study):
+    spec, res, _, stored = tiny_study
+    ctx = mp.get_context("spawn")
+    with cf.ProcessPoolExecutor(2, mp_context=ctx) as pool:
+        done = {}
+        pooled = engine.run_study(spec, executor=pool, on_run=done.__setitem__)
+    strip = ("wall_time", "speedup")
+    def table(r):
+        return [{k: v for k, v in row.items() if k not in strip} for row in r.table]
+    assert table(pooled) == table(res)
+    for k, r in pooled.runs.items():
+        for stage, st in r.result.stages.items():
+            for name, curve in st.curves.items():
+                assert np.array_equal(curve, res.runs[k].result.stages[stage].curves[name])
+    # resume: only the missing run executes
+    partial = {k: v for k, v in stored.items() if k != "r3.1mm-paper-s1"}
+    ran = []
+    resumed = engine.run_study(spec, completed=partial, on_run=lambda k, r: ran.append(k))
+    assert ran == ["r3.1mm-paper-s1"] and table(resumed) == table(res)
+
+
+def test_a_failed_coarse_run_leaves_the_rest():
+    spec = _tiny_spec()
+    outcomes = {}
+    good = engine.run_study(spec, on_run=outcomes.__setitem__)
+    outcomes["r3.1mm-paper-s1"] = "InstabilityError: blew up at step 12"
+    res = engine.study.assemble(spec, spec.planned_runs(), outcomes)
+    assert res.failed == {"r3.1mm-paper-s1": "InstabilityError: blew up at step 12"}
+    v = next(v for v in res.advisor["verdicts"] if v["rule"] == "paper")
+    assert v["verdict"] == "undecided" and "blew up" in v["reason"]
+    assert "r3.1mm-unscaled-s1" in res.runs and len(good.runs) == 4
+    outcomes["ref-s1"] = outcomes["ref-s2"] = "StageError: no"
+    with pytest.raises(engine.RunFailed):
+        engine.study.assemble(spec, spec.planned_runs(), outcomes)
 
 
 def test_callback_can_stop_a_study():

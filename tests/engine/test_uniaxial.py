@@ -17,8 +17,8 @@ COHESIVE = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.0
 
 
 def tiny(**kw) -> engine.UniaxialTest:
-    """About 30 particles in a 15 x 15 x 30 mm fill region: seconds per full test."""
-    base = {"cell": (0.015, 0.015, 0.03), "output_interval": 1e-3, "platen_speed": 0.02}
+    """About 30 particles filling a 15 x 15 x 15 mm cuboid: seconds per full test."""
+    base = {"cell": (0.015, 0.015, 0.015), "output_interval": 1e-3, "platen_speed": 0.02}
     return engine.UniaxialTest(**{**base, **kw})
 
 
@@ -59,16 +59,26 @@ def test_stages_run_in_order_and_reach_their_targets(cohesionless):
 
 
 def _brute_contacts(pos, rad, lengths, periodic):
+    """Contacts per particle, by all pairs."""
     n = len(pos)
-    count = 0
+    counts = np.zeros(n, dtype=int)
     for i in range(n):
         d = pos[i] - pos[i + 1:]
         for a in range(3):
             if periodic[a]:
                 d[:, a] -= lengths[a] * np.round(d[:, a] / lengths[a])
         dist = np.linalg.norm(d, axis=1)
-        count += int(np.count_nonzero(dist < rad[i] + rad[i + 1:]))
-    return count
+        js = i + 1 + np.flatnonzero(dist < rad[i] + rad[i + 1:])
+        counts[i] += len(js)
+        counts[js] += 1
+    return counts
+
+
+def _slab_solid(z, rad, lo, hi, n=4001):
+    """Solid volume in lo <= z <= hi by integrating the spheres' disc areas on a fine grid."""
+    zs = np.linspace(lo, hi, n)
+    area = np.pi * np.clip(rad[:, None] ** 2 - (zs[None, :] - z[:, None]) ** 2, 0, None)
+    return float(np.trapezoid(area.sum(axis=0), zs))
 
 
 @pytest.mark.parametrize("stage", ["consolidation", "unloading"])
@@ -79,9 +89,17 @@ def test_porosity_and_coordination_match_positions(cohesionless, stage):
     gap = st.curves["platen_gap"][-1]
     solid = float(np.sum(4.0 / 3.0 * math.pi * st.radii**3))
     assert st.curves["porosity"][-1] == pytest.approx(1 - solid / (lx * ly * gap), rel=1e-9)
-    contacts = _brute_contacts(st.positions, st.radii, (lx, ly, 1.0), (True, True, False))
-    assert st.curves["coordination"][-1] == pytest.approx(2 * contacts / len(st.radii))
-    assert contacts > 0
+    counts = _brute_contacts(st.positions, st.radii, (lx, ly, 1.0), (True, True, False))
+    assert st.curves["coordination"][-1] == pytest.approx(counts.sum() / len(st.radii))
+    assert counts.sum() > 0
+    # interior: the slab between the platen layers, from the positions independently
+    z = st.positions[:, 2] - 0.0  # the bottom platen stays at z = 0
+    m = max(0.0, min(res.test.margin, gap / 2 - st.radii.max()))
+    solid_in = _slab_solid(z, st.radii, m, gap - m)
+    assert st.curves["porosity_interior"][-1] == pytest.approx(
+        1 - solid_in / (lx * ly * (gap - 2 * m)), rel=1e-5)
+    inside = (z >= m) & (z <= gap - m)
+    assert st.curves["coordination_interior"][-1] == pytest.approx(counts[inside].mean())
 
 
 def test_cohesionless_has_no_strength_cohesive_has_a_peak(cohesionless, cohesive):
@@ -119,7 +137,8 @@ def test_unreachable_stress_ends_with_stage_error():
 @pytest.mark.parametrize(
     ("field", "value", "match"),
     [("radius", -1.0, "radius"), ("consolidation_stress", 1e3, "consolidation_stress"),
-     ("cell", (0.005, 0.05, 0.1), "cell"), ("fill_fraction", 0.5, "fill_fraction"),
+     ("cell", (0.005, 0.05, 0.1), "cell"), ("pour_fraction", 0.5, "pour_fraction"),
+     ("solid_fraction", 0.8, "solid_fraction"), ("interior_margin", -1e-3, "interior_margin"),
      ("platen_speed", 0.0, "platen_speed"), ("seed", -3, "seed")],
 )
 def test_bad_parameters_name_the_field(field, value, match):
@@ -131,6 +150,10 @@ def test_presets_and_round_trip():
     paper = engine.preset("paper")
     assert paper.cell == (0.05, 0.15, 0.30) and paper.radius == 2.5e-3
     assert paper.dt == 1e-5 and paper.platen_speed == 0.01
+    # the seed's cuboid filled: 0.6 x 50 x 150 x 300 mm of 2.5 mm spheres, poured from 600 mm
+    assert paper.n_particles == round(0.6 * 0.05 * 0.15 * 0.30 / (4 / 3 * math.pi * 2.5e-3**3))
+    assert paper.pour_height == pytest.approx(0.6)
+    assert paper.thickness_diameters == pytest.approx(10.0)
     q = engine.preset("quick", seed=7)
     assert engine.UniaxialTest.from_dict(q.to_dict()) == q
     with pytest.raises(engine.ParameterError, match="preset"):

@@ -66,7 +66,7 @@ def settings(tmp_path: Path) -> Settings:
         shutdown_grace=15.0,
         max_attempts=3,
         max_particles_per_run=5000,
-        max_particle_steps=5e8,
+        max_particle_steps=2e9,
         api_token=TOKEN,
     )
 

@@ -66,7 +66,7 @@ BAD = [
     ("negative seed", ("seeds",), [-1], ["seeds", 0], "greater"),
     ("too many seeds", ("seeds",), list(range(11)), ["seeds"], "at most 10"),
     ("duplicate seeds", ("seeds",), [1, 1], ["seeds"], "distinct"),
-    ("zero tolerance", ("tolerance",), 0, ["tolerance"], "greater"),
+    ("zero tolerance", ("tolerances",), {"density": 0}, ["tolerances", "density"], "(0, 1]"),
     ("unknown field", ("colour",), "blue", ["colour"], "not permitted"),
     (
         "Hertz pair law",

@@ -1,0 +1,82 @@
+"""One HDF5 file per finished run, written atomically, read back as a
+:class:`engine.UniaxialResult` (curves and scalars; particle positions are not kept).
+
+Long runs are stored once and every metric, verdict and report is recomputed from the stored
+curves (``engine.study.assemble``). A failed run is stored as a file holding only its error.
+
+Layout of ``<key>.h5``: attrs ``test`` (JSON of :meth:`engine.UniaxialTest.to_dict`),
+``error`` (only for a failed run), ``versions``; group ``scalars`` (attrs, with
+``<name>_units``); one group per stage (attr ``steps``) with one dataset per curve (attr
+``units``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+from pathlib import Path
+
+import h5py
+import numba
+import numpy as np
+
+import engine
+from engine.uniaxial import CURVE_UNITS, SCALAR_UNITS
+
+
+def save_run(path: Path, outcome) -> Path:
+    """Write ``outcome`` (a UniaxialResult or an error text) to ``path`` atomically."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{socket.gethostname()}.{os.getpid()}.tmp")
+    try:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["versions"] = json.dumps({"demscale": engine.__version__,
+                                              "numba": numba.__version__,
+                                              "numpy": np.__version__})
+            if isinstance(outcome, str):
+                f.attrs["error"] = outcome
+            else:
+                f.attrs["test"] = json.dumps(outcome.test.to_dict())
+                sc = f.create_group("scalars")
+                for k, v in outcome.scalars.items():
+                    sc.attrs[k] = float(v)
+                    sc.attrs[f"{k}_units"] = SCALAR_UNITS.get(k, "")
+                for i, (name, st) in enumerate(outcome.stages.items()):
+                    g = f.create_group(f"stages/{name}")
+                    g.attrs.update({"steps": int(st.steps), "position": i})
+                    for c, v in st.curves.items():
+                        ds = g.create_dataset(c, data=np.asarray(v), compression="gzip",
+                                              shuffle=True)
+                        ds.attrs["units"] = CURVE_UNITS.get(c, "")
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+def load_run(path: Path):
+    """The stored outcome: a :class:`engine.UniaxialResult` or the error text."""
+    with h5py.File(path, "r") as f:
+        if "error" in f.attrs:
+            return str(f.attrs["error"])
+        test = engine.UniaxialTest.from_dict(json.loads(f.attrs["test"]))
+        scalars = {k: float(v) for k, v in f["scalars"].attrs.items()
+                   if not k.endswith("_units")}
+        stages = {}
+        for name in sorted(f["stages"], key=lambda n: int(f["stages"][n].attrs["position"])):
+            g = f["stages"][name]
+            stages[name] = engine.StageResult(name, {c: g[c][()] for c in g}, None, None,
+                                              int(g.attrs["steps"]))
+    return engine.UniaxialResult(test, stages, scalars)
+
+
+def load_all(directory: Path, keys) -> dict:
+    """Stored outcomes of the given run keys found in ``directory``."""
+    out = {}
+    for k in keys:
+        p = Path(directory) / f"{k}.h5"
+        if p.exists():
+            out[k] = load_run(p)
+    return out

@@ -1,0 +1,218 @@
+"""Verdict metrics on analytic curves, the verdict logic on synthetic data, the interior
+window on hand-built packings, and failure detection on synthetic unconfined curves."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import engine
+from engine import advisor, metrics
+from engine.uniaxial import interior_measures, slab_volumes, unconfined_strength
+from tests.engine.test_uniaxial import tiny
+
+
+def fake_result(density_scale=1.0, strain_scale=1.0, coordination_shift=0.0, strength=1000.0,
+                loading_stiffness=1e6, unloading_stiffness=5e6, test=None):
+    """A UniaxialResult with analytic confined curves (for the metrics, not the engine)."""
+    s_load = np.linspace(5e3, 2e4, 60)
+    s_unl = np.linspace(2e4, 100.0, 40)
+
+    def curves(stress, strain):
+        phi = density_scale * (0.55 + 2.0 * strain)  # solid fraction rises with strain
+        z = 4.0 + stress / 1e4 + coordination_shift
+        return {"stress_top": stress, "strain": strain_scale * strain, "porosity": 1 - phi,
+                "porosity_interior": 1 - phi, "coordination": z - 0.3,
+                "coordination_interior": z}
+
+    stages = {
+        "consolidation": engine.StageResult("consolidation", curves(s_load, s_load / 1e6),
+                                            None, None, 0),
+        "unloading": engine.StageResult("unloading", curves(s_unl, 0.01 + s_unl / 4e6),
+                                        None, None, 0),
+    }
+    scalars = {"unconfined_strength": strength, "loading_stiffness": loading_stiffness,
+               "unloading_stiffness": unloading_stiffness}
+    return engine.UniaxialResult(test or tiny(), stages, scalars)
+
+
+def test_known_density_offset_gives_the_known_error():
+    ref = metrics.metric_values(fake_result())
+    off = metrics.metric_values(fake_result(density_scale=1.02))
+    assert metrics.relative_error("density", off["density"], ref["density"], 2e4) == (
+        pytest.approx(0.02, rel=1e-9))
+    assert metrics.signed_error("density", off["density"], ref["density"], 2e4) == (
+        pytest.approx(0.02, rel=1e-9))
+    same = metrics.metric_values(fake_result())
+    for n in ("density", "coordination", "loading_stiffness", "strength"):
+        assert metrics.relative_error(n, same[n], ref[n], 2e4) == 0.0
+
+
+def test_stiffness_coordination_and_strength_errors():
+    ref = metrics.metric_values(fake_result())
+    run = metrics.metric_values(fake_result(loading_stiffness=0.8e6, coordination_shift=0.5,
+                                            strength=1300.0))
+    assert metrics.relative_error("loading_stiffness", run["loading_stiffness"],
+                                  ref["loading_stiffness"], 2e4) == pytest.approx(0.2)
+    assert metrics.signed_error("loading_stiffness", run["loading_stiffness"],
+                                ref["loading_stiffness"], 2e4) == pytest.approx(-0.2)
+    # coordination read at the same stress levels: shift / z at each level, RMS
+    z = ref["coordination"]
+    expect = math.sqrt(np.mean((0.5 / z) ** 2))
+    assert metrics.relative_error("coordination", run["coordination"], z, 2e4) == (
+        pytest.approx(expect, rel=1e-9))
+    assert metrics.relative_error("strength", run["strength"], ref["strength"], 2e4) == (
+        pytest.approx(0.3))
+    # a cohesionless reference: the strength error is relative to 5 % of 20 kPa
+    assert metrics.relative_error("strength", [300.0], [0.0], 2e4) == pytest.approx(0.3)
+
+
+def test_stress_levels_lie_on_both_branches():
+    load, unload = metrics.stress_levels(tiny())
+    assert load.min() > tiny().pre_stress and load.max() < tiny().consolidation_stress
+    assert unload.max() < tiny().consolidation_stress and unload.min() > 0
+    assert len(load) == len(unload) == metrics.LEVELS
+
+
+def test_shape_measures_kept():
+    ref = fake_result()
+    shifted = metrics.shape_errors(fake_result(strain_scale=1.1), ref)
+    assert shifted["err_stress_strain"] > 0
+    assert metrics.shape_errors(fake_result(), ref)["err_stress_strain"] == 0.0
+
+
+def _floor(values, sd):
+    mean = np.asarray(values, dtype=float)
+    return {"mean": mean, "sd": np.full_like(mean, sd), "noise": sd / float(np.mean(mean)),
+            "seeds": 3}
+
+
+@pytest.mark.parametrize(
+    ("coarse", "expect"),
+    [
+        # error 1 %, 2u = 2 * sqrt(1/3 + 1/2) * 0.5 % = 0.9 %: inside 3 %
+        ([1.01, 1.01], "equivalent"),
+        # error 10 %: beyond 3 % by far more than the noise
+        ([1.10, 1.10], "differs"),
+        # error 2.8 %: within the tolerance, but not beyond the noise
+        ([1.028, 1.028], "undecided"),
+    ],
+)
+def test_verdict_from_error_tolerance_and_noise(coarse, expect):
+    ref = _floor([1.0], 0.005)
+    values = [{"density": np.array([c])} for c in coarse]
+    # the two coarse seeds agree exactly: their spread is 0, the reference's 0.5 %
+    m = advisor.judge_metric("density", values, ref, 0.03, 2e4)
+    assert m["verdict"] == expect
+    assert m["error"] == pytest.approx(abs(coarse[0] - 1.0))
+    assert m["uncertainty"] == pytest.approx(0.005 / math.sqrt(3))
+
+
+def test_noise_too_large_to_tell():
+    ref = _floor([2e4], 4e3)  # references differ by 20 % among themselves
+    m = advisor.judge_metric("strength", [{"strength": np.array([2.1e4])}], ref, 0.15, 2e4)
+    assert m["verdict"] == "undecided"
+    overall, reason = advisor.verdict([m])
+    assert overall == "undecided" and "noise too large" in reason and "strength" in reason
+
+
+def test_one_reference_seed_is_undecided_and_says_why():
+    floor = advisor.noise_floor([{"density": np.array([0.6])}], ["density"], 2e4)
+    m = advisor.judge_metric("density", [{"density": np.array([0.9])}], floor["density"], 0.03,
+                             2e4)
+    overall, reason = advisor.verdict([m])
+    assert overall == "undecided" and "one reference seed" in reason
+
+
+def test_any_metric_that_differs_decides():
+    ok = {"metric": "density", "error": 0.01, "signed_error": 0.01, "tolerance": 0.03,
+          "uncertainty": 0.002, "verdict": "equivalent", "reference_seeds": 3}
+    bad = dict(ok, metric="strength", error=0.5, signed_error=-0.5, tolerance=0.15,
+               verdict="differs")
+    unsure = dict(ok, metric="coordination", verdict="undecided")
+    assert advisor.verdict([ok, ok])[0] == "equivalent"
+    assert advisor.verdict([ok, unsure])[0] == "undecided"
+    v, reason = advisor.verdict([ok, unsure, bad])
+    assert v == "differs" and "strength 50.0%" in reason and "under" in reason
+
+
+def test_noise_floor_is_the_reference_spread():
+    vals = [{"strength": np.array([v])} for v in (900.0, 1000.0, 1100.0)]
+    floor = advisor.noise_floor(vals, ["strength"], 2e4)["strength"]
+    assert floor["mean"][0] == pytest.approx(1000.0)
+    assert floor["noise"] == pytest.approx(100.0 / 1000.0)
+
+
+def test_finite_size_warning_below_five_diameters():
+    w = advisor.finite_size_warnings([{"radius": 5e-3, "thickness_diameters": 4.0},
+                                      {"radius": 3e-3, "thickness_diameters": 8.0}])
+    assert len(w) == 1 and "R = 5 mm" in w[0] and "4.0" in w[0]
+
+
+def test_slab_volumes_exact():
+    r = np.array([1.0, 1.0, 1.0, 1.0])
+    z = np.array([0.0, 5.0, 1.0, 0.5])  # centred at lo; outside; tangent above; cut
+    v = slab_volumes(z, r, 0.0, 10.0)
+    sphere = 4 / 3 * math.pi
+    assert v[0] == pytest.approx(sphere / 2)
+    assert v[1] == pytest.approx(sphere)
+    assert v[2] == pytest.approx(sphere)
+    # cap of height 1.5 outside below... inside part: sphere minus the cap of height 0.5
+    h = 0.5
+    cap = math.pi * h * h * (3 - h) / 3
+    assert v[3] == pytest.approx(sphere - cap)
+
+
+def test_interior_window_on_a_hand_built_packing():
+    # a simple cubic lattice of spheres touching their neighbours, 10 layers between
+    # platens at 0 and 10 d, plus a loose (sparse) layer at each platen
+    d = 2e-3
+    r = d / 2
+    n = 5
+    xs = (np.arange(n) + 0.5) * d
+    layers = (np.arange(1, 9) + 0.5) * d  # dense interior layers
+    grid = np.array([(x, y, z) for z in layers for x in xs for y in xs])
+    loose = np.array([(x, y, z) for z in (0.5 * d, 9.5 * d) for x in xs[::2] for y in xs[::2]])
+    pos = np.vstack([grid, loose])
+    radii = np.full(len(pos), r)
+    counts = np.zeros(len(pos), dtype=int)
+    counts[: len(grid)] = 6
+    area = (n * d) ** 2
+    por, coord = interior_measures(pos[:, 2], radii, counts, 10 * d, 2 * d, area)
+    # interior = 6 whole dense layers: simple cubic porosity 1 - pi/6, coordination 6
+    assert por == pytest.approx(1 - math.pi / 6, rel=1e-12)
+    assert coord == 6.0
+    # whole sample: looser (sparse layers), and lower coordination
+    whole_por, whole_coord = interior_measures(pos[:, 2], radii, counts, 10 * d, 0.0, area)
+    assert whole_por > por and whole_coord < coord
+    # a sample too short for the margin keeps one diameter in the middle
+    p_short, _ = interior_measures(pos[:, 2], radii, counts, 10 * d, 20 * d, area)
+    assert 0 < p_short < 1
+
+
+def test_failure_peak_and_hardening_fallback():
+    strain = np.linspace(0, 0.1, 101)
+    peak = np.where(strain < 0.02, 1e6 * strain, 2e4 - 5e5 * (strain - 0.02))
+    s, e, failed = unconfined_strength(strain, peak, True)
+    assert s == pytest.approx(2e4) and e == pytest.approx(0.02) and failed
+    hardening = 3e4 * np.sqrt(strain)
+    s, e, failed = unconfined_strength(strain, hardening, False)
+    assert s == pytest.approx(3e4 * math.sqrt(0.1)) and e == pytest.approx(0.1) and not failed
+    s, _, _ = unconfined_strength(strain, -np.ones_like(strain), False)
+    assert s == 0.0
+
+
+def test_driver_detects_failure_on_a_cohesive_tiny_sample():
+    res = engine.run_uniaxial(tiny(pair_law=engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4)))
+    u = res.stages["unconfined"].curves
+    assert res.scalars["unconfined_failure"] == 1.0
+    k = int(np.argmax(u["stress_top"]))
+    # the stage ended after the stress had stayed 20 % below the peak for 0.5 % strain
+    assert u["stress_top"][-1] < 0.8 * u["stress_top"][k]
+    assert u["strain"][-1] - u["strain"][k] >= res.test.failure_strain
+    assert u["strain"][-1] < res.test.max_unconfined_strain
+    for key in ("thickness_diameters", "height_diameters", "interior_margin",
+                "consolidated_porosity_interior"):
+        assert math.isfinite(res.scalars[key])

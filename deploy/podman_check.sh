@@ -4,8 +4,11 @@
 # podman-compose, submit a small study with the token, wait for it, fetch its plot, check
 # that a request without the token is refused, then tear the stack down.
 #
-#   apt-get install -y podman runc mmdebstrap podman-compose     (once, as root)
-#   bash deploy/podman_check.sh                                  (from anywhere)
+#   apt-get install -y podman runc mmdebstrap                    (once, as root)
+#   python3 -m venv /opt/pc && /opt/pc/bin/pip install podman-compose
+#   PODMAN_COMPOSE=/opt/pc/bin/podman-compose bash deploy/podman_check.sh
+# podman-compose must be 1.1 or newer: Debian 12's 1.0.3 adds a bridge network to services
+# with network_mode: host, which podman refuses ("cannot set multiple networks").
 #
 # Environment: PODMAN_CHECK_DIR (work directory, default /tmp/demscale-podman-check; the
 # base image's rootfs.tar is kept there), DEMSCALE_PORT (default 18011), KEEP=1 (leave the
@@ -17,8 +20,9 @@ WORK=${PODMAN_CHECK_DIR:-/tmp/demscale-podman-check}
 PORT=${DEMSCALE_PORT:-18011}
 BASE=localhost/demscale-base:bookworm
 mkdir -p "$WORK"
-for tool in podman runc mmdebstrap podman-compose; do
-  command -v "$tool" >/dev/null || { echo "missing $tool: apt-get install -y podman runc mmdebstrap podman-compose" >&2; exit 2; }
+PODMAN_COMPOSE=${PODMAN_COMPOSE:-podman-compose}
+for tool in podman runc mmdebstrap "$PODMAN_COMPOSE"; do
+  command -v "$tool" >/dev/null || { echo "missing $tool (see the head of $0)" >&2; exit 2; }
 done
 # the runtime that works here, and no default ulimits (setting them fails in this sandbox)
 cat > "$WORK/containers.conf" <<CONF
@@ -39,13 +43,18 @@ if ! podman image exists "$BASE"; then
 fi
 
 stamp "building localhost/demscale:latest on $BASE"
-podman build --network=host --build-arg "BASE=$BASE" -f deploy/Dockerfile \
-  -t localhost/demscale:latest . 2>&1 | tail -n 3
+# pip inside the build reaches PyPI through this machine's TLS-inspecting proxy: it needs the
+# host's CA bundle (a build secret, not a layer of the image)
+CA=${CA_BUNDLE:-/etc/ssl/certs/ca-certificates.crt}
+podman build --network=host --build-arg "BASE=$BASE" --secret "id=ca,src=$CA" \
+  -f deploy/Dockerfile -t localhost/demscale:latest . > "$WORK/build.log" 2>&1 \
+  || { tail -n 30 "$WORK/build.log"; exit 1; }
+tail -n 2 "$WORK/build.log"
 stamp "image: $(podman image inspect localhost/demscale:latest --format '{{.Size}}') bytes"
 
 export DEMSCALE_API_TOKEN=${DEMSCALE_API_TOKEN:-$(python3 -c 'import secrets; print(secrets.token_urlsafe(32))')}
 export DEMSCALE_PORT=$PORT
-COMPOSE=(podman-compose -p demscale-check -f deploy/compose.yaml -f deploy/compose.podman.yaml)
+COMPOSE=("$PODMAN_COMPOSE" -p demscale-check -f deploy/compose.yaml -f deploy/compose.podman.yaml)
 down() {
   if [ "${KEEP:-0}" != 1 ]; then
     "${COMPOSE[@]}" down -v >/dev/null 2>&1 || true
@@ -53,7 +62,8 @@ down() {
 }
 trap down EXIT
 stamp "starting the compose stack (api + worker)"
-"${COMPOSE[@]}" up -d --no-build 2>&1 | tail -n 4
+"${COMPOSE[@]}" up -d --no-build > "$WORK/compose.log" 2>&1 \
+  || { tail -n 20 "$WORK/compose.log"; exit 1; }
 
 stamp "submitting a study, waiting for it, fetching its plot"
 python3 - "$PORT" "$DEMSCALE_API_TOKEN" "$WORK" <<'PY'
@@ -117,4 +127,4 @@ status, h5 = call("GET", f"/studies/{sid}/results.h5")
 assert status == 200 and h5[:8] == b"\x89HDF\r\n\x1a\n", status
 print(f"  results.h5: {len(h5)} bytes")
 PY
-stamp "podman check passed"
+stamp "podman check passed ($("$PODMAN_COMPOSE" --version | head -n 1), $(podman --version))"

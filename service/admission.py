@@ -12,6 +12,8 @@ import logging
 import math
 import re
 
+import numpy as np
+
 import engine
 
 from .settings import Settings
@@ -28,8 +30,21 @@ class SpecRejected(ValueError):
         super().__init__("; ".join(e["msg"] for e in errors))
 
 
+def _plain(value: object) -> object:
+    """``value`` as strict JSON can carry it: non-finite numbers and engine objects as text."""
+    if isinstance(value, bool) or value is None or isinstance(value, (int, str)):
+        return value
+    if isinstance(value, float):
+        return value if math.isfinite(value) else str(value)
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    return repr(value)
+
+
 def _error(loc: tuple, msg: str, value: object) -> dict:
-    return {"type": "value_error", "loc": ("body", *loc), "msg": msg, "input": value}
+    return {"type": "value_error", "loc": ("body", *loc), "msg": msg, "input": _plain(value)}
 
 
 def engine_loc(field: str) -> tuple:
@@ -78,7 +93,8 @@ def particles_before_packing(fields: dict, radius: float) -> float:
     for name, value in {**fields, "radius": radius}.items():
         object.__setattr__(probe, name, tuple(value) if isinstance(value, list) else value)
     try:
-        return float(probe.n_particles)
+        with np.errstate(all="ignore"):  # a zero radius counts as inf, not as a warning
+            return float(probe.n_particles)
     except (OverflowError, ValueError, ZeroDivisionError):
         return math.inf
 

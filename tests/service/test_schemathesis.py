@@ -4,12 +4,13 @@ and every answer is checked: no server error, a documented status, a body and he
 match the documented schema and content type, invalid data refused, valid data accepted,
 no answer without the token.
 
-No engine run is started: no worker runs, and admission caps the runs at 2,000
-particles so that the engine's checks of a generated study (which place its packing) stay
-quick. Valid-by-schema studies may still be refused with 422 by the engine's cross-field
-rules (e.g. consolidation_stress > pre_stress), which a JSON schema cannot state, or by
-the size caps: that is the one 422 counted as an acceptance, and only for ``POST /studies``.
-Set DEMSCALE_SCHEMATHESIS_LOG=<file> to log each request's operation, mode and status.
+No engine run is started: no worker runs, and admission caps the runs at 3,000 particles
+(the quick preset has 2,300) so that the engine's checks of a generated study (which place
+its packing) stay quick. Valid-by-schema studies may still be refused with 422 by the
+engine's cross-field rules (e.g. consolidation_stress > pre_stress), which a JSON schema
+cannot state, or by the size caps: that is the one 422 counted as an acceptance, and only
+for ``POST /studies``. Set DEMSCALE_SCHEMATHESIS_LOG=<file> to log each request's
+operation, generation mode and status.
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ SETTINGS = Settings(
     database_url=f"sqlite:///{_tmp}/db.sqlite",
     embedded_worker=False,
     api_token=TOKEN,
-    max_particles_per_run=2000,
+    max_particles_per_run=3000,
     max_particle_steps=2e10,
     max_active=100_000,
     max_active_per_token=100_000,

@@ -1,7 +1,9 @@
 """Chaos: the API (``python -m service api``) and the worker (``python -m service.worker``)
 are killed with SIGKILL at random moments while several small studies run, and restarted.
 Every study must succeed, each results file must be whole, and no temporary file may be
-left behind. Bounded: a few kills of each process over four one-second studies.
+left behind. Bounded: a few kills of each process over six one-second studies; a worker is
+killed at a random moment of a running study (the engine running, the results being
+written, a status being changed), the API at a random moment.
 
 The first study runs undisturbed, so that the engine's kernels are compiled (and cached)
 before the kills start: a worker killed every second or two would never finish compiling
@@ -28,7 +30,7 @@ from service.models import TERMINAL, Status, Study
 
 from .conftest import AUTH, REPO, TINIEST, TOKEN, free_port, worker_env
 
-N_STUDIES = 4
+N_STUDIES = 6
 WORKER_KILLS = 6
 API_KILLS = 2
 #: The whole scenario must end within this many seconds (compilation on a cold cache
@@ -85,6 +87,13 @@ def statuses(settings) -> dict[str, tuple[Status, int]]:
         return {str(x.id): (x.status, x.attempts) for x in s.exec(select(Study)).all()}
 
 
+def running_on(settings, pid: int) -> bool:
+    """Whether the worker process ``pid`` runs a study (its id is host:pid:suffix)."""
+    with Session(engine_for(settings)) as s:
+        owners = s.exec(select(Study.worker_id).where(Study.status == Status.running)).all()
+    return any(w is not None and w.split(":")[1] == str(pid) for w in owners)
+
+
 @pytest.mark.timeout(BOUND_S + 60)
 def test_studies_survive_sigkills_of_worker_and_api(settings, workers, tmp_path):
     settings.max_attempts = 50  # every kill of a running study costs an attempt
@@ -109,13 +118,23 @@ def test_studies_survive_sigkills_of_worker_and_api(settings, workers, tmp_path)
         plan = ["worker"] * WORKER_KILLS + ["api"] * API_KILLS
         rng.shuffle(plan)
         print(f"chaos seed {seed} (DEMSCALE_CHAOS_SEED), kills: {plan}")
+        kills = 0
         for target in plan:
-            time.sleep(rng.uniform(0.2, 2.0))
             if target == "worker":
+                # a random moment while this worker runs a study (not while it starts)
+                while not running_on(settings, worker.pid):
+                    if all(s in TERMINAL for s, _ in statuses(settings).values()):
+                        break
+                    assert time.monotonic() - t0 < BOUND_S, "no study ran"
+                    time.sleep(0.05)
+                else:
+                    time.sleep(rng.uniform(0.0, 1.5))
+                    kills += 1
                 worker.send_signal(signal.SIGKILL)
                 worker.wait()
                 worker = workers.start()
             else:
+                time.sleep(rng.uniform(0.2, 2.0))
                 api.kill()
                 api.start()
 
@@ -125,8 +144,8 @@ def test_studies_survive_sigkills_of_worker_and_api(settings, workers, tmp_path)
             time.sleep(0.2)
         final = statuses(settings)
         assert {s for s, _ in final.values()} == {Status.succeeded}, (final, workers.logs())
-        print(f"attempts per study: {sorted(a for _, a in final.values())}; "
-              f"{time.monotonic() - t0:.0f} s")
+        print(f"{kills} worker kills during a run, {API_KILLS} API kills; attempts per "
+              f"study: {sorted(a for _, a in final.values())}; {time.monotonic() - t0:.0f} s")
 
         # the API (restarted) serves every result, and no temporary file is left anywhere
         with httpx.Client(base_url=api.url, headers=AUTH, timeout=30) as c:

@@ -12,7 +12,7 @@ from sqlmodel import Session, select
 from service.db import engine_for
 from service.models import Status, Study
 
-from .conftest import REPO, TINIEST, TOKEN, free_port, worker_env
+from .conftest import REPO, TINIEST, free_port, worker_env
 
 
 @pytest.mark.timeout(300)
@@ -32,7 +32,7 @@ def test_main_job_runs_a_study_with_the_embedded_worker(settings, tmp_path):
             str(spec),
         ],
         cwd=REPO,
-        env={**worker_env(settings), "DEMSCALE_API_TOKEN": TOKEN},
+        env=worker_env(settings),  # no token configured: the main job makes one
         capture_output=True,
         text=True,
         timeout=280,
@@ -40,7 +40,8 @@ def test_main_job_runs_a_study_with_the_embedded_worker(settings, tmp_path):
     out = proc.stdout
     assert proc.returncode == 0, out + proc.stderr
     assert "submitted study" in out and "succeeded" in out and "%]" in out
-    assert f"API token: {TOKEN}" in out and "Authorization: Bearer" in out
+    token = (settings.data_dir / "api-token").read_text().strip()
+    assert f"api-token): {token}" in out and f"Authorization: Bearer {token}" in out
     base = f"http://127.0.0.1:{port}/studies/"
     for name in (
         "summary",

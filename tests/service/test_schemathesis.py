@@ -15,7 +15,9 @@ operation, generation mode and status.
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
 import tempfile
 
 import hypothesis
@@ -34,6 +36,7 @@ MAX_EXAMPLES = 40
 
 # the store of the run: its own directory, no worker, small studies only
 _tmp = tempfile.mkdtemp(prefix="demscale-schemathesis-")
+atexit.register(shutil.rmtree, _tmp, ignore_errors=True)
 SETTINGS = Settings(
     data_dir=f"{_tmp}/data",
     database_url=f"sqlite:///{_tmp}/db.sqlite",

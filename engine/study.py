@@ -1,6 +1,6 @@
 """Running a scaling study: every run of a :class:`StudySpec`, in this process or as tasks on
 any :class:`concurrent.futures.Executor`, then errors, noise floor and verdicts
-(docs/PHYSICS.md, "Scaling" and "Judging a coarse run").
+(docs/PHYSICS.md sections 5 and 7).
 
 The spec and its runs are in :mod:`engine.study_spec`, the metrics in :mod:`engine.metrics`,
 the verdict logic in :mod:`engine.advisor`. Runs are independent: a coarse run's time step is

@@ -1,6 +1,6 @@
 """The uniaxial test's stage driver: fill, pre-compression, confined consolidation and
 unloading, release of the periodic confinement, unconfined compression to failure
-(docs/PHYSICS.md, "The uniaxial test").
+(docs/PHYSICS.md section 4).
 
 The parameters and presets are in :mod:`engine.uniaxial_spec`; :func:`run_uniaxial` runs the
 stages in order. Every stage ends on a physical criterion and has a bound on its steps that

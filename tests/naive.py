@@ -1,6 +1,7 @@
 """Slow, obviously-correct reference versions of the engine's kernels (stumpy's naive.py).
 
-Written from docs/PHYSICS.md independently of engine/, in plain Python, for the tests to compare with.
+Written from docs/PHYSICS.md independently of engine/, in plain Python, for the tests to
+compare with.
 """
 
 from __future__ import annotations

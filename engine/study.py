@@ -245,7 +245,7 @@ def _run_here(planned, todo, weights, outcomes, progress, record) -> None:
 
 
 def _run_on(executor, planned, todo, weights, outcomes, progress, record, threads) -> None:
-    # references first: they are the longest runs and every comparison needs them
+    # in planned order: the references first (the longest runs, needed by every comparison)
     futures = {executor.submit(_execute, planned[i].test, threads): i for i in todo}
     done_weight = float(sum(weights[i] for i, p in enumerate(planned) if p.key in outcomes))
     try:
@@ -256,6 +256,10 @@ def _run_on(executor, planned, todo, weights, outcomes, progress, record, thread
                 outcome = fut.result()
             except cf.CancelledError:
                 continue
+            except cf.BrokenExecutor:
+                # the pool itself died (a worker process killed): an interruption, not a
+                # failure of the run; finished runs were reported, a resume runs the rest
+                raise
             except Exception as e:
                 outcome = f"{type(e).__name__}: {e}"
             record(p, outcome)

@@ -1,4 +1,4 @@
-r"""From metric values to verdicts (docs/PHYSICS.md, "Judging a coarse run").
+r"""From metric values to verdicts (docs/PHYSICS.md section 7).
 
 For every verdict metric (:data:`engine.metrics.METRICS`):
 

@@ -1,5 +1,5 @@
 r"""What a coarse run is judged by: the bulk quantities a calibration uses, and curve shapes
-(docs/PHYSICS.md, "Judging a coarse run").
+(docs/PHYSICS.md section 7).
 
 **Verdict metrics** (:data:`METRICS`), each a relative error with a default tolerance fixed
 for a stated physical reason before any study was run:

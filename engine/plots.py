@@ -144,8 +144,12 @@ def draw(ax, kind: str, runs: dict, table: list[dict]) -> None:
         ax.set_ylabel("top platen stress [kPa]")
     else:
         raise ValueError("error_vs_runtime is drawn on a whole figure: use figure()")
-    ax.legend(fontsize=8, title="solid: loading, dashed: unloading"
-              if kind != "unconfined" else None, title_fontsize=7)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=8, title="solid: loading, dashed: unloading"
+                  if kind != "unconfined" else None, title_fontsize=7)
+    else:
+        ax.text(0.5, 0.5, "no run of this study has this stage", ha="center",
+                transform=ax.transAxes)
     ax.set_title(KINDS[kind], fontsize=10)
     ax.grid(alpha=0.3)
 

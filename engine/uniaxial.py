@@ -1,6 +1,6 @@
 """The uniaxial test's stage driver: fill, pre-compression, confined consolidation and
 unloading, release of the periodic confinement, unconfined compression to failure
-(docs/PHYSICS.md, "The uniaxial test").
+(docs/PHYSICS.md section 4).
 
 The parameters and presets are in :mod:`engine.uniaxial_spec`; :func:`run_uniaxial` runs the
 stages in order. Every stage ends on a physical criterion and has a bound on its steps that
@@ -22,9 +22,25 @@ from .packing import sphere_volume
 from .simulation import Simulation
 from .uniaxial_spec import GRAVITY, MIN_THICKNESS_DIAMETERS, PRESETS, UniaxialTest, preset
 
-__all__ = ["CURVE_UNITS", "GRAVITY", "MIN_THICKNESS_DIAMETERS", "PRESETS", "SCALAR_UNITS",
-           "STAGES", "Progress", "StageError", "StageResult", "UniaxialResult", "UniaxialTest",
-           "interior_margin", "interior_measures", "preset", "run_uniaxial", "slab_volumes"]
+__all__ = [
+    "CURVE_UNITS",
+    "GRAVITY",
+    "MIN_THICKNESS_DIAMETERS",
+    "PRESETS",
+    "SCALAR_UNITS",
+    "STAGES",
+    "FailureDetector",
+    "Progress",
+    "StageError",
+    "StageResult",
+    "UniaxialResult",
+    "UniaxialTest",
+    "interior_margin",
+    "interior_measures",
+    "preset",
+    "run_uniaxial",
+    "slab_volumes",
+]
 
 STAGES = ("fill", "pre_compression", "consolidation", "unloading", "release", "unconfined")
 
@@ -303,19 +319,10 @@ class _Driver:
         # reached within max_unconfined_strain and has exactly zero strength
         self.move_top(-t.platen_speed)
         h0 = self.gap()
-        peak = 0.0
-        below_since = math.inf  # strain at which the stress last fell below the failure line
+        failure = FailureDetector(t.failure_drop, t.failure_strain)
 
         def done(r) -> bool:
-            # failure: the stress stays failure_drop below its peak for failure_strain more
-            # strain (a single noisy sample, or the first grains touching, is not a failure)
-            nonlocal peak, below_since
-            peak = max(peak, r[2])
-            if peak > 0 and r[2] < (1 - t.failure_drop) * peak:
-                below_since = min(below_since, r[1])
-            else:
-                below_since = math.inf
-            if r[1] - below_since >= t.failure_strain:
+            if failure.update(r[1], r[2]):
                 self.unconfined_failed = True
                 return True
             return r[1] >= t.max_unconfined_strain
@@ -359,6 +366,28 @@ class _Driver:
         if bad:
             raise FloatingPointError(f"non-finite scalars {bad}: the run is not usable")
         return UniaxialResult(self.test, self.stages, s)
+
+
+class FailureDetector:
+    """Tells, sample by sample, when an unconfined sample has failed: its stress has fallen
+    ``drop`` (a fraction) below the peak so far and stayed there for ``strain`` more axial
+    strain [-]. A single noisy sample, or the first grains touching the platen, is not a
+    failure."""
+
+    def __init__(self, drop: float, strain: float):
+        self.drop = drop
+        self.strain = strain
+        self.peak = 0.0
+        self.below_since = math.inf  # strain at which the stress last fell below the line
+
+    def update(self, strain: float, stress: float) -> bool:
+        """Feed one sample (strain [-], stress [Pa]); True once the sample has failed."""
+        self.peak = max(self.peak, stress)
+        if self.peak > 0 and stress < (1 - self.drop) * self.peak:
+            self.below_since = min(self.below_since, strain)
+        else:
+            self.below_since = math.inf
+        return strain - self.below_since >= self.strain
 
 
 def unconfined_strength(strain: np.ndarray, stress: np.ndarray, failed: bool

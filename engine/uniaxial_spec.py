@@ -1,4 +1,4 @@
-"""Parameters of the uniaxial test and its presets (docs/PHYSICS.md, "The uniaxial test").
+"""Parameters of the uniaxial test and its presets (docs/PHYSICS.md section 4).
 
 :class:`UniaxialTest` holds every parameter of one test, declared with its unit and bounds
 (:mod:`engine.params`) and validated once on construction; :func:`preset` gives the named

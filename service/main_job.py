@@ -69,20 +69,29 @@ def _follow(client: httpx.Client, study_id: str) -> dict:
 
 
 def _table(summary: dict) -> str:
-    head = (
-        f"{'run':<24}{'R [mm]':>8}{'rule':>12}{'particles':>10}{'steps':>9}"
-        f"{'time [s]':>10}{'speed-up':>9}{'max err':>9}"
-    )
+    """Per run: size, cost and its errors against the mean reference; then the verdicts
+    with their reasons and the advisor's warnings."""
+    cols = (("err_density", "dens"), ("err_loading_stiffness", "K_ld"),
+            ("err_unloading_stiffness", "K_ul"), ("err_coordination_interior", "Z"),
+            ("err_strength", "UCS"))
+    head = (f"{'run':<22}{'R [mm]':>7}{'rule':>10}{'N':>7}{'cell [d]':>9}{'time [s]':>9}"
+            f"{'speed-up':>9}" + "".join(f"{lab:>7}" for _, lab in cols))
     lines = [head, "-" * len(head)]
     for row in summary["table"]:
-        errs = [v for k, v in row.items() if k.startswith("err_")]
         lines.append(
-            f"{row['run']:<24}{row['radius'] * 1e3:>8.3g}{row['rule']:>12}"
-            f"{row['particles']:>10}{row['steps']:>9}{row['wall_time']:>10.1f}"
-            f"{row['speedup']:>9.2f}{100 * max(errs, default=0.0):>8.1f}%"
+            f"{row['run']:<22}{row['radius'] * 1e3:>7.3g}{row['rule']:>10}"
+            f"{row['particles']:>7}{row.get('thickness_diameters', 0):>9.1f}"
+            f"{row['wall_time']:>9.1f}{row['speedup']:>9.2f}"
+            + "".join(f"{100 * row[c]:>6.1f}%" if c in row else f"{'-':>7}" for c, _ in cols)
         )
-    message = summary.get("advisor", {}).get("message")
-    return "\n".join(lines + ([f"advisor: {message}"] if message else []))
+    lines.append("errors [%] against the mean of the reference seeds; cell [d]: thinnest "
+                 "side in particle diameters")
+    advisor = summary.get("advisor", {})
+    for v in advisor.get("verdicts", []):
+        lines.append(f"R = {v['radius'] * 1e3:g} mm, {v['rule']}: {v['verdict'].upper()}: "
+                     f"{v['reason']}")
+    lines += [f"warning: {w}" for w in advisor.get("warnings", [])]
+    return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,6 +1,7 @@
 """Slow, obviously-correct reference versions of the engine's kernels (stumpy's naive.py).
 
-Written from PHYSICS.md independently of engine/, in plain Python, for the tests to compare with.
+Written from docs/PHYSICS.md independently of engine/, in plain Python, for the tests to
+compare with.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ import numpy as np
 
 
 def bilinear_force(d: float, dmax: float, k1: float, k2: float, f0: float, kadh: float):
-    """PHYSICS.md section 2, branch by branch. Returns (f_hys, dmax)."""
+    """docs/PHYSICS.md section 2, branch by branch. Returns (f_hys, dmax)."""
     dmax = max(dmax, d)
     lam = 1.0 - k1 / k2
     dp = lam * dmax

@@ -10,7 +10,12 @@ import pytest
 
 import engine
 from engine import advisor, metrics
-from engine.uniaxial import interior_measures, slab_volumes, unconfined_strength
+from engine.uniaxial import (
+    FailureDetector,
+    interior_measures,
+    slab_volumes,
+    unconfined_strength,
+)
 from tests.engine.test_uniaxial import tiny
 
 
@@ -190,6 +195,28 @@ def test_interior_window_on_a_hand_built_packing():
     # a sample too short for the margin keeps one diameter in the middle
     p_short, _ = interior_measures(pos[:, 2], radii, counts, 10 * d, 20 * d, area)
     assert 0 < p_short < 1
+
+
+def _first_failure(strain, stress, drop=0.2, persist=0.005):
+    det = FailureDetector(drop, persist)
+    return next((i for i, (e, s) in enumerate(zip(strain, stress)) if det.update(e, s)), None)
+
+
+def test_failure_detector_on_a_peak_a_spike_and_a_hardening_curve():
+    strain = np.linspace(0, 0.1, 1001)
+    peak = np.where(strain < 0.02, 1e6 * strain, 2e4 - 1e6 * (strain - 0.02))
+    # 20 % below 20 kPa at strain 0.024, and it stays there: failure 0.5 % later
+    i = _first_failure(strain, peak)
+    assert strain[i] == pytest.approx(0.029, abs=2e-4)
+    # a one-sample dip (noise) is no failure; nor is a curve that never drops
+    spike = 1e6 * strain
+    spike[300] = 0.0
+    assert _first_failure(strain, spike) is None
+    assert _first_failure(strain, 3e4 * np.sqrt(strain)) is None
+    # a drop that recovers before failure_strain is no failure either
+    dip = 1e6 * strain
+    dip[300:303] *= 0.5
+    assert _first_failure(strain, dip) is None
 
 
 def test_failure_peak_and_hardening_fallback():

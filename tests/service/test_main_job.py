@@ -55,6 +55,8 @@ def test_main_job_runs_a_study_with_the_embedded_worker(settings, tmp_path):
     ):
         assert base in out and name in out, name
     assert "ref-s1" in out and "r3.1mm-paper-s1" in out and "speed-up" in out
+    # the verdict of every (radius, rule) with its reason
+    assert any(f"paper: {v}:" in out for v in ("EQUIVALENT", "DIFFERS", "UNDECIDED")), out
     with Session(engine_for(settings)) as s:
         (study,) = s.exec(select(Study)).all()
     assert study.status is Status.succeeded and study.attempts == 1

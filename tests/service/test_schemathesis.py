@@ -76,7 +76,14 @@ schema = schemathesis.openapi.from_asgi("/openapi.json", APP, config=CONFIG)
 
 
 @pytest.mark.timeout(300)
-@hypothesis.settings(deadline=None, derandomize=True, database=None)
+# deterministic (the same requests every run); no health check that times data generation
+# on a loaded CI machine
+@hypothesis.settings(
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=list(hypothesis.HealthCheck),
+)
 @schema.parametrize()
 def test_api_conforms_to_its_openapi_document(case):
     response = case.call_and_validate()

@@ -10,10 +10,11 @@
 (b) cohesive bed (f0 = -0.8 N at R_ref): R = 3.75 and 5 mm with stiffness ~ R and adhesion
     exponent b = 1, 2, 3.
 Three reference seeds and two seeds per coarse variant. Every finished run is stored at once
-as ``benchmarks/results/<scale>/<experiment>/<run>.h5``; a rerun resumes with the runs not
-yet stored, and ``--report`` recomputes every metric, verdict and figure from the stored
-curves. ``--scale paper`` writes docs/VALIDATION.md and docs/figures/; ``--scale quick``
-writes benchmarks/.cache/quick/VALIDATION.md (a smoke run, not the validation).
+as ``benchmarks/results/<scale>/<experiment>/<run>.h5`` (:mod:`engine.runstore`); a rerun
+resumes with the runs not yet stored, and ``--report`` recomputes every metric, verdict and
+figure from the stored curves. ``--scale paper`` writes docs/VALIDATION.md and
+docs/figures/; ``--scale quick`` writes benchmarks/.cache/quick/VALIDATION.md (a smoke run,
+not the validation).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import engine
-from benchmarks.runstore import load_all, save_run
+from engine.runstore import load_all, save_run
 
 ROOT = Path(__file__).resolve().parent.parent
 R = 2.5e-3
@@ -85,7 +86,7 @@ def run(scale: str, workers: int, only: list[str] | None) -> None:
         t0 = time.perf_counter()
 
         def on_run(key, outcome, d=d, t0=t0):
-            save_run(d / f"{key}.h5", outcome)
+            save_run(d / f"{key}.h5", outcome, keep_particles=False)
             what = (outcome if isinstance(outcome, str) else
                     f"{outcome.scalars['particles']:.0f} particles, "
                     f"{outcome.scalars['wall_time']:.0f} s")

@@ -199,17 +199,22 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
         on_run: called with (key, UniaxialResult or error text) as soon as a run ends.
         task_threads: engine threads per task on an executor (1: one core per task).
 
-    Raises: :class:`RunFailed` when no reference run succeeded.
+    Raises: :class:`RunFailed` as soon as every reference run has failed.
     """
     planned = spec.planned_runs()
     weights = _weights(planned)
     outcomes: dict[str, UniaxialResult | str] = dict(completed or {})
     todo = [i for i, p in enumerate(planned) if p.key not in outcomes]
 
+    refs = [q.key for q in planned if q.is_reference]
+
     def record(p: PlannedRun, outcome) -> None:
         outcomes[p.key] = outcome
         if on_run is not None:
             on_run(p.key, outcome)
+        if p.is_reference and all(isinstance(outcomes.get(k), str) for k in refs):
+            # every reference failed: nothing can be compared, stop at once
+            raise RunFailed(refs[0], outcomes[refs[0]])
 
     if executor is None:
         _run_here(planned, todo, weights, outcomes, progress, record)

@@ -14,11 +14,14 @@ import uuid
 from sqlmodel import Session
 
 import engine
+from engine.runstore import load_all as load_runs
+from engine.runstore import save_run as store_run
 
 from . import transitions
 from .db import engine_for
 from .h5store import NotOurs, write_results
 from .models import Status, Study
+from .pools import run_executor
 from .settings import Settings
 
 log = logging.getLogger("demscale.worker")
@@ -81,16 +84,36 @@ class StudyExecution:
         return not (self.cancel or self.lost or self.shutdown.is_set())
 
     def on_run(self, key: str, outcome) -> None:
-        """The engine reports a finished run: a failed one fails the study (the service keeps
-        a study whole: its table and verdicts need every run)."""
-        if isinstance(outcome, str):
-            raise engine.RunFailed(key, outcome)
+        """The engine reports a finished run: store it at once (atomically) so that a
+        resumed study skips it, and mark its row. A failed coarse run is recorded with its
+        error while the others go on; the verdicts name it."""
+        store_run(self.settings.runs_dir(self.study_id) / f"{key}.h5", outcome)
+        failed = isinstance(outcome, str)
+        with Session(self.db) as s:
+            transitions.run_finished(
+                s, self.study_id, key, error=outcome if failed else None,
+                steps=None if failed else int(outcome.scalars["steps"]),
+                wall_time=None if failed else float(outcome.scalars["wall_time"]))
+        log.info("study %s: run %s %s", self.study_id, key, "failed" if failed else "stored")
+
+    def stored_runs(self, spec: engine.StudySpec) -> dict:
+        """Runs of this study stored by earlier attempts whose test is the planned one."""
+        planned = {p.key: p.test for p in spec.planned_runs()}
+        out = {}
+        for key, outcome in load_runs(self.settings.runs_dir(self.study_id), planned).items():
+            if isinstance(outcome, str) or outcome.test == planned[key]:
+                out[key] = outcome
+        if out:
+            log.info("study %s: resuming with %d of %d runs stored", self.study_id, len(out),
+                     len(planned))
+        return out
 
     def remove_leftovers(self) -> None:
         """Delete the temporary results files of earlier attempts at this study (a worker
         killed while writing leaves its ``*.h5.tmp``): the study is this worker's now, and
         only its owner writes there."""
-        for tmp in self.settings.study_dir(self.study_id).glob("*.h5.tmp"):
+        d = self.settings.study_dir(self.study_id)
+        for tmp in [*d.glob("*.h5.tmp"), *d.glob("runs/.*.tmp")]:
             log.warning("study %s: removing %s of an earlier attempt", self.study_id, tmp.name)
             tmp.unlink(missing_ok=True)
 
@@ -103,7 +126,9 @@ class StudyExecution:
         beats.start()
         try:
             spec = engine.StudySpec.from_dict(self.spec_dict)
-            result = engine.run_study(spec, progress=self.progress, on_run=self.on_run)
+            with run_executor(self.settings) as pool:
+                result = engine.run_study(spec, progress=self.progress, executor=pool,
+                                          completed=self.stored_runs(spec), on_run=self.on_run)
             write_results(self.settings.results_path(self.study_id), self.study_id, result,
                           still_ours=self._still_ours)
         except engine.StopRequested:

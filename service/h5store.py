@@ -96,6 +96,8 @@ def _write_run(g: h5py.Group, position: int, run) -> None:
             ds = sg.create_dataset(curve, data=np.asarray(values, dtype=np.float64))
             ds.attrs["units"] = CURVE_UNITS.get(curve, "")
         for name, values in (("positions", stage.positions), ("radii", stage.radii)):
+            if values is None:  # a run read back from a store that did not keep particles
+                continue
             ds = sg.create_dataset(
                 name, data=np.asarray(values, dtype=np.float64), compression="gzip"
             )

@@ -57,7 +57,16 @@ class Settings(BaseSettings):
     stale_after: float = Field(
         30.0, gt=0, description="A running study whose heartbeat is this old [s] is orphaned."
     )
-    max_attempts: int = Field(3, ge=1, description="Claims of a study before it is failed.")
+    max_attempts: int = Field(
+        3, ge=1, description="Claims of a study in a row that finish no run before it is "
+        "failed (its interrupted run is a poison run); a claim that finishes a run resets it.")
+    run_workers: int = Field(
+        1, ge=0, le=256, description="Runs of a study side by side on a local process pool, "
+        "one engine thread each; 1: one run at a time in the worker with the engine's own "
+        "threads; 0: one per core.")
+    dask_scheduler: str | None = Field(
+        None, max_length=500, description="Address of a Dask scheduler (e.g. "
+        "tcp://10.0.0.5:8786): runs become tasks on its cluster (needs `distributed`).")
     poll_interval: float = Field(1.0, gt=0, description="Seconds between queue polls.")
     shutdown_grace: float = Field(
         20.0,
@@ -131,6 +140,10 @@ class Settings(BaseSettings):
     def results_path(self, study_id: object) -> Path:
         """The HDF5 file of one study."""
         return self.study_dir(study_id) / "results.h5"
+
+    def runs_dir(self, study_id: object) -> Path:
+        """The per-run HDF5 files of one study, each stored as soon as its run ends."""
+        return self.study_dir(study_id) / "runs"
 
 
 def is_loopback(host: str) -> bool:

@@ -23,8 +23,7 @@ Q, R, S, F, C = Status.queued, Status.running, Status.succeeded, Status.failed, 
 
 #: The legal (from, to) pairs of a study.
 ALLOWED = frozenset({(Q, R), (Q, C), (R, S), (R, F), (R, C), (R, Q)})
-#: Those of a run: also succeeded -> queued, since a requeued study runs again from its
-#: first run (the engine does not resume).
+#: Those of a run: also succeeded -> queued, for a stored run that must run again.
 RUN_ALLOWED = ALLOWED | {(S, Q)}
 
 #: What a claim resets: the progress and outcome of an earlier attempt.
@@ -176,11 +175,18 @@ def heartbeat(session: Session, study_id: uuid.UUID, worker_id: str, **progress)
 
 
 def run_started(session: Session, study_id: uuid.UUID, key: str) -> None:
-    """Mark run ``key`` running and every earlier run of the study succeeded."""
-    pos = select(Run.position).where(Run.study_id == study_id, Run.key == key).scalar_subquery()
-    now = utcnow()
-    _runs(session, study_id, (R,), S, Run.position < pos, finished_at=now)
-    _runs(session, study_id, (Q,), R, Run.key == key, started_at=now)
+    """Mark run ``key`` running."""
+    _runs(session, study_id, (Q,), R, Run.key == key, started_at=utcnow())
+    session.commit()
+
+
+def run_finished(session: Session, study_id: uuid.UUID, key: str, error: str | None = None,
+                 steps: int | None = None, wall_time: float | None = None) -> None:
+    """Mark run ``key`` succeeded (its results are stored) or failed with ``error``."""
+    dst = S if error is None else F
+    _runs(session, study_id, (Q,), R, Run.key == key)  # a run reported only at its end
+    _runs(session, study_id, (R,), dst, Run.key == key, finished_at=utcnow(), error=error,
+          steps=steps, wall_time=wall_time)
     session.commit()
 
 
@@ -275,7 +281,7 @@ def release(session: Session, study_id: uuid.UUID, worker_id: str) -> bool:
     ):
         session.rollback()
         return False
-    _runs(session, study_id, (R, S), Q, started_at=None, finished_at=None)
+    _runs(session, study_id, (R,), Q, started_at=None, finished_at=None)
     session.commit()
     return True
 
@@ -293,20 +299,32 @@ def recover_stale(
     out = []
     for sid, worker, attempts, cancel, beat in rows:
         last = f"worker {worker} stopped sending heartbeats (last {beat:%Y-%m-%d %H:%M:%S} UTC)"
+        started = session.execute(select(Study.started_at).where(Study.id == sid)).scalar()
+        finished = session.execute(
+            select(func.count()).select_from(Run).where(
+                Run.study_id == sid, Run.status.in_((S, F)), Run.finished_at >= started)
+        ).scalar()
+        current = session.execute(select(Study.current_run).where(Study.id == sid)).scalar()
+        if finished:
+            # an interruption, not a failure: this attempt finished runs, which are stored;
+            # only claims in a row that finish nothing count towards max_attempts
+            attempts = 0
         if cancel:
             dst, values = C, {"error": f"cancelled; {last}", "finished_at": utcnow()}
         elif attempts >= max_attempts:
+            poison = f"; run {current} was interrupted each time (a poison run)" if current else ""
             dst, values = (
                 F,
-                {"error": f"gave up after {attempts} attempts: {last}", "finished_at": utcnow()},
+                {"error": f"gave up after {attempts} attempts that finished no run: {last}"
+                          f"{poison}", "finished_at": utcnow()},
             )
         else:
-            dst, values = Q, {"worker_id": None, "heartbeat_at": None}
+            dst, values = Q, {"worker_id": None, "heartbeat_at": None, "attempts": attempts}
         # the same worker and heartbeat as read: a worker that beat meanwhile keeps its study
         same = (Study.worker_id == worker, Study.heartbeat_at == beat)
         if _move(session, sid, R, dst, *same, **values):
-            if dst is Q:
-                _runs(session, sid, (R, S), Q, started_at=None, finished_at=None)
+            if dst is Q:  # stored runs stay succeeded: a resumed study runs only the others
+                _runs(session, sid, (R,), Q, started_at=None, finished_at=None)
             else:
                 _runs(session, sid, (Q, R), C)
             out.append((sid, dst))

@@ -8,7 +8,7 @@ import pytest
 
 import engine
 from benchmarks.report import write_report
-from benchmarks.runstore import load_run, save_run
+from engine.runstore import load_run, save_run
 from tests.engine.test_uniaxial import COHESIVE, tiny
 
 R = 2.5e-3
@@ -22,8 +22,12 @@ def test_stored_run_reads_back_unchanged_and_errors_are_kept(tmp_path):
     for name, st in res.stages.items():
         for c, v in st.curves.items():
             assert np.array_equal(back.stages[name].curves[c], v)
+        assert np.array_equal(back.stages[name].positions, st.positions)
+        assert np.array_equal(back.stages[name].radii, st.radii)
+    lean = load_run(save_run(tmp_path / "lean.h5", res, keep_particles=False))
+    assert lean.stages["fill"].positions is None and lean.scalars == res.scalars
     assert load_run(save_run(tmp_path / "bad.h5", "StageError: no")) == "StageError: no"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.h5", "ref-s1.h5"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.h5", "lean.h5", "ref-s1.h5"]
 
 
 @pytest.mark.slow

@@ -74,6 +74,7 @@ def test_a_study_is_claimed_once_and_only_by_its_owner_finished(session):
     ).owned
     assert status(session, study) is Status.running
     transitions.run_started(session, study.id, "run0")
+    transitions.run_finished(session, study.id, "run0", steps=5, wall_time=0.1)
     transitions.run_started(session, study.id, "run1")
     assert run_statuses(session, study) == [Status.succeeded, Status.running]
     table = [
@@ -88,6 +89,18 @@ def test_a_study_is_claimed_once_and_only_by_its_owner_finished(session):
     assert not transitions.fail(session, study.id, "w1", "late")
     assert not transitions.request_cancel(session, study.id)
     assert status(session, study) is Status.succeeded
+
+
+@pytest.mark.timeout(30)
+def test_runs_finish_one_by_one_and_a_failed_run_keeps_its_error(session):
+    study = new_study(session)
+    transitions.claim_next(session, "w1")
+    # a run reported only when it ends (a task on a pool) goes queued -> running -> done
+    transitions.run_finished(session, study.id, "run1", error="InstabilityError: boom")
+    transitions.run_finished(session, study.id, "run0", steps=3, wall_time=0.5)
+    assert run_statuses(session, study) == [Status.succeeded, Status.failed]
+    assert transitions.succeed(session, study.id, "w1", 1.0, [])
+    assert run_statuses(session, study) == [Status.succeeded, Status.failed]
 
 
 @pytest.mark.timeout(30)
@@ -142,6 +155,31 @@ def test_stale_studies_are_requeued_then_failed_after_max_attempts(session):
     assert "gave up after 2 attempts" in row.error and "w2" in row.error
     # the dead worker cannot write its result afterwards
     assert not transitions.succeed(session, study.id, "w2", 1.0, [])
+
+
+@pytest.mark.timeout(30)
+def test_interruptions_that_finish_runs_are_not_failures_a_poison_run_is(session):
+    study = new_study(session)
+    later = timedelta(seconds=1)
+    # the first attempt finishes run0, then its worker dies: requeued, the attempt not counted
+    assert transitions.claim_next(session, "w1").attempts == 1
+    transitions.run_started(session, study.id, "run0")
+    transitions.run_finished(session, study.id, "run0", steps=1, wall_time=1.0)
+    transitions.run_started(session, study.id, "run1")
+    assert transitions.recover_stale(session, utcnow() + later, 1) == [(study.id, Status.queued)]
+    # the stored run stays succeeded; the interrupted one is queued again
+    assert run_statuses(session, study) == [Status.succeeded, Status.queued]
+    assert transitions.claim_next(session, "w2").attempts == 1
+    # the second attempt dies on run1 without finishing it: with max_attempts 1, run1 is a
+    # poison run and the study is failed with that reason
+    transitions.run_started(session, study.id, "run1")
+    transitions.heartbeat(session, study.id, "w2", progress=0.6, run_index=1,
+                          current_run="run1", current_stage="fill")
+    assert transitions.recover_stale(session, utcnow() + later, 1) == [(study.id, Status.failed)]
+    session.expire_all()
+    row = session.get(Study, study.id)
+    assert "finished no run" in row.error and "run run1 was interrupted" in row.error
+    assert run_statuses(session, study) == [Status.succeeded, Status.cancelled]
 
 
 @pytest.mark.timeout(30)

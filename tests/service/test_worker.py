@@ -190,6 +190,42 @@ def test_kill_9_mid_study_then_a_new_worker_completes_it(client, workers, settin
     assert [row["run"] for row in summary["table"]] == ["ref-s1", "r3.1mm-paper-s1"]
 
 
+@pytest.mark.timeout(2 * RUN_TIMEOUT)
+def test_a_study_resumes_with_only_its_unfinished_runs(client, workers, settings):
+    body = {**TINY, "reference_seeds": [1, 2], "seeds": [1]}
+    sid = submit(client, body)
+    first = workers.start()
+    # kill the worker once the first run is stored, while it works on the second
+    wait_for(
+        study_getter(client, sid),
+        lambda s: s["status"] == "running" and s["runs"][0]["status"] == "succeeded",
+        RUN_TIMEOUT,
+        "the first run to be stored",
+        workers,
+    )
+    first.send_signal(signal.SIGKILL)
+    first.wait()
+    stored_before = sorted(p.stem for p in settings.runs_dir(sid).glob("*.h5"))
+    assert "ref-s1" in stored_before and len(stored_before) < 3
+    workers.start()
+    done = wait_for(
+        study_getter(client, sid),
+        lambda s: s["status"] in ("succeeded", "failed"),
+        2 * RUN_TIMEOUT - 30,
+        "the resumed study to finish",
+        workers,
+    )
+    # the attempt that was killed had finished a run: an interruption, not a failure
+    assert done["status"] == "succeeded" and done["attempts"] == 1, done["error"]
+    second = (workers.log_dir / "worker-1.log").read_text()
+    ran = sorted(k for k in ("ref-s1", "ref-s2", "r3.1mm-paper-s1") if f"run {k} stored" in second)
+    assert ran == sorted({"ref-s1", "ref-s2", "r3.1mm-paper-s1"} - set(stored_before)), second
+    assert f"resuming with {len(stored_before)} of 3 runs stored" in second
+    summary = client.get(f"/studies/{sid}/summary").json()
+    assert [row["run"] for row in summary["table"]] == ["ref-s1", "ref-s2", "r3.1mm-paper-s1"]
+    assert {v["rule"] for v in summary["advisor"]["verdicts"]} == {"paper"}
+
+
 @pytest.mark.timeout(RUN_TIMEOUT + 60)
 def test_a_run_that_fails_fails_the_study_with_the_reason(client, workers):
     body = {**TINY, "reference": {**TINY["reference"], "max_stage_time": 0.02}}

@@ -2,12 +2,16 @@
 :class:`engine.UniaxialResult` (curves and scalars; particle positions are not kept).
 
 Long runs are stored once and every metric, verdict and report is recomputed from the stored
-curves (``engine.study.assemble``). A failed run is stored as a file holding only its error.
+curves (``engine.study.assemble``); a study resumes with the runs not yet stored
+(``run_study(completed=...)``). A failed run is stored as a file holding only its error.
+h5py is imported only here, when a run is stored or read (the engine itself needs only numpy
+and numba).
 
 Layout of ``<key>.h5``: attrs ``test`` (JSON of :meth:`engine.UniaxialTest.to_dict`),
 ``error`` (only for a failed run), ``versions``; group ``scalars`` (attrs, with
 ``<name>_units``); one group per stage (attr ``steps``) with one dataset per curve (attr
-``units``).
+``units``) and, when kept, a group ``particles`` (``positions`` (N, 3), ``radii`` (N,) at the
+stage's end [m]).
 """
 
 from __future__ import annotations
@@ -17,22 +21,25 @@ import os
 import socket
 from pathlib import Path
 
-import h5py
-import numba
 import numpy as np
 
-import engine
-from engine.uniaxial import CURVE_UNITS, SCALAR_UNITS
+from .uniaxial import CURVE_UNITS, SCALAR_UNITS, StageResult, UniaxialResult, UniaxialTest
 
 
-def save_run(path: Path, outcome) -> Path:
-    """Write ``outcome`` (a UniaxialResult or an error text) to ``path`` atomically."""
+def save_run(path: Path, outcome, keep_particles: bool = True) -> Path:
+    """Write ``outcome`` (a UniaxialResult or an error text) to ``path`` atomically; with
+    ``keep_particles`` also the particle positions and radii at each stage's end."""
+    import h5py
+    import numba
+
+    from . import __version__
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{socket.gethostname()}.{os.getpid()}.tmp")
     try:
         with h5py.File(tmp, "w") as f:
-            f.attrs["versions"] = json.dumps({"demscale": engine.__version__,
+            f.attrs["versions"] = json.dumps({"demscale": __version__,
                                               "numba": numba.__version__,
                                               "numpy": np.__version__})
             if isinstance(outcome, str):
@@ -50,6 +57,11 @@ def save_run(path: Path, outcome) -> Path:
                         ds = g.create_dataset(c, data=np.asarray(v), compression="gzip",
                                               shuffle=True)
                         ds.attrs["units"] = CURVE_UNITS.get(c, "")
+                    if keep_particles and st.positions is not None:
+                        p = g.create_group("particles")
+                        for name, v in (("positions", st.positions), ("radii", st.radii)):
+                            ds = p.create_dataset(name, data=np.asarray(v), compression="gzip")
+                            ds.attrs["units"] = "m"
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
@@ -58,18 +70,23 @@ def save_run(path: Path, outcome) -> Path:
 
 def load_run(path: Path):
     """The stored outcome: a :class:`engine.UniaxialResult` or the error text."""
+    import h5py
+
     with h5py.File(path, "r") as f:
         if "error" in f.attrs:
             return str(f.attrs["error"])
-        test = engine.UniaxialTest.from_dict(json.loads(f.attrs["test"]))
+        test = UniaxialTest.from_dict(json.loads(f.attrs["test"]))
         scalars = {k: float(v) for k, v in f["scalars"].attrs.items()
                    if not k.endswith("_units")}
         stages = {}
         for name in sorted(f["stages"], key=lambda n: int(f["stages"][n].attrs["position"])):
             g = f["stages"][name]
-            stages[name] = engine.StageResult(name, {c: g[c][()] for c in g}, None, None,
-                                              int(g.attrs["steps"]))
-    return engine.UniaxialResult(test, stages, scalars)
+            p = g.get("particles")
+            stages[name] = StageResult(
+                name, {c: g[c][()] for c in g if c != "particles"},
+                None if p is None else p["positions"][()], None if p is None else p["radii"][()],
+                int(g.attrs["steps"]))
+    return UniaxialResult(test, stages, scalars)
 
 
 def load_all(directory: Path, keys) -> dict:

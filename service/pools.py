@@ -1,0 +1,37 @@
+"""Where a worker runs a study's runs: in its own process (the default), on a local process
+pool (``DEMSCALE_RUN_WORKERS``), or as tasks on a Dask cluster
+(``DEMSCALE_DASK_SCHEDULER``; dask-jobqueue brings SLURM, PBS and SGE clusters)."""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import contextlib
+import multiprocessing as mp
+import os
+from collections.abc import Iterator
+
+from .settings import Settings
+
+
+@contextlib.contextmanager
+def run_executor(settings: Settings) -> Iterator[cf.Executor | None]:
+    """The executor for one study's runs (None: in process), shut down afterwards."""
+    if settings.dask_scheduler:
+        from distributed import Client  # the `dask` extra
+
+        client = Client(settings.dask_scheduler, set_as_default=False)
+        try:
+            yield client.get_executor()
+        finally:
+            client.close()
+        return
+    n = settings.run_workers or os.cpu_count() or 1
+    if n <= 1:
+        yield None
+        return
+    # spawn: the worker's own OpenMP threads and database connections are not forked
+    pool = cf.ProcessPoolExecutor(n, mp_context=mp.get_context("spawn"))
+    try:
+        yield pool
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)

@@ -267,3 +267,34 @@ def test_a_study_whose_worker_keeps_dying_is_failed_with_the_reason(client, work
     assert done["status"] == "failed" and done["attempts"] == 1
     assert "gave up after 1 attempts" in done["error"] and "heartbeat" in done["error"]
     assert {r["status"] for r in done["runs"]} == {"cancelled"}
+
+
+@pytest.mark.timeout(2 * RUN_TIMEOUT)
+@pytest.mark.parametrize("where", ["process pool", "dask"])
+def test_runs_as_tasks_on_a_pool_or_a_dask_cluster(client, workers, settings, where):
+    if where == "dask":
+        distributed = pytest.importorskip("distributed")
+        cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1,
+                                           dashboard_address=None)
+        settings.dask_scheduler = cluster.scheduler_address
+    else:
+        cluster = None
+        settings.run_workers = 2
+    try:
+        sid = submit(client, {**TINY, "reference_seeds": [1, 2], "seeds": [1]})
+        workers.start()
+        done = wait_for(
+            study_getter(client, sid),
+            lambda s: s["status"] in ("succeeded", "failed"),
+            2 * RUN_TIMEOUT - 30,
+            f"the study on the {where} to finish",
+            workers,
+        )
+    finally:
+        if cluster is not None:
+            cluster.close()
+    assert done["status"] == "succeeded", done["error"]
+    assert [r["status"] for r in done["runs"]] == ["succeeded"] * 3
+    assert all(r["wall_time"] > 0 and r["steps"] > 0 for r in done["runs"])
+    assert sorted(p.stem for p in settings.runs_dir(sid).glob("*.h5")) == [
+        "r3.1mm-paper-s1", "ref-s1", "ref-s2"]

@@ -1,0 +1,76 @@
+"""Studies on a Dask cluster (a local one here): the same table as the in-process path, and a
+worker killed with SIGKILL mid-run costs a retry, not the study."""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+
+import pytest
+
+import engine
+from tests.engine.test_uniaxial import COHESIVE, tiny
+
+distributed = pytest.importorskip("distributed")
+
+
+def _spec(**kw):
+    return engine.StudySpec(reference=tiny(pair_law=COHESIVE, **kw), coarse_radii=(3.1e-3,),
+                            rules=(engine.ScalingRule.named("paper"),),
+                            reference_seeds=(1, 2), seeds=(1,))
+
+
+def _table(res):
+    return [{k: v for k, v in r.items() if k not in ("wall_time", "speedup")}
+            for r in res.table]
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None, worker_class=distributed.Nanny
+                                  ) as c, distributed.Client(c) as client:
+        yield c, client
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(600)
+def test_dask_cluster_gives_the_in_process_table(cluster):
+    _, client = cluster
+    spec = _spec()
+    here = engine.run_study(spec)
+    there = engine.run_study(spec, executor=client.get_executor())
+    assert _table(there) == _table(here)
+    def verdicts(r):
+        return [{k: v for k, v in x.items() if k != "speedup"} for x in r.advisor["verdicts"]]
+
+    assert verdicts(there) == verdicts(here)
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(600)
+def test_a_dask_worker_killed_mid_run_costs_a_retry_not_the_study(cluster):
+    _, client = cluster
+    spec = _spec(dt=2e-6)  # long enough (seconds per run) to be killed mid-run
+    seen = []
+    executor = client.get_executor()
+    result = {}
+    t = threading.Thread(target=lambda: result.setdefault(
+        "study", engine.run_study(spec, executor=executor, on_run=lambda k, r: seen.append(k))))
+    t.start()
+    # wait until both workers are busy with a run, then kill one of them
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        busy = [w for w, tasks in client.processing().items() if tasks]
+        if len(busy) == 2:
+            break
+        time.sleep(0.2)
+    assert busy, "no task started"
+    pid = client.run(os.getpid, workers=[busy[0]])[busy[0]]
+    os.kill(pid, signal.SIGKILL)
+    t.join(500)
+    assert not t.is_alive()
+    study = result["study"]
+    assert not study.failed and sorted(seen) == sorted(p.key for p in spec.planned_runs())

@@ -29,7 +29,8 @@ echo "   $(basename "$wheel"): no deprecation warning"
 echo "== engine only: pip install demscale"
 "$PY" -m venv "$work/engine"
 "$work/engine/bin/python" -m pip install --quiet "$wheel"
-"$work/engine/bin/python" - <<'EOF'
+# from outside the checkout, so that `import engine` finds the installed package
+(cd "$work" && "$work/engine/bin/python" - <<'EOF'
 import importlib.util
 import sys
 
@@ -43,6 +44,7 @@ test = engine.UniaxialTest(cell=(0.015, 0.015, 0.015))
 print(f"   engine {engine.__version__} from {engine.__file__}: {test.n_particles} particles "
       f"in the tiny test; installed: numpy, numba only ({sys.version.split()[0]})")
 EOF
+)
 "$work/engine/bin/demscale" --help >/dev/null
 if "$work/engine/bin/demscale" study examples/quick_study.json --out "$work/o" 2>"$work/err"; then
   echo "FAIL: demscale study ran without its extra"; exit 1
@@ -52,13 +54,13 @@ echo "   demscale --help works; demscale study asks for demscale[cli]"
 
 echo "== with the cli extra: pip install \"demscale[cli]\""
 "$work/engine/bin/python" -m pip install --quiet "$wheel[cli]"
-"$work/engine/bin/python" -c "import h5py, matplotlib, rich, engine.snapshots, demscale.cli"
+(cd "$work" && "$work/engine/bin/python" -c "import h5py, matplotlib, rich, engine.snapshots, demscale.cli")
 echo "   rich, h5py, matplotlib import"
 
 if [ "${1:-}" = "--service" ]; then
   echo "== with the service extra: pip install \"demscale[service]\""
   "$work/engine/bin/python" -m pip install --quiet "$wheel[service]"
-  "$work/engine/bin/python" -c "from service.app import create_app; create_app"
+  (cd "$work" && "$work/engine/bin/python" -c "from service.app import create_app; create_app")
   "$work/engine/bin/demscale" serve --help >/dev/null
   echo "   service.app imports; demscale serve --help works"
 fi

@@ -47,8 +47,9 @@ failures are in summary.json) or no reference run finished; 2 the spec is not va
 
 SERVE_HELP = """\
 Start the job service's HTTP API (uvicorn; the same as `python -m service api`). By default
-it also starts one worker process that runs the submitted studies; interactive API
-documentation is at http://HOST:PORT/docs. Settings come from DEMSCALE_* environment
+it also starts one worker process that runs the submitted studies. The studies page (status,
+live progress, verdicts, plots) is at http://HOST:PORT/ and the interactive API
+documentation at http://HOST:PORT/docs. Settings come from DEMSCALE_* environment
 variables (docs/SERVICE.md); the options below set the common ones."""
 
 WORKER_HELP = """\
@@ -272,7 +273,7 @@ def parser() -> argparse.ArgumentParser:
         epilog="examples:\n"
                "  demscale study examples/quick_study.json --out results/quick\n"
                "  demscale study my_study.json --out results/mine --workers 4\n"
-               "  demscale serve --port 8000          then open http://127.0.0.1:8000/docs\n"
+               "  demscale serve --port 8000          then open http://127.0.0.1:8000/\n"
                "run `demscale COMMAND --help` for the options of each command.")
     ap.add_argument("--version", action="version", version=f"demscale {_version()}")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)

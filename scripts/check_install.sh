@@ -60,8 +60,12 @@ echo "   rich, h5py, matplotlib import"
 if [ "${1:-}" = "--service" ]; then
   echo "== with the service extra: pip install \"demscale[service]\""
   "$work/engine/bin/python" -m pip install --quiet "$wheel[service]"
-  (cd "$work" && "$work/engine/bin/python" -c "from service.app import create_app; create_app")
+  (cd "$work" && "$work/engine/bin/python" -c "
+from pathlib import Path
+import service.web
+from service.app import create_app
+assert (Path(service.web.__file__).parent / 'templates' / 'studies.html').is_file()")
   "$work/engine/bin/demscale" serve --help >/dev/null
-  echo "   service.app imports; demscale serve --help works"
+  echo "   service.app imports, the page templates are installed; demscale serve --help works"
 fi
 echo "OK"

@@ -18,6 +18,7 @@ from .embedded import EmbeddedWorker
 from .models import Status, Study
 from .routes import results, studies
 from .settings import Settings, get_settings
+from .web import router as web_router
 
 DESCRIPTION = """Coarse-graining studies for cohesive DEM. Submit a study (a fine reference
 uniaxial test, coarse radii and scaling rules); a worker runs every run; fetch the summary
@@ -49,6 +50,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.worker = None
     app.include_router(studies.router)
     app.include_router(results.router)
+    app.include_router(web_router)  # the studies web page at /
 
     @app.get("/healthz", tags=["health"])
     def healthz(request: Request, session: SessionDep) -> dict:

@@ -1,6 +1,7 @@
 """The ``demscale`` command line (argparse; progress bars with rich).
 
     demscale study SPEC.json --out DIR [--workers N]   run a scaling study here
+    demscale run TEST.json --out DIR                    one uniaxial test, with snapshots
     demscale serve [--host H] [--port P]                the job service's HTTP API
     demscale worker [--once]                            a worker of the job service
 
@@ -44,6 +45,23 @@ examples/quick_study.json is one (four runs, about three minutes on two cores).
 
 Exit status: 0 every run finished; 1 some run failed (what finished is written; the
 failures are in summary.json) or no reference run finished; 2 the spec is not valid."""
+
+RUN_HELP = """\
+Run one uniaxial test (fill, pre-compression, consolidation, unloading, release, unconfined
+compression) with the engine, with a progress bar, and write into DIR:
+
+  result.json           the test's parameters and its scalars (strength, stiffnesses,
+                        porosity, ...) with their units
+  snapshots/            particles.vtkhdf and contacts.vtkhdf with a time step at every stage
+                        end and, with --snapshot-interval, every that many seconds of
+                        simulated time (ParaView 5.12+ plays them as an animation), and a
+                        PNG section per stage
+
+TEST.json holds an engine.UniaxialTest: every field may be given, the others take their
+defaults; {"preset": "quick"} (or "paper") starts from a named test. The snapshots are
+written as they are taken, so a run that fails keeps those before the failure.
+
+Exit status: 0 the test ran; 1 a stage failed (see the message); 2 the test is not valid."""
 
 SERVE_HELP = """\
 Start the job service's HTTP API (uvicorn; the same as `python -m service api`). By default
@@ -230,6 +248,77 @@ def study(args) -> int:
     return 0
 
 
+def run(args) -> int:
+    """``demscale run``: one uniaxial test with streamed snapshots."""
+    missing = _missing(("rich", "h5py", "matplotlib"))
+    if missing:
+        print(f"demscale run needs {', '.join(missing)}: pip install \"demscale[cli]\"",
+              file=sys.stderr)
+        return 2
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
+
+    import engine
+    from engine.snapshots import SnapshotWriter, section_figure
+    from engine.uniaxial import SCALAR_UNITS
+
+    console = Console(stderr=True)
+    path = Path(args.test)
+    try:
+        fields = json.loads(path.read_text())
+        if not isinstance(fields, dict):
+            raise ValueError("the file must hold a JSON object of the test's fields")
+        name = fields.pop("preset", None)
+        base = engine.preset(name).to_dict() if name is not None else {}
+        test = engine.UniaxialTest.from_dict({**base, **fields})
+        if args.snapshot_interval is not None and not args.snapshot_interval > 0:
+            raise ValueError("--snapshot-interval must be a time > 0 s")
+    except (OSError, json.JSONDecodeError) as e:
+        console.print(f"[red]cannot read the test {path}:[/red] {e}")
+        return 2
+    except (engine.ParameterError, TypeError, ValueError) as e:
+        console.print(f"[red]the test {path} is not valid:[/red] {e}")
+        return 2
+    out = Path(args.out)
+    snap_dir = out / "snapshots"
+    console.print(f"{path.name}: {test.n_particles} particles, R = {test.radius * 1e3:g} mm, "
+                  f"cell {' x '.join(f'{c * 1e3:g}' for c in test.cell)} mm; writing to {out}")
+    bars = Progress(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
+                    TextColumn("{task.fields[stage]}"), TimeElapsedColumn(), console=console,
+                    disable=args.quiet)
+    with bars, SnapshotWriter(snap_dir) as writer:
+        task = bars.add_task("[bold]uniaxial test", total=1.0, stage="setup")
+
+        def report(p) -> None:
+            bars.update(task, completed=p.fraction, stage=f"{p.stage} (t = {p.time:.3g} s)")
+
+        try:
+            result = engine.run_uniaxial(test, report, on_snapshot=writer.add,
+                                         snapshot_interval=args.snapshot_interval)
+        except (engine.StageError, engine.InstabilityError, FloatingPointError) as e:
+            console.print(f"[red]the test failed:[/red] {e}; the {len(writer.labels)} "
+                          f"snapshots before it are in {snap_dir}")
+            return 1
+    for st in result.stages.values():
+        section_figure(st.snapshot, path.stem).savefig(snap_dir / f"{st.name}.png",
+                                                      format="png")
+    summary = {"test": test.to_dict(), "scalars": result.scalars,
+               "units": {k: SCALAR_UNITS.get(k, "") for k in result.scalars},
+               "snapshots": {"files": ["snapshots/particles.vtkhdf",
+                                       "snapshots/contacts.vtkhdf",
+                                       *(f"snapshots/{k}.png" for k in result.stages)],
+                             "time_steps": writer.labels}}
+    (out / "result.json").write_text(json.dumps(_strict_json(summary), indent=1,
+                                                allow_nan=False))
+    s = result.scalars
+    strength = s.get("unconfined_strength")
+    console.print(f"done: {s['steps']:.0f} steps in {s['wall_time']:.1f} s; consolidated "
+                  f"porosity {s['consolidated_porosity']:.3f}"
+                  + (f", unconfined strength {strength:.4g} Pa" if strength is not None else "")
+                  + f"; {len(writer.labels)} snapshots in {snap_dir}")
+    return 0
+
+
 def _service_env(args) -> int:
     missing = _missing(("fastapi", "uvicorn", "sqlmodel", "pydantic_settings", "h5py"))
     if missing:
@@ -273,6 +362,8 @@ def parser() -> argparse.ArgumentParser:
         epilog="examples:\n"
                "  demscale study examples/quick_study.json --out results/quick\n"
                "  demscale study my_study.json --out results/mine --workers 4\n"
+               "  demscale run examples/quick_test.json --out results/one "
+               "--snapshot-interval 0.02\n"
                "  demscale serve --port 8000          then open http://127.0.0.1:8000/\n"
                "run `demscale COMMAND --help` for the options of each command.")
     ap.add_argument("--version", action="version", version=f"demscale {_version()}")
@@ -291,6 +382,17 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", "-q", action="store_true",
                    help="no progress bars (the runs' results are still printed)")
     p.set_defaults(func=study)
+
+    p = sub.add_parser("run", help="run one uniaxial test and write its snapshots",
+                       description=RUN_HELP, formatter_class=fmt)
+    p.add_argument("test", metavar="TEST.json", help="the test (an engine.UniaxialTest as JSON)")
+    p.add_argument("--out", "-o", metavar="DIR", required=True,
+                   help="folder for the results (created if missing; files are overwritten)")
+    p.add_argument("--snapshot-interval", type=float, default=None, metavar="SECONDS",
+                   help="also a snapshot every SECONDS of simulated time (default: stage "
+                        "ends only)")
+    p.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
 
     p = sub.add_parser("serve", help="start the job service's HTTP API (and a worker)",
                        description=SERVE_HELP, formatter_class=fmt)

@@ -36,17 +36,18 @@ def _strict(text: str):
     return json.loads(text, parse_constant=refuse)
 
 
-@pytest.mark.parametrize("argv", [[], ["study"], ["serve"], ["worker"]])
+@pytest.mark.parametrize("argv", [[], ["study"], ["run"], ["serve"], ["worker"]])
 def test_help_explains_every_command(argv, capsys):
     with pytest.raises(SystemExit) as e:
         main([*argv, "--help"])
     assert e.value.code == 0
     out = capsys.readouterr().out
     assert out.startswith("usage: demscale")
-    want = {(): ("study", "serve", "worker", "examples"),
+    want = {(): ("study", "run", "serve", "worker", "examples"),
+            ("run",): ("TEST.json", "--snapshot-interval", "ParaView", "Exit status"),
             ("study",): ("SPEC.json", "--out", "--workers", "summary.json", "results.h5",
                          "ParaView", "Exit status"),
-            ("serve",): ("--host", "--port", "--no-worker", "/docs"),
+            ("serve",): ("--host", "--port", "--no-worker", "/docs", "studies page"),
             ("worker",): ("--once", "DEMSCALE_DATA_DIR")}[tuple(argv)]
     for w in want:
         assert w in out, w
@@ -84,6 +85,37 @@ def test_run_bars_follow_each_run():
             task = bars.progress.tasks[bars.runs[p.key]]
             assert task.completed == pytest.approx(run_fraction)
             assert bars.progress.tasks[bars.study].completed == pytest.approx(f)
+
+
+def test_run_streams_interval_snapshots(tmp_path, capsys):
+    h5py = pytest.importorskip("h5py")
+    test = tmp_path / "tiny_test.json"
+    test.write_text(json.dumps(TINY["reference"]))
+    out = tmp_path / "one"
+    assert main(["run", str(test), "--out", str(out), "--snapshot-interval", "0.05"]) == 0
+    assert "done:" in capsys.readouterr().err
+    result = _strict((out / "result.json").read_text())
+    assert result["units"]["unconfined_strength"] == "Pa"
+    assert engine.UniaxialTest.from_dict(result["test"]).to_dict() == result["test"]
+    stages = result["snapshots"]["time_steps"]
+    assert [s for i, s in enumerate(stages) if i == 0 or stages[i - 1] != s] == list(
+        engine.uniaxial.STAGES)  # every stage, in order, with interval steps within
+    assert len(stages) > 12
+    with h5py.File(out / "snapshots" / "particles.vtkhdf", "r") as f:
+        assert int(f["VTKHDF/Steps"].attrs["NSteps"]) == len(stages)
+        assert np.all(np.diff(f["VTKHDF/Steps/Values"][()]) > 0)
+    for p in result["snapshots"]["files"]:
+        assert (out / p).is_file(), p
+    bad = tmp_path / "bad_test.json"
+    bad.write_text(json.dumps({"radius": -1.0}))
+    assert main(["run", str(bad), "--out", str(out)]) == 2
+    assert "radius" in capsys.readouterr().err
+
+
+def test_example_test_is_small():
+    fields = json.loads((ROOT / "examples/quick_test.json").read_text())
+    base = engine.preset(fields.pop("preset")).to_dict()
+    assert engine.UniaxialTest.from_dict({**base, **fields}).n_particles < 400
 
 
 @pytest.mark.slow

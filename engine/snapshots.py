@@ -312,10 +312,21 @@ class SnapshotWriter:
         self.close()
 
 
+def _signed_ticks(bar, norm) -> None:
+    """Ticks on both sides of zero for a colour bar with a two-slope norm (matplotlib's
+    default ticks leave the shorter side bare)."""
+    from matplotlib.colors import TwoSlopeNorm
+
+    if isinstance(norm, TwoSlopeNorm):
+        ticks = np.unique(np.r_[np.linspace(norm.vmin, 0.0, 3), np.linspace(0.0, norm.vmax, 5)])
+        bar.set_ticks(ticks, labels=[f"{t:.2g}" for t in ticks])
+
+
 def section_figure(snap: Snapshot, title: str = ""):
     """A matplotlib Figure (Agg canvas, no pyplot) of a vertical section through the middle
     of the sample: left, the particles cut by the plane (true cross-section circles) coloured
-    by their pressure [kPa]; right, the force chains among the particles the plane cuts
+    by their pressure [kPa] (1st to 99th percentile; red compression, blue tension when both
+    occur); right, the force chains among the particles the plane cuts
     (line width and colour by the normal force [N]). The plane is normal to the shorter
     horizontal side of the cell, so the section shows the wider one."""
     from matplotlib import colormaps
@@ -345,16 +356,20 @@ def section_figure(snap: Snapshot, title: str = ""):
     mm = 1e3
 
     kpa = pressure[cut] * 1e-3
-    p_max = float(np.percentile(kpa, 99)) if kpa.size else 0.0
-    p_norm = Normalize(vmin=min(0.0, float(kpa.min())) if kpa.size else 0.0,
-                       vmax=p_max if p_max > 0 else 1.0)
+    p_lo = float(np.percentile(kpa, 1)) if kpa.size else 0.0
+    p_hi = float(np.percentile(kpa, 99)) if kpa.size else 1.0
+    if p_lo < 0 < p_hi:  # adhesion holds some particles in tension: diverging, as the chains
+        p_cmap, p_norm = "RdBu_r", TwoSlopeNorm(0.0, p_lo, p_hi)
+    else:
+        p_cmap, p_norm = "viridis", Normalize(min(p_lo, 0.0), max(p_hi, 1e-30))
     discs = PatchCollection(
         [Circle((x * mm, z * mm), r * mm) for x, z, r in
          zip(pos[cut, across], pos[cut, 2], section)],
-        cmap="viridis", norm=p_norm, edgecolor="0.25", linewidth=0.3)
+        cmap=p_cmap, norm=p_norm, edgecolor="0.25", linewidth=0.3)
     discs.set_array(kpa)
     ax_p.add_collection(discs)
-    fig.colorbar(discs, ax=ax_p, label="particle pressure (Love-Weber) [kPa]", shrink=0.8)
+    bar = fig.colorbar(discs, ax=ax_p, label="particle pressure (Love-Weber) [kPa]", shrink=0.8)
+    _signed_ticks(bar, p_norm)
     ax_p.set_title(f"section through the middle: {int(cut.sum())} particles", fontsize=9)
 
     # force chains: contacts whose two particles the plane cuts, drawn to the second
@@ -381,8 +396,9 @@ def section_figure(snap: Snapshot, title: str = ""):
             cmap=cmap, norm=norm, linewidths=0.4 + 3.6 * np.abs(fn) / scale)
         chains.set_array(fn)
         ax_f.add_collection(chains)
-        fig.colorbar(chains, ax=ax_f, label="normal contact force [N] (> 0 compressive)",
-                     shrink=0.8)
+        bar = fig.colorbar(chains, ax=ax_f, label="normal contact force [N] (> 0 compressive)",
+                           shrink=0.8)
+        _signed_ticks(bar, norm)
     ax_f.set_title(f"force chains: {int(keep.sum())} contacts in the section", fontsize=9)
     axis_name = "xy"[across]
     for ax in (ax_p, ax_f):

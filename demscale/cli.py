@@ -67,8 +67,13 @@ SERVE_HELP = """\
 Start the job service's HTTP API (uvicorn; the same as `python -m service api`). By default
 it also starts one worker process that runs the submitted studies. The studies page (status,
 live progress, verdicts, plots) is at http://HOST:PORT/ and the interactive API
-documentation at http://HOST:PORT/docs. Settings come from DEMSCALE_* environment
-variables (docs/SERVICE.md); the options below set the common ones."""
+documentation at http://HOST:PORT/docs.
+
+Every request needs an API token: DEMSCALE_API_TOKEN (one token) or DEMSCALE_API_TOKEN_FILE
+(one per line). On 127.0.0.1 without either, the server makes one, keeps it in
+DIR/api-token and prints it, with a link that logs a browser in to the studies page.
+Settings come from DEMSCALE_* environment variables (docs/SERVICE.md); the options below set
+the common ones."""
 
 WORKER_HELP = """\
 Start a worker of the job service (the same as `python -m service.worker`): it claims queued
@@ -339,7 +344,20 @@ def serve(args) -> int:
     if args.no_worker:
         os.environ["DEMSCALE_EMBEDDED_WORKER"] = "false"
     from service.__main__ import main as service_main
+    from service.settings import ConfigError, get_settings, with_local_token
 
+    try:  # the token the server will use: configured, or the local one it keeps
+        _, token = with_local_token(get_settings(), args.host)
+    except ConfigError as e:
+        print(f"demscale serve: {e}", file=sys.stderr)
+        return 2
+    host = "127.0.0.1" if args.host in ("0.0.0.0", "::", "") else args.host
+    url = f"http://{host}:{args.port}/"
+    if token is not None:
+        print(f"demscale serve: the studies page: {url}login?token={token}", file=sys.stderr)
+    else:
+        print(f"demscale serve: the studies page: {url} (log in with your API token)",
+              file=sys.stderr)
     service_main(["api"])
     return 0
 

@@ -245,7 +245,7 @@ def _run_here(planned, todo, weights, outcomes, progress, record) -> None:
 
 
 def _run_on(executor, planned, todo, weights, outcomes, progress, record, threads) -> None:
-    # references first: they are the longest runs and every comparison needs them
+    # in planned order: the references first (the longest runs, needed by every comparison)
     futures = {executor.submit(_execute, planned[i].test, threads): i for i in todo}
     done_weight = float(sum(weights[i] for i, p in enumerate(planned) if p.key in outcomes))
     try:
@@ -256,6 +256,10 @@ def _run_on(executor, planned, todo, weights, outcomes, progress, record, thread
                 outcome = fut.result()
             except cf.CancelledError:
                 continue
+            except cf.BrokenExecutor:
+                # the pool itself died (a worker process killed): an interruption, not a
+                # failure of the run; finished runs were reported, a resume runs the rest
+                raise
             except Exception as e:
                 outcome = f"{type(e).__name__}: {e}"
             record(p, outcome)
@@ -321,6 +325,8 @@ def assemble(spec: StudySpec, planned: list[PlannedRun], outcomes: dict) -> Stud
         g = next(g for g in groups if g["radius"] == v["radius"] and g["rule"] == v["rule"])
         v.update(speedup=g["speedup"], thickness_diameters=g["thickness_diameters"],
                  height_diameters=g["height_diameters"])
+    if spec.reference.unconfined:
+        _note_failure_kinds(refs, runs, verdicts)
     judged = {(v["radius"], v["rule"]) for v in verdicts}
     for variant, keys in keys_of.items():
         lost = {k: failed[k] for k in keys if k in failed}
@@ -339,6 +345,24 @@ def assemble(spec: StudySpec, planned: list[PlannedRun], outcomes: dict) -> Stud
     advisor["noise_floor"] = noise
     advisor["reference"] = _reference_summary(refs, names, ref_values)
     return StudyResult(spec, runs, table, groups, advisor, failed)
+
+
+def _note_failure_kinds(refs: dict, runs: dict[str, RunResult], verdicts: list[dict]) -> None:
+    """Say so in a verdict when the reference fails (peak strength) but the variant hardens
+    (fallback strength), or the other way round: the strengths are then of different kinds."""
+    def fails(results) -> bool:
+        flags = [r.scalars["unconfined_failure"] for r in results]
+        return bool(flags) and sum(flags) >= len(flags) / 2
+
+    ref_fails = fails(refs.values())
+    for v in verdicts:
+        members = [r.result for r in runs.values() if r.rule is not None
+                   and r.rule.name == v["rule"] and r.radius == v["radius"]]
+        if members and fails(members) != ref_fails:
+            kinds = ("fails at a peak", "hardens without failing")
+            v["reason"] += (f"; the reference {kinds[0] if ref_fails else kinds[1]} but this "
+                            f"variant {kinds[1] if ref_fails else kinds[0]}: the strengths "
+                            "compared are of different kinds (peak against fallback)")
 
 
 def _reference_summary(refs: dict, names, ref_values: list[dict]) -> dict:

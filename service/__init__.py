@@ -2,11 +2,13 @@
 HDF5 result store (h5py); plots are drawn with matplotlib's object API (no pyplot).
 
 Modules:
-    settings     configuration from DEMSCALE_* environment variables
+    settings     configuration from DEMSCALE_* environment variables, tokens, fingerprints
+    guard        ASGI middleware: bearer token (401) and body size (413) before any route
     db           SQLite engine (WAL mode) and sessions
     models       SQLModel classes of studies and runs, the status enum
     transitions  every status change, as conditional UPDATEs
-    spec         the study spec as a pydantic model with field limits
+    spec         the study spec: pydantic models derived from the engine's parameter records
+    errors       the error model and the OpenAPI answers of each status
     admission    cross-field checks by the engine, size caps, 422 errors
     h5store      HDF5 result files: atomic write, read back
     plots        PNG rendering from stored results

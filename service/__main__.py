@@ -1,9 +1,12 @@
-"""``python -m service api`` (uvicorn on DEMSCALE_HOST:DEMSCALE_PORT, default 0.0.0.0:8000)
-or ``python -m service worker [--once]`` (the worker process): the container's commands."""
+"""``python -m service api`` (uvicorn on DEMSCALE_HOST:DEMSCALE_PORT, default 127.0.0.1:8000)
+or ``python -m service worker [--once]`` (the worker process): the container's commands.
+
+The API needs a token (DEMSCALE_API_TOKEN or DEMSCALE_API_TOKEN_FILE) to listen on any
+address but the loopback one; on 127.0.0.1 without one it uses (and shows) the token kept in
+``<data dir>/api-token``."""
 
 from __future__ import annotations
 
-import os
 import sys
 
 
@@ -18,13 +21,23 @@ def main(argv: list[str]) -> None:
         return
     import uvicorn
 
-    uvicorn.run(
-        "service.app:create_app",
-        factory=True,
-        host=os.environ.get("DEMSCALE_HOST", "0.0.0.0"),
-        port=int(os.environ.get("DEMSCALE_PORT", "8000")),
-        proxy_headers=True,
-    )
+    from .app import create_app
+    from .settings import ConfigError, get_settings, with_local_token
+
+    settings = get_settings()
+    try:
+        settings, token = with_local_token(settings, settings.host)
+        app = create_app(settings)
+    except ConfigError as e:
+        sys.exit(f"demscale api: {e}")
+    if token is not None:
+        print(
+            f"demscale api: API token {token} (kept in {settings.api_token_file}); send "
+            "'Authorization: Bearer <token>'",
+            file=sys.stderr,
+            flush=True,
+        )
+    uvicorn.run(app, host=settings.host, port=settings.port, proxy_headers=True)
 
 
 if __name__ == "__main__":

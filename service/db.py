@@ -11,7 +11,7 @@ from collections.abc import Iterator
 from functools import lru_cache
 from pathlib import Path
 
-from sqlalchemy import Engine, event
+from sqlalchemy import Engine, event, inspect, text
 from sqlalchemy.engine import make_url
 from sqlalchemy.exc import OperationalError
 from sqlmodel import Session, SQLModel, create_engine
@@ -48,7 +48,21 @@ def get_engine(url: str) -> Engine:
         SQLModel.metadata.create_all(engine)
     except OperationalError:  # another process created the tables at the same moment
         SQLModel.metadata.create_all(engine)
+    _add_owner_column(engine)
     return engine
+
+
+def _add_owner_column(engine: Engine) -> None:
+    """A store made before studies had owners gets the column; its old studies belong to
+    no token (owner ''), so no token can read them through the API."""
+    if "owner" in {c["name"] for c in inspect(engine).get_columns("study")}:
+        return
+    try:
+        with engine.begin() as conn:
+            conn.execute(text("ALTER TABLE study ADD COLUMN owner VARCHAR(16) NOT NULL DEFAULT ''"))
+            conn.execute(text("CREATE INDEX IF NOT EXISTS ix_study_owner ON study (owner)"))
+    except OperationalError:  # another process added it at the same moment
+        pass
 
 
 def engine_for(settings: Settings) -> Engine:

@@ -1,5 +1,6 @@
-"""FastAPI dependencies as ``Annotated`` aliases: settings, session, the study of the path,
-and the results file of a succeeded study."""
+"""FastAPI dependencies as ``Annotated`` aliases: settings, session, the caller's token
+(owner), the study of the path (only the caller's own), and the results file of a succeeded
+study."""
 
 from __future__ import annotations
 
@@ -8,8 +9,10 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated
 
-from fastapi import Depends, HTTPException
-from sqlmodel import Session
+from fastapi import Depends, HTTPException, Request, Security
+from fastapi import Path as PathParam
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+from sqlmodel import Session, select
 
 from .db import session_scope
 from .models import Status, Study
@@ -26,13 +29,36 @@ def get_session(settings: SettingsDep) -> Iterator[Session]:
 SessionDep = Annotated[Session, Depends(get_session)]
 
 
-def get_study(study_id: str, session: SessionDep) -> Study:
-    """The study of the path; 404 when there is none (a malformed id included)."""
-    try:
-        key = uuid.UUID(study_id)
-    except ValueError:
-        key = None
-    study = session.get(Study, key) if key is not None else None
+#: Declares the bearer scheme in the OpenAPI document; :class:`service.guard.Guard` checks it.
+bearer = HTTPBearer(
+    auto_error=False,
+    description="A token of DEMSCALE_API_TOKEN or DEMSCALE_API_TOKEN_FILE.",
+)
+
+
+def get_owner(
+    request: Request,
+    _credentials: Annotated[HTTPAuthorizationCredentials | None, Security(bearer)],
+) -> str:
+    """The fingerprint of the caller's token, as the guard middleware found it."""
+    owner = getattr(request.state, "owner", None)
+    if owner is None:  # a route reached without the guard: refuse rather than serve
+        raise HTTPException(
+            status_code=401,
+            detail="a valid bearer token is required",
+            headers={"WWW-Authenticate": 'Bearer realm="demscale"'},
+        )
+    return owner
+
+
+OwnerDep = Annotated[str, Depends(get_owner)]
+
+StudyId = Annotated[uuid.UUID, PathParam(description="The study's id (a UUID).")]
+
+
+def get_study(study_id: StudyId, session: SessionDep, owner: OwnerDep) -> Study:
+    """The caller's study of the path; 404 when there is none, or it is another token's."""
+    study = session.exec(select(Study).where(Study.id == study_id, Study.owner == owner)).first()
     if study is None:
         raise HTTPException(status_code=404, detail=f"no study {study_id}")
     return study

@@ -17,13 +17,19 @@ from .settings import Settings
 
 log = logging.getLogger("demscale.api")
 
+#: Settings a child process does not inherit.
+_SECRETS = ("api_token", "api_token_file")
+
 
 def settings_env(settings: Settings) -> dict[str, str]:
-    """Environment that gives a child process the same settings (absolute paths)."""
+    """Environment that gives a child process the same settings (absolute paths), without
+    the API tokens: a worker serves no requests and need not know them."""
     env = dict(os.environ)
-    for name, value in settings.model_dump().items():
+    for name, value in settings.model_dump(exclude=set(_SECRETS)).items():
         if value is not None:
             env[f"DEMSCALE_{name.upper()}"] = str(value)
+    for name in _SECRETS:
+        env.pop(f"DEMSCALE_{name.upper()}", None)
     env["DEMSCALE_DATA_DIR"] = str(settings.data_dir.resolve())
     url = settings.sqlalchemy_url
     if url.startswith("sqlite:///") and not url.startswith("sqlite:////"):

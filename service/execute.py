@@ -86,9 +86,18 @@ class StudyExecution:
         if isinstance(outcome, str):
             raise engine.RunFailed(key, outcome)
 
+    def remove_leftovers(self) -> None:
+        """Delete the temporary results files of earlier attempts at this study (a worker
+        killed while writing leaves its ``*.h5.tmp``): the study is this worker's now, and
+        only its owner writes there."""
+        for tmp in self.settings.study_dir(self.study_id).glob("*.h5.tmp"):
+            log.warning("study %s: removing %s of an earlier attempt", self.study_id, tmp.name)
+            tmp.unlink(missing_ok=True)
+
     def run(self) -> Status | None:
         """Run the study to its end; returns the status it reached (None: no longer ours)."""
         log.info("study %s: started", self.study_id)
+        self.remove_leftovers()
         t0 = time.perf_counter()
         beats = threading.Thread(target=self._beat_loop, name="heartbeat", daemon=True)
         beats.start()

@@ -175,9 +175,10 @@ def read_runs(
     out: dict = {}
     units: dict = {}
     with h5py.File(path, "r") as f:
-        keys = list(f["runs"]) if run is None else [run]
+        names = list(f["runs"])  # by name: a key such as ".." or "/" is no path into the file
+        keys = names if run is None else [run]
         for key in keys:
-            if key not in f["runs"]:
+            if key not in names:
                 raise KeyError(f"no run {key!r}; runs: {sorted(f['runs'])}")
             g = f["runs"][key]
             stages = list(g) if stage is None else [stage]

@@ -4,6 +4,10 @@ Starts the API (uvicorn, 127.0.0.1) with its embedded worker, submits the defaul
 (``engine.default_study()``, or the JSON spec in ``--study``), prints its progress until it
 ends, then the URLs of its results and a short summary table. It keeps serving until Ctrl-C
 unless ``--exit`` is given. Data go to ``DEMSCALE_DATA_DIR`` (default ``./var``).
+
+The API needs a bearer token: the configured one (DEMSCALE_API_TOKEN or
+DEMSCALE_API_TOKEN_FILE), else the one kept in ``<data dir>/api-token`` (made on the first
+start), which is printed with the URLs.
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ import uvicorn
 import engine
 
 from .app import create_app
-from .settings import Settings
+from .settings import ConfigError, Settings, with_local_token
 
 _TERMINAL = {"succeeded", "failed", "cancelled"}
 
@@ -102,13 +106,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--study", type=Path, help="JSON study spec (default: engine.default_study)")
     ap.add_argument("--exit", action="store_true", help="exit when the study has ended")
     args = ap.parse_args(argv)
-    settings = Settings(embedded_worker=True)
+    try:
+        settings, token = with_local_token(Settings(embedded_worker=True), args.host)
+    except ConfigError as e:
+        print(f"main job: {e}", file=sys.stderr)
+        return 2
+    token = token or settings.tokens()[0]
     spec = json.loads(args.study.read_text()) if args.study else engine.default_study().to_dict()
     server, thread = _serve(settings, args.host, args.port)
     base = f"http://{args.host}:{args.port}"
     print(f"demscale API at {base} (docs: {base}/docs), data in {settings.data_dir.resolve()}")
+    where = f" (kept in {settings.api_token_file})" if settings.api_token_file else ""
+    print(f"API token{where}: {token}\n  e.g. curl -H 'Authorization: Bearer {token}' "
+          f"{base}/studies")
+    auth = {"Authorization": f"Bearer {token}"}
     try:
-        with httpx.Client(base_url=base, timeout=60.0) as client:
+        with httpx.Client(base_url=base, timeout=60.0, headers=auth) as client:
             r = client.post("/studies", json=spec)
             if r.status_code != 202:
                 print(f"study refused ({r.status_code}): {r.text}", file=sys.stderr)

@@ -42,16 +42,26 @@ def utcnow() -> datetime:
 
 
 # ------------------------------------------------------------------------------------ study
+#: Longest study name [characters].
+NAME_MAX_LENGTH = 100
+
+
 class StudyBase(SQLModel):
     """Fields a client chooses."""
 
-    name: str | None = Field(default=None, max_length=100, description="A label.")
+    name: str | None = Field(default=None, max_length=NAME_MAX_LENGTH, description="A label.")
 
 
 class Study(StudyBase, table=True):
     """A study row: the spec, its status and the worker's bookkeeping."""
 
     id: uuid.UUID = Field(default_factory=uuid.uuid4, primary_key=True)
+    owner: str = Field(
+        default="",
+        index=True,
+        max_length=16,
+        description="Fingerprint of the token that submitted it (service.settings.fingerprint).",
+    )
     spec: dict = Field(sa_column=Column(JSON, nullable=False))
     status: Status = Field(default=Status.queued, index=True)
     progress: float = 0.0

@@ -7,17 +7,38 @@ URL and the data directory; the worker also reads its timings from here.
 
 from __future__ import annotations
 
+import hashlib
+import ipaddress
+import os
+import secrets
 from functools import lru_cache
 from pathlib import Path
 
-from pydantic import Field
+from pydantic import Field, SecretStr
 from pydantic_settings import BaseSettings, SettingsConfigDict
+
+#: Shortest token accepted (characters): a guessable token is no protection.
+MIN_TOKEN_LENGTH = 16
+#: Hex digits of SHA-256 kept as a token's fingerprint on the rows it owns.
+FINGERPRINT_DIGITS = 16
+
+
+class ConfigError(ValueError):
+    """A setting that the service refuses to start with (e.g. no API token)."""
+
+
+def fingerprint(token: str) -> str:
+    """What a study row stores of the token that submitted it: the first 16 hex digits of
+    its SHA-256 (never the token itself)."""
+    return hashlib.sha256(token.encode()).hexdigest()[:FINGERPRINT_DIGITS]
 
 
 class Settings(BaseSettings):
     """Configuration of the API and the worker (environment prefix ``DEMSCALE_``)."""
 
-    model_config = SettingsConfigDict(env_prefix="DEMSCALE_", extra="ignore")
+    model_config = SettingsConfigDict(
+        env_prefix="DEMSCALE_", extra="ignore", validate_assignment=True
+    )
 
     data_dir: Path = Field(Path("var"), description="Result files live under data_dir/studies.")
     database_url: str | None = Field(
@@ -49,6 +70,49 @@ class Settings(BaseSettings):
     embedded_worker: bool = Field(
         True, description="The API starts one worker subprocess (single-machine default)."
     )
+    host: str = Field("127.0.0.1", description="Address `python -m service api` listens on.")
+    port: int = Field(8000, ge=1, le=65535, description="Its port.")
+    api_token: SecretStr | None = Field(
+        None, description="The bearer token clients must send (one token)."
+    )
+    api_token_file: Path | None = Field(
+        None,
+        description="A file of bearer tokens, one per line ('#' comments and blank lines "
+        "ignored); each token sees only the studies it submitted.",
+    )
+    max_active: int = Field(
+        100, ge=1, description="Most queued or running studies in all; more answer 429."
+    )
+    max_active_per_token: int = Field(
+        20, ge=1, description="Most queued or running studies of one token; more answer 429."
+    )
+    retry_after: int = Field(
+        60, ge=1, description="Seconds a client is told to wait after a 429 (Retry-After)."
+    )
+    max_body_bytes: int = Field(
+        64 * 1024, ge=1024, description="Largest request body [bytes]; larger answer 413."
+    )
+
+    def tokens(self) -> tuple[str, ...]:
+        """Every accepted token (``api_token`` and the lines of ``api_token_file``); raises
+        :class:`ConfigError` for an unreadable file or a token shorter than 16 characters."""
+        out = []
+        if self.api_token is not None:
+            out.append(self.api_token.get_secret_value().strip())
+        if self.api_token_file is not None:
+            try:
+                text = self.api_token_file.read_text()
+            except OSError as e:
+                raise ConfigError(f"DEMSCALE_API_TOKEN_FILE: cannot read {e.filename}: "
+                                  f"{e.strerror}") from e
+            lines = (line.strip() for line in text.splitlines())
+            out += [line for line in lines if line and not line.startswith("#")]
+        short = [t for t in out if len(t) < MIN_TOKEN_LENGTH]
+        if short:
+            raise ConfigError(f"{len(short)} API token(s) shorter than {MIN_TOKEN_LENGTH} "
+                              "characters: use e.g. `python -c 'import secrets; "
+                              "print(secrets.token_urlsafe(32))'`")
+        return tuple(dict.fromkeys(out))
 
     @property
     def studies_dir(self) -> Path:
@@ -67,6 +131,45 @@ class Settings(BaseSettings):
     def results_path(self, study_id: object) -> Path:
         """The HDF5 file of one study."""
         return self.study_dir(study_id) / "results.h5"
+
+
+def is_loopback(host: str) -> bool:
+    """Whether ``host`` is reachable from this machine only."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+#: Name of the token file a loopback-only server makes in its data directory.
+LOCAL_TOKEN_FILE = "api-token"
+
+
+def with_local_token(settings: Settings, host: str) -> tuple[Settings, str | None]:
+    """Settings that name a token, for a server on ``host``. Configured tokens are kept
+    (returns ``(settings, None)``). Without any, a loopback-only server uses the token in
+    ``<data_dir>/api-token``, made on first use (mode 0600), and returns it so that it can
+    be shown; any other address raises :class:`ConfigError`."""
+    if settings.tokens():
+        return settings, None
+    if not is_loopback(host):
+        raise ConfigError(
+            f"refusing to listen on {host} without an API token: set DEMSCALE_API_TOKEN or "
+            "DEMSCALE_API_TOKEN_FILE (or listen on 127.0.0.1)"
+        )
+    path = settings.data_dir / LOCAL_TOKEN_FILE
+    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    except FileExistsError:
+        pass
+    else:
+        with os.fdopen(fd, "w") as f:
+            f.write(secrets.token_urlsafe(32) + "\n")
+    local = settings.model_copy(update={"api_token_file": path.resolve()})
+    return local, local.tokens()[0]
 
 
 @lru_cache

@@ -1,156 +1,265 @@
 """The study spec as the API accepts it (``StudyCreate``, the "create" member of the study
-model family), with a range for every field. Fields left out take the engine's defaults (the
-``quick`` preset). What spans fields, and the size caps, are checked in
-:mod:`service.admission`.
+model family), derived from the engine's parameter records.
+
+Every field of :class:`engine.StudySpec`, :class:`engine.UniaxialTest` (the reference),
+:class:`engine.ScalingRule` and the contact-law records is declared once, in the engine,
+with :func:`engine.params.param` (unit, bounds, kind, default, description);
+:func:`record_model` turns each record's :func:`engine.params.describe` into a pydantic
+model, so that a new engine field appears in the API (and its OpenAPI document) without an
+edit here. The engine stays the judge of what spans fields (``k2 >= k1``, a coarse radius
+the cell can hold, ...): :mod:`service.admission` turns its ``ParameterError`` into a 422.
+
+What the API adds to the records: the study's ``name`` (a label), the reference's
+``preset`` (``engine.preset``), rules given by name (``engine.study_spec.NAMED_RULES``), the
+``type`` tag of contact laws, and the constraints in :data:`SERVICE_LIMITS` that the engine
+checks in code but does not declare. Numbers, booleans and strings are strict: ``"1e-3"``
+is not a number.
 """
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+import dataclasses
+import typing
+from types import NoneType, UnionType
+from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, create_model
 
 import engine
+from engine.params import ParamInfo, describe
+from engine.study_spec import NAMED_RULES
+from engine.uniaxial_spec import PRESETS
 
-_forbid = ConfigDict(extra="forbid")
-Stress = Annotated[float, Field(gt=0, le=1e8, description="[Pa]")]
-Fraction = Annotated[float, Field(gt=0, lt=1, description="[-]")]
-Friction = Annotated[float, Field(ge=0, le=10, description="[-]")]
-Restitution = Annotated[float, Field(gt=0, le=1, description="[-]")]
-Radius = Annotated[float, Field(ge=1e-5, le=0.05, description="particle radius [m]")]
-Seed = Annotated[int, Field(ge=0, lt=2**31)]
-Length = Annotated[float, Field(gt=0, le=2.0, description="[m]")]
+from .models import NAME_MAX_LENGTH
 
-
-class BilinearAdhesiveIn(BaseModel):
-    """Bilinear adhesive elasto-plastic pair law (see engine.BilinearAdhesive)."""
-
-    model_config = _forbid
-    type: Literal["BilinearAdhesive"] = "BilinearAdhesive"
-    k1: float = Field(gt=0, le=1e10, description="loading stiffness [N/m]")
-    k2: float = Field(gt=0, le=1e11, description="unloading stiffness [N/m], >= k1")
-    f0: float = Field(0.0, ge=-1e4, le=0, description="pull-off force [N]")
-    kadh: float = Field(0.0, ge=0, le=1e11, description="adhesive branch slope [N/m]")
-    kt_ratio: float = Field(2 / 7, ge=0, le=10, description="Kt / K1 [-]")
-    mu_s: Friction = 0.5
-    mu_r: Friction = 0.001
-    restitution: Restitution = 0.4
+#: What the engine checks in code but does not declare with ``param``, keyed by
+#: (record, field): pydantic ``Field`` constraints the API adds to the derived field.
+SERVICE_LIMITS: dict[tuple[str, str], dict[str, Any]] = {
+    # engine.ScalingRule.__post_init__: 1-40 letters, digits, '_', '-', '.'
+    ("ScalingRule", "name"): {"pattern": r"^[A-Za-z0-9_.\-]{1,40}$"},
+    # engine.StudySpec.__post_init__: the scaling rules act on a BilinearAdhesive law
+    ("UniaxialTest", "pair_law"): {"record": engine.BilinearAdhesive},
+}
+#: Longest list or object the API takes where the engine declares no ``max_items``.
+MAX_ITEMS = 32
+#: Longest key of an object parameter (e.g. a metric name of ``tolerances``).
+MAX_KEY_LENGTH = 64
 
 
-class HertzMindlinIn(BaseModel):
-    """Hertz-Mindlin law (see engine.HertzMindlin)."""
-
-    model_config = _forbid
-    type: Literal["HertzMindlin"] = "HertzMindlin"
-    E: float = Field(gt=0, le=1e13, description="Young's modulus [Pa]")
-    nu: float = Field(0.25, gt=-1, lt=0.5, description="Poisson's ratio [-]")
-    restitution: Restitution = 0.4
-    mu: Friction = 0.3
-    mu_r: Friction = 0.0
+def _is_union(hint: Any) -> bool:
+    return typing.get_origin(hint) in (Union, UnionType)
 
 
-class WallMaterialIn(BaseModel):
-    """Platen material."""
-
-    model_config = _forbid
-    E: float = Field(2e11, gt=0, le=1e13, description="Young's modulus [Pa]")
-    nu: float = Field(0.3, gt=-1, lt=0.5, description="Poisson's ratio [-]")
-
-
-class ReferenceIn(BaseModel):
-    """The fine reference test: a preset and/or fields of engine.UniaxialTest."""
-
-    model_config = _forbid
-    preset: Literal["quick", "paper"] | None = None
-    cell: tuple[Length, Length, Length] | None = Field(None, description="(Lx, Ly, Lz) [m]")
-    radius: Radius | None = None
-    polydispersity: float | None = Field(None, ge=0, lt=0.5)
-    density: float | None = Field(None, ge=100, le=25_000, description="[kg/m^3]")
-    solid_fraction: float | None = Field(None, gt=0, le=0.74)
-    pour_fraction: float | None = Field(None, gt=0, le=0.32)
-    interior_margin: float | None = Field(None, ge=0, le=2.0, description="[m]")
-    pair_law: BilinearAdhesiveIn | None = Field(
-        None, description="the scaling rules act on K1, K2, kadh and f0 of this law"
-    )
-    wall_law: HertzMindlinIn | None = None
-    wall_material: WallMaterialIn | None = None
-    pre_stress: Stress | None = None
-    consolidation_stress: Stress | None = None
-    platen_speed: float | None = Field(None, gt=0, le=1.0, description="[m/s]")
-    unloaded_stress: Fraction | None = None
-    unconfined: bool | None = None
-    failure_drop: Fraction | None = None
-    failure_strain: float | None = Field(None, ge=0, lt=0.5)
-    max_unconfined_strain: float | None = Field(None, gt=0, lt=0.8)
-    settle_ke: float | None = Field(None, gt=0, le=1.0)
-    release_time: float | None = Field(None, gt=0, le=10.0, description="[s]")
-    seed: Seed | None = None
-    output_interval: float | None = Field(None, gt=0, le=1.0, description="[s]")
-    dt: float | None = Field(None, gt=0, le=1e-3, description="[s]; null: automatic")
-    max_stage_time: float | None = Field(None, gt=0, le=60.0, description="[s]")
+def _non_null(hint: Any) -> Any:
+    """``hint`` without ``None`` (``X | None`` -> ``X``)."""
+    if _is_union(hint):
+        args = [a for a in typing.get_args(hint) if a is not NoneType]
+        return args[0] if len(args) == 1 else Union[tuple(args)]  # noqa: UP007
+    return hint
 
 
-class ScalingRuleIn(BaseModel):
-    """A scaling rule: K ~ s^stiffness_exponent, f0 ~ s^adhesion_exponent, s = R / R_ref."""
-
-    model_config = _forbid
-    name: str = Field(pattern=r"^[A-Za-z0-9_.\-]{1,40}$")
-    stiffness_exponent: float = Field(1.0, ge=-1, le=4)
-    adhesion_exponent: float = Field(2.0, ge=-1, le=5)
-    dt: Literal["fixed", "scaled"] = "fixed"
+def _record_classes(hint: Any) -> tuple[type, ...]:
+    hint = _non_null(hint)
+    return typing.get_args(hint) if _is_union(hint) else (hint,)
 
 
-NAMED_RULES = ("paper", "unscaled", "linear_adhesion", "cubic_adhesion")
+def _tagged_records() -> frozenset[type]:
+    """Records that can stand in a union (the contact laws): their JSON form carries a
+    ``type`` tag naming the class (``UniaxialTest.to_dict``)."""
+    out: set[type] = set()
+    for cls in (engine.UniaxialTest, engine.StudySpec):
+        for hint in typing.get_type_hints(cls).values():
+            classes = _record_classes(hint)
+            if len(classes) > 1 and all(dataclasses.is_dataclass(c) for c in classes):
+                out |= set(classes)
+    return frozenset(out)
 
 
-def _named_rule(value: object) -> object:
-    """A rule given by name becomes the engine's named rule."""
+TAGGED = _tagged_records()
+
+
+def jsonable(value: Any) -> Any:
+    """An engine default as JSON shows it (records as objects, tagged where they are)."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        out = {f.name: jsonable(getattr(value, f.name)) for f in dataclasses.fields(value)}
+        return {"type": type(value).__name__, **out} if type(value) in TAGGED else out
+    if isinstance(value, (list, tuple)):
+        return [jsonable(v) for v in value]
+    if isinstance(value, dict):
+        return {k: jsonable(v) for k, v in value.items()}
+    return value
+
+
+def _bounds(info: ParamInfo) -> dict[str, Any]:
+    return {k: getattr(info, k) for k in ("gt", "ge", "lt", "le") if getattr(info, k) is not None}
+
+
+def _scalar(kind: str, info: ParamInfo, extra: dict[str, Any]) -> Any:
+    """The annotated type of a float, int, bool or str value."""
+    if kind == "float":
+        return Annotated[float, Field(strict=True, allow_inf_nan=False, **_bounds(info), **extra)]
+    if kind == "int":
+        return Annotated[int, Field(strict=True, **_bounds(info), **extra)]
+    if kind == "bool":
+        return Annotated[bool, Field(strict=True)]
+    if info.choices is not None:
+        return Literal[tuple(info.choices)]
+    return Annotated[str, Field(strict=True, **extra)]
+
+
+def _item_kind(item_hint: Any) -> str:
+    item_hint = _non_null(item_hint)
+    if dataclasses.is_dataclass(item_hint):
+        return "record"
+    return {float: "float", int: "int", bool: "bool", str: "str"}.get(item_hint, "float")
+
+
+def _named_rule(value: Any) -> Any:
+    """A rule given by name becomes that rule of ``engine.study_spec.NAMED_RULES``."""
     if not isinstance(value, str):
         return value
     if value not in NAMED_RULES:
-        raise ValueError(f"unknown rule {value!r}: give a rule object or one of {NAMED_RULES}")
-    r = engine.ScalingRule.named(value)
-    return {
-        "name": r.name,
-        "stiffness_exponent": r.stiffness_exponent,
-        "adhesion_exponent": r.adhesion_exponent,
-        "dt": r.dt,
-    }
+        names = list(NAMED_RULES)
+        raise ValueError(f"unknown rule {value!r}: give a rule object or one of {names}")
+    return engine.ScalingRule.named(value).to_dict()
 
 
-RuleIn = Annotated[
-    ScalingRuleIn,
-    BeforeValidator(_named_rule),
-    Field(description=f"a rule object, or a name among {NAMED_RULES}"),
-]
+def _named_or_rule() -> Any:
+    rule = record_model(engine.ScalingRule)
+    named = Literal[tuple(NAMED_RULES)]
+    return Annotated[
+        rule,
+        BeforeValidator(_named_rule, json_schema_input_type=Union[named, rule]),  # noqa: UP007
+        Field(description=f"a rule object, or the name of one of {list(NAMED_RULES)}"),
+    ]
 
 
-class StudyCreate(BaseModel):
-    """A scaling study to run (the body of ``POST /studies``)."""
+def _field_type(owner: type, info: ParamInfo, hint: Any) -> Any:
+    """The pydantic type of one declared field of ``owner``."""
+    extra = dict(SERVICE_LIMITS.get((owner.__name__, info.name), {}))
+    narrowed = extra.pop("record", None)
+    if info.kind == "record":
+        classes = (narrowed,) if narrowed else _record_classes(hint)
+        models = [record_model(c) for c in classes]
+        if len(models) == 1:
+            return models[0]
+        return Annotated[Union[tuple(models)], Field(discriminator="type")]  # noqa: UP007
+    if info.kind == "list":
+        args = typing.get_args(_non_null(hint))
+        fixed = len(args) if args and args[-1] is not Ellipsis else None
+        item_hint = args[0] if args else float
+        if owner is engine.StudySpec and info.name == "rules":
+            item: Any = NamedOrRule
+        elif _item_kind(item_hint) == "record":
+            item = record_model(_non_null(item_hint))
+        else:
+            item = _scalar(_item_kind(item_hint), info, extra)
+        longest = fixed or info.max_items or MAX_ITEMS
+        return Annotated[list[item], Field(min_length=fixed or 1, max_length=longest)]
+    if info.kind == "dict":
+        key = Annotated[str, Field(max_length=MAX_KEY_LENGTH)]
+        value = _scalar("float", info, extra)
+        return Annotated[dict[key, value], Field(max_length=info.max_items or MAX_ITEMS)]
+    return _scalar(info.kind, info, extra)
 
-    model_config = ConfigDict(
-        extra="forbid",
-        json_schema_extra={
-            "example": {
-                "name": "quick",
-                "reference": {"preset": "quick", "radius": 2.5e-3},
-                "coarse_radii": [3.75e-3, 5e-3],
-                "rules": ["paper", "unscaled"],
-                "seeds": [1],
-                "reference_seeds": [1, 2],
-                "tolerances": {"density": 0.03, "strength": 0.15},
-            }
-        },
-    )
-    name: str | None = Field(None, max_length=100, description="A label.")
-    reference: ReferenceIn | None = None
-    coarse_radii: list[Radius] | None = Field(None, min_length=1, max_length=8)
-    rules: list[RuleIn] | None = Field(None, min_length=1, max_length=8)
-    seeds: list[Seed] | None = Field(None, min_length=1, max_length=10)
-    reference_seeds: list[Seed] | None = Field(None, min_length=1, max_length=10)
-    tolerances: dict[str, float] | None = Field(None, description="metric -> tolerance [-]")
-    interior_diameters: float | None = Field(None, ge=2, le=10)
+
+def _description(info: ParamInfo) -> str:
+    unit = f" [{info.unit}]" if info.unit else ""
+    if info.kind in ("float", "int", "str", "bool") or _bounds(info):
+        return f"{info.doc}{unit}; allowed: {info.limit_text()}"
+    return f"{info.doc}{unit}"
+
+
+def fields_of(cls: type) -> dict[str, tuple[Any, Any]]:
+    """``create_model`` field definitions of every declared field of the record ``cls``."""
+    hints = typing.get_type_hints(cls)
+    out: dict[str, tuple[Any, Any]] = {}
+    for info in describe(cls):
+        kind = _field_type(cls, info, hints[info.name])
+        if info.nullable:
+            kind = kind | None
+        field_kwargs: dict[str, Any] = {
+            "description": _description(info),
+            "json_schema_extra": {"x-unit": info.unit} if info.unit else None,
+        }
+        if info.required:
+            out[info.name] = (kind, Field(..., **field_kwargs))
+        else:
+            out[info.name] = (kind, Field(jsonable(info.default), **field_kwargs))
+    return out
+
+
+_forbid = ConfigDict(extra="forbid")
+_MODELS: dict[type, type[BaseModel]] = {}
+
+
+def record_model(cls: type) -> type[BaseModel]:
+    """The request model of an engine record: its declared fields, unknown fields refused;
+    contact laws also take their ``type`` tag."""
+    if cls in _MODELS:
+        return _MODELS[cls]
+    fields = fields_of(cls)
+    if cls in TAGGED:
+        name = cls.__name__
+        fields = {"type": (Literal[name], Field(name, description="the record's kind")), **fields}
+    doc = (cls.__doc__ or cls.__name__).strip().split("\n\n")[0]
+    model = create_model(f"{cls.__name__}In", __config__=_forbid, __doc__=doc, **fields)
+    _MODELS[cls] = model
+    return model
+
+
+NamedOrRule = _named_or_rule()
+_reference_fields = fields_of(engine.UniaxialTest)
+ReferenceIn = create_model(
+    "ReferenceIn",
+    __config__=_forbid,
+    __doc__="The fine reference test: a preset and/or fields of engine.UniaxialTest; the "
+    "preset's values (or the record's defaults) fill in what is left out.",
+    preset=(
+        Literal[tuple(PRESETS)] | None,
+        Field(None, description="a named test (engine.preset) whose fields the others override"),
+    ),
+    **{
+        name: (kind, Field(spec.default, description=spec.description,
+                           json_schema_extra=spec.json_schema_extra))
+        for name, (kind, spec) in _reference_fields.items()
+    },
+)
+_study_fields = fields_of(engine.StudySpec)
+_study_fields["reference"] = (
+    ReferenceIn,
+    Field({"preset": "quick"}, description="the fine reference test"),
+)
+
+#: A study that fits the default caps: the quick preset against two coarse radii.
+EXAMPLE = {
+    "name": "quick",
+    "reference": {"preset": "quick", "radius": 2.5e-3},
+    "coarse_radii": [3.75e-3, 5e-3],
+    "rules": ["paper", "unscaled"],
+    "seeds": [1],
+    "reference_seeds": [1, 2],
+    "tolerances": {"density": 0.03, "strength": 0.15},
+}
+
+
+class _StudyBase(BaseModel):
+    model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [EXAMPLE]})
 
     def engine_dict(self) -> dict:
-        """The spec as :meth:`engine.StudySpec.from_dict` takes it (unset fields left out)."""
+        """The spec as :meth:`engine.StudySpec.from_dict` takes it (what the client set;
+        the engine fills in its defaults)."""
         return self.model_dump(exclude_unset=True, exclude={"name"})
+
+
+StudyCreate = create_model(
+    "StudyCreate",
+    __base__=_StudyBase,
+    __doc__="A scaling study to run (the body of ``POST /studies``): engine.StudySpec's "
+    "fields, and a name.",
+    name=(
+        str | None,
+        Field(None, max_length=NAME_MAX_LENGTH, strict=True, description="A label."),
+    ),
+    **_study_fields,
+)

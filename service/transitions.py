@@ -42,6 +42,14 @@ class IllegalTransition(ValueError):
     """A status change that no study (or run) may make, e.g. succeeded -> running."""
 
 
+class QueueFull(RuntimeError):
+    """A submission beyond the bound on queued or running studies (in all, or of its token)."""
+
+    def __init__(self, active: int, limit: int, whose: str):
+        self.active, self.limit, self.whose = active, limit, whose
+        super().__init__(f"{active} studies {whose} are queued or running; the limit is {limit}")
+
+
 def _check(src: Status, dst: Status, allowed: frozenset = ALLOWED, what: str = "study") -> None:
     if (src, dst) not in allowed:
         raise IllegalTransition(f"a {what} cannot go from {src.value} to {dst.value}")
@@ -69,11 +77,29 @@ def move(session: Session, study_id: uuid.UUID, src: Status, dst: Status, *where
 
 
 # ---------------------------------------------------------------------------------- API side
-def submit(session: Session, study: Study, runs: list[Run]) -> Study:
-    """Insert a new queued study and its queued runs."""
+def submit(
+    session: Session, study: Study, runs: list[Run], max_active: int, max_active_per_owner: int
+) -> Study:
+    """Insert a new queued study and its queued runs, unless that makes more than
+    ``max_active`` queued or running studies in all, or ``max_active_per_owner`` of the
+    study's owner (:class:`QueueFull`, nothing stored). The count is taken after the insert,
+    in its transaction: SQLite lets one writer in at a time, so two submissions cannot both
+    slip under the bound."""
     study.status = Q
     session.add(study)
-    session.flush()  # the study row first: the runs refer to it
+    session.flush()  # the study row first: the runs refer to it (and the write lock is ours)
+    active = select(func.count()).select_from(Study).where(Study.status.in_((Q, R)))
+    for count, limit, whose in (
+        (session.execute(active).scalar_one(), max_active, "in all"),
+        (
+            session.execute(active.where(Study.owner == study.owner)).scalar_one(),
+            max_active_per_owner,
+            "of this token",
+        ),
+    ):
+        if count > limit:
+            session.rollback()
+            raise QueueFull(count - 1, limit, whose)
     for run in runs:
         run.study_id, run.status = study.id, Q
     session.add_all(runs)

@@ -1,12 +1,13 @@
 """The studies web page: server-rendered HTML (Jinja2 templates in service/templates), with a
 little JavaScript that polls the JSON API for live progress. No build step.
 
-    /                          the studies, newest first: status and a live progress bar
+    /                          the caller's studies, newest first: status and live progress
     /studies/{id}/page         one study: progress, verdicts, the summary table, the plots
                                and links to the HDF5 file and the JSON endpoints
+    /login, /logout            the API token kept in a cookie (service.weblogin)
 
-The pages read the same database and result files as the API; they are left out of the
-OpenAPI description (they are for people, not clients).
+The pages read the same database and result files as the API and, like it, show a token only
+its own studies; they are left out of the OpenAPI description (they are for people).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from sqlmodel import select
 from engine.plots import KINDS
 
 from . import h5store
-from .deps import SessionDep, SettingsDep, StudyDep
+from .deps import OwnerDep, SessionDep, SettingsDep, StudyDep
 from .models import TERMINAL, Run, Status, Study
 from .routes.studies import public
 
@@ -59,9 +60,11 @@ def cell(value, scale: float | None, fmt: str) -> str:
 
 
 @router.get("/", response_class=HTMLResponse)
-def studies_page(request: Request, session: SessionDep) -> HTMLResponse:
-    """The studies, newest first (the latest 200)."""
-    rows = session.exec(select(Study).order_by(Study.created_at.desc()).limit(200)).all()
+def studies_page(request: Request, session: SessionDep, owner: OwnerDep) -> HTMLResponse:
+    """The caller's studies, newest first (the latest 200)."""
+    rows = session.exec(
+        select(Study).where(Study.owner == owner).order_by(Study.created_at.desc()).limit(200)
+    ).all()
     return templates.TemplateResponse(
         request, "studies.html", {"studies": [public(s) for s in rows], "terminal": TERMINAL}
     )
@@ -104,3 +107,4 @@ def study_page(
             "fmt": cell,
         },
     )
+

@@ -2,14 +2,29 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter, HTTPException, Query, Response
+from enum import Enum
+from typing import Annotated
+
+from fastapi import APIRouter, HTTPException, Path, Query, Response
 from fastapi.responses import FileResponse
+
+from engine.uniaxial import STAGES
 
 from .. import h5store
 from ..deps import ResultsDep, StudyDep
+from ..errors import answers
 from ..plots import KINDS, plot_png
 
-router = APIRouter(prefix="/studies/{study_id}", tags=["results"])
+router = APIRouter(
+    prefix="/studies/{study_id}", tags=["results"], responses=answers(401, 404, 409)
+)
+
+#: The plots the API draws (engine.plots.KINDS).
+PlotKind = Enum("PlotKind", {k: k for k in KINDS}, type=str)
+#: A stage of the uniaxial test (engine.uniaxial.STAGES), or every stage.
+StageKind = Enum("StageKind", {s: s for s in (*STAGES, "all")}, type=str)
+#: Longest run key accepted [characters].
+RUN_KEY_MAX_LENGTH = 100
 
 
 @router.get("/summary")
@@ -23,12 +38,21 @@ def summary(study: StudyDep, results: ResultsDep) -> dict:
 def curves(
     study: StudyDep,
     results: ResultsDep,
-    run: str | None = Query(None, description="Run key; all runs when left out."),
-    kind: str = Query("all", description="A stage name, or 'all'."),
+    run: Annotated[
+        str | None,
+        Query(
+            max_length=RUN_KEY_MAX_LENGTH,
+            pattern=r"^[A-Za-z0-9_.\-]+$",
+            description="Run key (e.g. ref-s1); all runs when left out.",
+        ),
+    ] = None,
+    kind: Annotated[StageKind, Query(description="A stage name, or 'all'.")] = StageKind.all,
 ) -> dict:
-    """Curves of a run (or every run), of one stage or all: lists of numbers with units."""
+    """Curves of a run (or every run), of one stage or all: lists of numbers with units.
+    404 for a run or stage the study does not have."""
+    stage = None if kind is StageKind.all else kind.value
     try:
-        data = h5store.read_runs(results, run, None if kind == "all" else kind, with_units=True)
+        data = h5store.read_runs(results, run, stage, with_units=True)
     except KeyError as e:
         raise HTTPException(status_code=404, detail=e.args[0]) from e
     for entry in data["runs"].values():
@@ -39,17 +63,32 @@ def curves(
 
 
 @router.get(
-    "/plots/{kind}.png", response_class=Response, responses={200: {"content": {"image/png": {}}}}
+    "/plots/{kind}.png",
+    response_class=Response,
+    responses={200: {"content": {"image/png": {"schema": {"type": "string", "format": "binary"}}}}},
 )
-def plot(kind: str, study: StudyDep, results: ResultsDep) -> Response:
+def plot(
+    kind: Annotated[PlotKind, Path(description="Which plot.")],
+    study: StudyDep,
+    results: ResultsDep,
+) -> Response:
     """A PNG plot: stress_strain, stress_porosity, coordination, unconfined or
-    error_vs_runtime; 404 for any other kind."""
-    if kind not in KINDS:
-        raise HTTPException(status_code=404, detail=f"no plot {kind!r}; plots: {list(KINDS)}")
-    return Response(plot_png(results, kind), media_type="image/png")
+    error_vs_runtime."""
+    return Response(plot_png(results, kind.value), media_type="image/png")
 
 
-@router.get("/results.h5", response_class=FileResponse)
+@router.get(
+    "/results.h5",
+    response_class=FileResponse,
+    responses={
+        200: {
+            "content": {
+                "application/x-hdf5": {"schema": {"type": "string", "format": "binary"}}
+            },
+            "description": "The HDF5 file.",
+        }
+    },
+)
 def results_file(study: StudyDep, results: ResultsDep) -> FileResponse:
     """The study's HDF5 file (layout in docs/SERVICE.md)."""
     return FileResponse(

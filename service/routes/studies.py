@@ -3,19 +3,26 @@
 from __future__ import annotations
 
 import shutil
+from typing import Annotated
 
-from fastapi import APIRouter, HTTPException, Response
+from fastapi import APIRouter, HTTPException, Query, Response
 from fastapi.exceptions import RequestValidationError
 from sqlmodel import func, select
 
 from .. import transitions
 from ..admission import SpecRejected, admit
-from ..deps import SessionDep, SettingsDep, StudyDep
+from ..deps import OwnerDep, SessionDep, SettingsDep, StudyDep
+from ..errors import answers
 from ..models import Run, RunPublic, StudiesPublic, Study, StudyDetail, StudyPublic, StudySubmitted
 from ..plots import KINDS
 from ..spec import StudyCreate
 
-router = APIRouter(prefix="/studies", tags=["studies"])
+router = APIRouter(prefix="/studies", tags=["studies"], responses=answers(401))
+
+#: Largest offset of a listing (SQLite integers stop at 2^63; no store holds 2^31 studies).
+MAX_OFFSET = 2**31 - 1
+#: Largest page of a listing.
+MAX_LIMIT = 1000
 
 
 def links(study_id: object) -> dict[str, str]:
@@ -37,17 +44,32 @@ def public(study: Study) -> StudyPublic:
     return StudyPublic.model_validate(study, update={"links": links(study.id)})
 
 
-@router.post("", status_code=202, response_model=StudySubmitted)
+@router.post(
+    "",
+    status_code=202,
+    response_model=StudySubmitted,
+    responses={
+        202: {"headers": {"Location": {"schema": {"type": "string"}, "required": True,
+                                       "description": "URL of the new study."}}},
+        **answers(400, 413, 429),
+    },
+)
 def submit_study(
-    body: StudyCreate, session: SessionDep, settings: SettingsDep, response: Response
+    body: StudyCreate,
+    session: SessionDep,
+    settings: SettingsDep,
+    owner: OwnerDep,
+    response: Response,
 ) -> StudySubmitted:
-    """Queue a study. 422 with field-level errors when the spec is invalid or too large."""
+    """Queue a study. 422 with field-level errors when the spec is invalid or too large;
+    429 (with Retry-After) when too many studies are queued or running."""
     try:
         spec = admit(body, settings)
     except SpecRejected as e:
         raise RequestValidationError(e.errors) from e
     planned = spec.planned_runs()
     study = Study(
+        owner=owner,
         name=body.name,
         spec=spec.to_dict(),
         n_runs=len(planned),
@@ -66,23 +88,41 @@ def submit_study(
         )
         for i, p in enumerate(planned)
     ]
-    study = transitions.submit(session, study, runs)
+    try:
+        study = transitions.submit(
+            session, study, runs, settings.max_active, settings.max_active_per_token
+        )
+    except transitions.QueueFull as e:
+        raise HTTPException(
+            status_code=429,
+            detail=f"{e}: try again later",
+            headers={"Retry-After": str(settings.retry_after)},
+        ) from e
     response.headers["Location"] = f"/studies/{study.id}"
     return StudySubmitted(id=study.id, status=study.status, links=links(study.id))
 
 
 @router.get("", response_model=StudiesPublic)
-def list_studies(session: SessionDep, offset: int = 0, limit: int = 100) -> StudiesPublic:
-    """Studies, newest first, with status and progress."""
-    limit = max(1, min(limit, 1000))
-    count = session.exec(select(func.count()).select_from(Study)).one()
+def list_studies(
+    session: SessionDep,
+    owner: OwnerDep,
+    offset: Annotated[int, Query(ge=0, le=MAX_OFFSET, description="Studies to skip.")] = 0,
+    limit: Annotated[int, Query(ge=1, le=MAX_LIMIT, description="Most studies returned.")] = 100,
+) -> StudiesPublic:
+    """This token's studies, newest first, with status and progress; ``count`` is their
+    total."""
+    count = session.exec(select(func.count()).select_from(Study).where(Study.owner == owner)).one()
     rows = session.exec(
-        select(Study).order_by(Study.created_at.desc()).offset(max(0, offset)).limit(limit)
+        select(Study)
+        .where(Study.owner == owner)
+        .order_by(Study.created_at.desc())
+        .offset(offset)
+        .limit(limit)
     ).all()
     return StudiesPublic(data=[public(s) for s in rows], count=count)
 
 
-@router.get("/{study_id}", response_model=StudyDetail)
+@router.get("/{study_id}", response_model=StudyDetail, responses=answers(404))
 def read_study(study: StudyDep, session: SessionDep) -> StudyDetail:
     """Status, progress (fraction, current run and stage), error, timings and runs."""
     runs = session.exec(select(Run).where(Run.study_id == study.id).order_by(Run.position)).all()
@@ -92,7 +132,9 @@ def read_study(study: StudyDep, session: SessionDep) -> StudyDetail:
     )
 
 
-@router.post("/{study_id}/cancel", status_code=202, response_model=StudyPublic)
+@router.post(
+    "/{study_id}/cancel", status_code=202, response_model=StudyPublic, responses=answers(404, 409)
+)
 def cancel_study(study: StudyDep, session: SessionDep) -> StudyPublic:
     """Cancel a queued study now, or ask the worker of a running one to stop (cooperative:
     the status becomes ``cancelled`` once the worker has stopped). 409 when finished."""
@@ -104,7 +146,9 @@ def cancel_study(study: StudyDep, session: SessionDep) -> StudyPublic:
     return public(study)
 
 
-@router.delete("/{study_id}", status_code=204)
+@router.delete(
+    "/{study_id}", status_code=204, response_class=Response, responses=answers(404, 409)
+)
 def delete_study(study: StudyDep, session: SessionDep, settings: SettingsDep) -> Response:
     """Remove a finished study and its files; 409 while it is queued or running."""
     if not transitions.remove(session, study.id):

@@ -24,6 +24,10 @@ from service.settings import Settings
 
 REPO = Path(__file__).resolve().parents[2]
 
+#: The bearer token of the test settings, and the header that sends it.
+TOKEN = "test-token-0123456789abcdef"
+AUTH = {"Authorization": f"Bearer {TOKEN}"}
+
 #: About 30 particles, a reference and one coarse run with all stages: seconds per study.
 TINY = {
     "name": "tiny",
@@ -63,13 +67,14 @@ def settings(tmp_path: Path) -> Settings:
         max_attempts=3,
         max_particles_per_run=5000,
         max_particle_steps=2e9,
+        api_token=TOKEN,
     )
 
 
 @pytest.fixture
 def client(settings: Settings) -> Iterator[TestClient]:
-    """A TestClient on an app bound to the per-test settings."""
-    with TestClient(create_app(settings)) as c:
+    """A TestClient on an app bound to the per-test settings, sending the test token."""
+    with TestClient(create_app(settings), headers=AUTH) as c:
         yield c
 
 

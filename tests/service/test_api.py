@@ -33,7 +33,7 @@ BAD = [
     ("negative radius", ("reference", "radius"), -1e-3, ["reference", "radius"], "greater"),
     ("huge radius", ("reference", "radius"), 0.5, ["reference", "radius"], "less"),
     ("no coarse radii", ("coarse_radii",), [], ["coarse_radii"], "at least 1"),
-    ("coarse radius too big", ("coarse_radii",), [1.0], ["coarse_radii", 0], "less"),
+    ("coarse radius too big", ("coarse_radii",), [1.0], ["coarse_radii", 0], "4 reference radii"),
     ("coarse radius = reference", ("coarse_radii",), [2.5e-3], ["coarse_radii", 0], "different"),
     ("cell too small for coarse", ("coarse_radii",), [9e-3], ["coarse_radii", 0], "cell"),
     (
@@ -54,7 +54,17 @@ BAD = [
         ["reference", "consolidation_stress"],
         "pre_stress",
     ),
-    ("platen too fast", ("reference", "platen_speed"), 50.0, ["reference", "platen_speed"], "less"),
+    ("platen backwards", ("reference", "platen_speed"), -1, ["reference", "platen_speed"], "great"),
+    ("string number", ("reference", "density"), "2000", ["reference", "density"], "number"),
+    ("null reference", ("reference",), None, ["reference"], "valid dictionary"),
+    ("long rule name", ("rules",), [{"name": "r" * 41}], ["rules", 0, "name"], "pattern"),
+    (
+        "unknown metric",
+        ("tolerances",),
+        {"colour": 0.1},
+        ["tolerances"],
+        "metric",
+    ),
     ("k2 below k1", ("reference", "pair_law", "k2"), 1e3, ["reference", "pair_law", "k2"], "k1"),
     (
         "positive adhesion",
@@ -63,7 +73,7 @@ BAD = [
         ["reference", "pair_law", "f0"],
         "less",
     ),
-    ("negative seed", ("seeds",), [-1], ["seeds", 0], "greater"),
+    ("negative seed", ("seeds",), [-1], ["seeds"], "[0, 2^31)"),
     ("too many seeds", ("seeds",), list(range(11)), ["seeds"], "at most 10"),
     ("duplicate seeds", ("seeds",), [1, 1], ["seeds"], "distinct"),
     ("zero tolerance", ("tolerances",), {"density": 0}, ["tolerances", "density"], "(0, 1]"),
@@ -160,7 +170,7 @@ def test_submit_list_read_and_unknown_ids(client):
         "adhesion_exponent": 2.0,
         "dt": "fixed",
     }
-    for bad in (str(uuid.uuid4()), "not-a-uuid"):
+    for bad, status in ((str(uuid.uuid4()), 404), ("not-a-uuid", 422)):
         for method, url in (
             ("get", ""),
             ("get", "/summary"),
@@ -171,7 +181,7 @@ def test_submit_list_read_and_unknown_ids(client):
             ("delete", ""),
         ):
             r = client.request(method.upper(), f"/studies/{bad}{url}")
-            assert r.status_code == 404, (method, url, r.text)
+            assert r.status_code == status, (method, url, r.text)
 
 
 @pytest.mark.timeout(60)

@@ -8,7 +8,7 @@ from concurrent.futures import ThreadPoolExecutor
 import httpx
 import pytest
 
-from .conftest import TINIEST, wait_for
+from .conftest import AUTH, TINIEST, wait_for
 
 N = 20
 
@@ -16,7 +16,7 @@ N = 20
 @pytest.mark.timeout(300)
 def test_twenty_concurrent_submissions_all_run_once(live_server, workers):
     def post(i: int) -> httpx.Response:
-        with httpx.Client(base_url=live_server, timeout=60) as c:
+        with httpx.Client(base_url=live_server, timeout=60, headers=AUTH) as c:
             return c.post("/studies", json={**TINIEST, "name": f"study-{i}"})
 
     with ThreadPoolExecutor(N) as pool:
@@ -26,7 +26,7 @@ def test_twenty_concurrent_submissions_all_run_once(live_server, workers):
     assert len(ids) == N
     workers.start()
     workers.start()
-    with httpx.Client(base_url=live_server, timeout=60) as c:
+    with httpx.Client(base_url=live_server, timeout=60, headers=AUTH) as c:
 
         def listing() -> dict:
             return c.get("/studies", params={"limit": 100}).json()

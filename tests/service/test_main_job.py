@@ -32,7 +32,7 @@ def test_main_job_runs_a_study_with_the_embedded_worker(settings, tmp_path):
             str(spec),
         ],
         cwd=REPO,
-        env=worker_env(settings),
+        env=worker_env(settings),  # no token configured: the main job makes one
         capture_output=True,
         text=True,
         timeout=280,
@@ -40,6 +40,8 @@ def test_main_job_runs_a_study_with_the_embedded_worker(settings, tmp_path):
     out = proc.stdout
     assert proc.returncode == 0, out + proc.stderr
     assert "submitted study" in out and "succeeded" in out and "%]" in out
+    token = (settings.data_dir / "api-token").read_text().strip()
+    assert f"api-token): {token}" in out and f"Authorization: Bearer {token}" in out
     base = f"http://127.0.0.1:{port}/studies/"
     for name in (
         "summary",

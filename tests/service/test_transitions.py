@@ -24,7 +24,7 @@ def new_study(session: Session, n_runs: int = 2) -> Study:
         Run(study_id=None, key=f"run{i}", position=i, radius=1e-3, rule="r", seed=1, particles=10)
         for i in range(n_runs)
     ]
-    return transitions.submit(session, Study(spec={}, n_runs=n_runs), runs)
+    return transitions.submit(session, Study(spec={}, n_runs=n_runs), runs, 1000, 1000)
 
 
 def status(session: Session, study: Study) -> Status:

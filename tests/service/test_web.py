@@ -1,6 +1,7 @@
 """The studies web page: the HTML of the list and of a study (queued, finished), every link
-on a finished study's page answers, and headless Chromium (Debian's ``chromium``) renders
-both pages without a console message. Set DEMSCALE_SCREENSHOTS=DIR to keep the screenshots.
+on a finished study's page answers, logging in with the API token (a cookie that only reads),
+and headless Chromium (Debian's ``chromium``) renders both pages without a console message.
+Set DEMSCALE_SCREENSHOTS=DIR to keep the screenshots.
 """
 
 from __future__ import annotations
@@ -14,8 +15,11 @@ from pathlib import Path
 
 import httpx
 import pytest
+from fastapi.testclient import TestClient
 
-from .conftest import SLOW, TINIEST, study_getter, wait_for
+from service.app import create_app
+
+from .conftest import AUTH, SLOW, TINIEST, TOKEN, study_getter, wait_for
 
 RUN_TIMEOUT = 240
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -44,7 +48,7 @@ def test_queued_study_page_and_unknown_ids(client):
     assert f'fetch("/studies/{sid}"' in html  # live progress
     listing = client.get("/").text
     assert f"/studies/{sid}/page" in listing and "status-queued" in listing
-    assert client.get("/studies/not-a-uuid/page").status_code == 404
+    assert client.get("/studies/not-a-uuid/page").status_code == 422  # as the API answers
     assert client.get(f"/studies/{uuid.uuid4()}/page").status_code == 404
     assert "/" not in client.get("/openapi.json").json()["paths"]  # pages are not API
 
@@ -69,6 +73,37 @@ def test_finished_study_page_links_all_answer(client, workers):
     assert "tiniest" in listing and "status-succeeded" in listing
 
 
+def test_login_keeps_the_token_in_a_cookie_that_only_reads(client, settings):
+    sid = submit(client, SLOW)  # with the header
+    with TestClient(create_app(settings), follow_redirects=False) as browser:
+        r = browser.get("/")
+        assert r.status_code == 303 and r.headers["location"] == "/login?next=%2F"
+        form = browser.get("/login?next=/studies/x/page")
+        assert form.status_code == 200 and 'name="token"' in form.text
+        assert 'value="/studies/x/page"' in form.text
+        r = browser.post("/login", data={"token": TOKEN, "next": f"/studies/{sid}/page"})
+        assert r.status_code == 303 and r.headers["location"] == f"/studies/{sid}/page"
+        cookie = r.headers["set-cookie"]
+        assert "HttpOnly" in cookie and "SameSite=Strict" in cookie
+        assert browser.get(f"/studies/{sid}/page").status_code == 200
+        assert f"/studies/{sid}/page" in browser.get("/").text
+        assert browser.get(f"/studies/{sid}").json()["status"] == "queued"  # JS polling
+        # the cookie never changes anything: no submit, cancel or delete without the header
+        assert browser.post("/studies", json=SLOW).status_code == 401
+        assert browser.post(f"/studies/{sid}/cancel").status_code == 401
+        assert browser.delete(f"/studies/{sid}").status_code == 401
+        # an open redirect is refused
+        r = browser.get(f"/login?token={TOKEN}&next=//evil.example/")
+        assert r.headers["location"] == "/"
+        r = browser.get("/logout")
+        assert r.status_code == 303 and "Max-Age=0" in r.headers["set-cookie"]
+        browser.cookies.clear()
+        browser.get("/login?token=not-the-token-0123456789")  # a wrong one
+        r = browser.get("/")
+        assert r.status_code == 303 and "failed=1" in r.headers["location"]
+        assert browser.get("/studies").status_code == 401  # the API stays JSON
+
+
 def chromium() -> str | None:
     return shutil.which("chromium") or shutil.which("chromium-browser")
 
@@ -90,7 +125,7 @@ def screenshot(url: str, path: Path, width: int = 1400, height: int = 1000) -> l
 def test_pages_in_headless_chromium(live_server, workers, tmp_path):
     from matplotlib.image import imread
 
-    with httpx.Client(base_url=live_server, timeout=30) as c:
+    with httpx.Client(base_url=live_server, timeout=30, headers=AUTH) as c:
         done = submit(c, TINIEST)
         workers.start()
         finished(c, done, workers)
@@ -98,8 +133,10 @@ def test_pages_in_headless_chromium(live_server, workers, tmp_path):
         wait_for(study_getter(c, running),
                  lambda s: s["status"] == "running" and s["progress"] > 0.05,
                  RUN_TIMEOUT, "the second study to run", workers)
-        shots = {"studies": (f"{live_server}/", 1400, 700),
-                 "study": (f"{live_server}/studies/{done}/page", 1400, 2600)}
+        # the link a local server prints: it logs the browser in, then shows the page
+        login = f"{live_server}/login?token={TOKEN}&next="
+        shots = {"studies": (f"{login}/", 1400, 700),
+                 "study": (f"{login}/studies/{done}/page", 1400, 2600)}
         for name, (url, w, h) in shots.items():
             path = tmp_path / f"web_{name}.png"
             console = screenshot(url, path, w, h)

@@ -77,14 +77,16 @@ def test_study_runs_end_to_end(client, workers, settings):
     assert max(cons["stress_top"]) >= 20e3 and curves["units"]["stress_top"] == "Pa"
     every = client.get(f"/studies/{sid}/curves").json()["runs"]
     assert set(every) == set(table) and "unconfined" in every["r3.1mm-paper-s1"]["stages"]
-    for params in ({"run": "nope"}, {"kind": "nope"}, {"run": "ref-s1", "kind": "nope"}):
+    for params in ({"run": "nope"}, {"run": ".."}, {"run": "."}):
         assert client.get(f"/studies/{sid}/curves", params=params).status_code == 404
+    for params in ({"kind": "nope"}, {"run": "a/b"}, {"run": "x" * 101}):
+        assert client.get(f"/studies/{sid}/curves", params=params).status_code == 422
 
     for kind in KINDS:
         r = client.get(f"/studies/{sid}/plots/{kind}.png")
         assert r.status_code == 200 and r.headers["content-type"] == "image/png", kind
         assert r.content[:8] == PNG and len(r.content) > 10_000, kind
-    assert client.get(f"/studies/{sid}/plots/histogram.png").status_code == 404
+    assert client.get(f"/studies/{sid}/plots/histogram.png").status_code == 422
 
     r = client.get(f"/studies/{sid}/results.h5")
     assert r.status_code == 200 and r.content[:8] == b"\x89HDF\r\n\x1a\n"

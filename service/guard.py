@@ -1,0 +1,125 @@
+"""What every request passes before it reaches a route: the bearer token and the body size.
+
+:class:`Guard` is a plain ASGI middleware, so that it answers before FastAPI reads a body or
+matches a route: a request without a valid token gets 401 on every path but the public ones
+(``/healthz`` and the API description), whatever its method, path or body; a body larger
+than ``max_body_bytes`` gets 413 whether it announces its length or streams it.
+
+Tokens are compared as SHA-256 digests with :func:`hmac.compare_digest` against every
+configured token (no early exit), so the time taken says nothing about how close a guess
+was. The request's owner (the token's fingerprint, see
+:func:`service.settings.fingerprint`) is left in ``request.state.owner`` for the routes.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import json
+
+from .settings import FINGERPRINT_DIGITS
+
+#: Paths open without a token: the health check, and the API description (it holds the
+#: routes and schemas that are public in the source anyway, and Swagger UI needs it to let a
+#: user enter a token).
+PUBLIC_PATHS = frozenset({"/healthz", "/docs", "/docs/oauth2-redirect", "/openapi.json"})
+
+
+class Tokens:
+    """The accepted tokens, kept as SHA-256 digests."""
+
+    def __init__(self, tokens: tuple[str, ...]):
+        self._digests = tuple(hashlib.sha256(t.encode()).digest() for t in tokens)
+
+    def __len__(self) -> int:
+        return len(self._digests)
+
+    def owner(self, presented: bytes) -> str | None:
+        """The fingerprint of ``presented`` if it is an accepted token, else None."""
+        digest = hashlib.sha256(presented).digest()
+        found = False
+        for d in self._digests:  # every one, no early exit
+            found |= hmac.compare_digest(digest, d)
+        return digest.hex()[:FINGERPRINT_DIGITS] if found else None
+
+
+async def _answer(send, status: int, detail: str, headers: dict[str, str] | None = None) -> None:
+    body = json.dumps({"detail": detail}).encode()
+    raw = [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())]
+    raw += [(k.lower().encode(), v.encode()) for k, v in (headers or {}).items()]
+    await send({"type": "http.response.start", "status": status, "headers": raw})
+    await send({"type": "http.response.body", "body": body})
+
+
+def _bearer(headers: list[tuple[bytes, bytes]]) -> bytes | None:
+    for name, value in headers:
+        if name == b"authorization":
+            scheme, _, token = value.strip().partition(b" ")
+            if scheme.lower() == b"bearer" and token.strip():
+                return token.strip()
+            return None
+    return None
+
+
+class Guard:
+    """ASGI middleware: token check (401 with ``WWW-Authenticate: Bearer``), then body size
+    (413)."""
+
+    def __init__(self, app, tokens: Tokens, max_body_bytes: int):
+        self.app = app
+        self.tokens = tokens
+        self.max_body = max_body_bytes
+
+    async def __call__(self, scope, receive, send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        headers = scope.get("headers", [])
+        if scope["path"] not in PUBLIC_PATHS:
+            presented = _bearer(headers)
+            owner = None if presented is None else self.tokens.owner(presented)
+            if owner is None:
+                challenge = 'Bearer realm="demscale"'
+                if presented is not None:
+                    challenge += ', error="invalid_token"'
+                detail = ("a valid bearer token is required (header 'Authorization: Bearer "
+                          "<token>')")
+                await _answer(send, 401, detail, {"WWW-Authenticate": challenge})
+                return
+            scope.setdefault("state", {})["owner"] = owner
+        for name, value in headers:
+            if name == b"content-length":
+                try:
+                    length = int(value)
+                except ValueError:
+                    await _answer(send, 400, "Content-Length is not an integer")
+                    return
+                if length > self.max_body:
+                    await _answer(send, 413, self._too_large())
+                    return
+        await self._limited(scope, receive, send)
+
+    def _too_large(self) -> str:
+        return f"the request body is larger than {self.max_body} bytes (DEMSCALE_MAX_BODY_BYTES)"
+
+    async def _limited(self, scope, receive, send) -> None:
+        """Run the app, counting a streamed body (no Content-Length) as the app reads it:
+        past the limit the client gets 413, the app a disconnect, and its answer is dropped."""
+        seen, answered = 0, False
+
+        async def counted():
+            nonlocal seen, answered
+            message = await receive()
+            if message["type"] == "http.request" and not answered:
+                seen += len(message.get("body", b""))
+                if seen > self.max_body:
+                    answered = True
+                    await _answer(send, 413, self._too_large())
+                    return {"type": "http.disconnect"}
+            return message
+
+        async def sending(message) -> None:
+            if not answered:
+                await send(message)
+
+        await self.app(scope, counted, sending)

@@ -1,0 +1,151 @@
+"""The API's request schema and the engine's parameter records agree: for every record a
+study reaches (StudySpec, UniaxialTest, ScalingRule, the contact laws, the wall material),
+the OpenAPI document has exactly the record's fields, with their units, bounds, choices,
+defaults, nullability and required-ness as ``engine.params.describe`` declares them; named
+rules are the engine's; the engine's own default study is a valid body."""
+
+from __future__ import annotations
+
+import dataclasses
+import typing
+
+import pytest
+from fastapi.testclient import TestClient
+
+import engine
+from engine.params import describe
+from engine.study_spec import NAMED_RULES
+from service.app import create_app
+from service.spec import SERVICE_LIMITS, TAGGED, StudyCreate, jsonable
+
+#: Fields the API adds to a record's own: the study's label, the reference's preset.
+SERVICE_FIELDS = {"StudySpec": {"name"}, "UniaxialTest": {"preset"}}
+
+
+@pytest.fixture(scope="module")
+def components(tmp_path_factory) -> dict:
+    tmp = tmp_path_factory.mktemp("agreement")
+    from service.settings import Settings
+
+    settings = Settings(data_dir=tmp, api_token="agreement-token-0123456789", embedded_worker=False)
+    with TestClient(create_app(settings)) as c:
+        return c.get("/openapi.json").json()["components"]["schemas"]
+
+
+def component_of(cls: type) -> str:
+    return {"StudySpec": "StudyCreate", "UniaxialTest": "ReferenceIn"}.get(
+        cls.__name__, f"{cls.__name__}In"
+    )
+
+
+def reachable_records() -> list[type]:
+    """Every record class a study's fields lead to."""
+    seen: list[type] = []
+    todo = [engine.StudySpec]
+    while todo:
+        cls = todo.pop()
+        if cls in seen:
+            continue
+        seen.append(cls)
+        for hint in typing.get_type_hints(cls).values():
+            for arg in (hint, *typing.get_args(hint)):
+                for inner in (arg, *typing.get_args(arg)):
+                    if dataclasses.is_dataclass(inner) and inner not in seen:
+                        todo.append(inner)
+    return seen
+
+
+def branch(prop: dict) -> tuple[dict, bool]:
+    """The non-null schema of a property, and whether null is allowed."""
+    options = prop.get("anyOf")
+    if options is None:
+        return prop, False
+    rest = [o for o in options if o.get("type") != "null"]
+    return (rest[0] if len(rest) == 1 else {"anyOf": rest}), len(rest) < len(options)
+
+
+def test_every_record_a_study_reaches_is_in_the_document(components):
+    records = reachable_records()
+    assert {c.__name__ for c in records} >= {
+        "StudySpec",
+        "UniaxialTest",
+        "ScalingRule",
+        "BilinearAdhesive",
+        "HertzMindlin",
+        "WallMaterial",
+    }
+    for cls in records:
+        assert component_of(cls) in components, cls.__name__
+
+
+@pytest.mark.parametrize("cls", reachable_records(), ids=lambda c: c.__name__)
+def test_fields_units_bounds_defaults_agree(components, cls):
+    schema = components[component_of(cls)]
+    props = schema["properties"]
+    params = describe(cls)
+    extra = SERVICE_FIELDS.get(cls.__name__, set()) | ({"type"} if cls in TAGGED else set())
+    assert set(props) == {p.name for p in params} | extra, "field names differ"
+    assert schema.get("additionalProperties") is False
+    required = set(schema.get("required", ()))
+    for p in params:
+        prop = props[p.name]
+        where = f"{cls.__name__}.{p.name}"
+        body, nullable = branch(prop)
+        assert nullable == p.nullable, where
+        assert (p.name in required) == p.required, where
+        if p.unit:
+            assert prop.get("x-unit") == p.unit and f"[{p.unit}]" in prop["description"], where
+        assert p.doc in prop["description"], where
+        if not p.required:
+            if cls is engine.StudySpec and p.name == "reference":
+                # the API shows the preset the engine's default reference is
+                assert prop["default"] == {"preset": "quick"}, where
+                assert p.default == engine.preset("quick"), where
+            else:
+                assert prop.get("default") == jsonable(p.default), where  # null: left out
+        if p.kind in ("float", "int"):
+            expected_type = "number" if p.kind == "float" else "integer"
+            assert body["type"] == expected_type, where
+            for key, bound in (
+                ("exclusiveMinimum", p.gt),
+                ("minimum", p.ge),
+                ("exclusiveMaximum", p.lt),
+                ("maximum", p.le),
+            ):
+                assert body.get(key) == bound, (where, key)
+        elif p.kind == "bool":
+            assert body["type"] == "boolean", where
+        elif p.kind == "str":
+            if p.choices is not None:
+                assert body["enum"] == list(p.choices), where
+            limits = SERVICE_LIMITS.get((cls.__name__, p.name), {})
+            if "pattern" in limits:
+                assert body["pattern"] == limits["pattern"], where
+        elif p.kind == "list":
+            assert body["type"] == "array", where
+            if p.max_items is not None:
+                assert body["maxItems"] == p.max_items, where
+        elif p.kind == "dict":
+            assert body["type"] == "object", where
+
+
+def test_named_rules_are_the_engines(components):
+    items = components["StudyCreate"]["properties"]["rules"]["items"]
+    (names,) = [o for o in items["anyOf"] if "enum" in o]
+    assert names["enum"] == list(NAMED_RULES)
+    for name in NAMED_RULES:
+        body = StudyCreate.model_validate({"rules": [name]})
+        assert body.engine_dict()["rules"] == [engine.ScalingRule.named(name).to_dict()]
+
+
+def test_the_engines_default_study_is_a_valid_body_and_comes_back_unchanged():
+    spec = engine.default_study()
+    body = StudyCreate.model_validate(spec.to_dict())
+    assert engine.StudySpec.from_dict(body.engine_dict()).to_dict() == spec.to_dict()
+    # and what the API documents as defaults is what the engine takes for left-out fields
+    assert engine.StudySpec.from_dict(StudyCreate().engine_dict()) == engine.StudySpec()
+
+
+def test_a_field_the_engine_does_not_declare_is_refused():
+    with pytest.raises(ValueError, match="extra"):
+        StudyCreate.model_validate({"reference": {"fill_fraction": 0.3}})

@@ -11,6 +11,7 @@ Public API (stable names)::
     ScalingRule, StudySpec, run_study               scaling studies, errors and costs
     NAMED_RULES, METRICS, DEFAULT_TOLERANCES        named rules, verdict metrics
     default_study                                   the study of the main job
+    Snapshot, SnapshotWriter                        particles and contacts for ParaView
     ParameterError, StabilityError, InstabilityError
 """
 
@@ -20,6 +21,7 @@ from .materials import BilinearAdhesive, HertzMindlin, WallMaterial
 from .metrics import DEFAULT_TOLERANCES, METRICS
 from .scene import Plane, Scene
 from .simulation import Contacts, Simulation, StabilityWarning
+from .snapshots import Snapshot, SnapshotWriter
 from .stability import TimeStepLimit, critical_time_step
 from .study import (
     NAMED_RULES,
@@ -63,6 +65,8 @@ __all__ = [
     "ScalingRule",
     "Scene",
     "Simulation",
+    "Snapshot",
+    "SnapshotWriter",
     "StabilityError",
     "StabilityWarning",
     "StageError",

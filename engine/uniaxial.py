@@ -20,6 +20,7 @@ import numpy as np
 from .errors import StopRequested
 from .packing import sphere_volume
 from .simulation import Simulation
+from .snapshots import Snapshot, capture
 from .uniaxial_spec import GRAVITY, MIN_THICKNESS_DIAMETERS, PRESETS, UniaxialTest, preset
 
 __all__ = [
@@ -93,18 +94,21 @@ class Progress:
 
 
 ProgressCallback = Callable[[Progress], object]
+SnapshotCallback = Callable[[Snapshot], object]
 
 
 @dataclass
 class StageResult:
-    """Curves of one stage (1-D arrays of equal length, units in :data:`CURVE_UNITS`) and the
-    particle positions [m] and radii [m] at its end."""
+    """Curves of one stage (1-D arrays of equal length, units in :data:`CURVE_UNITS`), the
+    particle positions [m] and radii [m] at its end, and the :class:`engine.snapshots.Snapshot`
+    of its end (particles and contacts; None for a result read back from a curves-only file)."""
 
     name: str
     curves: dict[str, np.ndarray]
     positions: np.ndarray
     radii: np.ndarray
     steps: int
+    snapshot: Snapshot | None = None
 
 
 @dataclass
@@ -118,6 +122,13 @@ class UniaxialResult:
     test: UniaxialTest
     stages: dict[str, StageResult]
     scalars: dict[str, float]
+
+    def save_snapshots(self, directory, label: str = "") -> list:
+        """Write the stage-end snapshots into ``directory`` (ParaView files and a PNG section
+        per stage; see :func:`engine.snapshots.save`); returns the paths."""
+        from .snapshots import save
+
+        return save(self, directory, label)
 
 
 #: Units of the scalars of a :class:`UniaxialResult`.
@@ -183,16 +194,24 @@ class _Recorder:
             if not np.all(np.isfinite(v)):
                 raise FloatingPointError(f"stage {self.stage}: non-finite values in the "
                                          f"{k} curve")
-        return StageResult(self.stage, curves, self.d.sim.positions, self.d.sim.radii,
-                           self.d.sim.steps - self.steps0)
+        snap = capture(self.d.sim, self.stage)
+        if self.d.on_snapshot is not None:
+            self.d.on_snapshot(snap)
+        return StageResult(self.stage, curves, snap.positions, snap.radii,
+                           self.d.sim.steps - self.steps0, snap)
 
 
 class _Driver:
     """Runs the stages on one :class:`Simulation`."""
 
-    def __init__(self, test: UniaxialTest, progress: ProgressCallback | None):
+    def __init__(self, test: UniaxialTest, progress: ProgressCallback | None,
+                 on_snapshot: SnapshotCallback | None = None,
+                 snapshot_interval: float | None = None):
         self.test = test
         self.progress = progress
+        self.on_snapshot = on_snapshot
+        self.snapshot_interval = snapshot_interval
+        self.next_snapshot = snapshot_interval
         self.area = test.cell[0] * test.cell[1]
         self.stages: dict[str, StageResult] = {}
         self.last_fraction = 0.0
@@ -252,6 +271,11 @@ class _Driver:
         row = rec.sample()
         steps = 0
         while not done(row):
+            # the stage goes on (its end makes its own snapshot)
+            if self.next_snapshot is not None and steps and self.sim.time >= self.next_snapshot:
+                self.on_snapshot(capture(self.sim, stage))
+                while self.next_snapshot <= self.sim.time:
+                    self.next_snapshot += self.snapshot_interval
             if steps >= self.max_steps:
                 raise StageError(
                     f"stage {stage} did not {what} within {steps} steps "
@@ -458,8 +482,9 @@ def _secant_slope(strain: np.ndarray, stress: np.ndarray, lo: float, hi: float) 
     return float(np.polyfit(strain[sel], stress[sel], 1)[0])
 
 
-def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None
-                 ) -> UniaxialResult:
+def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *,
+                 on_snapshot: SnapshotCallback | None = None,
+                 snapshot_interval: float | None = None) -> UniaxialResult:
     """Run the uniaxial test: fill, pre-compression, consolidation, unloading and (with
     ``test.unconfined``) release and unconfined compression.
 
@@ -467,10 +492,21 @@ def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None
         test: the parameters.
         progress: called after every curve sample with a :class:`Progress`; returning
             ``False`` stops the run with :class:`engine.StopRequested`.
+        on_snapshot: called with every :class:`engine.snapshots.Snapshot` as it is taken: at
+            each stage's end (also kept in :attr:`StageResult.snapshot`) and, with
+            ``snapshot_interval``, during the stages (not kept: e.g. pass
+            ``engine.snapshots.SnapshotWriter(dir).add`` to write them as they come).
+        snapshot_interval: simulated time between snapshots during the stages [s], at the
+            first curve sample past each multiple (None: stage ends only).
     Raises: :class:`StageError` when a stage misses its criterion within its bound,
         :class:`engine.InstabilityError` when the integration blows up.
     """
-    d = _Driver(test, progress)
+    if snapshot_interval is not None:
+        if on_snapshot is None:
+            raise ValueError("snapshot_interval needs on_snapshot to receive the snapshots")
+        if not (math.isfinite(snapshot_interval) and snapshot_interval > 0):
+            raise ValueError(f"snapshot_interval must be a time > 0 s, not {snapshot_interval}")
+    d = _Driver(test, progress, on_snapshot, snapshot_interval)
     d.fill()
     d.pre_compression()
     d.consolidation()

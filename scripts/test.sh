@@ -4,5 +4,5 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 bash scripts/setup_env.sh
-.venv/bin/ruff check engine service tests benchmarks
+.venv/bin/ruff check engine service tests benchmarks demscale
 exec .venv/bin/python -m pytest -n 2 --timeout 600 "$@"

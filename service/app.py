@@ -26,6 +26,8 @@ from .guard import Guard, Tokens
 from .models import Status, Study
 from .routes import results, studies
 from .settings import ConfigError, Settings, get_settings
+from .web import router as web_router
+from .weblogin import BrowserLogin
 
 DESCRIPTION = """Coarse-graining studies for cohesive DEM. Submit a study (a fine reference
 uniaxial test, coarse radii and scaling rules); a worker runs every run; fetch the summary
@@ -84,8 +86,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.dependency_overrides[get_settings] = lambda: settings
     app.state.worker = None
     app.add_middleware(Guard, tokens=tokens, max_body_bytes=settings.max_body_bytes)
+    app.add_middleware(BrowserLogin)  # outside the guard: the web page's token cookie
     app.include_router(studies.router)
     app.include_router(results.router)
+    app.include_router(web_router)  # the studies web page at /
 
     @app.exception_handler(StarletteHTTPException)
     async def http_error(request: Request, exc: StarletteHTTPException):

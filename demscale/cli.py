@@ -1,0 +1,454 @@
+"""The ``demscale`` command line (argparse; progress bars with rich).
+
+    demscale study SPEC.json --out DIR [--workers N]   run a scaling study here
+    demscale run TEST.json --out DIR                    one uniaxial test, with snapshots
+    demscale serve [--host H] [--port P]                the job service's HTTP API
+    demscale worker [--once]                            a worker of the job service
+
+``demscale --help`` and the commands' own ``--help`` need only the engine; ``study`` needs
+the ``cli`` extra (rich, h5py, matplotlib), ``serve`` and ``worker`` the ``service`` extra.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import json
+import math
+import os
+import sys
+from pathlib import Path
+
+DESCRIPTION = """\
+demscale: coarse-graining studies for cohesive DEM. How large can the particles be, and how
+must the contact parameters scale with their size, before the bulk behaviour changes?
+
+A study runs a fine reference (uniaxial test: fill, consolidation, unloading, unconfined
+compression to failure) and coarser variants under scaling rules, then judges each variant
+against the reference's seed-to-seed noise."""
+
+STUDY_HELP = """\
+Run every run of the study in SPEC.json with the engine, here (no service needed), with a
+progress bar per run and one for the whole study. Writes into DIR:
+
+  summary.json          the table (one row per run), groups, verdicts, failed runs, units
+  results.h5            curves, scalars and particle positions of every run (HDF5; the
+                        layout of the job service's result files, docs/SERVICE.md)
+  plots/*.png           stress-strain, porosity, coordination, unconfined, error vs time
+  snapshots/<run>/      particles.vtkhdf and contacts.vtkhdf (open in ParaView 5.12+; one
+                        time step per stage end) and a PNG section per stage
+
+SPEC.json holds an engine.StudySpec: "reference" (a preset name and overrides, or every
+field of a uniaxial test), "coarse_radii" [m], "rules" (names such as "paper" or objects
+with stiffness_exponent and adhesion_exponent), "seeds", "reference_seeds", "tolerances".
+examples/quick_study.json is one (four runs, about three minutes on two cores).
+
+Exit status: 0 every run finished; 1 some run failed (what finished is written; the
+failures are in summary.json) or no reference run finished; 2 the spec is not valid."""
+
+RUN_HELP = """\
+Run one uniaxial test (fill, pre-compression, consolidation, unloading, release, unconfined
+compression) with the engine, with a progress bar, and write into DIR:
+
+  result.json           the test's parameters and its scalars (strength, stiffnesses,
+                        porosity, ...) with their units
+  snapshots/            particles.vtkhdf and contacts.vtkhdf with a time step at every stage
+                        end and, with --snapshot-interval, every that many seconds of
+                        simulated time (ParaView 5.12+ plays them as an animation), and a
+                        PNG section per stage
+
+TEST.json holds an engine.UniaxialTest: every field may be given, the others take their
+defaults; {"preset": "quick"} (or "paper") starts from a named test. The snapshots are
+written as they are taken, so a run that fails keeps those before the failure.
+
+Exit status: 0 the test ran; 1 a stage failed (see the message); 2 the test is not valid."""
+
+SERVE_HELP = """\
+Start the job service's HTTP API (uvicorn; the same as `python -m service api`). By default
+it also starts one worker process that runs the submitted studies. The studies page (status,
+live progress, verdicts, plots) is at http://HOST:PORT/ and the interactive API
+documentation at http://HOST:PORT/docs.
+
+Every request needs an API token: DEMSCALE_API_TOKEN (one token) or DEMSCALE_API_TOKEN_FILE
+(one per line). On 127.0.0.1 without either, the server makes one, keeps it in
+DIR/api-token and prints it, with a link that logs a browser in to the studies page.
+Settings come from DEMSCALE_* environment variables (docs/SERVICE.md); the options below set
+the common ones."""
+
+WORKER_HELP = """\
+Start a worker of the job service (the same as `python -m service.worker`): it claims queued
+studies from the service's database one at a time and runs them. Use it with
+`demscale serve --no-worker` to run the API and the workers as separate processes; they
+must share DEMSCALE_DATA_DIR (and DEMSCALE_DATABASE_URL, if set)."""
+
+
+def _missing(modules) -> list[str]:
+    return [m for m in modules if importlib.util.find_spec(m) is None]
+
+
+def _strict_json(obj):
+    """``obj`` with NaN and infinities as None and numpy scalars as Python numbers."""
+    if isinstance(obj, dict):
+        return {str(k): _strict_json(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_strict_json(v) for v in obj]
+    if hasattr(obj, "item") and not isinstance(obj, (str, bytes)):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+class StudyBars:
+    """rich progress bars: the whole study, and one per run. ``update`` is the study's
+    progress callback; ``finished`` hears of each run's outcome."""
+
+    def __init__(self, planned, console, enabled: bool = True):
+        from rich.progress import (
+            BarColumn,
+            Progress,
+            TaskProgressColumn,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+
+        from engine.study_spec import estimated_steps
+
+        self.planned = planned
+        self.console = console
+        cost = [estimated_steps(p.test) * p.test.n_particles for p in planned]
+        total = sum(cost)
+        self.weights = [c / total for c in cost]
+        self.bases = [sum(self.weights[:i]) for i in range(len(planned))]
+        self.progress = Progress(
+            TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
+            TextColumn("{task.fields[stage]}"), TimeElapsedColumn(), TimeRemainingColumn(),
+            console=console, disable=not enabled)
+        self.study = self.progress.add_task("[bold]study", total=1.0, stage="")
+        width = max(len(p.key) for p in planned)
+        self.runs = {p.key: self.progress.add_task(
+            f"  {p.key:<{width}} {p.test.n_particles:>6} particles", total=1.0,
+            stage="waiting") for p in planned}
+
+    def __enter__(self) -> StudyBars:
+        self.progress.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.progress.stop()
+
+    def update(self, p) -> None:
+        """The study's progress callback (an :class:`engine.StudyProgress`)."""
+        self.progress.update(self.study, completed=p.fraction,
+                             stage=f"run {p.run_index + 1} of {p.n_runs}")
+        if p.stage == "done":  # on an executor: a run has finished
+            return
+        i = p.run_index
+        run_fraction = (p.fraction - self.bases[i]) / self.weights[i]
+        self.progress.update(self.runs[p.run_key], completed=min(max(run_fraction, 0.0), 1.0),
+                             stage=p.stage)
+
+    def finished(self, key: str, outcome) -> None:
+        """A run ended with a :class:`engine.UniaxialResult` or an error text."""
+        task = self.runs[key]
+        if isinstance(outcome, str):
+            self.progress.update(task, stage="[red]failed")
+            self.console.print(f"[red]{key} failed:[/red] {outcome}")
+            return
+        s = outcome.scalars
+        self.progress.update(task, completed=1.0, stage="done")
+        strength = s.get("unconfined_strength")
+        extra = f", unconfined strength {strength:.4g} Pa" if strength is not None else ""
+        self.console.print(f"{key} done: {s['particles']:.0f} particles, {s['steps']:.0f} steps, "
+                           f"{s['wall_time']:.1f} s{extra}")
+
+
+def _verdict_table(result):
+    from rich.table import Table
+
+    table = Table(title="verdicts (coarse variant against the reference)")
+    for c in ("radius [mm]", "rule", "verdict", "speed-up", "reason"):
+        table.add_column(c, overflow="fold")
+    for v in result.advisor["verdicts"]:
+        speedup = v.get("speedup")
+        table.add_row(f"{v['radius'] * 1e3:g}", v["rule"], v["verdict"],
+                      f"{speedup:.2f}x" if speedup is not None else "-", v.get("reason", ""))
+    return table
+
+
+def study(args) -> int:
+    """``demscale study``: run the study, write summary, HDF5, plots and snapshots."""
+    missing = _missing(("rich", "h5py", "matplotlib"))
+    if missing:
+        print(f"demscale study needs {', '.join(missing)}: pip install \"demscale[cli]\"",
+              file=sys.stderr)
+        return 2
+    import concurrent.futures as cf
+    import multiprocessing as mp
+
+    from rich.console import Console
+
+    import engine
+    from engine.snapshots import save as save_snapshots
+    from service.h5store import write_results
+
+    console = Console(stderr=True)
+    spec_path = Path(args.spec)
+    try:
+        spec = engine.StudySpec.from_dict(json.loads(spec_path.read_text()))
+    except (OSError, json.JSONDecodeError) as e:
+        console.print(f"[red]cannot read the spec {spec_path}:[/red] {e}")
+        return 2
+    except (engine.ParameterError, TypeError, ValueError) as e:
+        console.print(f"[red]the spec {spec_path} is not valid:[/red] {e}")
+        return 2
+    if args.workers < 1:
+        console.print("[red]--workers must be at least 1[/red]")
+        return 2
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    planned = spec.planned_runs()
+    console.print(f"{spec_path.name}: {len(planned)} runs, "
+                  f"{sum(p.test.n_particles for p in planned)} particles in all, about "
+                  f"{spec.estimated_particle_steps():.3g} particle-steps; writing to {out}")
+    snapshot_paths: dict[str, list[Path]] = {}
+
+    with StudyBars(planned, console, enabled=not args.quiet) as bars:
+        def on_run(key, outcome) -> None:
+            bars.finished(key, outcome)
+            if args.snapshots and not isinstance(outcome, str):
+                snapshot_paths[key] = save_snapshots(outcome, out / "snapshots" / key, key)
+
+        try:
+            if args.workers > 1:
+                ctx = mp.get_context("spawn")
+                with cf.ProcessPoolExecutor(args.workers, mp_context=ctx) as pool:
+                    result = engine.run_study(spec, progress=bars.update, executor=pool,
+                                              on_run=on_run)
+            else:
+                result = engine.run_study(spec, progress=bars.update, on_run=on_run)
+        except engine.RunFailed as e:
+            console.print(f"[red]{e}[/red]: no reference run finished, nothing to compare")
+            return 1
+
+    h5 = write_results(out / "results.h5", spec_path.stem, result)
+    plots = result.save_plots(out / "plots")
+    summary = {"spec": spec.to_dict(), **result.to_summary(),
+               "files": {"results": h5.name,
+                         "plots": [str(p.relative_to(out)) for p in plots],
+                         "snapshots": {k: [str(p.relative_to(out)) for p in v]
+                                       for k, v in snapshot_paths.items()}}}
+    (out / "summary.json").write_text(json.dumps(_strict_json(summary), indent=1,
+                                                 allow_nan=False))
+    console.print(_verdict_table(result))
+    console.print(result.advisor["message"], soft_wrap=True)
+    console.print(f"wrote {out / 'summary.json'}, {h5}, {len(plots)} plots"
+                  + (f", snapshots of {len(snapshot_paths)} runs in {out / 'snapshots'}"
+                     if snapshot_paths else ""))
+    if result.failed:
+        console.print(f"[red]{len(result.failed)} runs failed:[/red] "
+                      + "; ".join(f"{k}: {v}" for k, v in result.failed.items()))
+        return 1
+    return 0
+
+
+def run(args) -> int:
+    """``demscale run``: one uniaxial test with streamed snapshots."""
+    missing = _missing(("rich", "h5py", "matplotlib"))
+    if missing:
+        print(f"demscale run needs {', '.join(missing)}: pip install \"demscale[cli]\"",
+              file=sys.stderr)
+        return 2
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
+
+    import engine
+    from engine.snapshots import SnapshotWriter, section_figure
+    from engine.uniaxial import SCALAR_UNITS
+
+    console = Console(stderr=True)
+    path = Path(args.test)
+    try:
+        fields = json.loads(path.read_text())
+        if not isinstance(fields, dict):
+            raise ValueError("the file must hold a JSON object of the test's fields")
+        name = fields.pop("preset", None)
+        base = engine.preset(name).to_dict() if name is not None else {}
+        test = engine.UniaxialTest.from_dict({**base, **fields})
+        if args.snapshot_interval is not None and not args.snapshot_interval > 0:
+            raise ValueError("--snapshot-interval must be a time > 0 s")
+    except (OSError, json.JSONDecodeError) as e:
+        console.print(f"[red]cannot read the test {path}:[/red] {e}")
+        return 2
+    except (engine.ParameterError, TypeError, ValueError) as e:
+        console.print(f"[red]the test {path} is not valid:[/red] {e}")
+        return 2
+    out = Path(args.out)
+    snap_dir = out / "snapshots"
+    console.print(f"{path.name}: {test.n_particles} particles, R = {test.radius * 1e3:g} mm, "
+                  f"cell {' x '.join(f'{c * 1e3:g}' for c in test.cell)} mm; writing to {out}")
+    bars = Progress(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
+                    TextColumn("{task.fields[stage]}"), TimeElapsedColumn(), console=console,
+                    disable=args.quiet)
+    with bars, SnapshotWriter(snap_dir) as writer:
+        task = bars.add_task("[bold]uniaxial test", total=1.0, stage="setup")
+
+        def report(p) -> None:
+            bars.update(task, completed=p.fraction, stage=f"{p.stage} (t = {p.time:.3g} s)")
+
+        try:
+            result = engine.run_uniaxial(test, report, on_snapshot=writer.add,
+                                         snapshot_interval=args.snapshot_interval)
+        except (engine.StageError, engine.InstabilityError, FloatingPointError) as e:
+            console.print(f"[red]the test failed:[/red] {e}; the {len(writer.labels)} "
+                          f"snapshots before it are in {snap_dir}")
+            return 1
+    for st in result.stages.values():
+        section_figure(st.snapshot, path.stem).savefig(snap_dir / f"{st.name}.png",
+                                                      format="png")
+    summary = {"test": test.to_dict(), "scalars": result.scalars,
+               "units": {k: SCALAR_UNITS.get(k, "") for k in result.scalars},
+               "snapshots": {"files": ["snapshots/particles.vtkhdf",
+                                       "snapshots/contacts.vtkhdf",
+                                       *(f"snapshots/{k}.png" for k in result.stages)],
+                             "time_steps": writer.labels}}
+    (out / "result.json").write_text(json.dumps(_strict_json(summary), indent=1,
+                                                allow_nan=False))
+    s = result.scalars
+    strength = s.get("unconfined_strength")
+    console.print(f"done: {s['steps']:.0f} steps in {s['wall_time']:.1f} s; consolidated "
+                  f"porosity {s['consolidated_porosity']:.3f}"
+                  + (f", unconfined strength {strength:.4g} Pa" if strength is not None else "")
+                  + f"; {len(writer.labels)} snapshots in {snap_dir}")
+    return 0
+
+
+def _service_env(args) -> int:
+    missing = _missing(("fastapi", "uvicorn", "sqlmodel", "pydantic_settings", "h5py"))
+    if missing:
+        print(f"demscale {args.command} needs {', '.join(missing)}: "
+              "pip install \"demscale[service]\"", file=sys.stderr)
+        return 2
+    if args.data_dir is not None:
+        os.environ["DEMSCALE_DATA_DIR"] = str(args.data_dir)
+    return 0
+
+
+def serve(args) -> int:
+    """``demscale serve``: the API (``python -m service api``)."""
+    if _service_env(args):
+        return 2
+    os.environ["DEMSCALE_HOST"] = args.host
+    os.environ["DEMSCALE_PORT"] = str(args.port)
+    if args.no_worker:
+        os.environ["DEMSCALE_EMBEDDED_WORKER"] = "false"
+    from service.__main__ import main as service_main
+    from service.settings import ConfigError, get_settings, with_local_token
+
+    try:  # the token the server will use: configured, or the local one it keeps
+        _, token = with_local_token(get_settings(), args.host)
+    except ConfigError as e:
+        print(f"demscale serve: {e}", file=sys.stderr)
+        return 2
+    host = "127.0.0.1" if args.host in ("0.0.0.0", "::", "") else args.host
+    url = f"http://{host}:{args.port}/"
+    if token is not None:
+        print(f"demscale serve: the studies page: {url}login?token={token}", file=sys.stderr)
+    else:
+        print(f"demscale serve: the studies page: {url} (log in with your API token)",
+              file=sys.stderr)
+    service_main(["api"])
+    return 0
+
+
+def worker(args) -> int:
+    """``demscale worker``: a worker process (``python -m service.worker``)."""
+    if _service_env(args):
+        return 2
+    from service.worker import main as worker_main
+
+    worker_main(["--once"] if args.once else [])
+    return 0
+
+
+def parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``demscale`` command."""
+    fmt = argparse.RawDescriptionHelpFormatter
+    ap = argparse.ArgumentParser(
+        prog="demscale", description=DESCRIPTION, formatter_class=fmt,
+        epilog="examples:\n"
+               "  demscale study examples/quick_study.json --out results/quick\n"
+               "  demscale study my_study.json --out results/mine --workers 4\n"
+               "  demscale run examples/quick_test.json --out results/one "
+               "--snapshot-interval 0.02\n"
+               "  demscale serve --port 8000          then open http://127.0.0.1:8000/\n"
+               "run `demscale COMMAND --help` for the options of each command.")
+    ap.add_argument("--version", action="version", version=f"demscale {_version()}")
+    sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    p = sub.add_parser("study", help="run a scaling study from a JSON file, here",
+                       description=STUDY_HELP, formatter_class=fmt)
+    p.add_argument("spec", metavar="SPEC.json", help="the study (an engine.StudySpec as JSON)")
+    p.add_argument("--out", "-o", metavar="DIR", required=True,
+                   help="folder for the results (created if missing; files are overwritten)")
+    p.add_argument("--workers", "-j", type=int, default=1, metavar="N",
+                   help="runs side by side in N processes (one core each; default 1: one "
+                        "run at a time, the engine using the cores it wants)")
+    p.add_argument("--no-snapshots", dest="snapshots", action="store_false",
+                   help="do not write the ParaView snapshots and PNG sections")
+    p.add_argument("--quiet", "-q", action="store_true",
+                   help="no progress bars (the runs' results are still printed)")
+    p.set_defaults(func=study)
+
+    p = sub.add_parser("run", help="run one uniaxial test and write its snapshots",
+                       description=RUN_HELP, formatter_class=fmt)
+    p.add_argument("test", metavar="TEST.json", help="the test (an engine.UniaxialTest as JSON)")
+    p.add_argument("--out", "-o", metavar="DIR", required=True,
+                   help="folder for the results (created if missing; files are overwritten)")
+    p.add_argument("--snapshot-interval", type=float, default=None, metavar="SECONDS",
+                   help="also a snapshot every SECONDS of simulated time (default: stage "
+                        "ends only)")
+    p.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+    p = sub.add_parser("serve", help="start the job service's HTTP API (and a worker)",
+                       description=SERVE_HELP, formatter_class=fmt)
+    p.add_argument("--host", default=os.environ.get("DEMSCALE_HOST", "127.0.0.1"),
+                   help="address to listen on (default 127.0.0.1, this machine only; "
+                        "0.0.0.0 for every interface)")
+    p.add_argument("--port", type=int, default=int(os.environ.get("DEMSCALE_PORT", "8000")),
+                   help="port to listen on (default 8000)")
+    p.add_argument("--data-dir", type=Path, default=None, metavar="DIR",
+                   help="where the database and result files live (default: "
+                        "DEMSCALE_DATA_DIR, else ./var)")
+    p.add_argument("--no-worker", action="store_true",
+                   help="do not start the embedded worker (run `demscale worker` instead)")
+    p.set_defaults(func=serve)
+
+    p = sub.add_parser("worker", help="start a worker that runs the service's queued studies",
+                       description=WORKER_HELP, formatter_class=fmt)
+    p.add_argument("--once", action="store_true", help="exit after one study")
+    p.add_argument("--data-dir", type=Path, default=None, metavar="DIR",
+                   help="the API's data folder (default: DEMSCALE_DATA_DIR, else ./var)")
+    p.set_defaults(func=worker)
+    return ap
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("demscale")
+    except PackageNotFoundError:
+        return "(not installed)"
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``demscale`` console script."""
+    args = parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130

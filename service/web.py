@@ -1,0 +1,110 @@
+"""The studies web page: server-rendered HTML (Jinja2 templates in service/templates), with a
+little JavaScript that polls the JSON API for live progress. No build step.
+
+    /                          the caller's studies, newest first: status and live progress
+    /studies/{id}/page         one study: progress, verdicts, the summary table, the plots
+                               and links to the HDF5 file and the JSON endpoints
+    /login, /logout            the API token kept in a cookie (service.weblogin)
+
+The pages read the same database and result files as the API and, like it, show a token only
+its own studies; they are left out of the OpenAPI description (they are for people).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from fastapi import APIRouter, Request
+from fastapi.responses import HTMLResponse
+from fastapi.templating import Jinja2Templates
+from sqlmodel import select
+
+from engine.plots import KINDS
+
+from . import h5store
+from .deps import OwnerDep, SessionDep, SettingsDep, StudyDep
+from .models import TERMINAL, Run, Status, Study
+from .routes.studies import public
+
+router = APIRouter(include_in_schema=False)
+templates = Jinja2Templates(directory=Path(__file__).parent / "templates")
+
+#: Columns of the run table on a study page: key in the summary table, heading, scale, format.
+RUN_COLUMNS = (
+    ("run", "run", None, "{}"),
+    ("rule", "rule", None, "{}"),
+    ("radius", "R [mm]", 1e3, "{:g}"),
+    ("particles", "particles", None, "{}"),
+    ("wall_time", "run time [s]", 1.0, "{:.1f}"),
+    ("speedup", "speed-up", 1.0, "{:.2f}x"),
+    ("unconfined_strength", "strength [kPa]", 1e-3, "{:.3g}"),
+    ("err_density", "density err", 100.0, "{:.1f} %"),
+    ("err_loading_stiffness", "loading stiffness err", 100.0, "{:.1f} %"),
+    ("err_unloading_stiffness", "unloading stiffness err", 100.0, "{:.1f} %"),
+    ("err_coordination_interior", "coordination err", 100.0, "{:.1f} %"),
+    ("err_strength", "strength err", 100.0, "{:.1f} %"),
+)
+
+
+def cell(value, scale: float | None, fmt: str) -> str:
+    """One table cell: scaled and formatted; a dash for a missing or non-finite number."""
+    if value is None:
+        return "-"
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        if not math.isfinite(value):
+            return "-"
+        if scale is not None:
+            value = value * scale
+    return fmt.format(value)
+
+
+@router.get("/", response_class=HTMLResponse)
+def studies_page(request: Request, session: SessionDep, owner: OwnerDep) -> HTMLResponse:
+    """The caller's studies, newest first (the latest 200)."""
+    rows = session.exec(
+        select(Study).where(Study.owner == owner).order_by(Study.created_at.desc()).limit(200)
+    ).all()
+    return templates.TemplateResponse(
+        request, "studies.html", {"studies": [public(s) for s in rows], "terminal": TERMINAL}
+    )
+
+
+@router.get("/studies/{study_id}/page", response_class=HTMLResponse)
+def study_page(
+    request: Request, study: StudyDep, session: SessionDep, settings: SettingsDep
+) -> HTMLResponse:
+    """One study: progress while it runs; verdicts, runs, plots and downloads once done."""
+    runs = session.exec(select(Run).where(Run.study_id == study.id).order_by(Run.position)).all()
+    summary, missing = None, None
+    path = settings.results_path(study.id)
+    if study.status is Status.succeeded:
+        if path.is_file():
+            summary = h5store.read_summary(path)
+        else:
+            missing = "the results file of this study is gone"
+    table = []
+    if summary is not None:
+        cols = [c for c in RUN_COLUMNS if any(c[0] in row for row in summary["table"])]
+        table = [[cell(row.get(k), s, f) for k, _, s, f in cols] for row in summary["table"]]
+        headings = [h for _, h, _, _ in cols]
+    else:
+        headings = []
+    return templates.TemplateResponse(
+        request,
+        "study.html",
+        {
+            "study": public(study),
+            "runs": runs,
+            "summary": summary,
+            "missing": missing,
+            "headings": headings,
+            "table": table,
+            # the unconfined plot only for a study with that stage
+            "plots": {k: t for k, t in KINDS.items() if k != "unconfined" or any(
+                "unconfined_strength" in row for row in (summary or {}).get("table", []))},
+            "terminal": TERMINAL,
+            "fmt": cell,
+        },
+    )
+

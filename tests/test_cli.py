@@ -1,0 +1,155 @@
+"""The ``demscale`` command: help texts, spec errors, the progress bars' arithmetic, and
+``demscale study`` end to end on a two-run study in a subprocess (outputs read back)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import engine
+
+pytest.importorskip("rich")  # the cli extra
+from demscale.cli import StudyBars, main
+
+ROOT = Path(__file__).resolve().parent.parent
+TINY = {
+    "reference": {
+        "cell": [0.015, 0.015, 0.015], "platen_speed": 0.02, "output_interval": 0.001,
+        "pair_law": {"type": "BilinearAdhesive", "k1": 5e3, "k2": 2.5e4, "f0": -0.4,
+                     "mu_s": 0.5, "mu_r": 0.001, "restitution": 0.4},
+    },
+    "coarse_radii": [0.003],
+    "rules": ["paper"],
+}
+
+
+def _strict(text: str):
+    def refuse(c):
+        raise ValueError(f"not strict JSON: {c}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+@pytest.mark.parametrize("argv", [[], ["study"], ["run"], ["serve"], ["worker"]])
+def test_help_explains_every_command(argv, capsys):
+    with pytest.raises(SystemExit) as e:
+        main([*argv, "--help"])
+    assert e.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: demscale")
+    want = {(): ("study", "run", "serve", "worker", "examples"),
+            ("run",): ("TEST.json", "--snapshot-interval", "ParaView", "Exit status"),
+            ("study",): ("SPEC.json", "--out", "--workers", "summary.json", "results.h5",
+                         "ParaView", "Exit status"),
+            ("serve",): ("--host", "--port", "--no-worker", "/docs", "studies page"),
+            ("worker",): ("--once", "DEMSCALE_DATA_DIR")}[tuple(argv)]
+    for w in want:
+        assert w in out, w
+
+
+def test_example_spec_is_a_valid_small_study():
+    spec = engine.StudySpec.from_dict(json.loads((ROOT / "examples/quick_study.json")
+                                                 .read_text()))
+    runs = spec.planned_runs()
+    assert len(runs) == 4 and len(spec.reference_seeds) == 2  # a noise floor exists
+    assert max(p.test.n_particles for p in runs) < 400
+
+
+def test_invalid_spec_exits_2(tmp_path, capsys):
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({**TINY, "coarse_radii": [0.5]}))
+    assert main(["study", str(bad), "--out", str(tmp_path / "o"), "-q"]) == 2
+    assert "coarse_radii" in capsys.readouterr().err
+    bad.write_text("{not json")
+    assert main(["study", str(bad), "--out", str(tmp_path / "o"), "-q"]) == 2
+
+
+def test_run_bars_follow_each_run():
+    """Each run's bar is its share of the study's fraction, from its start to its end."""
+    from rich.console import Console
+
+    spec = engine.StudySpec.from_dict(TINY)
+    planned = spec.planned_runs()
+    bars = StudyBars(planned, Console(file=open(os.devnull, "w")), enabled=False)
+    assert sum(bars.weights) == pytest.approx(1.0)
+    for i, p in enumerate(planned):
+        for run_fraction in (0.0, 0.5, 1.0):
+            f = bars.bases[i] + run_fraction * bars.weights[i]
+            bars.update(engine.StudyProgress(f, i, len(planned), p.key, "consolidation", 0.1))
+            task = bars.progress.tasks[bars.runs[p.key]]
+            assert task.completed == pytest.approx(run_fraction)
+            assert bars.progress.tasks[bars.study].completed == pytest.approx(f)
+
+
+def test_run_streams_interval_snapshots(tmp_path, capsys):
+    h5py = pytest.importorskip("h5py")
+    test = tmp_path / "tiny_test.json"
+    test.write_text(json.dumps(TINY["reference"]))
+    out = tmp_path / "one"
+    assert main(["run", str(test), "--out", str(out), "--snapshot-interval", "0.05"]) == 0
+    assert "done:" in capsys.readouterr().err
+    result = _strict((out / "result.json").read_text())
+    assert result["units"]["unconfined_strength"] == "Pa"
+    assert engine.UniaxialTest.from_dict(result["test"]).to_dict() == result["test"]
+    stages = result["snapshots"]["time_steps"]
+    assert [s for i, s in enumerate(stages) if i == 0 or stages[i - 1] != s] == list(
+        engine.uniaxial.STAGES)  # every stage, in order, with interval steps within
+    assert len(stages) > 12
+    with h5py.File(out / "snapshots" / "particles.vtkhdf", "r") as f:
+        assert int(f["VTKHDF/Steps"].attrs["NSteps"]) == len(stages)
+        assert np.all(np.diff(f["VTKHDF/Steps/Values"][()]) > 0)
+    for p in result["snapshots"]["files"]:
+        assert (out / p).is_file(), p
+    bad = tmp_path / "bad_test.json"
+    bad.write_text(json.dumps({"radius": -1.0}))
+    assert main(["run", str(bad), "--out", str(out)]) == 2
+    assert "radius" in capsys.readouterr().err
+
+
+def test_example_test_is_small():
+    fields = json.loads((ROOT / "examples/quick_test.json").read_text())
+    base = engine.preset(fields.pop("preset")).to_dict()
+    assert engine.UniaxialTest.from_dict({**base, **fields}).n_particles < 400
+
+
+@pytest.mark.slow
+def test_study_end_to_end(tmp_path):
+    spec = tmp_path / "tiny.json"
+    spec.write_text(json.dumps(TINY))
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-m", "demscale", "study", str(spec), "--out",
+                           str(out)], cwd=ROOT, capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr
+    assert "ref-s1 done" in proc.stderr and "verdicts" in proc.stderr
+
+    summary = _strict((out / "summary.json").read_text())
+    keys = [p.key for p in engine.StudySpec.from_dict(TINY).planned_runs()]
+    assert [row["run"] for row in summary["table"]] == keys
+    assert summary["advisor"]["verdicts"][0]["rule"] == "paper"
+    assert engine.StudySpec.from_dict(summary["spec"]).to_dict() == summary["spec"]
+
+    h5py = pytest.importorskip("h5py")
+    with h5py.File(out / summary["files"]["results"], "r") as f:
+        assert list(f["runs"]) == keys
+        assert np.all(np.isfinite(f["runs/ref-s1/consolidation/stress_top"][()]))
+
+    from matplotlib.image import imread
+
+    assert len(summary["files"]["plots"]) == 5
+    for p in summary["files"]["plots"]:
+        assert imread(out / p).shape[0] > 100
+    for key in keys:
+        files = summary["files"]["snapshots"][key]
+        assert f"snapshots/{key}/particles.vtkhdf" in files
+        with h5py.File(out / "snapshots" / key / "particles.vtkhdf", "r") as f:
+            assert f["VTKHDF"].attrs["Type"] == b"PolyData"
+            assert int(f["VTKHDF/Steps"].attrs["NSteps"]) == 6
+            row = next(r for r in summary["table"] if r["run"] == key)
+            assert int(f["VTKHDF/NumberOfPoints"][0]) == row["particles"]
+        assert imread(out / "snapshots" / key / "unconfined.png").shape[1] > 400

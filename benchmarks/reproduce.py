@@ -13,8 +13,7 @@ Three reference seeds and two seeds per coarse variant. Every finished run is st
 as ``benchmarks/results/<scale>/<experiment>/<run>.h5`` (:mod:`engine.runstore`); a rerun
 resumes with the runs not yet stored, and ``--report`` recomputes every metric, verdict and
 figure from the stored curves. ``--scale paper`` writes docs/VALIDATION.md and
-docs/figures/; ``--scale quick`` writes benchmarks/.cache/quick/VALIDATION.md (a smoke run,
-not the validation).
+docs/figures/; ``--scale quick`` writes docs/VALIDATION_quick.md (the smoke-test scale).
 """
 
 from __future__ import annotations

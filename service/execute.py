@@ -6,6 +6,8 @@ shutdown)."""
 from __future__ import annotations
 
 import logging
+import os
+import shutil
 import threading
 import time
 import traceback
@@ -89,12 +91,30 @@ class StudyExecution:
         error while the others go on; the verdicts name it."""
         store_run(self.settings.runs_dir(self.study_id) / f"{key}.h5", outcome)
         failed = isinstance(outcome, str)
+        if not failed:
+            self.store_snapshots(key, outcome)
         with Session(self.db) as s:
             transitions.run_finished(
                 s, self.study_id, key, error=outcome if failed else None,
                 steps=None if failed else int(outcome.scalars["steps"]),
                 wall_time=None if failed else float(outcome.scalars["wall_time"]))
         log.info("study %s: run %s %s", self.study_id, key, "failed" if failed else "stored")
+
+    def store_snapshots(self, key: str, result) -> None:
+        """ParaView files and PNG sections of the run's stage ends, under
+        ``<study>/snapshots/<key>/`` (written into a temporary folder, then renamed)."""
+        from engine.snapshots import save as save_snapshots
+
+        final = self.settings.snapshots_dir(self.study_id) / key
+        tmp = final.with_name(f".{key}.{self.worker_id.replace(':', '-')}.tmp")
+        shutil.rmtree(tmp, ignore_errors=True)
+        try:
+            save_snapshots(result, tmp, key)
+        except ValueError:  # a result without snapshots: nothing to show
+            shutil.rmtree(tmp, ignore_errors=True)
+            return
+        shutil.rmtree(final, ignore_errors=True)
+        os.replace(tmp, final)
 
     def stored_runs(self, spec: engine.StudySpec) -> dict:
         """Runs of this study stored by earlier attempts whose test is the planned one."""
@@ -116,6 +136,8 @@ class StudyExecution:
         for tmp in [*d.glob("*.h5.tmp"), *d.glob("runs/.*.tmp")]:
             log.warning("study %s: removing %s of an earlier attempt", self.study_id, tmp.name)
             tmp.unlink(missing_ok=True)
+        for tmp in d.glob("snapshots/.*.tmp"):
+            shutil.rmtree(tmp, ignore_errors=True)
 
     def run(self) -> Status | None:
         """Run the study to its end; returns the status it reached (None: no longer ours)."""

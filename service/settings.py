@@ -141,6 +141,18 @@ class Settings(BaseSettings):
         """The HDF5 file of one study."""
         return self.study_dir(study_id) / "results.h5"
 
+    def snapshots_dir(self, study_id: object) -> Path:
+        """ParaView snapshots and PNG sections of one study's runs, one folder per run."""
+        return self.study_dir(study_id) / "snapshots"
+
+    def snapshot_files(self, study_id: object) -> dict[str, list[str]]:
+        """Run key -> names of its snapshot files (complete folders only)."""
+        root = self.snapshots_dir(study_id)
+        if not root.is_dir():
+            return {}
+        return {d.name: sorted(f.name for f in d.iterdir() if f.is_file())
+                for d in sorted(root.iterdir()) if d.is_dir() and not d.name.startswith(".")}
+
     def runs_dir(self, study_id: object) -> Path:
         """The per-run HDF5 files of one study, each stored as soon as its run ends."""
         return self.study_dir(study_id) / "runs"

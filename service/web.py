@@ -105,6 +105,7 @@ def study_page(
                 "unconfined_strength" in row for row in (summary or {}).get("table", []))},
             "terminal": TERMINAL,
             "fmt": cell,
+            "snapshots": settings.snapshot_files(study.id) if summary is not None else {},
         },
     )
 

@@ -11,7 +11,7 @@ from fastapi.responses import FileResponse
 from engine.uniaxial import STAGES
 
 from .. import h5store
-from ..deps import ResultsDep, StudyDep
+from ..deps import ResultsDep, SettingsDep, StudyDep
 from ..errors import answers
 from ..plots import KINDS, plot_png
 
@@ -27,11 +27,45 @@ StageKind = Enum("StageKind", {s: s for s in (*STAGES, "all")}, type=str)
 RUN_KEY_MAX_LENGTH = 100
 
 
+#: Snapshot file names: the ParaView files and a PNG section per stage.
+SNAPSHOT_NAME = r"^(particles\.vtkhdf|contacts\.vtkhdf|[a-z_]+\.png)$"
+
+
 @router.get("/summary")
-def summary(study: StudyDep, results: ResultsDep) -> dict:
+def summary(study: StudyDep, results: ResultsDep, settings: SettingsDep) -> dict:
     """Per run: radius, rule, particles, steps, dt, wall time, speed-up and errors against
-    the reference; the spread over seeds; the advisor's answer; units of every column."""
-    return {"id": str(study.id), "name": study.name, **h5store.read_summary(results)}
+    the reference; the spread over seeds; the advisor's answer (verdicts, noise floor,
+    warnings); units of every column; the snapshot files of every run."""
+    snaps = {run: [f"/studies/{study.id}/runs/{run}/snapshots/{f}" for f in files]
+             for run, files in settings.snapshot_files(study.id).items()}
+    return {"id": str(study.id), "name": study.name, **h5store.read_summary(results),
+            "snapshots": snaps}
+
+
+@router.get(
+    "/runs/{run}/snapshots/{name}",
+    response_class=FileResponse,
+    responses={200: {"content": {
+        "application/x-hdf5": {"schema": {"type": "string", "format": "binary"}},
+        "image/png": {"schema": {"type": "string", "format": "binary"}}},
+        "description": "A VTKHDF file (ParaView 5.12+) or a PNG section of a stage's end."}},
+)
+def snapshot(
+    study: StudyDep,
+    results: ResultsDep,
+    settings: SettingsDep,
+    run: Annotated[str, Path(max_length=RUN_KEY_MAX_LENGTH, pattern=r"^[A-Za-z0-9_.\-]+$",
+                             description="Run key, e.g. ref-s1.")],
+    name: Annotated[str, Path(max_length=64, pattern=SNAPSHOT_NAME,
+                              description="particles.vtkhdf, contacts.vtkhdf or <stage>.png")],
+) -> FileResponse:
+    """A snapshot file of a run: the particles or the force chains at every stage end
+    (temporal VTKHDF; docs/SNAPSHOTS.md), or the PNG section of one stage's end."""
+    if name not in settings.snapshot_files(study.id).get(run, []):
+        raise HTTPException(status_code=404, detail=f"no snapshot {name!r} of run {run!r}")
+    path = settings.snapshots_dir(study.id) / run / name
+    media = "image/png" if name.endswith(".png") else "application/x-hdf5"
+    return FileResponse(path, media_type=media, filename=f"{run}-{name}")
 
 
 @router.get("/curves")

@@ -67,6 +67,21 @@ def test_study_runs_end_to_end(client, workers, settings):
     assert table["r3.1mm-paper-s1"]["particles"] < table["ref-s1"]["particles"]
     assert table["r3.1mm-paper-s1"]["speedup"] > 0 and summary["units"]["wall_time"] == "s"
     assert "paper" in summary["advisor"]["rules"]
+    # snapshots of every run: ParaView files and a PNG section per stage, listed and served
+    assert set(summary["snapshots"]) == {"ref-s1", "r3.1mm-paper-s1"}
+    urls = summary["snapshots"]["ref-s1"]
+    assert any(u.endswith("/particles.vtkhdf") for u in urls)
+    assert any(u.endswith("/unconfined.png") for u in urls)
+    for u in urls:
+        r = client.get(u)
+        assert r.status_code == 200 and len(r.content) > 1000, u
+        if u.endswith(".png"):
+            assert r.content[:8] == b"\x89PNG\r\n\x1a\n"
+        else:
+            assert r.content[:8] == b"\x89HDF\r\n\x1a\n"
+    assert client.get(f"/studies/{sid}/runs/ref-s1/snapshots/other.png").status_code == 404
+    assert client.get(f"/studies/{sid}/runs/ref-s1/snapshots/..%2Fresults.h5").status_code in (
+        404, 422)
 
     curves = client.get(
         f"/studies/{sid}/curves", params={"run": "ref-s1", "kind": "consolidation"}

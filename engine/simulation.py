@@ -66,6 +66,33 @@ def _concat(parts: list, dtype) -> np.ndarray:
     return np.concatenate(parts) if parts else np.zeros(0, dtype)
 
 
+def cell_order(pos: np.ndarray, rad: np.ndarray, lo: np.ndarray, length: np.ndarray,
+               periodic) -> np.ndarray:
+    """Particle ids sorted by the cell (one particle diameter wide, z fastest) they lie in:
+    neighbours get nearby ids, so the step's loops over neighbours stay in cache, and the
+    fixed chunks of consecutive ids are compact in space. The grid does not depend on the
+    Verlet skin, so neither does the order (nor, then, the trajectory). [m]"""
+    n = len(pos)
+    cut = 2.0 * float(rad.max())
+    origin = np.empty(3)
+    ext = np.empty(3)
+    p = pos.copy()
+    for a in range(3):
+        if periodic[a]:
+            p[:, a] = lo[a] + np.mod(p[:, a] - lo[a], length[a])
+            origin[a], ext[a] = lo[a], length[a]
+        else:
+            origin[a], ext[a] = p[:, a].min(), np.ptp(p[:, a])
+    ncell = np.maximum(1, (ext / cut).astype(np.int64))
+    while int(np.prod(ncell)) > 4 * n + 64:
+        a = int(np.argmax(ncell))
+        ncell[a] = max(1, ncell[a] // 2)
+    size = np.where(ext > 0, ext / ncell, 1.0)
+    c = np.clip(((p - origin) / size).astype(np.int64), 0, ncell - 1)
+    key = (c[:, 0] * ncell[1] + c[:, 1]) * ncell[2] + c[:, 2]
+    return np.argsort(key, kind="stable")
+
+
 class Simulation:
     """A DEM simulation of a :class:`Scene`.
 
@@ -135,18 +162,25 @@ class Simulation:
         )
         self._load(scene_features(scene))
         k = self._k
-        pos = scene.positions.copy()
+        # internal id k is particle order[k] of the scene; every accessor maps back
+        self._order = cell_order(
+            scene.positions, scene.radii, self._lo, scene.box_lengths, self._periodic
+        )
+        self._rank = np.empty(n, dtype=np.int64)
+        self._rank[self._order] = np.arange(n)
+        o = self._order
+        pos = scene.positions[o].copy()
         self._particles = Particles(
             pos=pos,
-            vel=scene.velocities.copy(),
-            omg=scene.angular_velocities.copy(),
+            vel=scene.velocities[o].copy(),
+            omg=scene.angular_velocities[o].copy(),
             frc=np.zeros((n, 3)),
             trq=np.zeros((n, 3)),
             roll=np.zeros(n if self._features["rolling"] else 0),
-            rad=scene.radii.copy(),
-            mass=scene.masses,
-            inv_mass=1.0 / scene.masses,
-            inv_inertia=1.0 / scene.inertia,
+            rad=scene.radii[o].copy(),
+            mass=scene.masses[o].copy(),
+            inv_mass=1.0 / scene.masses[o],
+            inv_inertia=1.0 / scene.inertia[o],
             pos_build=pos.copy(),
         )
         nchunk = -(-n // k.CHUNK)
@@ -350,6 +384,9 @@ class Simulation:
     def _fail(self, status: int, step: int) -> None:
         info = self._scratch.info
         i, j, value = int(info[0]), int(info[1]), float(info[2])
+        i = int(self._order[i])  # scene ids
+        if j >= 0:
+            j = int(self._order[j])
         t = step * self.dt
         where = f"step {step} (t = {t:.6g} s)"
         hint = f"; dt = {self.dt:.4g} s, stable limit {self.limit.dt:.4g} s ({self.limit.reason})"
@@ -411,7 +448,7 @@ class Simulation:
             a = np.broadcast_to(np.asarray(value, dtype=np.float64), (n, 3))
             if not np.all(np.isfinite(a)):
                 raise ParameterError(f"Simulation.set_velocities.{name}", "non-finite", "finite")
-            target[:] = a
+            target[:] = a[self._order]
         self._compute_forces()
 
     def rebuild_neighbour_list(self) -> None:
@@ -430,7 +467,7 @@ class Simulation:
                 f"shape {p.shape}",
                 f"finite, shape ({self.n}, 3)",
             )
-        self._particles.pos[:] = p
+        self._particles.pos[:] = p[self._order]
         self._images[:] = 0
         self._rebuild()
         self._compute_forces()
@@ -497,37 +534,37 @@ class Simulation:
     @property
     def positions(self) -> np.ndarray:
         """(N, 3) positions [m], wrapped into the box on periodic axes."""
-        return self._particles.pos.copy()
+        return self._particles.pos[self._rank]
 
     @property
     def unwrapped_positions(self) -> np.ndarray:
         """(N, 3) positions [m] with the periodic wraps undone."""
-        return self._particles.pos + self._images * self._params.length
+        return (self._particles.pos + self._images * self._params.length)[self._rank]
 
     @property
     def velocities(self) -> np.ndarray:
         """(N, 3) velocities [m/s]."""
-        return self._particles.vel.copy()
+        return self._particles.vel[self._rank]
 
     @property
     def angular_velocities(self) -> np.ndarray:
         """(N, 3) angular velocities [rad/s]."""
-        return self._particles.omg.copy()
+        return self._particles.omg[self._rank]
 
     @property
     def radii(self) -> np.ndarray:
         """(N,) radii [m]."""
-        return self._particles.rad.copy()
+        return self._particles.rad[self._rank]
 
     @property
     def masses(self) -> np.ndarray:
         """(N,) masses [kg]."""
-        return self._particles.mass.copy()
+        return self._particles.mass[self._rank]
 
     @property
     def forces(self) -> np.ndarray:
         """(N, 3) total force on each particle at the last evaluation [N] (gravity included)."""
-        return self._particles.frc.copy()
+        return self._particles.frc[self._rank]
 
     @property
     def wall_forces(self) -> np.ndarray:
@@ -581,7 +618,8 @@ class Simulation:
         active = np.nonzero(self._list.entry[:m, 0] != 0.0)[0]
         owner = np.searchsorted(self._list.start, active, side="right") - 1
         j = self._list.j[active].astype(np.int64)
-        return np.bincount(owner, minlength=self.n) + np.bincount(j, minlength=self.n)
+        counts = np.bincount(owner, minlength=self.n) + np.bincount(j, minlength=self.n)
+        return counts[self._rank]
 
     def contacts(self) -> Contacts:
         """Particle-particle and particle-wall contacts at the last force evaluation."""
@@ -607,14 +645,21 @@ class Simulation:
             wo.append(d[idx])
         entry = self._list.entry
         springs = entry[active, 1:4] if self._k.N_HIST == 4 else np.zeros((active.size, 3))
+        # scene ids, the smaller first (seen from it: force, normal and spring flip), sorted
+        oi, oj = self._order[i], self._order[j]
+        sign = np.where(oi < oj, 1.0, -1.0)[:, None]
+        pairs = np.stack([np.minimum(oi, oj), np.maximum(oi, oj)], axis=1)
+        srt = np.lexsort((pairs[:, 1], pairs[:, 0]))
+        wparts = self._order[_concat(wp, np.int64)]
+        wsrt = np.lexsort((_concat(wi, np.int64), wparts))
         return Contacts(
-            np.stack([i, j], axis=1),
-            self._particles.rad[i] + self._particles.rad[j] - dist,
-            forces,
-            dx / dist[:, None],
-            self._list.entry[active, 0].copy(),
-            springs,
-            _concat(wp, np.int64),
-            _concat(wi, np.int64),
-            _concat(wo, np.float64),
+            pairs[srt],
+            (rad[i] + rad[j] - dist)[srt],
+            (sign * forces)[srt],
+            (sign * dx / dist[:, None])[srt],
+            entry[active, 0][srt],
+            (sign * springs)[srt],
+            wparts[wsrt],
+            _concat(wi, np.int64)[wsrt],
+            _concat(wo, np.float64)[wsrt],
         )

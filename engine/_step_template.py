@@ -30,7 +30,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from engine.config import CHUNK, NJIT, NJIT_PARALLEL
+from engine.config import CHUNK, NJIT, NJIT_INLINE, NJIT_PARALLEL
 from engine.laws import ContactLaw, LawFlags, contact, rolling_torque
 from engine.step_common import (
     NAN,
@@ -98,7 +98,7 @@ STEP = 2  # forces, full kick (closing + next opening half kick), drift
 OPEN = 3  # opening half kick and drift with the stored forces
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
 def _pair_law(pp):
     """The pair law's parameters from their named slots; a feature the scene does not use
     gets its neutral value (no adhesion, k2 = k1, no friction, damping or rolling)."""
@@ -125,7 +125,7 @@ def _pair_law(pp):
     )
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
 def _wall_law(wp):
     """The wall law's (Hertz-Mindlin) parameters from their named slots."""
     return ContactLaw(

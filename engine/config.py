@@ -32,6 +32,12 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 #: the exception checks from the hot loops. No fastmath: NaN checks must stay meaningful.
 NJIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 
+#: Options of the contact-law kernels the step calls per contact: inlined at numba's IR level
+#: into the pair and the particle pass. Left to LLVM, the composition was compiled as a call
+#: with about 30 arguments spilled to the stack and its switches tested at run time; inlined,
+#: the scene's compile-time flags fold its unused branches away.
+NJIT_INLINE = {**NJIT, "inline": "always"}
+
 #: Options of kernels with ``prange`` loops.
 #: Only ``prange`` is transformed (no array-expression fusion and the like, which the kernels
 #: do not use): this cuts the compile time of a scene's step kernel by about a third.

@@ -35,7 +35,7 @@ from collections import namedtuple
 
 from numba import njit
 
-from .config import NJIT, ROLLING_OMEGA_EPS
+from .config import NJIT_INLINE, ROLLING_OMEGA_EPS
 
 #: Parameters of one contact law as the kernel reads them (floats; a law that lacks one
 #: passes its neutral value). ``k_n``: bilinear loading stiffness K1 [N/m], or Hertz E* [Pa];
@@ -50,7 +50,7 @@ ContactLaw = namedtuple("ContactLaw", "k_n k_unload f0 kadh k_t zeta mu_s mu_r")
 LawFlags = namedtuple("LawFlags", "hertz plastic friction damping rolling")
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
 def bilinear_normal_force(d, dmax, k1, k2, f0, kadh):
     r"""Hysteretic normal force of the bilinear adhesive elasto-plastic law.
 
@@ -70,7 +70,7 @@ def bilinear_normal_force(d, dmax, k1, k2, f0, kadh):
     return f, dmax
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
 def friction_limit(mu_s, f_el, f0, kadh, d):
     r"""Adhesion-aware Coulomb limit :math:`\mu_s |f_{el} - f_0 + k_{adh} d|` [N].
 
@@ -82,14 +82,14 @@ def friction_limit(mu_s, f_el, f0, kadh, d):
     return mu_s * abs(f_el - f0 + kadh * d)
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
 def viscous_damping_coefficient(zeta, m_eff, k):
     r"""Viscous damping coefficient :math:`c = 2\zeta\sqrt{m_{eff} k}` [N s/m] for a spring of
     stiffness k [N/m], effective mass m_eff [kg] and damping ratio zeta [-]."""
     return 2.0 * zeta * math.sqrt(m_eff * k)
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
 def contact_velocity(vx, vy, vz, sx, sy, sz, nx, ny, nz):
     r"""Normal and tangential relative velocity of the contact point [m/s].
 
@@ -109,7 +109,7 @@ def contact_velocity(vx, vy, vz, sx, sy, sz, nx, ny, nz):
     return vn, vtx, vty, vtz
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
 def tangential_spring_force(xix, xiy, xiz, nx, ny, nz, vtx, vty, vtz, kt, ct, cap, dt):
     r"""Incremental linear tangential spring with damping and a Coulomb cap.
 
@@ -154,7 +154,7 @@ def tangential_spring_force(xix, xiy, xiz, nx, ny, nz, vtx, vty, vtz, kt, ct, ca
     return ftx, fty, ftz, xix, xiy, xiz
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
 def rolling_torque(wx, wy, wz, mu_r, fn_abs, radius):
     r"""Constant directional rolling-resistance torque (EDEM "standard") [N m].
 
@@ -173,7 +173,7 @@ def rolling_torque(wx, wy, wz, mu_r, fn_abs, radius):
     return s * wx, s * wy, s * wz
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
 def hertz_normal_force(d, e_star, r_star):
     r"""Hertz elastic normal force and normal contact stiffness.
 
@@ -186,13 +186,13 @@ def hertz_normal_force(d, e_star, r_star):
     return (4.0 / 3.0) * e_star * a * d, 2.0 * e_star * a
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
 def hertz_tangential_stiffness(d, g_star, r_star):
     r"""Mindlin no-slip tangential stiffness :math:`S_t = 8G^*\sqrt{R^* d}` [N/m]."""
     return 8.0 * g_star * math.sqrt(r_star * d)
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
 def contact_force(d, nx, ny, nz, vx, vy, vz, sx, sy, sz, dmax, xix, xiy, xiz, r_star, m_eff,
                   law, flags, dt):
     r"""One contact, composed in the fixed order (steps 1 to 5 of the module docstring).
@@ -248,7 +248,7 @@ def contact_force(d, nx, ny, nz, vx, vy, vz, sx, sy, sz, dmax, xix, xiy, xiz, r_
     return fn, f_el, ftx, fty, ftz, dmax, xix, xiy, xiz
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
 def contact(hist, k, d, nx, ny, nz, vx, vy, vz, sx, sy, sz, ri, rj, r_star, m_eff, law, flags,
             dt):
     r"""A contact of the step kernel, pair or wall: :func:`contact_force` on the history row

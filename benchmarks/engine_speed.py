@@ -143,11 +143,14 @@ def compile_times() -> tuple[float, float]:
 def write_lammps_data(path: Path, pos, rad, lengths) -> None:
     """A settled bed as a LAMMPS ``atom_style granular`` data file (id type diameter density
     x y z), for the LIGGGHTS deck."""
+    def f(x) -> str:
+        return repr(float(x))
+
     lines = ["LAMMPS data file written by benchmarks.engine_speed", "",
              f"{len(pos)} atoms", "1 atom types", "",
-             f"0 {lengths[0]!r} xlo xhi", f"0 {lengths[1]!r} ylo yhi",
-             f"0 {lengths[2]!r} zlo zhi", "", "Atoms # sphere", ""]
-    lines += [f"{i + 1} 1 {2 * r!r} {RHO!r} {x!r} {y!r} {z!r}"
+             f"0 {f(lengths[0])} xlo xhi", f"0 {f(lengths[1])} ylo yhi",
+             f"0 {f(lengths[2])} zlo zhi", "", "Atoms # sphere", ""]
+    lines += [f"{i + 1} 1 {f(2 * r)} {f(RHO)} {f(x)} {f(y)} {f(z)}"
               for i, (r, (x, y, z)) in enumerate(zip(rad, pos))]
     path.write_text("\n".join(lines) + "\n")
 

@@ -60,6 +60,11 @@ NJIT_PARALLEL = {
 #: results are bit-identical with 1 and with N threads.
 CHUNK = 64
 
+#: Chunks a thread takes at a time from a parallel pass (numba's parallel chunk size; 0 would
+#: split the chunks into one fixed block per thread). 1: dynamic scheduling, so a thread that
+#: is descheduled or has the denser half of the bed does not hold the other up.
+PASS_CHUNKS_PER_GRAB = 1
+
 #: ``Simulation(threads=None)`` runs one thread per this many particles [-]. Measured on 2
 #: cores (benchmarks/engine_speed.py): 2,025 particles ran at 6.2e6 particle-steps/s on one
 #: thread and 5.8e6 on two, 16,200 at 4.1e6 and 6.5e6; 143 particles took 5 s on one thread

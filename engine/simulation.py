@@ -13,6 +13,7 @@ from .config import (
     MAX_OVERLAP_FRACTION,
     MAX_STEP_FRACTION,
     PARTICLES_PER_THREAD,
+    PASS_CHUNKS_PER_GRAB,
     SKIN_FRACTION,
 )
 from .errors import InstabilityError, ParameterError, StabilityError
@@ -317,9 +318,15 @@ class Simulation:
         k = self.threads
         if k != prev:
             numba.set_num_threads(k)
+        # the passes' chunks are handed out one at a time to whichever thread is free
+        # (dynamic scheduling), not in fixed halves: a thread that another process has
+        # descheduled, or a half with more contacts, no longer holds the other thread up.
+        # The chunks themselves are fixed, so the results do not change.
+        prev_chunk = numba.set_parallel_chunksize(PASS_CHUNKS_PER_GRAB)
         try:
             return self._call_kernel(nsteps, phase)
         finally:
+            numba.set_parallel_chunksize(prev_chunk)
             if k != prev:
                 numba.set_num_threads(prev)
 

@@ -24,8 +24,10 @@ if "NUMBA_THREADING_LAYER" not in os.environ and "NUMBA_THREADING_LAYER_PRIORITY
 # the cores (a service worker beside a benchmark, two test workers) every pass waits for a
 # descheduled spinner: a 340-particle run measured 9 s alone and over 9 minutes with a second
 # engine process on 2 cores, against 12 s with passive waiting. Set before libgomp loads (it
-# is loaded at the first parallel call); an explicit OMP_WAIT_POLICY wins.
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+# is loaded at the first parallel call); an explicit OMP_WAIT_POLICY or GOMP_SPINCOUNT (a
+# bounded spin before sleeping) wins.
+if "GOMP_SPINCOUNT" not in os.environ:
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 #: Options of every serial kernel. ``error_model="numpy"`` makes a division by zero give inf
 #: (caught by the instability checks) instead of raising inside compiled code, and removes

@@ -1,15 +1,17 @@
 """Engine speed benchmark: particle-steps per second on a settled bed under a moving platen.
 
     python -m benchmarks.engine_speed            # full run (a few minutes)
-    python -m benchmarks.engine_speed --quick    # 2k bed only, shorter runs
+    python -m benchmarks.engine_speed --quick    # 2k beds only, shorter runs
+    python -m benchmarks.engine_speed --profile  # also a profile of the hot loop per pass
 
 Scene (issue 2): R = 2.5 mm spheres, density 2000, periodic x and y, bottom platen and a top
 platen moving down at 10 mm/s, dt = 1e-5 s; law K1 = 5e3, K2 = 2.5e4 N/m, f0 = -0.4 N,
 mu_s = 0.5, mu_r = 0.001, restitution 0.4. Beds of about 2,000 and 16,000 particles are built
 with engine.packing and settled once (cached under benchmarks/.cache). Every configuration
 starts from the same settled state; each figure is the median of ``--repeats`` timed runs.
-If ``liggghts`` is on the PATH, its hooke/hysteresis model runs the same 2,025-particle
-packing (benchmarks/liggghts, the LIGGGHTS 3.8 deck) in the same session, as the baseline.
+If ``liggghts`` is on the PATH, its hooke/hysteresis model runs the same packings (the
+2,025-particle anchor bed of benchmarks/liggghts and the settled 16k bed, written as a LAMMPS
+data file) with the LIGGGHTS 3.8 deck in the same session, as the baseline of the targets.
 """
 
 from __future__ import annotations
@@ -104,18 +106,24 @@ def anchor_bed():
 
 
 def time_run(pos, rad, lengths, law, threads: int, steps: int, repeats: int):
-    """Median particle-steps per second, plus the last simulation for its statistics."""
+    """Median particle-steps per second with ``threads`` threads, the median CPU time of the
+    process per particle-step [ns] (all threads together: with 1 thread the cost of a step
+    whatever else runs on the machine; with 2 the excess over it is parallel overhead), and
+    the last simulation for its statistics."""
     numba.set_num_threads(threads)
     top = float((pos[:, 2] + rad).max()) + 0.1 * R
     rates = []
+    cpu = []
     sim = None
     for _ in range(repeats):
-        sim = engine.Simulation(scene_for(pos, rad, lengths, law, top), dt=DT)
+        sim = engine.Simulation(scene_for(pos, rad, lengths, law, top), dt=DT, threads=threads)
         sim.run(200)  # warm-up: the first steps also touch every buffer once
+        c0 = time.process_time()
         t0 = time.perf_counter()
         sim.run(steps)
         rates.append(sim.n * steps / (time.perf_counter() - t0))
-    return statistics.median(rates), sim
+        cpu.append((time.process_time() - c0) / (sim.n * steps) * 1e9)
+    return statistics.median(rates), statistics.median(cpu), sim
 
 
 def compile_times() -> tuple[float, float]:
@@ -137,15 +145,35 @@ def compile_times() -> tuple[float, float]:
     return out[0], out[1]
 
 
-def liggghts(ranks: int, steps: int) -> float | None:
-    """LIGGGHTS hooke/hysteresis particle-steps per second on the anchor packing, or None."""
+def write_lammps_data(path: Path, pos, rad, lengths) -> None:
+    """A settled bed as a LAMMPS ``atom_style granular`` data file (id type diameter density
+    x y z), for the LIGGGHTS deck."""
+    def f(x) -> str:
+        return repr(float(x))
+
+    lines = ["LAMMPS data file written by benchmarks.engine_speed", "",
+             f"{len(pos)} atoms", "1 atom types", "",
+             f"0 {f(lengths[0])} xlo xhi", f"0 {f(lengths[1])} ylo yhi",
+             f"0 {f(lengths[2])} zlo zhi", "", "Atoms # sphere", ""]
+    lines += [f"{i + 1} 1 {f(2 * r)} {f(RHO)} {f(x)} {f(y)} {f(z)}"
+              for i, (r, (x, y, z)) in enumerate(zip(rad, pos))]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def liggghts(ranks: int, steps: int, bed=None) -> float | None:
+    """LIGGGHTS hooke/hysteresis particle-steps per second on the anchor packing (or on
+    ``bed`` = (pos, rad, lengths)), or None."""
     exe = shutil.which("liggghts")
     if exe is None or (ranks > 1 and shutil.which("mpirun") is None):
         return None
     with tempfile.TemporaryDirectory() as tmp:
         for f in ("in.liggghts_bench", "pack2k.data", "plate_unit.stl"):
             shutil.copy(HERE / "liggghts" / f, tmp)
-        cmd = [exe, "-in", "in.liggghts_bench", "-var", "data", "pack2k.data", "-var", "model",
+        data = "pack2k.data"
+        if bed is not None:
+            data = "bed.data"
+            write_lammps_data(Path(tmp, data), *bed)
+        cmd = [exe, "-in", "in.liggghts_bench", "-var", "data", data, "-var", "model",
                "hysteresis", "-var", "nsteps", str(steps), "-var", "nequil", "1000", "-log",
                "lig.log"]
         if ranks > 1:
@@ -164,9 +192,72 @@ def liggghts(ranks: int, steps: int) -> float | None:
         return int(atoms) * int(n_steps) / float(t)
 
 
+def profile(name: str, pos, rad, lengths, threads: int, steps: int) -> None:
+    """Where a step's time goes (full law, ``threads`` threads): the pair pass, the particle
+    pass (gather, walls, integration) and the neighbour-list builds, each timed alone over
+    many calls [us per step], against the whole step measured by a run. Wall-clock and the
+    process's CPU time (robust to other load on the machine with one thread)."""
+    numba.set_num_threads(threads)
+    top = float((pos[:, 2] + rad).max()) + 0.1 * R
+    sim = engine.Simulation(scene_for(pos, rad, lengths, FULL, top), dt=DT, threads=threads)
+    sim.run(200)
+    b0 = sim.n_rebuilds
+    t0 = time.perf_counter()
+    c0 = time.process_time()
+    sim.run(steps)
+    step = (time.perf_counter() - t0) / steps
+    step_cpu = (time.process_time() - c0) / steps
+    builds = sim.n_rebuilds - b0
+    k = sim._k
+    args = (sim._particles, sim._list, sim._walls, sim._params, sim._scratch)
+    tiny = engine.Simulation(scene_for(np.array([[0.01, 0.01, 0.003], [0.02, 0.01, 0.003]]),
+                                       np.full(2, R), [0.05, 0.05, 0.1], FULL, top=0.01),
+                             dt=DT, threads=threads)
+    targs = (tiny._particles, tiny._list, tiny._walls, tiny._params, tiny._scratch)
+    reps = max(50, steps // 4)
+
+    def per_call(fn, a):
+        """(wall, process CPU) seconds per call."""
+        fn(a)
+        t = time.perf_counter()
+        c = time.process_time()
+        for _ in range(reps):
+            fn(a)
+        return (time.perf_counter() - t) / reps, (time.process_time() - c) / reps
+
+    def pair(a):
+        k.parallel_pass(np.int64(0), np.int64(k.FORCES), *a)
+
+    def particle(a):
+        k.parallel_pass(np.int64(1), np.int64(k.FORCES), *a)
+
+    numba.set_num_threads(threads)
+    chunk = numba.set_parallel_chunksize(engine.config.PASS_CHUNKS_PER_GRAB)  # as in a run
+    try:
+        call = per_call(pair, targs)  # the Python call itself, on a 2-particle scene
+        t_pair = [a - b for a, b in zip(per_call(pair, args), call)]
+        t_part = [a - b for a, b in zip(per_call(particle, args), call)]
+    finally:
+        numba.set_parallel_chunksize(chunk)
+    t = time.perf_counter()
+    for _ in range(5):
+        sim.rebuild_neighbour_list()
+    t_build = (time.perf_counter() - t) / 5
+    build = t_build * builds / steps
+    rest = step - t_pair[0] - t_part[0] - build
+    us = 1e6
+    print(f"  profile {name:10s} {threads} thread(s): step {step * us:7.1f} us (CPU "
+          f"{step_cpu * us:7.1f}) = pair pass "
+          f"{t_pair[0] * us:7.1f} (CPU {t_pair[1] * us:7.1f}) + particle pass "
+          f"{t_part[0] * us:6.1f} (CPU {t_part[1] * us:6.1f}) + list builds {build * us:5.1f} "
+          f"({builds} x {t_build * 1e3:.2f} ms) + rest {rest * us:6.1f} (status, wall sums, "
+          f"fork/join); {step / sim.n * 1e9:.0f} ns per particle-step", flush=True)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="2k bed only, shorter runs")
+    ap.add_argument("--quick", action="store_true", help="2k beds only, shorter runs")
+    ap.add_argument("--profile", action="store_true", help="profile of the hot loop per pass")
     ap.add_argument("--repeats", type=int, default=3)
     args = ap.parse_args(argv)
     steps2k = 4000 if args.quick else 10_000
@@ -174,12 +265,20 @@ def main(argv=None) -> int:
 
     print(f"demscale engine benchmark: {platform.processor() or platform.machine()}, "
           f"{os.cpu_count()} cores, numba {numba.__version__} "
-          f"({numba.config.NUMBA_NUM_THREADS} threads), numpy {np.__version__}")
+          f"({numba.config.NUMBA_NUM_THREADS} threads), numpy {np.__version__}, "
+          f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}, "
+          f"load {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     print("building / loading settled beds ...", flush=True)
-    beds = {"bed-2k": settled_bed(2025, 0.05)}
+    beds = {"anchor-2k": anchor_bed(), "bed-2k": settled_bed(2025, 0.05)}
     if not args.quick:
         beds["bed-16k"] = settled_bed(16200, 0.1)
-    beds["anchor-2k"] = anchor_bed()
+
+    if args.profile:
+        for name in ("anchor-2k", "bed-16k"):
+            if name in beds:
+                for threads in (1, 2):
+                    steps = steps16k if name == "bed-16k" else steps2k // 2
+                    profile(name, *beds[name], threads, steps)
 
     rows = []
     stats = {}
@@ -189,56 +288,95 @@ def main(argv=None) -> int:
             if name == "anchor-2k" and law is PLAIN:
                 continue
             for threads in (1, 2):
-                rate, sim = time_run(pos, rad, lengths, law, threads, steps, args.repeats)
-                rows.append((name, len(pos), law_name, threads, rate, sim.threads))
+                rate, cpu, sim = time_run(pos, rad, lengths, law, threads, steps, args.repeats)
+                rows.append((name, len(pos), law_name, threads, rate, sim.threads, cpu))
                 if law is FULL and threads == 1:
                     stats[name] = (len(sim.contacts().pairs) * 2 / sim.n,
                                    sim.memory_bytes() / sim.n, sim.n_rebuilds)
                 print(f"  {name:10s} {len(pos):6d}  {law_name:26s} {threads} thread(s) "
-                      f"({sim.threads} used) {rate:10.3e} particle-steps/s", flush=True)
+                      f"({sim.threads} used) {rate:10.3e} particle-steps/s, CPU {cpu:.0f} ns "
+                      "per particle-step", flush=True)
 
-    lig = {}
+    lig: dict[tuple[str, int], float | None] = {}
     if shutil.which("liggghts"):
-        print("LIGGGHTS 3.8 hooke/hysteresis on anchor-2k ...", flush=True)
-        for ranks in (1, 2):
-            lig[ranks] = liggghts(ranks, steps2k)
+        for name in ("anchor-2k", "bed-16k"):
+            if name not in beds:
+                continue
+            print(f"LIGGGHTS 3.8 hooke/hysteresis on {name} ...", flush=True)
+            for ranks in (1, 2):
+                lig[name, ranks] = liggghts(
+                    ranks, steps16k if name == "bed-16k" else steps2k,
+                    None if name == "anchor-2k" else beds[name])
     first, cached = compile_times()
+    load = " ".join(f"{x:.2f}" for x in os.getloadavg())
 
     def rate(name, law, threads):
         return next(r[4] for r in rows if r[0] == name and r[2] == law and r[3] == threads)
 
-    print("\n| scene | particles | law | numba threads (used) | particle-steps/s | ratio |")
-    print("|---|---:|---|---:|---:|---|")
-    for name, n, law_name, threads, r, used in rows:
+    print("\n| scene | particles | law | threads (used) | particle-steps/s | CPU ns per "
+          "particle-step | ratio |")
+    print("|---|---:|---|---:|---:|---:|---|")
+    for name, n, law_name, threads, r, used, cpu in rows:
         base = rate(name, "full", 1)
         note = ("baseline" if (law_name, threads) == ("full", 1)
                 else f"{r / base:.2f} x full 1-thread")
-        if name == "anchor-2k" and lig.get(threads):
-            note += f"; {r / lig[threads]:.2f} x LIGGGHTS {threads} rank(s)"
-        print(f"| {name} | {n} | {law_name} | {threads} ({used}) | {r:.3e} | {note} |")
-    for ranks, r in lig.items():
-        print(f"| anchor-2k | 2025 | LIGGGHTS hooke/hysteresis | {ranks} MPI | "
-              f"{r:.3e} | same deck, same session |" if r else
-              f"| anchor-2k | 2025 | LIGGGHTS | {ranks} MPI | failed | |")
+        if law_name == "full" and lig.get((name, threads)):
+            note += f"; {r / lig[name, threads]:.2f} x LIGGGHTS {threads} rank(s)"
+        print(f"| {name} | {n} | {law_name} | {threads} ({used}) | {r:.3e} | {cpu:.0f} | "
+              f"{note} |")
+    for (name, ranks), r in lig.items():
+        print(f"| {name} | {len(beds[name][0])} | LIGGGHTS hooke/hysteresis | {ranks} MPI | "
+              f"{r:.3e} | | same packing, same session |" if r else
+              f"| {name} | {len(beds[name][0])} | LIGGGHTS | {ranks} MPI | failed | | |")
     print("\n| scene | contacts per particle | engine memory per particle | list builds |")
     print("|---|---:|---:|---:|")
     for name, (cpp, mem, builds) in stats.items():
         print(f"| {name} | {cpp:.2f} | {mem:.0f} B | {builds} |")
     print(f"\ncompile: first {first:.1f} s (empty caches, includes interpreter start and "
-          f"imports), cached {cached:.2f} s")
+          f"imports), cached {cached:.2f} s; load at the end: {load}")
 
     big = "bed-16k" if "bed-16k" in stats else "bed-2k"
-    checks = [
-        ("1 thread full law >= 2.5e6", min(rate(n, "full", 1) for n in beds) >= 2.5e6),
-        ("2 threads full law >= 4.5e6", min(rate(n, "full", 2) for n in beds) >= 4.5e6),
-        ("cohesionless frictionless clearly faster (>= 1.2x)",
-         all(rate(n, "cohesionless-frictionless", t) >= 1.2 * rate(n, "full", t)
-             for n in beds if n != "anchor-2k" for t in (1, 2))),
-        (f"memory < 1 KB per particle ({big})", stats[big][1] < 1024),
-        ("first compile < 20 s", first < 20.0),
-        ("cached start < 2 s", cached < 2.0),
+    checks: list[tuple[str, bool | None]] = []
+    for name in ("anchor-2k", "bed-16k"):
+        if name not in beds:
+            continue
+        r2 = rate(name, "full", 2)
+        lg2, lg1 = lig.get((name, 2)), lig.get((name, 1))
+        if lg2:
+            # on a loaded machine LIGGGHTS's 2 MPI ranks can run slower than its 1 (MPI polls
+            # while it waits): then the faster of the two is the baseline, never the collapse
+            lg = max(lg2, lg1 or 0.0)
+            which = "2 ranks" if lg == lg2 else "1 rank (faster than its 2 ranks here)"
+            checks.append((f"{name} full law 2 threads >= 2x LIGGGHTS on 2 ranks: {r2:.3e} vs "
+                           f"{lg:.3e} (LIGGGHTS {which}) = {r2 / lg:.2f}x", r2 >= 2.0 * lg))
+        else:
+            checks.append((f"{name} full law 2 threads >= 2x LIGGGHTS on 2 ranks: {r2:.3e}, "
+                           "LIGGGHTS not measured (not installed or failed)", None))
+        r1 = rate(name, "full", 1)
+        checks.append((f"{name} full law 2 threads >= 1.7x 1 thread: {r2:.3e} / {r1:.3e} = "
+                       f"{r2 / r1:.2f}x", r2 >= 1.7 * r1))
+    lo1 = min(rate(n, "full", 1) for n in beds)
+    lo2 = min(rate(n, "full", 2) for n in beds)
+    plain = [rate(n, "cohesionless-frictionless", t) / rate(n, "full", t)
+             for n in beds if n != "anchor-2k" for t in (1, 2)]
+    checks += [
+        (f"1 thread full law >= 2.5e6 (issue 2): lowest {lo1:.3e}", lo1 >= 2.5e6),
+        (f"2 threads full law >= 4.5e6 (issue 2): lowest {lo2:.3e}", lo2 >= 4.5e6),
+        (f"cohesionless frictionless >= 1.2x full law (issue 2): {min(plain):.2f}x to "
+         f"{max(plain):.2f}x", min(plain) >= 1.2),
+        (f"memory <= 1 KB per particle ({big}): {stats[big][1]:.0f} B", stats[big][1] <= 1024),
+        (f"compile <= 20 s cold: {first:.1f} s", first <= 20.0),
+        (f"compile <= 2 s cached: {cached:.2f} s", cached <= 2.0),
+        ("16 threads >= 12x 1 thread at 128k particles: not measured (no 16-core machine)",
+         None),
+        ("cost per particle-step at 1M within 30 % of 16k, 16 threads: not measured (no "
+         "16-core machine)", None),
     ]
-    return report(checks)
+    print(f"\nthreading layer {numba.threading_layer()}")
+    for what, ok in checks:
+        if ok is None:
+            print(f"----  {what}")
+    return report([(what, ok) for what, ok in checks if ok is not None])
 
 
 if __name__ == "__main__":

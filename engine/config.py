@@ -24,13 +24,21 @@ if "NUMBA_THREADING_LAYER" not in os.environ and "NUMBA_THREADING_LAYER_PRIORITY
 # the cores (a service worker beside a benchmark, two test workers) every pass waits for a
 # descheduled spinner: a 340-particle run measured 9 s alone and over 9 minutes with a second
 # engine process on 2 cores, against 12 s with passive waiting. Set before libgomp loads (it
-# is loaded at the first parallel call); an explicit OMP_WAIT_POLICY wins.
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+# is loaded at the first parallel call); an explicit OMP_WAIT_POLICY or GOMP_SPINCOUNT (a
+# bounded spin before sleeping) wins.
+if "GOMP_SPINCOUNT" not in os.environ:
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 #: Options of every serial kernel. ``error_model="numpy"`` makes a division by zero give inf
 #: (caught by the instability checks) instead of raising inside compiled code, and removes
 #: the exception checks from the hot loops. No fastmath: NaN checks must stay meaningful.
 NJIT = {"cache": True, "nogil": True, "error_model": "numpy"}
+
+#: Options of the contact-law kernels the step calls per contact: inlined at numba's IR level
+#: into the pair and the particle pass. Left to LLVM, the composition was compiled as a call
+#: with about 30 arguments spilled to the stack and its switches tested at run time; inlined,
+#: the scene's compile-time flags fold its unused branches away.
+NJIT_INLINE = {**NJIT, "inline": "always"}
 
 #: Options of kernels with ``prange`` loops.
 #: Only ``prange`` is transformed (no array-expression fusion and the like, which the kernels
@@ -53,6 +61,11 @@ NJIT_PARALLEL = {
 #: reduction is summed over the same chunks in the same order whatever the thread count:
 #: results are bit-identical with 1 and with N threads.
 CHUNK = 64
+
+#: Chunks a thread takes at a time from a parallel pass (numba's parallel chunk size; 0 would
+#: split the chunks into one fixed block per thread). 1: dynamic scheduling, so a thread that
+#: is descheduled or has the denser half of the bed does not hold the other up.
+PASS_CHUNKS_PER_GRAB = 1
 
 #: ``Simulation(threads=None)`` runs one thread per this many particles [-]. Measured on 2
 #: cores (benchmarks/engine_speed.py): 2,025 particles ran at 6.2e6 particle-steps/s on one

@@ -1,30 +1,56 @@
-"""Stateless compiled contact-law kernels (scalar in, scalar out).
+"""Stateless compiled contact-law kernels and the one contact composition.
 
 Units: overlaps and displacements [m], velocities [m/s], forces [N], stiffnesses [N/m],
 moduli [Pa], masses [kg], torques [N m]. Sign conventions (PHYSICS.md): the overlap ``d > 0``
 means the surfaces interpenetrate; ``n`` is the unit vector from particle j to particle i (from
-the wall to the particle); a normal force is positive when repulsive; ``v`` is the velocity of
-i's contact point relative to j's, so ``vn = v . n < 0`` while approaching.
+the wall to the particle); a normal force is positive when repulsive.
 
-Composition order, written once in :func:`bilinear_contact` and :func:`hertz_contact`
-(LAMMPS granular order): elastic-plastic-adhesive normal force, then normal damping, then the
-friction cap from the normal force, then the tangential spring, then (in the step kernel,
-from the returned elastic force) rolling resistance.
+:func:`contact` is the one composition, called by the step kernel for every particle-particle
+AND every particle-wall contact (LAMMPS GRANULAR ``GranularModel`` style: one force calculation
+serves both). Its fixed order:
 
-The boolean arguments (``plastic``, ``adhesion``, ...) are compile-time constants at every call
-site in the step kernel, so the branches a scene does not use are compiled out.
+1. contact-point velocity (:func:`contact_velocity`);
+2. normal force with adhesion and plasticity (:func:`bilinear_normal_force`) or Hertz
+   (:func:`hertz_normal_force`);
+3. normal damping (:func:`viscous_damping_coefficient` on the contact's normal stiffness);
+4. the friction cap from the normal force (:func:`friction_limit`);
+5. the tangential spring, turned into the current tangent plane, damped and capped
+   (:func:`tangential_spring_force`);
+6. the torque split (both bodies turn the same way: ``t_i = -R_i n x F_t``,
+   ``t_j = -R_j n x F_t``) and the rolling-resistance moment ``mu_r |f_el|``, applied per
+   particle by :func:`rolling_torque`;
+7. history write-back (largest overlap or contact marker, tangential spring).
+
+The boolean arguments of :func:`contact` (``hertz``, ``plastic``, ...) are compile-time
+constants at every call site in the step kernel, so the branches a scene does not use are
+compiled out. A switched-on feature with its neutral parameter (``f0 = 0``, ``kadh = 0``,
+``k2 = k1``, ``mu = 0``, ``mu_r = 0``, ``zeta = 0``) gives bit-identical results to the feature
+switched off (tests/engine/test_kernels.py holds the kernels to this).
 """
 
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 from numba import njit
 
-from .config import NJIT, ROLLING_OMEGA_EPS
+from .config import NJIT_INLINE, ROLLING_OMEGA_EPS
+
+#: Parameters of one contact law as the kernel reads them (floats; a law that lacks one
+#: passes its neutral value). ``k_n``: bilinear loading stiffness K1 [N/m], or Hertz E* [Pa];
+#: ``k_unload``: bilinear K2 [N/m]; ``f0``: adhesion [N] (<= 0); ``kadh``: adhesive branch
+#: slope [N/m]; ``k_t``: bilinear tangential stiffness Kt [N/m], or Hertz G* [Pa];
+#: ``zeta``: damping ratio applied to the contact's stiffness [-] (Hertz: sqrt(5/6) zeta,
+#: Tsuji et al. 1992); ``mu_s``: sliding friction [-]; ``mu_r``: rolling friction [-].
+ContactLaw = namedtuple("ContactLaw", "k_n k_unload f0 kadh k_t zeta mu_s mu_r")
+
+#: Compile-time switches of :func:`contact`: Hertz instead of bilinear normal law, plastic
+#: unloading branch, tangential spring and friction, normal and tangential damping, rolling.
+LawFlags = namedtuple("LawFlags", "hertz plastic friction damping rolling")
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
 def bilinear_normal_force(d, dmax, k1, k2, f0, kadh):
     r"""Hysteretic normal force of the bilinear adhesive elasto-plastic law.
 
@@ -44,24 +70,46 @@ def bilinear_normal_force(d, dmax, k1, k2, f0, kadh):
     return f, dmax
 
 
-@njit(**NJIT)
-def bilinear_friction_limit(mu_s, f_hys, f0, kadh, d):
-    r"""Adhesion-aware Coulomb limit :math:`\mu_s |f_{hys} - f_0 + k_{adh} d|` [N].
+@njit(**NJIT_INLINE)
+def friction_limit(mu_s, f_el, f0, kadh, d):
+    r"""Adhesion-aware Coulomb limit :math:`\mu_s |f_{el} - f_0 + k_{adh} d|` [N].
 
-    Zero on the adhesive plateau (f_hys = f0, kadh = 0): a contact held only by adhesion
-    carries no friction (Thakur et al. 2014).
+    Bilinear law: zero on the adhesive plateau (f_el = f0, kadh = 0): a contact held only by
+    adhesion carries no friction (Thakur et al. 2014). Hertz (f0 = kadh = 0): ``mu |F_n^el|``.
+    Args: friction mu_s [-], elastic (hysteretic) normal force f_el [N], adhesion f0 [N],
+    adhesive slope kadh [N/m], overlap d [m].
     """
-    return mu_s * abs(f_hys - f0 + kadh * d)
+    return mu_s * abs(f_el - f0 + kadh * d)
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
 def viscous_damping_coefficient(zeta, m_eff, k):
-    r"""Viscous damping coefficient :math:`c = 2\zeta\sqrt{m_{eff} k}` [N s/m] for a linear
-    spring k [N/m], effective mass m_eff [kg] and damping ratio zeta [-]."""
+    r"""Viscous damping coefficient :math:`c = 2\zeta\sqrt{m_{eff} k}` [N s/m] for a spring of
+    stiffness k [N/m], effective mass m_eff [kg] and damping ratio zeta [-]."""
     return 2.0 * zeta * math.sqrt(m_eff * k)
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
+def contact_velocity(vx, vy, vz, sx, sy, sz, nx, ny, nz):
+    r"""Normal and tangential relative velocity of the contact point [m/s].
+
+    .. math:: v_n = (v_i - v_j)\cdot n, \qquad
+              v_t = (v_i - v_j) - v_n n - (R_i\omega_i + R_j\omega_j)\times n
+
+    Args: translational relative velocity v = v_i - v_j [m/s], spin sum
+    s = R_i w_i + R_j w_j [m/s] (a wall: R_i w_i), unit normal n (j -> i).
+    ``v_n`` uses the translation only: the spin term is perpendicular to n, so the normal
+    velocity (and the damping) does not depend on whether rotation is compiled in.
+    Returns: (vn, vtx, vty, vtz).
+    """
+    vn = vx * nx + vy * ny + vz * nz
+    vtx = vx - vn * nx - (sy * nz - sz * ny)
+    vty = vy - vn * ny - (sz * nx - sx * nz)
+    vtz = vz - vn * nz - (sx * ny - sy * nx)
+    return vn, vtx, vty, vtz
+
+
+@njit(**NJIT_INLINE)
 def tangential_spring_force(xix, xiy, xiz, nx, ny, nz, vtx, vty, vtz, kt, ct, cap, dt):
     r"""Incremental linear tangential spring with damping and a Coulomb cap.
 
@@ -106,7 +154,7 @@ def tangential_spring_force(xix, xiy, xiz, nx, ny, nz, vtx, vty, vtz, kt, ct, ca
     return ftx, fty, ftz, xix, xiy, xiz
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
 def rolling_torque(wx, wy, wz, mu_r, fn_abs, radius):
     r"""Constant directional rolling-resistance torque (EDEM "standard") [N m].
 
@@ -114,7 +162,9 @@ def rolling_torque(wx, wy, wz, mu_r, fn_abs, radius):
 
     Args: angular velocity of the particle w [rad/s], rolling friction mu_r [-], magnitude of
     the contact's elastic normal force fn_abs [N], particle radius [m]. Zero when
-    |w| <= ``ROLLING_OMEGA_EPS``.
+    |w| <= ``ROLLING_OMEGA_EPS``. Every contact of a particle pulls against the same unit
+    spin vector, so the step kernel calls it once per particle with ``mu_r = 1`` and
+    ``fn_abs`` the particle's summed rolling moments ``sum mu_r |f_el|`` [N].
     """
     w2 = wx * wx + wy * wy + wz * wz
     if w2 <= ROLLING_OMEGA_EPS * ROLLING_OMEGA_EPS:
@@ -123,7 +173,7 @@ def rolling_torque(wx, wy, wz, mu_r, fn_abs, radius):
     return s * wx, s * wy, s * wz
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
 def hertz_normal_force(d, e_star, r_star):
     r"""Hertz elastic normal force and normal contact stiffness.
 
@@ -136,124 +186,105 @@ def hertz_normal_force(d, e_star, r_star):
     return (4.0 / 3.0) * e_star * a * d, 2.0 * e_star * a
 
 
-@njit(**NJIT)
+@njit(**NJIT_INLINE)
 def hertz_tangential_stiffness(d, g_star, r_star):
     r"""Mindlin no-slip tangential stiffness :math:`S_t = 8G^*\sqrt{R^* d}` [N/m]."""
     return 8.0 * g_star * math.sqrt(r_star * d)
 
 
-@njit(**NJIT)
-def bilinear_contact(
-    d,
-    nx,
-    ny,
-    nz,
-    vx,
-    vy,
-    vz,
-    dmax,
-    xix,
-    xiy,
-    xiz,
-    m_eff,
-    k1,
-    k2,
-    f0,
-    kadh,
-    kt,
-    zeta,
-    mu_s,
-    dt,
-    plastic,
-    adhesion,
-    friction,
-    damping,
-):
-    r"""One contact of the bilinear adhesive elasto-plastic law, composed in the fixed order.
+@njit(**NJIT_INLINE)
+def contact_force(d, nx, ny, nz, vx, vy, vz, sx, sy, sz, dmax, xix, xiy, xiz, r_star, m_eff,
+                  law, flags, dt):
+    r"""One contact, composed in the fixed order (steps 1 to 5 of the module docstring).
 
-    Args: overlap d [m] (> 0), unit normal n (j -> i), relative contact velocity v [m/s],
-    history (dmax [m], tangential spring xi [m]), effective mass m_eff [kg], law parameters
-    (k1, k2, kadh, kt [N/m], f0 [N], zeta, mu_s [-]), dt [s]; feature switches.
-    Returns: (F_n [N] normal force with damping, f_hys [N] (for the rolling torque),
-    F_t (3) [N], dmax [m], xi (3) [m]). The force acts on i; j receives the opposite.
+    Normal force: bilinear :math:`f_{el} = f_{hys}` (:func:`bilinear_normal_force`, or
+    :math:`f_0 + K_1 d` without plasticity) with stiffness :math:`K_1`, or Hertz
+    :math:`f_{el} = \tfrac43 E^*\sqrt{R^*}d^{3/2}` with stiffness :math:`S_n`; damping
+    :math:`F_n = f_{el} - c_n v_n`, :math:`c_n = 2\zeta\sqrt{m\,S}`; tangential stiffness
+    :math:`K_t` or :math:`S_t = 8G^*\sqrt{R^* d}` with :math:`c_t = 2\zeta\sqrt{m\,K_t}`, capped
+    at :math:`\mu_s|f_{el} - f_0 + k_{adh} d|`.
+
+    Args: overlap d [m] (> 0), unit normal n (j -> i), relative velocity v = v_i - v_j [m/s],
+    spin sum s = R_i w_i + R_j w_j [m/s], history (dmax [m]: largest overlap, or the current
+    one for Hertz; spring xi [m]), effective radius r_star [m] and mass m_eff [kg] (a wall:
+    the particle's), the law's parameters ``law`` (:data:`ContactLaw`), its switches ``flags``
+    (:data:`LawFlags`), time step dt [s].
+    Returns: (F_n [N] with damping, f_el [N], F_t (3) [N], dmax [m], xi (3) [m]). The force
+    F_n n + F_t acts on i; j receives the opposite.
     """
-    f0_ = f0 if adhesion else 0.0
-    if plastic:
-        f_hys, dmax = bilinear_normal_force(d, dmax, k1, k2, f0_, kadh)
-    else:
+    # 1. contact-point velocity
+    vn, vtx, vty, vtz = contact_velocity(vx, vy, vz, sx, sy, sz, nx, ny, nz)
+    # 2. normal force: elastic, plastic, adhesive
+    if flags.hertz:
+        f_el, stiff = hertz_normal_force(d, law.k_n, r_star)
+        dmax = d
+    elif flags.plastic:
+        f_el, dmax = bilinear_normal_force(d, dmax, law.k_n, law.k_unload, law.f0, law.kadh)
+        stiff = law.k_n
+    else:  # k2 == k1: no plastic overlap, linear elastic (plus the adhesion offset)
         if d > dmax:
             dmax = d
-        f_hys = f0_ + k1 * d  # k2 == k1: no plastic overlap, the law is linear elastic
-    vn = vx * nx + vy * ny + vz * nz
-    fn = f_hys
-    sm = 0.0
-    if damping:
-        sm = math.sqrt(m_eff)
-        fn -= 2.0 * zeta * sm * math.sqrt(k1) * vn
+        f_el = law.f0 + law.k_n * d
+        stiff = law.k_n
+    # 3. damping
+    fn = f_el
+    if flags.damping:
+        fn -= viscous_damping_coefficient(law.zeta, m_eff, stiff) * vn
     ftx = 0.0
     fty = 0.0
     ftz = 0.0
-    if friction:
-        vtx = vx - vn * nx
-        vty = vy - vn * ny
-        vtz = vz - vn * nz
-        cap = bilinear_friction_limit(mu_s, f_hys, f0_, kadh, d)
-        ct = 2.0 * zeta * sm * math.sqrt(kt) if damping else 0.0
+    if flags.friction:
+        # 4. friction cap from the normal force
+        cap = friction_limit(law.mu_s, f_el, law.f0, law.kadh, d)
+        # 5. tangential spring
+        if flags.hertz:
+            kt = hertz_tangential_stiffness(d, law.k_t, r_star)
+        else:
+            kt = law.k_t
+        ct = viscous_damping_coefficient(law.zeta, m_eff, kt) if flags.damping else 0.0
         ftx, fty, ftz, xix, xiy, xiz = tangential_spring_force(
             xix, xiy, xiz, nx, ny, nz, vtx, vty, vtz, kt, ct, cap, dt
         )
-    return fn, f_hys, ftx, fty, ftz, dmax, xix, xiy, xiz
+    return fn, f_el, ftx, fty, ftz, dmax, xix, xiy, xiz
 
 
-@njit(**NJIT)
-def hertz_contact(
-    d,
-    nx,
-    ny,
-    nz,
-    vx,
-    vy,
-    vz,
-    xix,
-    xiy,
-    xiz,
-    r_star,
-    m_star,
-    e_star,
-    g_star,
-    damp_factor,
-    mu,
-    dt,
-    friction,
-    damping,
-):
-    r"""One Hertz-Mindlin (no slip) contact, composed in the fixed order.
+@njit(**NJIT_INLINE)
+def contact(hist, k, d, nx, ny, nz, vx, vy, vz, sx, sy, sz, ri, rj, r_star, m_eff, law, flags,
+            dt):
+    r"""A contact of the step kernel, pair or wall: :func:`contact_force` on the history row
+    ``hist[k]`` (slot 0: largest overlap or contact marker [m]; slots 1-3: tangential spring
+    [m], with friction), written back in place, and the torque split.
 
-    Normal: :math:`F_n = \tfrac43E^*\sqrt{R^*}d^{3/2} - c_n v_n`,
-    :math:`c_n = \text{damp\_factor}\sqrt{S_n m^*}`; tangential: spring
-    :math:`S_t = 8G^*\sqrt{R^*d}` on the accumulated displacement with
-    :math:`c_t = \text{damp\_factor}\sqrt{S_t m^*}`, capped at :math:`\mu F_n^{el}`.
-
-    Args: overlap d [m], unit normal n, relative contact velocity v [m/s], spring xi [m],
-    effective radius r_star [m] and mass m_star [kg] (for a wall: the particle's), moduli
-    e_star, g_star [Pa], damp_factor = -2 sqrt(5/6) beta [-], friction mu [-], dt [s].
-    Returns: (F_n [N], F_n elastic [N], F_t (3) [N], xi (3) [m]).
+    Args as :func:`contact_force`, plus the history array and row and the radii ri, rj [m] of
+    the two bodies (a wall: rj = 0).
+    Returns: (force on i (3) [N], torque on i (3) [N m], torque on j (3) [N m], rolling
+    moment ``mu_r |f_el|`` [N] (0 without rolling)). Both bodies turn the same way:
+    :math:`t_i = -R_i\,n\times F_t`, :math:`t_j = -R_j\,n\times F_t`.
     """
-    f_el, s_n = hertz_normal_force(d, e_star, r_star)
-    vn = vx * nx + vy * ny + vz * nz
-    fn = f_el
-    if damping:
-        fn -= damp_factor * math.sqrt(s_n * m_star) * vn
-    ftx = 0.0
-    fty = 0.0
-    ftz = 0.0
-    if friction:
-        vtx = vx - vn * nx
-        vty = vy - vn * ny
-        vtz = vz - vn * nz
-        s_t = hertz_tangential_stiffness(d, g_star, r_star)
-        ct = damp_factor * math.sqrt(s_t * m_star) if damping else 0.0
-        ftx, fty, ftz, xix, xiy, xiz = tangential_spring_force(
-            xix, xiy, xiz, nx, ny, nz, vtx, vty, vtz, s_t, ct, mu * f_el, dt
-        )
-    return fn, f_el, ftx, fty, ftz, xix, xiy, xiz
+    xix = 0.0
+    xiy = 0.0
+    xiz = 0.0
+    if flags.friction:
+        xix = hist[k, 1]
+        xiy = hist[k, 2]
+        xiz = hist[k, 3]
+    fn, f_el, ftx, fty, ftz, dmax, xix, xiy, xiz = contact_force(
+        d, nx, ny, nz, vx, vy, vz, sx, sy, sz, hist[k, 0], xix, xiy, xiz, r_star, m_eff, law,
+        flags, dt
+    )
+    # 7. history write-back
+    hist[k, 0] = dmax
+    cx = 0.0
+    cy = 0.0
+    cz = 0.0
+    if flags.friction:
+        hist[k, 1] = xix
+        hist[k, 2] = xiy
+        hist[k, 3] = xiz
+        # 6. torque split
+        cx = ny * ftz - nz * fty
+        cy = nz * ftx - nx * ftz
+        cz = nx * fty - ny * ftx
+    roll = law.mu_r * abs(f_el) if flags.rolling else 0.0
+    return (fn * nx + ftx, fn * ny + fty, fn * nz + ftz, -ri * cx, -ri * cy, -ri * cz,
+            -rj * cx, -rj * cy, -rj * cz, roll)

@@ -45,6 +45,14 @@ def hertz_damping_factor(restitution: float) -> float:
     return 2.0 * math.sqrt(5.0 / 6.0) * damping_ratio(restitution)
 
 
+def pack_params(values: dict[str, float], slots: tuple[str, ...]) -> np.ndarray:
+    """Flat float64 kernel parameter array: ``values[name]`` for each slot name in order, then
+    a trailing NaN slot. engine.kernels points every parameter a specialised kernel does not
+    use at that NaN, so reading one by mistake poisons the run instead of reading a neighbour.
+    """
+    return np.array([values[name] for name in slots] + [math.nan], dtype=np.float64)
+
+
 @dataclass(frozen=True)
 class BilinearAdhesive:
     r"""Bilinear adhesive elasto-plastic pair law (linear EEPA, Thakur et al. 2014).
@@ -114,12 +122,17 @@ class BilinearAdhesive:
             f0=self.f0 * s**adhesion_exponent,
         )
 
-    def to_array(self) -> np.ndarray:
-        """Kernel parameter layout: [k1, k2, f0, kadh, kt, zeta, mu_s, mu_r]."""
-        return np.array(
-            [self.k1, self.k2, self.f0, self.kadh, self.kt, self.zeta, self.mu_s, self.mu_r],
-            dtype=np.float64,
-        )
+    def kernel_params(self) -> dict[str, float]:
+        """The values the step kernel reads, by slot name (engine.kernels.PAIR_SLOTS):
+        k1, k2, kadh, kt [N/m], f0 [N], damping ratio zeta, mu_s, mu_r [-]."""
+        return {"k1": self.k1, "k2": self.k2, "f0": self.f0, "kadh": self.kadh, "kt": self.kt,
+                "zeta": self.zeta, "mu_s": self.mu_s, "mu_r": self.mu_r}
+
+    def to_array(self, slots: tuple[str, ...] = ("k1", "k2", "f0", "kadh", "kt", "zeta",
+                                                "mu_s", "mu_r")) -> np.ndarray:
+        """Kernel parameter array: the values of ``slots`` in order, then a trailing NaN
+        (where the kernel's absent slots point, see engine.kernels)."""
+        return pack_params(self.kernel_params(), slots)
 
 
 @dataclass(frozen=True)
@@ -166,12 +179,21 @@ class HertzMindlin:
         g_star = 1.0 / ((2.0 - self.nu) / self.G + (2.0 - wall.nu) / wall.G)
         return e_star, g_star
 
-    def to_array(self, e_star: float, g_star: float) -> np.ndarray:
-        """Kernel parameter layout: [E*, G*, damping factor, mu, mu_r]."""
-        return np.array(
-            [e_star, g_star, hertz_damping_factor(self.restitution), self.mu, self.mu_r],
-            dtype=np.float64,
-        )
+    def kernel_params(self, e_star: float, g_star: float) -> dict[str, float]:
+        """The values the step kernel reads, by slot name (engine.kernels.PAIR_SLOTS and
+        WALL_SLOTS): effective moduli e_star, g_star [Pa] (from :meth:`pair_moduli` or
+        :meth:`wall_moduli`), damping ratio on the contact stiffness zeta = sqrt(5/6) x
+        the restitution's damping ratio (so that :math:`c = 2\\zeta\\sqrt{S m^*}` is the Tsuji
+        damping :math:`-2\\sqrt{5/6}\\beta\\sqrt{S m^*}`), mu_s (the record's ``mu``), mu_r [-]."""
+        return {"e_star": e_star, "g_star": g_star,
+                "zeta": 0.5 * hertz_damping_factor(self.restitution), "mu_s": self.mu,
+                "mu_r": self.mu_r}
+
+    def to_array(self, e_star: float, g_star: float,
+                 slots: tuple[str, ...] = ("e_star", "g_star", "zeta", "mu_s", "mu_r"),
+                 ) -> np.ndarray:
+        """Kernel parameter array: the values of ``slots`` in order, then a trailing NaN."""
+        return pack_params(self.kernel_params(e_star, g_star), slots)
 
 
 @dataclass(frozen=True)

@@ -13,10 +13,11 @@ from .config import (
     MAX_OVERLAP_FRACTION,
     MAX_STEP_FRACTION,
     PARTICLES_PER_THREAD,
+    PASS_CHUNKS_PER_GRAB,
     SKIN_FRACTION,
 )
 from .errors import InstabilityError, ParameterError, StabilityError
-from .kernels import load_kernel, scene_features
+from .kernels import load_kernel, pair_slots, scene_features, wall_slots
 from .materials import BilinearAdhesive
 from .neighbour import build_neighbour_list, wrap_positions
 from .scene import Scene
@@ -25,6 +26,7 @@ from .step_common import NAN as _STATUS_NAN
 from .step_common import OK as _STATUS_OK
 from .step_common import OVERLAP as _STATUS_OVERLAP
 from .step_common import REBUILD as _STATUS_REBUILD
+from .step_common import NeighbourList, Particles, Scratch, StepParams, Walls
 
 
 class StabilityWarning(UserWarning):
@@ -63,6 +65,33 @@ class Contacts:
 
 def _concat(parts: list, dtype) -> np.ndarray:
     return np.concatenate(parts) if parts else np.zeros(0, dtype)
+
+
+def cell_order(pos: np.ndarray, rad: np.ndarray, lo: np.ndarray, length: np.ndarray,
+               periodic) -> np.ndarray:
+    """Particle ids sorted by the cell (one particle diameter wide, z fastest) they lie in:
+    neighbours get nearby ids, so the step's loops over neighbours stay in cache, and the
+    fixed chunks of consecutive ids are compact in space. The grid does not depend on the
+    Verlet skin, so neither does the order (nor, then, the trajectory). [m]"""
+    n = len(pos)
+    cut = 2.0 * float(rad.max())
+    origin = np.empty(3)
+    ext = np.empty(3)
+    p = pos.copy()
+    for a in range(3):
+        if periodic[a]:
+            p[:, a] = lo[a] + np.mod(p[:, a] - lo[a], length[a])
+            origin[a], ext[a] = lo[a], length[a]
+        else:
+            origin[a], ext[a] = p[:, a].min(), np.ptp(p[:, a])
+    ncell = np.maximum(1, (ext / cut).astype(np.int64))
+    while int(np.prod(ncell)) > 4 * n + 64:
+        a = int(np.argmax(ncell))
+        ncell[a] = max(1, ncell[a] // 2)
+    size = np.where(ext > 0, ext / ncell, 1.0)
+    c = np.clip(((p - origin) / size).astype(np.int64), 0, ncell - 1)
+    key = (c[:, 0] * ncell[1] + c[:, 1]) * ncell[2] + c[:, 2]
+    return np.argsort(key, kind="stable")
 
 
 class Simulation:
@@ -126,43 +155,65 @@ class Simulation:
         self._check_box()
 
         n = scene.n
-        self._pos = scene.positions.copy()
-        self._vel = scene.velocities.copy()
-        self._omg = scene.angular_velocities.copy()
-        self._frc = np.zeros((n, 3))
-        self._trq = np.zeros((n, 3))
-        self._rad = scene.radii.copy()
-        self._mass = scene.masses
-        self._inv_mass = 1.0 / self._mass
-        self._inv_inertia = 1.0 / scene.inertia
-        self._pos_build = self._pos.copy()
-        self._images = np.zeros((n, 3), dtype=np.int64)
-        self._gravity = np.array(scene.gravity)
-        self._lo = scene.box[:, 0].copy()
-        self._length = scene.box_lengths.copy()
-        self._limits = np.array([max_overlap_fraction, max_step_fraction])
-        self._pp = self._pair_params()
-        self._wp = self._wall_params()
         nw = len(scene.walls)
-        self._wall_point = np.array([w.point for w in scene.walls]).reshape(nw, 3)
-        self._wall_normal = np.array([w.normal for w in scene.walls]).reshape(nw, 3)
-        self._wall_vel = np.array([w.velocity for w in scene.walls]).reshape(nw, 3)
-        self._wall_force = np.zeros((nw, 3))
-
+        self._lo = scene.box[:, 0].copy()
+        self._images = np.zeros((n, 3), dtype=np.int64)
+        self._wall_material_moduli = (
+            scene.wall_law.wall_moduli(scene.wall_material) if scene.walls else (0.0, 0.0)
+        )
         self._load(scene_features(scene))
-        wall_friction = self._features["walls"] and self._features["wall_friction"]
-        self._wall_hist = np.zeros((n if wall_friction else 0, nw, 3))
-        nchunk = -(-n // self._k.CHUNK)
-        self._wall_acc = np.zeros((nchunk, nw, 3))
-        self._chunk_stat = np.zeros((nchunk, 4))
-        self._chunk_disp = np.zeros(nchunk)
+        k = self._k
+        # internal id k is particle order[k] of the scene; every accessor maps back
+        self._order = cell_order(
+            scene.positions, scene.radii, self._lo, scene.box_lengths, self._periodic
+        )
+        self._rank = np.empty(n, dtype=np.int64)
+        self._rank[self._order] = np.arange(n)
+        o = self._order
+        pos = scene.positions[o].copy()
+        self._particles = Particles(
+            pos=pos,
+            vel=scene.velocities[o].copy(),
+            omg=scene.angular_velocities[o].copy(),
+            frc=np.zeros((n, 3)),
+            trq=np.zeros((n, 3)),
+            roll=np.zeros(n if self._features["rolling"] else 0),
+            rad=scene.radii[o].copy(),
+            mass=scene.masses[o].copy(),
+            inv_mass=1.0 / scene.masses[o],
+            inv_inertia=1.0 / scene.inertia[o],
+            pos_build=pos.copy(),
+        )
+        nchunk = -(-n // k.CHUNK)
+        self._walls = Walls(
+            point=np.array([w.point for w in scene.walls], dtype=np.float64).reshape(nw, 3),
+            normal=np.array([w.normal for w in scene.walls], dtype=np.float64).reshape(nw, 3),
+            vel=np.array([w.velocity for w in scene.walls], dtype=np.float64).reshape(nw, 3),
+            hist=np.zeros((n * nw, k.N_WALL_HIST)),
+            force=np.zeros((nw, 3)),
+            acc=np.zeros((nchunk, nw, 3)),
+        )
+        self._params = StepParams(
+            pair=self._pair_params(),
+            wall=self._wall_params(),
+            gravity=np.array(scene.gravity, dtype=np.float64),
+            length=scene.box_lengths.copy(),
+            dt=self._dt,
+            skin=self.skin,
+            max_overlap=float(max_overlap_fraction),
+            max_step=float(max_step_fraction),
+        )
+        self._scratch = Scratch(
+            chunk_stat=np.zeros((nchunk, 4)), chunk_disp=np.zeros(nchunk), info=np.zeros(3)
+        )
+        self._list = NeighbourList(
+            start=np.zeros(n + 1, dtype=np.int64),
+            j=np.zeros(0, dtype=np.int32),
+            entry=np.zeros((0, k.N_SLOT)),
+            rev_start=np.zeros(n + 1, dtype=np.int64),
+            rev_k=np.zeros(0, dtype=np.int32),
+        )
         self._n_rebuilds = 0
-        self._info = np.zeros(3)
-        self._nbr_start = np.zeros(n + 1, dtype=np.int64)
-        self._rev_start = np.zeros(n + 1, dtype=np.int64)
-        self._nbr_j = np.zeros(0, dtype=np.int32)
-        self._rev_k = np.zeros(0, dtype=np.int32)
-        self._entry = np.zeros((0, self._k.N_SLOT))
         self._n_entries = 0
         self._steps = 0
         self._failed: InstabilityError | None = None
@@ -225,17 +276,19 @@ class Simulation:
                 )
 
     def _pair_params(self) -> np.ndarray:
+        """The pair law's kernel parameters in the slots the specialised kernel names."""
         law = self.scene.pair_law
+        slots = pair_slots(self._features)
         if isinstance(law, BilinearAdhesive):
-            return law.to_array()
-        e_star, g_star = law.pair_moduli()
-        return np.concatenate([law.to_array(e_star, g_star), np.zeros(3)])
+            return law.to_array(slots)
+        return law.to_array(*law.pair_moduli(), slots=slots)
 
     def _wall_params(self) -> np.ndarray:
+        """The wall law's kernel parameters in the slots the specialised kernel names."""
+        slots = wall_slots(self._features)
         if not self.scene.walls:
-            return np.zeros(5)
-        e_star, g_star = self.scene.wall_law.wall_moduli(self.scene.wall_material)
-        return self.scene.wall_law.to_array(e_star, g_star)
+            return np.full(len(slots) + 1, math.nan)
+        return self.scene.wall_law.to_array(*self._wall_material_moduli, slots=slots)
 
     def _load(self, features: dict[str, bool]) -> None:
         self._features = features
@@ -244,12 +297,13 @@ class Simulation:
     # ------------------------------------------------------------------ neighbour list
     def _grow(self, needed: int) -> None:
         cap = int(needed * 1.25) + 16
+        old = self._list
+        m = self._n_entries
         nbr_j = np.zeros(cap, dtype=np.int32)
         entry = np.zeros((cap, self._k.N_SLOT))
-        nbr_j[: self._n_entries] = self._nbr_j[: self._n_entries]
-        entry[: self._n_entries] = self._entry[: self._n_entries]
-        self._nbr_j, self._entry = nbr_j, entry
-        self._rev_k = np.zeros(cap, dtype=np.int32)
+        nbr_j[:m] = old.j[:m]
+        entry[:m] = old.entry[:m]
+        self._list = old._replace(j=nbr_j, entry=entry, rev_k=np.zeros(cap, dtype=np.int32))
 
     @property
     def threads(self) -> int:
@@ -264,66 +318,42 @@ class Simulation:
         k = self.threads
         if k != prev:
             numba.set_num_threads(k)
+        # the passes' chunks are handed out one at a time to whichever thread is free
+        # (dynamic scheduling), not in fixed halves: a thread that another process has
+        # descheduled, or a half with more contacts, no longer holds the other thread up.
+        # The chunks themselves are fixed, so the results do not change.
+        prev_chunk = numba.set_parallel_chunksize(PASS_CHUNKS_PER_GRAB)
         try:
             return self._call_kernel(nsteps, phase)
         finally:
+            numba.set_parallel_chunksize(prev_chunk)
             if k != prev:
                 numba.set_num_threads(prev)
 
     def _call_kernel(self, nsteps: int, phase: int) -> tuple[int, int]:
         return self._k.run_steps(
-            nsteps,
-            phase,
-            self.dt,
-            self._pos,
-            self._vel,
-            self._omg,
-            self._frc,
-            self._trq,
-            self._rad,
-            self._mass,
-            self._inv_mass,
-            self._inv_inertia,
-            self._pos_build,
-            self._nbr_start,
-            self._nbr_j,
-            self._entry,
-            self._rev_start,
-            self._rev_k,
-            self._wall_point,
-            self._wall_normal,
-            self._wall_vel,
-            self._wall_hist,
-            self._wall_force,
-            self._pp,
-            self._wp,
-            self._gravity,
-            self._length,
-            self.skin,
-            self._limits,
-            self._wall_acc,
-            self._chunk_stat,
-            self._chunk_disp,
-            self._info,
+            nsteps, phase, self._particles, self._list, self._walls, self._params, self._scratch
         )
 
     def _rebuild(self) -> None:
+        p = self._particles
         while True:
+            lst = self._list
             total = build_neighbour_list(
-                self._pos,
-                self._rad,
+                p.pos,
+                p.rad,
                 self._lo,
-                self._length,
+                self._params.length,
                 self._periodic,
                 self.skin,
                 self._images,
-                self._nbr_start,
-                self._nbr_j,
-                self._entry,
+                lst.start,
+                lst.j,
+                lst.entry,
                 self._k.N_HIST,
-                self._rev_start,
-                self._rev_k,
-                self._pos_build,
+                lst.rev_start,
+                lst.rev_k,
+                p.pos_build,
             )
             self._n_rebuilds += 1
             if total >= 0:
@@ -359,7 +389,11 @@ class Simulation:
             phase = 1
 
     def _fail(self, status: int, step: int) -> None:
-        i, j, value = int(self._info[0]), int(self._info[1]), float(self._info[2])
+        info = self._scratch.info
+        i, j, value = int(info[0]), int(info[1]), float(info[2])
+        i = int(self._order[i])  # scene ids
+        if j >= 0:
+            j = int(self._order[j])
         t = step * self.dt
         where = f"step {step} (t = {t:.6g} s)"
         hint = f"; dt = {self.dt:.4g} s, stable limit {self.limit.dt:.4g} s ({self.limit.reason})"
@@ -373,13 +407,13 @@ class Simulation:
             other = f"particle {j}" if j >= 0 else f"wall {-1 - j}"
             msg = (
                 f"{where}: overlap between particle {i} and {other} is {value:.3g} x the "
-                f"radius, beyond max_overlap_fraction = {self._limits[0]:g}"
+                f"radius, beyond max_overlap_fraction = {self._params.max_overlap:g}"
             )
             reason, ids = "overlap", (i, j) if j >= 0 else (i,)
         else:
             msg = (
                 f"{where}: particle {i} moved {value:.3g} x its radius in one step, beyond "
-                f"max_step_fraction = {self._limits[1]:g} (runaway kinetic energy)"
+                f"max_step_fraction = {self._params.max_step:g} (runaway kinetic energy)"
             )
             reason, ids = "speed", (i,)
         err = InstabilityError(msg + hint, step=step, time=t, particles=ids, reason=reason)
@@ -395,7 +429,7 @@ class Simulation:
             raise ParameterError(
                 "Simulation.set_wall_velocity.velocity", velocity, "3 finite numbers [m/s]"
             )
-        self._wall_vel[index] = v
+        self._walls.vel[index] = v
 
     def set_wall_position(self, index: int, point) -> None:
         """Move wall ``index`` so that it passes through ``point`` [m]; forces are updated."""
@@ -405,7 +439,7 @@ class Simulation:
             raise ParameterError(
                 "Simulation.set_wall_position.point", point, "3 finite numbers [m]"
             )
-        self._wall_point[index] = p
+        self._walls.point[index] = p
         self._compute_forces()
 
     def set_velocities(self, velocities=None, angular_velocities=None) -> None:
@@ -413,15 +447,15 @@ class Simulation:
         them to quench a packing); forces are updated."""
         n = self.n
         for name, value, target in (
-            ("velocities", velocities, self._vel),
-            ("angular_velocities", angular_velocities, self._omg),
+            ("velocities", velocities, self._particles.vel),
+            ("angular_velocities", angular_velocities, self._particles.omg),
         ):
             if value is None:
                 continue
             a = np.broadcast_to(np.asarray(value, dtype=np.float64), (n, 3))
             if not np.all(np.isfinite(a)):
                 raise ParameterError(f"Simulation.set_velocities.{name}", "non-finite", "finite")
-            target[:] = a
+            target[:] = a[self._order]
         self._compute_forces()
 
     def rebuild_neighbour_list(self) -> None:
@@ -440,7 +474,7 @@ class Simulation:
                 f"shape {p.shape}",
                 f"finite, shape ({self.n}, 3)",
             )
-        self._pos[:] = p
+        self._particles.pos[:] = p[self._order]
         self._images[:] = 0
         self._rebuild()
         self._compute_forces()
@@ -460,7 +494,9 @@ class Simulation:
                 "periodicity can be removed, not added",
             )
         # the sample is cut at the box faces: wrap once more, then forget the wraps there
-        wrap_positions(self._pos, self._lo, self._length, self._periodic, self._images)
+        wrap_positions(
+            self._particles.pos, self._lo, self._params.length, self._periodic, self._images
+        )
         self._images[:, ~per] = 0
         self._periodic = per
         self._load(scene_features(self.scene, periodic=tuple(per.tolist())))
@@ -468,14 +504,14 @@ class Simulation:
         self._compute_forces()
 
     def _check_wall(self, index: int) -> None:
-        if not (isinstance(index, (int, np.integer)) and 0 <= index < len(self._wall_point)):
-            raise ParameterError("wall index", index, f"in [0, {len(self._wall_point)})")
+        if not (isinstance(index, (int, np.integer)) and 0 <= index < len(self._walls.point)):
+            raise ParameterError("wall index", index, f"in [0, {len(self._walls.point)})")
 
     # ------------------------------------------------------------------ state
     @property
     def n(self) -> int:
         """Number of particles."""
-        return self._pos.shape[0]
+        return self._particles.pos.shape[0]
 
     @property
     def dt(self) -> float:
@@ -505,52 +541,52 @@ class Simulation:
     @property
     def positions(self) -> np.ndarray:
         """(N, 3) positions [m], wrapped into the box on periodic axes."""
-        return self._pos.copy()
+        return self._particles.pos[self._rank]
 
     @property
     def unwrapped_positions(self) -> np.ndarray:
         """(N, 3) positions [m] with the periodic wraps undone."""
-        return self._pos + self._images * self._length
+        return (self._particles.pos + self._images * self._params.length)[self._rank]
 
     @property
     def velocities(self) -> np.ndarray:
         """(N, 3) velocities [m/s]."""
-        return self._vel.copy()
+        return self._particles.vel[self._rank]
 
     @property
     def angular_velocities(self) -> np.ndarray:
         """(N, 3) angular velocities [rad/s]."""
-        return self._omg.copy()
+        return self._particles.omg[self._rank]
 
     @property
     def radii(self) -> np.ndarray:
         """(N,) radii [m]."""
-        return self._rad.copy()
+        return self._particles.rad[self._rank]
 
     @property
     def masses(self) -> np.ndarray:
         """(N,) masses [kg]."""
-        return self._mass.copy()
+        return self._particles.mass[self._rank]
 
     @property
     def forces(self) -> np.ndarray:
         """(N, 3) total force on each particle at the last evaluation [N] (gravity included)."""
-        return self._frc.copy()
+        return self._particles.frc[self._rank]
 
     @property
     def wall_forces(self) -> np.ndarray:
         """(n_walls, 3) force exerted by the particles on each wall [N]."""
-        return self._wall_force.copy()
+        return self._walls.force.copy()
 
     @property
     def wall_positions(self) -> np.ndarray:
         """(n_walls, 3) current point of each wall [m]."""
-        return self._wall_point.copy()
+        return self._walls.point.copy()
 
     @property
     def wall_velocities(self) -> np.ndarray:
         """(n_walls, 3) wall velocities [m/s]."""
-        return self._wall_vel.copy()
+        return self._walls.vel.copy()
 
     @property
     def n_rebuilds(self) -> int:
@@ -565,58 +601,72 @@ class Simulation:
     def kinetic_energy(self) -> float:
         """Translational plus rotational kinetic energy [J]. Velocities are those of the last
         whole step."""
-        trans = 0.5 * float(np.sum(self._mass * np.sum(self._vel**2, axis=1)))
-        rot = 0.5 * float(np.sum(np.sum(self._omg**2, axis=1) / self._inv_inertia))
+        p = self._particles
+        trans = 0.5 * float(np.sum(p.mass * np.sum(p.vel**2, axis=1)))
+        rot = 0.5 * float(np.sum(np.sum(p.omg**2, axis=1) / p.inv_inertia))
         return trans + rot
 
     def memory_bytes(self) -> int:
         """Bytes held by the engine's state arrays (list buffers at their capacity)."""
-        return sum(v.nbytes for v in vars(self).values() if isinstance(v, np.ndarray))
+        arrays = [v for v in vars(self).values() if isinstance(v, np.ndarray)]
+        for rec in (self._particles, self._list, self._walls, self._params, self._scratch):
+            arrays += [v for v in rec if isinstance(v, np.ndarray)]
+        return sum(a.nbytes for a in arrays)
 
     def n_contacts(self) -> int:
         """Number of particle-particle contacts at the last force evaluation (the count of
         :meth:`contacts`, without building its arrays)."""
-        return int(np.count_nonzero(self._entry[: self._n_entries, 0]))
+        return int(np.count_nonzero(self._list.entry[: self._n_entries, 0]))
 
     def contact_counts(self) -> np.ndarray:
         """Particle-particle contacts of every particle at the last force evaluation, (N,)
         integers (the per-particle coordination number; wall contacts not counted)."""
         m = self._n_entries
-        active = np.nonzero(self._entry[:m, 0] != 0.0)[0]
-        owner = np.searchsorted(self._nbr_start, active, side="right") - 1
-        j = self._nbr_j[active].astype(np.int64)
-        return np.bincount(owner, minlength=self.n) + np.bincount(j, minlength=self.n)
+        active = np.nonzero(self._list.entry[:m, 0] != 0.0)[0]
+        owner = np.searchsorted(self._list.start, active, side="right") - 1
+        j = self._list.j[active].astype(np.int64)
+        counts = np.bincount(owner, minlength=self.n) + np.bincount(j, minlength=self.n)
+        return counts[self._rank]
 
     def contacts(self) -> Contacts:
         """Particle-particle and particle-wall contacts at the last force evaluation."""
         m = self._n_entries
-        owner = np.repeat(np.arange(self.n), np.diff(self._nbr_start))
-        active = np.nonzero(self._entry[:m, 0] != 0.0)[0]
+        owner = np.repeat(np.arange(self.n), np.diff(self._list.start))
+        active = np.nonzero(self._list.entry[:m, 0] != 0.0)[0]
         i = owner[active]
-        j = self._nbr_j[active].astype(np.int64)
-        dx = self._pos[i] - self._pos[j]
+        j = self._list.j[active].astype(np.int64)
+        pos, rad, length = self._particles.pos, self._particles.rad, self._params.length
+        dx = pos[i] - pos[j]
         for a in range(3):
             if self._periodic[a]:
-                dx[:, a] -= self._length[a] * np.floor(dx[:, a] / self._length[a] + 0.5)
+                dx[:, a] -= length[a] * np.floor(dx[:, a] / length[a] + 0.5)
         dist = np.sqrt(np.sum(dx**2, axis=1))
         f = self._k.F_SLOT
-        forces = -self._entry[active, f : f + 3]
+        forces = -self._list.entry[active, f : f + 3]
         wp, wi, wo = [], [], []
-        for w in range(len(self._wall_point)):
-            d = self._rad - (self._pos - self._wall_point[w]) @ self._wall_normal[w]
+        for w in range(len(self._walls.point)):
+            d = rad - (pos - self._walls.point[w]) @ self._walls.normal[w]
             idx = np.nonzero(d > 0)[0]
             wp.append(idx)
             wi.append(np.full(idx.size, w))
             wo.append(d[idx])
-        springs = self._entry[active, 1:4] if self._k.N_HIST == 4 else np.zeros((active.size, 3))
+        entry = self._list.entry
+        springs = entry[active, 1:4] if self._k.N_HIST == 4 else np.zeros((active.size, 3))
+        # scene ids, the smaller first (seen from it: force, normal and spring flip), sorted
+        oi, oj = self._order[i], self._order[j]
+        sign = np.where(oi < oj, 1.0, -1.0)[:, None]
+        pairs = np.stack([np.minimum(oi, oj), np.maximum(oi, oj)], axis=1)
+        srt = np.lexsort((pairs[:, 1], pairs[:, 0]))
+        wparts = self._order[_concat(wp, np.int64)]
+        wsrt = np.lexsort((_concat(wi, np.int64), wparts))
         return Contacts(
-            np.stack([i, j], axis=1),
-            self._rad[i] + self._rad[j] - dist,
-            forces,
-            dx / dist[:, None],
-            self._entry[active, 0].copy(),
-            springs,
-            _concat(wp, np.int64),
-            _concat(wi, np.int64),
-            _concat(wo, np.float64),
+            pairs[srt],
+            (rad[i] + rad[j] - dist)[srt],
+            (sign * forces)[srt],
+            (sign * dx / dist[:, None])[srt],
+            entry[active, 0][srt],
+            (sign * springs)[srt],
+            wparts[wsrt],
+            _concat(wi, np.int64)[wsrt],
+            _concat(wo, np.float64)[wsrt],
         )

@@ -3,9 +3,43 @@
 Kept out of the specialised template so that a new feature set does not compile them again.
 """
 
+from collections import namedtuple
+
 from numba import njit
 
 from .config import NJIT
+
+#: Per-particle state [SI]: positions [m], velocities [m/s], angular velocities [rad/s], forces
+#: [N] and torques [N m] of the last evaluation (N, 3); ``roll``: the summed rolling moments
+#: ``mu_r |f_el|`` [N] of each particle's own half-list contacts, left by the pair pass for the
+#: particle pass ((N,), or (0,) without rolling); radii [m], masses [kg], inverse masses
+#: [1/kg], inverse moments of inertia [1/(kg m^2)] (N,); positions at the last list build [m].
+Particles = namedtuple(
+    "Particles", "pos vel omg frc trq roll rad mass inv_mass inv_inertia pos_build"
+)
+
+#: Half Verlet list in CSR form with its per-entry slots and the reverse list (see
+#: engine.neighbour): ``start`` (N+1,), ``j`` (capacity,), ``entry`` (capacity, N_SLOT),
+#: ``rev_start`` (N+1,), ``rev_k`` (capacity,).
+NeighbourList = namedtuple("NeighbourList", "start j entry rev_start rev_k")
+
+#: Planar walls: a point [m], the unit normal into the domain, the velocity [m/s] (n_walls, 3);
+#: ``hist``: per particle and wall contact history (N * n_walls, N_WALL_HIST), row
+#: ``i * n_walls + w``; ``force``: force of the particles on each wall [N] (n_walls, 3);
+#: ``acc``: its per-chunk partial sums (n_chunks, n_walls, 3).
+Walls = namedtuple("Walls", "point normal vel hist force acc")
+
+#: Step parameters: pair and wall law parameter arrays (named slots, see engine.kernels),
+#: gravity [m/s^2] (3,), box lengths [m] (3,), time step dt [s], Verlet skin [m], the overlap
+#: and step-length guards as fractions of the radius [-].
+StepParams = namedtuple(
+    "StepParams", "pair wall gravity length dt skin max_overlap max_step"
+)
+
+#: Per-chunk scratch of the parallel passes: the first problem found (code, i, j, value)
+#: (n_chunks, 4), the largest squared displacement since the list build [m^2] (n_chunks,), and
+#: the reported problem (i, j, value) (3,).
+Scratch = namedtuple("Scratch", "chunk_stat chunk_disp info")
 
 # status codes returned by the step kernel's run_steps
 OK = 0

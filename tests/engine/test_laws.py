@@ -93,52 +93,23 @@ def test_scalar_kernel_matches_naive_on_random_paths(kadh):
         assert dmax_k == dmax_n
 
 
+BILINEAR_FLAGS = laws.LawFlags(hertz=False, plastic=True, friction=True, damping=False,
+                               rolling=False)
+
+
+def _bilinear_contact(d, dmax, xi, v, kadh=0.0, k2=K2, n=(1.0, 0.0, 0.0), spin=(0.0, 0.0, 0.0),
+                      zeta=0.0, m_eff=1e-4, dt=1e-5):
+    law = laws.ContactLaw(k_n=K1, k_unload=k2, f0=F0, kadh=kadh, k_t=2 / 7 * K1, zeta=zeta,
+                          mu_s=0.5, mu_r=0.0)
+    flags = BILINEAR_FLAGS._replace(plastic=k2 > K1, damping=zeta > 0)
+    return laws.contact_force(d, *n, *v, *spin, dmax, *xi, 0.0, m_eff, law, flags, dt)
+
+
 def test_friction_cap_zero_on_plateau_and_adhesion_aware():
-    n = (1.0, 0.0, 0.0)
     vt = (0.0, 0.3, 0.0)  # tangential sliding velocity [m/s]
     dt = 1e-5
-    common = dict(
-        k1=K1,
-        k2=K2,
-        f0=F0,
-        kadh=0.0,
-        kt=2 / 7 * K1,
-        zeta=0.0,
-        mu_s=0.5,
-        dt=dt,
-        plastic=True,
-        adhesion=True,
-        friction=True,
-        damping=False,
-    )
-
-    def contact(d, dmax, xi):
-        a = common
-        return laws.bilinear_contact(
-            d,
-            *n,
-            vt[0],
-            vt[1],
-            vt[2],
-            dmax,
-            *xi,
-            1e-4,
-            a["k1"],
-            a["k2"],
-            a["f0"],
-            a["kadh"],
-            a["kt"],
-            a["zeta"],
-            a["mu_s"],
-            a["dt"],
-            a["plastic"],
-            a["adhesion"],
-            a["friction"],
-            a["damping"],
-        )
-
     # on the plateau (f_hys = f0): no friction at all, however large the spring
-    out = contact(1e-4, 2e-4, (0.0, 1e-3, 0.0))
+    out = _bilinear_contact(1e-4, 2e-4, (0.0, 1e-3, 0.0), vt)
     assert out[1] == pytest.approx(F0)
     assert out[2:5] == (0.0, 0.0, 0.0)
     # loaded: the force grows with the spring until it slides at mu_s |f_hys - f0|
@@ -146,7 +117,7 @@ def test_friction_cap_zero_on_plateau_and_adhesion_aware():
     xi = (0.0, 0.0, 0.0)
     ft = []
     for _ in range(200):
-        out = contact(d, d, xi)
+        out = _bilinear_contact(d, d, xi, vt)
         xi = out[6:9]
         ft.append(math.hypot(*out[2:5]))
     cap = 0.5 * abs((F0 + K1 * d) - F0)
@@ -155,6 +126,58 @@ def test_friction_cap_zero_on_plateau_and_adhesion_aware():
     assert ft[-1] == pytest.approx(cap, rel=1e-12)
     # the spring was truncated to the cap: kt |xi| = cap
     assert 2 / 7 * K1 * math.hypot(*xi) == pytest.approx(cap, rel=1e-12)
+
+
+@pytest.mark.parametrize("k2", [K1, K2])
+def test_friction_cap_keeps_the_adhesive_slope_also_without_plasticity(k2):
+    """mu_s |f_hys - f0 + kadh d| whether or not k2 > k1 (the compiled cap once dropped kadh
+    when k2 == k1)."""
+    kadh, d = 3e3, 1e-4
+    out = _bilinear_contact(d, d, (0.0, 1.0, 0.0), (0.0, 0.0, 0.0), kadh=kadh, k2=k2)
+    assert out[1] == pytest.approx(F0 + K1 * d, rel=1e-12)  # virgin line either way
+    assert math.hypot(*out[2:5]) == pytest.approx(0.5 * (K1 + kadh) * d, rel=1e-12)
+
+
+@pytest.mark.parametrize("hertz", [False, True])
+def test_tangential_force_stays_in_the_tangent_plane(hertz):
+    """An oblique, spinning contact: the tangential force is perpendicular to n, and the
+    normal force is the closed form whatever the tangential motion."""
+    rng = np.random.default_rng(5)
+    for _ in range(50):
+        n = rng.normal(size=3)
+        n /= np.linalg.norm(n)
+        v = rng.normal(0, 0.5, 3)
+        spin = rng.normal(0, 1e-3, 3)
+        xi = np.cross(n, rng.normal(0, 1e-5, 3))  # a spring already in the tangent plane
+        d = 1e-4
+        if hertz:
+            law = laws.ContactLaw(k_n=5e7, k_unload=0.0, f0=0.0, kadh=0.0, k_t=2e7, zeta=0.0,
+                                  mu_s=0.3, mu_r=0.0)
+            flags = laws.LawFlags(True, False, True, False, False)
+            out = laws.contact_force(d, *n, *v, *spin, 0.0, *xi, 1.25e-3, 1e-4, law, flags,
+                                     1e-6)
+            f_el = naive.hertz_force(d, 5e7, 1.25e-3)
+        else:
+            d = 1.4e-4  # unloading branch above the plastic overlap: f_el > f0
+            out = _bilinear_contact(d, 1.5e-4, xi, v, n=n, spin=spin, dt=1e-6)
+            f_el = naive.bilinear_force(d, 1.5e-4, K1, K2, F0, 0.0)[0]
+        ft = np.array(out[2:5])
+        assert np.linalg.norm(ft) > 0
+        assert abs(ft @ n) <= 1e-12 * np.linalg.norm(ft)
+        assert out[0] == pytest.approx(f_el, rel=1e-12)  # no damping: F_n = f_el
+        # the spring's increment is the tangential contact-point velocity (no normal part);
+        # the force is the spring's, or the cap when that is larger
+        vt = v - (v @ n) * n - np.cross(spin, n)
+        trial = xi + vt * 1e-6
+        kt = 8 * 2e7 * math.sqrt(1.25e-3 * d) if hertz else 2 / 7 * K1
+        cap = 0.3 * f_el if hertz else 0.5 * abs(f_el - F0)
+        if kt * np.linalg.norm(trial) < 0.999 * cap:
+            np.testing.assert_allclose(out[6:9], trial, rtol=1e-9, atol=1e-18)
+            np.testing.assert_allclose(ft, -kt * trial, rtol=1e-9, atol=1e-15)
+        else:
+            assert np.linalg.norm(ft) == pytest.approx(cap, rel=1e-12)
+            np.testing.assert_allclose(ft / cap, -trial / np.linalg.norm(trial), rtol=1e-9,
+                                       atol=1e-12)
 
 
 def test_tangential_spring_turns_with_the_contact():
@@ -189,10 +212,13 @@ def test_hertz_normal_force_and_stiffness():
 
 
 def test_hertz_contact_friction_cap():
-    out = laws.hertz_contact(
-        1e-5, 0, 0, 1, 0.5, 0, 0, 0, 0, 0, 2.5e-3, 1e-4, 5e7, 2e7, 0.0, 0.3, 1e-5, True, False
-    )
+    law = laws.ContactLaw(k_n=5e7, k_unload=0.0, f0=0.0, kadh=0.0, k_t=2e7, zeta=0.0, mu_s=0.3,
+                          mu_r=0.0)
+    flags = laws.LawFlags(hertz=True, plastic=False, friction=True, damping=False, rolling=False)
+    out = laws.contact_force(1e-5, 0, 0, 1, 0.5, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2.5e-3, 1e-4, law,
+                             flags, 1e-5)
     f_el = out[1]
+    assert f_el == pytest.approx(naive.hertz_force(1e-5, 5e7, 2.5e-3), rel=1e-12)
     assert math.hypot(*out[2:5]) == pytest.approx(0.3 * f_el, rel=1e-12)
 
 
@@ -203,3 +229,29 @@ def test_damping_coefficients():
     # inverse relation of the linear spring-dashpot: e = exp(-pi z / sqrt(1 - z^2))
     assert math.exp(-math.pi * z / math.sqrt(1 - z * z)) == pytest.approx(e, rel=1e-12)
     assert laws.viscous_damping_coefficient(z, 2.0, 8.0) == pytest.approx(2 * z * 4.0)
+
+
+@pytest.mark.parametrize("hertz", [False, True])
+def test_step_kernel_damps_with_the_tested_coefficient(hertz):
+    """The normal force of the step kernel on an approaching pair is f_el - c_n v_n with
+    c_n from laws.viscous_damping_coefficient (the helper the kernel calls)."""
+    r, v0, d = 2.5e-3, 0.2, 5e-5
+    if hertz:
+        law = engine.HertzMindlin(E=1e8, nu=0.25, restitution=0.4, mu=0.0)
+    else:
+        law = engine.BilinearAdhesive(k1=K1, k2=K2, f0=F0, mu_s=0.0, mu_r=0.0, restitution=0.4)
+    sim = engine.Simulation(pair_scene(law, gap=-d, v0=v0), dt=1e-7)
+    c = sim.contacts()
+    m_eff = sim.masses[0] / 2
+    d = float(c.overlaps[0])
+    if hertz:
+        e_star, _ = law.pair_moduli()
+        f_el, s_n = laws.hertz_normal_force(d, e_star, r / 2)
+        zeta = math.sqrt(5 / 6) * engine.materials.damping_ratio(0.4)  # Tsuji, on S_n
+        c_n = laws.viscous_damping_coefficient(zeta, m_eff, s_n)
+    else:
+        f_el = F0 + K1 * d
+        c_n = laws.viscous_damping_coefficient(law.zeta, m_eff, K1)
+    fn = float(c.forces[0] @ c.normals[0])
+    assert fn == pytest.approx(f_el + c_n * 2 * v0, rel=1e-12)  # v_n = -2 v0
+    assert c_n * 2 * v0 > 0.1 * abs(f_el)  # the damping part is not negligible

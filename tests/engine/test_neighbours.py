@@ -189,8 +189,8 @@ def test_list_grows_instead_of_dropping_pairs():
     )
     sim = engine.Simulation(scene, dt=2e-6, max_overlap_fraction=0.9)
     n0 = sim.n_neighbour_entries
-    cap0 = sim._nbr_j.shape[0]
+    cap0 = sim._list.j.shape[0]
     sim.run(3000)
-    assert sim.n_neighbour_entries > 2 * n0 and sim._nbr_j.shape[0] > cap0
+    assert sim.n_neighbour_entries > 2 * n0 and sim._list.j.shape[0] > cap0
     expect = naive.all_pairs_within(sim.positions, sim.radii, lengths, (0, 0, 0), 0.0)
     assert {tuple(p) for p in sim.contacts().pairs.tolist()} == expect

@@ -153,7 +153,7 @@ def test_runaway_speed_is_stopped():
 def test_non_finite_state_is_stopped_not_written():
     law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4)
     sim = engine.Simulation(pair_scene(law, gap=1e-3))
-    sim._vel[1, 2] = np.nan  # corrupt the state from outside: the guard must catch it
+    sim._particles.vel[sim._rank[1], 2] = np.nan  # corrupt the state from outside (internal id)
     with pytest.raises(engine.InstabilityError) as err:
         sim.run(5)
     assert err.value.reason == "nan" and err.value.particles == (1,)

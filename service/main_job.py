@@ -107,7 +107,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--exit", action="store_true", help="exit when the study has ended")
     args = ap.parse_args(argv)
     try:
-        settings, token = with_local_token(Settings(embedded_worker=True), args.host)
+        # the study's runs side by side, one per core, unless DEMSCALE_RUN_WORKERS says else
+        pool = {} if "DEMSCALE_RUN_WORKERS" in os.environ else {"run_workers": 0}
+        settings, token = with_local_token(Settings(embedded_worker=True, **pool), args.host)
     except ConfigError as e:
         print(f"main job: {e}", file=sys.stderr)
         return 2

@@ -192,7 +192,8 @@ def porosity_note(res) -> str:
                if r.rule is not None and r.rule.name == g["rule"] and r.radius == g["radius"]]
         rows.append(f"{g['rule']} at {g['radius'] * 1e3:g} mm: {np.mean(por):.3f}")
     ref = res.advisor["reference"].get("consolidated_porosity_interior")
-    return (f"Consolidated interior porosity: reference {ref:.3f}; " + "; ".join(rows) + ".")
+    return f"Consolidated interior porosity: reference {ref:.3f}" + "".join(
+        f"; {r}" for r in rows) + "."
 
 
 def write_report(scale: str, data: dict, out_dir: Path | None = None) -> Path:

@@ -83,6 +83,13 @@ def judge_metric(name: str, values: list[dict], ref: dict, tolerance: float,
     return out
 
 
+def _one_seed_note(metrics: list[dict]) -> str:
+    if metrics and metrics[0].get("seeds") == 1:
+        return ("; one seed of this variant: its spread is taken as the reference's, which "
+                "understates it for a coarse bed of fewer particles; run two or more seeds")
+    return ""
+
+
 def _describe(m: dict) -> str:
     direction = "over" if m["signed_error"] > 0 else "under"
     u = "" if m["uncertainty"] is None else f" ± {COVERAGE * m['uncertainty']:.1%}"
@@ -98,16 +105,18 @@ def verdict(metrics: list[dict]) -> tuple[str, str]:
                              "reference seeds")
     differs = [m for m in metrics if m["verdict"] == "differs"]
     undecided = [m for m in metrics if m["verdict"] == "undecided"]
+    note = _one_seed_note(metrics)
     if differs:
-        return "differs", "differs beyond noise in " + "; ".join(_describe(m) for m in differs)
+        return "differs", "differs beyond noise in " + "; ".join(
+            _describe(m) for m in differs) + note
     if undecided:
         ok = [m["metric"] for m in metrics if m["verdict"] == "equivalent"]
         reason = "noise too large to tell for " + "; ".join(_describe(m) for m in undecided)
         if ok:
             reason += "; within tolerance: " + ", ".join(ok)
-        return "undecided", reason
+        return "undecided", reason + note
     return "equivalent", "within tolerance beyond noise: " + "; ".join(
-        _describe(m) for m in metrics)
+        _describe(m) for m in metrics) + note
 
 
 def finite_size_warnings(groups: list[dict]) -> list[str]:

@@ -26,7 +26,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import engine
-from engine.runstore import load_all, save_run
+from engine.runstore import completed_runs, save_run
 
 ROOT = Path(__file__).resolve().parent.parent
 R = 2.5e-3
@@ -61,14 +61,10 @@ def store_dir(scale: str, name: str) -> Path:
 
 def stored_runs(spec: engine.StudySpec, directory: Path) -> dict:
     """Stored outcomes whose test is exactly the planned one (others are rerun)."""
-    planned = {p.key: p.test for p in spec.planned_runs()}
-    out = {}
-    for k, v in load_all(directory, planned).items():
-        if isinstance(v, str) or v.test.to_dict() == planned[k].to_dict():
-            out[k] = v
-        else:
-            print(f"  {k}: stored with other parameters, will run again", flush=True)
-    return out
+    done, stale = completed_runs(spec, directory)
+    for k in stale:
+        print(f"  {k}: stored with other parameters, will run again", flush=True)
+    return done
 
 
 def run(scale: str, workers: int, only: list[str] | None) -> None:

@@ -86,6 +86,16 @@ def _missing(modules) -> list[str]:
     return [m for m in modules if importlib.util.find_spec(m) is None]
 
 
+def _lacks_extra(command: str, modules, extra: str) -> bool:
+    """Tell the user which extra ``command`` needs when one of ``modules`` is not
+    installed; True then (the command exits with 2)."""
+    missing = _missing(modules)
+    if missing:
+        print(f"demscale {command} needs {', '.join(missing)}: pip install "
+              f"\"demscale[{extra}]\"", file=sys.stderr)
+    return bool(missing)
+
+
 def _strict_json(obj):
     """``obj`` with NaN and infinities as None and numpy scalars as Python numbers."""
     if isinstance(obj, dict):
@@ -179,10 +189,7 @@ def _verdict_table(result):
 
 def study(args) -> int:
     """``demscale study``: run the study, write summary, HDF5, plots and snapshots."""
-    missing = _missing(("rich", "h5py", "matplotlib"))
-    if missing:
-        print(f"demscale study needs {', '.join(missing)}: pip install \"demscale[cli]\"",
-              file=sys.stderr)
+    if _lacks_extra("study", ("rich", "h5py", "matplotlib"), "cli"):
         return 2
     import concurrent.futures as cf
     import multiprocessing as mp
@@ -255,10 +262,7 @@ def study(args) -> int:
 
 def run(args) -> int:
     """``demscale run``: one uniaxial test with streamed snapshots."""
-    missing = _missing(("rich", "h5py", "matplotlib"))
-    if missing:
-        print(f"demscale run needs {', '.join(missing)}: pip install \"demscale[cli]\"",
-              file=sys.stderr)
+    if _lacks_extra("run", ("rich", "h5py", "matplotlib"), "cli"):
         return 2
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
@@ -325,10 +329,8 @@ def run(args) -> int:
 
 
 def _service_env(args) -> int:
-    missing = _missing(("fastapi", "uvicorn", "sqlmodel", "pydantic_settings", "h5py"))
-    if missing:
-        print(f"demscale {args.command} needs {', '.join(missing)}: "
-              "pip install \"demscale[service]\"", file=sys.stderr)
+    if _lacks_extra(args.command, ("fastapi", "uvicorn", "sqlmodel", "pydantic_settings",
+                                   "h5py"), "service"):
         return 2
     if args.data_dir is not None:
         os.environ["DEMSCALE_DATA_DIR"] = str(args.data_dir)

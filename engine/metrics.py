@@ -67,6 +67,11 @@ METRICS = {
     )
 }
 
+#: Column of each verdict metric's per-run error in a study table.
+METRIC_COLUMNS = {"density": "err_density", "loading_stiffness": "err_loading_stiffness",
+                  "unloading_stiffness": "err_unloading_stiffness",
+                  "coordination": "err_coordination_interior", "strength": "err_strength"}
+
 #: Default tolerance per verdict metric [-].
 DEFAULT_TOLERANCES = {k: m.tolerance for k, m in METRICS.items()}
 

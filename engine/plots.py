@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .metrics import METRIC_COLUMNS
+
 #: Plot kinds and their titles.
 KINDS = {
     "stress_strain": "Confined compression and unloading: stress against strain",
@@ -26,14 +28,11 @@ KINDS = {
 }
 
 _CONFINED = ("consolidation", "unloading")
-#: Verdict metrics: table column and panel title.
-_METRIC_PANELS = {
-    "density": ("err_density", "bulk density (interior)"),
-    "loading_stiffness": ("err_loading_stiffness", "loading stiffness"),
-    "unloading_stiffness": ("err_unloading_stiffness", "unloading stiffness"),
-    "coordination": ("err_coordination_interior", "coordination (interior)"),
-    "strength": ("err_strength", "unconfined strength"),
-}
+#: Verdict metrics: table column (engine.metrics.METRIC_COLUMNS) and panel title.
+_TITLES = {"density": "bulk density (interior)", "loading_stiffness": "loading stiffness",
+           "unloading_stiffness": "unloading stiffness",
+           "coordination": "coordination (interior)", "strength": "unconfined strength"}
+_METRIC_PANELS = {n: (METRIC_COLUMNS[n], t) for n, t in _TITLES.items()}
 _MARKERS = "osD^vP*X"
 
 

@@ -89,6 +89,20 @@ def load_run(path: Path):
     return UniaxialResult(test, stages, scalars)
 
 
+def completed_runs(spec, directory: Path) -> tuple[dict, list[str]]:
+    """The runs of the :class:`engine.StudySpec` ``spec`` stored in ``directory`` whose test is
+    exactly the planned one (what ``run_study(completed=...)`` resumes from), and the keys of
+    stored runs made with other parameters (to be run again)."""
+    planned = {p.key: p.test for p in spec.planned_runs()}
+    done, stale = {}, []
+    for key, outcome in load_all(directory, planned).items():
+        if isinstance(outcome, str) or outcome.test == planned[key]:
+            done[key] = outcome
+        else:
+            stale.append(key)
+    return done, stale
+
+
 def load_all(directory: Path, keys) -> dict:
     """Stored outcomes of the given run keys found in ``directory``."""
     out = {}

@@ -20,7 +20,14 @@ import numpy as np
 
 from .advisor import advise, judge_groups
 from .errors import StopRequested
-from .metrics import SHAPE_NAMES, metric_names, metric_values, relative_error, shape_errors
+from .metrics import (
+    METRIC_COLUMNS,
+    SHAPE_NAMES,
+    metric_names,
+    metric_values,
+    relative_error,
+    shape_errors,
+)
 from .study_spec import (
     NAMED_RULES,
     PlannedRun,
@@ -53,18 +60,10 @@ TABLE_UNITS = {
     "height_diameters": "1",
     "unconfined_failure": "1",
     "unconfined_strength": "Pa",
-    "err_density": "1",
-    "err_loading_stiffness": "1",
-    "err_unloading_stiffness": "1",
-    "err_coordination_interior": "1",
-    "err_strength": "1",
+    **dict.fromkeys(METRIC_COLUMNS.values(), "1"),
     **dict.fromkeys(SHAPE_NAMES, "1"),
 }
 
-#: Table column of each verdict metric's per-run error.
-METRIC_COLUMNS = {"density": "err_density", "loading_stiffness": "err_loading_stiffness",
-                  "unloading_stiffness": "err_unloading_stiffness",
-                  "coordination": "err_coordination_interior", "strength": "err_strength"}
 
 
 @dataclass(frozen=True)
@@ -223,8 +222,13 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
     return assemble(spec, planned, outcomes)
 
 
+def _done_weight(planned, weights, outcomes) -> float:
+    """The share of the study's estimated cost already done (runs with an outcome)."""
+    return float(sum(w for p, w in zip(planned, weights) if p.key in outcomes))
+
+
 def _run_here(planned, todo, weights, outcomes, progress, record) -> None:
-    done_weight = float(sum(weights[i] for i, p in enumerate(planned) if p.key in outcomes))
+    done_weight = _done_weight(planned, weights, outcomes)
     for i in todo:
         p = planned[i]
 
@@ -252,7 +256,7 @@ def _run_here(planned, todo, weights, outcomes, progress, record) -> None:
 def _run_on(executor, planned, todo, weights, outcomes, progress, record, threads) -> None:
     # in planned order: the references first (the longest runs, needed by every comparison)
     futures = {executor.submit(_execute, planned[i].test, threads): i for i in todo}
-    done_weight = float(sum(weights[i] for i, p in enumerate(planned) if p.key in outcomes))
+    done_weight = _done_weight(planned, weights, outcomes)
     try:
         for fut in cf.as_completed(futures):
             i = futures[fut]

@@ -16,7 +16,7 @@ import uuid
 from sqlmodel import Session
 
 import engine
-from engine.runstore import load_all as load_runs
+from engine.runstore import completed_runs
 from engine.runstore import save_run as store_run
 
 from . import transitions
@@ -118,14 +118,10 @@ class StudyExecution:
 
     def stored_runs(self, spec: engine.StudySpec) -> dict:
         """Runs of this study stored by earlier attempts whose test is the planned one."""
-        planned = {p.key: p.test for p in spec.planned_runs()}
-        out = {}
-        for key, outcome in load_runs(self.settings.runs_dir(self.study_id), planned).items():
-            if isinstance(outcome, str) or outcome.test == planned[key]:
-                out[key] = outcome
+        out, _ = completed_runs(spec, self.settings.runs_dir(self.study_id))
         if out:
             log.info("study %s: resuming with %d of %d runs stored", self.study_id, len(out),
-                     len(planned))
+                     len(spec.planned_runs()))
         return out
 
     def remove_leftovers(self) -> None:

@@ -65,8 +65,8 @@ def verdict_table(res: engine.StudyResult) -> str:
             u = "" if m["uncertainty"] is None else f" ± {200 * m['uncertainty']:.1f}"
             cells.append(f"{100 * m['signed_error']:+.1f}{u} % ({m['verdict']})")
         sp = v.get("speedup")
-        lines.append(f"| {v['radius'] * 1e3:g} | {r.name} ({r.stiffness_exponent:g}, "
-                     f"{r.adhesion_exponent:g}) | {v['seeds']} | "
+        a, b, _ = r.exponents(res.spec.reference.pair_law)
+        lines.append(f"| {v['radius'] * 1e3:g} | {r.name} ({a:g}, {b:g}) | {v['seeds']} | "
                      f"{'-' if sp is None else f'{sp:.1f}x'} | " + " | ".join(cells)
                      + f" | **{v['verdict']}** |")
     return "\n".join(lines)

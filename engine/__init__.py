@@ -3,7 +3,8 @@ coarse-graining (scaling) studies. SI units throughout; numpy arrays in and out.
 
 Public API (stable names)::
 
-    BilinearAdhesive, HertzMindlin, WallMaterial    contact-law parameter records
+    BilinearAdhesive, EEPA, HertzMindlin, WallMaterial
+                                                    contact-law parameter records
     Plane, Scene                                    what to simulate
     Simulation                                      run it
     critical_time_step                              time-step limits of a scene
@@ -17,7 +18,7 @@ Public API (stable names)::
 
 from .errors import InstabilityError, ParameterError, StabilityError, StopRequested
 from .kernels import FEATURES
-from .materials import BilinearAdhesive, HertzMindlin, WallMaterial
+from .materials import EEPA, BilinearAdhesive, HertzMindlin, WallMaterial
 from .metrics import DEFAULT_TOLERANCES, METRICS
 from .scene import Plane, Scene
 from .simulation import Contacts, Simulation, StabilityWarning
@@ -49,6 +50,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "DEFAULT_TOLERANCES",
+    "EEPA",
     "FEATURES",
     "METRICS",
     "NAMED_RULES",

@@ -53,6 +53,8 @@ PLASTIC = True
 FRICTION = True
 ROLLING = True
 DAMPING = True
+EEPA = False
+NORMAL_CAP = False
 PERIODIC_X = True
 PERIODIC_Y = True
 PERIODIC_Z = True
@@ -71,6 +73,8 @@ PAIR_MU_S = 6
 PAIR_MU_R = 7
 PAIR_E_STAR = 8
 PAIR_G_STAR = 8
+PAIR_N = 8
+PAIR_CHI = 8
 WALL_E_STAR = 0
 WALL_G_STAR = 1
 WALL_ZETA = 2
@@ -112,6 +116,8 @@ def _pair_law(pp):
             pp[PAIR_ZETA] if DAMPING else 0.0,
             pp[PAIR_MU_S] if FRICTION else 0.0,
             pp[PAIR_MU_R] if ROLLING else 0.0,
+            1.0,
+            1.0,
         )
     return ContactLaw(
         pp[PAIR_K1],
@@ -122,6 +128,8 @@ def _pair_law(pp):
         pp[PAIR_ZETA] if DAMPING else 0.0,
         pp[PAIR_MU_S] if FRICTION else 0.0,
         pp[PAIR_MU_R] if ROLLING else 0.0,
+        pp[PAIR_N] if EEPA else 1.0,
+        pp[PAIR_CHI] if EEPA else 1.0,
     )
 
 
@@ -137,6 +145,8 @@ def _wall_law(wp):
         wp[WALL_ZETA] if WALL_DAMPING else 0.0,
         wp[WALL_MU_S] if WALL_FRICTION else 0.0,
         wp[WALL_MU_R] if WALL_ROLLING else 0.0,
+        1.0,
+        1.0,
     )
 
 
@@ -179,7 +189,7 @@ def _pair_chunk(c, P, L, prm, S):
     ovl_frac = prm.max_overlap
     dt = prm.dt
     law = _pair_law(prm.pair)
-    flags = LawFlags(PAIR_HERTZ, PLASTIC, FRICTION, DAMPING, ROLLING)
+    flags = LawFlags(PAIR_HERTZ, PLASTIC, FRICTION, DAMPING, ROLLING, EEPA, NORMAL_CAP)
     S.chunk_stat[c, 0] = 0.0
     for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
         xi = pos[i, 0]
@@ -303,7 +313,7 @@ def _particle_chunk(c, mode, P, L, W, prm, S):
     h = dt if mode == STEP else 0.5 * dt
     disp2 = 0.0
     wlaw = _wall_law(prm.wall)
-    wflags = LawFlags(True, False, WALL_FRICTION, WALL_DAMPING, WALL_ROLLING)
+    wflags = LawFlags(True, False, WALL_FRICTION, WALL_DAMPING, WALL_ROLLING, False, False)
     if mode == OPEN:
         chunk_stat[c, 0] = 0.0
     else:

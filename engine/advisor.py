@@ -179,7 +179,8 @@ def adhesion_advice(spec, groups: list[dict], reference_strength: float | None
         return None
     families: dict[tuple, set] = {}
     for rule in spec.rules:
-        families.setdefault((rule.stiffness_exponent, rule.dt), set()).add(rule.adhesion_exponent)
+        a, b, _ = rule.exponents(spec.reference.pair_law)
+        families.setdefault((a, rule.dt), set()).add(b)
     family = max(families.items(), key=lambda kv: len(kv[1]))
     if len(family[1]) < 2:
         return None

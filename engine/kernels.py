@@ -25,7 +25,7 @@ from types import ModuleType
 import numba
 
 from .config import cache_dir
-from .materials import BilinearAdhesive, HertzMindlin
+from .materials import ADHESIVE_LAWS, EEPA, HertzMindlin
 
 #: The compile-time switches, in template order, with what each one adds.
 FEATURES: dict[str, str] = {
@@ -36,6 +36,8 @@ FEATURES: dict[str, str] = {
     "friction": "pair tangential spring, friction cap and tangential history",
     "rolling": "pair rolling resistance",
     "damping": "pair viscous damping",
+    "eepa": "non-linear EEPA branches d^n, d^chi (engine.EEPA)",
+    "normal_cap": "friction cap on the total normal force (EEPA friction_cap='normal')",
     "periodic_x": "minimum image along x",
     "periodic_y": "minimum image along y",
     "periodic_z": "minimum image along z",
@@ -47,7 +49,8 @@ FEATURES: dict[str, str] = {
 }
 
 #: Every named parameter slot of the pair laws, with the feature that needs it (None: always
-#: read). Bilinear: k1, k2, kadh, kt [N/m], f0 [N], zeta, mu_s, mu_r [-]; Hertz-Mindlin:
+#: read). Bilinear and EEPA: k1, k2, kadh, kt [N/m, EEPA N/m^n and N/m^chi], f0 [N], zeta,
+#: mu_s, mu_r [-], EEPA exponents n, chi [-]; Hertz-Mindlin:
 #: e_star, g_star [Pa], zeta, mu_s, mu_r [-] (see the records' ``kernel_params``).
 PAIR_SLOTS: dict[str, tuple[tuple[str, str | None], ...]] = {
     "bilinear": (
@@ -59,6 +62,8 @@ PAIR_SLOTS: dict[str, tuple[tuple[str, str | None], ...]] = {
         ("zeta", "damping"),
         ("mu_s", "friction"),
         ("mu_r", "rolling"),
+        ("n", "eepa"),
+        ("chi", "eepa"),
     ),
     "hertz": (
         ("e_star", None),
@@ -77,7 +82,8 @@ WALL_SLOTS: tuple[tuple[str, str | None], ...] = (
     ("mu_r", "wall_rolling"),
 )
 #: The slot constants the template reads: PAIR_<NAME> for both pair laws, WALL_<NAME>.
-_PAIR_NAMES = ("k1", "k2", "f0", "kadh", "kt", "e_star", "g_star", "zeta", "mu_s", "mu_r")
+_PAIR_NAMES = ("k1", "k2", "f0", "kadh", "kt", "e_star", "g_star", "zeta", "mu_s", "mu_r", "n",
+               "chi")
 
 _HERE = Path(__file__).resolve().parent
 _TEMPLATE = _HERE / "_step_template.py"
@@ -96,7 +102,7 @@ def scene_features(scene, periodic: tuple[bool, bool, bool] | None = None) -> di
         f.update(
             pair_hertz=True, friction=law.mu > 0, rolling=law.mu_r > 0, damping=law.restitution < 1
         )
-    elif isinstance(law, BilinearAdhesive):
+    elif isinstance(law, ADHESIVE_LAWS):
         f.update(
             adhesion=law.f0 != 0,
             adhesive_branch=law.kadh > 0,
@@ -105,6 +111,9 @@ def scene_features(scene, periodic: tuple[bool, bool, bool] | None = None) -> di
             rolling=law.mu_r > 0,
             damping=law.restitution < 1,
         )
+        if isinstance(law, EEPA):
+            # n = chi = 1 still takes the EEPA branches: the law a user chose is the law run
+            f.update(eepa=True, normal_cap=law.friction_cap == "normal" and law.mu_s > 0)
     f.update(periodic_x=per[0], periodic_y=per[1], periodic_z=per[2])
     if scene.walls:
         wl = scene.wall_law

@@ -43,11 +43,16 @@ from .config import NJIT_INLINE, ROLLING_OMEGA_EPS
 #: slope [N/m]; ``k_t``: bilinear tangential stiffness Kt [N/m], or Hertz G* [Pa];
 #: ``zeta``: damping ratio applied to the contact's stiffness [-] (Hertz: sqrt(5/6) zeta,
 #: Tsuji et al. 1992); ``mu_s``: sliding friction [-]; ``mu_r``: rolling friction [-].
-ContactLaw = namedtuple("ContactLaw", "k_n k_unload f0 kadh k_t zeta mu_s mu_r")
+#: ``n``, ``chi``: EEPA overlap and adhesive exponents [-] (1 for the bilinear and Hertz laws).
+ContactLaw = namedtuple("ContactLaw", "k_n k_unload f0 kadh k_t zeta mu_s mu_r n chi",
+                        defaults=(1.0, 1.0))
 
 #: Compile-time switches of :func:`contact`: Hertz instead of bilinear normal law, plastic
-#: unloading branch, tangential spring and friction, normal and tangential damping, rolling.
-LawFlags = namedtuple("LawFlags", "hertz plastic friction damping rolling")
+#: unloading branch, tangential spring and friction, normal and tangential damping, rolling,
+#: the non-linear EEPA branches (exponents n, chi), the friction cap on the total normal force
+#: (LIGGGHTS convention) instead of the adhesion-aware one.
+LawFlags = namedtuple("LawFlags", "hertz plastic friction damping rolling eepa normal_cap",
+                      defaults=(False, False))
 
 
 @njit(**NJIT_INLINE)
@@ -71,15 +76,41 @@ def bilinear_normal_force(d, dmax, k1, k2, f0, kadh):
 
 
 @njit(**NJIT_INLINE)
-def friction_limit(mu_s, f_el, f0, kadh, d):
-    r"""Adhesion-aware Coulomb limit :math:`\mu_s |f_{el} - f_0 + k_{adh} d|` [N].
+def friction_limit(mu_s, f_el, f0, f_adh):
+    r"""Adhesion-aware Coulomb limit :math:`\mu_s |f_{el} - f_0 + f_{adh}|` [N], with
+    :math:`f_{adh} = k_{adh} d^\chi` the adhesive branch's pull at this overlap.
 
-    Bilinear law: zero on the adhesive plateau (f_el = f0, kadh = 0): a contact held only by
-    adhesion carries no friction (Thakur et al. 2014). Hertz (f0 = kadh = 0): ``mu |F_n^el|``.
+    Zero on the adhesive plateau (f_el = f0, kadh = 0): a contact held only by adhesion
+    carries no friction (Thakur et al. 2014). Hertz (f0 = f_adh = 0): ``mu |F_n^el|``.
     Args: friction mu_s [-], elastic (hysteretic) normal force f_el [N], adhesion f0 [N],
-    adhesive slope kadh [N/m], overlap d [m].
+    adhesive-branch term f_adh = kadh d^chi [N] (bilinear: kadh d).
     """
-    return mu_s * abs(f_el - f0 + kadh * d)
+    return mu_s * abs(f_el - f0 + f_adh)
+
+
+@njit(**NJIT_INLINE)
+def eepa_normal_force(d, dmax, k1, k2, f0, kadh, n, chi):
+    r"""Hysteretic normal force of the non-linear EEPA law (Morrissey 2013).
+
+    .. math::
+        d_{max} \leftarrow \max(d_{max}, d),\quad d_p^n = (1 - K_1/K_2)\,d_{max}^n,\quad
+        f_{hys} = f_0 + \min\big(K_1 d^n,\ \max(K_2 (d^n - d_p^n),\ -k_{adh} d^\chi)\big)
+
+    Args: overlap d [m] (> 0), largest overlap so far dmax [m], loading stiffness k1
+    [N/m^n], unloading stiffness k2 [N/m^n] (>= k1), adhesion f0 [N] (<= 0), adhesive
+    stiffness kadh [N/m^chi] (>= 0), exponents n, chi [-] (>= 1).
+    Returns: (f_hys [N], loading tangent stiffness n K1 d^(n-1) [N/m], adhesive-branch pull
+    kadh d^chi [N], updated dmax [m]). With n = chi = 1 every operation is that of
+    :func:`bilinear_normal_force` (x**1.0 == x and x**0.0 == 1.0 exactly), so the force is the
+    same to the last bit.
+    """
+    if d > dmax:
+        dmax = d
+    dn = d**n
+    dpn = (1.0 - k1 / k2) * dmax**n
+    f_adh = kadh * d**chi
+    f = f0 + min(k1 * dn, max(k2 * (dn - dpn), -f_adh))
+    return f, n * d ** (n - 1.0) * k1, f_adh, dmax
 
 
 @njit(**NJIT_INLINE)
@@ -217,15 +248,21 @@ def contact_force(d, nx, ny, nz, vx, vy, vz, sx, sy, sz, dmax, xix, xiy, xiz, r_
     # 2. normal force: elastic, plastic, adhesive
     if flags.hertz:
         f_el, stiff = hertz_normal_force(d, law.k_n, r_star)
+        f_adh = 0.0
         dmax = d
+    elif flags.eepa:
+        f_el, stiff, f_adh, dmax = eepa_normal_force(d, dmax, law.k_n, law.k_unload, law.f0,
+                                                     law.kadh, law.n, law.chi)
     elif flags.plastic:
         f_el, dmax = bilinear_normal_force(d, dmax, law.k_n, law.k_unload, law.f0, law.kadh)
         stiff = law.k_n
+        f_adh = law.kadh * d
     else:  # k2 == k1: no plastic overlap, linear elastic (plus the adhesion offset)
         if d > dmax:
             dmax = d
         f_el = law.f0 + law.k_n * d
         stiff = law.k_n
+        f_adh = law.kadh * d
     # 3. damping
     fn = f_el
     if flags.damping:
@@ -235,10 +272,15 @@ def contact_force(d, nx, ny, nz, vx, vy, vz, sx, sy, sz, dmax, xix, xiy, xiz, r_
     ftz = 0.0
     if flags.friction:
         # 4. friction cap from the normal force
-        cap = friction_limit(law.mu_s, f_el, law.f0, law.kadh, d)
+        if flags.normal_cap:
+            cap = law.mu_s * abs(fn)
+        else:
+            cap = friction_limit(law.mu_s, f_el, law.f0, f_adh)
         # 5. tangential spring
         if flags.hertz:
             kt = hertz_tangential_stiffness(d, law.k_t, r_star)
+        elif flags.eepa:
+            kt = law.k_t * (stiff / law.k_n)  # kt_ratio x the loading tangent n K1 d^(n-1)
         else:
             kt = law.k_t
         ct = viscous_damping_coefficient(law.zeta, m_eff, kt) if flags.damping else 0.0

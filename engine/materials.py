@@ -109,30 +109,147 @@ class BilinearAdhesive:
         """Damping ratio from the restitution [-]."""
         return damping_ratio(self.restitution)
 
-    def scaled(self, s: float, stiffness_exponent: float, adhesion_exponent: float):
-        """The law for particles ``s`` times the reference size: K1, K2, kadh (and so Kt)
-        times ``s**stiffness_exponent``, f0 times ``s**adhesion_exponent``. Friction
-        coefficients and restitution do not scale."""
+    def similarity_exponents(self) -> tuple[float, float, float]:
+        """Exponents (stiffness, adhesion, adhesive branch) that keep the law geometrically
+        and stress similar (overlaps ~ s, forces ~ s^2): (1, 2, 1), the rule of Thakur et al.
+        2013."""
+        return 1.0, 2.0, 1.0
+
+    def scaled(self, s: float, stiffness_exponent: float, adhesion_exponent: float,
+               adhesive_exponent: float | None = None):
+        """The law for particles ``s`` times the reference size: K1, K2 (and so Kt) times
+        ``s**stiffness_exponent``, f0 times ``s**adhesion_exponent``, kadh times
+        ``s**adhesive_exponent`` (default: the stiffness exponent). Friction coefficients and
+        restitution do not scale."""
+        c = stiffness_exponent if adhesive_exponent is None else adhesive_exponent
         ks = s**stiffness_exponent
         return replace(
             self,
             k1=self.k1 * ks,
             k2=self.k2 * ks,
-            kadh=self.kadh * ks,
+            kadh=self.kadh * s**c,
             f0=self.f0 * s**adhesion_exponent,
         )
 
     def kernel_params(self) -> dict[str, float]:
         """The values the step kernel reads, by slot name (engine.kernels.PAIR_SLOTS):
-        k1, k2, kadh, kt [N/m], f0 [N], damping ratio zeta, mu_s, mu_r [-]."""
+        k1, k2, kadh, kt [N/m], f0 [N], damping ratio zeta, mu_s, mu_r [-], and the EEPA
+        exponents n = chi = 1 [-] (this law is the linear EEPA)."""
         return {"k1": self.k1, "k2": self.k2, "f0": self.f0, "kadh": self.kadh, "kt": self.kt,
-                "zeta": self.zeta, "mu_s": self.mu_s, "mu_r": self.mu_r}
+                "zeta": self.zeta, "mu_s": self.mu_s, "mu_r": self.mu_r, "n": 1.0, "chi": 1.0}
 
     def to_array(self, slots: tuple[str, ...] = ("k1", "k2", "f0", "kadh", "kt", "zeta",
                                                 "mu_s", "mu_r")) -> np.ndarray:
         """Kernel parameter array: the values of ``slots`` in order, then a trailing NaN
         (where the kernel's absent slots point, see engine.kernels)."""
         return pack_params(self.kernel_params(), slots)
+
+
+#: Friction cap conventions of :class:`EEPA`: ``"adhesive"`` (default, the EEPA papers and
+#: this engine: :math:`\mu_s|f_{hys} - f_0 + k_{adh}d^\chi|`, no friction on the adhesive
+#: plateau) or ``"normal"`` (LIGGGHTS ``model edinburgh``: :math:`\mu_s|F_n|`, the total normal
+#: force with f0 and damping).
+FRICTION_CAPS = ("adhesive", "normal")
+
+
+@dataclass(frozen=True)
+class EEPA:
+    r"""Edinburgh elasto-plastic adhesion law, non-linear (Morrissey 2013; Thakur et al. 2014).
+
+    .. math::
+        d_{max} \leftarrow \max(d_{max}, d),\quad
+        d_p^n = (1 - K_1/K_2)\,d_{max}^n,\quad
+        f_{hys} = f_0 + \min\big(K_1 d^n,\ \max(K_2 (d^n - d_p^n),\ -k_{adh} d^\chi)\big)
+
+    so the plastic overlap is :math:`d_p = (1 - K_1/K_2)^{1/n} d_{max}`. Damping, tangential
+    spring, friction and rolling are those of :class:`BilinearAdhesive`, with the contact's
+    loading-branch tangent stiffness :math:`S = n K_1 d^{n-1}` [N/m] in place of K1:
+    :math:`c_n = 2\zeta\sqrt{m_{eff} S}`, :math:`K_t = \text{kt\_ratio}\,S`,
+    :math:`c_t = 2\zeta\sqrt{m_{eff} K_t}`; the Coulomb cap is
+    :math:`\mu_s |f_{hys} - f_0 + k_{adh} d^\chi|` (``friction_cap="adhesive"``) or
+    :math:`\mu_s |F_n|` (``"normal"``, the LIGGGHTS convention). With n = chi = 1 and the
+    adhesive cap it is :class:`BilinearAdhesive`, to the last bit (tests/engine/test_eepa.py).
+    docs/PHYSICS.md section 9.
+
+    Attributes:
+        k1: virgin loading stiffness K1 [N/m^n], > 0.
+        k2: unloading/reloading stiffness K2 [N/m^n], >= k1.
+        f0: adhesion (pull-off) force f0 [N], <= 0.
+        kadh: adhesive branch stiffness k_adh [N/m^chi], >= 0.
+        n: overlap exponent of the loading and unloading branches [-], in [1, 3] (1.5: Hertz-
+            like; below 1 the tangent stiffness is infinite at first touch).
+        chi: exponent of the adhesive branch [-], in [1, 3].
+        kt_ratio: tangential stiffness as a fraction of the loading tangent stiffness [-].
+        mu_s: sliding friction coefficient [-], >= 0.
+        mu_r: rolling friction coefficient [-], >= 0.
+        restitution: coefficient of restitution setting the damping ratio [-], in (0, 1].
+        friction_cap: ``"adhesive"`` or ``"normal"`` (:data:`FRICTION_CAPS`).
+    """
+
+    k1: float = param(unit="N/m^n", doc="virgin loading stiffness K1", gt=0)
+    k2: float = param(unit="N/m^n", doc="unloading/reloading stiffness K2 (>= k1)", gt=0)
+    f0: float = param(0.0, unit="N", doc="adhesion (pull-off) force, <= 0", le=0)
+    kadh: float = param(0.0, unit="N/m^chi", doc="adhesive branch stiffness", ge=0)
+    n: float = param(1.5, unit="1", doc="overlap exponent n of the loading and unloading "
+                     "branches", ge=1, le=3)
+    chi: float = param(1.5, unit="1", doc="exponent chi of the adhesive branch", ge=1, le=3)
+    kt_ratio: float = param(2.0 / 7.0, unit="1",
+                            doc="tangential stiffness / loading tangent stiffness n k1 d^(n-1)",
+                            ge=0)
+    mu_s: float = param(0.5, unit="1", doc="sliding friction coefficient", ge=0)
+    mu_r: float = param(0.001, unit="1", doc="rolling friction coefficient", ge=0)
+    restitution: float = param(0.4, unit="1", doc="coefficient of restitution", gt=0, le=1)
+    friction_cap: str = param("adhesive", unit="", kind="str", choices=FRICTION_CAPS,
+                              doc="Coulomb cap: mu_s |f_hys - f0 + kadh d^chi| (adhesive) or "
+                                  "mu_s |F_n| (normal, as LIGGGHTS)")
+
+    def __post_init__(self) -> None:
+        o = "EEPA"
+        check_fields(self, o)
+        _check(o, "k2", self.k2, self.k2 >= self.k1, f">= k1 = {self.k1:g} N/m^n",
+               "unloading must be at least as stiff as loading")
+
+    @property
+    def kt(self) -> float:
+        """Coefficient of the tangential stiffness, kt_ratio * k1 [N/m^n]: the contact's
+        K_t = kt * n d^(n-1) [N/m]."""
+        return self.kt_ratio * self.k1
+
+    @property
+    def zeta(self) -> float:
+        """Damping ratio from the restitution [-]."""
+        return damping_ratio(self.restitution)
+
+    def similarity_exponents(self) -> tuple[float, float, float]:
+        """Exponents (stiffness, adhesion, adhesive branch) that keep the law geometrically
+        and stress similar (overlaps ~ s, forces ~ s^2): K ~ s^(2-n), f0 ~ s^2,
+        kadh ~ s^(2-chi)."""
+        return 2.0 - self.n, 2.0, 2.0 - self.chi
+
+    def scaled(self, s: float, stiffness_exponent: float, adhesion_exponent: float,
+               adhesive_exponent: float | None = None):
+        """The law for particles ``s`` times the reference size: K1, K2 (and so Kt) times
+        ``s**stiffness_exponent``, f0 times ``s**adhesion_exponent``, kadh times
+        ``s**adhesive_exponent`` (default: the stiffness exponent)."""
+        c = stiffness_exponent if adhesive_exponent is None else adhesive_exponent
+        ks = s**stiffness_exponent
+        return replace(self, k1=self.k1 * ks, k2=self.k2 * ks, kadh=self.kadh * s**c,
+                       f0=self.f0 * s**adhesion_exponent)
+
+    def kernel_params(self) -> dict[str, float]:
+        """The values the step kernel reads, by slot name (engine.kernels.PAIR_SLOTS):
+        k1, k2, kt [N/m^n], kadh [N/m^chi], f0 [N], zeta, mu_s, mu_r, n, chi [-]."""
+        return {"k1": self.k1, "k2": self.k2, "f0": self.f0, "kadh": self.kadh, "kt": self.kt,
+                "zeta": self.zeta, "mu_s": self.mu_s, "mu_r": self.mu_r, "n": self.n,
+                "chi": self.chi}
+
+    def to_array(self, slots: tuple[str, ...]) -> np.ndarray:
+        """Kernel parameter array: the values of ``slots`` in order, then a trailing NaN."""
+        return pack_params(self.kernel_params(), slots)
+
+
+#: The adhesive elasto-plastic pair laws: the scaling rules act on their K1, K2, f0, kadh.
+ADHESIVE_LAWS = (BilinearAdhesive, EEPA)
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ import numpy as np
 
 from .config import MAX_RADIUS_RATIO
 from .errors import ParameterError
-from .materials import BilinearAdhesive, HertzMindlin, WallMaterial
+from .materials import ADHESIVE_LAWS, EEPA, BilinearAdhesive, HertzMindlin, WallMaterial
 
 
 def _vec3(owner: str, name: str, value) -> tuple[float, float, float]:
@@ -95,7 +95,8 @@ class Scene:
         periodic: three booleans, minimum-image periodicity along x, y, z.
         walls: planar walls (:class:`Plane`).
         gravity: acceleration [m/s^2].
-        pair_law: :class:`BilinearAdhesive` or :class:`HertzMindlin` for particle pairs.
+        pair_law: :class:`BilinearAdhesive`, :class:`EEPA` or :class:`HertzMindlin` for
+            particle pairs.
         wall_law: :class:`HertzMindlin` for particle-wall contacts (required with walls);
             its E and nu are the particles' elastic properties.
         wall_material: :class:`WallMaterial` of the walls (required with walls).
@@ -112,7 +113,7 @@ class Scene:
         periodic: Sequence[bool] = (False, False, False),
         walls: Sequence[Plane] = (),
         gravity=(0.0, 0.0, -9.81),
-        pair_law: BilinearAdhesive | HertzMindlin | None = None,
+        pair_law: BilinearAdhesive | EEPA | HertzMindlin | None = None,
         wall_law: HertzMindlin | None = None,
         wall_material: WallMaterial | None = None,
     ) -> None:
@@ -164,9 +165,10 @@ class Scene:
                 raise ParameterError(f"Scene.walls[{k}]", w, "an engine.Plane")
         self.gravity = _vec3("Scene", "gravity", gravity)
 
-        if not isinstance(pair_law, (BilinearAdhesive, HertzMindlin)):
+        if not isinstance(pair_law, (*ADHESIVE_LAWS, HertzMindlin)):
             raise ParameterError(
-                "Scene.pair_law", pair_law, "an engine.BilinearAdhesive or engine.HertzMindlin"
+                "Scene.pair_law", pair_law,
+                "an engine.BilinearAdhesive, engine.EEPA or engine.HertzMindlin"
             )
         self.pair_law = pair_law
         if self.walls:

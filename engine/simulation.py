@@ -18,7 +18,7 @@ from .config import (
 )
 from .errors import InstabilityError, ParameterError, StabilityError
 from .kernels import load_kernel, pair_slots, scene_features, wall_slots
-from .materials import BilinearAdhesive
+from .materials import ADHESIVE_LAWS
 from .neighbour import build_neighbour_list, wrap_positions
 from .scene import Scene
 from .stability import TimeStepLimit, adhesion_overlap, critical_time_step
@@ -258,8 +258,9 @@ class Simulation:
         rmin = float(self.scene.radii.min())
         d_eq = adhesion_overlap(law, rmin, ovl)
         if d_eq is not None:
+            what = "|f0|/k1" if getattr(law, "n", 1.0) == 1.0 else "(|f0|/k1)^(1/n)"
             raise StabilityError(
-                f"adhesion f0 = {law.f0:g} N pulls contacts to the overlap |f0|/k1 = "
+                f"adhesion f0 = {law.f0:g} N pulls contacts to the overlap {what} = "
                 f"{d_eq:.4g} m, beyond max_overlap_fraction {ovl:g} x the smallest radius "
                 f"{rmin:g} m: raise k1 or reduce |f0|"
             )
@@ -279,7 +280,7 @@ class Simulation:
         """The pair law's kernel parameters in the slots the specialised kernel names."""
         law = self.scene.pair_law
         slots = pair_slots(self._features)
-        if isinstance(law, BilinearAdhesive):
+        if isinstance(law, ADHESIVE_LAWS):
             return law.to_array(slots)
         return law.to_array(*law.pair_moduli(), slots=slots)
 

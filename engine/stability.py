@@ -3,6 +3,8 @@
 Linear contacts: the damped oscillator limit :math:`\\Delta t_c = \\tfrac{2}{\\omega}
 (\\sqrt{1+\\zeta^2}-\\zeta)`, :math:`\\omega = \\sqrt{K/m_{eff}}`, for the stiffest branch (K2)
 and the lightest pair; tangential spring with rotation: :math:`\\omega^2 = 3.5 K_t / m_{eff}`.
+EEPA contacts: the same limits with the tangent stiffnesses :math:`n K d^{n-1}` at the largest
+overlap of a head-on impact at the expected speed (section 9).
 Hertz contacts: the same oscillator limit with the Hertz stiffness at the largest overlap of an
 impact at the expected speed, the Rayleigh time
 :math:`T_R = \\pi R\\sqrt{\\rho/G}/(0.1631\\nu + 0.8766)` and the Hertz contact duration
@@ -20,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .config import DT_FRACTION
-from .materials import BilinearAdhesive, HertzMindlin, damping_ratio
+from .materials import ADHESIVE_LAWS, EEPA, HertzMindlin, damping_ratio
 from .scene import Scene
 
 
@@ -61,14 +63,29 @@ class TimeStepLimit:
 
 
 def adhesion_overlap(law, rmin: float, fraction: float) -> float | None:
-    """Overlap |f0|/k1 [m] at which adhesion alone holds a bilinear contact, when it lies
-    beyond ``fraction`` x the smallest radius ``rmin`` [m] (the overlap guard of a run);
-    None when it does not (or the law has no adhesion)."""
-    if isinstance(law, BilinearAdhesive) and law.f0 < 0:
-        d_eq = -law.f0 / law.k1
+    """Overlap (|f0|/k1)^(1/n) [m] at which adhesion alone holds a bilinear (n = 1) or EEPA
+    contact on its loading branch, when it lies beyond ``fraction`` x the smallest radius
+    ``rmin`` [m] (the overlap guard of a run); None when it does not (or the law has no
+    adhesion)."""
+    if isinstance(law, ADHESIVE_LAWS) and law.f0 < 0:
+        d_eq = (-law.f0 / law.k1) ** (1.0 / getattr(law, "n", 1.0))
         if d_eq > fraction * rmin:
             return d_eq
     return None
+
+
+def eepa_impact_overlap(m_eff: float, law: EEPA, v0: float) -> float:
+    """Largest overlap [m] of an undamped head-on impact at speed v0 [m/s] on the EEPA
+    loading branch, adhesion pulling in: the root of
+    K1 d^(n+1)/(n+1) = m v0^2/2 + |f0| d (fixed-point iteration, contracting for n >= 1)."""
+    n = law.n
+    d = 0.0
+    for _ in range(60):
+        d_new = ((n + 1.0) * (0.5 * m_eff * v0 * v0 - law.f0 * d) / law.k1) ** (1.0 / (n + 1.0))
+        if abs(d_new - d) <= 1e-12 * d_new:
+            return d_new
+        d = d_new
+    return d
 
 
 def oscillator_limit(k: float, m: float, zeta: float) -> float:
@@ -147,14 +164,24 @@ def critical_time_step(scene: Scene, max_speed: float | None = None) -> TimeStep
         order = np.argsort(masses)
         m0, m1 = masses[order[0]], masses[order[1]]
         m_eff = m0 * m1 / (m0 + m1)
-        if isinstance(law, BilinearAdhesive):
+        if isinstance(law, ADHESIVE_LAWS):
             zeta = damping_ratio(law.restitution)
+            if isinstance(law, EEPA):
+                # the tangent stiffnesses n K d^(n-1) at the largest expected overlap: a
+                # head-on impact of two particles each at the expected speed
+                d_exp = eepa_impact_overlap(m_eff, law, 2.0 * v)
+                tangent = law.n * d_exp ** (law.n - 1.0)
+                where = (f" x n d^(n-1) at the overlap {d_exp:.3g} m of a {2 * v:.3g} m/s "
+                         "head-on impact" if law.n != 1.0 else "")
+                unit = "N/m^n"
+            else:
+                tangent, where, unit = 1.0, "", "N/m"
             # damping c_n = 2 zeta sqrt(m K1) seen by the stiffer K2 branch
             cands.append(
                 TimeStepCandidate(
                     "pair",
-                    f"pair unloading stiffness k2 = {law.k2:g} N/m, lightest pair",
-                    oscillator_limit(law.k2, m_eff, zeta * math.sqrt(law.k1 / law.k2)),
+                    f"pair unloading stiffness k2 = {law.k2:g} {unit}{where}, lightest pair",
+                    oscillator_limit(law.k2 * tangent, m_eff, zeta * math.sqrt(law.k1 / law.k2)),
                     True,
                 )
             )
@@ -163,8 +190,8 @@ def critical_time_step(scene: Scene, max_speed: float | None = None) -> TimeStep
                 cands.append(
                     TimeStepCandidate(
                         "pair",
-                        f"pair tangential stiffness kt = {law.kt:g} N/m with rotation",
-                        oscillator_limit(3.5 * law.kt, m_eff, zeta * math.sqrt(3.5)),
+                        f"pair tangential stiffness kt = {law.kt:g} {unit}{where} with rotation",
+                        oscillator_limit(3.5 * law.kt * tangent, m_eff, zeta * math.sqrt(3.5)),
                         True,
                     )
                 )

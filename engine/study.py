@@ -397,9 +397,10 @@ def _groups(spec: StudySpec, runs: dict[str, RunResult], names) -> list[dict]:
             members = [x for x in runs.values() if x.rule == rule and x.radius == r]
             if not members:
                 continue
+            a, b, c = rule.exponents(spec.reference.pair_law)
             g = {"radius": r, "rule": rule.name, "scale": r / spec.reference.radius,
-                 "stiffness_exponent": rule.stiffness_exponent,
-                 "adhesion_exponent": rule.adhesion_exponent, "dt": rule.dt,
+                 "stiffness_exponent": a, "adhesion_exponent": b, "adhesive_exponent": c,
+                 "dt": rule.dt,
                  "seeds": len(members),
                  "thickness_diameters": members[0].result.scalars["thickness_diameters"]}
             cols = {n: [m.errors[n] for m in members] for n in cols_err}

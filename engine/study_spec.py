@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass, replace
 
 from .errors import ParameterError
-from .materials import BilinearAdhesive
+from .materials import ADHESIVE_LAWS, BilinearAdhesive
 from .metrics import DEFAULT_TOLERANCES, METRICS
 from .params import check_fields, param
 from .uniaxial_spec import GRAVITY, UniaxialTest, preset
@@ -19,11 +19,16 @@ from .uniaxial_spec import GRAVITY, UniaxialTest, preset
 DT_POLICIES = ("fixed", "scaled")
 
 #: The named rules: name -> (stiffness exponent a, adhesion exponent b, what it stands for).
+#: a = None: geometric and stress similarity for the reference law, K ~ R^(2-n) and
+#: kadh ~ R^(2-chi) (docs/PHYSICS.md section 9); for the bilinear law (n = chi = 1) that is
+#: the paper's rule.
 NAMED_RULES = {
     "paper": (1.0, 2.0, "Thakur et al. 2013: stiffness ~ R, adhesion ~ R^2"),
     "unscaled": (0.0, 0.0, "parameters of the reference, unchanged"),
     "linear_adhesion": (1.0, 1.0, "stiffness ~ R, adhesion ~ R"),
     "cubic_adhesion": (1.0, 3.0, "stiffness ~ R, adhesion ~ R^3"),
+    "similarity": (None, 2.0, "stress similarity: K1, K2 ~ R^(2-n), kadh ~ R^(2-chi), "
+                   "f0 ~ R^2"),
 }
 
 
@@ -33,17 +38,24 @@ class ScalingRule:
 
     Attributes:
         name: label of the rule (used in run keys and plots).
-        stiffness_exponent: a in K1, K2, Kt, kadh ~ s^a [-].
+        stiffness_exponent: a in K1, K2, Kt ~ s^a [-]; None: the reference law's stress
+            similarity, a = 2 - n (1 for the bilinear law).
         adhesion_exponent: b in f0 ~ s^b [-].
         dt: ``"fixed"`` (the reference's time step) or ``"scaled"`` (reference dt times s).
+        adhesive_exponent: c in kadh ~ s^c [-]; None: as the stiffness (the number a, or
+            with ``stiffness_exponent=None`` the similarity value 2 - chi).
     """
 
     name: str = param(unit="", kind="str", doc="label: 1-40 of letters, digits, '_', '-', '.'")
-    stiffness_exponent: float = param(1.0, unit="1", ge=-1, le=4,
-                                      doc="a in K1, K2, Kt, kadh ~ (R/R_ref)^a")
+    stiffness_exponent: float | None = param(
+        1.0, unit="1", ge=-1, le=4, nullable=True,
+        doc="a in K1, K2, Kt ~ (R/R_ref)^a; null: stress similarity, a = 2 - n")
     adhesion_exponent: float = param(2.0, unit="1", ge=-1, le=5, doc="b in f0 ~ (R/R_ref)^b")
     dt: str = param("fixed", unit="", kind="str", choices=DT_POLICIES,
                     doc="time step of coarse runs: the reference's, or scaled by R/R_ref")
+    adhesive_exponent: float | None = param(
+        None, unit="1", ge=-1, le=5, nullable=True,
+        doc="c in kadh ~ (R/R_ref)^c; null: as the stiffness (similarity: 2 - chi)")
 
     def __post_init__(self) -> None:
         o = "ScalingRule"
@@ -57,7 +69,8 @@ class ScalingRule:
     @classmethod
     def named(cls, name: str, dt: str = "fixed") -> ScalingRule:
         """A rule of :data:`NAMED_RULES`: ``paper`` (a = 1, b = 2), ``unscaled`` (a = b = 0),
-        ``linear_adhesion`` (a = 1, b = 1), ``cubic_adhesion`` (a = 1, b = 3)."""
+        ``linear_adhesion`` (a = 1, b = 1), ``cubic_adhesion`` (a = 1, b = 3),
+        ``similarity`` (a = 2 - n, b = 2, c = 2 - chi of the reference law)."""
         if name not in NAMED_RULES:
             raise ParameterError("ScalingRule.name", name, f"one of {sorted(NAMED_RULES)}")
         a, b, _ = NAMED_RULES[name]
@@ -67,13 +80,24 @@ class ScalingRule:
         """The test of ``reference`` with particles of ``radius`` [m] and the pair law scaled
         by this rule. The platen (Hertz) law is unchanged: it is already stress-similar."""
         s = radius / reference.radius
-        law = reference.pair_law.scaled(s, self.stiffness_exponent, self.adhesion_exponent)
+        law = reference.pair_law.scaled(s, *self.exponents(reference.pair_law))
         dt = reference_dt * (s if self.dt == "scaled" else 1.0)
         return replace(reference, radius=radius, pair_law=law, dt=dt)
 
+    def exponents(self, law) -> tuple[float, float, float]:
+        """The exponents (a, b, c) of K1/K2/Kt, f0 and kadh this rule gives ``law``."""
+        if self.stiffness_exponent is None:
+            a, _, c = law.similarity_exponents()
+        else:
+            a = c = self.stiffness_exponent
+        if self.adhesive_exponent is not None:
+            c = self.adhesive_exponent
+        return a, self.adhesion_exponent, c
+
     def to_dict(self) -> dict:
         return {"name": self.name, "stiffness_exponent": self.stiffness_exponent,
-                "adhesion_exponent": self.adhesion_exponent, "dt": self.dt}
+                "adhesion_exponent": self.adhesion_exponent, "dt": self.dt,
+                "adhesive_exponent": self.adhesive_exponent}
 
 
 @dataclass(frozen=True)
@@ -114,7 +138,8 @@ class StudySpec:
 
     Attributes:
         reference: the fine reference test (its radius is R_ref and its pair law the
-            reference parameters; must be a :class:`engine.BilinearAdhesive` law).
+            reference parameters; a :class:`engine.BilinearAdhesive` or :class:`engine.EEPA`
+            law).
         coarse_radii: radii of the coarse variants [m], each != the reference radius.
         rules: scaling rules applied to every coarse radius (names unique).
         seeds: packing seeds of every coarse variant (default: the reference seeds).
@@ -149,9 +174,10 @@ class StudySpec:
         o = "StudySpec"
         if not isinstance(self.reference, UniaxialTest):
             raise ParameterError(f"{o}.reference", self.reference, "an engine.UniaxialTest")
-        if not isinstance(self.reference.pair_law, BilinearAdhesive):
+        if not isinstance(self.reference.pair_law, ADHESIVE_LAWS):
             raise ParameterError(f"{o}.reference.pair_law", type(self.reference.pair_law).__name__,
-                                 "a BilinearAdhesive law (the scaling rules act on K1, K2, f0)")
+                                 "a BilinearAdhesive or EEPA law (the scaling rules act on K1, "
+                                 "K2, f0, kadh)")
         check_fields(self, o)
         radii = tuple(self.coarse_radii)
         if not 1 <= len(radii) <= 8:
@@ -282,7 +308,8 @@ class StudySpec:
                         rules.append(ScalingRule(**r))
                     except TypeError as e:
                         raise ParameterError(f"StudySpec.rules[{i}]", r, "fields name, "
-                                             "stiffness_exponent, adhesion_exponent, dt") from e
+                                             "stiffness_exponent, adhesion_exponent, dt, "
+                                             "adhesive_exponent") from e
                 else:
                     rules.append(r)
             d["rules"] = tuple(rules)

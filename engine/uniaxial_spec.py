@@ -15,7 +15,7 @@ import numpy as np
 
 from .config import MAX_OVERLAP_FRACTION
 from .errors import ParameterError
-from .materials import BilinearAdhesive, HertzMindlin, WallMaterial
+from .materials import ADHESIVE_LAWS, EEPA, BilinearAdhesive, HertzMindlin, WallMaterial
 from .packing import draw_radii, loose_packing, sphere_volume
 from .params import check_fields, param
 from .scene import Plane, Scene
@@ -54,7 +54,8 @@ class UniaxialTest:
         solid_fraction: solid fraction the settled sample is assumed to have when the
             particles are counted [-].
         pour_fraction: solid fraction of the poured cloud [-] (random addition jams near 0.38).
-        pair_law: particle-particle law (:class:`BilinearAdhesive` or :class:`HertzMindlin`).
+        pair_law: particle-particle law (:class:`BilinearAdhesive`, :class:`EEPA` or
+            :class:`HertzMindlin`).
         wall_law: platen law (:class:`HertzMindlin`; its E, nu are the particles').
         wall_material: platen material.
         pre_stress: pre-compression stress [Pa].
@@ -93,7 +94,7 @@ class UniaxialTest:
                                   doc="solid fraction assumed for the settled sample")
     pour_fraction: float = param(0.3, unit="1", gt=0, le=0.32,
                                  doc="solid fraction of the poured cloud")
-    pair_law: BilinearAdhesive | HertzMindlin = param(
+    pair_law: BilinearAdhesive | EEPA | HertzMindlin = param(
         unit="", kind="record", default_factory=_cohesionless_law,
         doc="particle-particle contact law")
     wall_law: HertzMindlin = param(unit="", kind="record", default_factory=_platen_law,
@@ -144,9 +145,9 @@ class UniaxialTest:
             raise ParameterError(f"{o}.pour_fraction", self.pour_fraction,
                                  f"<= solid_fraction = {self.solid_fraction:g}",
                                  "the poured cloud cannot be denser than the settled bed")
-        if not isinstance(self.pair_law, (BilinearAdhesive, HertzMindlin)):
+        if not isinstance(self.pair_law, (*ADHESIVE_LAWS, HertzMindlin)):
             raise ParameterError(f"{o}.pair_law", self.pair_law,
-                                 "an engine.BilinearAdhesive or engine.HertzMindlin")
+                                 "an engine.BilinearAdhesive, engine.EEPA or engine.HertzMindlin")
         if not isinstance(self.wall_law, HertzMindlin):
             raise ParameterError(f"{o}.wall_law", self.wall_law, "an engine.HertzMindlin")
         if not isinstance(self.wall_material, WallMaterial):
@@ -266,10 +267,10 @@ class UniaxialTest:
         if isinstance(d.get("pair_law"), dict):
             pl = dict(d["pair_law"])
             kind = pl.pop("type", "BilinearAdhesive")
-            law_cls = {"BilinearAdhesive": BilinearAdhesive, "HertzMindlin": HertzMindlin}.get(kind)
+            law_cls = {c.__name__: c for c in (*ADHESIVE_LAWS, HertzMindlin)}.get(kind)
             if law_cls is None:
                 raise ParameterError("UniaxialTest.pair_law.type", kind,
-                                     "BilinearAdhesive or HertzMindlin")
+                                     "BilinearAdhesive, EEPA or HertzMindlin")
             d["pair_law"] = law_cls(**pl)
         if isinstance(d.get("wall_law"), dict):
             wl = dict(d["wall_law"])

@@ -59,7 +59,9 @@ def engine_loc(field: str) -> tuple:
         "StudySpec": (),
         "UniaxialTest": ("reference",),
         "preset": ("reference", "preset"),
-        "BilinearAdhesive": ("reference", "pair_law"),
+        # a contact law's errors name its type, as pydantic's tagged-union errors do
+        "BilinearAdhesive": ("reference", "pair_law", "BilinearAdhesive"),
+        "EEPA": ("reference", "pair_law", "EEPA"),
         "WallMaterial": ("reference", "wall_material"),
         "ScalingRule": ("rules",),
         "HertzMindlin": ("reference", "wall_law"),

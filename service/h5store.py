@@ -5,7 +5,8 @@ Layout (schema version 1; see docs/SERVICE.md)::
     /                      attrs: schema, schema_version, study_id, created, spec (JSON),
                            summary (JSON), advisor (JSON), versions (JSON), version_<package>
     /runs/<key>            attrs: label, reference, position, radius (+ radius_units), rule,
-                           stiffness_exponent, adhesion_exponent, dt_rule, seed, every scalar
+                           stiffness_exponent, adhesion_exponent, adhesive_exponent (the
+                           rule's exponents for the run's law), dt_rule, seed, every scalar
                            <name> with <name>_units, every error err_* with err_*_units
     /runs/<key>/<stage>    attrs: steps, position; datasets: one 1-D per curve and
                            positions (N, 3), radii (N,), each with a ``units`` attribute
@@ -76,10 +77,12 @@ def _write_run(g: h5py.Group, position: int, run) -> None:
         }
     )
     if run.rule is not None:
+        a, b, c = run.rule.exponents(run.result.test.pair_law)
         g.attrs.update(
             {
-                "stiffness_exponent": run.rule.stiffness_exponent,
-                "adhesion_exponent": run.rule.adhesion_exponent,
+                "stiffness_exponent": a,
+                "adhesion_exponent": b,
+                "adhesive_exponent": c,
                 "dt_rule": run.rule.dt,
             }
         )

@@ -23,7 +23,15 @@ import typing
 from types import NoneType, UnionType
 from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, create_model
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Discriminator,
+    Field,
+    Tag,
+    create_model,
+)
 
 import engine
 from engine.params import ParamInfo, describe
@@ -37,8 +45,8 @@ from .models import NAME_MAX_LENGTH
 SERVICE_LIMITS: dict[tuple[str, str], dict[str, Any]] = {
     # engine.ScalingRule.__post_init__: 1-40 letters, digits, '_', '-', '.'
     ("ScalingRule", "name"): {"pattern": r"^[A-Za-z0-9_.\-]{1,40}$"},
-    # engine.StudySpec.__post_init__: the scaling rules act on a BilinearAdhesive law
-    ("UniaxialTest", "pair_law"): {"record": engine.BilinearAdhesive},
+    # engine.StudySpec.__post_init__: the scaling rules act on the adhesive laws' K1, K2, f0
+    ("UniaxialTest", "pair_law"): {"record": engine.materials.ADHESIVE_LAWS},
 }
 #: Longest list or object the API takes where the engine declares no ``max_items``.
 MAX_ITEMS = 32
@@ -139,11 +147,18 @@ def _field_type(owner: type, info: ParamInfo, hint: Any) -> Any:
     extra = dict(SERVICE_LIMITS.get((owner.__name__, info.name), {}))
     narrowed = extra.pop("record", None)
     if info.kind == "record":
-        classes = (narrowed,) if narrowed else _record_classes(hint)
+        classes = tuple(narrowed) if narrowed else _record_classes(hint)
         models = [record_model(c) for c in classes]
         if len(models) == 1:
             return models[0]
-        return Annotated[Union[tuple(models)], Field(discriminator="type")]  # noqa: UP007
+        default = classes[0].__name__
+
+        def tag(value: Any) -> str:  # an untagged law is the first record (BilinearAdhesive)
+            return (value.get("type", default) if isinstance(value, dict)
+                    else getattr(value, "type", default))
+
+        tagged = tuple(Annotated[m, Tag(c.__name__)] for m, c in zip(models, classes))
+        return Annotated[Union[tagged], Discriminator(tag)]  # noqa: UP007
     if info.kind == "list":
         args = typing.get_args(_non_null(hint))
         fixed = len(args) if args and args[-1] is not Ellipsis else None

@@ -65,12 +65,13 @@ BAD = [
         ["tolerances"],
         "metric",
     ),
-    ("k2 below k1", ("reference", "pair_law", "k2"), 1e3, ["reference", "pair_law", "k2"], "k1"),
+    ("k2 below k1", ("reference", "pair_law", "k2"), 1e3,
+     ["reference", "pair_law", "BilinearAdhesive", "k2"], "k1"),
     (
         "positive adhesion",
         ("reference", "pair_law", "f0"),
         0.5,
-        ["reference", "pair_law", "f0"],
+        ["reference", "pair_law", "BilinearAdhesive", "f0"],
         "less",
     ),
     ("negative seed", ("seeds",), [-1], ["seeds"], "[0, 2^31)"),
@@ -82,7 +83,7 @@ BAD = [
         "Hertz pair law",
         ("reference", "pair_law"),
         {"type": "HertzMindlin", "E": 1e8},
-        ["reference", "pair_law", "type"],
+        ["reference", "pair_law"],
         "BilinearAdhesive",
     ),
     (
@@ -91,6 +92,20 @@ BAD = [
         {"E": -1.0},
         ["reference", "wall_law", "E"],
         "greater",
+    ),
+    (
+        "EEPA exponent below 1",
+        ("reference", "pair_law"),
+        {"type": "EEPA", "k1": 5e5, "k2": 2.5e6, "n": 0.5},
+        ["reference", "pair_law", "EEPA", "n"],
+        "greater than or equal to 1",
+    ),
+    (
+        "EEPA k2 below k1",
+        ("reference", "pair_law"),
+        {"type": "EEPA", "k1": 5e5, "k2": 1e5},
+        ["reference", "pair_law", "EEPA", "k2"],
+        "k1",
     ),
     ("unknown preset", ("reference", "preset"), "huge", ["reference", "preset"], "quick"),
     ("string radius", ("reference", "radius"), "big", ["reference", "radius"], "number"),
@@ -169,6 +184,7 @@ def test_submit_list_read_and_unknown_ids(client):
         "stiffness_exponent": 1.0,
         "adhesion_exponent": 2.0,
         "dt": "fixed",
+        "adhesive_exponent": None,
     }
     for bad, status in ((str(uuid.uuid4()), 404), ("not-a-uuid", 422)):
         for method, url in (
@@ -217,3 +233,21 @@ def test_health_and_openapi_docs(client):
         "/healthz",
     ):
         assert p in paths, p
+
+
+@pytest.mark.timeout(60)
+def test_an_eepa_study_is_accepted_and_an_untagged_law_stays_bilinear(client):
+    law = {"type": "EEPA", "k1": 5e5, "k2": 2.5e6, "f0": -0.05, "n": 1.5, "chi": 1.5}
+    body = with_changes(("reference", "pair_law"), law)
+    body["rules"] = ["similarity", "paper"]
+    r = client.post("/studies", json=body)
+    assert r.status_code == 202, r.text
+    spec = client.get(f"/studies/{r.json()['id']}").json()["spec"]
+    assert spec["reference"]["pair_law"]["type"] == "EEPA"
+    assert spec["reference"]["pair_law"]["n"] == 1.5
+    assert spec["rules"][0]["stiffness_exponent"] is None  # similarity: 2 - n for the law
+    untagged = {k: v for k, v in TINY["reference"]["pair_law"].items() if k != "type"}
+    r = client.post("/studies", json=with_changes(("reference", "pair_law"), untagged))
+    assert r.status_code == 202, r.text
+    spec = client.get(f"/studies/{r.json()['id']}").json()["spec"]
+    assert spec["reference"]["pair_law"]["type"] == "BilinearAdhesive"

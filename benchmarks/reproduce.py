@@ -9,6 +9,11 @@
     strength to compare);
 (b) cohesive bed (f0 = -0.8 N at R_ref): R = 3.75 and 5 mm with stiffness ~ R and adhesion
     exponent b = 1, 2, 3.
+(c), (d) the same two experiments with the non-linear EEPA law at n = 1.5
+    (K1 = 5e5 N/m^1.5, K2 = 2.5e6 N/m^1.5: the force of the seed's K1 = 5e3 N/m at an
+    overlap of 0.04 R) under the stress-similarity rule (K ~ R^(2-n) = R^0.5, f0 ~ R^2) and
+    the seed's linear-stiffness rule (K ~ R, f0 ~ R^2): issue 13's question of how to
+    coarse-grain a non-linear adhesive law.
 Three reference seeds and two seeds per coarse variant. Every finished run is stored at once
 as ``benchmarks/results/<scale>/<experiment>/<run>.h5`` (:mod:`engine.runstore`); a rerun
 resumes with the runs not yet stored, and ``--report`` recomputes every metric, verdict and
@@ -41,6 +46,9 @@ def experiments(scale: str) -> dict[str, engine.StudySpec]:
         k1=5e3, k2=2.5e4, f0=-0.8, mu_s=0.5, mu_r=0.001, restitution=0.4))
     rule = engine.ScalingRule
     common = {"reference_seeds": REFERENCE_SEEDS, "seeds": COARSE_SEEDS}
+    eepa = engine.EEPA(k1=5e5, k2=2.5e6, n=1.5, chi=1.5, mu_s=0.5, mu_r=0.001,
+                       restitution=0.4)
+    eepa_rules = (rule.named("similarity"), rule("linear", 1.0, 2.0))
     return {
         "a_cohesionless": engine.StudySpec(
             reference=plain, coarse_radii=(2 * R,),
@@ -49,10 +57,17 @@ def experiments(scale: str) -> dict[str, engine.StudySpec]:
             reference=cohesive, coarse_radii=(1.5 * R, 2 * R),
             rules=(rule("b1", 1.0, 1.0), rule("b2", 1.0, 2.0), rule("b3", 1.0, 3.0)),
             **common),
+        "c_eepa_cohesionless": engine.StudySpec(
+            reference=engine.preset(scale, pair_law=eepa, unconfined=False),
+            coarse_radii=(2 * R,), rules=eepa_rules, **common),
+        "d_eepa_cohesive": engine.StudySpec(
+            reference=engine.preset(scale, pair_law=replace(eepa, f0=-0.8)),
+            coarse_radii=(1.5 * R, 2 * R), rules=eepa_rules, **common),
     }
 
 
 STORE = ROOT / "benchmarks" / "results"
+EXPERIMENTS = ("a_cohesionless", "b_cohesive", "c_eepa_cohesionless", "d_eepa_cohesive")
 
 
 def store_dir(scale: str, name: str) -> Path:
@@ -104,8 +119,8 @@ def main(argv=None) -> int:
                          "run at a time with the engine's own threads")
     ap.add_argument("--report", action="store_true",
                     help="only recompute the report from the stored runs")
-    ap.add_argument("--only", nargs="*", choices=("a_cohesionless", "b_cohesive"),
-                    help="experiments to run, in this order (default: both)")
+    ap.add_argument("--only", nargs="*", choices=EXPERIMENTS,
+                    help="experiments to run, in this order (default: all)")
     ap.add_argument("--store", type=Path, default=None,
                     help="folder of the stored runs (default: benchmarks/results)")
     args = ap.parse_args(argv)

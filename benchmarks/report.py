@@ -15,6 +15,17 @@ How each claim is judged was fixed before any paper-scale run was looked at:
 (d) *about 9x less compute from 2 mm to 3.75 mm*: the speed-up of the paper rule fitted as
     s^k over the coarse radii and read at the seed's s = 3.75 / 2; agrees within 25 % of 9x
     (run times of one code on two machines differ by that much).
+
+EEPA at n = 1.5 (experiments (c) cohesionless and (d) cohesive, issue 13), fixed before any
+EEPA study run was looked at, per experiment and coarse radius:
+
+(e) *stress similarity (K ~ R^(2-n), f0 ~ R^2) keeps the bulk response*: agrees when the
+    ``similarity`` variant's verdict is ``equivalent``, differs when it is ``differs``,
+    otherwise undecided;
+(f) *the seed's linear-stiffness rule does not*: agrees when the ``linear`` variant's verdict
+    is ``differs`` and its loading stiffness is above the reference's (its loading branch is
+    s^(1+n) instead of s^2 times stronger at similar overlaps, docs/PHYSICS.md section 8);
+    differs when it is ``equivalent``; otherwise undecided.
 """
 
 from __future__ import annotations
@@ -185,6 +196,44 @@ def claim_d(res) -> str:
         + " (wall times of runs that shared the cores with other work are less reliable).")
 
 
+def claim_eepa(res) -> list[str]:
+    """Claims (e) and (f) for one EEPA experiment, a line per coarse radius."""
+    out = []
+    shown = ("density", "loading_stiffness", "strength")
+    for r in res.spec.coarse_radii:
+        vs = {v["rule"]: v for v in res.advisor["verdicts"] if abs(v["radius"] - r) < 1e-12}
+        sim, lin = vs.get("similarity"), vs.get("linear")
+        if sim is None or lin is None:
+            out.append(f"R = {r * 1e3:g} mm: *undecided*, runs missing.")
+            continue
+        e = {"equivalent": "agrees", "differs": "differs"}.get(sim["verdict"], "undecided")
+        k = _metric(lin, "loading_stiffness")
+        f = ("agrees" if lin["verdict"] == "differs" and k is not None
+             and k["signed_error"] > 0 else
+             "differs" if lin["verdict"] == "equivalent" else "undecided")
+
+        def cells(v):
+            return ", ".join(
+                f"{n} {_pct(m['signed_error'], True)} ± {_pct(2 * (m['uncertainty'] or 0))}"
+                for n in shown if (m := _metric(v, n)) is not None)
+        out.append(f"R = {r * 1e3:g} mm: (e) similarity **{e}** ({sim['verdict']}: "
+                   f"{cells(sim)}); (f) linear stiffness fails: **{f}** ({lin['verdict']}: "
+                   f"{cells(lin)}).")
+    return out
+
+
+def law_line(spec) -> str:
+    """The reference pair law of an experiment, in words."""
+    law = spec.reference.pair_law
+    if isinstance(law, engine.EEPA):
+        return (f"Reference law: EEPA n = {law.n:g}, chi = {law.chi:g}, K1 = {law.k1:g} "
+                f"N/m^{law.n:g}, K2 = {law.k2:g} N/m^{law.n:g}, f0 = {law.f0:g} N, "
+                f"kadh = {law.kadh:g}, Kt = {law.kt_ratio:.3g} n K1 d^(n-1), "
+                f"mu_s = {law.mu_s:g}, mu_r = {law.mu_r:g}, restitution {law.restitution:g}.")
+    return (f"Reference law: bilinear, K1 = {law.k1:g} N/m, K2 = {law.k2:g} N/m, "
+            f"f0 = {law.f0:g} N, kadh = {law.kadh:g} N/m.")
+
+
 def porosity_note(res) -> str:
     rows = []
     for g in res.groups:
@@ -241,9 +290,10 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None) -> Path:
         f"{p.cell[2] * 1e3:g} mm cuboid (periodic in x and y until the release) filled with "
         f"{p.n_particles} spheres of R = {p.radius * 1e3:g} mm (solid fraction "
         f"{p.solid_fraction:g} assumed), platen at "
-        "10 mm/s, dt = 1e-5 s, pre-compression 5 kPa, consolidation 20 kPa, K1 = 5e3 N/m, "
-        "K2 = 2.5e4 N/m, Kt = 2/7 K1, mu_s = 0.5, mu_r = 0.001, restitution 0.4, "
-        "Hertz-Mindlin platens (friction 0.3). Coarse runs keep the cell and the time step.",
+        "10 mm/s, dt = 1e-5 s, pre-compression 5 kPa, consolidation 20 kPa, Kt = 2/7 of the "
+        "loading stiffness, mu_s = 0.5, mu_r = 0.001, restitution 0.4, Hertz-Mindlin platens "
+        "(friction 0.3); each experiment names its pair law. Coarse runs keep the cell and the "
+        "time step.",
         "",
         "## How a coarse run is judged",
         "",
@@ -265,9 +315,14 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None) -> Path:
     titles = {"a_cohesionless": "(a) Cohesionless: 2.5 mm against 5 mm, stiffness unscaled "
               "and linearly scaled (confined stages only)",
               "b_cohesive": "(b) Cohesive (f0 = -0.8 N at 2.5 mm): 3.75 and 5 mm, stiffness "
-              "~ R, adhesion ~ R^b with b = 1, 2, 3"}
+              "~ R, adhesion ~ R^b with b = 1, 2, 3",
+              "c_eepa_cohesionless": "(c) EEPA n = 1.5, cohesionless: 2.5 against 5 mm, "
+              "stress similarity (K ~ R^0.5) against linear stiffness (K ~ R)",
+              "d_eepa_cohesive": "(d) EEPA n = 1.5, cohesive (f0 = -0.8 N at 2.5 mm): 3.75 and "
+              "5 mm, stress similarity (K ~ R^0.5, f0 ~ R^2) against linear stiffness (K ~ R, "
+              "f0 ~ R^2)"}
     for name, res in results.items():
-        lines += [f"## {titles.get(name, name)}", ""]
+        lines += [f"## {titles.get(name, name)}", "", law_line(data[name][0]), ""]
         if isinstance(res, str):
             lines += [f"Not judged: {res}.", ""]
             continue
@@ -301,6 +356,17 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None) -> Path:
                      "their strength is the documented fallback.")
     else:
         lines.append("- Claims (c) and (d): experiment (b) not available.")
+    lines += ["", "## EEPA at n = 1.5: how to coarse-grain a non-linear adhesive law", "",
+              "Claims (e) *stress similarity keeps the bulk response* and (f) *the seed's "
+              "linear-stiffness rule does not*, judged by the rules fixed in "
+              "benchmarks/report.py before any EEPA study run was looked at:", ""]
+    for name in ("c_eepa_cohesionless", "d_eepa_cohesive"):
+        res = results.get(name)
+        if isinstance(res, engine.StudyResult):
+            lines += [f"- {titles[name][:3]} {t}" for t in claim_eepa(res)]
+        elif name in data:
+            lines.append(f"- {titles[name][:3]} not judged: "
+                         f"{res if isinstance(res, str) else 'no runs'}.")
     lines.append("")
     path = out_dir / report_name
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -43,6 +43,11 @@ def test_report_judges_the_claims_from_stored_runs(tmp_path):
             reference=tiny(pair_law=COHESIVE, cell=(0.025, 0.025, 0.02), pour_fraction=0.2),
             coarse_radii=(1.5 * R, 2 * R),
             rules=(rule("b1", 1, 1), rule("b2", 1, 2), rule("b3", 1, 3)), **seeds),
+        "c_eepa_cohesionless": engine.StudySpec(
+            reference=tiny(unconfined=False, cell=(0.025, 0.025, 0.02), pour_fraction=0.2,
+                           pair_law=engine.EEPA(k1=5e5, k2=2.5e6, n=1.5, restitution=0.4)),
+            coarse_radii=(2 * R,),
+            rules=(rule.named("similarity"), rule("linear", 1, 2)), **seeds),
     }
     data = {}
     for name, spec in specs.items():
@@ -56,6 +61,9 @@ def test_report_judges_the_claims_from_stored_runs(tmp_path):
                   "Quadratic adhesion", "About 9x less compute"):
         line = next(li for li in text.splitlines() if claim in li)
         assert "runs missing" not in line
+    eepa = next(li for li in text.splitlines() if li.startswith("- (c) R = 5 mm"))
+    assert "(e) similarity **" in eepa and "(f) linear stiffness fails: **" in eepa
+    assert "EEPA n = 1.5, chi = 1.5, K1 = 500000 N/m^1.5" in text
     assert text.count("**agrees**") + text.count("**differs**") + text.count(
-        "**undecided**") >= 5
+        "**undecided**") >= 7
     assert (tmp_path / "out" / "figures" / "tiny_b_cohesive" / "error_vs_runtime.png").exists()

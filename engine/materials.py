@@ -169,7 +169,7 @@ class EEPA:
     :math:`\mu_s |f_{hys} - f_0 + k_{adh} d^\chi|` (``friction_cap="adhesive"``) or
     :math:`\mu_s |F_n|` (``"normal"``, the LIGGGHTS convention). With n = chi = 1 and the
     adhesive cap it is :class:`BilinearAdhesive`, to the last bit (tests/engine/test_eepa.py).
-    docs/PHYSICS.md section 9.
+    docs/PHYSICS.md section 8.
 
     Attributes:
         k1: virgin loading stiffness K1 [N/m^n], > 0.

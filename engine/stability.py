@@ -4,7 +4,7 @@ Linear contacts: the damped oscillator limit :math:`\\Delta t_c = \\tfrac{2}{\\o
 (\\sqrt{1+\\zeta^2}-\\zeta)`, :math:`\\omega = \\sqrt{K/m_{eff}}`, for the stiffest branch (K2)
 and the lightest pair; tangential spring with rotation: :math:`\\omega^2 = 3.5 K_t / m_{eff}`.
 EEPA contacts: the same limits with the tangent stiffnesses :math:`n K d^{n-1}` at the largest
-overlap of a head-on impact at the expected speed (section 9).
+overlap of a head-on impact at the expected speed (section 8).
 Hertz contacts: the same oscillator limit with the Hertz stiffness at the largest overlap of an
 impact at the expected speed, the Rayleigh time
 :math:`T_R = \\pi R\\sqrt{\\rho/G}/(0.1631\\nu + 0.8766)` and the Hertz contact duration

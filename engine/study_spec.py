@@ -20,7 +20,7 @@ DT_POLICIES = ("fixed", "scaled")
 
 #: The named rules: name -> (stiffness exponent a, adhesion exponent b, what it stands for).
 #: a = None: geometric and stress similarity for the reference law, K ~ R^(2-n) and
-#: kadh ~ R^(2-chi) (docs/PHYSICS.md section 9); for the bilinear law (n = chi = 1) that is
+#: kadh ~ R^(2-chi) (docs/PHYSICS.md section 8); for the bilinear law (n = chi = 1) that is
 #: the paper's rule.
 NAMED_RULES = {
     "paper": (1.0, 2.0, "Thakur et al. 2013: stiffness ~ R, adhesion ~ R^2"),

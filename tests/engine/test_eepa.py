@@ -1,5 +1,5 @@
 """The non-linear EEPA law (engine.EEPA) against its closed forms, the bilinear law it
-generalises, its time-step limit and the similarity scaling rule (docs/PHYSICS.md section 9)."""
+generalises, its time-step limit and the similarity scaling rule (docs/PHYSICS.md section 8)."""
 
 from __future__ import annotations
 

@@ -10,12 +10,14 @@ Public API (stable names)::
     critical_time_step                              time-step limits of a scene
     UniaxialTest, preset, run_uniaxial              the uniaxial test and its stages
     ScalingRule, StudySpec, run_study               scaling studies, errors and costs
+    FileChannel                                     progress and stop of runs on other hosts
     NAMED_RULES, METRICS, DEFAULT_TOLERANCES        named rules, verdict metrics
     default_study                                   the study of the main job
     Snapshot, SnapshotWriter                        particles and contacts for ParaView
     ParameterError, StabilityError, InstabilityError
 """
 
+from .channel import FileChannel
 from .errors import InstabilityError, ParameterError, StabilityError, StopRequested
 from .kernels import FEATURES
 from .materials import EEPA, BilinearAdhesive, HertzMindlin, WallMaterial
@@ -56,6 +58,7 @@ __all__ = [
     "NAMED_RULES",
     "BilinearAdhesive",
     "Contacts",
+    "FileChannel",
     "HertzMindlin",
     "InstabilityError",
     "ParameterError",

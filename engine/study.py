@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .advisor import advise, judge_groups
+from .channel import task_progress
 from .errors import StopRequested
 from .metrics import (
     METRIC_COLUMNS,
@@ -163,13 +164,18 @@ class RunFailed(RuntimeError):
         super().__init__(f"run {run_key} failed: {text}")
 
 
-def _execute(test, threads: int | None = None) -> UniaxialResult:
-    """One run as a task (a picklable top-level function for process and cluster pools)."""
+def _execute(test, threads: int | None = None, key: str = "", channel=None
+             ) -> UniaxialResult:
+    """One run as a task (a picklable top-level function for process and cluster pools);
+    with a ``channel`` (:mod:`engine.channel`) it reports its progress there and stops with
+    :class:`engine.StopRequested` when the study asks it to."""
     if threads is not None:
         import numba
 
         numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
-    return run_uniaxial(test)
+    if channel is not None and channel.stop_requested():
+        raise StopRequested(f"run {key} not started: the study was stopped")
+    return run_uniaxial(test, progress=None if channel is None else task_progress(channel, key))
 
 
 def _weights(planned: list[PlannedRun]) -> np.ndarray:
@@ -179,16 +185,18 @@ def _weights(planned: list[PlannedRun]) -> np.ndarray:
 
 def run_study(spec: StudySpec, progress: StudyCallback | None = None,
               executor: cf.Executor | None = None, *, completed: dict | None = None,
-              on_run: RunCallback | None = None, task_threads: int | None = 1
-              ) -> StudyResult:
+              on_run: RunCallback | None = None, task_threads: int | None = 1,
+              channel=None, poll_interval: float = 1.0) -> StudyResult:
     """Run every run of ``spec`` that is not in ``completed``, then judge the study.
 
     Args:
         spec: the study.
         progress: receives :class:`StudyProgress` (in this process, within each run; with
-            an executor, as runs finish); returning ``False`` stops the study with
-            :class:`engine.StopRequested` (with an executor, runs not yet started are
-            cancelled and running ones are left to finish).
+            an executor, as runs finish, and with a ``channel`` also every
+            ``poll_interval`` seconds from the running tasks, the fraction summed over the
+            runs); returning ``False`` stops the study with :class:`engine.StopRequested`
+            (with an executor, runs not yet started are cancelled; running ones stop at
+            their next report through the ``channel``, or are left to finish without one).
         executor: None runs the runs one after another here; any
             :class:`concurrent.futures.Executor` (a ``ProcessPoolExecutor`` with the
             "spawn" or "forkserver" context, ``distributed.Client(...).get_executor()``)
@@ -197,6 +205,10 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
             runs already done, e.g. read back from storage when a study resumes.
         on_run: called with (key, UniaxialResult or error text) as soon as a run ends.
         task_threads: engine threads per task on an executor (1: one core per task).
+        channel: with an executor, how tasks in other processes or hosts report progress
+            and hear a stop request (:class:`engine.FileChannel`); reset when the study
+            starts.
+        poll_interval: seconds between two reads of the ``channel`` [s].
 
     Raises: :class:`RunFailed` as soon as every reference run has failed.
     """
@@ -218,7 +230,10 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
     if executor is None:
         _run_here(planned, todo, weights, outcomes, progress, record)
     else:
-        _run_on(executor, planned, todo, weights, outcomes, progress, record, task_threads)
+        if channel is not None:
+            channel.reset()
+        _run_on(executor, planned, todo, weights, outcomes, progress, record, task_threads,
+                channel, poll_interval)
     return assemble(spec, planned, outcomes)
 
 
@@ -253,33 +268,62 @@ def _run_here(planned, todo, weights, outcomes, progress, record) -> None:
         done_weight += weights[i]
 
 
-def _run_on(executor, planned, todo, weights, outcomes, progress, record, threads) -> None:
+def _run_on(executor, planned, todo, weights, outcomes, progress, record, threads, channel,
+            poll_interval) -> None:
     # in planned order: the references first (the longest runs, needed by every comparison)
-    futures = {executor.submit(_execute, planned[i].test, threads): i for i in todo}
+    futures = {executor.submit(_execute, planned[i].test, threads, planned[i].key, channel): i
+               for i in todo}
     done_weight = _done_weight(planned, weights, outcomes)
+    pending = set(futures)
+
+    def ask(report: StudyProgress) -> None:
+        if progress is not None and progress(report) is False:
+            if channel is not None:
+                channel.request_stop()  # running tasks stop at their next report
+            raise StopRequested(f"stopped by the progress callback during run {report.run_key}")
+
     try:
-        for fut in cf.as_completed(futures):
-            i = futures[fut]
-            p = planned[i]
-            try:
-                outcome = fut.result()
-            except cf.CancelledError:
-                continue
-            except cf.BrokenExecutor:
-                # the pool itself died (a worker process killed): an interruption, not a
-                # failure of the run; finished runs were reported, a resume runs the rest
-                raise
-            except Exception as e:
-                outcome = f"{type(e).__name__}: {e}"
-            record(p, outcome)
-            done_weight += weights[i]
-            if progress is not None and progress(StudyProgress(
-                    float(min(done_weight, 1.0)), i, len(planned), p.key, "done", 0.0,
-                    "run finished" if not isinstance(outcome, str) else outcome)) is False:
-                raise StopRequested(f"stopped by the progress callback after run {p.key}")
+        while pending:
+            done, pending = cf.wait(pending, timeout=poll_interval if channel else None,
+                                    return_when=cf.FIRST_COMPLETED)
+            for fut in done:
+                i = futures[fut]
+                p = planned[i]
+                try:
+                    outcome = fut.result()
+                except (cf.CancelledError, StopRequested):
+                    continue  # stopped, not failed: a resume runs it again
+                except cf.BrokenExecutor:
+                    # the pool itself died (a worker process killed): an interruption, not a
+                    # failure of the run; finished runs were reported, a resume runs the rest
+                    raise
+                except Exception as e:
+                    outcome = f"{type(e).__name__}: {e}"
+                record(p, outcome)
+                done_weight += weights[i]
+                ask(StudyProgress(float(min(done_weight, 1.0)), i, len(planned), p.key, "done",
+                                  0.0, "run finished" if not isinstance(outcome, str) else outcome))
+            if channel is not None and pending and not done:
+                _report_running(channel, planned, weights, futures, pending, outcomes,
+                                done_weight, ask)
     finally:
         for fut in futures:
             fut.cancel()
+
+
+def _report_running(channel, planned, weights, futures, pending, outcomes, done_weight,
+                    ask) -> None:
+    """One progress report from the running tasks' channel: the study's fraction summed over
+    the runs, named after the least advanced running run."""
+    seen = channel.read()
+    running = [(futures[f], seen[planned[futures[f]].key]) for f in pending
+               if planned[futures[f]].key in seen and planned[futures[f]].key not in outcomes]
+    if not running:
+        return
+    frac = done_weight + sum(weights[i] * min(max(r["fraction"], 0.0), 1.0) for i, r in running)
+    i, r = min(running, key=lambda ir: ir[1]["fraction"])
+    ask(StudyProgress(float(min(frac, 1.0)), i, len(planned), planned[i].key, r["stage"],
+                      float(r["time"]), f"{len(running)} runs in progress"))
 
 
 def assemble(spec: StudySpec, planned: list[PlannedRun], outcomes: dict) -> StudyResult:

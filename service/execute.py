@@ -145,8 +145,13 @@ class StudyExecution:
         try:
             spec = engine.StudySpec.from_dict(self.spec_dict)
             with run_executor(self.settings) as pool:
+                # runs in other processes or hosts report and hear a cancel through files in
+                # the study's folder (engine.FileChannel)
+                channel = (None if pool is None else
+                           engine.FileChannel(self.settings.study_dir(self.study_id) / "channel"))
                 result = engine.run_study(spec, progress=self.progress, executor=pool,
-                                          completed=self.stored_runs(spec), on_run=self.on_run)
+                                          completed=self.stored_runs(spec), on_run=self.on_run,
+                                          channel=channel)
             write_results(self.settings.results_path(self.study_id), self.study_id, result,
                           still_ours=self._still_ours)
         except engine.StopRequested:

@@ -313,3 +313,45 @@ def test_runs_as_tasks_on_a_pool_or_a_dask_cluster(client, workers, settings, wh
     assert all(r["wall_time"] > 0 and r["steps"] > 0 for r in done["runs"])
     assert sorted(p.stem for p in settings.runs_dir(sid).glob("*.h5")) == [
         "r3.1mm-paper-s1", "ref-s1", "ref-s2"]
+
+
+@pytest.mark.timeout(RUN_TIMEOUT + 90)
+@pytest.mark.parametrize("where", ["process pool", "dask"])
+def test_progress_within_runs_and_cancel_on_a_pool_or_a_dask_cluster(client, workers, settings,
+                                                                      where):
+    """Runs on other processes report progress while they run (engine.FileChannel in the
+    study's folder), and a cancel stops the running tasks, not only the pending ones."""
+    if where == "dask":
+        distributed = pytest.importorskip("distributed")
+        cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1,
+                                           dashboard_address=None)
+        settings.dask_scheduler = cluster.scheduler_address
+    else:
+        cluster = None
+        settings.run_workers = 2
+    try:
+        sid = submit(client, {**SLOW, "reference_seeds": [1, 2], "seeds": [1]})
+        workers.start()
+        mid = wait_for(
+            study_getter(client, sid),
+            lambda s: s["status"] == "running" and s["progress"] > 0.02,
+            RUN_TIMEOUT,
+            "progress from inside the running tasks",
+            workers,
+        )
+        # progress came from inside the runs: none had finished when it was reported
+        assert "succeeded" not in {r["status"] for r in mid["runs"]}
+        assert (settings.study_dir(sid) / "channel").is_dir()
+        t0 = time.monotonic()
+        assert client.post(f"/studies/{sid}/cancel").status_code == 202
+        done = wait_for(
+            study_getter(client, sid), lambda s: s["status"] != "running", 30, "the cancel",
+            workers,
+        )
+        assert done["status"] == "cancelled"
+        assert time.monotonic() - t0 < 20
+        # the running tasks were asked to stop (tests/engine/test_channel.py: they do)
+        assert (settings.study_dir(sid) / "channel" / "STOP").exists()
+    finally:
+        if cluster is not None:
+            cluster.close()

@@ -10,10 +10,11 @@ AND every particle-wall contact (LAMMPS GRANULAR ``GranularModel`` style: one fo
 serves both). Its fixed order:
 
 1. contact-point velocity (:func:`contact_velocity`);
-2. normal force with adhesion and plasticity (:func:`bilinear_normal_force`) or Hertz
-   (:func:`hertz_normal_force`);
+2. normal force with adhesion and plasticity (:func:`bilinear_normal_force`, or the
+   non-linear :func:`eepa_normal_force`) or Hertz (:func:`hertz_normal_force`);
 3. normal damping (:func:`viscous_damping_coefficient` on the contact's normal stiffness);
-4. the friction cap from the normal force (:func:`friction_limit`);
+4. the friction cap from the normal force (:func:`friction_limit`, or ``mu_s |F_n|`` with
+   the ``normal_cap`` switch);
 5. the tangential spring, turned into the current tangent plane, damped and capped
    (:func:`tangential_spring_force`);
 6. the torque split (both bodies turn the same way: ``t_i = -R_i n x F_t``,

@@ -77,6 +77,8 @@ def report() -> Path:
             "[kPa] | strength [kPa] |", "|---|---|---|---|---|---|"]
     fig, ax = plt.subplots(figsize=(7, 4.5))
     missing = []
+    strengths: dict[str, float] = {}
+    fails: dict[str, bool] = {}
     for name, test in tests.items():
         path = STORE / f"{name}.h5"
         if not path.exists():
@@ -98,6 +100,9 @@ def report() -> Path:
                     f"{stress[k] / 1e3:.2f} at {100 * strain[k]:.1f} | "
                     f"{stress[-1] / 1e3:.2f} | {s['unconfined_strength'] / 1e3:.2f} |")
         ax.plot(100 * strain, stress / 1e3, label=name)
+        strengths[name] = s["unconfined_strength"]
+        fails[name] = bool(s["unconfined_failure"])
+    reading = _reading(strengths, fails)
     ax.set_xlabel("unconfined strain [%]")
     ax.set_ylabel("platen stress [kPa]")
     ax.set_title("Unconfined compression after consolidation to 20 kPa (quick scale, seed 1)")
@@ -117,12 +122,34 @@ def report() -> Path:
         *([f"**Incomplete**: not stored yet: {', '.join(missing)}.", ""] if missing else []),
         *rows,
         "",
+        *reading,
+        "",
         "![unconfined curves](figures/failure_sweep.png)",
         "",
     ]
     path = ROOT / "docs" / "FAILURE.md"
     path.write_text("\n".join(text) + "\n")
     return path
+
+
+def _reading(strengths: dict[str, float], fails: dict[str, bool]) -> list[str]:
+    """What the stored runs say, each change against ``base`` (computed, not written)."""
+    if "base" not in strengths:
+        return []
+    base = strengths["base"]
+    out = ["What changes the outcome (strength: the peak, or the largest stress up to the "
+           "limit; against `base`):", ""]
+    what = {"frictionless_platens": "platen friction 0.3 -> 0",
+            "tall": "height / width 2 -> 4",
+            "adhesion_x4": "adhesion f0 x 4",
+            "adhesion_x0.25": "adhesion f0 x 0.25"}
+    for name, text in what.items():
+        if name in strengths:
+            out.append(f"- {text}: strength x {strengths[name] / base:.2f}, "
+                       f"{'fails' if fails[name] else 'hardens'}.")
+    n = sum(fails.values())
+    out += ["", f"{n} of {len(fails)} samples fail within the strain limit."]
+    return out
 
 
 def main(argv=None) -> int:

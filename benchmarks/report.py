@@ -353,7 +353,8 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None) -> Path:
                      if r.result.scalars.get("unconfined_failure") == 1.0)
         lines.append(f"- Unconfined failure: {n_fail} of {len(b.runs)} cohesive runs show a "
                      "post-peak drop (failure); the others harden to the strain limit and "
-                     "their strength is the documented fallback.")
+                     "their strength is the documented fallback. Platen friction, height / "
+                     "width and adhesion tried one at a time: [FAILURE.md](FAILURE.md).")
     else:
         lines.append("- Claims (c) and (d): experiment (b) not available.")
     lines += ["", "## EEPA at n = 1.5: how to coarse-grain a non-linear adhesive law", "",

@@ -12,6 +12,25 @@ from collections.abc import Iterator
 
 from .settings import Settings
 
+#: How often a pool process checks that its service worker is alive [s].
+PARENT_CHECK_INTERVAL = 1.0
+
+
+def exit_with_parent(parent: int) -> None:
+    """Pool process initializer: exit as soon as the service worker that started the pool is
+    gone. A worker killed outright (SIGKILL, out of memory) cannot shut its pool down, and
+    the pool's processes would otherwise live on, idle, holding their memory; the study is
+    requeued and its runs rerun elsewhere."""
+    import threading
+    import time
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_CHECK_INTERVAL)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="exit-with-parent", daemon=True).start()
+
 
 @contextlib.contextmanager
 def run_executor(settings: Settings) -> Iterator[cf.Executor | None]:
@@ -30,7 +49,8 @@ def run_executor(settings: Settings) -> Iterator[cf.Executor | None]:
         yield None
         return
     # spawn: the worker's own OpenMP threads and database connections are not forked
-    pool = cf.ProcessPoolExecutor(n, mp_context=mp.get_context("spawn"))
+    pool = cf.ProcessPoolExecutor(n, mp_context=mp.get_context("spawn"),
+                                  initializer=exit_with_parent, initargs=(os.getpid(),))
     try:
         yield pool
     finally:

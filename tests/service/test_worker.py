@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 import signal
 import time
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -355,3 +356,43 @@ def test_progress_within_runs_and_cancel_on_a_pool_or_a_dask_cluster(client, wor
     finally:
         if cluster is not None:
             cluster.close()
+
+
+def _children(pid: int) -> set[int]:
+    """Direct child processes of ``pid`` (Linux /proc)."""
+    out: set[int] = set()
+    for task in (Path("/proc") / str(pid) / "task").glob("*"):
+        try:
+            out |= {int(c) for c in (task / "children").read_text().split()}
+        except OSError:
+            continue
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = (Path("/proc") / str(pid) / "stat").read_text().split(")")[-1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.timeout(RUN_TIMEOUT + 60)
+@pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="needs Linux /proc")
+def test_pool_processes_exit_when_their_worker_is_killed(client, workers, settings):
+    """A service worker killed outright cannot shut its pool down: the pool's processes
+    notice that their parent is gone and exit (service.pools.exit_with_parent) instead of
+    living on, idle, with their memory."""
+    settings.run_workers = 2
+    sid = submit(client, {**SLOW, "reference_seeds": [1, 2], "seeds": [1]})
+    worker = workers.start()
+    wait_for(study_getter(client, sid), lambda s: s["status"] == "running" and s["progress"] > 0.02,
+             RUN_TIMEOUT, "the pool to run", workers)
+    pool = _children(worker.pid)
+    assert len(pool) >= 2
+    worker.send_signal(signal.SIGKILL)
+    worker.wait()
+    deadline = time.monotonic() + 15
+    while time.monotonic() < deadline and any(_alive(p) for p in pool):
+        time.sleep(0.2)
+    assert not [p for p in pool if _alive(p)]

@@ -109,9 +109,10 @@ def eepa_normal_force(d, dmax, k1, k2, f0, kadh, n, chi):
         dmax = d
     dn = d**n
     dpn = (1.0 - k1 / k2) * dmax**n
-    f_adh = kadh * d**chi
+    f_adh = kadh * d**chi if kadh != 0.0 else 0.0  # no power where there is no branch
     f = f0 + min(k1 * dn, max(k2 * (dn - dpn), -f_adh))
-    return f, n * d ** (n - 1.0) * k1, f_adh, dmax
+    # n d^(n-1) as n d^n / d: one power less (d / d == 1 exactly, so n = 1 gives K1)
+    return f, n * dn / d * k1, f_adh, dmax
 
 
 @njit(**NJIT_INLINE)

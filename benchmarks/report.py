@@ -360,7 +360,8 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None) -> Path:
     lines += ["", "## EEPA at n = 1.5: how to coarse-grain a non-linear adhesive law", "",
               "Claims (e) *stress similarity keeps the bulk response* and (f) *the seed's "
               "linear-stiffness rule does not*, judged by the rules fixed in "
-              "benchmarks/report.py before any EEPA study run was looked at:", ""]
+              "benchmarks/report.py before any EEPA study run was looked at (the law itself "
+              "against LIGGGHTS 3.8 on one packing: [LIGGGHTS_EEPA.md](LIGGGHTS_EEPA.md)):", ""]
     for name in ("c_eepa_cohesionless", "d_eepa_cohesive"):
         res = results.get(name)
         if isinstance(res, engine.StudyResult):

@@ -18,10 +18,10 @@ Three reference seeds and two seeds per coarse variant; six per coarse variant i
 whose first quick-scale runs showed that two 286-particle beds (5 diameters thick) scatter too
 much to decide (loading stiffness 297 and 704 kPa for one rule): a coarse run costs about a
 thirteenth of a reference, so six cost less than half a reference and together hold about as
-many particles as one reference at s = 2 (the verdict rule is unchanged). Every finished run is stored at once
-as ``benchmarks/results/<scale>/<experiment>/<run>.h5`` (:mod:`engine.runstore`); a rerun
-resumes with the runs not yet stored, and ``--report`` recomputes every metric, verdict and
-figure from the stored curves. ``--scale paper`` writes docs/VALIDATION.md and
+many particles as one reference at s = 2 (the verdict rule is unchanged).
+Every finished run is stored at once as ``benchmarks/results/<scale>/<experiment>/<run>.h5``
+(:mod:`engine.runstore`); a rerun resumes with the runs not yet stored, and ``--report``
+recomputes every metric, verdict and figure from the stored curves. ``--scale paper`` writes docs/VALIDATION.md and
 docs/figures/; ``--scale quick`` writes docs/VALIDATION_quick.md (the smoke-test scale).
 """
 

@@ -40,7 +40,8 @@ progress bar per run and one for the whole study. Writes into DIR:
 
 SPEC.json holds an engine.StudySpec: "reference" (a preset name and overrides, or every
 field of a uniaxial test), "coarse_radii" [m], "rules" (names such as "paper" or objects
-with stiffness_exponent, adhesion_exponent and adhesive_exponent), "seeds", "reference_seeds", "tolerances".
+with stiffness_exponent, adhesion_exponent and adhesive_exponent), "seeds",
+"reference_seeds", "tolerances".
 examples/quick_study.json is one (four runs, about three minutes on two cores).
 
 Exit status: 0 every run finished; 1 some run failed (what finished is written; the

@@ -21,8 +21,9 @@ thirteenth of a reference, so six cost less than half a reference and together h
 many particles as one reference at s = 2 (the verdict rule is unchanged).
 Every finished run is stored at once as ``benchmarks/results/<scale>/<experiment>/<run>.h5``
 (:mod:`engine.runstore`); a rerun resumes with the runs not yet stored, and ``--report``
-recomputes every metric, verdict and figure from the stored curves. ``--scale paper`` writes docs/VALIDATION.md and
-docs/figures/; ``--scale quick`` writes docs/VALIDATION_quick.md (the smoke-test scale).
+recomputes every metric, verdict and figure from the stored curves. ``--scale paper`` writes
+docs/VALIDATION.md and docs/figures/; ``--scale quick`` writes docs/VALIDATION_quick.md (the
+smoke-test scale).
 """
 
 from __future__ import annotations

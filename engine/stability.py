@@ -92,6 +92,8 @@ def oscillator_limit(k: float, m: float, zeta: float) -> float:
     """Stable explicit time step of a damped linear oscillator [s]: 2/w (sqrt(1+z^2) - z),
     w = sqrt(k/m); k [N/m], m [kg], zeta [-]."""
     omega = math.sqrt(k / m)
+    if omega == 0.0:  # a spring too soft for the mass to register: no limit
+        return math.inf
     return 2.0 / omega * (math.sqrt(1.0 + zeta * zeta) - zeta)
 
 
@@ -155,6 +157,11 @@ def critical_time_step(scene: Scene, max_speed: float | None = None) -> TimeStep
             :func:`expected_max_speed`.
     Returns: :class:`TimeStepLimit` (unpacks as ``(dt, reason)``).
     """
+    with np.errstate(all="ignore"):
+        return _critical_time_step(scene, max_speed)
+
+
+def _critical_time_step(scene: Scene, max_speed: float | None) -> TimeStepLimit:
     v = expected_max_speed(scene) if max_speed is None else float(max_speed)
     masses = scene.masses
     radii = scene.radii
@@ -225,6 +232,10 @@ def critical_time_step(scene: Scene, max_speed: float | None = None) -> TimeStep
                 False,
             )
         )
+    # masses or stiffnesses beyond the float range (extreme inputs) give inf or NaN limits: a
+    # NaN limit would compare false with any step and let it through, so it counts as 0
+    cands = [c if c.value == c.value else TimeStepCandidate(c.kind, f"{c.name} (not finite)",
+                                                             0.0, c.hard) for c in cands]
     hard = [c for c in cands if c.hard]
     if hard:
         h = min(hard, key=lambda c: c.value)

@@ -60,3 +60,19 @@ def run_until_separated(sim: engine.Simulation, max_steps: int, chunk: int = 1, 
             break
     assert t_on is not None and t_off is not None, "contact never formed or never opened"
     return dmax, fmax, t_off - t_on
+
+
+def path_forces(law, path, dt: float = 1e-6, radius: float = 2.5e-3) -> np.ndarray:
+    """Drive one contact of the real step kernel through the overlaps ``path`` [m] (two
+    resting particles, positions prescribed) and return the normal force on particle 0 at
+    each [N] (repulsive positive)."""
+    sim = engine.Simulation(pair_scene(law, gap=1e-4, radius=radius), dt=dt)
+    out = []
+    for d in path:
+        x = radius - 0.5 * d
+        sim.set_positions([[-x, 0, 0], [x, 0, 0]])
+        c = sim.contacts()
+        assert len(c.pairs) == 1
+        # force on particle 0 (at -x), repulsive = -x direction; normal n points j -> i
+        out.append(float(-c.forces[0, 0]))
+    return np.array(out)

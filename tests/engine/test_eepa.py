@@ -13,7 +13,7 @@ import engine
 from engine import kernels, laws
 from engine.config import DT_FRACTION
 from engine.stability import eepa_impact_overlap, oscillator_limit
-from tests.engine.helpers import pair_scene, run_until_separated
+from tests.engine.helpers import pair_scene, path_forces, run_until_separated
 from tests.engine.test_kernels import _bed
 
 R = 2.5e-3
@@ -30,17 +30,7 @@ def _law(**kw) -> engine.EEPA:
 
 
 def _path_forces(law, path):
-    """Drive one contact of the real step kernel through the overlaps ``path`` (positions
-    prescribed) and return the normal force on particle 0 at each [N]."""
-    sim = engine.Simulation(pair_scene(law, gap=1e-4), dt=1e-7)
-    out = []
-    for d in path:
-        x = R - 0.5 * d
-        sim.set_positions([[-x, 0, 0], [x, 0, 0]])
-        c = sim.contacts()
-        assert len(c.pairs) == 1
-        out.append(float(-c.forces[0, 0]))
-    return np.array(out)
+    return path_forces(law, path, dt=1e-7)
 
 
 def test_every_branch_in_the_step_kernel_matches_the_closed_form():

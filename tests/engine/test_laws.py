@@ -10,7 +10,7 @@ import pytest
 import engine
 from engine import laws
 from tests import naive
-from tests.engine.helpers import pair_scene
+from tests.engine.helpers import pair_scene, path_forces
 
 K1, K2, F0 = 5e3, 2.5e4, -0.4
 LAM = 1 - K1 / K2
@@ -22,17 +22,7 @@ def _path_forces(kadh: float, path):
     law = engine.BilinearAdhesive(
         k1=K1, k2=K2, f0=F0, kadh=kadh, mu_s=0.5, mu_r=0.0, restitution=1.0
     )
-    r = 2.5e-3
-    sim = engine.Simulation(pair_scene(law, gap=1e-4), dt=1e-6)
-    out = []
-    for d in path:
-        x = r - 0.5 * d
-        sim.set_positions([[-x, 0, 0], [x, 0, 0]])
-        c = sim.contacts()
-        assert len(c.pairs) == 1
-        # force on particle 0 (at -x), repulsive = -x direction; normal n points j -> i
-        out.append(float(-c.forces[0, 0]))
-    return np.array(out)
+    return path_forces(law, path)
 
 
 def test_bilinear_branches_in_the_step_kernel():

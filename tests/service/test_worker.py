@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import io
 import signal
 import time
@@ -24,6 +25,22 @@ def submit(client, body=SLOW) -> str:
     r = client.post("/studies", json=body)
     assert r.status_code == 202, r.text
     return r.json()["id"]
+
+
+@contextlib.contextmanager
+def runs_elsewhere(settings, where: str):
+    """The worker's runs on a 2-process pool, or on a 2-worker local Dask cluster."""
+    if where != "dask":
+        settings.run_workers = 2
+        yield
+        return
+    distributed = pytest.importorskip("distributed")
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None)
+    settings.dask_scheduler = cluster.scheduler_address
+    try:
+        yield
+    finally:
+        cluster.close()
 
 
 def running_mid_study(client, sid, workers) -> dict:
@@ -288,15 +305,7 @@ def test_a_study_whose_worker_keeps_dying_is_failed_with_the_reason(client, work
 @pytest.mark.timeout(2 * RUN_TIMEOUT)
 @pytest.mark.parametrize("where", ["process pool", "dask"])
 def test_runs_as_tasks_on_a_pool_or_a_dask_cluster(client, workers, settings, where):
-    if where == "dask":
-        distributed = pytest.importorskip("distributed")
-        cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1,
-                                           dashboard_address=None)
-        settings.dask_scheduler = cluster.scheduler_address
-    else:
-        cluster = None
-        settings.run_workers = 2
-    try:
+    with runs_elsewhere(settings, where):
         sid = submit(client, {**TINY, "reference_seeds": [1, 2], "seeds": [1]})
         workers.start()
         done = wait_for(
@@ -306,9 +315,6 @@ def test_runs_as_tasks_on_a_pool_or_a_dask_cluster(client, workers, settings, wh
             f"the study on the {where} to finish",
             workers,
         )
-    finally:
-        if cluster is not None:
-            cluster.close()
     assert done["status"] == "succeeded", done["error"]
     assert [r["status"] for r in done["runs"]] == ["succeeded"] * 3
     assert all(r["wall_time"] > 0 and r["steps"] > 0 for r in done["runs"])
@@ -322,15 +328,7 @@ def test_progress_within_runs_and_cancel_on_a_pool_or_a_dask_cluster(client, wor
                                                                       where):
     """Runs on other processes report progress while they run (engine.FileChannel in the
     study's folder), and a cancel stops the running tasks, not only the pending ones."""
-    if where == "dask":
-        distributed = pytest.importorskip("distributed")
-        cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1,
-                                           dashboard_address=None)
-        settings.dask_scheduler = cluster.scheduler_address
-    else:
-        cluster = None
-        settings.run_workers = 2
-    try:
+    with runs_elsewhere(settings, where):
         sid = submit(client, {**SLOW, "reference_seeds": [1, 2], "seeds": [1]})
         workers.start()
         mid = wait_for(
@@ -353,9 +351,6 @@ def test_progress_within_runs_and_cancel_on_a_pool_or_a_dask_cluster(client, wor
         assert time.monotonic() - t0 < 20
         # the running tasks were asked to stop (tests/engine/test_channel.py: they do)
         assert (settings.study_dir(sid) / "channel" / "STOP").exists()
-    finally:
-        if cluster is not None:
-            cluster.close()
 
 
 def _children(pid: int) -> set[int]:

@@ -52,12 +52,21 @@ def variants() -> dict[str, engine.UniaxialTest]:
     }
 
 
+def stored(name: str, test: engine.UniaxialTest):
+    """The stored outcome of variant ``name`` (a result, or the error text), or None when it
+    is not stored or was stored with other parameters (it runs again)."""
+    path = STORE / f"{name}.h5"
+    if not path.exists():
+        return None
+    out = load_run(path)
+    return out if isinstance(out, str) or out.test == test else None
+
+
 def run(names) -> None:
     tests = variants()
     for name in names:
         path = STORE / f"{name}.h5"
-        if path.exists() and not isinstance(out := load_run(path), str) and out.test == tests[
-                name]:
+        if not isinstance(stored(name, tests[name]) or "", str):
             print(f"{name}: stored")
             continue
         t0 = time.perf_counter()
@@ -83,16 +92,12 @@ def report() -> Path:
     strengths: dict[str, float] = {}
     fails: dict[str, bool] = {}
     for name, test in tests.items():
-        path = STORE / f"{name}.h5"
-        if not path.exists():
+        res = stored(name, test)
+        if res is None:
             missing.append(name)
             continue
-        res = load_run(path)
         if isinstance(res, str):
             rows.append(f"| {name} | - | error: {res} | - | - | - |")
-            continue
-        if res.test != test:  # stored with other parameters: run it again
-            missing.append(name)
             continue
         c = res.stages["unconfined"].curves
         strain, stress = c["strain"], c["stress_top"]

@@ -103,21 +103,23 @@ OPEN = 3  # opening half kick and drift with the stored forces
 
 
 @njit(**NJIT_INLINE)
+def _hertz_law(e_star, g_star, zeta, mu_s, mu_r):
+    """A Hertz-Mindlin law as the composition reads it: E*, G* [Pa], damping ratio, friction
+    coefficients; the bilinear-only parameters at their neutral values."""
+    return ContactLaw(e_star, 0.0, 0.0, 0.0, g_star, zeta, mu_s, mu_r, 1.0, 1.0)
+
+
+@njit(**NJIT_INLINE)
 def _pair_law(pp):
     """The pair law's parameters from their named slots; a feature the scene does not use
     gets its neutral value (no adhesion, k2 = k1, no friction, damping or rolling)."""
     if PAIR_HERTZ:
-        return ContactLaw(
+        return _hertz_law(
             pp[PAIR_E_STAR],
-            0.0,
-            0.0,
-            0.0,
             pp[PAIR_G_STAR] if FRICTION else 0.0,
             pp[PAIR_ZETA] if DAMPING else 0.0,
             pp[PAIR_MU_S] if FRICTION else 0.0,
             pp[PAIR_MU_R] if ROLLING else 0.0,
-            1.0,
-            1.0,
         )
     return ContactLaw(
         pp[PAIR_K1],
@@ -136,17 +138,12 @@ def _pair_law(pp):
 @njit(**NJIT_INLINE)
 def _wall_law(wp):
     """The wall law's (Hertz-Mindlin) parameters from their named slots."""
-    return ContactLaw(
+    return _hertz_law(
         wp[WALL_E_STAR],
-        0.0,
-        0.0,
-        0.0,
         wp[WALL_G_STAR] if WALL_FRICTION else 0.0,
         wp[WALL_ZETA] if WALL_DAMPING else 0.0,
         wp[WALL_MU_S] if WALL_FRICTION else 0.0,
         wp[WALL_MU_R] if WALL_ROLLING else 0.0,
-        1.0,
-        1.0,
     )
 
 

@@ -100,8 +100,9 @@ def eepa_normal_force(d, dmax, k1, k2, f0, kadh, n, chi):
     Args: overlap d [m] (> 0), largest overlap so far dmax [m], loading stiffness k1
     [N/m^n], unloading stiffness k2 [N/m^n] (>= k1), adhesion f0 [N] (<= 0), adhesive
     stiffness kadh [N/m^chi] (>= 0), exponents n, chi [-] (>= 1).
-    Returns: (f_hys [N], loading tangent stiffness n K1 d^(n-1) [N/m], adhesive-branch pull
-    kadh d^chi [N], updated dmax [m]). With n = chi = 1 every operation is that of
+    Returns: (f_hys [N], tangent factor n d^(n-1) [m^(1-n)] (the loading tangent stiffness
+    is K1 times it, the tangential stiffness kt times it), adhesive-branch pull kadh d^chi
+    [N], updated dmax [m]). With n = chi = 1 every operation is that of
     :func:`bilinear_normal_force` (x**1.0 == x and x**0.0 == 1.0 exactly), so the force is the
     same to the last bit.
     """
@@ -111,8 +112,8 @@ def eepa_normal_force(d, dmax, k1, k2, f0, kadh, n, chi):
     dpn = (1.0 - k1 / k2) * dmax**n
     f_adh = kadh * d**chi if kadh != 0.0 else 0.0  # no power where there is no branch
     f = f0 + min(k1 * dn, max(k2 * (dn - dpn), -f_adh))
-    # n d^(n-1) as n d^n / d: one power less (d / d == 1 exactly, so n = 1 gives K1)
-    return f, n * dn / d * k1, f_adh, dmax
+    # n d^(n-1) as n d^n / d: one power less (d / d == 1 exactly, so n = 1 gives 1)
+    return f, n * dn / d, f_adh, dmax
 
 
 @njit(**NJIT_INLINE)
@@ -253,8 +254,9 @@ def contact_force(d, nx, ny, nz, vx, vy, vz, sx, sy, sz, dmax, xix, xiy, xiz, r_
         f_adh = 0.0
         dmax = d
     elif flags.eepa:
-        f_el, stiff, f_adh, dmax = eepa_normal_force(d, dmax, law.k_n, law.k_unload, law.f0,
-                                                     law.kadh, law.n, law.chi)
+        f_el, tangent, f_adh, dmax = eepa_normal_force(d, dmax, law.k_n, law.k_unload, law.f0,
+                                                       law.kadh, law.n, law.chi)
+        stiff = tangent * law.k_n
     elif flags.plastic:
         f_el, dmax = bilinear_normal_force(d, dmax, law.k_n, law.k_unload, law.f0, law.kadh)
         stiff = law.k_n
@@ -282,7 +284,7 @@ def contact_force(d, nx, ny, nz, vx, vy, vz, sx, sy, sz, dmax, xix, xiy, xiz, r_
         if flags.hertz:
             kt = hertz_tangential_stiffness(d, law.k_t, r_star)
         elif flags.eepa:
-            kt = law.k_t * (stiff / law.k_n)  # kt_ratio x the loading tangent n K1 d^(n-1)
+            kt = law.k_t * tangent  # kt_ratio x the loading tangent n K1 d^(n-1)
         else:
             kt = law.k_t
         ct = viscous_damping_coefficient(law.zeta, m_eff, kt) if flags.damping else 0.0

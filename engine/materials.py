@@ -53,8 +53,59 @@ def pack_params(values: dict[str, float], slots: tuple[str, ...]) -> np.ndarray:
     return np.array([values[name] for name in slots] + [math.nan], dtype=np.float64)
 
 
+class _AdhesiveLaw:
+    """What the bilinear and the EEPA law share: the derived values, the scaling and the
+    kernel parameters. The bilinear law is the EEPA law with n = chi = 1 (class attributes
+    here; fields of :class:`EEPA`)."""
+
+    n = 1.0
+    chi = 1.0
+
+    @property
+    def kt(self) -> float:
+        """Tangential stiffness coefficient kt_ratio * k1 [N/m^n]: the contact's
+        K_t = kt n d^(n-1) [N/m] (the bilinear law: K_t = kt)."""
+        return self.kt_ratio * self.k1
+
+    @property
+    def zeta(self) -> float:
+        """Damping ratio from the restitution [-]."""
+        return damping_ratio(self.restitution)
+
+    def similarity_exponents(self) -> tuple[float, float, float]:
+        """Exponents (stiffness, adhesion, adhesive branch) that keep the law geometrically
+        and stress similar (overlaps ~ s, forces ~ s^2): K ~ s^(2-n), f0 ~ s^2,
+        kadh ~ s^(2-chi); (1, 2, 1) for the bilinear law, the rule of Thakur et al. 2013."""
+        return 2.0 - self.n, 2.0, 2.0 - self.chi
+
+    def scaled(self, s: float, stiffness_exponent: float, adhesion_exponent: float,
+               adhesive_exponent: float | None = None):
+        """The law for particles ``s`` times the reference size: K1, K2 (and so Kt) times
+        ``s**stiffness_exponent``, f0 times ``s**adhesion_exponent``, kadh times
+        ``s**adhesive_exponent`` (default: the stiffness exponent). Friction coefficients and
+        restitution do not scale."""
+        c = stiffness_exponent if adhesive_exponent is None else adhesive_exponent
+        ks = s**stiffness_exponent
+        return replace(self, k1=self.k1 * ks, k2=self.k2 * ks, kadh=self.kadh * s**c,
+                       f0=self.f0 * s**adhesion_exponent)
+
+    def kernel_params(self) -> dict[str, float]:
+        """The values the step kernel reads, by slot name (engine.kernels.PAIR_SLOTS):
+        k1, k2, kt [N/m^n], kadh [N/m^chi], f0 [N], damping ratio zeta, mu_s, mu_r, and the
+        exponents n, chi [-] (bilinear: n = chi = 1, units N/m)."""
+        return {"k1": self.k1, "k2": self.k2, "f0": self.f0, "kadh": self.kadh, "kt": self.kt,
+                "zeta": self.zeta, "mu_s": self.mu_s, "mu_r": self.mu_r, "n": self.n,
+                "chi": self.chi}
+
+    def to_array(self, slots: tuple[str, ...] = ("k1", "k2", "f0", "kadh", "kt", "zeta",
+                                                "mu_s", "mu_r")) -> np.ndarray:
+        """Kernel parameter array: the values of ``slots`` in order, then a trailing NaN
+        (where the kernel's absent slots point, see engine.kernels)."""
+        return pack_params(self.kernel_params(), slots)
+
+
 @dataclass(frozen=True)
-class BilinearAdhesive:
+class BilinearAdhesive(_AdhesiveLaw):
     r"""Bilinear adhesive elasto-plastic pair law (linear EEPA, Thakur et al. 2014).
 
     .. math::
@@ -99,51 +150,6 @@ class BilinearAdhesive:
             "unloading must be at least as stiff as loading",
         )
 
-    @property
-    def kt(self) -> float:
-        """Tangential stiffness Kt = kt_ratio * k1 [N/m]."""
-        return self.kt_ratio * self.k1
-
-    @property
-    def zeta(self) -> float:
-        """Damping ratio from the restitution [-]."""
-        return damping_ratio(self.restitution)
-
-    def similarity_exponents(self) -> tuple[float, float, float]:
-        """Exponents (stiffness, adhesion, adhesive branch) that keep the law geometrically
-        and stress similar (overlaps ~ s, forces ~ s^2): (1, 2, 1), the rule of Thakur et al.
-        2013."""
-        return 1.0, 2.0, 1.0
-
-    def scaled(self, s: float, stiffness_exponent: float, adhesion_exponent: float,
-               adhesive_exponent: float | None = None):
-        """The law for particles ``s`` times the reference size: K1, K2 (and so Kt) times
-        ``s**stiffness_exponent``, f0 times ``s**adhesion_exponent``, kadh times
-        ``s**adhesive_exponent`` (default: the stiffness exponent). Friction coefficients and
-        restitution do not scale."""
-        c = stiffness_exponent if adhesive_exponent is None else adhesive_exponent
-        ks = s**stiffness_exponent
-        return replace(
-            self,
-            k1=self.k1 * ks,
-            k2=self.k2 * ks,
-            kadh=self.kadh * s**c,
-            f0=self.f0 * s**adhesion_exponent,
-        )
-
-    def kernel_params(self) -> dict[str, float]:
-        """The values the step kernel reads, by slot name (engine.kernels.PAIR_SLOTS):
-        k1, k2, kadh, kt [N/m], f0 [N], damping ratio zeta, mu_s, mu_r [-], and the EEPA
-        exponents n = chi = 1 [-] (this law is the linear EEPA)."""
-        return {"k1": self.k1, "k2": self.k2, "f0": self.f0, "kadh": self.kadh, "kt": self.kt,
-                "zeta": self.zeta, "mu_s": self.mu_s, "mu_r": self.mu_r, "n": 1.0, "chi": 1.0}
-
-    def to_array(self, slots: tuple[str, ...] = ("k1", "k2", "f0", "kadh", "kt", "zeta",
-                                                "mu_s", "mu_r")) -> np.ndarray:
-        """Kernel parameter array: the values of ``slots`` in order, then a trailing NaN
-        (where the kernel's absent slots point, see engine.kernels)."""
-        return pack_params(self.kernel_params(), slots)
-
 
 #: Friction cap conventions of :class:`EEPA`: ``"adhesive"`` (default, the EEPA papers and
 #: this engine: :math:`\mu_s|f_{hys} - f_0 + k_{adh}d^\chi|`, no friction on the adhesive
@@ -153,7 +159,7 @@ FRICTION_CAPS = ("adhesive", "normal")
 
 
 @dataclass(frozen=True)
-class EEPA:
+class EEPA(_AdhesiveLaw):
     r"""Edinburgh elasto-plastic adhesion law, non-linear (Morrissey 2013; Thakur et al. 2014).
 
     .. math::
@@ -208,44 +214,6 @@ class EEPA:
         check_fields(self, o)
         _check(o, "k2", self.k2, self.k2 >= self.k1, f">= k1 = {self.k1:g} N/m^n",
                "unloading must be at least as stiff as loading")
-
-    @property
-    def kt(self) -> float:
-        """Coefficient of the tangential stiffness, kt_ratio * k1 [N/m^n]: the contact's
-        K_t = kt * n d^(n-1) [N/m]."""
-        return self.kt_ratio * self.k1
-
-    @property
-    def zeta(self) -> float:
-        """Damping ratio from the restitution [-]."""
-        return damping_ratio(self.restitution)
-
-    def similarity_exponents(self) -> tuple[float, float, float]:
-        """Exponents (stiffness, adhesion, adhesive branch) that keep the law geometrically
-        and stress similar (overlaps ~ s, forces ~ s^2): K ~ s^(2-n), f0 ~ s^2,
-        kadh ~ s^(2-chi)."""
-        return 2.0 - self.n, 2.0, 2.0 - self.chi
-
-    def scaled(self, s: float, stiffness_exponent: float, adhesion_exponent: float,
-               adhesive_exponent: float | None = None):
-        """The law for particles ``s`` times the reference size: K1, K2 (and so Kt) times
-        ``s**stiffness_exponent``, f0 times ``s**adhesion_exponent``, kadh times
-        ``s**adhesive_exponent`` (default: the stiffness exponent)."""
-        c = stiffness_exponent if adhesive_exponent is None else adhesive_exponent
-        ks = s**stiffness_exponent
-        return replace(self, k1=self.k1 * ks, k2=self.k2 * ks, kadh=self.kadh * s**c,
-                       f0=self.f0 * s**adhesion_exponent)
-
-    def kernel_params(self) -> dict[str, float]:
-        """The values the step kernel reads, by slot name (engine.kernels.PAIR_SLOTS):
-        k1, k2, kt [N/m^n], kadh [N/m^chi], f0 [N], zeta, mu_s, mu_r, n, chi [-]."""
-        return {"k1": self.k1, "k2": self.k2, "f0": self.f0, "kadh": self.kadh, "kt": self.kt,
-                "zeta": self.zeta, "mu_s": self.mu_s, "mu_r": self.mu_r, "n": self.n,
-                "chi": self.chi}
-
-    def to_array(self, slots: tuple[str, ...]) -> np.ndarray:
-        """Kernel parameter array: the values of ``slots`` in order, then a trailing NaN."""
-        return pack_params(self.kernel_params(), slots)
 
 
 #: The adhesive elasto-plastic pair laws: the scaling rules act on their K1, K2, f0, kadh.

@@ -258,7 +258,7 @@ class Simulation:
         rmin = float(self.scene.radii.min())
         d_eq = adhesion_overlap(law, rmin, ovl)
         if d_eq is not None:
-            what = "|f0|/k1" if getattr(law, "n", 1.0) == 1.0 else "(|f0|/k1)^(1/n)"
+            what = "|f0|/k1" if law.n == 1.0 else "(|f0|/k1)^(1/n)"
             raise StabilityError(
                 f"adhesion f0 = {law.f0:g} N pulls contacts to the overlap {what} = "
                 f"{d_eq:.4g} m, beyond max_overlap_fraction {ovl:g} x the smallest radius "

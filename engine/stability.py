@@ -68,7 +68,7 @@ def adhesion_overlap(law, rmin: float, fraction: float) -> float | None:
     ``rmin`` [m] (the overlap guard of a run); None when it does not (or the law has no
     adhesion)."""
     if isinstance(law, ADHESIVE_LAWS) and law.f0 < 0:
-        d_eq = (-law.f0 / law.k1) ** (1.0 / getattr(law, "n", 1.0))
+        d_eq = (-law.f0 / law.k1) ** (1.0 / law.n)
         if d_eq > fraction * rmin:
             return d_eq
     return None
@@ -173,16 +173,15 @@ def _critical_time_step(scene: Scene, max_speed: float | None) -> TimeStepLimit:
         m_eff = m0 * m1 / (m0 + m1)
         if isinstance(law, ADHESIVE_LAWS):
             zeta = damping_ratio(law.restitution)
-            if isinstance(law, EEPA):
-                # the tangent stiffnesses n K d^(n-1) at the largest expected overlap: a
-                # head-on impact of two particles each at the expected speed
+            # the tangent stiffnesses n K d^(n-1) at the largest expected overlap, that of a
+            # head-on impact of two particles each at the expected speed (n = 1: K itself)
+            tangent, where, unit = 1.0, "", "N/m"
+            if law.n != 1.0:
                 d_exp = eepa_impact_overlap(m_eff, law, 2.0 * v)
                 tangent = law.n * d_exp ** (law.n - 1.0)
                 where = (f" x n d^(n-1) at the overlap {d_exp:.3g} m of a {2 * v:.3g} m/s "
-                         "head-on impact" if law.n != 1.0 else "")
+                         "head-on impact")
                 unit = "N/m^n"
-            else:
-                tangent, where, unit = 1.0, "", "N/m"
             # damping c_n = 2 zeta sqrt(m K1) seen by the stiffer K2 branch
             cands.append(
                 TimeStepCandidate(

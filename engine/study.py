@@ -304,20 +304,18 @@ def _run_on(executor, planned, todo, weights, outcomes, progress, record, thread
                 ask(StudyProgress(float(min(done_weight, 1.0)), i, len(planned), p.key, "done",
                                   0.0, "run finished" if not isinstance(outcome, str) else outcome))
             if channel is not None and pending and not done:
-                _report_running(channel, planned, weights, futures, pending, outcomes,
+                _report_running(channel, planned, weights, [futures[f] for f in pending],
                                 done_weight, ask)
     finally:
         for fut in futures:
             fut.cancel()
 
 
-def _report_running(channel, planned, weights, futures, pending, outcomes, done_weight,
-                    ask) -> None:
-    """One progress report from the running tasks' channel: the study's fraction summed over
-    the runs, named after the least advanced running run."""
+def _report_running(channel, planned, weights, pending, done_weight, ask) -> None:
+    """One progress report from the channel of the ``pending`` runs (their planned indices):
+    the study's fraction summed over the runs, named after the least advanced running run."""
     seen = channel.read()
-    running = [(futures[f], seen[planned[futures[f]].key]) for f in pending
-               if planned[futures[f]].key in seen and planned[futures[f]].key not in outcomes]
+    running = [(i, seen[planned[i].key]) for i in pending if planned[i].key in seen]
     if not running:
         return
     frac = done_weight + sum(weights[i] * min(max(r["fraction"], 0.0), 1.0) for i, r in running)

@@ -67,9 +67,9 @@ def test_force_reaches_f0_at_the_plastic_overlap_without_adhesive_branch():
 
 def test_kernel_function_returns_tangent_stiffness_and_adhesive_pull():
     d, dmax = 1.9e-4, 2e-4  # on the unloading branch
-    f, stiff, f_adh, dmax_out = laws.eepa_normal_force(d, dmax, K1, K2, F0, KADH, N, CHI)
+    f, tangent, f_adh, dmax_out = laws.eepa_normal_force(d, dmax, K1, K2, F0, KADH, N, CHI)
     assert dmax_out == dmax
-    assert stiff == pytest.approx(N * K1 * d ** (N - 1))
+    assert K1 * tangent == pytest.approx(N * K1 * d ** (N - 1))
     assert f_adh == pytest.approx(KADH * d**CHI)
     assert f == pytest.approx(F0 + K2 * (d**N - (1 - K1 / K2) * dmax**N))
 

@@ -193,10 +193,12 @@ def liggghts(ranks: int, steps: int, bed=None) -> float | None:
 
 
 def profile(name: str, pos, rad, lengths, threads: int, steps: int) -> None:
-    """Where a step's time goes (full law, ``threads`` threads): the pair pass, the particle
-    pass (gather, walls, integration) and the neighbour-list builds, each timed alone over
-    many calls [us per step], against the whole step measured by a run. Wall-clock and the
-    process's CPU time (robust to other load on the machine with one thread)."""
+    """Where a step's time goes (full law, ``threads`` threads): a force evaluation (both
+    passes by the thread team, with its barriers and the start of its one parallel region)
+    and the neighbour-list builds, each timed alone over many calls [us per step], against
+    the whole step measured by a run; and the pair pass and the particle pass (gather,
+    walls) on one thread. Wall-clock and the process's CPU time (robust to other load on
+    the machine with one thread)."""
     numba.set_num_threads(threads)
     top = float((pos[:, 2] + rad).max()) + 0.1 * R
     sim = engine.Simulation(scene_for(pos, rad, lengths, FULL, top), dt=DT, threads=threads)
@@ -226,17 +228,21 @@ def profile(name: str, pos, rad, lengths, threads: int, steps: int) -> None:
         return (time.perf_counter() - t) / reps, (time.process_time() - c) / reps
 
     def pair(a):
-        k.parallel_pass(np.int64(0), np.int64(k.FORCES), *a)
+        k.serial_pass(np.int64(0), np.int64(k.FORCES), *a)
 
     def particle(a):
-        k.parallel_pass(np.int64(1), np.int64(k.FORCES), *a)
+        k.serial_pass(np.int64(1), np.int64(k.FORCES), *a)
+
+    def forces(a):
+        k.run_steps(np.int64(0), np.int64(0), np.int64(threads), *a)
 
     numba.set_num_threads(threads)
-    chunk = numba.set_parallel_chunksize(engine.config.PASS_CHUNKS_PER_GRAB)  # as in a run
+    chunk = numba.set_parallel_chunksize(0)  # as in a run
     try:
         call = per_call(pair, targs)  # the Python call itself, on a 2-particle scene
         t_pair = [a - b for a, b in zip(per_call(pair, args), call)]
         t_part = [a - b for a, b in zip(per_call(particle, args), call)]
+        t_forces = [a - b for a, b in zip(per_call(forces, args), per_call(forces, targs))]
     finally:
         numba.set_parallel_chunksize(chunk)
     t = time.perf_counter()
@@ -244,14 +250,14 @@ def profile(name: str, pos, rad, lengths, threads: int, steps: int) -> None:
         sim.rebuild_neighbour_list()
     t_build = (time.perf_counter() - t) / 5
     build = t_build * builds / steps
-    rest = step - t_pair[0] - t_part[0] - build
+    rest = step - t_forces[0] - build
     us = 1e6
     print(f"  profile {name:10s} {threads} thread(s): step {step * us:7.1f} us (CPU "
-          f"{step_cpu * us:7.1f}) = pair pass "
-          f"{t_pair[0] * us:7.1f} (CPU {t_pair[1] * us:7.1f}) + particle pass "
-          f"{t_part[0] * us:6.1f} (CPU {t_part[1] * us:6.1f}) + list builds {build * us:5.1f} "
-          f"({builds} x {t_build * 1e3:.2f} ms) + rest {rest * us:6.1f} (status, wall sums, "
-          f"fork/join); {step / sim.n * 1e9:.0f} ns per particle-step", flush=True)
+          f"{step_cpu * us:7.1f}) = force evaluation {t_forces[0] * us:7.1f} (CPU "
+          f"{t_forces[1] * us:7.1f}; both passes on {threads} thread(s), one parallel region) "
+          f"+ list builds {build * us:5.1f} ({builds} x {t_build * 1e3:.2f} ms) + rest "
+          f"{rest * us:6.1f}; one thread: pair pass {t_pair[0] * us:7.1f}, particle pass "
+          f"{t_part[0] * us:6.1f}; {step / sim.n * 1e9:.0f} ns per particle-step", flush=True)
 
 
 def main(argv=None) -> int:

@@ -21,6 +21,11 @@ One step (velocity Verlet, LAMMPS ordering; forces see the half-step velocity):
    closing half kick of one step and the opening half kick of the next are fused into one
    full kick.
 
+Threads: one parallel region per call of ``run_steps``. Its threads form a team that takes the
+fixed chunks of each pass (each thread its own contiguous block first, then what is left of
+the others') and meets at a barrier after each pass (``engine.step_common``: atomic counters,
+a short spin, then yielding the core), instead of forking and joining twice per step.
+
 No reduction depends on the thread count: every sum runs in a fixed order over fixed chunks, so
 trajectories are bit-identical with any number of threads.
 """
@@ -38,11 +43,19 @@ from engine.step_common import (
     OVERLAP,
     REBUILD,
     SPEED,
+    SYNC_STATUS,
+    SYNC_STEPS,
     _advance_walls,
     _finish_forces,
     _flag,
     _largest,
     _status,
+    block_bounds,
+    grab,
+    reset_grabs,
+    status_code,
+    team_barrier,
+    team_join,
 )
 
 # >>> features (rewritten by engine.kernels)
@@ -147,21 +160,36 @@ def _wall_law(wp):
     )
 
 
-@njit(**NJIT_PARALLEL)
-def parallel_pass(which, mode, P, L, W, prm, S):
-    """Run one pass over all particle chunks in parallel: ``which`` 0 is the pair pass
-    (:func:`_pair_chunk`), 1 the particle pass (:func:`_particle_chunk`) in ``mode``.
-
-    One parallel function for both passes: numba's parfor machinery, the slow part of
-    compiling, then runs once per scene instead of twice.
-    """
+@njit(**NJIT)
+def _pass(which, mode, rank, size, P, L, W, prm, S):
+    """This thread's share of one pass: ``which`` 0 is the pair pass (:func:`_pair_chunk`),
+    1 the particle pass (:func:`_particle_chunk`) in ``mode``. The chunks are cut into one
+    contiguous block per thread; a thread works through its own block (the same particles
+    every step, so their data stay in its core's cache), then helps with the others' (a
+    teammate slowed down by other processes or by denser chunks does not hold the step
+    up). What a chunk computes does not depend on the thread that takes it."""
     nchunk = (P.pos.shape[0] + CHUNK - 1) // CHUNK
-    for c in prange(nchunk):
-        # np.int64: the gufunc's loop index is unsigned, typing's is signed; one signature
+    for q in range(size):
+        b = (rank + q) % size
+        lo, hi = block_bounds(b, size, nchunk)
+        c = grab(S.sync, which, b, lo)
+        while c < hi:
+            if which == 0:
+                _pair_chunk(c, P, L, prm, S)
+            else:
+                _particle_chunk(c, mode, P, L, W, prm, S)
+            c = grab(S.sync, which, b, lo)
+
+
+@njit(**NJIT)
+def serial_pass(which, mode, P, L, W, prm, S):
+    """One whole pass on the calling thread, chunk by chunk (for profiling the passes one at
+    a time, ``benchmarks/engine_speed.py --profile``; a run never calls it)."""
+    for c in range((P.pos.shape[0] + CHUNK - 1) // CHUNK):
         if which == 0:
-            _pair_chunk(np.int64(c), P, L, prm, S)
+            _pair_chunk(c, P, L, prm, S)
         else:
-            _particle_chunk(np.int64(c), mode, P, L, W, prm, S)
+            _particle_chunk(c, mode, P, L, W, prm, S)
 
 
 @njit(**NJIT)
@@ -454,11 +482,12 @@ def _particle_chunk(c, mode, P, L, W, prm, S):
     S.chunk_disp[c] = disp2
 
 
-@njit(**NJIT)
-def run_steps(nsteps, phase, P, L, W, prm, S):
+@njit(**NJIT_PARALLEL)
+def run_steps(nsteps, phase, team, P, L, W, prm, S):
     """The one compiled entry point (so every kernel is compiled once, with one signature).
 
-    Args: ``nsteps``, ``phase``, then the state records of :mod:`engine.step_common`:
+    Args: ``nsteps``, ``phase``, ``team`` (threads: numba's thread count, set by the caller),
+    then the state records of :mod:`engine.step_common`:
     particles ``P``, neighbour list ``L``, walls ``W``, step parameters ``prm`` (time step
     ``prm.dt`` [s]) and scratch ``S``.
 
@@ -470,28 +499,80 @@ def run_steps(nsteps, phase, P, L, W, prm, S):
     Returns (steps completed, status). ``REBUILD``: some particle has moved more than half the
     skin; the caller rebuilds the list (engine.neighbour, compiled once for every scene) and
     resumes with phase 1. On an instability ``S.info`` holds the particle ids and the value.
+
+    One parallel region per call: ``team`` threads (numba's thread count, with the parallel
+    chunk size 0 so that each takes one iteration) form a team (:func:`_member`) that meets at
+    barriers between the passes, instead of forking and joining twice per step. Should fewer
+    threads run the region, the team falls back to one thread (see
+    :func:`engine.step_common.team_join`): slower, never stuck, same result.
     """
+    sync = S.sync
+    for k in range(sync.shape[0]):
+        sync[k] = 0
+    for t in prange(team):
+        _member(np.int64(t), team, nsteps, phase, P, L, W, prm, S)
+    return sync[SYNC_STEPS], sync[SYNC_STATUS]
+
+
+@njit(**NJIT)
+def _member(t, team, nsteps, phase, P, L, W, prm, S):
+    """One thread of :func:`run_steps`' team. Every thread takes chunks of each pass, then
+    waits at the barrier; after the particle pass all read the same chunk flags and
+    displacements and so take the same decision (go on, rebuild, stop); rank 0 alone writes
+    the shared scalars (wall forces and positions, the result, the chunk counters)."""
+    sync = S.sync
+    rank, size = team_join(sync, team)
+    if rank < 0:
+        return
     half_skin2 = 0.25 * prm.skin * prm.skin
     if phase == 0 and nsteps > 0:
-        parallel_pass(np.int64(1), np.int64(OPEN), P, L, W, prm, S)
-        st = _status(S.chunk_stat, S.info)
+        _pass(1, OPEN, rank, size, P, L, W, prm, S)
+        team_barrier(sync, size)
+        st = status_code(S.chunk_stat)
         if st != OK:
-            return 0, st
-        _advance_walls(W.point, W.vel, prm.dt)
+            if rank == 0:
+                _result(sync, 0, _status(S.chunk_stat, S.info))
+            return
+        if rank == 0:
+            _advance_walls(W.point, W.vel, prm.dt)
+            reset_grabs(sync, 1, size)
         if _largest(S.chunk_disp) > half_skin2:
-            return 0, REBUILD
+            if rank == 0:
+                _result(sync, 0, REBUILD)
+            return
+        team_barrier(sync, size)
     s = 0
     while True:
         mode = FORCES if nsteps == 0 else (STEP if s < nsteps - 1 else CLOSE)
-        for which in range(2):
-            parallel_pass(np.int64(which), np.int64(mode), P, L, W, prm, S)
-        _finish_forces(W.acc, W.force)
-        st = _status(S.chunk_stat, S.info)
+        _pass(0, mode, rank, size, P, L, W, prm, S)
+        team_barrier(sync, size)
+        _pass(1, mode, rank, size, P, L, W, prm, S)
+        team_barrier(sync, size)
+        st = status_code(S.chunk_stat)
+        if rank == 0:
+            _finish_forces(W.acc, W.force)
         if st != OK or nsteps == 0:
-            return s, st
+            if rank == 0:
+                _result(sync, s, _status(S.chunk_stat, S.info))
+            return
         s += 1
         if s >= nsteps:
-            return s, OK
-        _advance_walls(W.point, W.vel, prm.dt)
+            if rank == 0:
+                _result(sync, s, OK)
+            return
+        if rank == 0:
+            _advance_walls(W.point, W.vel, prm.dt)
         if _largest(S.chunk_disp) > half_skin2:
-            return s, REBUILD
+            if rank == 0:
+                _result(sync, s, REBUILD)
+            return
+        if rank == 0:
+            reset_grabs(sync, 0, size)
+            reset_grabs(sync, 1, size)
+        team_barrier(sync, size)
+
+
+@njit(**NJIT)
+def _result(sync, steps, status):
+    sync[SYNC_STEPS] = steps
+    sync[SYNC_STATUS] = status

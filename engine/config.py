@@ -62,10 +62,17 @@ NJIT_PARALLEL = {
 #: results are bit-identical with 1 and with N threads.
 CHUNK = 64
 
-#: Chunks a thread takes at a time from a parallel pass (numba's parallel chunk size; 0 would
-#: split the chunks into one fixed block per thread). 1: dynamic scheduling, so a thread that
-#: is descheduled or has the denser half of the bed does not hold the other up.
-PASS_CHUNKS_PER_GRAB = 1
+#: Waiting in the step kernel's thread team (one parallel region per call of the kernel;
+#: threads meet at a barrier between the passes of a step instead of forking and joining
+#: twice per step). A waiting thread first spins ``TEAM_SPINS`` times with the CPU's pause
+#: hint (about a microsecond), then yields its core ``TEAM_YIELDS`` times, then sleeps
+#: ``TEAM_SLEEP_US`` microseconds at a time, so that it does not hold a core another process
+#: needs. The first thread of a call waits at most ``TEAM_JOIN_WAIT_US`` microseconds for the
+#: others to start and otherwise runs that call alone.
+TEAM_SPINS = 200
+TEAM_YIELDS = 200
+TEAM_SLEEP_US = 20
+TEAM_JOIN_WAIT_US = 5000
 
 #: ``Simulation(threads=None)`` runs one thread per this many particles [-]. Measured on 2
 #: cores (benchmarks/engine_speed.py): 2,025 particles ran at 6.2e6 particle-steps/s on one

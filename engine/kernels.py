@@ -87,7 +87,7 @@ _PAIR_NAMES = ("k1", "k2", "f0", "kadh", "kt", "e_star", "g_star", "zeta", "mu_s
 
 _HERE = Path(__file__).resolve().parent
 _TEMPLATE = _HERE / "_step_template.py"
-_DEPENDENCIES = ("config.py", "laws.py", "step_common.py", "_step_template.py")
+_DEPENDENCIES = ("atomics.py", "config.py", "laws.py", "step_common.py", "_step_template.py")
 _BLOCK = re.compile(r"# >>> features.*?# <<< features", re.S)
 _loaded: dict[tuple, ModuleType] = {}
 _lock = threading.Lock()

@@ -13,7 +13,6 @@ from .config import (
     MAX_OVERLAP_FRACTION,
     MAX_STEP_FRACTION,
     PARTICLES_PER_THREAD,
-    PASS_CHUNKS_PER_GRAB,
     SKIN_FRACTION,
 )
 from .errors import InstabilityError, ParameterError, StabilityError
@@ -26,7 +25,7 @@ from .step_common import NAN as _STATUS_NAN
 from .step_common import OK as _STATUS_OK
 from .step_common import OVERLAP as _STATUS_OVERLAP
 from .step_common import REBUILD as _STATUS_REBUILD
-from .step_common import NeighbourList, Particles, Scratch, StepParams, Walls
+from .step_common import NeighbourList, Particles, Scratch, StepParams, Walls, sync_length
 
 
 class StabilityWarning(UserWarning):
@@ -204,7 +203,10 @@ class Simulation:
             max_step=float(max_step_fraction),
         )
         self._scratch = Scratch(
-            chunk_stat=np.zeros((nchunk, 4)), chunk_disp=np.zeros(nchunk), info=np.zeros(3)
+            chunk_stat=np.zeros((nchunk, 4)),
+            chunk_disp=np.zeros(nchunk),
+            info=np.zeros(3),
+            sync=np.zeros(sync_length(numba.config.NUMBA_NUM_THREADS), dtype=np.int64),
         )
         self._list = NeighbourList(
             start=np.zeros(n + 1, dtype=np.int64),
@@ -319,22 +321,19 @@ class Simulation:
         k = self.threads
         if k != prev:
             numba.set_num_threads(k)
-        # the passes' chunks are handed out one at a time to whichever thread is free
-        # (dynamic scheduling), not in fixed halves: a thread that another process has
-        # descheduled, or a half with more contacts, no longer holds the other thread up.
-        # The chunks themselves are fixed, so the results do not change.
-        prev_chunk = numba.set_parallel_chunksize(PASS_CHUNKS_PER_GRAB)
+        # numba's default split (chunk size 0): the kernel's one parallel loop runs one
+        # iteration per thread, each a member of the step's thread team
+        prev_chunk = numba.set_parallel_chunksize(0)
         try:
-            return self._call_kernel(nsteps, phase)
+            return self._call_kernel(nsteps, phase, k)
         finally:
             numba.set_parallel_chunksize(prev_chunk)
             if k != prev:
                 numba.set_num_threads(prev)
 
-    def _call_kernel(self, nsteps: int, phase: int) -> tuple[int, int]:
-        return self._k.run_steps(
-            nsteps, phase, self._particles, self._list, self._walls, self._params, self._scratch
-        )
+    def _call_kernel(self, nsteps: int, phase: int, team: int) -> tuple[int, int]:
+        return self._k.run_steps(nsteps, phase, team, self._particles, self._list,
+                                 self._walls, self._params, self._scratch)
 
     def _rebuild(self) -> None:
         p = self._particles

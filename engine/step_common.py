@@ -7,7 +7,8 @@ from collections import namedtuple
 
 from numba import njit
 
-from .config import NJIT
+from .atomics import atomic_add, atomic_cas, atomic_load, atomic_store, pause, sleep_us, yield_cpu
+from .config import NJIT, TEAM_JOIN_WAIT_US, TEAM_SLEEP_US, TEAM_SPINS, TEAM_YIELDS
 
 #: Per-particle state [SI]: positions [m], velocities [m/s], angular velocities [rad/s], forces
 #: [N] and torques [N m] of the last evaluation (N, 3); ``roll``: the summed rolling moments
@@ -32,14 +33,35 @@ Walls = namedtuple("Walls", "point normal vel hist force acc")
 #: Step parameters: pair and wall law parameter arrays (named slots, see engine.kernels),
 #: gravity [m/s^2] (3,), box lengths [m] (3,), time step dt [s], Verlet skin [m], the overlap
 #: and step-length guards as fractions of the radius [-].
-StepParams = namedtuple(
-    "StepParams", "pair wall gravity length dt skin max_overlap max_step"
-)
+StepParams = namedtuple("StepParams", "pair wall gravity length dt skin max_overlap max_step")
 
 #: Per-chunk scratch of the parallel passes: the first problem found (code, i, j, value)
-#: (n_chunks, 4), the largest squared displacement since the list build [m^2] (n_chunks,), and
-#: the reported problem (i, j, value) (3,).
-Scratch = namedtuple("Scratch", "chunk_stat chunk_disp info")
+#: (n_chunks, 4), the largest squared displacement since the list build [m^2] (n_chunks,), the
+#: reported problem (i, j, value) (3,), and the thread team's counters ``sync`` (int64,
+#: ``sync_length(threads)``; see the ``SYNC_*`` slots).
+Scratch = namedtuple("Scratch", "chunk_stat chunk_disp info sync")
+
+# Slots of ``Scratch.sync``, each on its own 64-byte cache line, so that a thread waiting on
+# one does not slow the counter another thread is taking chunks from.
+SYNC_COUNT = 0  # threads arrived at the current barrier
+SYNC_GEN = 8  # barrier generation (a waiting thread leaves when it changes)
+SYNC_ARRIVE = 16  # threads that have joined the team in this call
+SYNC_MODE = 24  # UNDECIDED, TEAM (all threads work) or SOLO (the first one works alone)
+SYNC_STEPS = 32  # result: steps completed
+SYNC_STATUS = 40  # result: status code
+#: first chunk counter: the counter of block b in pass p (0 pair, 1 particle) is at
+#: ``SYNC_GRAB + 8 * (2 * b + p)``
+SYNC_GRAB = 48
+
+
+def sync_length(threads: int) -> int:
+    """Length of ``Scratch.sync`` for teams of up to ``threads`` threads."""
+    return SYNC_GRAB + 16 * max(1, threads)
+
+
+UNDECIDED = 0
+TEAM = 1
+SOLO = 2
 
 # status codes returned by the step kernel's run_steps
 OK = 0
@@ -97,3 +119,99 @@ def _advance_walls(wall_point, wall_vel, dt):
     for w in range(wall_point.shape[0]):
         for a in range(3):
             wall_point[w, a] += wall_vel[w, a] * dt
+
+
+@njit(**NJIT)
+def _wait(k):
+    """The k-th round of a wait: a short spin, then yielding the core, then short sleeps (so
+    that a thread waiting for a descheduled teammate does not keep its core from others)."""
+    if k < TEAM_SPINS:
+        pause()
+    elif k < TEAM_SPINS + TEAM_YIELDS:
+        yield_cpu()
+    else:
+        sleep_us(TEAM_SLEEP_US)
+
+
+@njit(**NJIT)
+def team_join(sync, team):
+    """Join this call's thread team of ``team`` threads; returns (rank, size), or (-1, 0) for
+    a thread that is not needed.
+
+    The team forms only if all ``team`` threads arrive; the first waits at most
+    ``TEAM_JOIN_WAIT_US`` for the others and otherwise works alone (``SOLO``). A thread pool
+    that runs the team's iterations one after the other (nested parallelism, a thread limit)
+    therefore cannot deadlock at a barrier, and a teammate the OS keeps off the cores only
+    costs this call its parallelism. Results do not depend on the outcome.
+    """
+    k = atomic_add(sync, SYNC_ARRIVE, 1)
+    if team == 1:
+        return 0, 1
+    if k == team - 1:
+        atomic_cas(sync, SYNC_MODE, UNDECIDED, TEAM)
+    elif k == 0:
+        waited = 0
+        r = 0
+        while atomic_load(sync, SYNC_MODE) == UNDECIDED:
+            if r < TEAM_SPINS + TEAM_YIELDS:
+                _wait(r)
+            else:
+                if waited >= TEAM_JOIN_WAIT_US:
+                    atomic_cas(sync, SYNC_MODE, UNDECIDED, SOLO)
+                    break
+                sleep_us(TEAM_SLEEP_US)
+                waited += TEAM_SLEEP_US
+            r += 1
+    r = 0
+    while atomic_load(sync, SYNC_MODE) == UNDECIDED:
+        _wait(r)
+        r += 1
+    if atomic_load(sync, SYNC_MODE) == SOLO:
+        return (0, 1) if k == 0 else (-1, 0)
+    return k, team
+
+
+@njit(**NJIT)
+def team_barrier(sync, size):
+    """Wait until all ``size`` threads of the team have arrived (sense-reversing: the last
+    to arrive resets the count and advances the generation the others wait on)."""
+    if size == 1:
+        return
+    gen = atomic_load(sync, SYNC_GEN)
+    if atomic_add(sync, SYNC_COUNT, 1) == size - 1:
+        atomic_store(sync, SYNC_COUNT, 0)
+        atomic_add(sync, SYNC_GEN, 1)
+    else:
+        r = 0
+        while atomic_load(sync, SYNC_GEN) == gen:
+            _wait(r)
+            r += 1
+
+
+@njit(**NJIT)
+def block_bounds(b, size, nchunk):
+    """Chunks [lo, hi) of block b when ``nchunk`` chunks are cut into ``size`` blocks."""
+    return b * nchunk // size, (b + 1) * nchunk // size
+
+
+@njit(**NJIT)
+def grab(sync, which, b, lo):
+    """The next chunk of block b in pass ``which`` (0 pair, 1 particle): the block's owner
+    takes them in order, and a thread done with its own block takes the rest of another's."""
+    return lo + atomic_add(sync, SYNC_GRAB + 8 * (2 * b + which), 1)
+
+
+@njit(**NJIT)
+def reset_grabs(sync, which, size):
+    """Rewind the chunk counters of pass ``which`` (only between barriers)."""
+    for b in range(size):
+        sync[SYNC_GRAB + 8 * (2 * b + which)] = 0
+
+
+@njit(**NJIT)
+def status_code(chunk_stat):
+    """The first problem's code over the chunks, in chunk order (``OK`` if none)."""
+    for c in range(chunk_stat.shape[0]):
+        if chunk_stat[c, 0] != 0.0:
+            return int(chunk_stat[c, 0])
+    return OK

@@ -16,7 +16,8 @@ pytestmark = pytest.mark.skipif(
 )
 
 
-def _run(threads: int) -> engine.Simulation:
+def _run(threads: int, calls: int = 1, sim_class=engine.Simulation) -> engine.Simulation:
+    """3,000 steps of a 700-particle cohesive bed between platens, in ``calls`` calls."""
     lengths = np.array([0.03, 0.03, 0.04])
     pos, rad = naive.rsa_packing(
         700, lengths, 0.8 * R, R, 21, max_overlap=0.05, periodic=(True, True, False)
@@ -42,9 +43,10 @@ def _run(threads: int) -> engine.Simulation:
     old = numba.get_num_threads()
     numba.set_num_threads(threads)
     try:
-        sim = engine.Simulation(scene, dt=1e-5, threads=threads)
+        sim = sim_class(scene, dt=1e-5, threads=threads)
         assert sim.threads == threads
-        sim.run(3000)
+        for _ in range(calls):
+            sim.run(3000 // calls)
     finally:
         numba.set_num_threads(old)
     return sim
@@ -59,6 +61,40 @@ def test_one_and_two_threads_give_the_same_trajectory():
     np.testing.assert_array_equal(a.velocities, b.velocities)
     np.testing.assert_array_equal(a.angular_velocities, b.angular_velocities)
     np.testing.assert_array_equal(a.wall_forces, b.wall_forces)
+
+
+def _assert_same(a, b):
+    np.testing.assert_array_equal(a.positions, b.positions)
+    np.testing.assert_array_equal(a.velocities, b.velocities)
+    np.testing.assert_array_equal(a.angular_velocities, b.angular_velocities)
+    np.testing.assert_array_equal(a.wall_forces, b.wall_forces)
+
+
+@pytest.mark.timeout(300)
+def test_many_short_calls_form_the_team_again_each_time():
+    """500 calls of 6 steps: the team forms, meets at its barriers and breaks up 500 times
+    (a lost wake-up or a miscounted barrier would hang or diverge)."""
+    _assert_same(_run(1, calls=500), _run(2, calls=500))
+
+
+class _TeamOfTwoOnOneThread(engine.Simulation):
+    """Asks the kernel for a team of two while numba runs the region on one thread."""
+
+    def _call_kernel(self, nsteps, phase, team):
+        old = numba.get_num_threads()
+        numba.set_num_threads(1)
+        try:
+            return super()._call_kernel(nsteps, phase, 2)
+        finally:
+            numba.set_num_threads(old)
+
+
+@pytest.mark.timeout(300)
+def test_a_team_whose_threads_do_not_all_start_runs_alone():
+    """Only one thread runs the region, so the team's second member only starts after the
+    first has finished: the first must give up waiting and do all the work alone (the same
+    result, no deadlock)."""
+    _assert_same(_run(1, calls=10), _run(2, calls=10, sim_class=_TeamOfTwoOnOneThread))
 
 
 def test_small_scenes_run_on_one_thread_unless_told():

@@ -6,10 +6,12 @@ instructions on one element of such an array; every one is sequentially consiste
 plain writes a thread makes before an atomic are visible to a thread that reads the result of
 that atomic (a barrier publishes the forces written before it).
 
-Waiting (:func:`pause`, :func:`yield_cpu`, :func:`sleep_us`): a spin hint, then the C
-library's ``sched_yield`` and ``usleep`` (called by name, so compiled kernels stay cacheable):
-a thread that has waited a little gives its core away instead of spinning, which matters on a
-machine whose cores other processes share.
+Waiting: :func:`pause` (the spin hint) and :func:`cycles` (the time-stamp counter) for a short
+spin, then :func:`futex_wait` / :func:`futex_wake` (Linux futexes, through the C library's
+``syscall``): a thread that has waited a little sleeps in the kernel and gives its core away,
+and is woken as soon as the value it waits on changes, as an OpenMP thread with a passive wait
+policy is. C functions are called by name, so compiled kernels stay cacheable. Where there is
+no futex (not Linux on x86-64 or AArch64) the wait polls with ``usleep``.
 """
 
 from __future__ import annotations
@@ -110,17 +112,71 @@ def pause(typingctx):
 
 
 @intrinsic
-def yield_cpu(typingctx):
-    """``sched_yield()`` of the C library: let another runnable thread have this core."""
+def cycles(typingctx):
+    """The CPU's time-stamp counter [cycles] (``llvm.readcyclecounter``; 0 where none)."""
 
     def codegen(context, builder, sig, args):
         fn = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(ir.IntType(32), []), "sched_yield"
+            builder.module, ir.FunctionType(ir.IntType(64), []), "llvm.readcyclecounter"
         )
-        builder.call(fn, [])
+        return builder.call(fn, [])
+
+    return types.int64(), codegen
+
+
+#: Linux ``SYS_futex`` by architecture (no futex elsewhere: waits poll).
+_SYS_FUTEX = {"x86_64": 202, "amd64": 202, "aarch64": 98, "arm64": 98}.get(
+    platform.machine().lower() if platform.system() == "Linux" else "", 0
+)
+HAVE_FUTEX = _SYS_FUTEX != 0
+_FUTEX_WAIT_PRIVATE = 128
+_FUTEX_WAKE_PRIVATE = 129
+
+
+def _syscall_futex(context, builder, sig, args, op, val):
+    i64 = ir.IntType(64)
+    fn = cgutils.get_or_insert_function(
+        builder.module, ir.FunctionType(i64, [i64], var_arg=True), "syscall"
+    )
+    ptr = _element_pointer(context, builder, sig, args)
+    addr = builder.ptrtoint(ptr, i64)  # the int64's low half (little-endian): the futex word
+    builder.call(fn, [i64(_SYS_FUTEX), addr, i64(op), val, i64(0), i64(0), i64(0)])
+
+
+@intrinsic
+def futex_wait(typingctx, arr, idx, expected):
+    """Sleep while the low 32 bits of ``arr[idx]`` equal those of ``expected`` (or until a
+    :func:`futex_wake`; spurious returns happen, so the caller checks again)."""
+    _check(arr, idx)
+
+    def codegen(context, builder, sig, args):
+        if HAVE_FUTEX:
+            e = context.cast(builder, args[2], sig.args[2], types.int64)
+            low = builder.and_(e, ir.IntType(64)(0xFFFFFFFF))
+            _syscall_futex(context, builder, sig, args, _FUTEX_WAIT_PRIVATE, low)
+        else:
+            i32 = ir.IntType(32)
+            fn = cgutils.get_or_insert_function(
+                builder.module, ir.FunctionType(i32, [i32]), "usleep"
+            )
+            builder.call(fn, [i32(50)])
         return context.get_dummy_value()
 
-    return types.none(), codegen
+    return types.none(arr, idx, expected), codegen
+
+
+@intrinsic
+def futex_wake(typingctx, arr, idx):
+    """Wake every thread sleeping in :func:`futex_wait` on ``arr[idx]``."""
+    _check(arr, idx)
+
+    def codegen(context, builder, sig, args):
+        if HAVE_FUTEX:
+            everyone = ir.IntType(64)(2**31 - 1)
+            _syscall_futex(context, builder, sig, args, _FUTEX_WAKE_PRIVATE, everyone)
+        return context.get_dummy_value()
+
+    return types.none(arr, idx), codegen
 
 
 @intrinsic

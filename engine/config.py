@@ -64,14 +64,15 @@ CHUNK = 64
 
 #: Waiting in the step kernel's thread team (one parallel region per call of the kernel;
 #: threads meet at a barrier between the passes of a step instead of forking and joining
-#: twice per step). A waiting thread first spins ``TEAM_SPINS`` times with the CPU's pause
-#: hint (about a microsecond), then yields its core ``TEAM_YIELDS`` times, then sleeps
-#: ``TEAM_SLEEP_US`` microseconds at a time, so that it does not hold a core another process
-#: needs. The first thread of a call waits at most ``TEAM_JOIN_WAIT_US`` microseconds for the
-#: others to start and otherwise runs that call alone.
-TEAM_SPINS = 200
-TEAM_YIELDS = 200
-TEAM_SLEEP_US = 20
+#: twice per step). A waiting thread spins for at most ``TEAM_SPIN_CYCLES`` time-stamp
+#: cycles (about 20 us at 2.5 GHz: longer than the usual wait of a balanced team, about one
+#: chunk, shorter than waking a sleeping thread, about 60 us on the 2-core VM of
+#: benchmarks/README.md), then sleeps on a futex until the last thread arrives, so that it
+#: never holds a core another process needs. The first thread of a call waits at most
+#: ``TEAM_JOIN_WAIT_US`` microseconds (polling every ``TEAM_POLL_US``) for the others to start
+#: and otherwise runs that call alone.
+TEAM_SPIN_CYCLES = 50_000
+TEAM_POLL_US = 20
 TEAM_JOIN_WAIT_US = 5000
 
 #: ``Simulation(threads=None)`` runs one thread per this many particles [-]. Measured on 2

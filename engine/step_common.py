@@ -7,8 +7,18 @@ from collections import namedtuple
 
 from numba import njit
 
-from .atomics import atomic_add, atomic_cas, atomic_load, atomic_store, pause, sleep_us, yield_cpu
-from .config import NJIT, TEAM_JOIN_WAIT_US, TEAM_SLEEP_US, TEAM_SPINS, TEAM_YIELDS
+from .atomics import (
+    atomic_add,
+    atomic_cas,
+    atomic_load,
+    atomic_store,
+    cycles,
+    futex_wait,
+    futex_wake,
+    pause,
+    sleep_us,
+)
+from .config import NJIT, TEAM_JOIN_WAIT_US, TEAM_POLL_US, TEAM_SPIN_CYCLES
 
 #: Per-particle state [SI]: positions [m], velocities [m/s], angular velocities [rad/s], forces
 #: [N] and torques [N m] of the last evaluation (N, 3); ``roll``: the summed rolling moments
@@ -45,13 +55,14 @@ Scratch = namedtuple("Scratch", "chunk_stat chunk_disp info sync")
 # one does not slow the counter another thread is taking chunks from.
 SYNC_COUNT = 0  # threads arrived at the current barrier
 SYNC_GEN = 8  # barrier generation (a waiting thread leaves when it changes)
-SYNC_ARRIVE = 16  # threads that have joined the team in this call
-SYNC_MODE = 24  # UNDECIDED, TEAM (all threads work) or SOLO (the first one works alone)
-SYNC_STEPS = 32  # result: steps completed
-SYNC_STATUS = 40  # result: status code
+SYNC_SLEEPERS = 16  # threads asleep (or about to be) at the current barrier
+SYNC_ARRIVE = 24  # threads that have joined the team in this call
+SYNC_MODE = 32  # UNDECIDED, TEAM (all threads work) or SOLO (the first one works alone)
+SYNC_STEPS = 40  # result: steps completed
+SYNC_STATUS = 48  # result: status code
 #: first chunk counter: the counter of block b in pass p (0 pair, 1 particle) is at
 #: ``SYNC_GRAB + 8 * (2 * b + p)``
-SYNC_GRAB = 48
+SYNC_GRAB = 56
 
 
 def sync_length(threads: int) -> int:
@@ -122,15 +133,18 @@ def _advance_walls(wall_point, wall_vel, dt):
 
 
 @njit(**NJIT)
-def _wait(k):
-    """The k-th round of a wait: a short spin, then yielding the core, then short sleeps (so
-    that a thread waiting for a descheduled teammate does not keep its core from others)."""
-    if k < TEAM_SPINS:
+def _spin(sync, slot, value):
+    """Spin until ``sync[slot]`` differs from ``value``, for at most ``TEAM_SPIN_CYCLES``;
+    returns whether it changed. (Spinning catches the usual short waits of a balanced team;
+    a longer one sleeps, so that a waiting thread never holds a core others need.)"""
+    t0 = cycles()
+    n = 0
+    while atomic_load(sync, slot) == value:
         pause()
-    elif k < TEAM_SPINS + TEAM_YIELDS:
-        yield_cpu()
-    else:
-        sleep_us(TEAM_SLEEP_US)
+        n += 1
+        if n > TEAM_SPIN_CYCLES // 16 or cycles() - t0 > TEAM_SPIN_CYCLES:
+            return False
+    return True
 
 
 @njit(**NJIT)
@@ -148,24 +162,19 @@ def team_join(sync, team):
     if team == 1:
         return 0, 1
     if k == team - 1:
-        atomic_cas(sync, SYNC_MODE, UNDECIDED, TEAM)
+        if atomic_cas(sync, SYNC_MODE, UNDECIDED, TEAM):
+            futex_wake(sync, SYNC_MODE)
     elif k == 0:
-        waited = 0
-        r = 0
+        if not _spin(sync, SYNC_MODE, UNDECIDED):
+            waited = 0
+            while atomic_load(sync, SYNC_MODE) == UNDECIDED and waited < TEAM_JOIN_WAIT_US:
+                sleep_us(TEAM_POLL_US)
+                waited += TEAM_POLL_US
+            if atomic_cas(sync, SYNC_MODE, UNDECIDED, SOLO):
+                futex_wake(sync, SYNC_MODE)
+    elif not _spin(sync, SYNC_MODE, UNDECIDED):
         while atomic_load(sync, SYNC_MODE) == UNDECIDED:
-            if r < TEAM_SPINS + TEAM_YIELDS:
-                _wait(r)
-            else:
-                if waited >= TEAM_JOIN_WAIT_US:
-                    atomic_cas(sync, SYNC_MODE, UNDECIDED, SOLO)
-                    break
-                sleep_us(TEAM_SLEEP_US)
-                waited += TEAM_SLEEP_US
-            r += 1
-    r = 0
-    while atomic_load(sync, SYNC_MODE) == UNDECIDED:
-        _wait(r)
-        r += 1
+            futex_wait(sync, SYNC_MODE, UNDECIDED)
     if atomic_load(sync, SYNC_MODE) == SOLO:
         return (0, 1) if k == 0 else (-1, 0)
     return k, team
@@ -174,18 +183,23 @@ def team_join(sync, team):
 @njit(**NJIT)
 def team_barrier(sync, size):
     """Wait until all ``size`` threads of the team have arrived (sense-reversing: the last
-    to arrive resets the count and advances the generation the others wait on)."""
+    to arrive resets the count and advances the generation the others wait on, and wakes
+    those that went to sleep)."""
     if size == 1:
         return
     gen = atomic_load(sync, SYNC_GEN)
     if atomic_add(sync, SYNC_COUNT, 1) == size - 1:
         atomic_store(sync, SYNC_COUNT, 0)
         atomic_add(sync, SYNC_GEN, 1)
-    else:
-        r = 0
+        if atomic_load(sync, SYNC_SLEEPERS) > 0:
+            futex_wake(sync, SYNC_GEN)
+    elif not _spin(sync, SYNC_GEN, gen):
+        # counted before the last check of the generation: either the releaser sees this
+        # sleeper and wakes it, or the futex sees the new generation and returns at once
+        atomic_add(sync, SYNC_SLEEPERS, 1)
         while atomic_load(sync, SYNC_GEN) == gen:
-            _wait(r)
-            r += 1
+            futex_wait(sync, SYNC_GEN, gen)
+        atomic_add(sync, SYNC_SLEEPERS, -1)
 
 
 @njit(**NJIT)

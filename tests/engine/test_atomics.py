@@ -7,7 +7,16 @@ import numpy as np
 import pytest
 from numba import njit, prange
 
-from engine.atomics import atomic_add, atomic_cas, atomic_load, atomic_store, sleep_us, yield_cpu
+from engine.atomics import (
+    atomic_add,
+    atomic_cas,
+    atomic_load,
+    atomic_store,
+    cycles,
+    futex_wait,
+    futex_wake,
+    sleep_us,
+)
 from engine.step_common import sync_length, team_barrier
 
 
@@ -17,15 +26,17 @@ def _serial(a):
     atomic_store(a, 2, 7)
     won = atomic_cas(a, 3, 0, 9)
     lost = atomic_cas(a, 3, 0, 11)
-    yield_cpu()
+    t0 = cycles()
     sleep_us(1)
-    return old, atomic_load(a, 1), won, lost
+    futex_wait(a, 1, 5)  # the value is 8, not 5: returns at once
+    futex_wake(a, 1)  # nobody sleeps: nothing happens
+    return old, atomic_load(a, 1), won, lost, cycles() > t0
 
 
 def test_each_operation_does_what_it_says():
     a = np.array([0, 3, 0, 0], dtype=np.int64)
-    old, now, won, lost = _serial(a)
-    assert (old, now, won, lost) == (3, 8, True, False)
+    old, now, won, lost, ticked = _serial(a)
+    assert (old, now, won, lost, ticked) == (3, 8, True, False, True)
     assert a.tolist() == [0, 8, 7, 9]
 
 
@@ -39,9 +50,12 @@ def _count(a, per_thread, team):
 @njit(parallel=True)
 def _rounds(sync, log, team, rounds):
     """Each round every thread writes its slot, meets the others at the barrier, then checks
-    that it sees every slot of that round (the barrier publishes what was written before)."""
+    that it sees every slot of that round (the barrier publishes what was written before).
+    Every 100th round one thread is 2 ms late: the others outwait their spin and sleep."""
     for t in prange(team):
         for r in range(rounds):
+            if t == team - 1 and r % 100 == 0:
+                sleep_us(2000)
             log[t] = r
             team_barrier(sync, team)
             for u in range(team):

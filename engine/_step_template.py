@@ -524,9 +524,10 @@ def _member(t, team, nsteps, phase, P, L, W, prm, S):
     rank, size = team_join(sync, team)
     if rank < 0:
         return
+    # np.int64 arguments throughout: one signature, so every callee is compiled once
     half_skin2 = 0.25 * prm.skin * prm.skin
     if phase == 0 and nsteps > 0:
-        _pass(1, OPEN, rank, size, P, L, W, prm, S)
+        _pass(np.int64(1), np.int64(OPEN), rank, size, P, L, W, prm, S)
         team_barrier(sync, size)
         st = status_code(S.chunk_stat)
         if st != OK:
@@ -544,9 +545,9 @@ def _member(t, team, nsteps, phase, P, L, W, prm, S):
     s = 0
     while True:
         mode = FORCES if nsteps == 0 else (STEP if s < nsteps - 1 else CLOSE)
-        _pass(0, mode, rank, size, P, L, W, prm, S)
+        _pass(np.int64(0), mode, rank, size, P, L, W, prm, S)
         team_barrier(sync, size)
-        _pass(1, mode, rank, size, P, L, W, prm, S)
+        _pass(np.int64(1), mode, rank, size, P, L, W, prm, S)
         team_barrier(sync, size)
         st = status_code(S.chunk_stat)
         if rank == 0:

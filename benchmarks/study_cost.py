@@ -53,7 +53,8 @@ def pool_speedup(workers: int = 2) -> list[tuple[str, bool]]:
     n = len(spec.planned_runs())
     print(f"\n| study ({n} runs, {ref.n_particles} particles per reference) | wall time [s] |"
           " ratio |\n|---|---:|---:|")
-    print(f"| in process (engine threads: one per 4,000 particles) | {t_seq:.1f} | baseline |")
+    print(f"| in process (engine threads: one per {engine.config.PARTICLES_PER_THREAD:,} "
+          f"particles) | {t_seq:.1f} | baseline |")
     print(f"| process pool, {workers} workers x 1 thread | {t_par:.1f} | "
           f"{t_seq / t_par:.2f}x |")
     print(f"load average during the run: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")

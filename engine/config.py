@@ -76,10 +76,12 @@ TEAM_POLL_US = 20
 TEAM_JOIN_WAIT_US = 5000
 
 #: ``Simulation(threads=None)`` runs one thread per this many particles [-]. Measured on 2
-#: cores (benchmarks/engine_speed.py): 2,025 particles ran at 6.2e6 particle-steps/s on one
-#: thread and 5.8e6 on two, 16,200 at 4.1e6 and 6.5e6; 143 particles took 5 s on one thread
-#: and 26 s on two (a step is shorter than waking the second thread).
-PARTICLES_PER_THREAD = 4000
+#: cores with the thread team (2026-11-26, settled beds, full law, 2 threads against 1): on an
+#: otherwise idle machine 500 particles ran 1.77x faster, 1,000 1.82x, 2,025 1.5x to 2.3x;
+#: with a second such process on the cores (both asking for 2 threads) 500 particles ran at
+#: 0.55x to 0.62x, 1,000 at 0.89x to 0.93x, 2,025 at 0.81x to 1.15x. 1,000 per thread: a
+#: second thread from 2,000 particles, where it gains alone and costs little when shared.
+PARTICLES_PER_THREAD = 1000
 
 #: ``Simulation(dt=None)`` takes this fraction of the smallest time-step limit of
 #: :func:`engine.critical_time_step` (oscillation limits, Rayleigh time, Hertz contact time).

@@ -108,9 +108,9 @@ class Simulation:
         max_step_fraction: a particle moving more than this fraction of its radius in one step
             stops the run with :class:`engine.InstabilityError`.
         threads: threads of the parallel passes, at most numba's thread count; None takes one
-            thread per ``PARTICLES_PER_THREAD`` particles (small scenes run on one thread:
-            their passes are too short to pay for waking a second). Results do not depend
-            on it.
+            thread per ``engine.config.PARTICLES_PER_THREAD`` (1,000) particles (small scenes
+            run on one thread: a second gains little and loses when other processes share
+            the cores). Results do not depend on it.
 
     Only the features the scene uses are compiled in (see :attr:`features`).
     """

@@ -19,13 +19,14 @@ import numba
 if "NUMBA_THREADING_LAYER" not in os.environ and "NUMBA_THREADING_LAYER_PRIORITY" not in os.environ:
     numba.config.THREADING_LAYER_PRIORITY = ["omp", "workqueue", "tbb"]
 
-# OpenMP threads sleep instead of spinning between the two parallel passes of every step.
-# Spinning gains a few per cent on an idle machine, but as soon as two engine processes share
-# the cores (a service worker beside a benchmark, two test workers) every pass waits for a
-# descheduled spinner: a 340-particle run measured 9 s alone and over 9 minutes with a second
-# engine process on 2 cores, against 12 s with passive waiting. Set before libgomp loads (it
-# is loaded at the first parallel call); an explicit OMP_WAIT_POLICY or GOMP_SPINCOUNT (a
-# bounded spin before sleeping) wins.
+# OpenMP threads sleep instead of spinning between parallel regions (one per call of the step
+# kernel; inside a call the kernel's own team waits, see TEAM_* below). When every step was
+# two regions, OpenMP spinning gained a few per cent on an idle machine, but as soon as two
+# engine processes shared the cores (a service worker beside a benchmark, two test workers)
+# every pass waited for a descheduled spinner: a 340-particle run measured 9 s alone and over
+# 9 minutes with a second engine process on 2 cores, against 12 s with passive waiting. Set
+# before libgomp loads (at the first parallel call); an explicit OMP_WAIT_POLICY or
+# GOMP_SPINCOUNT (a bounded spin before sleeping) wins.
 if "GOMP_SPINCOUNT" not in os.environ:
     os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 

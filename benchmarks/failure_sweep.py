@@ -111,9 +111,10 @@ def report() -> Path:
         strengths[name] = s["unconfined_strength"]
         fails[name] = bool(s["unconfined_failure"])
     reading = _reading(strengths, fails)
+    paper_rows = _paper_references(ax)
     ax.set_xlabel("unconfined strain [%]")
     ax.set_ylabel("platen stress [kPa]")
-    ax.set_title("Unconfined compression after consolidation to 20 kPa (quick scale, seed 1)")
+    ax.set_title("Unconfined compression after consolidation to 20 kPa")
     ax.legend()
     fig.tight_layout()
     fig_path = ROOT / "docs" / "figures" / "failure_sweep.png"
@@ -132,12 +133,51 @@ def report() -> Path:
         "",
         *reading,
         "",
+        *paper_rows,
         "![unconfined curves](figures/failure_sweep.png)",
         "",
     ]
     path = ROOT / "docs" / "FAILURE.md"
     path.write_text("\n".join(text) + "\n")
     return path
+
+
+PAPER_REFERENCES = ROOT / "benchmarks" / "results" / "paper" / "b_cohesive"
+
+
+def _paper_references(ax) -> list[str]:
+    """The same judgement on the cohesive references of the paper-scale reproduction
+    (``python -m benchmarks.reproduce --scale paper``, experiment (b): the same law in the
+    seed's filled 50 x 150 x 300 mm cuboid) when they are stored; their curves join the
+    figure (dashed)."""
+    paths = sorted(PAPER_REFERENCES.glob("ref-s*.h5"))
+    if not paths:
+        return []
+    rows = ["At the seed's scale (the cohesive references of experiment (b) of "
+            "`python -m benchmarks.reproduce --scale paper`, the same law and platens in the "
+            "seed's filled 50 x 150 x 300 mm cuboid; the same failure detector):", "",
+            "| reference | particles | cross-section x height [diameters] | failed | "
+            "peak [kPa] at strain [%] | strength [kPa] |", "|---|---|---|---|---|---|"]
+    for path in paths:
+        res = load_run(path)
+        s = res.scalars
+        c = res.stages["unconfined"].curves
+        strain, stress = c["strain"], c["stress_top"]
+        k = int(np.argmax(stress))
+        cell = np.asarray(res.test.cell) / (2 * res.test.radius)
+        rows.append(f"| {path.stem} | {s['particles']:.0f} | {cell[0]:.0f} x {cell[1]:.0f} x "
+                    f"{s['height_diameters']:.0f} | "
+                    f"{'yes' if s['unconfined_failure'] else 'no (hardens)'} | "
+                    f"{stress[k] / 1e3:.2f} at {100 * strain[k]:.1f} | "
+                    f"{s['unconfined_strength'] / 1e3:.2f} |")
+        ax.plot(100 * strain, stress / 1e3, "--", label=f"paper {path.stem}")
+    quick = engine.preset("quick")
+    d = 2 * quick.radius
+    rows += ["", f"The quick samples are {quick.cell[0] / d:.0f} x {quick.cell[1] / d:.0f} "
+             "diameters in cross-section (the `tall` one too). Where a reference above fails "
+             "and no quick variant does, the seed's wider and taller sample is what differs; "
+             "which of the two matters was not isolated.", ""]
+    return rows
 
 
 def _reading(strengths: dict[str, float], fails: dict[str, bool]) -> list[str]:

@@ -1,4 +1,10 @@
-"""Exceptions of the engine. Every message names the field or quantity and the limit."""
+"""Exceptions of the engine. Every message names the field or quantity and the limit.
+
+Every exception pickles with its attributes (``__reduce__``): a run on a process pool or a
+Dask worker sends its error back to the study, which stores it as the run's outcome. (A
+pickled exception is rebuilt from ``args`` alone by default, which fails for constructors
+with more arguments than the message and broke the whole pool.)
+"""
 
 from __future__ import annotations
 
@@ -14,10 +20,14 @@ class ParameterError(ValueError):
         self.field = field
         self.value = value
         self.limit = limit
+        self.why = why
         msg = f"{field} = {value!r} is not allowed: must be {limit}"
         if why:
             msg += f" ({why})"
         super().__init__(msg)
+
+    def __reduce__(self):
+        return type(self), (self.field, self.value, self.limit, self.why)
 
 
 class StabilityError(ValueError):
@@ -30,6 +40,9 @@ class StabilityError(ValueError):
         self.dt = dt
         self.limit = limit
         super().__init__(message)
+
+    def __reduce__(self):
+        return type(self), (self.args[0], self.dt, self.limit)
 
 
 class InstabilityError(RuntimeError):
@@ -46,6 +59,15 @@ class InstabilityError(RuntimeError):
         self.particles = particles
         self.reason = reason
         super().__init__(message)
+
+    def __reduce__(self):
+        return _instability_error, (type(self), self.args[0], self.step, self.time,
+                                    self.particles, self.reason)
+
+
+def _instability_error(cls, message, step, time, particles, reason):
+    """Unpickle an :class:`InstabilityError` (its fields are keyword-only)."""
+    return cls(message, step=step, time=time, particles=particles, reason=reason)
 
 
 class StopRequested(RuntimeError):

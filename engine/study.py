@@ -160,8 +160,11 @@ class RunFailed(RuntimeError):
 
     def __init__(self, run_key: str, error: Exception | str):
         self.run_key = run_key
-        text = error if isinstance(error, str) else f"{type(error).__name__}: {error}"
-        super().__init__(f"run {run_key} failed: {text}")
+        self.text = error if isinstance(error, str) else f"{type(error).__name__}: {error}"
+        super().__init__(f"run {run_key} failed: {self.text}")
+
+    def __reduce__(self):  # pickles with its fields (see engine.errors)
+        return type(self), (self.run_key, self.text)
 
 
 def _execute(test, threads: int | None = None, key: str = "", channel=None

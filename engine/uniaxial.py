@@ -76,6 +76,9 @@ class StageError(RuntimeError):
         self.steps = steps
         super().__init__(message)
 
+    def __reduce__(self):  # pickles with its fields (see engine.errors)
+        return type(self), (self.args[0], self.stage, self.steps)
+
 
 @dataclass(frozen=True)
 class Progress:

@@ -14,11 +14,15 @@
     overlap of 0.04 R) under the stress-similarity rule (K ~ R^(2-n) = R^0.5, f0 ~ R^2) and
     the seed's linear-stiffness rule (K ~ R, f0 ~ R^2): issue 13's question of how to
     coarse-grain a non-linear adhesive law.
-Three reference seeds and two seeds per coarse variant; six per coarse variant in (c) and (d),
-whose first quick-scale runs showed that two 286-particle beds (5 diameters thick) scatter too
-much to decide (loading stiffness 297 and 704 kPa for one rule): a coarse run costs about a
-thirteenth of a reference, so six cost less than half a reference and together hold about as
-many particles as one reference at s = 2 (the verdict rule is unchanged).
+Three reference seeds and two seeds per coarse variant. At the quick scale (c) and (d) take
+six per coarse variant, whose first quick-scale runs showed that two 286-particle beds (5
+diameters thick) scatter too much to decide (loading stiffness 297 and 704 kPa for one rule):
+a coarse run costs about a thirteenth of a reference, so six cost less than half a reference
+and together hold about as many particles as one reference at s = 2 (the verdict rule is
+unchanged). At the paper scale a coarse bed holds 2,578 particles (10 diameters thick), so
+two seeds per variant, as in (a) and (b); (d) is run there at 2 R_ref only, for cost: an EEPA
+n = 1.5 step costs 1.34x a bilinear one (benchmarks/eepa_cost.py), a cohesive paper-scale
+reference about 1e10 particle-steps, and a 3.75 mm coarse run 3e9.
 Every finished run is stored at once as ``benchmarks/results/<scale>/<experiment>/<run>.h5``
 (:mod:`engine.runstore`); a rerun resumes with the runs not yet stored, and ``--report``
 recomputes every metric, verdict and figure from the stored curves. ``--scale paper`` writes
@@ -42,7 +46,12 @@ ROOT = Path(__file__).resolve().parent.parent
 R = 2.5e-3
 REFERENCE_SEEDS = (1, 2, 3)
 COARSE_SEEDS = (1, 2)
-EEPA_COARSE_SEEDS = (1, 2, 3, 4, 5, 6)
+#: Coarse seeds of (c) and (d): six 286-particle beds at the quick scale, two at the paper
+#: scale, whose coarse beds hold 2,578 particles (as in (a) and (b)).
+EEPA_COARSE_SEEDS = {"quick": (1, 2, 3, 4, 5, 6), "paper": (1, 2)}
+#: Coarse radii of (d): at the paper scale 2 R_ref alone, where the two rules differ most
+#: (stiffness ratio 2^0.5 against 2); 1.5 R_ref would double the cost of (d) (see above).
+EEPA_COARSE_RADII = {"quick": (1.5 * R, 2 * R), "paper": (2 * R,)}
 
 
 def experiments(scale: str) -> dict[str, engine.StudySpec]:
@@ -55,7 +64,8 @@ def experiments(scale: str) -> dict[str, engine.StudySpec]:
     eepa = engine.EEPA(k1=5e5, k2=2.5e6, n=1.5, chi=1.5, mu_s=0.5, mu_r=0.001,
                        restitution=0.4)
     eepa_rules = (rule.named("similarity"), rule("linear", 1.0, 2.0))
-    eepa_common = {**common, "seeds": EEPA_COARSE_SEEDS}
+    eepa_common = {**common, "seeds": EEPA_COARSE_SEEDS[scale]}
+    eepa_radii = EEPA_COARSE_RADII[scale]
     return {
         "a_cohesionless": engine.StudySpec(
             reference=plain, coarse_radii=(2 * R,),
@@ -69,7 +79,7 @@ def experiments(scale: str) -> dict[str, engine.StudySpec]:
             coarse_radii=(2 * R,), rules=eepa_rules, **eepa_common),
         "d_eepa_cohesive": engine.StudySpec(
             reference=engine.preset(scale, pair_law=replace(eepa, f0=-0.8)),
-            coarse_radii=(1.5 * R, 2 * R), rules=eepa_rules, **eepa_common),
+            coarse_radii=eepa_radii, rules=eepa_rules, **eepa_common),
     }
 
 
@@ -89,32 +99,62 @@ def stored_runs(spec: engine.StudySpec, directory: Path) -> dict:
     return done
 
 
-def run(scale: str, workers: int, only: list[str] | None) -> None:
+class _Ticker:
+    """Prints a study's progress at most once every ``every`` seconds (one run at a time)."""
+
+    def __init__(self, every: float = 60.0):
+        self.every, self.last = every, time.perf_counter()
+
+    def __call__(self, pr) -> None:
+        now = time.perf_counter()
+        if now - self.last >= self.every:
+            self.last = now
+            print(f"    {pr.run_key}: {pr.stage}, t = {pr.time:.3f} s simulated, "
+                  f"study {100 * pr.fraction:.1f} % done", flush=True)
+
+
+def run(scale: str, workers: int, only: list[str] | None,
+        runs: list[str] | None = None) -> None:
     specs = experiments(scale)
     for name in only or specs:
         spec = specs[name]
         d = store_dir(scale, name)
-        done = stored_runs(spec, d)
+        done = stored = stored_runs(spec, d)
+        if runs:  # only the named runs: treat every other one as done for this call
+            unknown = set(runs) - {p.key for p in spec.planned_runs()}
+            if unknown and len(only or specs) == 1:
+                raise SystemExit(f"--runs: {name} has no run {', '.join(sorted(unknown))}")
+            done = {**{p.key: "skipped by --runs" for p in spec.planned_runs()
+                       if p.key not in runs}, **done}
         todo = [p.key for p in spec.planned_runs() if p.key not in done]
-        print(f"{name}: {len(done)} runs stored, {len(todo)} to run: {', '.join(todo)}",
+        print(f"{name}: {len(stored)} runs stored, {len(todo)} to run: {', '.join(todo)}",
               flush=True)
         if not todo:
             continue
         t0 = time.perf_counter()
 
-        def on_run(key, outcome, d=d, t0=t0):
+        def on_run(key, outcome, d=d, t0=t0, done=done):
+            if done.get(key) == "skipped by --runs":
+                return
             save_run(d / f"{key}.h5", outcome, keep_particles=False)
             what = (outcome if isinstance(outcome, str) else
                     f"{outcome.scalars['particles']:.0f} particles, "
                     f"{outcome.scalars['wall_time']:.0f} s")
             print(f"  [{time.perf_counter() - t0:7.0f} s] {key}: {what}", flush=True)
 
-        if workers > 1:
-            ctx = mp.get_context("spawn")
-            with cf.ProcessPoolExecutor(workers, mp_context=ctx) as pool:
-                engine.run_study(spec, executor=pool, completed=done, on_run=on_run)
-        else:
-            engine.run_study(spec, completed=done, on_run=on_run)
+        try:
+            if workers > 1:
+                ctx = mp.get_context("spawn")
+                with cf.ProcessPoolExecutor(workers, mp_context=ctx) as pool:
+                    engine.run_study(spec, executor=pool, completed=done, on_run=on_run)
+            else:
+                engine.run_study(spec, _Ticker(), completed=done, on_run=on_run)
+        except engine.RunFailed:
+            if not runs:
+                raise
+            # with --runs the skipped references count as failed, so the study cannot be
+            # judged here; every run asked for is stored, and --report judges them all
+
 
 
 def main(argv=None) -> int:
@@ -128,6 +168,9 @@ def main(argv=None) -> int:
                     help="only recompute the report from the stored runs")
     ap.add_argument("--only", nargs="*", choices=EXPERIMENTS,
                     help="experiments to run, in this order (default: all)")
+    ap.add_argument("--runs", nargs="*", metavar="KEY",
+                    help="only these runs, by key (e.g. ref-s3 r5mm-similarity-s2); "
+                         "for running a study's runs on several machines")
     ap.add_argument("--store", type=Path, default=None,
                     help="folder of the stored runs (default: benchmarks/results)")
     args = ap.parse_args(argv)
@@ -135,7 +178,11 @@ def main(argv=None) -> int:
         STORE = args.store
     t0 = time.perf_counter()
     if not args.report:
-        run(args.scale, args.workers, args.only)
+        run(args.scale, args.workers, args.only, args.runs)
+        if args.runs:  # a share of a study: the report waits for all of its runs
+            print(f"stored the runs asked for ({time.perf_counter() - t0:.0f} s); "
+                  "no report written")
+            return 0
     from benchmarks.report import write_report
 
     path = write_report(args.scale, {name: (spec, stored_runs(spec, store_dir(args.scale, name)))

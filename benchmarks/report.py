@@ -60,11 +60,13 @@ def _metric(v: dict, name: str) -> dict | None:
 def verdict_table(res: engine.StudyResult) -> str:
     names = [n for n, _ in _COLS if n in res.spec.tolerances and (
         n != "strength" or res.spec.reference.unconfined)]
-    head = ("| R [mm] | rule (a, b) | seeds | speed-up | "
+    head = ("| R [mm] | rule (a, b) | seeds | speed-up (wall) | particle-steps ratio | "
             + " | ".join(f"{lab} (tol {res.spec.tolerances[n]:.0%})" for n, lab in _COLS
                          if n in names) + " | verdict |")
-    lines = [head, "|" + "---|" * (5 + len(names))]
+    lines = [head, "|" + "---|" * (6 + len(names))]
     rules = {r.name: r for r in res.spec.rules}
+    ref_ps = np.mean([r.result.scalars["particle_steps"] for r in res.runs.values()
+                      if r.rule is None])
     for v in res.advisor["verdicts"]:
         r = rules[v["rule"]]
         cells = []
@@ -76,17 +78,30 @@ def verdict_table(res: engine.StudyResult) -> str:
             u = "" if m["uncertainty"] is None else f" ± {200 * m['uncertainty']:.1f}"
             cells.append(f"{100 * m['signed_error']:+.1f}{u} % ({m['verdict']})")
         sp = v.get("speedup")
+        ps = [x.result.scalars["particle_steps"] for x in res.runs.values()
+              if x.rule is not None and x.rule.name == v["rule"]
+              and abs(x.radius - v["radius"]) < 1e-12]
+        ratio = f"{ref_ps / np.mean(ps):.1f}x" if ps else "-"
         a, b, _ = r.exponents(res.spec.reference.pair_law)
         lines.append(f"| {v['radius'] * 1e3:g} | {r.name} ({a:g}, {b:g}) | {v['seeds']} | "
-                     f"{'-' if sp is None else f'{sp:.1f}x'} | " + " | ".join(cells)
+                     f"{'-' if sp is None else f'{sp:.1f}x'} | {ratio} | " + " | ".join(cells)
                      + f" | **{v['verdict']}** |")
     return "\n".join(lines)
 
 
-def run_table(res: engine.StudyResult) -> str:
-    lines = ["| run | particles | steps | wall time [s] | thickness [d] | height [d] | "
-             "porosity whole / interior | K load [kPa] | UCS [kPa] | failed |",
-             "|" + "---|" * 10]
+def _ran_on(s: dict, machine: dict | None) -> str:
+    """Where a run's wall time was measured: engine threads and machine, where recorded."""
+    t = f"{s['threads']:.0f} thr" if "threads" in s else "threads not recorded"
+    m = ("machine not recorded" if machine is None
+         else f"{machine['cpu']} ({machine['logical_cpus']} CPUs)")
+    return f"{t}, {m}"
+
+
+def run_table(res: engine.StudyResult, machines: dict | None = None) -> str:
+    machines = machines or {}
+    lines = ["| run | particles | steps | wall time [s] | ran on | thickness [d] | "
+             "height [d] | porosity whole / interior | K load [kPa] | UCS [kPa] | failed |",
+             "|" + "---|" * 11]
     for key, r in res.runs.items():
         s = r.result.scalars
         ucs = (f"{s['unconfined_strength'] / 1e3:.2f}" if "unconfined_strength" in s
@@ -95,11 +110,12 @@ def run_table(res: engine.StudyResult) -> str:
             "yes" if s["unconfined_failure"] else "no (hardens)")
         lines.append(
             f"| {key} | {s['particles']:.0f} | {s['steps']:.0f} | {s['wall_time']:.0f} | "
-            f"{s['thickness_diameters']:.1f} | {s['height_diameters']:.1f} | "
+            f"{_ran_on(s, machines.get(key))} | {s['thickness_diameters']:.1f} | "
+            f"{s['height_diameters']:.1f} | "
             f"{s['consolidated_porosity']:.3f} / {s['consolidated_porosity_interior']:.3f} | "
             f"{s['loading_stiffness'] / 1e3:.0f} | {ucs} | {failed} |")
     for key, err in res.failed.items():
-        lines.append(f"| {key} | - | - | - | - | - | - | - | - | {err} |")
+        lines.append(f"| {key} | - | - | - | - | - | - | - | - | - | {err} |")
     return "\n".join(lines)
 
 
@@ -245,10 +261,13 @@ def porosity_note(res) -> str:
         f"; {r}" for r in rows) + "."
 
 
-def write_report(scale: str, data: dict, out_dir: Path | None = None) -> Path:
-    """``data``: experiment name -> (spec, stored outcomes). Writes VALIDATION.md and its
-    figures into ``out_dir`` (default: docs/ for the paper scale, else
-    benchmarks/.cache/<scale>/) and returns the report's path."""
+def write_report(scale: str, data: dict, out_dir: Path | None = None,
+                 machines: dict | None = None) -> Path:
+    """``data``: experiment name -> (spec, stored outcomes); ``machines``: experiment name
+    -> run key -> the stored run's machine (engine.runstore.stored_machine). Writes
+    VALIDATION.md and its figures into ``out_dir`` (default: docs/ for the paper scale,
+    else benchmarks/.cache/<scale>/) and returns the report's path."""
+    machines = machines or {}
     if out_dir is None:
         out_dir = ROOT / "docs"
     report_name = "VALIDATION.md" if scale == "paper" else f"VALIDATION_{scale}.md"
@@ -312,15 +331,21 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None) -> Path:
         "(engine/advisor.py). Table cells: signed error ± 2u (metric verdict).",
         "",
     ]
+    def _radii(name: str) -> str:
+        if name not in data:
+            return "coarse radii"
+        r = [f"{x * 1e3:g}" for x in data[name][0].coarse_radii]
+        return (" and ".join(r) if len(r) < 3 else ", ".join(r)) + " mm"
+
     titles = {"a_cohesionless": "(a) Cohesionless: 2.5 mm against 5 mm, stiffness unscaled "
               "and linearly scaled (confined stages only)",
-              "b_cohesive": "(b) Cohesive (f0 = -0.8 N at 2.5 mm): 3.75 and 5 mm, stiffness "
-              "~ R, adhesion ~ R^b with b = 1, 2, 3",
+              "b_cohesive": f"(b) Cohesive (f0 = -0.8 N at 2.5 mm): {_radii('b_cohesive')}, "
+              "stiffness ~ R, adhesion ~ R^b with b = 1, 2, 3",
               "c_eepa_cohesionless": "(c) EEPA n = 1.5, cohesionless: 2.5 against 5 mm, "
               "stress similarity (K ~ R^0.5) against linear stiffness (K ~ R)",
-              "d_eepa_cohesive": "(d) EEPA n = 1.5, cohesive (f0 = -0.8 N at 2.5 mm): 3.75 and "
-              "5 mm, stress similarity (K ~ R^0.5, f0 ~ R^2) against linear stiffness (K ~ R, "
-              "f0 ~ R^2)"}
+              "d_eepa_cohesive": "(d) EEPA n = 1.5, cohesive (f0 = -0.8 N at 2.5 mm): "
+              f"{_radii('d_eepa_cohesive')}, stress similarity (K ~ R^0.5, f0 ~ R^2) "
+              "against linear stiffness (K ~ R, f0 ~ R^2)"}
     for name, res in results.items():
         lines += [f"## {titles.get(name, name)}", "", law_line(data[name][0]), ""]
         if isinstance(res, str):
@@ -331,7 +356,8 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None) -> Path:
         lines += [f"- R = {v['radius'] * 1e3:g} mm, {v['rule']}: {v['verdict']}: "
                   f"{v['reason']}" for v in res.advisor["verdicts"]]
         lines += [f"- warning: {w}" for w in res.advisor["warnings"]]
-        lines += ["", porosity_note(res), "", "Per run:", "", run_table(res), ""]
+        lines += ["", porosity_note(res), "", "Per run:", "",
+                  run_table(res, machines.get(name)), ""]
         lines += [f"![{k}]({fig}/{k}.png)" for k in
                   ("stress_strain", "stress_porosity", "coordination", "unconfined",
                    "error_vs_runtime")

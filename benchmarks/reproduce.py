@@ -40,7 +40,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import engine
-from engine.runstore import completed_runs, save_run
+from engine.runstore import completed_runs, save_run, stored_machine
 
 ROOT = Path(__file__).resolve().parent.parent
 R = 2.5e-3
@@ -113,20 +113,37 @@ class _Ticker:
                   f"study {100 * pr.fraction:.1f} % done", flush=True)
 
 
+SKIPPED = "skipped by --runs"
+
+
+def select(spec: engine.StudySpec, stored: dict, runs: list[str] | None
+           ) -> tuple[dict, list[str]]:
+    """(outcomes to hand to run_study as done, keys to run): the planned runs not stored,
+    and with ``runs`` only those of them named there (every other one counts as done, with
+    the text ``SKIPPED``, for this call)."""
+    done = dict(stored)
+    if runs:
+        done = {**{p.key: SKIPPED for p in spec.planned_runs() if p.key not in runs}, **done}
+    return done, [p.key for p in spec.planned_runs() if p.key not in done]
+
+
+def machines_of(directory: Path) -> dict:
+    """Run key -> the machine that stored it (None where not recorded)."""
+    return {p.stem: stored_machine(p) for p in sorted(directory.glob("*.h5"))}
+
+
 def run(scale: str, workers: int, only: list[str] | None,
         runs: list[str] | None = None) -> None:
     specs = experiments(scale)
     for name in only or specs:
         spec = specs[name]
         d = store_dir(scale, name)
-        done = stored = stored_runs(spec, d)
-        if runs:  # only the named runs: treat every other one as done for this call
+        stored = stored_runs(spec, d)
+        if runs:
             unknown = set(runs) - {p.key for p in spec.planned_runs()}
             if unknown and len(only or specs) == 1:
                 raise SystemExit(f"--runs: {name} has no run {', '.join(sorted(unknown))}")
-            done = {**{p.key: "skipped by --runs" for p in spec.planned_runs()
-                       if p.key not in runs}, **done}
-        todo = [p.key for p in spec.planned_runs() if p.key not in done]
+        done, todo = select(spec, stored, runs)
         print(f"{name}: {len(stored)} runs stored, {len(todo)} to run: {', '.join(todo)}",
               flush=True)
         if not todo:
@@ -134,7 +151,7 @@ def run(scale: str, workers: int, only: list[str] | None,
         t0 = time.perf_counter()
 
         def on_run(key, outcome, d=d, t0=t0, done=done):
-            if done.get(key) == "skipped by --runs":
+            if done.get(key) == SKIPPED:
                 return
             save_run(d / f"{key}.h5", outcome, keep_particles=False)
             what = (outcome if isinstance(outcome, str) else
@@ -185,8 +202,11 @@ def main(argv=None) -> int:
             return 0
     from benchmarks.report import write_report
 
+    specs = experiments(args.scale)
     path = write_report(args.scale, {name: (spec, stored_runs(spec, store_dir(args.scale, name)))
-                                     for name, spec in experiments(args.scale).items()})
+                                     for name, spec in specs.items()},
+                        machines={name: machines_of(store_dir(args.scale, name))
+                                  for name in specs})
     print(f"wrote {path} ({time.perf_counter() - t0:.0f} s)")
     return 0
 

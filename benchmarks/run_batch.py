@@ -56,20 +56,25 @@ def parse_job(text: str) -> Job:
     return Job(parts[0], parts[1], int(parts[2]))
 
 
-def launch(job: Job, scale: str, store: Path, logs: Path, python: str) -> None:
+def reproduce_argv(job: Job, scale: str, store: Path) -> list[str]:
+    """The command of one job: the reproduction, restricted to the job's run."""
+    return [sys.executable, "-m", "benchmarks.reproduce", "--scale", scale, "--workers", "1",
+            "--only", job.experiment, "--runs", job.key, "--store", str(store)]
+
+
+def launch(job: Job, argv: list[str], logs: Path) -> None:
     env = {**os.environ, "NUMBA_NUM_THREADS": str(job.threads), "PYTHONUNBUFFERED": "1",
            "DEMSCALE_CACHE_DIR": str(logs / "cache" / f"{job.experiment}-{job.key}")}
-    log = open(logs / f"{job.experiment}-{job.key}.log", "w")
-    job.proc = subprocess.Popen(
-        [python, "-m", "benchmarks.reproduce", "--scale", scale, "--workers", "1",
-         "--only", job.experiment, "--runs", job.key, "--store", str(store)],
-        cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    with open(logs / f"{job.experiment}-{job.key}.log", "w") as log:
+        job.proc = subprocess.Popen(argv, cwd=ROOT, env=env, stdout=log,
+                                    stderr=subprocess.STDOUT, start_new_session=True)
     job.state = "running"
 
 
 def run_batch(jobs: list[Job], cores: int, deadline: float, scale: str, store: Path,
-              logs: Path, python: str = sys.executable, poll: float = 2.0) -> list[Job]:
-    """Run ``jobs`` on ``cores`` cores until all end or ``deadline`` seconds have passed."""
+              logs: Path, poll: float = 2.0, argv_of=reproduce_argv) -> list[Job]:
+    """Run ``jobs`` on ``cores`` cores until all end or ``deadline`` seconds have passed;
+    ``argv_of(job, scale, store)`` gives each job's command."""
     for job in jobs:
         if job.threads > cores:
             raise SystemExit(f"job {job.name}: {job.threads} threads > --cores {cores}")
@@ -94,7 +99,7 @@ def run_batch(jobs: list[Job], cores: int, deadline: float, scale: str, store: P
         free = cores - sum(j.threads for j in running)
         for job in jobs:
             if job.state == "waiting" and job.threads <= free:
-                launch(job, scale, store, logs, python)
+                launch(job, argv_of(job, scale, store), logs)
                 job.start = now
                 free -= job.threads
                 print(f"[{now:6.0f} s] {job.name}: started on {job.threads} threads", flush=True)

@@ -8,7 +8,10 @@ h5py is imported only here, when a run is stored or read (the engine itself need
 and numba).
 
 Layout of ``<key>.h5``: attrs ``test`` (JSON of :meth:`engine.UniaxialTest.to_dict`),
-``error`` (only for a failed run), ``versions``; group ``scalars`` (attrs, with
+``error`` (only for a failed run), ``versions``, ``machine`` (JSON: the processor and the
+number of logical CPUs of the machine that stored the run, which for a process pool or
+``benchmarks/run_batch.py`` is the one that ran it; absent in runs stored before it was
+recorded); group ``scalars`` (attrs, with
 ``<name>_units``); one group per stage (attr ``steps``) with one dataset per curve (attr
 ``units``) and, when kept, a group ``particles`` (``positions`` (N, 3), ``radii`` (N,) at the
 stage's end [m]).
@@ -18,12 +21,35 @@ from __future__ import annotations
 
 import json
 import os
+import platform
 import socket
 from pathlib import Path
 
 import numpy as np
 
 from .uniaxial import CURVE_UNITS, SCALAR_UNITS, StageResult, UniaxialResult, UniaxialTest
+
+
+def this_machine() -> dict:
+    """The processor (model name from /proc/cpuinfo where there is one) and the number of
+    logical CPUs of this machine: where a stored run's wall time was measured."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            cpu = next((line.split(":", 1)[1].strip() for line in f
+                        if line.startswith("model name")), cpu)
+    except OSError:
+        pass
+    return {"cpu": cpu, "logical_cpus": os.cpu_count()}
+
+
+def stored_machine(path: Path) -> dict | None:
+    """The ``machine`` attribute of a stored run, or None where it was not recorded."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        text = f.attrs.get("machine")
+    return None if text is None else json.loads(text)
 
 
 def save_run(path: Path, outcome, keep_particles: bool = True) -> Path:
@@ -42,6 +68,7 @@ def save_run(path: Path, outcome, keep_particles: bool = True) -> Path:
             f.attrs["versions"] = json.dumps({"demscale": __version__,
                                               "numba": numba.__version__,
                                               "numpy": np.__version__})
+            f.attrs["machine"] = json.dumps(this_machine())
             if isinstance(outcome, str):
                 f.attrs["error"] = outcome
             else:

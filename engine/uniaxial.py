@@ -152,6 +152,7 @@ SCALAR_UNITS = {
     "wall_time": "s",
     "setup_time": "s",
     "particle_steps": "1",
+    "threads": "1",
     "max_inertial_number": "1",
 }
 
@@ -385,6 +386,7 @@ class _Driver:
         s["setup_time"] = self.setup_time
         s["wall_time"] = time.perf_counter() - self.t_wall - self.setup_time
         s["particle_steps"] = float(self.sim.n) * self.sim.steps
+        s["threads"] = float(self.sim.threads)  # wall time is per this many engine threads
         s["max_inertial_number"] = max(
             float(np.max(self.stages[k].curves["inertial_number"]))
             for k in ("pre_compression", "consolidation", "unloading", "unconfined")

@@ -67,3 +67,49 @@ def test_report_judges_the_claims_from_stored_runs(tmp_path):
     assert text.count("**agrees**") + text.count("**differs**") + text.count(
         "**undecided**") >= 7
     assert (tmp_path / "out" / "figures" / "tiny_b_cohesive" / "error_vs_runtime.png").exists()
+
+
+def test_stored_run_records_threads_and_machine(tmp_path):
+    from engine.runstore import stored_machine, this_machine
+
+    res = engine.run_uniaxial(tiny())  # 30 particles: one engine thread
+    assert res.scalars["threads"] == 1.0
+    path = save_run(tmp_path / "ref-s1.h5", res, keep_particles=False)
+    assert stored_machine(path) == this_machine()
+    assert this_machine()["logical_cpus"] >= 1 and this_machine()["cpu"]
+    assert load_run(path).scalars["threads"] == 1.0
+
+
+def test_runs_selection_runs_only_the_named_runs_not_stored():
+    from benchmarks.reproduce import SKIPPED, experiments, select
+
+    spec = experiments("paper")["c_eepa_cohesionless"]
+    keys = [p.key for p in spec.planned_runs()]
+    assert keys[:3] == ["ref-s1", "ref-s2", "ref-s3"] and len(keys) == 7
+    done, todo = select(spec, {"ref-s1": "stored"}, None)
+    assert todo == keys[1:] and done == {"ref-s1": "stored"}
+    done, todo = select(spec, {"ref-s1": "stored"}, ["ref-s1", "r5mm-linear-s2"])
+    assert todo == ["r5mm-linear-s2"]
+    assert done["ref-s1"] == "stored" and done["ref-s2"] == SKIPPED
+
+
+def test_batch_starts_jobs_as_cores_free_and_kills_at_the_deadline(tmp_path):
+    import sys
+
+    from benchmarks.run_batch import parse_job, run_batch
+
+    naps = {"a": 0.2, "b": 0.2, "c": 0.2, "d": 60.0}
+
+    def argv(job, scale, store):
+        return [sys.executable, "-c", f"import time; time.sleep({naps[job.key]})"]
+
+    jobs = [parse_job(t) for t in ("x:a:2", "x:b:1", "x:c:1", "x:d:1")]
+    run_batch(jobs, cores=3, deadline=5.0, scale="quick", store=tmp_path, logs=tmp_path,
+              poll=0.05, argv_of=argv)
+    by = {j.key: j for j in jobs}
+    assert [by[k].state for k in "abcd"] == ["done"] * 3 + ["killed at the deadline"]
+    assert by["a"].start == by["b"].start < 0.01  # 2 + 1 threads fill the 3 cores at once
+    assert by["c"].start >= 0.2  # waited for a core
+    assert 5.0 <= by["d"].end < 10.0
+    with pytest.raises(SystemExit, match="threads"):
+        parse_job("x:a:0")

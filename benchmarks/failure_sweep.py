@@ -12,13 +12,19 @@ K1 = 5e3, K2 = 2.5e4 N/m, f0 = -0.8 N, platen friction 0.3, a 50 x 50 x 100 mm s
 - ``adhesion_x4`` and ``adhesion_x0.25``: f0 = -3.2 N and -0.2 N (adhesion against the
   20 kPa consolidation);
 - ``tall``: a 50 x 50 x 200 mm sample, height / width 4 instead of 2 (aspect ratio);
-- ``strain_25``: the strain limit 25 % instead of 10 % (a peak beyond the limit).
+- ``strain_25``: the strain limit 25 % instead of 10 % (a peak beyond the limit);
+- ``wide``: a 50 x 150 x 100 mm sample, the seed's cross-section of 10 x 30 diameters at the
+  quick height (room for a shear band across the wide side);
+- ``wide_tall``: a 50 x 150 x 200 mm sample, that cross-section and twice the quick height.
 
 How a run is judged was fixed before any was looked at: it *fails* when the driver's failure
 detector (engine.uniaxial.FailureDetector: the stress falls ``failure_drop`` = 20 % below its
 peak, the peak past ``failure_strain`` = 0.5 %) fires within the 10 % strain limit; otherwise
 it *hardens*, and its strength is the documented fallback (the largest stress up to the
-limit; ``strain_25`` was added after the first five, to look past the 10 % limit). Runs are
+limit; ``strain_25`` was added after the first five, to look past the 10 % limit, and
+``wide`` after the paper-scale references (10 x 30 x 60 diameters) were seen to fail, to
+tell whether their width or their height makes the difference, and ``wide_tall`` after
+``wide`` hardened, with the same judgement). Runs are
 stored in ``benchmarks/results/quick/failure_sweep/<variant>.h5``; the report
 (docs/FAILURE.md and docs/figures/failure_sweep.png) is recomputed from them.
 """
@@ -49,6 +55,8 @@ def variants() -> dict[str, engine.UniaxialTest]:
         "adhesion_x0.25": replace(base, pair_law=replace(LAW, f0=-0.2)),
         "tall": replace(base, cell=(0.05, 0.05, 0.2)),
         "strain_25": replace(base, max_unconfined_strain=0.25),
+        "wide": replace(base, cell=(0.05, 0.15, 0.1)),
+        "wide_tall": replace(base, cell=(0.05, 0.15, 0.2)),
     }
 
 
@@ -171,13 +179,33 @@ def _paper_references(ax) -> list[str]:
                     f"{stress[k] / 1e3:.2f} at {100 * strain[k]:.1f} | "
                     f"{s['unconfined_strength'] / 1e3:.2f} |")
         ax.plot(100 * strain, stress / 1e3, "--", label=f"paper {path.stem}")
+    rows += ["", _width_or_height(), ""]
+    return rows
+
+
+def _width_or_height() -> str:
+    """Which of the seed's wider and taller sample makes its references fail, from the
+    stored ``tall`` and ``wide`` variants (computed, not written)."""
+    tests = variants()
+    out = {n: stored(n, tests[n]) for n in ("tall", "wide")}
+    fails = {n: bool(r.scalars["unconfined_failure"]) for n, r in out.items()
+             if r is not None and not isinstance(r, str)}
     quick = engine.preset("quick")
     d = 2 * quick.radius
-    rows += ["", f"The quick samples are {quick.cell[0] / d:.0f} x {quick.cell[1] / d:.0f} "
-             "diameters in cross-section (the `tall` one too). Where a reference above fails "
-             "and no quick variant does, the seed's wider and taller sample is what differs; "
-             "which of the two matters was not isolated.", ""]
-    return rows
+    text = (f"The quick samples are {quick.cell[0] / d:.0f} x {quick.cell[1] / d:.0f} "
+            "diameters in cross-section (`tall` too), `wide` "
+            f"{tests['wide'].cell[0] / d:.0f} x {tests['wide'].cell[1] / d:.0f}. ")
+    if len(fails) < 2:
+        return text + "Whether width or height matters: `tall` or `wide` is not stored yet."
+    if fails["wide"] and not fails["tall"]:
+        return text + ("`wide` fails and `tall` hardens: the seed's wider cross-section, "
+                       "not its height, is what lets a sample fail.")
+    if fails["tall"] and not fails["wide"]:
+        return text + "`tall` fails and `wide` hardens: the height is what lets it fail."
+    if fails["tall"] and fails["wide"]:
+        return text + "Both `tall` and `wide` fail: either suffices."
+    return text + ("Neither `tall` nor `wide` fails: neither alone; the seed's sample is "
+                   "both wider and taller (10 x 30 x 60 diameters).")
 
 
 def _reading(strengths: dict[str, float], fails: dict[str, bool]) -> list[str]:
@@ -191,7 +219,9 @@ def _reading(strengths: dict[str, float], fails: dict[str, bool]) -> list[str]:
             "tall": "height / width 2 -> 4",
             "adhesion_x4": "adhesion f0 x 4",
             "adhesion_x0.25": "adhesion f0 x 0.25",
-            "strain_25": "strain limit 10 % -> 25 %"}
+            "strain_25": "strain limit 10 % -> 25 %",
+            "wide": "cross-section 10 x 10 -> 10 x 30 diameters",
+            "wide_tall": "cross-section 10 x 30 and height / width 2 -> 4"}
     for name, text in what.items():
         if name in strengths:
             out.append(f"- {text}: strength x {strengths[name] / base:.2f}, "

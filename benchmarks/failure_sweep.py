@@ -184,28 +184,40 @@ def _paper_references(ax) -> list[str]:
 
 
 def _width_or_height() -> str:
-    """Which of the seed's wider and taller sample makes its references fail, from the
-    stored ``tall`` and ``wide`` variants (computed, not written)."""
+    """What the stored ``tall``, ``wide`` and ``wide_tall`` variants say about the seed's
+    sample failing where the quick one hardens (computed, not written)."""
     tests = variants()
-    out = {n: stored(n, tests[n]) for n in ("tall", "wide")}
+    names = ("tall", "wide", "wide_tall")
+    out = {n: stored(n, tests[n]) for n in names}
     fails = {n: bool(r.scalars["unconfined_failure"]) for n, r in out.items()
              if r is not None and not isinstance(r, str)}
-    quick = engine.preset("quick")
-    d = 2 * quick.radius
-    text = (f"The quick samples are {quick.cell[0] / d:.0f} x {quick.cell[1] / d:.0f} "
-            "diameters in cross-section (`tall` too), `wide` "
-            f"{tests['wide'].cell[0] / d:.0f} x {tests['wide'].cell[1] / d:.0f}. ")
-    if len(fails) < 2:
-        return text + "Whether width or height matters: `tall` or `wide` is not stored yet."
-    if fails["wide"] and not fails["tall"]:
-        return text + ("`wide` fails and `tall` hardens: the seed's wider cross-section, "
-                       "not its height, is what lets a sample fail.")
-    if fails["tall"] and not fails["wide"]:
-        return text + "`tall` fails and `wide` hardens: the height is what lets it fail."
-    if fails["tall"] and fails["wide"]:
-        return text + "Both `tall` and `wide` fail: either suffices."
-    return text + ("Neither `tall` nor `wide` fails: neither alone; the seed's sample is "
-                   "both wider and taller (10 x 30 x 60 diameters).")
+    d = 2 * tests["base"].radius
+
+    def dims(n: str) -> str:
+        c = tests[n].cell
+        return f"`{n}` ({c[0] / d:.0f} x {c[1] / d:.0f} x {c[2] / d:.0f} diameters)"
+
+    base = tests["base"].cell
+    paper = engine.preset("paper").cell
+    text = (f"The quick sample is {base[0] / d:.0f} x {base[1] / d:.0f} x {base[2] / d:.0f} "
+            f"diameters; the paper preset differs from it in the cell alone "
+            f"({paper[0] / d:.0f} x {paper[1] / d:.0f} x {paper[2] / d:.0f}). ")
+    missing = [n for n in names if n not in fails]
+    if missing:
+        return text + f"Not stored yet: {', '.join(missing)}."
+    failing = [dims(n) for n in names if fails[n]]
+    if failing:
+        return text + "Failing within the limit: " + ", ".join(failing) + "; hardening: " + (
+            ", ".join(dims(n) for n in names if not fails[n]) or "none") + "."
+    tallest = max(tests[n].cell[2] for n in names)
+    return text + (
+        "None of " + ", ".join(dims(n) for n in names) + " fails. So the seed's cross-section and "
+        "a doubled height, alone or together, do not make a sample fail; what is left is the "
+        f"height itself: the seed's sample is {paper[2] / d:.0f} diameters tall, "
+        f"{paper[2] / paper[0]:.0f} times its {paper[0] / d:.0f}-diameter thickness, against "
+        f"at most {tallest / d:.0f} ({tallest / base[0]:.0f} times) here. A quick variant "
+        "of the seed's height was not run: at the seed's cross-section it is the paper "
+        "reference itself.")
 
 
 def _reading(strengths: dict[str, float], fails: dict[str, bool]) -> list[str]:

@@ -19,8 +19,9 @@ six per coarse variant, whose first quick-scale runs showed that two 286-particl
 diameters thick) scatter too much to decide (loading stiffness 297 and 704 kPa for one rule):
 a coarse run costs about a thirteenth of a reference, so six cost less than half a reference
 and together hold about as many particles as one reference at s = 2 (the verdict rule is
-unchanged). At the paper scale a coarse bed holds 2,578 particles (10 diameters thick), so
-two seeds per variant, as in (a) and (b); (d) is run there at 2 R_ref only, for cost: an EEPA
+unchanged). At the paper scale a coarse bed holds 2,578 particles (9 times as many, in a
+cell as thick, 5 diameters, but 3 times as wide and tall), so two seeds per variant, as in
+(a) and (b); (d) is run there at 2 R_ref only, for cost: an EEPA
 n = 1.5 step costs 1.34x a bilinear one (benchmarks/eepa_cost.py), a cohesive paper-scale
 reference about 1e10 particle-steps, and a 3.75 mm coarse run 3e9.
 Every finished run is stored at once as ``benchmarks/results/<scale>/<experiment>/<run>.h5``
@@ -150,9 +151,7 @@ def run(scale: str, workers: int, only: list[str] | None,
             continue
         t0 = time.perf_counter()
 
-        def on_run(key, outcome, d=d, t0=t0, done=done):
-            if done.get(key) == SKIPPED:
-                return
+        def on_run(key, outcome, d=d, t0=t0):
             save_run(d / f"{key}.h5", outcome, keep_particles=False)
             what = (outcome if isinstance(outcome, str) else
                     f"{outcome.scalars['particles']:.0f} particles, "

@@ -257,7 +257,8 @@ def claim_eepa(res) -> list[str]:
 
         def cells(v):
             return ", ".join(
-                f"{n} {_pct(m['signed_error'], True)} ± {_pct(2 * (m['uncertainty'] or 0))}"
+                f"{n} {_pct(m['signed_error'], True)}" + (
+                    "" if m["uncertainty"] is None else f" ± {_pct(2 * m['uncertainty'])}")
                 for n in shown if (m := _metric(v, n)) is not None)
         out.append(f"R = {r * 1e3:g} mm: (e) similarity **{e}** ({sim['verdict']}: "
                    f"{cells(sim)}); (f) linear stiffness fails: **{f}** ({lin['verdict']}: "

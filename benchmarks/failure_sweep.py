@@ -107,12 +107,9 @@ def report() -> Path:
         if isinstance(res, str):
             rows.append(f"| {name} | - | error: {res} | - | - | - |")
             continue
-        c = res.stages["unconfined"].curves
-        strain, stress = c["strain"], c["stress_top"]
-        k = int(np.argmax(stress))
+        strain, stress, k = _peak(res)
         s = res.scalars
-        rows.append(f"| {name} | {s['particles']:.0f} | "
-                    f"{'yes' if s['unconfined_failure'] else 'no (hardens)'} | "
+        rows.append(f"| {name} | {s['particles']:.0f} | {_outcome(s)} | "
                     f"{stress[k] / 1e3:.2f} at {100 * strain[k]:.1f} | "
                     f"{stress[-1] / 1e3:.2f} | {s['unconfined_strength'] / 1e3:.2f} |")
         ax.plot(100 * strain, stress / 1e3, label=name)
@@ -150,6 +147,16 @@ def report() -> Path:
     return path
 
 
+def _peak(res) -> tuple[np.ndarray, np.ndarray, int]:
+    """Strain, platen stress [Pa] of the unconfined stage and the index of the peak."""
+    c = res.stages["unconfined"].curves
+    return c["strain"], c["stress_top"], int(np.argmax(c["stress_top"]))
+
+
+def _outcome(scalars: dict) -> str:
+    return "yes" if scalars["unconfined_failure"] else "no (hardens)"
+
+
 PAPER_REFERENCES = ROOT / "benchmarks" / "results" / "paper" / "b_cohesive"
 
 
@@ -169,13 +176,10 @@ def _paper_references(ax) -> list[str]:
     for path in paths:
         res = load_run(path)
         s = res.scalars
-        c = res.stages["unconfined"].curves
-        strain, stress = c["strain"], c["stress_top"]
-        k = int(np.argmax(stress))
+        strain, stress, k = _peak(res)
         cell = np.asarray(res.test.cell) / (2 * res.test.radius)
         rows.append(f"| {path.stem} | {s['particles']:.0f} | {cell[0]:.0f} x {cell[1]:.0f} x "
-                    f"{s['height_diameters']:.0f} | "
-                    f"{'yes' if s['unconfined_failure'] else 'no (hardens)'} | "
+                    f"{s['height_diameters']:.0f} | {_outcome(s)} | "
                     f"{stress[k] / 1e3:.2f} at {100 * strain[k]:.1f} | "
                     f"{s['unconfined_strength'] / 1e3:.2f} |")
         ax.plot(100 * strain, stress / 1e3, "--", label=f"paper {path.stem}")

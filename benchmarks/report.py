@@ -70,8 +70,6 @@ def verdict_table(res: engine.StudyResult) -> str:
                          if n in names) + " | verdict |")
     lines = [head, "|" + "---|" * (6 + len(names))]
     rules = {r.name: r for r in res.spec.rules}
-    ref_ps = np.mean([r.result.scalars["particle_steps"] for r in res.runs.values()
-                      if r.rule is None])
     for v in res.advisor["verdicts"]:
         r = rules[v["rule"]]
         cells = []
@@ -83,15 +81,22 @@ def verdict_table(res: engine.StudyResult) -> str:
             u = "" if m["uncertainty"] is None else f" ± {200 * m['uncertainty']:.1f}"
             cells.append(f"{100 * m['signed_error']:+.1f}{u} % ({m['verdict']})")
         sp = v.get("speedup")
-        ps = [x.result.scalars["particle_steps"] for x in res.runs.values()
-              if x.rule is not None and x.rule.name == v["rule"]
-              and abs(x.radius - v["radius"]) < 1e-12]
-        ratio = f"{ref_ps / np.mean(ps):.1f}x" if ps else "-"
+        ps = particle_steps_ratio(res, v["rule"], v["radius"])
+        ratio = "-" if ps is None else f"{ps:.1f}x"
         a, b, _ = r.exponents(res.spec.reference.pair_law)
         lines.append(f"| {v['radius'] * 1e3:g} | {r.name} ({a:g}, {b:g}) | {v['seeds']} | "
                      f"{'-' if sp is None else f'{sp:.1f}x'} | {ratio} | " + " | ".join(cells)
                      + f" | **{v['verdict']}** |")
     return "\n".join(lines)
+
+
+def particle_steps_ratio(res: engine.StudyResult, rule: str, radius: float) -> float | None:
+    """Mean particle-steps of the references over those of the variant's seeds (the cost
+    ratio that does not depend on machine, load or threads); None without a variant run."""
+    ps = [x.result.scalars["particle_steps"] for x in res.runs.values()
+          if x.rule is not None and x.rule.name == rule and abs(x.radius - radius) < 1e-12]
+    ref = [x.result.scalars["particle_steps"] for x in res.runs.values() if x.rule is None]
+    return float(np.mean(ref) / np.mean(ps)) if ps and ref else None
 
 
 def _ran_on(s: dict, machine: dict | None) -> str:
@@ -194,34 +199,23 @@ def claim_c(res) -> list[str]:
     return out
 
 
-def timing_setups(res: engine.StudyResult, machines: dict | None) -> set:
-    """The distinct (engine threads, machine) under which the runs' wall times were measured
-    (None for what was not recorded)."""
-    machines = machines or {}
-    return {(r.result.scalars.get("threads"),
-             None if machines.get(k) is None else json.dumps(machines[k], sort_keys=True))
-            for k, r in res.runs.items()}
-
-
 def comparable_wall_times(res: engine.StudyResult, machines: dict | None) -> bool:
-    """Whether every run's wall time was measured with the same threads on the same, known
-    machine: only then is a wall-time ratio a speed-up."""
-    setups = timing_setups(res, machines)
+    """Whether every run's wall time was measured with the same engine threads on the same,
+    known machine: only then is a wall-time ratio a speed-up."""
+    machines = machines or {}
+    setups = {(r.result.scalars.get("threads"),
+               None if machines.get(k) is None else json.dumps(machines[k], sort_keys=True))
+              for k, r in res.runs.items()}
     return len(setups) == 1 and None not in next(iter(setups))
 
 
 def claim_d(res, machines: dict | None = None) -> str:
     """The seed's ~9x: judged on particle-steps, which do not depend on the machine, its load
     or the thread count; wall-time ratios are quoted only where every run was timed alike."""
-    refs = [r for r in res.runs.values() if r.rule is None]
-    b2 = {}
-    for r in res.runs.values():
-        if r.rule is not None and r.rule.name == "b2":
-            b2.setdefault(r.radius, []).append(r.result.scalars["particle_steps"])
-    if not refs or not b2:
+    ps = {rad: v for rad in res.spec.coarse_radii
+          if (v := particle_steps_ratio(res, "b2", rad)) is not None}
+    if not ps:
         return "*undecided*: no paper-rule runs."
-    ref_ps = np.mean([r.result.scalars["particle_steps"] for r in refs])
-    ps = {rad: ref_ps / np.mean(v) for rad, v in sorted(b2.items())}
     s = np.array([rad / res.spec.reference.radius for rad in ps])
     k = float(np.mean(np.log(list(ps.values())) / np.log(s)))
     at = (3.75 / 2.0) ** k

@@ -1,24 +1,38 @@
 r"""From metric values to verdicts (docs/PHYSICS.md section 7).
 
-For every verdict metric (:data:`engine.metrics.METRICS`):
+For every verdict metric (:data:`engine.metrics.METRICS`), with the reference seeds' values
+:math:`r_i` and a coarse variant's seeds' values :math:`c_j` (per stress level for density
+and coordination):
 
 - the **reference** is the mean of the reference seeds' values; its **noise floor** is their
-  seed-to-seed spread (sample standard deviation) relative to the mean: how much one fine run
-  differs from another with nothing changed but the packing;
-- a coarse variant (radius, rule) has the **error** of its seeds' mean values against the
-  reference (relative RMS over the stress levels), and the **uncertainty** of that error,
-  :math:`u = \sqrt{s_r^2/n_r + s_c^2/n_c}` relative to the reference, from the reference
-  spread :math:`s_r` over :math:`n_r` seeds and the variant's spread :math:`s_c` over its
-  :math:`n_c` seeds (with a single coarse seed, :math:`s_c` is taken as :math:`s_r`);
-- the verdict on the metric, with the expanded uncertainty :math:`U = 2u` (about 95 %
-  coverage, the metrology convention): ``equivalent`` when :math:`e + U \le` tolerance,
-  ``differs`` when :math:`e - U >` tolerance, else ``undecided`` (noise too large to tell);
-  with fewer than two reference seeds there is no noise floor and every verdict is
-  ``undecided``.
+  seed-to-seed spread (sample standard deviation) relative to the mean;
+- the variant's relative error at a level is :math:`\rho - 1` with the ratio of means
+  :math:`\rho = \mu_c / \mu_r` (for the strength of a reference weaker than 5 % of the
+  consolidation stress: the difference over that floor); its interval is Fieller's for
+  the ratio with min(n_c, n_r) - 1 degrees of freedom (Hsu: it holds for any two spreads, where
+  Welch-Satterthwaite does not with two seeds on a side) and a Student-t quantile
+  (:mod:`engine.intervals`): it holds for the seeds actually run, 2 or more on each side,
+  spreads not assumed equal;
+- the verdict is two one-sided tests (TOST) at error rate :math:`\alpha = 1 -`
+  confidence (default 95 %): ``equivalent`` when, at every level, the interval at
+  one-sided rate :math:`\alpha` lies inside ± tolerance (an intersection-union test: a
+  variant whose true error exceeds the tolerance at any level is called equivalent in at
+  most :math:`\alpha` of studies); ``differs`` when the interval of the level-summed ratio
+  (for a curve; the value itself for a scalar metric) lies wholly outside ± tolerance at
+  one-sided rate :math:`\alpha / M` over the :math:`M` metrics judged (Bonferroni: a
+  variant inside the tolerance in every metric is called different in at most
+  :math:`\alpha` of studies; the summed ratio is a weighted mean of the level ratios, so
+  it is outside the tolerance only if some level is); else ``undecided``;
+- a study that adds seeds until decided looks at the data up to ``looks`` times; each look
+  spends :math:`\alpha /` looks (Bonferroni over looks), so peeking keeps the rates;
+- with fewer than two reference seeds, or fewer than two seeds of the variant, a spread is
+  unknown and the metric is ``undecided``.
 
 A (radius, rule) ``differs`` when any metric differs, is ``equivalent`` when all are, and is
-``undecided`` otherwise; its reason says which metrics decided, with numbers. These rules
-were fixed before any study was judged by them.
+``undecided`` otherwise; its reason says which metrics decided, with their intervals, and
+an undecided metric says how many more seeds would decide it if the means and spreads
+stayed as observed. docs/PHYSICS.md section 7 states why; tests/engine/test_coverage.py
+proves the rates by simulation.
 """
 
 from __future__ import annotations
@@ -27,22 +41,37 @@ import math
 
 import numpy as np
 
-from .metrics import METRICS, reference_scale, relative_error, signed_error
+from .intervals import fieller, hsu_df, t_quantile, welch_interval
+from .metrics import METRICS, STRENGTH_FLOOR, reference_scale, relative_error, signed_error
 from .uniaxial_spec import MIN_THICKNESS_DIAMETERS
 
-#: Coverage factor of the expanded uncertainty (2: about 95 % for a normal error).
-COVERAGE = 2.0
+#: Default confidence of a verdict: 1 - the largest rate of a wrong ``equivalent`` or of a
+#: wrong ``differs`` [-].
+CONFIDENCE = 0.95
+
+#: Most seeds a "would need" estimate looks for (beyond it: "more than" this).
+MAX_SEEDS_NEEDED = 100
 
 VERDICTS = ("equivalent", "differs", "undecided")
 
 
+def error_rates(confidence: float, metrics_judged: int, looks: int = 1) -> tuple[float, float]:
+    """One-sided error rates (equivalence, differs) of one metric's tests for a variant
+    judged on ``metrics_judged`` metrics over ``looks`` looks (module docstring)."""
+    if not 0.5 < confidence < 1.0:
+        raise ValueError(f"confidence {confidence} outside (0.5, 1)")
+    alpha = 1.0 - confidence
+    return alpha / looks, alpha / (looks * max(metrics_judged, 1))
+
+
 def _stack(values: list[dict], name: str) -> np.ndarray:
-    return np.array([v[name] for v in values], dtype=float)
+    return np.array([np.atleast_1d(v[name]) for v in values], dtype=float)
 
 
 def noise_floor(ref_values: list[dict], names, consolidation_stress: float) -> dict:
-    """Per metric, the reference mean values, spread (per level) and the relative noise
-    floor [-] (RMS over levels of spread / scale); the floor is None with one seed."""
+    """Per metric, the reference seeds' ``values`` (seeds x levels), mean values, spread
+    (per level) and the relative noise floor [-] (RMS over levels of spread / scale); the
+    floor is None with one seed."""
     out = {}
     for n in names:
         a = _stack(ref_values, n)
@@ -50,51 +79,160 @@ def noise_floor(ref_values: list[dict], names, consolidation_stress: float) -> d
         sd = a.std(axis=0, ddof=1) if len(a) > 1 else None
         scale = reference_scale(n, mean, consolidation_stress)
         floor = None if sd is None else float(np.sqrt(np.mean((sd / scale) ** 2)))
-        out[n] = {"mean": mean, "sd": sd, "noise": floor, "seeds": len(a)}
+        out[n] = {"values": a, "mean": mean, "sd": sd, "noise": floor, "seeds": len(a)}
     return out
 
 
+def _floored(name: str, ref_mean: float, consolidation_stress: float) -> float | None:
+    """The constant scale of a strength compared against the 5 % floor, else None."""
+    if name == "strength" and abs(ref_mean) < STRENGTH_FLOOR * consolidation_stress:
+        return STRENGTH_FLOOR * consolidation_stress
+    return None
+
+
+def relative_interval(c, r, alpha: float, floor: float | None = None
+                      ) -> tuple[float, float, float, float]:
+    """Relative error of the mean of ``c`` against that of ``r`` (1-D samples, two or more
+    values each) with its interval at one-sided rate ``alpha`` per end: (error, low, high,
+    degrees of freedom). Fieller's interval of the ratio minus 1, or, with a constant
+    ``floor`` scale, Welch's interval of the difference over it."""
+    if floor is not None:
+        d, lo, hi, df = welch_interval(np.asarray(c) / floor, np.asarray(r) / floor, alpha)
+        return d, lo, hi, df
+    rho, lo, hi, df = fieller(c, r, alpha)
+    return rho - 1.0, lo - 1.0, hi - 1.0, df
+
+
 def judge_metric(name: str, values: list[dict], ref: dict, tolerance: float,
-                 consolidation_stress: float) -> dict:
-    """Error, uncertainty and verdict of one metric of one (radius, rule) (module
-    docstring). ``values``: the variant's metric values per seed; ``ref``: this metric's
-    entry of :func:`noise_floor`."""
+                 consolidation_stress: float, alpha_equivalent: float = 1 - CONFIDENCE,
+                 alpha_differs: float = 1 - CONFIDENCE) -> dict:
+    """Error, interval and verdict of one metric of one (radius, rule) (module docstring).
+    ``values``: the variant's metric values per seed; ``ref``: this metric's entry of
+    :func:`noise_floor`; the two one-sided error rates as from :func:`error_rates`."""
     a = _stack(values, name)
     mean = a.mean(axis=0)
     err = relative_error(name, mean, ref["mean"], consolidation_stress)
     signed = signed_error(name, mean, ref["mean"], consolidation_stress)
     out = {"metric": name, "error": err, "signed_error": signed, "tolerance": tolerance,
-           "noise": ref["noise"], "seeds": len(a), "reference_seeds": ref["seeds"]}
-    if ref["sd"] is None:
-        out.update(uncertainty=None, verdict="undecided")
+           "noise": ref["noise"], "seeds": len(a), "reference_seeds": ref["seeds"],
+           "alpha_equivalent": alpha_equivalent, "alpha_differs": alpha_differs,
+           "interval": None, "differs_interval": None, "level": None, "df": None,
+           "uncertainty": None, "needs": None}
+    if ref["seeds"] < 2 or len(a) < 2:
+        out.update(verdict="undecided")
         return out
-    sd_c = a.std(axis=0, ddof=1) if len(a) > 1 else ref["sd"]
-    scale = reference_scale(name, ref["mean"], consolidation_stress)
-    u2 = (ref["sd"] / scale) ** 2 / ref["seeds"] + (sd_c / scale) ** 2 / len(a)
-    u = float(np.sqrt(np.mean(u2)))
-    big_u = COVERAGE * u
-    if err + big_u <= tolerance:
-        verdict = "equivalent"
-    elif err - big_u > tolerance:
-        verdict = "differs"
+    r = ref["values"]
+    levels = a.shape[1]
+    floor = _floored(name, float(ref["mean"][0]), consolidation_stress) if levels == 1 else None
+    per_level = [relative_interval(a[:, k], r[:, k], alpha_equivalent, floor)
+                 for k in range(levels)]
+    excess = [max(hi - tolerance, -tolerance - lo) for _, lo, hi, _ in per_level]
+    k = int(np.argmax(excess))
+    equivalent = excess[k] <= 0
+    if levels == 1:
+        dd = relative_interval(a[:, 0], r[:, 0], alpha_differs, floor)
     else:
-        verdict = "undecided"
-    out.update(uncertainty=u, verdict=verdict)
+        dd = relative_interval(a.sum(axis=1), r.sum(axis=1), alpha_differs)
+    differs = dd[1] > tolerance or dd[2] < -tolerance
+    sc = reference_scale(name, ref["mean"], consolidation_stress)
+    u2 = (a.var(axis=0, ddof=1) / len(a) + r.var(axis=0, ddof=1) / len(r)) / sc**2
+    out.update(interval=[per_level[k][1], per_level[k][2]], level=None if levels == 1 else k,
+               level_error=per_level[k][0], df=per_level[k][3],
+               differs_interval=[dd[1], dd[2]], differs_error=dd[0],
+               uncertainty=float(np.sqrt(np.mean(u2))),
+               verdict="differs" if differs else "equivalent" if equivalent else "undecided")
+    if out["verdict"] == "undecided":
+        out["needs"] = seeds_needed(name, a, r, tolerance, consolidation_stress,
+                                    alpha_equivalent, alpha_differs)
     return out
 
 
-def _one_seed_note(metrics: list[dict]) -> str:
-    if metrics and metrics[0].get("seeds") == 1:
-        return ("; one seed of this variant: its spread is taken as the reference's, which "
-                "understates it for a coarse bed of fewer particles; run two or more seeds")
-    return ""
+def _decides(c_mean, c_var, n, r_mean, r_var, m, tolerance, alpha_e, alpha_d, floor) -> bool:
+    """Whether the metric would be decided with n coarse and m reference seeds if the means
+    and spreads stayed as observed (the delta-method interval of the relative error with
+    the verdicts' min(n, m) - 1 degrees of freedom)."""
+    df = hsu_df(n, m)
+    te = t_quantile(1 - alpha_e, df)
+    td = t_quantile(1 - alpha_d, df)
+    if floor is None:
+        rho = c_mean / r_mean
+        u = np.sqrt((c_var / n + rho * rho * r_var / m) / (r_mean * r_mean))
+    else:
+        rho = 1.0 + (c_mean - r_mean) / floor
+        u = np.sqrt((c_var / n + r_var / m) / floor**2)
+    if bool(np.all(np.abs(rho - 1.0) + te * u <= tolerance)):
+        return True
+    # differs: the summed levels (or the one value) beyond the tolerance
+    if floor is None:
+        cs, rs = float(np.sum(c_mean)), float(np.sum(r_mean))
+        rho_s = cs / rs
+        u_s = float(np.sqrt((np.sum(c_var) / n + rho_s * rho_s * np.sum(r_var) / m) / rs**2))
+        d = rho_s - 1.0
+    else:
+        d, u_s = float(rho[0] - 1.0), float(u[0])
+    return abs(d) - td * u_s > tolerance
+
+
+def seeds_needed(name: str, c: np.ndarray, r: np.ndarray, tolerance: float,
+                 consolidation_stress: float, alpha_e: float, alpha_d: float) -> dict:
+    """How many more seeds would decide an undecided metric if its means and spreads stayed
+    as observed: ``coarse`` (more coarse seeds, reference seeds as they are), or
+    ``coarse_and_reference`` (the same number more of each) where coarse seeds alone cannot,
+    each None when more than :data:`MAX_SEEDS_NEEDED` would be needed (an error that sits
+    at the tolerance is decided by no seed count)."""
+    c_mean, r_mean = c.mean(axis=0), r.mean(axis=0)
+    c_var, r_var = c.var(axis=0, ddof=1), r.var(axis=0, ddof=1)
+    floor = _floored(name, float(r_mean[0]), consolidation_stress) if c.shape[1] == 1 else None
+    n0, m0 = len(c), len(r)
+
+    def first(pred):
+        lo, hi = 0, MAX_SEEDS_NEEDED
+        if not pred(hi):
+            return None
+        while lo < hi:  # smallest k with pred(k): decidedness grows with seeds
+            mid = (lo + hi) // 2
+            if pred(mid):
+                hi = mid
+            else:
+                lo = mid + 1
+        return lo
+
+    coarse = first(lambda k: _decides(c_mean, c_var, n0 + k, r_mean, r_var, m0, tolerance,
+                                      alpha_e, alpha_d, floor))
+    both = None if coarse is not None else first(
+        lambda k: _decides(c_mean, c_var, n0 + k, r_mean, r_var, m0 + k, tolerance,
+                           alpha_e, alpha_d, floor))
+    return {"coarse": coarse, "coarse_and_reference": both}
+
+
+def _pct(x: float) -> str:
+    return f"{100 * x:+.1f} %"
 
 
 def _describe(m: dict) -> str:
-    direction = "over" if m["signed_error"] > 0 else "under"
-    u = "" if m["uncertainty"] is None else f" ± {COVERAGE * m['uncertainty']:.1%}"
-    return (f"{m['metric']} {m['error']:.1%}{u} ({direction}) against tolerance "
-            f"{m['tolerance']:.0%}")
+    tol = f"± {m['tolerance']:.0%}"
+    if m["interval"] is None:
+        return f"{m['metric']} {_pct(m['signed_error'])} (spread unknown) against {tol}"
+    conf = 1 - m["alpha_equivalent"]
+    if m["verdict"] == "differs":
+        lo, hi = m["differs_interval"]
+        what = "summed over levels " if m["level"] is not None else ""
+        return (f"{m['metric']} {what}{_pct(m['differs_error'])} in [{_pct(lo)}, {_pct(hi)}] "
+                f"({1 - m['alpha_differs']:.1%} one-sided) against {tol}")
+    lo, hi = m["interval"]
+    at = "" if m["level"] is None else f" at its worst level {m['level'] + 1}"
+    text = (f"{m['metric']} {_pct(m['level_error'])}{at} in [{_pct(lo)}, {_pct(hi)}] "
+            f"({conf:.1%} one-sided per end, {m['df']:.1f} dof) against {tol}")
+    need = m.get("needs")
+    if need is not None:
+        if need["coarse"] is not None:
+            text += f"; about {need['coarse']} more coarse seeds would decide it"
+        elif need["coarse_and_reference"] is not None:
+            text += (f"; about {need['coarse_and_reference']} more coarse and reference "
+                     "seeds each would decide it")
+        else:
+            text += f"; more than {MAX_SEEDS_NEEDED} more seeds would be needed"
+    return text
 
 
 def verdict(metrics: list[dict]) -> tuple[str, str]:
@@ -103,20 +241,24 @@ def verdict(metrics: list[dict]) -> tuple[str, str]:
         return "undecided", ("one reference seed: the reference's own spread is unknown, so "
                              "no error can be told apart from noise; run two or more "
                              "reference seeds")
+    if metrics and metrics[0]["seeds"] < 2:
+        return "undecided", ("one seed of this variant: its own spread is unknown (a coarse "
+                             "bed of fewer particles scatters more than the reference), so "
+                             "no interval holds; run two or more seeds: "
+                             + "; ".join(_describe(m) for m in metrics))
     differs = [m for m in metrics if m["verdict"] == "differs"]
     undecided = [m for m in metrics if m["verdict"] == "undecided"]
-    note = _one_seed_note(metrics)
     if differs:
         return "differs", "differs beyond noise in " + "; ".join(
-            _describe(m) for m in differs) + note
+            _describe(m) for m in differs)
     if undecided:
         ok = [m["metric"] for m in metrics if m["verdict"] == "equivalent"]
         reason = "noise too large to tell for " + "; ".join(_describe(m) for m in undecided)
         if ok:
             reason += "; within tolerance: " + ", ".join(ok)
-        return "undecided", reason + note
+        return "undecided", reason
     return "equivalent", "within tolerance beyond noise: " + "; ".join(
-        _describe(m) for m in metrics) + note
+        _describe(m) for m in metrics)
 
 
 def finite_size_warnings(groups: list[dict]) -> list[str]:
@@ -164,7 +306,8 @@ def advise(spec, groups: list[dict], verdicts: list[dict],
             fit = f", fitted b = {v['fitted']:.2f}" if v.get("fitted") is not None else ""
             lines.append(f"adhesion exponent at R = {float(r) * 1e3:g} mm: closest b = "
                          f"{v['best']:g}{fit}")
-    return {"tolerances": dict(spec.tolerances), "coverage": COVERAGE, "rules": rules,
+    return {"tolerances": dict(spec.tolerances),
+            "confidence": getattr(spec, "confidence", CONFIDENCE), "rules": rules,
             "verdicts": verdicts, "warnings": warnings, "adhesion_exponent": adhesion,
             "message": "; ".join(lines + warnings)}
 
@@ -206,16 +349,18 @@ def adhesion_advice(spec, groups: list[dict], reference_strength: float | None
 
 
 def judge_groups(spec, ref_values: list[dict], variants: dict[tuple, list[dict]],
-                 names) -> tuple[dict, list[dict]]:
+                 names, looks: int = 1) -> tuple[dict, list[dict]]:
     """Noise floor and verdicts: ``ref_values`` per reference seed, ``variants`` maps
-    (radius, rule name) to the metric values of its seeds. Returns (noise floor per metric
-    as JSON-friendly numbers, verdicts list)."""
+    (radius, rule name) to the metric values of its seeds; ``looks``: how many times a
+    study may judge its data (1 for a fixed study). Returns (noise floor per metric as
+    JSON-friendly numbers, verdicts list)."""
     cons = spec.reference.consolidation_stress
     floor = noise_floor(ref_values, names, cons)
+    alpha_e, alpha_d = error_rates(getattr(spec, "confidence", CONFIDENCE), len(names), looks)
     out = []
     for (radius, rule), values in variants.items():
-        per_metric = [judge_metric(n, values, floor[n], spec.tolerances[n], cons)
-                      for n in names]
+        per_metric = [judge_metric(n, values, floor[n], spec.tolerances[n], cons,
+                                   alpha_e, alpha_d) for n in names]
         v, reason = verdict(per_metric)
         out.append({"radius": radius, "rule": rule, "verdict": v, "reason": reason,
                     "seeds": len(values), "metrics": per_metric})
@@ -223,5 +368,6 @@ def judge_groups(spec, ref_values: list[dict], variants: dict[tuple, list[dict]]
     return noise, out
 
 
-__all__ = ["COVERAGE", "METRICS", "VERDICTS", "adhesion_advice", "advise",
-           "finite_size_warnings", "judge_groups", "judge_metric", "noise_floor", "verdict"]
+__all__ = ["CONFIDENCE", "METRICS", "VERDICTS", "adhesion_advice", "advise", "error_rates",
+           "finite_size_warnings", "judge_groups", "judge_metric", "noise_floor",
+           "relative_interval", "seeds_needed", "verdict"]

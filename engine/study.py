@@ -14,10 +14,11 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .adaptive import Addition, next_runs
 from .advisor import advise, judge_groups
 from .channel import task_progress
 from .errors import StopRequested
@@ -219,6 +220,7 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
     weights = _weights(planned)
     outcomes: dict[str, UniaxialResult | str] = dict(completed or {})
     todo = [i for i, p in enumerate(planned) if p.key not in outcomes]
+    progress = _monotone_progress(progress)
 
     refs = [q.key for q in planned if q.is_reference]
 
@@ -230,14 +232,132 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
             # every reference failed: nothing can be compared, stop at once
             raise RunFailed(refs[0], outcomes[refs[0]])
 
-    if executor is None:
-        _run_here(planned, todo, weights, outcomes, progress, record)
-    else:
-        if channel is not None:
-            channel.reset()
-        _run_on(executor, planned, todo, weights, outcomes, progress, record, task_threads,
-                channel, poll_interval)
-    return assemble(spec, planned, outcomes)
+    _check_executor(executor)
+    if executor is not None and channel is not None:
+        channel.reset()
+
+    def run(todo: list[int]) -> None:
+        if executor is None:
+            _run_here(planned, todo, weights, outcomes, progress, record)
+        else:
+            _run_on(executor, planned, todo, weights, outcomes, progress, record,
+                    task_threads, channel, poll_interval)
+
+    run(todo)
+    added: list[dict] = []
+    stopped = None
+    if spec.decide:
+        spent = 0.0
+        for round_no in range(1, spec.rounds + 1):
+            new = _added_runs(spec, planned, outcomes, round_no, spent)
+            if not new:
+                stopped = "every verdict decided" if round_no == 1 or not _open(
+                    spec, planned, outcomes) else "caps or budget reached"
+                break
+            for p, a in new:
+                planned.append(p)
+                spent += estimated_steps(p.test) * p.test.n_particles
+                added.append({"run": p.key, "round": a.round, "kind": a.kind,
+                              "reason": a.reason})
+            weights = _weights(planned)
+            run([i for i, p in enumerate(planned) if p.key not in outcomes])
+        else:
+            stopped = f"{spec.rounds} rounds run"
+        if stopped == "every verdict decided" and _open(spec, planned, outcomes):
+            stopped = "caps or budget reached"
+    result = assemble(spec, planned, outcomes)
+    if spec.decide:
+        result.advisor["adaptive"] = {
+            "planned_runs": len(spec.planned_runs()), "added_runs": added,
+            "looks": spec.looks, "stopped": stopped,
+            "budget": spec.budget, "added_particle_steps": float(sum(
+                estimated_steps(p.test) * p.test.n_particles for p in planned
+                if any(a["run"] == p.key for a in added)))}
+    return result
+
+
+def _monotone_progress(progress: StudyCallback | None) -> StudyCallback | None:
+    """The callback with a fraction that never goes backwards (runs of other processes
+    report out of order, and an adaptive study's added runs enlarge the whole)."""
+    if progress is None:
+        return None
+    last = [0.0]
+
+    def call(report: StudyProgress):
+        last[0] = max(last[0], report.fraction)
+        if report.fraction < last[0]:
+            report = replace(report, fraction=last[0])
+        return progress(report)
+
+    return call
+
+
+def _check_executor(executor) -> None:
+    """Refuse a process pool that forks this (OpenMP-threaded) process: its workers die at
+    the first run with BrokenProcessPool."""
+    if isinstance(executor, cf.ProcessPoolExecutor):
+        ctx = getattr(executor, "_mp_context", None)
+        if ctx is not None and ctx.get_start_method() == "fork":
+            raise ValueError(
+                "executor: a ProcessPoolExecutor with the 'fork' start method cannot run "
+                "engine runs (a forked child of a process that already ran the threaded "
+                "engine dies with BrokenProcessPool); use ProcessPoolExecutor(n, "
+                "mp_context=multiprocessing.get_context('spawn')) or 'forkserver'")
+
+
+def _judged_values(spec: StudySpec, planned: list[PlannedRun], outcomes: dict):
+    """Metric values of the finished references and of every variant's finished seeds."""
+    names = metric_names(spec.reference.unconfined)
+    ok = [p for p in planned if p.key in outcomes and not isinstance(outcomes[p.key], str)]
+    ref_values = [metric_values(outcomes[p.key]) for p in ok if p.is_reference]
+    variants: dict[tuple, list[dict]] = {}
+    for p in ok:
+        if not p.is_reference:
+            variants.setdefault((p.radius, p.rule.name), []).append(metric_values(outcomes[p.key]))
+    return names, ref_values, variants
+
+
+def _open(spec, planned, outcomes) -> bool:
+    """Whether some verdict is still undecided."""
+    names, ref_values, variants = _judged_values(spec, planned, outcomes)
+    if not ref_values:
+        return False
+    _, verdicts = judge_groups(spec, ref_values, variants, names, looks=spec.looks)
+    return any(v["verdict"] == "undecided" for v in verdicts)
+
+
+def _added_runs(spec: StudySpec, planned: list[PlannedRun], outcomes: dict, round_no: int,
+                spent: float) -> list[tuple[PlannedRun, Addition]]:
+    """The runs round ``round_no`` adds (engine.adaptive), as planned runs with new seeds."""
+    names, ref_values, variants = _judged_values(spec, planned, outcomes)
+    if not ref_values:
+        return []
+    _, verdicts = judge_groups(spec, ref_values, variants, names, looks=spec.looks)
+    cost = {}
+    for p in planned:
+        k = "reference" if p.is_reference else (p.radius, p.rule.name)
+        cost.setdefault(k, estimated_steps(p.test) * p.test.n_particles)
+    budget_left = None if spec.budget is None else spec.budget - spent
+    adds = next_runs(spec, ref_values, variants, verdicts, cost, round_no, budget_left)
+    dt_ref = spec.reference.resolved_dt()
+    used: dict = {}
+    for p in planned:
+        used.setdefault(None if p.is_reference else (p.radius, p.rule.name), set()).add(p.seed)
+    rules = {r.name: r for r in spec.rules}
+    out = []
+    for a in adds:
+        seeds = used.setdefault(a.variant, set())
+        seed = max(seeds | used.get(None, set())) + 1
+        seeds.add(seed)
+        ref = replace(spec.reference, seed=seed)
+        if a.kind == "reference":
+            out.append((PlannedRun(run_key(ref.radius, None, seed), ref.radius, None, seed,
+                                   ref), a))
+        else:
+            radius, rule = a.variant[0], rules[a.variant[1]]
+            out.append((PlannedRun(run_key(radius, rule, seed), radius, rule, seed,
+                                   rule.apply(ref, radius, dt_ref)), a))
+    return out
 
 
 def _done_weight(planned, weights, outcomes) -> float:
@@ -370,7 +490,7 @@ def assemble(spec: StudySpec, planned: list[PlannedRun], outcomes: dict) -> Stud
         variants.setdefault((p.radius, p.rule.name), []).append(values)
     table = [r.row() for r in runs.values()]
     groups = _groups(spec, runs, names)
-    noise, verdicts = judge_groups(spec, ref_values, variants, names)
+    noise, verdicts = judge_groups(spec, ref_values, variants, names, looks=spec.looks)
     keys_of: dict[tuple, list[str]] = {}
     for p in planned:
         if not p.is_reference:

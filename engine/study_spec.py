@@ -149,6 +149,16 @@ class StudySpec:
             left out keep :data:`engine.metrics.DEFAULT_TOLERANCES`.
         interior_diameters: the layer next to each platen left out of the interior porosity
             and coordination of every run, in diameters of the study's largest particle [-].
+        confidence: of every verdict: a wrong ``equivalent`` or a wrong ``differs`` is said
+            in at most 1 - confidence of studies [-] (engine.advisor).
+        decide: after the planned runs, add seeds where a verdict is undecided, in up to
+            ``rounds`` rounds, until every verdict is decided, a cap or the budget is hit.
+        max_seeds: with ``decide``, most seeds of one coarse variant (planned ones included).
+        max_reference_seeds: with ``decide``, most reference seeds (planned ones included).
+        rounds: with ``decide``, most rounds of added runs; the verdicts spend their error
+            rate over rounds + 1 looks, so adding seeds keeps the stated confidence.
+        budget: with ``decide``, most particle-steps of the added runs (estimated before each
+            is started); None: the caps alone bound them.
     """
 
     reference: UniaxialTest = param(unit="", kind="record", default_factory=lambda: preset(
@@ -169,6 +179,18 @@ class StudySpec:
     interior_diameters: float = param(2.0, unit="1", ge=2, le=10,
                                       doc="platen layer left out of interior measurements, "
                                           "in largest diameters")
+    confidence: float = param(0.95, unit="1", gt=0.5, lt=1.0,
+                              doc="confidence of every verdict (1 - its largest error rate)")
+    decide: bool = param(False, unit="", kind="bool",
+                         doc="add seeds where a verdict is undecided, until decided or capped")
+    max_seeds: int = param(10, unit="1", kind="int", ge=2, le=30,
+                           doc="with decide: most seeds of one coarse variant")
+    max_reference_seeds: int = param(5, unit="1", kind="int", ge=2, le=30,
+                                     doc="with decide: most reference seeds")
+    rounds: int = param(3, unit="1", kind="int", ge=1, le=10,
+                        doc="with decide: most rounds of added runs")
+    budget: float | None = param(None, unit="1", gt=0, nullable=True,
+                                 doc="with decide: most particle-steps of the added runs")
 
     def __post_init__(self) -> None:
         o = "StudySpec"
@@ -213,6 +235,12 @@ class StudySpec:
                 raise ParameterError(f"{o}.tolerances.{k}", v, "in (0, 1]")
             tol[k] = float(v)
         object.__setattr__(self, "tolerances", tol)
+        if self.decide and self.max_seeds < len(seeds):
+            raise ParameterError(f"{o}.max_seeds", self.max_seeds,
+                                 f">= the {len(seeds)} planned seeds")
+        if self.decide and self.max_reference_seeds < len(ref_seeds):
+            raise ParameterError(f"{o}.max_reference_seeds", self.max_reference_seeds,
+                                 f">= the {len(ref_seeds)} planned reference seeds")
         # one interior window for every run: a layer of interior_diameters largest diameters
         margin = self.interior_diameters * 2 * max((*radii, r_ref)) * (
             1 + self.reference.polydispersity)
@@ -247,6 +275,11 @@ class StudySpec:
                     out.append(PlannedRun(run_key(r, rule, seed), r, rule, seed, test))
         return out
 
+    @property
+    def looks(self) -> int:
+        """How many times the verdicts may be judged: 1, or rounds + 1 with ``decide``."""
+        return self.rounds + 1 if self.decide else 1
+
     def max_particles(self) -> int:
         """The largest particle count of any run."""
         return max(p.test.n_particles for p in self.planned_runs())
@@ -268,6 +301,12 @@ class StudySpec:
             "reference_seeds": list(self.reference_seeds),
             "tolerances": dict(self.tolerances),
             "interior_diameters": self.interior_diameters,
+            "confidence": self.confidence,
+            "decide": self.decide,
+            "max_seeds": self.max_seeds,
+            "max_reference_seeds": self.max_reference_seeds,
+            "rounds": self.rounds,
+            "budget": self.budget,
         }
 
     @classmethod
@@ -276,7 +315,8 @@ class StudySpec:
         (or ``"paper"``) with overrides; rules may be given by name only."""
         d = dict(d)
         known = {"reference", "coarse_radii", "rules", "seeds", "reference_seeds",
-                 "tolerances", "interior_diameters"}
+                 "tolerances", "interior_diameters", "confidence", "decide", "max_seeds",
+                 "max_reference_seeds", "rounds", "budget"}
         if set(d) - known:
             raise ParameterError("StudySpec", sorted(set(d) - known),
                                  f"fields among {sorted(known)}")

@@ -88,39 +88,65 @@ def test_shape_measures_kept():
     assert metrics.shape_errors(fake_result(), ref)["err_stress_strain"] == 0.0
 
 
-def _floor(values, sd):
-    mean = np.asarray(values, dtype=float)
-    return {"mean": mean, "sd": np.full_like(mean, sd), "noise": sd / float(np.mean(mean)),
-            "seeds": 3}
+def _seeds(name, values):
+    return [{name: np.array([v])} for v in values]
+
+
+def _ref(name, values):
+    return advisor.noise_floor(_seeds(name, values), [name], 2e4)[name]
 
 
 @pytest.mark.parametrize(
     ("coarse", "expect"),
     [
-        # error 1 %, 2u = 2 * sqrt(1/3 + 1/2) * 0.5 % = 0.9 %: inside 3 %
-        ([1.01, 1.01], "equivalent"),
+        # error 1 %, interval about ± 1.3 % (t(0.95, 1 dof) = 6.3, spreads 0.1 and 0.3 %)
+        ([1.008, 1.012], "equivalent"),
         # error 10 %: beyond 3 % by far more than the noise
-        ([1.10, 1.10], "differs"),
+        ([1.098, 1.102], "differs"),
         # error 2.8 %: within the tolerance, but not beyond the noise
-        ([1.028, 1.028], "undecided"),
+        ([1.026, 1.030], "undecided"),
     ],
 )
 def test_verdict_from_error_tolerance_and_noise(coarse, expect):
-    ref = _floor([1.0], 0.005)
-    values = [{"density": np.array([c])} for c in coarse]
-    # the two coarse seeds agree exactly: their spread is 0, the reference's 0.5 %
-    m = advisor.judge_metric("density", values, ref, 0.03, 2e4)
+    ref = _ref("density", [0.999, 1.0, 1.001])
+    m = advisor.judge_metric("density", _seeds("density", coarse), ref, 0.03, 2e4)
     assert m["verdict"] == expect
-    assert m["error"] == pytest.approx(abs(coarse[0] - 1.0))
-    assert m["uncertainty"] == pytest.approx(0.005 / math.sqrt(3))
+    assert m["error"] == pytest.approx(abs(np.mean(coarse) - 1.0))
+    lo, hi = m["interval"]
+    assert lo < m["level_error"] < hi and m["df"] == 1
+
+
+def test_the_interval_is_fieller_with_a_student_t_quantile():
+    # equal spreads, ratio 1.1: the interval's ends solve the Fieller quadratic with
+    # t(0.95, 2) = 2.919986 (min(3, 3) - 1 degrees of freedom)
+    ref = _ref("loading_stiffness", [0.9, 1.0, 1.1])
+    c = [1.0, 1.1, 1.2]
+    m = advisor.judge_metric("loading_stiffness", _seeds("loading_stiffness", c), ref, 0.15, 2e4)
+    t = 2.919985580355516
+    v = 0.01 / 3  # s^2 / n on either side
+    # (1.1 - rho)^2 = t^2 (v + rho^2 v): roots of (1 - t^2 v) rho^2 - 2.2 rho + 1.21 - t^2 v
+    a, b, cc = 1 - t * t * v, -2.2, 1.21 - t * t * v
+    root = math.sqrt(b * b - 4 * a * cc)
+    assert m["interval"][0] == pytest.approx((-b - root) / (2 * a) - 1, rel=1e-9)
+    assert m["interval"][1] == pytest.approx((-b + root) / (2 * a) - 1, rel=1e-9)
+    assert m["verdict"] == "undecided"
 
 
 def test_noise_too_large_to_tell():
-    ref = _floor([2e4], 4e3)  # references differ by 20 % among themselves
-    m = advisor.judge_metric("strength", [{"strength": np.array([2.1e4])}], ref, 0.15, 2e4)
+    ref = _ref("strength", [1.6e4, 2e4, 2.4e4])  # references differ by 20 % among themselves
+    m = advisor.judge_metric("strength", _seeds("strength", [2.0e4, 2.2e4]), ref, 0.15, 2e4)
     assert m["verdict"] == "undecided"
+    assert m["needs"]["coarse"] is not None or m["needs"]["coarse_and_reference"] is not None
     overall, reason = advisor.verdict([m])
     assert overall == "undecided" and "noise too large" in reason and "strength" in reason
+    assert "would decide it" in reason
+
+
+def test_one_seed_of_a_variant_is_undecided_and_says_why():
+    ref = _ref("density", [0.6, 0.601])
+    m = advisor.judge_metric("density", _seeds("density", [0.9]), ref, 0.03, 2e4)
+    overall, reason = advisor.verdict([m])
+    assert overall == "undecided" and "one seed of this variant" in reason
 
 
 def test_one_reference_seed_is_undecided_and_says_why():
@@ -131,16 +157,25 @@ def test_one_reference_seed_is_undecided_and_says_why():
     assert overall == "undecided" and "one reference seed" in reason
 
 
+def test_error_rates_split_over_metrics_and_looks():
+    assert advisor.error_rates(0.95, 5) == pytest.approx((0.05, 0.01))
+    assert advisor.error_rates(0.9, 4, looks=2) == pytest.approx((0.05, 0.0125))
+    with pytest.raises(ValueError):
+        advisor.error_rates(1.0, 1)
+
+
 def test_any_metric_that_differs_decides():
     ok = {"metric": "density", "error": 0.01, "signed_error": 0.01, "tolerance": 0.03,
-          "uncertainty": 0.002, "verdict": "equivalent", "reference_seeds": 3}
+          "interval": [0.0, 0.02], "level": None, "level_error": 0.01, "df": 2,
+          "differs_interval": [0.0, 0.02], "differs_error": 0.01, "alpha_equivalent": 0.05,
+          "alpha_differs": 0.01, "verdict": "equivalent", "reference_seeds": 3, "seeds": 3}
     bad = dict(ok, metric="strength", error=0.5, signed_error=-0.5, tolerance=0.15,
-               verdict="differs")
+               differs_error=-0.5, differs_interval=[-0.6, -0.4], verdict="differs")
     unsure = dict(ok, metric="coordination", verdict="undecided")
     assert advisor.verdict([ok, ok])[0] == "equivalent"
     assert advisor.verdict([ok, unsure])[0] == "undecided"
     v, reason = advisor.verdict([ok, unsure, bad])
-    assert v == "differs" and "strength 50.0%" in reason and "under" in reason
+    assert v == "differs" and "strength -50.0 %" in reason and "[-60.0 %, -40.0 %]" in reason
 
 
 def test_noise_floor_is_the_reference_spread():

@@ -1,0 +1,152 @@
+r"""Seeds until decided: which runs a study adds where a verdict is undecided
+(docs/PHYSICS.md section 7).
+
+After the planned runs (look 1), a study with ``decide`` judges its verdicts and adds runs
+in rounds; each round is judged again (one look per round, at most ``rounds`` + 1 looks, each
+spending :math:`\alpha /` looks, so that peeking keeps the stated rates). The stopping rule:
+stop when every verdict is decided, when no undecided variant can take another run (its
+seeds at ``max_seeds``, the reference's at ``max_reference_seeds``), when the next run would
+exceed the ``budget`` of particle-steps, or after ``rounds`` rounds.
+
+Which runs a round adds (greedy, one run at a time, deterministic given the stored runs):
+
+- a run is a coarse seed of an undecided variant, or a reference seed (which narrows the
+  intervals of every variant);
+- its worth is the relative shrinkage of the squared standard uncertainty it brings to the
+  undecided metrics, :math:`\sum_m [v_m(n) - v_m(n+1)] / u_m^2` over the metrics it narrows
+  (:math:`v_m(n) = s_m^2 / n`, coarse or reference term), per estimated particle-step of
+  the run: coarse seeds are cheap; a reference seed wins when the reference term dominates;
+- a variant takes runs until, if its means and spreads stayed as observed, every undecided
+  metric would be decided, and at most as many in one round as it has seeds (at least one):
+  seed counts at most double per round, so a metric that sits at its tolerance (which no
+  seed count decides) does not eat the budget in one round.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .advisor import _decides, _floored, error_rates
+from .metrics import reference_scale
+
+
+@dataclass(frozen=True)
+class Addition:
+    """One run to add: ``kind`` ``"coarse"`` (of ``variant``, a (radius, rule name)) or
+    ``"reference"`` (``variant`` None), the ``round`` [1, rounds] and the ``reason``."""
+
+    kind: str
+    variant: tuple | None
+    round: int
+    reason: str
+
+
+def _components(name, values, ref_values, cons):
+    """Means and sample variances (per level) of a metric's coarse and reference values."""
+    c = np.array([np.atleast_1d(v[name]) for v in values], dtype=float)
+    r = np.array([np.atleast_1d(v[name]) for v in ref_values], dtype=float)
+    return c.mean(0), c.var(0, ddof=1), r.mean(0), r.var(0, ddof=1), reference_scale(
+        name, r.mean(0), cons)
+
+
+def next_runs(spec, ref_values: list[dict], variants: dict[tuple, list[dict]],
+              verdicts: list[dict], costs: dict, round_no: int,
+              budget_left: float | None) -> list[Addition]:
+    """The runs of round ``round_no`` (module docstring). ``ref_values`` and ``variants``
+    hold metric values per seed (as :func:`engine.advisor.judge_groups` takes them),
+    ``verdicts`` are their judgements, ``costs`` maps ``"reference"`` and each variant to
+    the estimated particle-steps of one more run; ``budget_left``: particle-steps still
+    allowed (None: unbounded)."""
+    cons = spec.reference.consolidation_stress
+    names = [m["metric"] for m in verdicts[0]["metrics"]] if verdicts else []
+    alpha_e, alpha_d = error_rates(spec.confidence, len(names), spec.looks)
+    n_ref0 = len(ref_values)
+    if n_ref0 < 2:  # no interval without a second reference seed
+        k = min(2 - n_ref0, spec.max_reference_seeds - n_ref0)
+        return [Addition("reference", None, round_no, f"round {round_no}: one reference "
+                         "seed: its spread, which every interval needs, is unknown")] * max(k, 0)
+    undecided = {}
+    for v in verdicts:
+        key = (v["radius"], v["rule"])
+        if v["verdict"] != "undecided" or key not in variants or not v["metrics"]:
+            continue
+        ms = [m["metric"] for m in v["metrics"] if m["verdict"] == "undecided"]
+        if len(variants[key]) < 2:
+            comps = {}
+        else:
+            comps = {n: _components(n, variants[key], ref_values, cons) for n in ms}
+        undecided[key] = (ms, comps)
+    if not undecided:
+        return []
+    n_c = {k: len(variants[k]) for k in undecided}
+    n_r = n_ref0
+    limit_c = {k: min(spec.max_seeds - n_c[k], max(1, n_c[k])) for k in undecided}
+    limit_r = min(spec.max_reference_seeds - n_ref0, max(1, n_ref0))
+    added_c = dict.fromkeys(undecided, 0)
+    added_r = 0
+    left = np.inf if budget_left is None else float(budget_left)
+    out: list[Addition] = []
+
+    def decided(k) -> bool:
+        ms, comps = undecided[k]
+        if not comps:  # one seed: a second one first
+            return n_c[k] >= 2
+        return all(_decides(cm, cv, n_c[k], rm, rv, n_r, spec.tolerances[n], alpha_e, alpha_d,
+                            _floored(n, float(rm[0]), cons) if len(rm) == 1 else None)
+                   for n, (cm, cv, rm, rv, _) in comps.items())
+
+    def shrink(k, coarse: bool) -> float:
+        ms, comps = undecided[k]
+        if not comps:
+            return 1.0
+        total = 0.0
+        for cm, cv, rm, rv, sc in comps.values():
+            u2 = float(np.mean((cv / n_c[k] + rv / n_r) / sc**2))
+            if u2 <= 0:
+                continue
+            if coarse:
+                dv = float(np.mean(cv / sc**2)) * (1 / n_c[k] - 1 / (n_c[k] + 1))
+            else:
+                dv = float(np.mean(rv / sc**2)) * (1 / n_r - 1 / (n_r + 1))
+            total += dv / u2
+        return total
+
+    while True:
+        open_ = [k for k in undecided if not decided(k)]
+        if not open_:
+            break
+        cands = []
+        for k in open_:
+            if added_c[k] < limit_c[k] and costs[k] <= left:
+                cands.append((shrink(k, True) / costs[k], "coarse", k))
+        if added_r < limit_r and costs["reference"] <= left:
+            worth = sum(shrink(k, False) for k in open_ if undecided[k][1])
+            if worth > 0:
+                cands.append((worth / costs["reference"], "reference", None))
+        if not cands:
+            break
+        score, kind, k = max(cands, key=lambda c: (c[0], c[1] == "coarse"))
+        if kind == "coarse":
+            ms = undecided[k][0]
+            out.append(Addition("coarse", k, round_no,
+                                f"round {round_no}: {', '.join(ms)} undecided for R = "
+                                f"{k[0] * 1e3:g} mm, {k[1]}; a coarse seed shrinks its "
+                                "intervals most per particle-step"))
+            n_c[k] += 1
+            added_c[k] += 1
+            left -= costs[k]
+        else:
+            names_open = ", ".join(f"{x[0] * 1e3:g} mm {x[1]}" for x in open_)
+            out.append(Addition("reference", None, round_no,
+                                f"round {round_no}: the reference term dominates the "
+                                f"intervals of the undecided variants ({names_open}); a "
+                                "reference seed shrinks them most per particle-step"))
+            n_r += 1
+            added_r += 1
+            left -= costs["reference"]
+    return out
+
+
+__all__ = ["Addition", "next_runs"]

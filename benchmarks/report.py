@@ -44,7 +44,7 @@ import numba
 import numpy as np
 
 import engine
-from engine.study import assemble
+from engine.study import _adaptive_summary, assemble, plan_runs
 
 ROOT = Path(__file__).resolve().parent.parent
 _COLS = (("density", "density"), ("loading_stiffness", "K load"),
@@ -56,6 +56,19 @@ def _pct(x, signed=False):
     if x is None:
         return "-"
     return f"{100 * x:+.1f} %" if signed else f"{100 * x:.1f} %"
+
+
+def interval_text(m: dict) -> str:
+    """A metric's signed error with the interval its verdict rests on, in per cent: the
+    equivalence interval (at the worst level of a curve), or for ``differs`` the interval
+    that lies beyond the tolerance."""
+    if m.get("interval") is None:
+        return f"{_pct(m['signed_error'], True)} (spread unknown)"
+    if m["verdict"] == "differs":
+        e, (lo, hi) = m["differs_error"], m["differs_interval"]
+    else:
+        e, (lo, hi) = m["level_error"], m["interval"]
+    return f"{100 * e:+.1f} [{100 * lo:+.1f}, {100 * hi:+.1f}] %"
 
 
 def _metric(v: dict, name: str) -> dict | None:
@@ -78,8 +91,7 @@ def verdict_table(res: engine.StudyResult) -> str:
             if m is None:
                 cells.append("-")
                 continue
-            u = "" if m["uncertainty"] is None else f" ± {200 * m['uncertainty']:.1f}"
-            cells.append(f"{100 * m['signed_error']:+.1f}{u} % ({m['verdict']})")
+            cells.append(f"{interval_text(m)} ({m['verdict']})")
         sp = v.get("speedup")
         ps = particle_steps_ratio(res, v["rule"], v["radius"])
         ratio = "-" if ps is None else f"{ps:.1f}x"
@@ -155,8 +167,7 @@ def claim_a(res) -> str:
     state = ("agrees" if soft and m["verdict"] == "differs" else
              "differs" if not soft or m["verdict"] == "equivalent" else "undecided")
     return (f"**{state}**. At R = 5 mm with the reference's stiffness the confined loading "
-            f"modulus is {_pct(m['signed_error'], True)} off the reference "
-            f"(± {_pct(2 * (m['uncertainty'] or 0))}, verdict {m['verdict']}).")
+            f"modulus is {interval_text(m)} off the reference (verdict {m['verdict']}).")
 
 
 def claim_b(res) -> str:
@@ -168,8 +179,7 @@ def claim_b(res) -> str:
     state = ("agrees" if all(v == "equivalent" for v in vs) else
              "differs" if "differs" in vs else "undecided")
     return f"**{state}**. Linear stiffness at R = 5 mm: " + "; ".join(
-        f"{n} {_pct(m['signed_error'], True)} ± {_pct(2 * (m['uncertainty'] or 0))} "
-        f"({m['verdict']})" for n, m in zip(names, ms)) + "."
+        f"{n} {interval_text(m)} ({m['verdict']})" for n, m in zip(names, ms)) + "."
 
 
 def claim_c(res) -> list[str]:
@@ -188,8 +198,7 @@ def claim_c(res) -> list[str]:
         else:
             state = "undecided"
         out.append(f"R = {r * 1e3:g} mm: **{state}**. Strength against the reference: " +
-                   ", ".join(f"b = {b[1]}: {_pct(m['signed_error'], True)} ± "
-                             f"{_pct(2 * (m['uncertainty'] or 0))} ({m['verdict']})"
+                   ", ".join(f"b = {b[1]}: {interval_text(m)} ({m['verdict']})"
                              for b, m in ms.items()) + ".")
     adh = res.advisor.get("adhesion_exponent") or {}
     for r, v in (adh.get("by_radius") or {}).items():
@@ -250,14 +259,18 @@ def claim_eepa(res) -> list[str]:
              "differs" if lin["verdict"] == "equivalent" else "undecided")
 
         def cells(v):
-            return ", ".join(
-                f"{n} {_pct(m['signed_error'], True)}" + (
-                    "" if m["uncertainty"] is None else f" ± {_pct(2 * m['uncertainty'])}")
-                for n in shown if (m := _metric(v, n)) is not None)
+            return ", ".join(f"{n} {interval_text(m)}" for n in shown
+                             if (m := _metric(v, n)) is not None)
         out.append(f"R = {r * 1e3:g} mm: (e) similarity **{e}** ({sim['verdict']}: "
                    f"{cells(sim)}); (f) linear stiffness fails: **{f}** ({lin['verdict']}: "
                    f"{cells(lin)}).")
     return out
+
+
+def confidence_line(data: dict) -> str:
+    """The confidence the experiments' verdicts state, in words."""
+    confs = sorted({spec.confidence for spec, _ in data.values()})
+    return " / ".join(f"{c:.0%}" for c in confs) + " confidence"
 
 
 def law_line(spec) -> str:
@@ -296,7 +309,7 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None,
     fig_root = out_dir / "figures"
     results, counts = {}, {}
     for name, (spec, outcomes) in data.items():
-        planned = spec.planned_runs()
+        planned, added, stopped = plan_runs(spec, outcomes)
         counts[name] = (sum(1 for p in planned if p.key in outcomes), len(planned))
         if not any(p.is_reference and p.key in outcomes for p in planned):
             results[name] = "no reference run stored yet"
@@ -306,6 +319,8 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None,
         except engine.RunFailed as e:
             results[name] = str(e)
             continue
+        if spec.decide:
+            results[name].advisor["adaptive"] = _adaptive_summary(spec, planned, added, stopped)
         results[name].save_plots(fig_root / f"{scale}_{name}")
     machine = (f"{platform.machine()}, {os.cpu_count()} cores, numba {numba.__version__}, "
                f"Python {sys.version.split()[0]}")
@@ -347,10 +362,15 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None,
         "",
         "Density and coordination are measured in the sample interior (a layer of two "
         "diameters of the study's largest particle left out at each platen) at 16 stress "
-        "levels on the loading and 16 on the unloading branch. A verdict is `equivalent` when "
-        "error + 2u is within the tolerance, `differs` when error - 2u exceeds it, "
-        "`undecided` otherwise; u combines the reference seeds' spread and the variant's "
-        "(engine/advisor.py). Table cells: signed error ± 2u (metric verdict).",
+        "levels on the loading and 16 on the unloading branch. A verdict holds at "
+        f"{confidence_line(data)}: two one-sided tests on Fieller's interval of the ratio of "
+        "the variant's mean to the reference's, with min(seeds) - 1 degrees of freedom "
+        "(which hold whatever the two spreads): `equivalent` when the interval lies inside "
+        "± tolerance at every level, `differs` when the interval of the values summed over "
+        "the levels lies wholly outside it (its rate split over the metrics), `undecided` "
+        "otherwise (docs/PHYSICS.md section 7, engine/advisor.py). Table cells: relative "
+        "error [interval] in per cent, at the worst level of a curve, or the interval that "
+        "lies outside the tolerance for `differs` (metric verdict).",
         "",
     ]
     def _radii(name: str) -> str:

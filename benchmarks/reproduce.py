@@ -42,6 +42,7 @@ from pathlib import Path
 
 import engine
 from engine.runstore import completed_runs, save_run, stored_machine
+from engine.study import plan_runs
 
 ROOT = Path(__file__).resolve().parent.parent
 R = 2.5e-3
@@ -55,13 +56,23 @@ EEPA_COARSE_SEEDS = {"quick": (1, 2, 3, 4, 5, 6), "paper": (1, 2)}
 EEPA_COARSE_RADII = {"quick": (1.5 * R, 2 * R), "paper": (2 * R,)}
 
 
+#: At the paper scale the studies add seeds until their verdicts are decided (issue 19),
+#: within this budget, stated on 2026-12-01 before any added run was made: two rounds, up
+#: to 10 seeds per coarse variant and 5 reference seeds, at most 4e10 estimated
+#: particle-steps of added runs per experiment (about three paper-scale references).
+DECIDE = {"decide": True, "rounds": 2, "max_seeds": 10, "max_reference_seeds": 5,
+          "budget": 4e10}
+
+
 def experiments(scale: str) -> dict[str, engine.StudySpec]:
-    """The two experiments of the seed at ``scale`` ("paper" or "quick")."""
+    """The experiments of the seed at ``scale`` ("paper" or "quick"); at the paper scale
+    each adds seeds until decided, within :data:`DECIDE`."""
     plain = replace(engine.preset(scale), unconfined=False)  # f0 = 0: cohesionless
     cohesive = engine.preset(scale, pair_law=engine.BilinearAdhesive(
         k1=5e3, k2=2.5e4, f0=-0.8, mu_s=0.5, mu_r=0.001, restitution=0.4))
     rule = engine.ScalingRule
-    common = {"reference_seeds": REFERENCE_SEEDS, "seeds": COARSE_SEEDS}
+    common = {"reference_seeds": REFERENCE_SEEDS, "seeds": COARSE_SEEDS,
+              **(DECIDE if scale == "paper" else {})}
     eepa = engine.EEPA(k1=5e5, k2=2.5e6, n=1.5, chi=1.5, mu_s=0.5, mu_r=0.001,
                        restitution=0.4)
     eepa_rules = (rule.named("similarity"), rule("linear", 1.0, 2.0))
@@ -124,8 +135,9 @@ def select(spec: engine.StudySpec, stored: dict, runs: list[str] | None
     the text ``SKIPPED``, for this call)."""
     done = dict(stored)
     if runs:
-        done = {**{p.key: SKIPPED for p in spec.planned_runs() if p.key not in runs}, **done}
-    return done, [p.key for p in spec.planned_runs() if p.key not in done]
+        done = {**{p.key: SKIPPED for p in plan_runs(spec, stored)[0] if p.key not in runs},
+                **done}
+    return done, [p.key for p in plan_runs(spec, done)[0] if p.key not in done]
 
 
 def machines_of(directory: Path) -> dict:
@@ -141,7 +153,7 @@ def run(scale: str, workers: int, only: list[str] | None,
         d = store_dir(scale, name)
         stored = stored_runs(spec, d)
         if runs:
-            unknown = set(runs) - {p.key for p in spec.planned_runs()}
+            unknown = set(runs) - {p.key for p in plan_runs(spec, stored)[0]}
             if unknown and len(only or specs) == 1:
                 raise SystemExit(f"--runs: {name} has no run {', '.join(sorted(unknown))}")
         done, todo = select(spec, stored, runs)

@@ -16,6 +16,8 @@ Which runs a round adds (greedy, one run at a time, deterministic given the stor
   undecided metrics, :math:`\sum_m [v_m(n) - v_m(n+1)] / u_m^2` over the metrics it narrows
   (:math:`v_m(n) = s_m^2 / n`, coarse or reference term), per estimated particle-step of
   the run: coarse seeds are cheap; a reference seed wins when the reference term dominates;
+- a variant that the caps could not decide even at ``max_seeds`` and
+  ``max_reference_seeds`` (if its means and spreads stayed as observed) takes no run;
 - a variant takes runs until, if its means and spreads stayed as observed, every undecided
   metric would be decided, and at most as many in one round as it has seeds (at least one):
   seed counts at most double per round, so a metric that sits at its tolerance (which no
@@ -89,20 +91,31 @@ def next_runs(spec, ref_values: list[dict], variants: dict[tuple, list[dict]],
     left = np.inf if budget_left is None else float(budget_left)
     out: list[Addition] = []
 
-    def decided(k) -> bool:
-        ms, comps = undecided[k]
+    def decided(k, nc=None, nr=None) -> bool:
+        comps = undecided[k][1]
+        nc = n_c[k] if nc is None else nc
+        nr = n_r if nr is None else nr
         if not comps:  # one seed: a second one first
-            return n_c[k] >= 2
-        return all(_decides(cm, cv, n_c[k], rm, rv, n_r, spec.tolerances[n], alpha_e, alpha_d,
+            return nc >= 2
+        return all(_decides(cm, cv, nc, rm, rv, nr, spec.tolerances[n], alpha_e, alpha_d,
                             _floored(n, float(rm[0]), cons) if len(rm) == 1 else None)
                    for n, (cm, cv, rm, rv, _) in comps.items())
 
+    # a variant that the caps cannot decide (if its means and spreads stayed as observed)
+    # takes no run: seeds spent there would buy nothing
+    for k in list(undecided):
+        if not decided(k, spec.max_seeds, spec.max_reference_seeds):
+            del undecided[k]
+    if not undecided:
+        return []
+    n_c = {k: n_c[k] for k in undecided}
+
     def shrink(k, coarse: bool) -> float:
-        ms, comps = undecided[k]
+        comps = undecided[k][1]
         if not comps:
             return 1.0
         total = 0.0
-        for cm, cv, rm, rv, sc in comps.values():
+        for _, cv, _, rv, sc in comps.values():
             u2 = float(np.mean((cv / n_c[k] + rv / n_r) / sc**2))
             if u2 <= 0:
                 continue
@@ -127,7 +140,7 @@ def next_runs(spec, ref_values: list[dict], variants: dict[tuple, list[dict]],
                 cands.append((worth / costs["reference"], "reference", None))
         if not cands:
             break
-        score, kind, k = max(cands, key=lambda c: (c[0], c[1] == "coarse"))
+        _, kind, k = max(cands, key=lambda c: (c[0], c[1] == "coarse"))
         if kind == "coarse":
             ms = undecided[k][0]
             out.append(Addition("coarse", k, round_no,

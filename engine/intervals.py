@@ -244,4 +244,5 @@ def welch_interval(c, r, alpha: float) -> tuple[float, float, float, float]:
     return d, d - t * u, d + t * u, df
 
 
-__all__ = ["betainc", "fieller", "hsu_df", "one_sided_t", "t_cdf", "t_pdf", "t_sf", "t_quantile", "welch", "welch_interval"]
+__all__ = ["betainc", "fieller", "hsu_df", "one_sided_t", "t_cdf", "t_pdf", "t_quantile", "t_sf",
+           "welch", "welch_interval"]

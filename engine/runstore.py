@@ -119,15 +119,22 @@ def load_run(path: Path):
 def completed_runs(spec, directory: Path) -> tuple[dict, list[str]]:
     """The runs of the :class:`engine.StudySpec` ``spec`` stored in ``directory`` whose test is
     exactly the planned one (what ``run_study(completed=...)`` resumes from), and the keys of
-    stored runs made with other parameters (to be run again)."""
-    planned = {p.key: p.test for p in spec.planned_runs()}
-    done, stale = {}, []
-    for key, outcome in load_all(directory, planned).items():
-        if isinstance(outcome, str) or outcome.test == planned[key]:
-            done[key] = outcome
-        else:
-            stale.append(key)
-    return done, stale
+    stored runs made with other parameters (to be run again). With ``spec.decide`` the runs
+    its rounds added are found too, round by round (:func:`engine.study.plan_runs`)."""
+    from .study import plan_runs
+
+    done, stale, seen = {}, [], set()
+    while True:
+        planned = {p.key: p.test for p in plan_runs(spec, done)[0]}
+        fresh = [k for k in planned if k not in seen]
+        if not fresh:
+            return done, stale
+        seen.update(fresh)
+        for key, outcome in load_all(directory, fresh).items():
+            if isinstance(outcome, str) or outcome.test == planned[key]:
+                done[key] = outcome
+            else:
+                stale.append(key)
 
 
 def load_all(directory: Path, keys) -> dict:

@@ -42,7 +42,7 @@ from .study_spec import (
 from .uniaxial import Progress, UniaxialResult, run_uniaxial
 
 __all__ = ["NAMED_RULES", "TABLE_UNITS", "PlannedRun", "RunFailed", "RunResult", "ScalingRule",
-           "StudyProgress", "StudyResult", "StudySpec", "default_study", "run_key",
+           "StudyProgress", "StudyResult", "StudySpec", "default_study", "plan_runs", "run_key",
            "run_study"]
 
 #: Units of the columns of :attr:`StudyResult.table`.
@@ -219,7 +219,6 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
     planned = spec.planned_runs()
     weights = _weights(planned)
     outcomes: dict[str, UniaxialResult | str] = dict(completed or {})
-    todo = [i for i, p in enumerate(planned) if p.key not in outcomes]
     progress = _monotone_progress(progress)
 
     refs = [q.key for q in planned if q.is_reference]
@@ -243,37 +242,55 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
             _run_on(executor, planned, todo, weights, outcomes, progress, record,
                     task_threads, channel, poll_interval)
 
-    run(todo)
-    added: list[dict] = []
-    stopped = None
-    if spec.decide:
-        spent = 0.0
-        for round_no in range(1, spec.rounds + 1):
-            new = _added_runs(spec, planned, outcomes, round_no, spent)
-            if not new:
-                stopped = "every verdict decided" if round_no == 1 or not _open(
-                    spec, planned, outcomes) else "caps or budget reached"
-                break
-            for p, a in new:
-                planned.append(p)
-                spent += estimated_steps(p.test) * p.test.n_particles
-                added.append({"run": p.key, "round": a.round, "kind": a.kind,
-                              "reason": a.reason})
-            weights = _weights(planned)
-            run([i for i, p in enumerate(planned) if p.key not in outcomes])
-        else:
-            stopped = f"{spec.rounds} rounds run"
-        if stopped == "every verdict decided" and _open(spec, planned, outcomes):
-            stopped = "caps or budget reached"
+    while True:
+        planned, added, stopped = plan_runs(spec, outcomes)
+        weights = _weights(planned)
+        todo = [i for i, p in enumerate(planned) if p.key not in outcomes]
+        if not todo:
+            break
+        run(todo)
+    planned, added, stopped = plan_runs(spec, outcomes)
     result = assemble(spec, planned, outcomes)
     if spec.decide:
-        result.advisor["adaptive"] = {
-            "planned_runs": len(spec.planned_runs()), "added_runs": added,
-            "looks": spec.looks, "stopped": stopped,
-            "budget": spec.budget, "added_particle_steps": float(sum(
-                estimated_steps(p.test) * p.test.n_particles for p in planned
-                if any(a["run"] == p.key for a in added)))}
+        result.advisor["adaptive"] = _adaptive_summary(spec, planned, added, stopped)
     return result
+
+
+def plan_runs(spec: StudySpec, outcomes: dict) -> tuple[list[PlannedRun], list[dict], str | None]:
+    """Every run of ``spec`` given the ``outcomes`` so far: the planned runs, then, with
+    ``decide``, the runs each round adds (engine.adaptive), replayed from the outcomes round
+    by round (deterministic: a resumed study, or a report from stored runs, finds the same
+    runs). Returns (runs, the added runs as {run, round, kind, reason}, why the study stopped
+    adding: None while some run of the last round is still to run)."""
+    planned = spec.planned_runs()
+    added: list[dict] = []
+    if not spec.decide:
+        return planned, added, None
+    spent = 0.0
+    for round_no in range(1, spec.rounds + 1):
+        if any(p.key not in outcomes for p in planned):
+            return planned, added, None
+        new = _added_runs(spec, planned, outcomes, round_no, spent)
+        if not new:
+            return planned, added, ("every verdict decided" if not _open(spec, planned, outcomes)
+                                    else "seed caps or budget reached")
+        for p, a in new:
+            planned.append(p)
+            spent += estimated_steps(p.test) * p.test.n_particles
+            added.append({"run": p.key, "round": a.round, "kind": a.kind, "reason": a.reason})
+    if any(p.key not in outcomes for p in planned):
+        return planned, added, None
+    return planned, added, ("every verdict decided" if not _open(spec, planned, outcomes)
+                            else f"all {spec.rounds} rounds run")
+
+
+def _adaptive_summary(spec: StudySpec, planned: list[PlannedRun], added: list[dict],
+                      stopped: str | None) -> dict:
+    keys = {a["run"] for a in added}
+    return {"planned_runs": len(planned) - len(added), "added_runs": added,
+            "looks": spec.looks, "stopped": stopped, "budget": spec.budget,
+            "added_particle_steps": float(sum(estimated_steps(p.test) * p.test.n_particles
+                                              for p in planned if p.key in keys))}
 
 
 def _monotone_progress(progress: StudyCallback | None) -> StudyCallback | None:

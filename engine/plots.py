@@ -52,18 +52,96 @@ def _style(i: int, ref: bool) -> dict:
     return {"color": f"C{i % 10}", "lw": 1.3, "alpha": 0.9}
 
 
-def _confined(ax, runs: dict, x: str | None, y: str | None, xscale=1.0, yscale=1.0) -> None:
-    """Consolidation (solid) and unloading (dashed) of every run; ``None`` means stress."""
-    for i, (_key, run) in enumerate(runs.items()):
-        st = _style(i, run["reference"])
-        for stage, ls in zip(_CONFINED, ("-", "--")):
-            c = run["stages"].get(stage)
-            if c is None:
+def _groups(runs: dict, table: list[dict]) -> dict[str, list[str]]:
+    """Run keys by group: the references, and each (radius, rule) variant, in table order;
+    runs not in the table form a group each."""
+    rows = {r["run"]: r for r in table}
+    out: dict[str, list[str]] = {}
+    for key, run in runs.items():
+        r = rows.get(key)
+        if run["reference"]:
+            label = "reference"
+        elif r is not None:
+            label = f"R = {r['radius'] * 1e3:g} mm, {r['rule']}"
+        else:
+            label = run["label"]
+        out.setdefault(label, []).append(key)
+    return out
+
+
+def _mean_band(xs: list[np.ndarray], ys: list[np.ndarray], increasing: bool,
+               n: int = 120) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Mean and sample standard deviation over seeds of curves y(x), each read along its
+    monotone part in x (running max, or min where x falls) on the x range all share."""
+    parts = []
+    for x, y in zip(xs, ys):
+        x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+        if len(x) < 2:
+            return None
+        env = np.maximum.accumulate(x) if increasing else np.minimum.accumulate(x)
+        keep = np.ones(len(x), dtype=bool)
+        keep[1:] = env[1:] != env[:-1]
+        order = np.argsort(x[keep])
+        parts.append((x[keep][order], y[keep][order]))
+    lo = max(p[0][0] for p in parts)
+    hi = min(p[0][-1] for p in parts)
+    if not hi > lo:
+        return None
+    grid = np.linspace(lo, hi, n)
+    a = np.array([np.interp(grid, px, py) for px, py in parts])
+    return grid, a.mean(axis=0), a.std(axis=0, ddof=1)
+
+
+def _plot_groups(ax, runs: dict, table: list[dict], curve, stages, styles,
+                 along_y: bool = False) -> None:
+    """Every group of runs: one seed as its curve; two or more as the mean curve over the
+    seeds with a band of one standard deviation (many seeds stay readable). ``curve(c)``
+    gives (x, y) of a stage's curves; the mean is taken at common values of x (of y with
+    ``along_y``: the controlled quantity, e.g. the stress of a stress-strain curve);
+    ``stages`` pairs a stage with whether that quantity rises along it; ``styles`` a line
+    style per stage."""
+    for i, (label, keys) in enumerate(_groups(runs, table).items()):
+        st = _style(i, runs[keys[0]]["reference"])
+        n = len(keys)
+        for (stage, increasing), ls in zip(stages, styles):
+            cs = [runs[k]["stages"].get(stage) for k in keys]
+            cs = [c for c in cs if c is not None]
+            if not cs:
                 continue
-            xs = np.asarray(c["stress_top"] if x is None else c[x]) * xscale
-            ys = np.asarray(c["stress_top"] if y is None else c[y]) * yscale
-            ax.plot(xs, ys, ls=ls, label=run["label"] if stage == "consolidation" else None,
-                    **st)
+            name = (label if n == 1 else f"{label} (mean of {len(cs)} seeds ± 1 sd)") if (
+                stage == stages[0][0]) else None
+            if len(cs) == 1:
+                x, y = curve(cs[0])
+                ax.plot(x, y, ls=ls, label=name, **st)
+                continue
+            xs, ys = zip(*(curve(c) for c in cs))
+            band = _mean_band(ys, xs, increasing) if along_y else _mean_band(xs, ys,
+                                                                              increasing)
+            if band is None:
+                continue
+            grid, mean, sd = band
+            if along_y:
+                ax.plot(mean, grid, ls=ls, label=name, **st)
+                ax.fill_betweenx(grid, mean - sd, mean + sd, color=st["color"], alpha=0.2,
+                                 lw=0)
+            else:
+                ax.plot(grid, mean, ls=ls, label=name, **st)
+                ax.fill_between(grid, mean - sd, mean + sd, color=st["color"], alpha=0.2,
+                                lw=0)
+
+
+def _confined(ax, runs: dict, table: list[dict], x: str | None, y: str | None, xscale=1.0,
+              yscale=1.0) -> None:
+    """Consolidation (solid) and unloading (dashed) of every group; ``None`` means stress."""
+    def curve(c):
+        xs = np.asarray(c["stress_top"] if x is None else c[x]) * xscale
+        ys = np.asarray(c["stress_top"] if y is None else c[y]) * yscale
+        return xs, ys
+
+    # seeds are averaged at common stresses (the controlled quantity), which rise on
+    # loading and fall on unloading
+    _plot_groups(ax, runs, table, curve, (("consolidation", True), ("unloading", False)),
+                 ("-", "--"), along_y=y is None)
 
 
 def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
@@ -122,23 +200,21 @@ def draw(ax, kind: str, runs: dict, table: list[dict]) -> None:
     if kind not in KINDS:
         raise ValueError(f"plot kind {kind!r} is not one of {sorted(KINDS)}")
     if kind == "stress_strain":
-        _confined(ax, runs, "strain", None, 100.0, 1e-3)
+        _confined(ax, runs, table, "strain", None, 100.0, 1e-3)
         ax.set_xlabel("axial strain [%]")
         ax.set_ylabel("top platen stress [kPa]")
     elif kind == "stress_porosity":
-        _confined(ax, runs, None, "porosity", 1e-3, 1.0)
+        _confined(ax, runs, table, None, "porosity", 1e-3, 1.0)
         ax.set_xlabel("top platen stress [kPa]")
         ax.set_ylabel("porosity [-]")
     elif kind == "coordination":
-        _confined(ax, runs, None, "coordination", 1e-3, 1.0)
+        _confined(ax, runs, table, None, "coordination", 1e-3, 1.0)
         ax.set_xlabel("top platen stress [kPa]")
         ax.set_ylabel("coordination number [-]")
     elif kind == "unconfined":
-        for i, (_key, run) in enumerate(runs.items()):
-            c = run["stages"].get("unconfined")
-            if c is not None:
-                ax.plot(np.asarray(c["strain"]) * 100, np.asarray(c["stress_top"]) * 1e-3,
-                        label=run["label"], **_style(i, run["reference"]))
+        _plot_groups(ax, runs, table, lambda c: (np.asarray(c["strain"]) * 100,
+                                                 np.asarray(c["stress_top"]) * 1e-3),
+                     (("unconfined", True),), ("-",))
         ax.set_xlabel("axial strain since release [%]")
         ax.set_ylabel("top platen stress [kPa]")
     else:

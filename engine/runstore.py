@@ -27,7 +27,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .uniaxial import CURVE_UNITS, SCALAR_UNITS, StageResult, UniaxialResult, UniaxialTest
+from .uniaxial import (
+    CURVE_UNITS,
+    SCALAR_UNITS,
+    StageResult,
+    UniaxialResult,
+    UniaxialTest,
+    failed_by_curve,
+)
 
 
 def this_machine() -> dict:
@@ -113,6 +120,13 @@ def load_run(path: Path):
                 name, {c: g[c][()] for c in g if c != "particles"},
                 None if p is None else p["positions"][()], None if p is None else p["radii"][()],
                 int(g.attrs["steps"]))
+    if "unconfined_failure" in scalars and "unconfined" in stages:
+        # one criterion for every run, stored before or after it was written: failure is
+        # derived from the stored curve (engine.uniaxial.failed_by_curve)
+        u = stages["unconfined"].curves
+        failed = scalars["unconfined_failure"] == 1.0 or failed_by_curve(
+            u["strain"], u["stress_top"], test.failure_strain)
+        scalars["unconfined_failure"] = 1.0 if failed else 0.0
     return UniaxialResult(test, stages, scalars)
 
 

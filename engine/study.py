@@ -539,21 +539,20 @@ def assemble(spec: StudySpec, planned: list[PlannedRun], outcomes: dict) -> Stud
 
 
 def _note_failure_kinds(refs: dict, runs: dict[str, RunResult], verdicts: list[dict]) -> None:
-    """Say so in a verdict when the reference fails (peak strength) but the variant hardens
-    (fallback strength), or the other way round: the strengths are then of different kinds."""
-    def fails(results) -> bool:
-        flags = [r.scalars["unconfined_failure"] for r in results]
-        return bool(flags) and sum(flags) >= len(flags) / 2
-
-    ref_fails = fails(refs.values())
+    """Name the kinds of strength a verdict compares whenever they are mixed: how many of the
+    references and of the variant's runs failed at a peak (engine.uniaxial.failed_by_curve)
+    and how many hardened (their strength is the largest stress up to the strain limit)."""
+    ref_flags = [r.scalars["unconfined_failure"] == 1.0 for r in refs.values()]
     for v in verdicts:
-        members = [r.result for r in runs.values() if r.rule is not None
-                   and r.rule.name == v["rule"] and r.radius == v["radius"]]
-        if members and fails(members) != ref_fails:
-            kinds = ("fails at a peak", "hardens without failing")
-            v["reason"] += (f"; the reference {kinds[0] if ref_fails else kinds[1]} but this "
-                            f"variant {kinds[1] if ref_fails else kinds[0]}: the strengths "
-                            "compared are of different kinds (peak against fallback)")
+        flags = [r.result.scalars["unconfined_failure"] == 1.0 for r in runs.values()
+                 if r.rule is not None and r.rule.name == v["rule"] and r.radius == v["radius"]]
+        v["failed_runs"] = sum(flags)
+        v["reference_failed_runs"] = sum(ref_flags)
+        if flags and len(set(flags + ref_flags)) > 1:
+            v["reason"] += (f"; strength compares mixed kinds: {sum(ref_flags)} of "
+                            f"{len(ref_flags)} references and {sum(flags)} of {len(flags)} "
+                            "runs of this variant failed at a peak, the others hardened to "
+                            "the strain limit (their strength is the largest stress reached)")
 
 
 def _reference_summary(refs: dict, names, ref_values: list[dict]) -> dict:
@@ -592,6 +591,8 @@ def _groups(spec: StudySpec, runs: dict[str, RunResult], names) -> list[dict]:
             if spec.reference.unconfined:
                 cols["unconfined_strength"] = [m.result.scalars["unconfined_strength"]
                                                for m in members]
+                g["failed_runs"] = int(sum(m.result.scalars["unconfined_failure"] == 1.0
+                                           for m in members))
             for n, v in cols.items():
                 g[n] = float(np.mean(v))
                 g[n + "_std"] = float(np.std(v, ddof=1)) if len(v) > 1 else 0.0

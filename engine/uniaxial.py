@@ -29,6 +29,7 @@ __all__ = [
     "MIN_THICKNESS_DIAMETERS",
     "PRESETS",
     "SCALAR_UNITS",
+    "SOFTENING",
     "STAGES",
     "FailureDetector",
     "Progress",
@@ -36,6 +37,7 @@ __all__ = [
     "StageResult",
     "UniaxialResult",
     "UniaxialTest",
+    "failed_by_curve",
     "interior_margin",
     "interior_measures",
     "preset",
@@ -375,8 +377,9 @@ class _Driver:
         s["interior_margin"] = interior_margin(self.test.margin, gap, dmax / 2)
         if "unconfined" in self.stages:
             u = self.stages["unconfined"].curves
-            strength, strain, failed = unconfined_strength(u["strain"], u["stress_top"],
-                                                           self.unconfined_failed)
+            failed = self.unconfined_failed or failed_by_curve(
+                u["strain"], u["stress_top"], self.test.failure_strain)
+            strength, strain, failed = unconfined_strength(u["strain"], u["stress_top"], failed)
             s["unconfined_strength"] = strength
             s["strain_at_peak"] = strain
             s["unconfined_failure"] = 1.0 if failed else 0.0
@@ -419,13 +422,51 @@ class FailureDetector:
         return strain - self.below_since >= self.strain
 
 
+#: Softening that marks failure: the smoothed stress at the end of the unconfined stage this
+#: fraction below its peak [-] (docs/PHYSICS.md section 6).
+SOFTENING = 0.02
+
+
+def smoothed(strain: np.ndarray, stress: np.ndarray, window: float) -> np.ndarray:
+    """Centred moving average of ``stress`` over a ``window`` of strain [-] (truncated at
+    the ends of the curve)."""
+    e = np.asarray(strain, dtype=float)
+    s = np.asarray(stress, dtype=float)
+    c = np.concatenate([[0.0], np.cumsum(s)])
+    lo = np.searchsorted(e, e - 0.5 * window)
+    hi = np.searchsorted(e, e + 0.5 * window, side="right")
+    return (c[hi] - c[lo]) / np.maximum(hi - lo, 1)
+
+
+def failed_by_curve(strain: np.ndarray, stress: np.ndarray, window: float,
+                    softening: float = SOFTENING) -> bool:
+    """Whether an unconfined curve shows a peak followed by sustained softening (failure),
+    as opposed to hardening to the strain limit. On the stress smoothed over ``window`` of
+    strain [-] (the test's ``failure_strain``): the peak lies at least two windows before the
+    end of the curve, and the stress at the end is more than ``softening`` [-] below the peak
+    (2 %: over five times the smoothed stress's fluctuation in every stored run, whose raw
+    samples scatter by 1-3 % of the peak). A curve that recovers to within ``softening`` of
+    its peak, or whose maximum comes in the last two windows, hardens."""
+    e = np.asarray(strain, dtype=float)
+    s = np.asarray(stress, dtype=float)
+    if len(e) < 3 or not np.all(np.isfinite(s)):
+        return False
+    w = max(float(window), 1e-3)
+    sm = smoothed(e, s, w)
+    k = int(np.argmax(sm))
+    peak = float(sm[k])
+    return bool(peak > 0 and e[-1] - e[k] >= 2 * w and sm[-1] < (1 - softening) * peak)
+
+
 def unconfined_strength(strain: np.ndarray, stress: np.ndarray, failed: bool
                         ) -> tuple[float, float, bool]:
     """The unconfined strength [Pa], the strain at it [-] and whether the sample failed.
 
     A sample that failed (its stress fell ``failure_drop`` below the peak and stayed there for
-    ``failure_strain``) has the peak stress as its strength. One that did not fail within
-    ``max_unconfined_strain`` (it hardens, or flows plastically) has the documented fallback:
+    ``failure_strain``, which ends the stage, or the curve shows a peak followed by sustained
+    softening, :func:`failed_by_curve`) has the peak stress as its strength. One that did not
+    fail within ``max_unconfined_strain`` (it hardens, or flows plastically) has the
+    documented fallback:
     the largest stress reached up to that strain, which for a hardening sample is the stress
     at the strain limit. Either way the value is the maximum of the curve; ``failed`` tells
     which definition it is, and a study compares like with like (see engine.metrics).

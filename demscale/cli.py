@@ -137,10 +137,17 @@ class StudyBars:
             TextColumn("{task.fields[stage]}"), TimeElapsedColumn(), TimeRemainingColumn(),
             console=console, disable=not enabled)
         self.study = self.progress.add_task("[bold]study", total=1.0, stage="")
-        width = max(len(p.key) for p in planned)
+        self.width = max(len(p.key) for p in planned)
         self.runs = {p.key: self.progress.add_task(
-            f"  {p.key:<{width}} {p.test.n_particles:>6} particles", total=1.0,
+            f"  {p.key:<{self.width}} {p.test.n_particles:>6} particles", total=1.0,
             stage="waiting") for p in planned}
+
+    def _task(self, key: str):
+        """The bar of run ``key``; a run a study added (``decide``) gets one when it starts."""
+        if key not in self.runs:
+            self.runs[key] = self.progress.add_task(f"  {key:<{self.width}} (added)",
+                                                    total=1.0, stage="waiting")
+        return self.runs[key]
 
     def __enter__(self) -> StudyBars:
         self.progress.start()
@@ -156,13 +163,16 @@ class StudyBars:
         if p.stage == "done":  # on an executor: a run has finished
             return
         i = p.run_index
+        task = self._task(p.run_key)
+        if i >= len(self.planned) or self.planned[i].key != p.run_key:
+            self.progress.update(task, stage=p.stage)  # an added run: its stage only
+            return
         run_fraction = (p.fraction - self.bases[i]) / self.weights[i]
-        self.progress.update(self.runs[p.run_key], completed=min(max(run_fraction, 0.0), 1.0),
-                             stage=p.stage)
+        self.progress.update(task, completed=min(max(run_fraction, 0.0), 1.0), stage=p.stage)
 
     def finished(self, key: str, outcome) -> None:
         """A run ended with a :class:`engine.UniaxialResult` or an error text."""
-        task = self.runs[key]
+        task = self._task(key)
         if isinstance(outcome, str):
             self.progress.update(task, stage="[red]failed")
             self.console.print(f"[red]{key} failed:[/red] {outcome}")
@@ -204,7 +214,12 @@ def study(args) -> int:
     console = Console(stderr=True)
     spec_path = Path(args.spec)
     try:
-        spec = engine.StudySpec.from_dict(json.loads(spec_path.read_text()))
+        body = json.loads(spec_path.read_text())
+        if args.decide and isinstance(body, dict):
+            body["decide"] = True
+        if args.budget is not None and isinstance(body, dict):
+            body["budget"] = args.budget
+        spec = engine.StudySpec.from_dict(body)
     except (OSError, json.JSONDecodeError) as e:
         console.print(f"[red]cannot read the spec {spec_path}:[/red] {e}")
         return 2
@@ -250,6 +265,14 @@ def study(args) -> int:
     (out / "summary.json").write_text(json.dumps(_strict_json(summary), indent=1,
                                                  allow_nan=False))
     console.print(_verdict_table(result))
+    adaptive = result.advisor.get("adaptive")
+    if adaptive:
+        console.print(f"seeds until decided: {adaptive['planned_runs']} planned runs, "
+                      f"{len(adaptive['added_runs'])} added "
+                      f"({adaptive['added_particle_steps']:.3g} particle-steps), stopped: "
+                      f"{adaptive['stopped']}", soft_wrap=True)
+        for a in adaptive["added_runs"]:
+            console.print(f"  + {a['run']}: {a['reason']}", soft_wrap=True)
     console.print(result.advisor["message"], soft_wrap=True)
     console.print(f"wrote {out / 'summary.json'}, {h5}, {len(plots)} plots"
                   + (f", snapshots of {len(snapshot_paths)} runs in {out / 'snapshots'}"
@@ -398,6 +421,11 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", "-j", type=int, default=1, metavar="N",
                    help="runs side by side in N processes (one core each; default 1: one "
                         "run at a time, the engine using the cores it wants)")
+    p.add_argument("--decide", action="store_true",
+                   help="add seeds where a verdict is undecided (the spec's decide: its "
+                        "max_seeds, max_reference_seeds, rounds and budget apply)")
+    p.add_argument("--budget", type=float, default=None, metavar="PARTICLE_STEPS",
+                   help="with --decide: most particle-steps of the added runs")
     p.add_argument("--no-snapshots", dest="snapshots", action="store_false",
                    help="do not write the ParaView snapshots and PNG sections")
     p.add_argument("--quiet", "-q", action="store_true",

@@ -285,9 +285,20 @@ class StudySpec:
         return max(p.test.n_particles for p in self.planned_runs())
 
     def estimated_particle_steps(self) -> float:
-        """Estimate of the study's total particle-steps (for admission limits)."""
-        return float(sum(estimated_steps(p.test) * p.test.n_particles
-                         for p in self.planned_runs()))
+        """Estimate of the study's total particle-steps (for admission limits): the planned
+        runs, and with ``decide`` the most its added runs may cost (the ``budget``, or every
+        variant and the reference filled to their seed caps, whichever is less)."""
+        planned = self.planned_runs()
+        cost = {}
+        for p in planned:
+            cost.setdefault((p.radius, None if p.rule is None else p.rule.name),
+                            estimated_steps(p.test) * p.test.n_particles)
+        total = float(sum(estimated_steps(p.test) * p.test.n_particles for p in planned))
+        if not self.decide:
+            return total
+        worst = sum(c * (self.max_reference_seeds - len(self.reference_seeds)) if k[1] is None
+                    else c * (self.max_seeds - len(self.seeds)) for k, c in cost.items())
+        return total + float(worst if self.budget is None else min(worst, self.budget))
 
     def to_dict(self) -> dict:
         """JSON-friendly form (inverse: :meth:`from_dict`)."""
@@ -364,12 +375,15 @@ def default_study() -> StudySpec:
     f0 = -0.4 N) against R = 3.75 and 5 mm with the paper's rule and with unscaled
     parameters, two seeds each: two reference seeds give the noise floor, and two seeds per
     variant measure the variant's own spread (a coarse bed of fewer particles scatters more
-    than the reference, so one seed would understate it)."""
+    than the reference, so one seed would understate it). Where a verdict stays undecided it
+    adds seeds in one round (up to four per variant and three reference seeds, within 1.5e9
+    particle-steps: half the planned runs' cost)."""
     ref = preset("quick", pair_law=BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5,
                                                     mu_r=0.001, restitution=0.4))
     return StudySpec(reference=ref, coarse_radii=(3.75e-3, 5e-3),
                      rules=(ScalingRule.named("paper"), ScalingRule.named("unscaled")),
-                     seeds=(1, 2), reference_seeds=(1, 2))
+                     seeds=(1, 2), reference_seeds=(1, 2), decide=True, rounds=1,
+                     max_seeds=4, max_reference_seeds=3, budget=1.5e9)
 
 
 def estimated_steps(test: UniaxialTest) -> float:

@@ -153,3 +153,24 @@ def test_study_end_to_end(tmp_path):
             row = next(r for r in summary["table"] if r["run"] == key)
             assert int(f["VTKHDF/NumberOfPoints"][0]) == row["particles"]
         assert imread(out / "snapshots" / key / "unconfined.png").shape[1] > 400
+
+
+def test_study_decide_adds_seeds_and_reports_them(tmp_path):
+    spec = tmp_path / "tiny.json"
+    spec.write_text(json.dumps({**TINY, "max_seeds": 3, "max_reference_seeds": 3,
+                                "rounds": 1}))
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-m", "demscale", "study", str(spec), "--out",
+                           str(out), "--decide", "--no-snapshots", "--quiet"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=900)
+    assert proc.returncode in (0, 1), proc.stderr
+    summary = _strict((out / "summary.json").read_text())
+    adaptive = summary["advisor"]["adaptive"]
+    planned = [p.key for p in engine.StudySpec.from_dict(TINY).planned_runs()]
+    added = [a["run"] for a in adaptive["added_runs"]]
+    assert adaptive["planned_runs"] == len(planned) and adaptive["looks"] == 2
+    assert added and all(a["reason"].startswith("round 1:") for a in adaptive["added_runs"])
+    rows = [row["run"] for row in summary["table"]]
+    assert set(rows) <= set(planned + added)
+    assert all(k in rows or k in summary["failed"] for k in added)
+    assert "seeds until decided" in proc.stderr and added[0] in proc.stderr

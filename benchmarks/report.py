@@ -267,6 +267,23 @@ def claim_eepa(res) -> list[str]:
     return out
 
 
+def adaptive_lines(res) -> list[str]:
+    """What a study that adds seeds until decided added, and why it stopped."""
+    a = res.advisor.get("adaptive")
+    if not a:
+        return []
+    head = (f"Seeds until decided (budget {a['budget']:.3g} particle-steps of added runs"
+            if a["budget"] else "Seeds until decided (no particle-step budget")
+    out = [f"{head}, {res.spec.rounds} rounds, at most {res.spec.max_seeds} seeds per variant "
+           f"and {res.spec.max_reference_seeds} reference seeds; verdicts over {a['looks']} "
+           f"looks): {a['planned_runs']} planned runs, {len(a['added_runs'])} added "
+           f"({a['added_particle_steps']:.3g} particle-steps); "
+           + (f"stopped: {a['stopped']}." if a["stopped"] else
+              "**still adding**: the runs of the last round are not all stored."), ""]
+    out += [f"- added {x['run']} ({x['kind']}): {x['reason']}" for x in a["added_runs"]]
+    return out + ([""] if a["added_runs"] else [])
+
+
 def confidence_line(data: dict) -> str:
     """The confidence the experiments' verdicts state, in words."""
     confs = sorted({spec.confidence for spec, _ in data.values()})
@@ -394,7 +411,9 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None,
             lines += [f"Not judged: {res}.", ""]
             continue
         fig = f"figures/{scale}_{name}"
-        lines += [noise_line(res), "", verdict_table(res), "", "Reasons:", ""]
+        lines += [noise_line(res), "", verdict_table(res), ""]
+        lines += adaptive_lines(res)
+        lines += ["Reasons:", ""]
         lines += [f"- R = {v['radius'] * 1e3:g} mm, {v['rule']}: {v['verdict']}: "
                   f"{v['reason']}" for v in res.advisor["verdicts"]]
         lines += [f"- warning: {w}" for w in res.advisor["warnings"]]
@@ -425,10 +444,13 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None,
         lines.append(f"- *About 9x less compute.* {claim_d(b, machines.get('b_cohesive'))}")
         n_fail = sum(1 for r in b.runs.values()
                      if r.result.scalars.get("unconfined_failure") == 1.0)
-        lines.append(f"- Unconfined failure: {n_fail} of {len(b.runs)} cohesive runs show a "
-                     "post-peak drop (failure); the others harden to the strain limit and "
-                     "their strength is the documented fallback. Platen friction, height / "
-                     "width and adhesion tried one at a time: [FAILURE.md](FAILURE.md).")
+        hard = ("every one fails" if n_fail == len(b.runs) else
+                f"the other {len(b.runs) - n_fail} harden to the strain limit and their "
+                "strength is the documented fallback")
+        lines.append(f"- Unconfined failure: {n_fail} of {len(b.runs)} cohesive runs fail (a "
+                     "peak followed by sustained softening, docs/PHYSICS.md section 7.3); "
+                     f"{hard}. Platen friction, height / width and adhesion tried one at a "
+                     "time: [FAILURE.md](FAILURE.md).")
     else:
         lines.append("- Claims (c) and (d): experiment (b) not available.")
     lines += ["", "## EEPA at n = 1.5: how to coarse-grain a non-linear adhesive law", "",

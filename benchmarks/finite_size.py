@@ -57,7 +57,7 @@ from engine.advisor import error_rates, judge_metric, noise_floor
 from engine.metrics import METRICS, metric_names, metric_values
 from engine.runstore import load_run, save_run
 from engine.uniaxial import run_uniaxial
-from engine.uniaxial_spec import UniaxialTest
+from engine.uniaxial_spec import GRAVITY, UniaxialTest
 
 ROOT = Path(__file__).resolve().parent.parent
 STORE = ROOT / "benchmarks" / "results" / "paper" / "e_finite_size"
@@ -164,6 +164,14 @@ def _b_runs(prefix: str, directory: Path) -> dict:
     return out
 
 
+def _self_weight(r) -> float:
+    """Weight per area of the consolidated sample, the stress its own weight adds at the
+    bottom platen [Pa]: rho_p (1 - porosity) g h."""
+    s, t = r.scalars, r.test
+    h = s["height_diameters"] * 2 * t.radius * (1 + t.polydispersity)
+    return t.density * (1 - s["consolidated_porosity"]) * GRAVITY * h
+
+
 def _pct(x: float) -> str:
     if not np.isfinite(x):
         return "-inf" if x < 0 else "+inf"
@@ -250,13 +258,14 @@ def control_report(directory: Path = STORE, b_directory: Path = B_STORE,
                   f"{1e3 * t.margin:g} mm: the coarse 5 mm bed in particle diameters.", ""]
     lines += ["| run | particles | thickness [d] | height [d] | steps | wall time [s] | "
               "threads | unconfined | strength [kPa] | strain at peak | consolidated "
-              "porosity (interior) | loading stiffness [kPa] | unloading stiffness [kPa] |",
-              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+              "porosity (interior) | loading stiffness [kPa] | unloading stiffness [kPa] | "
+              "self-weight at the base [kPa] | max inertial number |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     groups = (("control", controls), ("reference", refs), (f"coarse 5 mm {COARSE_RULE}", coarse))
     for label, runs in groups:
         for k, r in runs.items():
             if isinstance(r, str):
-                lines.append(f"| {k} ({label}) | failed: {r} |" + " |" * 11)
+                lines.append(f"| {k} ({label}) | failed: {r} |" + " |" * 13)
                 continue
             s = r.scalars
             kind = "fails (peak)" if s["unconfined_failure"] else "hardens (fallback)"
@@ -267,7 +276,8 @@ def control_report(directory: Path = STORE, b_directory: Path = B_STORE,
                 f"{threads} | {kind} | "
                 f"{s['unconfined_strength'] / 1e3:.2f} | {s['strain_at_peak']:.4f} | "
                 f"{s['consolidated_porosity']:.4f} ({s['consolidated_porosity_interior']:.4f})"
-                f" | {s['loading_stiffness'] / 1e3:.0f} | {s['unloading_stiffness'] / 1e3:.0f} |")
+                f" | {s['loading_stiffness'] / 1e3:.0f} | {s['unloading_stiffness'] / 1e3:.0f} | "
+                f"{_self_weight(r) / 1e3:.2f} | {s['max_inertial_number']:.2e} |")
     lines.append("")
     for label, runs in groups:
         if len(runs) > 0:

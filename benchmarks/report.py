@@ -284,6 +284,16 @@ def adaptive_lines(res) -> list[str]:
     return out + ([""] if a["added_runs"] else [])
 
 
+def control_report_lines(text: str) -> list[str]:
+    """The finite-size control's section (benchmarks/finite_size.py), with its reading."""
+    return [*text.rstrip().splitlines(), "",
+            "Reading: coarse / reference = (control / reference) x (coarse / control). The "
+            "control has the reference's particles and law in the coarse bed's size (5 x 15 "
+            "x 30 diameters) and half its overburden; against the references it measures "
+            "the finite-size effect, against the coarse runs what the rule leaves (gravity "
+            "stress, particle-scale rate, time step)."]
+
+
 def confidence_line(data: dict) -> str:
     """The confidence the experiments' verdicts state, in words."""
     confs = sorted({spec.confidence for spec, _ in data.values()})
@@ -466,6 +476,11 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None,
             lines.append(f"- {titles[name][:3]} not judged: "
                          f"{res if isinstance(res, str) else 'no runs'}.")
     lines.append("")
+    if scale == "paper":
+        from benchmarks import finite_size
+
+        if finite_size.stored():
+            lines += [*control_report_lines(finite_size.control_report()), ""]
     path = out_dir / report_name
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("\n".join(lines) + "\n")

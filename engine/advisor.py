@@ -261,8 +261,27 @@ def verdict(metrics: list[dict]) -> tuple[str, str]:
         _describe(m) for m in metrics)
 
 
+#: The finite-size effect measured by the control of docs/VALIDATION.md (experiment (b) at
+#: the paper scale, benchmarks/finite_size.py): the 2.5 mm reference law in a bed 5
+#: diameters thick against 10, 3 seeds each: relative change [-] and its two-sided 95 %
+#: Fieller interval (tests/engine/test_verdicts.py recomputes them from the stored runs).
+MEASURED_FINITE_SIZE = {"thickness_diameters": 5.0, "against_diameters": 10.0,
+                        "strength": (-0.172, -0.247, -0.088),
+                        "loading_stiffness": (-0.165, -0.275, -0.052)}
+
+
 def finite_size_warnings(groups: list[dict]) -> list[str]:
-    """Warnings for radii whose cell is under :data:`MIN_THICKNESS_DIAMETERS` diameters."""
+    """Warnings for radii whose cell is under 10 particle diameters thick, citing the
+    finite-size effect measured at 5 diameters (:data:`MEASURED_FINITE_SIZE`), and under
+    :data:`MIN_THICKNESS_DIAMETERS`, below the measured range."""
+    m = MEASURED_FINITE_SIZE
+    s, k = m["strength"], m["loading_stiffness"]
+    measured = (f"a bed {m['thickness_diameters']:g} diameters thick of the 2.5 mm reference "
+                f"law measured {s[0]:+.0%} in unconfined strength (95 % interval "
+                f"{s[1]:+.0%} to {s[2]:+.0%}) and {k[0]:+.0%} in loading stiffness "
+                f"({k[1]:+.0%} to {k[2]:+.0%}) against {m['against_diameters']:g} "
+                "diameters, density, unloading stiffness and coordination within tolerance "
+                "(finite-size control, docs/VALIDATION.md)")
     out, seen = [], set()
     for g in groups:
         if g["radius"] in seen:
@@ -272,8 +291,13 @@ def finite_size_warnings(groups: list[dict]) -> list[str]:
         if t < MIN_THICKNESS_DIAMETERS:
             out.append(f"R = {g['radius'] * 1e3:g} mm: the cell is {t:.1f} particle "
                        f"diameters thick, under the {MIN_THICKNESS_DIAMETERS:g} a bulk sample "
-                       "needs (Thakur et al. 2013): wall and periodic-image effects may "
-                       "dominate")
+                       "needs (Thakur et al. 2013) and thinner than any bed whose finite-size "
+                       f"effect was measured ({measured}): wall and periodic-image effects "
+                       "may dominate")
+        elif t < m["against_diameters"]:
+            out.append(f"R = {g['radius'] * 1e3:g} mm: the cell is {t:.1f} particle "
+                       f"diameters thick; {measured}: part of this radius's error may be "
+                       "the bed's size, not the scaling rule")
     return out
 
 
@@ -368,6 +392,6 @@ def judge_groups(spec, ref_values: list[dict], variants: dict[tuple, list[dict]]
     return noise, out
 
 
-__all__ = ["CONFIDENCE", "METRICS", "VERDICTS", "adhesion_advice", "advise", "error_rates",
-           "finite_size_warnings", "judge_groups", "judge_metric", "noise_floor",
-           "relative_interval", "seeds_needed", "verdict"]
+__all__ = ["CONFIDENCE", "MEASURED_FINITE_SIZE", "METRICS", "VERDICTS", "adhesion_advice",
+           "advise", "error_rates", "finite_size_warnings", "judge_groups", "judge_metric",
+           "noise_floor", "relative_interval", "seeds_needed", "verdict"]

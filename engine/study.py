@@ -272,8 +272,10 @@ def plan_runs(spec: StudySpec, outcomes: dict) -> tuple[list[PlannedRun], list[d
             return planned, added, None
         new = _added_runs(spec, planned, outcomes, round_no, spent)
         if not new:
-            return planned, added, ("every verdict decided" if not _open(spec, planned, outcomes)
-                                    else "seed caps or budget reached")
+            return planned, added, (
+                "every verdict decided" if not _open(spec, planned, outcomes) else
+                "no undecided verdict can be decided within the seed caps and budget (each "
+                "reason says how many seeds it would need)")
         for p, a in new:
             planned.append(p)
             spent += estimated_steps(p.test) * p.test.n_particles

@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import hashlib
 import ipaddress
+import logging
 import os
 import secrets
+import stat
 from functools import lru_cache
 from pathlib import Path
 
@@ -21,6 +23,9 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 MIN_TOKEN_LENGTH = 16
 #: Hex digits of SHA-256 kept as a token's fingerprint on the rows it owns.
 FINGERPRINT_DIGITS = 16
+
+
+log = logging.getLogger("demscale.settings")
 
 
 class ConfigError(ValueError):
@@ -109,6 +114,7 @@ class Settings(BaseSettings):
         if self.api_token is not None:
             out.append(self.api_token.get_secret_value().strip())
         if self.api_token_file is not None:
+            check_token_file(self.api_token_file)
             try:
                 text = self.api_token_file.read_text()
             except OSError as e:
@@ -156,6 +162,40 @@ class Settings(BaseSettings):
     def runs_dir(self, study_id: object) -> Path:
         """The per-run HDF5 files of one study, each stored as soon as its run ends."""
         return self.study_dir(study_id) / "runs"
+
+
+def check_token_file(path: Path) -> None:
+    """Refuse a token file that every user of the machine can read or write (raises
+    :class:`ConfigError` naming the fix); warn about one the file's group can read."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return  # the read that follows names the error
+    if mode & (stat.S_IROTH | stat.S_IWOTH):
+        raise ConfigError(f"DEMSCALE_API_TOKEN_FILE: {path} can be read or written by every "
+                          f"user of this machine (mode {stat.filemode(mode)}): "
+                          f"`chmod 600 {path}`")
+    if mode & (stat.S_IRGRP | stat.S_IWGRP):
+        log.warning("DEMSCALE_API_TOKEN_FILE: %s can be read by its group (mode %s); "
+                    "`chmod 600` keeps the tokens to their owner", path, stat.filemode(mode))
+
+
+def secure_data_dir(settings: Settings) -> None:
+    """Keep the store to the service's own user: files made from now on by this process
+    (and the workers it starts) are 0600 and directories 0700 (umask 077); the data
+    directory, the studies directory and a SQLite database already there are narrowed to
+    those modes. Called by the API and the worker as they start."""
+    os.umask(0o077)
+    for d in (settings.data_dir, settings.studies_dir):
+        d.mkdir(parents=True, exist_ok=True)
+        if stat.S_IMODE(d.stat().st_mode) & 0o077:
+            d.chmod(0o700)
+    url = settings.sqlalchemy_url
+    if url.startswith("sqlite:///"):
+        db = Path(url.removeprefix("sqlite:///"))
+        for f in (db, db.with_name(db.name + "-wal"), db.with_name(db.name + "-shm")):
+            if f.is_file() and stat.S_IMODE(f.stat().st_mode) & 0o077:
+                f.chmod(0o600)
 
 
 def is_loopback(host: str) -> bool:

@@ -213,8 +213,11 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
             starts.
         poll_interval: seconds between two reads of the ``channel`` [s].
 
-    Raises: :class:`RunFailed` as soon as every reference run has failed.
+    Raises: :class:`RunFailed` as soon as every reference run has failed; ``ValueError``
+    at once, before any run starts, for a ``ProcessPoolExecutor`` that forks
+    (:func:`check_executor`).
     """
+    check_executor(executor)
     planned = spec.planned_runs()
     weights = _weights(planned)
     outcomes: dict[str, UniaxialResult | str] = dict(completed or {})
@@ -238,6 +241,24 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
         _run_on(executor, planned, todo, weights, outcomes, progress, record, task_threads,
                 channel, poll_interval)
     return assemble(spec, planned, outcomes)
+
+
+def check_executor(executor: cf.Executor | None) -> None:
+    """Refuse an executor that cannot run engine tasks: a ``ProcessPoolExecutor`` whose
+    processes are forked (Python's default context on Linux before 3.14). A process that has
+    run the engine holds GNU OpenMP threads, and its forked children die at their first run
+    ("fork() called from a process already using GNU OpenMP, this is unsafe"), which breaks
+    the pool (``BrokenProcessPool``) mid-study. Raises ``ValueError`` naming the fix."""
+    if not isinstance(executor, cf.ProcessPoolExecutor):
+        return
+    context = getattr(executor, "_mp_context", None)
+    method = context.get_start_method() if context is not None else None
+    if method == "fork":
+        raise ValueError(
+            "run_study: this ProcessPoolExecutor forks its processes, and a forked engine "
+            "process dies (GNU OpenMP is not fork-safe), breaking the pool: create it with "
+            "the spawn or forkserver context, e.g. ProcessPoolExecutor(n, mp_context="
+            "multiprocessing.get_context('spawn'))")
 
 
 def _done_weight(planned, weights, outcomes) -> float:

@@ -42,7 +42,9 @@ _ANSWERS: dict[int, dict] = {
     413: {"description": "The request body is larger than `DEMSCALE_MAX_BODY_BYTES`."},
     429: {
         "description": "Too many queued or running studies, in all or of this token "
-        "(`DEMSCALE_MAX_ACTIVE`, `DEMSCALE_MAX_ACTIVE_PER_TOKEN`).",
+        "(`DEMSCALE_MAX_ACTIVE`, `DEMSCALE_MAX_ACTIVE_PER_TOKEN`), or too many submissions "
+        "of this token in a short time (`DEMSCALE_SUBMIT_RATE` a minute, bursts of "
+        "`DEMSCALE_SUBMIT_BURST`).",
         "headers": {
             "Retry-After": {**_INT_HEADER, "description": "Seconds to wait before trying again."}
         },

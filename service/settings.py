@@ -56,6 +56,17 @@ class Settings(BaseSettings):
         2e10, gt=0, description="Largest estimated particle-steps of a whole study [-]."
     )
     max_runs: int = Field(64, gt=0, description="Largest number of runs in a study [-].")
+    max_curve_samples: int = Field(
+        1_000_000, gt=0, description="Most curve samples a study may store, at the worst "
+        "case its bounds allow (stage time caps / output_interval, summed over stages and "
+        "runs) [-]; each is 11 float64 values.")
+    max_run_wall_time: float = Field(
+        21_600.0, gt=0, description="Wall time [s] after which a run in the worker's own "
+        "process fails (the study goes on with the other runs).")
+    submit_rate: float = Field(
+        30.0, gt=0, description="Submissions (and refused requests) a token may make per "
+        "minute, in bursts of up to submit_burst; beyond: 429 with Retry-After.")
+    submit_burst: int = Field(10, ge=1, description="Largest burst of submissions of a token.")
 
     # worker
     heartbeat_interval: float = Field(2.0, gt=0, description="Seconds between heartbeats.")

@@ -10,7 +10,7 @@ from fastapi.exceptions import RequestValidationError
 from sqlmodel import func, select
 
 from .. import transitions
-from ..admission import SpecRejected, admit
+from ..admission import SpecRejected, admit, worst_case
 from ..deps import OwnerDep, SessionDep, SettingsDep, StudyDep
 from ..errors import answers
 from ..models import Run, RunPublic, StudiesPublic, Study, StudyDetail, StudyPublic, StudySubmitted
@@ -74,7 +74,8 @@ def submit_study(
         spec=spec.to_dict(),
         n_runs=len(planned),
         max_particles=max(p.test.n_particles for p in planned),
-        estimated_particle_steps=spec.estimated_particle_steps(),
+        # the worst case its bounds allow, as admitted
+        estimated_particle_steps=sum(c.particle_steps for c in worst_case(spec)),
     )
     runs = [
         Run(

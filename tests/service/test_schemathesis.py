@@ -46,6 +46,8 @@ SETTINGS = Settings(
     max_particle_steps=2e10,
     max_active=100_000,
     max_active_per_token=100_000,
+    submit_rate=1e9,  # the rate limit has its own test (test_limits.py)
+    submit_burst=10**9,
 )
 APP = create_app(SETTINGS)
 

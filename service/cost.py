@@ -162,11 +162,18 @@ def run_cost(key: str, test: engine.UniaxialTest, dt: float) -> RunCost:
     :func:`worst_stage_times`, a curve sample every ``output_interval`` (at least a step)
     and one more at each stage's start."""
     times = worst_stage_times(test)
-    steps = sum(max(1.0, math.ceil(t / dt)) for t in times.values())
-    sample_steps = max(1, round(test.output_interval / dt))
-    samples = sum(1 + math.ceil(math.ceil(t / dt) / sample_steps) for t in times.values())
-    with_radius = test.n_particles
-    return RunCost(key, float(with_radius), float(steps), float(samples))
+    stage_steps = [max(1.0, _ceil(t / dt)) for t in times.values()]
+    ratio = test.output_interval / dt
+    sample_steps = max(1.0, float(round(ratio)) if math.isfinite(ratio) else math.inf)
+    samples = sum(1 + _ceil(n / sample_steps) if math.isfinite(sample_steps) else 1.0
+                  for n in stage_steps)
+    return RunCost(key, float(test.n_particles), float(sum(stage_steps)), float(samples))
+
+
+def _ceil(x: float) -> float:
+    """``math.ceil`` that keeps an infinity (a time step of 5e-324 s: inf steps, refused by
+    the caps, not an OverflowError)."""
+    return float(math.ceil(x)) if math.isfinite(x) else math.inf
 
 
 def reference_dt(fields: dict) -> float:

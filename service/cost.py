@@ -231,3 +231,33 @@ def work_bounds(fields: dict, dt: float) -> list[tuple[str, float, str]]:
         out.append(("settle_ke", fields["settle_ke"], f">= {MIN_SETTLE_KE:g} (a fill never "
                     "settles below that: it would run to max_stage_time)"))
     return out
+
+
+#: Bytes a curve sample costs on disk at worst: 11 float64 values, in the run's file and
+#: again in the study's results.h5.
+BYTES_PER_SAMPLE = 2 * 11 * 8
+#: Bytes a particle costs per stage at worst: positions and radii at the stage's end (in the
+#: run file and results.h5) and its share of the ParaView snapshots (particles, contacts).
+BYTES_PER_PARTICLE_STAGE = 512
+
+
+def output_bytes(costs: list[RunCost]) -> float:
+    """What a study's files can take on disk at worst [bytes] (an estimate on the safe side:
+    its worst-case curve samples, and the stage-end state of every particle of every run)."""
+    return float(sum(BYTES_PER_SAMPLE * c.samples + 6 * BYTES_PER_PARTICLE_STAGE * c.particles
+                     for c in costs))
+
+
+def stored_bytes(directories) -> int:
+    """Bytes of the files under ``directories`` (missing ones count 0)."""
+    import os
+
+    total = 0
+    for d in directories:
+        for root, _, files in os.walk(d):
+            for f in files:
+                try:
+                    total += os.stat(os.path.join(root, f)).st_size
+                except OSError:  # removed meanwhile
+                    pass
+    return total

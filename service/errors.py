@@ -49,6 +49,8 @@ _ANSWERS: dict[int, dict] = {
             "Retry-After": {**_INT_HEADER, "description": "Seconds to wait before trying again."}
         },
     },
+    507: {"description": "The token's studies would take more disk than "
+          "`DEMSCALE_MAX_STORAGE_PER_TOKEN`: delete finished studies first."},
 }
 
 

@@ -67,6 +67,9 @@ class Settings(BaseSettings):
         30.0, gt=0, description="Submissions (and refused requests) a token may make per "
         "minute, in bursts of up to submit_burst; beyond: 429 with Retry-After.")
     submit_burst: int = Field(10, ge=1, description="Largest burst of submissions of a token.")
+    max_storage_per_token: float = Field(
+        20e9, gt=0, description="Bytes one token's studies may take on disk: what its studies "
+        "hold plus the worst-case size of a new one; beyond: 507.")
 
     # worker
     heartbeat_interval: float = Field(2.0, gt=0, description="Seconds between heartbeats.")

@@ -162,6 +162,35 @@ def test_curve_samples_are_capped_per_study(client, settings):
     assert client.post("/studies", json=TINY).status_code == 202
 
 
+# --- storage quota ---------------------------------------------------------------------
+
+
+@pytest.mark.timeout(60)
+def test_a_token_over_its_storage_quota_gets_507(client, settings):
+    one = cost.output_bytes(cost.worst_case(TINY))
+    settings.max_storage_per_token = 1.5 * one
+
+    def post():
+        return client.post("/studies", json=TINY)
+
+    a = post()
+    assert a.status_code == 202, a.text
+    r = post()  # the queued study counts its worst case: it has yet to write
+    assert r.status_code == 507, r.text
+    assert "DEMSCALE_MAX_STORAGE_PER_TOKEN" in r.json()["detail"]
+    a = a.json()["id"]
+    assert client.post(f"/studies/{a}/cancel").status_code == 202
+    c = post()  # a cancelled study counts what it holds: nothing
+    assert c.status_code == 202, c.text
+    assert client.post(f"/studies/{c.json()['id']}/cancel").status_code == 202
+    d = settings.study_dir(a)
+    d.mkdir(parents=True, exist_ok=True)
+    (d / "results.h5").write_bytes(b"x" * int(0.6 * one))
+    assert post().status_code == 507  # files on disk count
+    assert client.delete(f"/studies/{a}").status_code == 204
+    assert post().status_code == 202
+
+
 # --- rate limit -------------------------------------------------------------------------
 
 

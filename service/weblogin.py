@@ -50,20 +50,21 @@ def _header(headers, name: bytes) -> str | None:
 def same_origin(scope) -> bool:
     """Whether a state-changing request (login, logout) comes from this site's own page.
 
-    A browser names the page that sent a form: ``Sec-Fetch-Site`` (``same-origin``, or
-    ``none`` for a request the user typed) and ``Origin`` (scheme, host and port). Either
-    one naming another host refuses the request (login CSRF: another site's form logging the
-    browser in as the attacker's token, or out). A client that sends neither (curl, a
-    script) is no browser another site can drive, and is let through."""
+    A browser names the page that sent a form. ``Sec-Fetch-Site`` (every current browser
+    sends it) decides when present: ``same-origin``, or ``none`` for a request the user
+    made by hand. Without it, ``Origin`` (scheme, host and port) must name this host (the
+    ``Host`` header; the scheme is left out, as a TLS proxy in front makes the page https
+    and the app http). Anything else refuses the request (login CSRF: another site's form
+    logging the browser in as the attacker's token, or out). A client that sends neither
+    (curl, a script) is no browser another site can drive, and is let through."""
     headers = scope.get("headers", [])
     site = _header(headers, b"sec-fetch-site")
-    if site is not None and site not in ("same-origin", "none"):
-        return False
+    if site is not None:
+        return site in ("same-origin", "none")
     origin = _header(headers, b"origin")
     if origin is None:
         return True
     host = _header(headers, b"host")
-    # the host and port only: behind a TLS proxy the page is https, the app sees http
     scheme, sep, netloc = origin.partition("://")
     return bool(sep) and scheme in ("http", "https") and host is not None and netloc == host
 

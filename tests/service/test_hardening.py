@@ -141,6 +141,12 @@ def test_login_from_its_own_page_is_accepted(browser):
     assert r.status_code == 303 and "set-cookie" in r.headers
     r = browser.post("/logout", headers=own)
     assert r.status_code == 303 and "Max-Age=0" in r.headers["set-cookie"]
+    # behind a proxy that rewrites Host, the browser's Sec-Fetch-Site still decides
+    proxied = {"origin": "https://demscale.example.org", "sec-fetch-site": "same-origin"}
+    assert browser.post("/login", data={"token": TOKEN}, headers=proxied).status_code == 303
+    # an older browser without Sec-Fetch-Site: its Origin must name this host
+    assert browser.post("/login", data={"token": TOKEN},
+                        headers={"origin": "https://testserver"}).status_code == 303
 
 
 def test_no_command_prints_a_login_url_with_the_token():

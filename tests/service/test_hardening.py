@@ -212,6 +212,18 @@ def test_healthz_says_only_up_without_a_token(client, browser, settings):
     assert bad.json() == {"status": "ok"}
 
 
+@pytest.mark.timeout(60)
+def test_healthz_says_down_when_the_database_does_not_answer(browser, monkeypatch):
+    import service.app
+
+    def broken(*a, **k):
+        raise OSError("disk gone")
+
+    monkeypatch.setattr(service.app, "Session", broken)
+    r = browser.get("/healthz")
+    assert r.status_code == 503 and r.json() == {"status": "down"}
+
+
 # --- files ------------------------------------------------------------------------------
 
 

@@ -200,16 +200,19 @@ def secure_data_dir(settings: Settings) -> None:
     directory, the studies directory and a SQLite database already there are narrowed to
     those modes. Called by the API and the worker as they start."""
     os.umask(0o077)
-    for d in (settings.data_dir, settings.studies_dir):
-        d.mkdir(parents=True, exist_ok=True)
-        if stat.S_IMODE(d.stat().st_mode) & 0o077:
-            d.chmod(0o700)
+    paths = [(settings.data_dir, 0o700), (settings.studies_dir, 0o700)]
+    settings.studies_dir.mkdir(parents=True, exist_ok=True)
     url = settings.sqlalchemy_url
     if url.startswith("sqlite:///"):
         db = Path(url.removeprefix("sqlite:///"))
-        for f in (db, db.with_name(db.name + "-wal"), db.with_name(db.name + "-shm")):
-            if f.is_file() and stat.S_IMODE(f.stat().st_mode) & 0o077:
-                f.chmod(0o600)
+        paths += [(f, 0o600) for f in (db, db.with_name(db.name + "-wal"),
+                                       db.with_name(db.name + "-shm")) if f.is_file()]
+    for path, mode in paths:
+        try:
+            if stat.S_IMODE(path.stat().st_mode) & 0o077:
+                path.chmod(mode)
+        except OSError as e:  # another user's directory (a shared volume): say so, go on
+            log.warning("cannot narrow %s to mode %o: %s", path, mode, e.strerror)
 
 
 def is_loopback(host: str) -> bool:

@@ -67,12 +67,13 @@ Exit status: 0 the test ran; 1 a stage failed (see the message); 2 the test is n
 SERVE_HELP = """\
 Start the job service's HTTP API (uvicorn; the same as `python -m service api`). By default
 it also starts one worker process that runs the submitted studies. The studies page (status,
-live progress, verdicts, plots) is at http://HOST:PORT/ and the interactive API
-documentation at http://HOST:PORT/docs.
+live progress, verdicts, plots) is at http://HOST:PORT/ and the API documentation at
+http://HOST:PORT/docs.
 
 Every request needs an API token: DEMSCALE_API_TOKEN (one token) or DEMSCALE_API_TOKEN_FILE
 (one per line). On 127.0.0.1 without either, the server makes one, keeps it in
-DIR/api-token and prints it, with a link that logs a browser in to the studies page.
+DIR/api-token and prints it, to paste into the studies page's login form (a token is never
+put in a URL, where access logs and browser histories would keep it).
 Settings come from DEMSCALE_* environment variables (docs/SERVICE.md); the options below set
 the common ones."""
 
@@ -380,7 +381,9 @@ def serve(args) -> int:
     host = "127.0.0.1" if args.host in ("0.0.0.0", "::", "") else args.host
     url = f"http://{host}:{args.port}/"
     if token is not None:
-        print(f"demscale serve: the studies page: {url}login?token={token}", file=sys.stderr)
+        # the token apart from the URL: a login link would leave it in logs and histories
+        print(f"demscale serve: the studies page: {url} (log in with the API token {token}, "
+              f"kept in {Path(get_settings().data_dir) / 'api-token'})", file=sys.stderr)
     else:
         print(f"demscale serve: the studies page: {url} (log in with your API token)",
               file=sys.stderr)

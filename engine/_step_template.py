@@ -41,6 +41,7 @@ from engine.step_common import (
     NAN,
     OK,
     OVERLAP,
+    PAUSE,
     REBUILD,
     SPEED,
     SYNC_STATUS,
@@ -483,10 +484,11 @@ def _particle_chunk(c, mode, P, L, W, prm, S):
 
 
 @njit(**NJIT_PARALLEL)
-def run_steps(nsteps, phase, team, P, L, W, prm, S):
+def run_steps(nsteps, pause, phase, team, P, L, W, prm, S):
     """The one compiled entry point (so every kernel is compiled once, with one signature).
 
-    Args: ``nsteps``, ``phase``, ``team`` (threads: numba's thread count, set by the caller),
+    Args: ``nsteps``, ``pause``, ``phase``, ``team`` (threads: numba's thread count, set by
+    the caller),
     then the state records of :mod:`engine.step_common`:
     particles ``P``, neighbour list ``L``, walls ``W``, step parameters ``prm`` (time step
     ``prm.dt`` [s]) and scratch ``S``.
@@ -498,7 +500,11 @@ def run_steps(nsteps, phase, team, P, L, W, prm, S):
 
     Returns (steps completed, status). ``REBUILD``: some particle has moved more than half the
     skin; the caller rebuilds the list (engine.neighbour, compiled once for every scene) and
-    resumes with phase 1. On an instability ``S.info`` holds the particle ids and the value.
+    resumes with phase 1. ``PAUSE``: ``pause`` steps are done and more remain; the call
+    returns exactly where a rebuild would (the next step opened), so that the caller, who
+    resumes with phase 1 and no rebuild, gets the same bits as one uninterrupted call (a
+    bounded call returns to Python, which can then report progress and hear a stop). On an
+    instability ``S.info`` holds the particle ids and the value.
 
     One parallel region per call: ``team`` threads (numba's thread count, with the parallel
     chunk size 0 so that each takes one iteration) form a team (:func:`_member`) that meets at
@@ -510,12 +516,12 @@ def run_steps(nsteps, phase, team, P, L, W, prm, S):
     for k in range(sync.shape[0]):
         sync[k] = 0
     for t in prange(team):
-        _member(np.int64(t), team, nsteps, phase, P, L, W, prm, S)
+        _member(np.int64(t), team, nsteps, pause, phase, P, L, W, prm, S)
     return sync[SYNC_STEPS], sync[SYNC_STATUS]
 
 
 @njit(**NJIT)
-def _member(t, team, nsteps, phase, P, L, W, prm, S):
+def _member(t, team, nsteps, pause, phase, P, L, W, prm, S):
     """One thread of :func:`run_steps`' team. Every thread takes chunks of each pass, then
     waits at the barrier; after the particle pass all read the same chunk flags and
     displacements and so take the same decision (go on, rebuild, stop); rank 0 alone writes
@@ -566,6 +572,10 @@ def _member(t, team, nsteps, phase, P, L, W, prm, S):
         if _largest(S.chunk_disp) > half_skin2:
             if rank == 0:
                 _result(sync, s, REBUILD)
+            return
+        if s >= pause:  # every thread has the same s: all leave together
+            if rank == 0:
+                _result(sync, s, PAUSE)
             return
         if rank == 0:
             reset_grabs(sync, 0, size)

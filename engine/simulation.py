@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import math
+import time
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numba
@@ -24,6 +26,7 @@ from .stability import TimeStepLimit, adhesion_overlap, critical_time_step
 from .step_common import NAN as _STATUS_NAN
 from .step_common import OK as _STATUS_OK
 from .step_common import OVERLAP as _STATUS_OVERLAP
+from .step_common import PAUSE as _STATUS_PAUSE
 from .step_common import REBUILD as _STATUS_REBUILD
 from .step_common import NeighbourList, Particles, Scratch, StepParams, Walls, sync_length
 
@@ -91,6 +94,14 @@ def cell_order(pos: np.ndarray, rad: np.ndarray, lo: np.ndarray, length: np.ndar
     c = np.clip(((p - origin) / size).astype(np.int64), 0, ncell - 1)
     key = (c[:, 0] * ncell[1] + c[:, 1]) * ncell[2] + c[:, 2]
     return np.argsort(key, kind="stable")
+
+
+#: Wall time a kernel call of :meth:`Simulation.run` aims at [s]: the longest wait for a
+#: progress report, a stop request or a signal handler.
+CALL_SECONDS = 0.2
+#: Steps of the first kernel call (then adapted to its wall time).
+_FIRST_CALL_STEPS = 16
+_UNBOUNDED = 2**62
 
 
 class Simulation:
@@ -219,6 +230,12 @@ class Simulation:
         self._n_entries = 0
         self._steps = 0
         self._failed: InstabilityError | None = None
+        #: called with no argument between two bounded kernel calls of :meth:`run`, at
+        #: least every ``CALL_SECONDS`` of wall time while it runs (see :meth:`run`)
+        self.between_calls: Callable[[], object] | None = None
+        self._pause = _UNBOUNDED  # steps one kernel call may take (adapted in run)
+        self._call_steps = _FIRST_CALL_STEPS
+        self._phase = 0  # 1: the next step is opened (a bounded call, or an exception after it)
         self._rebuild()
         self._compute_forces()
 
@@ -332,8 +349,8 @@ class Simulation:
                 numba.set_num_threads(prev)
 
     def _call_kernel(self, nsteps: int, phase: int, team: int) -> tuple[int, int]:
-        return self._k.run_steps(nsteps, phase, team, self._particles, self._list,
-                                 self._walls, self._params, self._scratch)
+        return self._k.run_steps(nsteps, self._pause, phase, team, self._particles,
+                                 self._list, self._walls, self._params, self._scratch)
 
     def _rebuild(self) -> None:
         p = self._particles
@@ -368,7 +385,15 @@ class Simulation:
 
     # ------------------------------------------------------------------ running
     def run(self, steps: int) -> None:
-        """Advance ``steps`` time steps (``steps * dt`` seconds)."""
+        """Advance ``steps`` time steps (``steps * dt`` seconds).
+
+        However many steps are asked for, no kernel call takes much more than
+        ``CALL_SECONDS`` of wall time: a call stops at a step boundary where a
+        neighbour-list rebuild would, and the next one resumes there, so the trajectory is
+        bit-identical to that of one call. Between two calls ``between_calls`` (if set) is
+        called, and Python's signal handlers run: a progress report, a stop request or a
+        SIGTERM is heard within a fraction of a second. An exception from ``between_calls``
+        leaves the simulation between two calls; a later ``run`` goes on from there."""
         if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 0:
             raise ParameterError("Simulation.run.steps", steps, "an integer >= 0")
         if self._failed is not None:
@@ -376,17 +401,38 @@ class Simulation:
                 f"this simulation stopped with an instability and cannot go on: {self._failed}"
             )
         remaining = int(steps)
-        phase = 0
+        heard = time.perf_counter()  # when between_calls last ran (or the run began)
         while remaining > 0:
-            done, status = self._call(remaining, phase)
+            self._pause = self._call_steps
+            t0 = time.perf_counter()
+            done, status = self._call(remaining, self._phase)
+            self._adapt(done, time.perf_counter() - t0)
             self._steps += done
             remaining -= done
             if status == _STATUS_OK:
+                self._phase = 0
                 break
-            if status != _STATUS_REBUILD:
-                self._fail(status, self._steps + 1)
-            self._rebuild()
-            phase = 1
+            if status != _STATUS_PAUSE:
+                if status != _STATUS_REBUILD:
+                    self._fail(status, self._steps + 1)
+                self._rebuild()
+            self._phase = 1  # the next step is opened: resume as after a rebuild
+            now = time.perf_counter()
+            if self.between_calls is not None and now - heard >= CALL_SECONDS:
+                heard = now
+                self.between_calls()
+
+    def _adapt(self, done: int, seconds: float) -> None:
+        """Steps of the next kernel call: what takes about ``CALL_SECONDS`` at the rate of
+        the last one (wall time decides only where calls end, never the result)."""
+        if done <= 0:
+            return
+        if seconds <= 0:
+            self._call_steps = min(2 * self._call_steps, _UNBOUNDED)
+            return
+        want = int(done * CALL_SECONDS / seconds)
+        # grow at most 4x a call, so that a slow stretch after a fast one stays short
+        self._call_steps = max(1, min(want, 4 * self._call_steps, _UNBOUNDED))
 
     def _fail(self, status: int, step: int) -> None:
         info = self._scratch.info

@@ -80,6 +80,7 @@ REBUILD = 1
 NAN = 2
 OVERLAP = 3
 SPEED = 4
+PAUSE = 5  # the call's bound on steps reached (run_steps' pause), more steps remain
 
 
 @njit(**NJIT)

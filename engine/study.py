@@ -214,8 +214,11 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
             starts.
         poll_interval: seconds between two reads of the ``channel`` [s].
 
-    Raises: :class:`RunFailed` as soon as every reference run has failed.
+    Raises: :class:`RunFailed` as soon as every reference run has failed; ``ValueError``
+    at once, before any run starts, for a ``ProcessPoolExecutor`` that forks
+    (:func:`check_executor`).
     """
+    check_executor(executor)
     planned = spec.planned_runs()
     weights = _weights(planned)
     outcomes: dict[str, UniaxialResult | str] = dict(completed or {})
@@ -231,7 +234,6 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
             # every reference failed: nothing can be compared, stop at once
             raise RunFailed(refs[0], outcomes[refs[0]])
 
-    _check_executor(executor)
     if executor is not None and channel is not None:
         channel.reset()
 
@@ -311,19 +313,6 @@ def _monotone_progress(progress: StudyCallback | None) -> StudyCallback | None:
     return call
 
 
-def _check_executor(executor) -> None:
-    """Refuse a process pool that forks this (OpenMP-threaded) process: its workers die at
-    the first run with BrokenProcessPool."""
-    if isinstance(executor, cf.ProcessPoolExecutor):
-        ctx = getattr(executor, "_mp_context", None)
-        if ctx is not None and ctx.get_start_method() == "fork":
-            raise ValueError(
-                "executor: a ProcessPoolExecutor with the 'fork' start method cannot run "
-                "engine runs (a forked child of a process that already ran the threaded "
-                "engine dies with BrokenProcessPool); use ProcessPoolExecutor(n, "
-                "mp_context=multiprocessing.get_context('spawn')) or 'forkserver'")
-
-
 def _judged_values(spec: StudySpec, planned: list[PlannedRun], outcomes: dict):
     """Metric values of the finished references and of every variant's finished seeds."""
     names = metric_names(spec.reference.unconfined)
@@ -377,6 +366,24 @@ def _added_runs(spec: StudySpec, planned: list[PlannedRun], outcomes: dict, roun
             out.append((PlannedRun(run_key(radius, rule, seed), radius, rule, seed,
                                    rule.apply(ref, radius, dt_ref)), a))
     return out
+
+
+def check_executor(executor: cf.Executor | None) -> None:
+    """Refuse an executor that cannot run engine tasks: a ``ProcessPoolExecutor`` whose
+    processes are forked (Python's default context on Linux before 3.14). A process that has
+    run the engine holds GNU OpenMP threads, and its forked children die at their first run
+    ("fork() called from a process already using GNU OpenMP, this is unsafe"), which breaks
+    the pool (``BrokenProcessPool``) mid-study. Raises ``ValueError`` naming the fix."""
+    if not isinstance(executor, cf.ProcessPoolExecutor):
+        return
+    context = getattr(executor, "_mp_context", None)
+    method = context.get_start_method() if context is not None else None
+    if method == "fork":
+        raise ValueError(
+            "run_study: this ProcessPoolExecutor forks its processes, and a forked engine "
+            "process dies (GNU OpenMP is not fork-safe), breaking the pool: create it with "
+            "the spawn or forkserver context, e.g. ProcessPoolExecutor(n, mp_context="
+            "multiprocessing.get_context('spawn'))")
 
 
 def _done_weight(planned, weights, outcomes) -> float:

@@ -239,6 +239,10 @@ class _Driver:
         self.setup_time = time.perf_counter() - t0
         self.sample_steps = max(1, round(test.output_interval / self.sim.dt))
         self.max_steps = max(1, round(test.max_stage_time / self.sim.dt))
+        # within a long curve sample, a progress report (and so a stop request) at least
+        # every engine.simulation.CALL_SECONDS of wall time
+        self.stage_now, self.stage_fraction = "fill", 0.0
+        self.sim.between_calls = self._between_calls
 
     # ------------------------------------------------------------------ helpers
     def gap(self) -> float:
@@ -271,8 +275,14 @@ class _Driver:
         if answer is False:
             raise StopRequested(f"stopped by the progress callback during {stage}")
 
+    def _between_calls(self) -> None:
+        """A report between two kernel calls of a curve sample: the stage's progress as of
+        its last sample (so the fraction never goes back), the stop request heard."""
+        self.report(self.stage_now, self.stage_fraction, "running")
+
     def run_stage(self, stage: str, h0: float, done: Callable[[tuple], bool],
                   fraction: Callable[[tuple], float], what: str) -> None:
+        self.stage_now, self.stage_fraction = stage, 0.0
         rec = _Recorder(self, stage, h0)
         row = rec.sample()
         steps = 0
@@ -291,7 +301,8 @@ class _Driver:
             self.sim.run(self.sample_steps)
             steps += self.sample_steps
             row = rec.sample()
-            self.report(stage, fraction(row))
+            self.stage_fraction = fraction(row)
+            self.report(stage, self.stage_fraction)
         self.stages[stage] = rec.result()
         self.report(stage, 1.0, "done")
 

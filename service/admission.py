@@ -1,13 +1,16 @@
 """Admission of a :class:`~service.spec.StudyCreate` into an :class:`engine.StudySpec`.
 
-Pydantic has checked each field's range; the engine then checks what spans fields (e.g. the
-cell must hold the coarsest particle) and its errors are turned into the same field-level 422
-answers; last the size caps (particles per run, runs, particle-steps per study) apply.
+Pydantic has checked each field's range. Then, from the raw fields and before anything is
+built (:mod:`service.cost`, microseconds): the number of runs, the particles of every run,
+the bounds on the knobs that set work, and the worst-case particle-steps and curve samples
+of the study against their caps. Only then does the engine build the spec (placing a packing
+per run) and check what spans fields (e.g. the cell must hold the coarsest particle); its
+errors are turned into the same field-level 422 answers; the caps are checked once more on
+the built spec.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import re
@@ -16,6 +19,7 @@ import numpy as np
 
 import engine
 
+from . import cost
 from .settings import Settings
 from .spec import StudyCreate
 
@@ -71,21 +75,6 @@ def engine_loc(field: str) -> tuple:
     return (*prefix, *rest)
 
 
-def _reference_fields(data: dict) -> dict:
-    """The reference test's fields as the engine will build them: the preset (``quick``
-    when no reference is given) or the record's defaults, overridden by the request."""
-    given = dict(data.get("reference", {"preset": "quick"}))
-    name = given.pop("preset", None)
-    if name is not None:
-        base = engine.preset(name).to_dict()
-    else:
-        base = {
-            f.name: f.default if f.default_factory is dataclasses.MISSING else f.default_factory()
-            for f in dataclasses.fields(engine.UniaxialTest)
-        }
-    return {**base, **given}
-
-
 def particles_before_packing(fields: dict, radius: float) -> float:
     """Particles of the test ``fields`` with particles of ``radius``, by the engine's own
     count (``UniaxialTest.n_particles``) but without building the test: building it places
@@ -116,10 +105,48 @@ def _too_many_particles(loc: tuple, key: str, n: float, settings: Settings) -> S
     )
 
 
+def _too_many_runs(n: int, settings: Settings) -> SpecRejected:
+    return SpecRejected([_error((), f"the study has {n} runs (seeds x (1 + radii x rules)); "
+                                f"the limit is {settings.max_runs} (DEMSCALE_MAX_RUNS)", n)])
+
+
+def check_costs(costs: list[cost.RunCost], settings: Settings) -> None:
+    """The study's worst-case particle-steps and curve samples against their caps."""
+    steps = sum(c.particle_steps for c in costs)
+    if steps > settings.max_particle_steps:
+        worst = max(costs, key=lambda c: c.particle_steps)
+        raise SpecRejected([_error(
+            (), f"the study could take {steps:.3g} particle-steps at worst (every stage "
+            f"to its bound: max_stage_time, the platen travel, release_time, "
+            f"max_unconfined_strain; the largest run {worst.key}: {worst.particle_steps:.3g}); "
+            f"the limit is {settings.max_particle_steps:.3g} (DEMSCALE_MAX_PARTICLE_STEPS): "
+            "use fewer or coarser runs, a smaller cell, fewer seeds or a lower "
+            "max_stage_time", steps)])
+    samples = sum(c.samples for c in costs)
+    if samples > settings.max_curve_samples:
+        raise SpecRejected([_error(
+            ("reference", "output_interval"),
+            f"the study could store {samples:.3g} curve samples at worst; the limit is "
+            f"{settings.max_curve_samples} (DEMSCALE_MAX_CURVE_SAMPLES): use a longer "
+            "output_interval, a lower max_stage_time or fewer runs", samples)])
+
+
+def _check_bounds(fields: dict) -> None:
+    bad = cost.work_bounds(fields, cost.reference_dt(fields))
+    if bad:
+        raise SpecRejected([_error(("reference", name), f"UniaxialTest.{name} = {value!r} is "
+                                   f"not allowed: must be {bound}", value)
+                            for name, value, bound in bad])
+
+
 def _check_size_first(data: dict, settings: Settings) -> None:
-    """Refuse a study whose largest run is over the particle cap before the engine places
-    any packing (the exact check follows on the built spec)."""
-    fields = _reference_fields(data)
+    """Refuse, before the engine places any packing, a study with too many runs, a run over
+    the particle cap, a knob out of its work bounds, or a worst case over the caps (the
+    engine's own checks, and the caps once more, follow on the built spec)."""
+    n_runs = cost.plan_counts(data)
+    if n_runs > settings.max_runs:
+        raise _too_many_runs(n_runs, settings)
+    fields = cost.reference_fields(data)
     if not isinstance(fields.get("radius"), (int, float)):
         return  # the engine names the bad field
     radii = [("reference", (("reference",)), fields["radius"])]
@@ -129,6 +156,14 @@ def _check_size_first(data: dict, settings: Settings) -> None:
         n = particles_before_packing(fields, radius)
         if n > settings.max_particles_per_run:
             raise _too_many_particles(loc, key, n, settings)
+    try:  # a field the engine will refuse may make the arithmetic fail: the engine names it
+        _check_bounds(fields)
+        costs = cost.worst_case(data)
+    except (SpecRejected, engine.ParameterError):
+        raise
+    except (ArithmeticError, TypeError, ValueError, KeyError, AttributeError):
+        return
+    check_costs(costs, settings)
 
 
 def admit(body: StudyCreate, settings: Settings) -> engine.StudySpec:
@@ -151,17 +186,7 @@ def admit(body: StudyCreate, settings: Settings) -> engine.StudySpec:
         ) from e
     runs = spec.planned_runs()
     if len(runs) > settings.max_runs:
-        raise SpecRejected(
-            [
-                _error(
-                    (),
-                    f"the study has {len(runs)} runs (seeds x (1 + radii x "
-                    f"rules)); the limit is {settings.max_runs} "
-                    "(DEMSCALE_MAX_RUNS)",
-                    len(runs),
-                )
-            ]
-        )
+        raise _too_many_runs(len(runs), settings)
     biggest = max(runs, key=lambda p: p.test.n_particles)
     n = biggest.test.n_particles
     if n > settings.max_particles_per_run:
@@ -171,18 +196,11 @@ def admit(body: StudyCreate, settings: Settings) -> engine.StudySpec:
             else ("coarse_radii", spec.coarse_radii.index(biggest.radius))
         )
         raise _too_many_particles(loc, biggest.key, n, settings)
-    cost = spec.estimated_particle_steps()
-    if cost > settings.max_particle_steps:
-        raise SpecRejected(
-            [
-                _error(
-                    (),
-                    f"the study would take about {cost:.3g} particle-steps; "
-                    f"the limit is {settings.max_particle_steps:.3g} "
-                    "(DEMSCALE_MAX_PARTICLE_STEPS): use fewer or coarser runs, "
-                    "a smaller cell or fewer seeds",
-                    cost,
-                )
-            ]
-        )
+    _check_bounds(spec.reference.to_dict())
+    check_costs(worst_case(spec), settings)
     return spec
+
+
+def worst_case(spec: engine.StudySpec) -> list[cost.RunCost]:
+    """:func:`service.cost.worst_case` of a built spec."""
+    return cost.worst_case(spec.to_dict())

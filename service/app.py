@@ -8,33 +8,48 @@ Every route but ``/healthz`` and the API description needs a bearer token
 
 from __future__ import annotations
 
+import json
+import logging
 import re
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
+from pathlib import Path
 
 from fastapi import FastAPI, Request
 from fastapi.exception_handlers import http_exception_handler
-from sqlmodel import func, select
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import HTMLResponse, JSONResponse
+from fastapi.staticfiles import StaticFiles
+from markupsafe import Markup, escape
+from sqlmodel import Session, func, select
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 import engine
 
 from .db import engine_for
-from .deps import SessionDep
 from .embedded import EmbeddedWorker
+from .errors import validation_error
 from .guard import Guard, Tokens
+from .headers import SecurityHeaders
 from .models import Status, Study
+from .ratelimit import SubmitRateLimit
 from .routes import results, studies
-from .settings import ConfigError, Settings, get_settings
+from .settings import ConfigError, Settings, get_settings, secure_data_dir
 from .web import router as web_router
+from .web import templates
 from .weblogin import BrowserLogin
+
+log = logging.getLogger("demscale.api")
+
+#: The pages' script, style sheet (and nothing else): served without a token.
+STATIC_DIR = Path(__file__).parent / "static"
 
 DESCRIPTION = """Coarse-graining studies for cohesive DEM. Submit a study (a fine reference
 uniaxial test, coarse radii and scaling rules); a worker runs every run; fetch the summary
 (errors against the reference, run time, speed-up), JSON curves, PNG plots and the HDF5 file.
 
-Every route but `/healthz` needs `Authorization: Bearer <token>`; a token sees only the
-studies it submitted."""
+Every route but `/healthz` (up or down only, without a token) and this description needs
+`Authorization: Bearer <token>`; a token sees only the studies it submitted."""
 
 
 _METHODS = frozenset({"GET", "PUT", "POST", "DELETE", "OPTIONS", "HEAD", "PATCH", "TRACE"})
@@ -51,6 +66,34 @@ def allowed_methods(app: FastAPI, path: str) -> list[str]:
     return sorted(methods)
 
 
+def _kind(schema: dict) -> Markup:
+    """A schema's type in words for the docs page (a reference links to its schema)."""
+    if not isinstance(schema, dict):
+        return escape("any")
+    if "$ref" in schema:
+        name = schema["$ref"].rsplit("/", 1)[-1]
+        return Markup('<a href="#schema-{0}">{0}</a>').format(name)
+    for key in ("anyOf", "oneOf"):
+        if key in schema:
+            return Markup(" or ").join(_kind(s) for s in schema[key])
+    if schema.get("type") == "array":
+        return Markup("list of ") + _kind(schema.get("items", {}))
+    if schema.get("type") == "object" and "additionalProperties" in schema:
+        return Markup("object of ") + _kind(schema["additionalProperties"])
+    if "const" in schema:
+        return escape(json.dumps(schema["const"]))
+    if "enum" in schema:
+        return escape(" | ".join(json.dumps(v) for v in schema["enum"]))
+    return escape(schema.get("type", "any"))
+
+
+def _default(schema: dict) -> str:
+    if "default" not in schema:
+        return ""
+    text = json.dumps(schema["default"])
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     """The API. ``settings`` (default: from the environment) also override the
     ``get_settings`` dependency, so tests can point one app at a temporary store. Raises
@@ -65,6 +108,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        secure_data_dir(settings)  # the database 0600, the data directory 0700
         engine_for(settings)  # create the tables before the worker starts
         worker = EmbeddedWorker(settings) if settings.embedded_worker else None
         app.state.worker = worker
@@ -81,15 +125,23 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         version=engine.__version__,
         description=DESCRIPTION,
         lifespan=lifespan,
-        redoc_url=None,  # one API browser: /docs
+        docs_url=None,  # the service's own page (below): no script or style from a CDN
+        redoc_url=None,
     )
     app.dependency_overrides[get_settings] = lambda: settings
     app.state.worker = None
+    # inside the guard (it knows the owner): a token's submissions, refused ones included
+    app.add_middleware(SubmitRateLimit, per_minute=settings.submit_rate,
+                       burst=settings.submit_burst)
     app.add_middleware(Guard, tokens=tokens, max_body_bytes=settings.max_body_bytes)
-    app.add_middleware(BrowserLogin)  # outside the guard: the web page's token cookie
+    app.add_middleware(BrowserLogin, tokens=tokens)  # outside the guard: the page's cookie
+    app.add_middleware(SecurityHeaders)  # outermost: on every answer, the guard's too
+    app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
     app.include_router(studies.router)
     app.include_router(results.router)
     app.include_router(web_router)  # the studies web page at /
+
+    app.add_exception_handler(RequestValidationError, validation_error)
 
     @app.exception_handler(StarletteHTTPException)
     async def http_error(request: Request, exc: StarletteHTTPException):
@@ -100,11 +152,30 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             exc = StarletteHTTPException(405, exc.detail, headers={"Allow": ", ".join(allow)})
         return await http_exception_handler(request, exc)
 
-    @app.get("/healthz", tags=["health"])
-    def healthz(request: Request, session: SessionDep) -> dict:
-        """Liveness (no token needed): the database answers; queue counts; the embedded
-        worker's state."""
-        counts = dict(session.exec(select(Study.status, func.count()).group_by(Study.status)).all())
+    @app.get("/docs", include_in_schema=False, response_class=HTMLResponse)
+    def docs(request: Request) -> HTMLResponse:
+        """The API described from its OpenAPI document, drawn here (no CDN, no script)."""
+        return templates.TemplateResponse(request, "docs.html", {
+            "api": request.app.openapi(), "kind": _kind, "default": _default,
+            "base": str(request.base_url)})
+
+    @app.get("/healthz", tags=["health"], responses={503: {"description": "Down."}})
+    def healthz(request: Request):
+        """Liveness: ``{"status": "ok"}`` when the database answers, 503 ``down`` when not.
+        Without a token that is all; with one, also the counts of that token's studies per
+        status and whether the embedded worker is alive."""
+        owner = getattr(request.state, "owner", None)
+        try:
+            with Session(engine_for(settings)) as session:
+                query = select(Study.status, func.count()).group_by(Study.status)
+                if owner is not None:
+                    query = query.where(Study.owner == owner)
+                counts = dict(session.exec(query).all())
+        except Exception:  # the store does not answer: down, whatever the reason
+            log.exception("health check: the database does not answer")
+            return JSONResponse({"status": "down"}, status_code=503)
+        if owner is None:
+            return {"status": "ok"}
         worker = request.app.state.worker
         return {
             "status": "ok",

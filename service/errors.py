@@ -8,6 +8,12 @@ and headers.
 
 from __future__ import annotations
 
+import math
+from typing import Any
+
+from fastapi.encoders import jsonable_encoder
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 
 
@@ -36,14 +42,66 @@ _ANSWERS: dict[int, dict] = {
     413: {"description": "The request body is larger than `DEMSCALE_MAX_BODY_BYTES`."},
     429: {
         "description": "Too many queued or running studies, in all or of this token "
-        "(`DEMSCALE_MAX_ACTIVE`, `DEMSCALE_MAX_ACTIVE_PER_TOKEN`).",
+        "(`DEMSCALE_MAX_ACTIVE`, `DEMSCALE_MAX_ACTIVE_PER_TOKEN`), or too many submissions "
+        "of this token in a short time (`DEMSCALE_SUBMIT_RATE` a minute, bursts of "
+        "`DEMSCALE_SUBMIT_BURST`).",
         "headers": {
             "Retry-After": {**_INT_HEADER, "description": "Seconds to wait before trying again."}
         },
     },
+    507: {"description": "The token's studies would take more disk than "
+          "`DEMSCALE_MAX_STORAGE_PER_TOKEN`: delete finished studies first."},
 }
 
 
 def answers(*statuses: int) -> dict[int | str, dict]:
     """The OpenAPI ``responses`` of the given error statuses, each with :class:`ErrorMessage`."""
     return {s: {**_ANSWERS[s], "model": ErrorMessage} for s in statuses}
+
+
+def finite(value: Any) -> Any:
+    """``value`` as strict JSON (RFC 8259) can carry it: every non-finite float becomes the
+    text JSON5 would write (``"NaN"``, ``"Infinity"``, ``"-Infinity"``), recursively. The
+    422 answer echoes the input, and a body sent as ``{"name": NaN}`` must not make that
+    answer itself unserialisable (Starlette's JSONResponse refuses NaN)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return "NaN" if math.isnan(value) else ("Infinity" if value > 0 else "-Infinity")
+    if isinstance(value, dict):
+        return {str(k): finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [finite(v) for v in value]
+    return value
+
+
+def _non_finite_paths(value: Any, loc: tuple = ()) -> list[tuple]:
+    """Where in a parsed body a NaN or an infinity sits."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return [loc]
+    if isinstance(value, dict):
+        return [p for k, v in value.items() for p in _non_finite_paths(v, (*loc, k))]
+    if isinstance(value, (list, tuple)):
+        return [p for i, v in enumerate(value) for p in _non_finite_paths(v, (*loc, i))]
+    return []
+
+
+async def validation_error(request, exc: RequestValidationError) -> JSONResponse:
+    """FastAPI's 422 answer, always serialisable: a non-finite number anywhere in the body
+    (Python's JSON parser takes ``NaN`` and ``Infinity``, which JSON does not have) gets an
+    error of its own at its field, type ``finite_number``, and the echoed inputs are made
+    finite (:func:`finite`)."""
+    errors = jsonable_encoder(exc.errors())
+    seen = {tuple(e.get("loc", ())) for e in errors}
+    body = getattr(exc, "body", None)
+    for path in _non_finite_paths(body):
+        loc = ("body", *path)
+        if loc not in seen:
+            errors.append({"type": "finite_number", "loc": list(loc),
+                           "msg": "Input should be a finite number (JSON has no NaN or "
+                           "Infinity)", "input": body_at(body, path)})
+    return JSONResponse(status_code=422, content={"detail": finite(errors)})
+
+
+def body_at(body: Any, path: tuple) -> Any:
+    for key in path:
+        body = body[key]
+    return body

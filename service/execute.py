@@ -5,6 +5,7 @@ shutdown)."""
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 import shutil
@@ -29,6 +30,10 @@ from .settings import Settings
 log = logging.getLogger("demscale.worker")
 
 
+class RunTimeLimit(RuntimeError):
+    """A run went on past ``DEMSCALE_MAX_RUN_WALL_TIME``: the run fails, the study goes on."""
+
+
 class StudyExecution:
     """One attempt at a study by worker ``worker_id``; ``shutdown`` is set on SIGTERM."""
 
@@ -41,6 +46,8 @@ class StudyExecution:
         self.db = engine_for(settings)
         self.latest: engine.StudyProgress | None = None
         self.current_run: str | None = None
+        self.run_started = time.monotonic()
+        self.in_process = True  # runs in this process (not on a pool): the run limit applies
         self.cancel = False
         self.lost = False
         self.done = threading.Event()
@@ -73,9 +80,14 @@ class StudyExecution:
 
     # --------------------------------------------------------------------- engine thread
     def progress(self, p: engine.StudyProgress) -> bool:
-        """The engine's progress callback: returns False to stop the study."""
+        """The engine's progress callback: returns False to stop the study; raises
+        :class:`RunTimeLimit` in a run (in this process) older than the per-run limit. The
+        fraction shown never goes back (pool runs report as they come, out of step)."""
+        if self.latest is not None and p.fraction < self.latest.fraction:
+            p = dataclasses.replace(p, fraction=self.latest.fraction)
         self.latest = p
         if p.run_key != self.current_run:
+            self.run_started = time.monotonic()
             self.current_run = p.run_key
             try:
                 with Session(self.db) as s:
@@ -83,7 +95,14 @@ class StudyExecution:
             except Exception:  # bookkeeping only: the study goes on
                 log.exception("study %s: could not mark run %s", self.study_id, p.run_key)
             log.info("study %s: run %d/%d %s", self.study_id, p.run_index + 1, p.n_runs, p.run_key)
-        return not (self.cancel or self.lost or self.shutdown.is_set())
+        stop = self.cancel or self.lost or self.shutdown.is_set()
+        limit = self.settings.max_run_wall_time
+        if (not stop and self.in_process and p.stage != "setup"
+                and time.monotonic() - self.run_started > limit):
+            raise RunTimeLimit(f"run {p.run_key} ran for more than {limit:g} s of wall time "
+                               "(DEMSCALE_MAX_RUN_WALL_TIME): it was stopped; use a smaller "
+                               "or shorter test, or raise the limit")
+        return not stop
 
     def on_run(self, key: str, outcome) -> None:
         """The engine reports a finished run: store it at once (atomically) so that a
@@ -145,6 +164,7 @@ class StudyExecution:
         try:
             spec = engine.StudySpec.from_dict(self.spec_dict)
             with run_executor(self.settings) as pool:
+                self.in_process = pool is None
                 # runs in other processes or hosts report and hear a cancel through files in
                 # the study's folder (engine.FileChannel)
                 channel = (None if pool is None else

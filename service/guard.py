@@ -19,10 +19,12 @@ import json
 
 from .settings import FINGERPRINT_DIGITS
 
-#: Paths open without a token: the health check, and the API description (it holds the
-#: routes and schemas that are public in the source anyway, and Swagger UI needs it to let a
-#: user enter a token).
-PUBLIC_PATHS = frozenset({"/healthz", "/docs", "/docs/oauth2-redirect", "/openapi.json"})
+#: Paths open without a token: the health check (up or down only, unless a valid token
+#: comes with it), and the API description (it holds the routes and schemas that are public
+#: in the source anyway).
+PUBLIC_PATHS = frozenset({"/healthz", "/docs", "/openapi.json"})
+#: Prefix of the pages' script and style sheet, open too (they are the repository's files).
+PUBLIC_PREFIX = "/static/"
 
 
 class Tokens:
@@ -75,9 +77,12 @@ class Guard:
             await self.app(scope, receive, send)
             return
         headers = scope.get("headers", [])
-        if scope["path"] not in PUBLIC_PATHS:
-            presented = _bearer(headers)
-            owner = None if presented is None else self.tokens.owner(presented)
+        presented = _bearer(headers)
+        owner = None if presented is None else self.tokens.owner(presented)
+        if owner is not None:
+            scope.setdefault("state", {})["owner"] = owner
+        path = scope["path"]
+        if path not in PUBLIC_PATHS and not path.startswith(PUBLIC_PREFIX):
             if owner is None:
                 challenge = 'Bearer realm="demscale"'
                 if presented is not None:
@@ -86,7 +91,6 @@ class Guard:
                           "<token>')")
                 await _answer(send, 401, detail, {"WWW-Authenticate": challenge})
                 return
-            scope.setdefault("state", {})["owner"] = owner
         for name, value in headers:
             if name == b"content-length":
                 try:

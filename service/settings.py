@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import hashlib
 import ipaddress
+import logging
 import os
 import secrets
+import stat
 from functools import lru_cache
 from pathlib import Path
 
@@ -21,6 +23,9 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 MIN_TOKEN_LENGTH = 16
 #: Hex digits of SHA-256 kept as a token's fingerprint on the rows it owns.
 FINGERPRINT_DIGITS = 16
+
+
+log = logging.getLogger("demscale.settings")
 
 
 class ConfigError(ValueError):
@@ -51,6 +56,20 @@ class Settings(BaseSettings):
         2e10, gt=0, description="Largest estimated particle-steps of a whole study [-]."
     )
     max_runs: int = Field(64, gt=0, description="Largest number of runs in a study [-].")
+    max_curve_samples: int = Field(
+        1_000_000, gt=0, description="Most curve samples a study may store, at the worst "
+        "case its bounds allow (stage time caps / output_interval, summed over stages and "
+        "runs) [-]; each is 11 float64 values.")
+    max_run_wall_time: float = Field(
+        21_600.0, gt=0, description="Wall time [s] after which a run in the worker's own "
+        "process fails (the study goes on with the other runs).")
+    submit_rate: float = Field(
+        30.0, gt=0, description="Submissions (and refused requests) a token may make per "
+        "minute, in bursts of up to submit_burst; beyond: 429 with Retry-After.")
+    submit_burst: int = Field(10, ge=1, description="Largest burst of submissions of a token.")
+    max_storage_per_token: float = Field(
+        20e9, gt=0, description="Bytes one token's studies may take on disk: what its studies "
+        "hold plus the worst-case size of a new one; beyond: 507.")
 
     # worker
     heartbeat_interval: float = Field(2.0, gt=0, description="Seconds between heartbeats.")
@@ -109,6 +128,7 @@ class Settings(BaseSettings):
         if self.api_token is not None:
             out.append(self.api_token.get_secret_value().strip())
         if self.api_token_file is not None:
+            check_token_file(self.api_token_file)
             try:
                 text = self.api_token_file.read_text()
             except OSError as e:
@@ -156,6 +176,43 @@ class Settings(BaseSettings):
     def runs_dir(self, study_id: object) -> Path:
         """The per-run HDF5 files of one study, each stored as soon as its run ends."""
         return self.study_dir(study_id) / "runs"
+
+
+def check_token_file(path: Path) -> None:
+    """Refuse a token file that every user of the machine can read or write (raises
+    :class:`ConfigError` naming the fix); warn about one the file's group can read."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return  # the read that follows names the error
+    if mode & (stat.S_IROTH | stat.S_IWOTH):
+        raise ConfigError(f"DEMSCALE_API_TOKEN_FILE: {path} can be read or written by every "
+                          f"user of this machine (mode {stat.filemode(mode)}): "
+                          f"`chmod 600 {path}`")
+    if mode & (stat.S_IRGRP | stat.S_IWGRP):
+        log.warning("DEMSCALE_API_TOKEN_FILE: %s can be read by its group (mode %s); "
+                    "`chmod 600` keeps the tokens to their owner", path, stat.filemode(mode))
+
+
+def secure_data_dir(settings: Settings) -> None:
+    """Keep the store to the service's own user: files made from now on by this process
+    (and the workers it starts) are 0600 and directories 0700 (umask 077); the data
+    directory, the studies directory and a SQLite database already there are narrowed to
+    those modes. Called by the API and the worker as they start."""
+    os.umask(0o077)
+    paths = [(settings.data_dir, 0o700), (settings.studies_dir, 0o700)]
+    settings.studies_dir.mkdir(parents=True, exist_ok=True)
+    url = settings.sqlalchemy_url
+    if url.startswith("sqlite:///"):
+        db = Path(url.removeprefix("sqlite:///"))
+        paths += [(f, 0o600) for f in (db, db.with_name(db.name + "-wal"),
+                                       db.with_name(db.name + "-shm")) if f.is_file()]
+    for path, mode in paths:
+        try:
+            if stat.S_IMODE(path.stat().st_mode) & 0o077:
+                path.chmod(mode)
+        except OSError as e:  # another user's directory (a shared volume): say so, go on
+            log.warning("cannot narrow %s to mode %o: %s", path, mode, e.strerror)
 
 
 def is_loopback(host: str) -> bool:

@@ -38,6 +38,7 @@ from engine.params import ParamInfo, describe
 from engine.study_spec import NAMED_RULES
 from engine.uniaxial_spec import PRESETS
 
+from .cost import MIN_SETTLE_KE
 from .models import NAME_MAX_LENGTH
 
 #: What the engine checks in code but does not declare with ``param``, keyed by
@@ -47,6 +48,10 @@ SERVICE_LIMITS: dict[tuple[str, str], dict[str, Any]] = {
     ("ScalingRule", "name"): {"pattern": r"^[A-Za-z0-9_.\-]{1,40}$"},
     # engine.StudySpec.__post_init__: the scaling rules act on the adhesive laws' K1, K2, f0
     ("UniaxialTest", "pair_law"): {"record": engine.materials.ADHESIVE_LAWS},
+    # service.cost: below this a fill never settles and runs to max_stage_time (the
+    # bounds relative to dt and the stages, on output_interval and max_stage_time, are
+    # checked at admission: a schema cannot state them)
+    ("UniaxialTest", "settle_ke"): {"ge": MIN_SETTLE_KE},
 }
 #: Longest list or object the API takes where the engine declares no ``max_items``.
 MAX_ITEMS = 32

@@ -24,7 +24,7 @@ from . import transitions
 from .db import engine_for
 from .execute import StudyExecution
 from .models import utcnow
-from .settings import Settings, get_settings
+from .settings import Settings, get_settings, secure_data_dir
 
 log = logging.getLogger("demscale.worker")
 
@@ -113,7 +113,9 @@ def main(argv: list[str] | None = None) -> None:
     )
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
-    worker = Worker(get_settings(), parent_pid=args.parent_pid, once=args.once)
+    settings = get_settings()
+    secure_data_dir(settings)  # results 0600 in 0700 directories
+    worker = Worker(settings, parent_pid=args.parent_pid, once=args.once)
     signal.signal(signal.SIGTERM, worker.request_shutdown)
     signal.signal(signal.SIGINT, worker.request_shutdown)
     worker.run()

@@ -10,10 +10,21 @@ from fastapi.exceptions import RequestValidationError
 from sqlmodel import func, select
 
 from .. import transitions
-from ..admission import SpecRejected, admit
+from ..admission import SpecRejected, admit, worst_case
+from ..cost import output_bytes, stored_bytes
+from ..cost import worst_case as cost_of
 from ..deps import OwnerDep, SessionDep, SettingsDep, StudyDep
 from ..errors import answers
-from ..models import Run, RunPublic, StudiesPublic, Study, StudyDetail, StudyPublic, StudySubmitted
+from ..models import (
+    Run,
+    RunPublic,
+    Status,
+    StudiesPublic,
+    Study,
+    StudyDetail,
+    StudyPublic,
+    StudySubmitted,
+)
 from ..plots import KINDS
 from ..spec import StudyCreate
 
@@ -44,6 +55,30 @@ def public(study: Study) -> StudyPublic:
     return StudyPublic.model_validate(study, update={"links": links(study.id)})
 
 
+def check_storage(session, settings, owner: str, new_bytes: float) -> None:
+    """507 when the owner's studies would take more than ``DEMSCALE_MAX_STORAGE_PER_TOKEN``:
+    what each holds on disk (a queued or running one: at least its worst-case size, it has
+    yet to write) plus the worst-case size of the new one."""
+    rows = session.exec(select(Study.id, Study.status, Study.spec)
+                        .where(Study.owner == owner)).all()
+    used = 0.0
+    for sid, status, spec in rows:
+        held = stored_bytes([settings.study_dir(sid)])
+        if status in (Status.queued, Status.running):
+            try:
+                held = max(held, output_bytes(cost_of(spec)))
+            except Exception:  # a spec stored by an older version: what it holds now
+                pass
+        used += held
+    limit = settings.max_storage_per_token
+    if used + new_bytes > limit:
+        raise HTTPException(
+            status_code=507,
+            detail=f"this token's studies take up to {used / 1e6:.1f} MB and this one could "
+            f"take {new_bytes / 1e6:.1f} MB more; the limit is {limit / 1e6:.1f} MB per token "
+            "(DEMSCALE_MAX_STORAGE_PER_TOKEN): delete finished studies first")
+
+
 @router.post(
     "",
     status_code=202,
@@ -51,7 +86,7 @@ def public(study: Study) -> StudyPublic:
     responses={
         202: {"headers": {"Location": {"schema": {"type": "string"}, "required": True,
                                        "description": "URL of the new study."}}},
-        **answers(400, 413, 429),
+        **answers(400, 413, 429, 507),
     },
 )
 def submit_study(
@@ -62,11 +97,14 @@ def submit_study(
     response: Response,
 ) -> StudySubmitted:
     """Queue a study. 422 with field-level errors when the spec is invalid or too large;
-    429 (with Retry-After) when too many studies are queued or running."""
+    429 (with Retry-After) when too many studies are queued or running, or the token submits
+    too fast; 507 when the token's studies would take more than its storage quota."""
     try:
         spec = admit(body, settings)
     except SpecRejected as e:
         raise RequestValidationError(e.errors) from e
+    costs = worst_case(spec)
+    check_storage(session, settings, owner, output_bytes(costs))
     planned = spec.planned_runs()
     study = Study(
         owner=owner,
@@ -74,7 +112,8 @@ def submit_study(
         spec=spec.to_dict(),
         n_runs=len(planned),
         max_particles=max(p.test.n_particles for p in planned),
-        estimated_particle_steps=spec.estimated_particle_steps(),
+        # the worst case its bounds allow, as admitted
+        estimated_particle_steps=sum(c.particle_steps for c in costs),
     )
     runs = [
         Run(

@@ -68,6 +68,8 @@ def settings(tmp_path: Path) -> Settings:
         max_particles_per_run=5000,
         max_particle_steps=2e9,
         api_token=TOKEN,
+        submit_rate=1e6,  # tests submit in bursts; the limit has its own test
+        submit_burst=10**6,
     )
 
 

@@ -117,11 +117,13 @@ def test_fields_units_bounds_defaults_agree(components, cls):
         if p.kind in ("float", "int"):
             expected_type = "number" if p.kind == "float" else "integer"
             assert body["type"] == expected_type, where
+            # the engine's bounds, and those the service adds (service.spec.SERVICE_LIMITS)
+            limits = SERVICE_LIMITS.get((cls.__name__, p.name), {})
             for key, bound in (
-                ("exclusiveMinimum", p.gt),
-                ("minimum", p.ge),
-                ("exclusiveMaximum", p.lt),
-                ("maximum", p.le),
+                ("exclusiveMinimum", limits.get("gt", p.gt)),
+                ("minimum", limits.get("ge", p.ge)),
+                ("exclusiveMaximum", limits.get("lt", p.lt)),
+                ("maximum", limits.get("le", p.le)),
             ):
                 assert body.get(key) == bound, (where, key)
         elif p.kind == "bool":

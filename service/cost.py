@@ -1,0 +1,263 @@
+"""What a study can cost at worst, from its raw fields, before anything is built.
+
+Building an :class:`engine.UniaxialTest` places its packing, and a study builds one for every
+planned run: for a body of hundreds of runs that took minutes of the API's CPU before any
+cap could refuse it. Everything here works on the request's fields and on *probes*
+(records whose fields are set without ``__post_init__``, so nothing is placed), in
+microseconds per run:
+
+- :func:`plan_counts`: the number of runs (seeds x (1 + radii x rules));
+- :func:`work_bounds`: the bounds on the knobs that set a run's work or output, relative
+  to its time step and to its stages' physics (:data:`BOUNDS`);
+- :func:`worst_stage_times`: the longest simulated time each stage can take, as the engine
+  bounds it (``max_stage_time`` for every stage, and what each stage's physics adds: the
+  platen cannot travel further than the pour column, the release ends at ``release_time``,
+  unconfined compression at ``max_unconfined_strain``);
+- :func:`worst_case`: particle-steps and curve samples of every planned run at those times,
+  which the admission caps compare (``DEMSCALE_MAX_PARTICLE_STEPS``,
+  ``DEMSCALE_MAX_CURVE_SAMPLES``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import engine
+from engine.materials import ADHESIVE_LAWS, HertzMindlin, WallMaterial
+from engine.uniaxial_spec import GRAVITY, PRESETS
+
+#: Bounds on the knobs that set work, as the admission enforces them (docs/SERVICE.md).
+BOUNDS = {
+    "output_interval": "in [dt, 0.01 x H / platen_speed]: at most one curve sample a time "
+    "step, at least one per 1 % of axial strain",
+    "max_stage_time": "<= 10 x max(2 free-fall times of the pour column, pour column / "
+    "platen_speed)",
+    "settle_ke": ">= 1e-8 (below that the fill never settles: it runs to max_stage_time)",
+}
+#: Smallest ``settle_ke`` admitted [-] (also declared in the OpenAPI document).
+MIN_SETTLE_KE = 1e-8
+#: ``max_stage_time`` at most this many times the stage's own time scale.
+STAGE_TIME_FACTOR = 10.0
+#: ``output_interval`` at most the time of this much axial strain at the platen speed.
+SAMPLE_STRAIN = 0.01
+
+
+def _preset_fields() -> dict[str, dict]:
+    """The presets' fields (each built once, when this module is imported)."""
+    return {name: engine.preset(name).to_dict() for name in PRESETS}
+
+
+_PRESETS = _preset_fields()
+
+
+def reference_fields(data: dict) -> dict:
+    """The reference test's fields as the engine will build them: the preset (``quick``
+    when no reference is given) or the record's defaults, overridden by the request."""
+    given = dict(data.get("reference", {"preset": "quick"}))
+    name = given.pop("preset", None)
+    if name is not None:
+        base = dict(_PRESETS[name])
+    else:
+        base = {
+            f.name: f.default if f.default_factory is dataclasses.MISSING else f.default_factory()
+            for f in dataclasses.fields(engine.UniaxialTest)
+        }
+    return {**base, **given}
+
+
+def _law(value, default: str):
+    if not isinstance(value, dict):
+        return value
+    value = dict(value)
+    kind = value.pop("type", default)
+    cls = {c.__name__: c for c in (*ADHESIVE_LAWS, HertzMindlin)}[kind]
+    return cls(**value)
+
+
+def probe(fields: dict, **changes) -> engine.UniaxialTest:
+    """A :class:`engine.UniaxialTest` with ``fields`` (and ``changes``) set but not
+    validated and nothing placed: for its derived quantities (``n_particles``,
+    ``pour_height``, ``time_step_limit()``). The laws are built (and check themselves)."""
+    values = {**fields, **changes}
+    values["pair_law"] = _law(values.get("pair_law"), "BilinearAdhesive")
+    values["wall_law"] = _law(values.get("wall_law"), "HertzMindlin")
+    if isinstance(values.get("wall_material"), dict):
+        values["wall_material"] = WallMaterial(**values["wall_material"])
+    out = object.__new__(engine.UniaxialTest)
+    for name, value in values.items():
+        object.__setattr__(out, name, tuple(value) if isinstance(value, list) else value)
+    return out
+
+
+def _rules(data: dict) -> list[engine.ScalingRule]:
+    given = data.get("rules")
+    if given is None:
+        field = next(f for f in dataclasses.fields(engine.StudySpec) if f.name == "rules")
+        return list(field.default_factory())
+    out = []
+    for r in given:
+        if isinstance(r, engine.ScalingRule):
+            out.append(r)
+        elif isinstance(r, str):
+            out.append(engine.ScalingRule.named(r))
+        else:
+            out.append(engine.ScalingRule(**r))
+    return out
+
+
+def _seeds(data: dict, fields: dict) -> tuple[list, list]:
+    """(reference seeds, coarse seeds) as ``engine.StudySpec`` fills them in."""
+    seeds = data.get("seeds") or None
+    ref_seeds = data.get("reference_seeds") or seeds or [fields.get("seed", 1)]
+    return list(ref_seeds), list(seeds or ref_seeds)
+
+
+def plan_counts(data: dict) -> int:
+    """Runs of the study (reference seeds + seeds x radii x rules), from the raw fields."""
+    fields = reference_fields(data)
+    ref_seeds, seeds = _seeds(data, fields)
+    radii = data.get("coarse_radii") or [5e-3]
+    n_rules = len(data["rules"]) if data.get("rules") is not None else len(_rules(data))
+    return len(ref_seeds) + len(seeds) * len(radii) * n_rules
+
+
+def worst_stage_times(test: engine.UniaxialTest) -> dict[str, float]:
+    """The longest simulated time [s] each stage of ``test`` can run before the engine ends
+    it (by its criterion or its bound): ``max_stage_time``, or less where the stage's
+    physics ends it sooner. The fill ends only by settling: ``max_stage_time``. The platen
+    of pre-compression and consolidation cannot travel further than the pour column
+    (the stress would rise without bound first); unloading cannot take longer than that
+    travel back; the release ends at ``release_time`` (or a few particle fall times);
+    unconfined compression at ``max_unconfined_strain`` of a sample at most the pour
+    column tall."""
+    cap = test.max_stage_time
+    travel = test.pour_height / test.platen_speed
+    out = {"fill": cap, "pre_compression": min(cap, travel), "consolidation": min(cap, travel),
+           "unloading": min(cap, travel)}
+    if test.unconfined:
+        t_min = 5 * math.sqrt(2 * test.radius / GRAVITY)
+        out["release"] = min(cap, max(t_min, test.release_time))
+        out["unconfined"] = min(cap, test.max_unconfined_strain * travel)
+    return out
+
+
+@dataclass(frozen=True)
+class RunCost:
+    """The worst case of one planned run: its key, particles, steps and curve samples."""
+
+    key: str
+    particles: float
+    steps: float
+    samples: float
+
+    @property
+    def particle_steps(self) -> float:
+        return self.particles * self.steps
+
+
+def run_cost(key: str, test: engine.UniaxialTest, dt: float) -> RunCost:
+    """The worst case of ``test`` run with time step ``dt`` [s]: every stage at its
+    :func:`worst_stage_times`, a curve sample every ``output_interval`` (at least a step)
+    and one more at each stage's start."""
+    times = worst_stage_times(test)
+    stage_steps = [max(1.0, _ceil(t / dt)) for t in times.values()]
+    ratio = test.output_interval / dt
+    sample_steps = max(1.0, float(round(ratio)) if math.isfinite(ratio) else math.inf)
+    samples = sum(1 + _ceil(n / sample_steps) if math.isfinite(sample_steps) else 1.0
+                  for n in stage_steps)
+    return RunCost(key, float(test.n_particles), float(sum(stage_steps)), float(samples))
+
+
+def _ceil(x: float) -> float:
+    """``math.ceil`` that keeps an infinity (a time step of 5e-324 s: inf steps, refused by
+    the caps, not an OverflowError)."""
+    return float(math.ceil(x)) if math.isfinite(x) else math.inf
+
+
+def reference_dt(fields: dict) -> float:
+    """The reference's time step [s]: ``dt``, or the recommended one of its laws."""
+    dt = fields.get("dt")
+    return float(dt) if dt is not None else float(probe(fields).time_step_limit().recommended)
+
+
+def worst_case(data: dict) -> list[RunCost]:
+    """:class:`RunCost` of every planned run, in plan order, from the raw fields (as
+    ``engine.StudySpec.planned_runs`` would plan them, nothing built)."""
+    fields = reference_fields(data)
+    ref_seeds, seeds = _seeds(data, fields)
+    radii = data.get("coarse_radii") or [5e-3]
+    rules = _rules(data)
+    dt_ref = reference_dt(fields)
+    ref = probe(fields)
+    out = [run_cost(f"ref-s{s}", ref, dt_ref) for s in ref_seeds]
+    coarse = {}
+    for r in radii:
+        test = probe(fields, radius=r)
+        for rule in rules:
+            dt = dt_ref * (r / ref.radius if rule.dt == "scaled" else 1.0)
+            coarse[r, rule.name] = run_cost(f"r{r * 1e3:g}mm-{rule.name}", test, dt)
+    for s in seeds:
+        for r in radii:
+            for rule in rules:
+                c = coarse[r, rule.name]
+                out.append(dataclasses.replace(c, key=f"{c.key}-s{s}"))
+    return out
+
+
+def work_bounds(fields: dict, dt: float) -> list[tuple[str, float, str]]:
+    """The knobs of the reference ``fields`` (time step ``dt`` [s]) outside
+    :data:`BOUNDS`: (field, value, the bound in words) for each."""
+    test = probe(fields)
+    out = []
+    oi = fields["output_interval"]
+    top = SAMPLE_STRAIN * test.cell[2] / test.platen_speed
+    if oi < dt:
+        out.append(("output_interval", oi, f">= dt = {dt:.4g} s (one curve sample a time step "
+                    "at most)"))
+    elif oi > top * (1 + 1e-9):  # (rounding of the bound itself)
+        out.append(("output_interval", oi, f"<= {top:.4g} s ({SAMPLE_STRAIN:g} x H / "
+                    "platen_speed: one curve sample per 1 % of axial strain at least)"))
+    fall = 2 * math.sqrt(2 * test.pour_height / GRAVITY)
+    scale = max(fall, test.pour_height / test.platen_speed)
+    cap = STAGE_TIME_FACTOR * scale
+    if fields["max_stage_time"] > cap:
+        out.append(("max_stage_time", fields["max_stage_time"],
+                    f"<= {cap:.4g} s ({STAGE_TIME_FACTOR:g} x max(2 free-fall times of the "
+                    f"pour column = {fall:.3g} s, pour column / platen_speed = "
+                    f"{test.pour_height / test.platen_speed:.3g} s))"))
+    if fields["settle_ke"] < MIN_SETTLE_KE:
+        out.append(("settle_ke", fields["settle_ke"], f">= {MIN_SETTLE_KE:g} (a fill never "
+                    "settles below that: it would run to max_stage_time)"))
+    return out
+
+
+#: Bytes a curve sample costs on disk at worst: 11 float64 values, in the run's file and
+#: again in the study's results.h5.
+BYTES_PER_SAMPLE = 2 * 11 * 8
+#: Bytes a particle costs per stage at worst: positions and radii at the stage's end (in the
+#: run file and results.h5) and its share of the ParaView snapshots (particles, contacts).
+BYTES_PER_PARTICLE_STAGE = 512
+
+
+def output_bytes(costs: list[RunCost]) -> float:
+    """What a study's files can take on disk at worst [bytes] (an estimate on the safe side:
+    its worst-case curve samples, and the stage-end state of every particle of every run)."""
+    return float(sum(BYTES_PER_SAMPLE * c.samples + 6 * BYTES_PER_PARTICLE_STAGE * c.particles
+                     for c in costs))
+
+
+def stored_bytes(directories) -> int:
+    """Bytes of the files under ``directories`` (missing ones count 0)."""
+    import os
+
+    total = 0
+    for d in directories:
+        for root, _, files in os.walk(d):
+            for f in files:
+                try:
+                    total += os.stat(os.path.join(root, f)).st_size
+                except OSError:  # removed meanwhile
+                    pass
+    return total

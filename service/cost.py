@@ -114,12 +114,26 @@ def _seeds(data: dict, fields: dict) -> tuple[list, list]:
     return list(ref_seeds), list(seeds or ref_seeds)
 
 
+def _decide_caps(data: dict) -> tuple[int, int] | None:
+    """(most reference seeds, most seeds per variant) of a study that adds seeds until
+    decided (``decide``), else None; the engine's defaults where the body leaves them."""
+    if not data.get("decide"):
+        return None
+    info = {i.name: i for i in engine.params.describe(engine.StudySpec)}
+    return (int(data.get("max_reference_seeds") or info["max_reference_seeds"].default),
+            int(data.get("max_seeds") or info["max_seeds"].default))
+
+
 def plan_counts(data: dict) -> int:
-    """Runs of the study (reference seeds + seeds x radii x rules), from the raw fields."""
+    """Runs of the study (reference seeds + seeds x radii x rules), from the raw fields;
+    with ``decide`` the most it may run (every variant and the reference at its seed cap)."""
     fields = reference_fields(data)
     ref_seeds, seeds = _seeds(data, fields)
     radii = data.get("coarse_radii") or [5e-3]
     n_rules = len(data["rules"]) if data.get("rules") is not None else len(_rules(data))
+    caps = _decide_caps(data)
+    if caps is not None:
+        return max(caps[0], len(ref_seeds)) + max(caps[1], len(seeds)) * len(radii) * n_rules
     return len(ref_seeds) + len(seeds) * len(radii) * n_rules
 
 
@@ -203,7 +217,44 @@ def worst_case(data: dict) -> list[RunCost]:
             for rule in rules:
                 c = coarse[r, rule.name]
                 out.append(dataclasses.replace(c, key=f"{c.key}-s{s}"))
+    caps = _decide_caps(data)
+    if caps is not None:
+        extra = [out[0]] * max(0, caps[0] - len(ref_seeds)) + [
+            c for c in coarse.values() for _ in range(max(0, caps[1] - len(seeds)))]
+        if extra:
+            out.append(_added_worst_case(extra, ref, coarse, radii, rules, dt_ref, data,
+                                         fields))
     return out
+
+
+def _added_worst_case(extra: list[RunCost], ref, coarse, radii, rules, dt_ref, data,
+                      fields) -> RunCost:
+    """One :class:`RunCost` for every run a ``decide`` study may add: all of them at their
+    seed caps, or, with a ``budget`` of (estimated) particle-steps, that budget times the
+    largest ratio of worst-case to estimated particle-steps (and of curve samples to
+    estimated particle-steps) of the runs they copy, whichever is less."""
+    from engine.study_spec import estimated_steps
+
+    particle_steps = sum(c.particle_steps for c in extra)
+    samples = sum(c.samples for c in extra)
+    budget = data.get("budget")
+    if budget is not None:
+        typical = {"ref": estimated_steps(ref) * ref.n_particles}
+        for r in radii:
+            test = probe(fields, radius=r)
+            for rule in rules:
+                dt = dt_ref * (r / ref.radius if rule.dt == "scaled" else 1.0)
+                typical[r, rule.name] = estimated_steps(dataclasses.replace(test, dt=dt)) * (
+                    test.n_particles)
+        pairs = [(out_c, typical["ref"]) for out_c in extra[:1] if out_c.key.startswith("ref")]
+        pairs += [(coarse[k], typical[k]) for k in coarse]
+        ps_ratio = max(c.particle_steps / t for c, t in pairs if t > 0)
+        sample_ratio = max(c.samples / t for c, t in pairs if t > 0)
+        particle_steps = min(particle_steps, ps_ratio * float(budget))
+        samples = min(samples, sample_ratio * float(budget))
+    particles = max(c.particles for c in extra)
+    return RunCost("runs added until decided (worst case)", particles,
+                   particle_steps / particles, samples)
 
 
 def work_bounds(fields: dict, dt: float) -> list[tuple[str, float, str]]:

@@ -19,6 +19,7 @@ from sqlmodel import Session
 import engine
 from engine.runstore import completed_runs
 from engine.runstore import save_run as store_run
+from engine.study import plan_runs
 
 from . import transitions
 from .db import engine_for
@@ -51,6 +52,8 @@ class StudyExecution:
         self.cancel = False
         self.lost = False
         self.done = threading.Event()
+        self.known_runs: set[str] = set()  # run keys with a row (added runs get one)
+        self.spec: engine.StudySpec | None = None
 
     # ------------------------------------------------------------------- heartbeat thread
     def beat(self) -> None:
@@ -104,11 +107,29 @@ class StudyExecution:
                                "or shorter test, or raise the limit")
         return not stop
 
+    def ensure_row(self, key: str) -> None:
+        """Give a run a ``decide`` study added a row, with the others of its round: the
+        study's runs are replayed from the stored ones (engine.study.plan_runs)."""
+        if key in self.known_runs:
+            return
+        spec = self.spec
+        done, _ = completed_runs(spec, self.settings.runs_dir(self.study_id))
+        planned = plan_runs(spec, done)[0]
+        rows = [{"key": p.key, "radius": p.radius, "seed": p.seed,
+                 "rule": "reference" if p.rule is None else p.rule.name,
+                 "particles": p.test.n_particles} for p in planned]
+        with Session(self.db) as s:
+            added = transitions.add_runs(s, self.study_id, rows)
+        if added:
+            log.info("study %s: %d runs added until decided", self.study_id, added)
+        self.known_runs.update(p.key for p in planned)
+
     def on_run(self, key: str, outcome) -> None:
         """The engine reports a finished run: store it at once (atomically) so that a
         resumed study skips it, and mark its row. A failed coarse run is recorded with its
         error while the others go on; the verdicts name it."""
         store_run(self.settings.runs_dir(self.study_id) / f"{key}.h5", outcome)
+        self.ensure_row(key)
         failed = isinstance(outcome, str)
         if not failed:
             self.store_snapshots(key, outcome)
@@ -162,7 +183,8 @@ class StudyExecution:
         beats = threading.Thread(target=self._beat_loop, name="heartbeat", daemon=True)
         beats.start()
         try:
-            spec = engine.StudySpec.from_dict(self.spec_dict)
+            spec = self.spec = engine.StudySpec.from_dict(self.spec_dict)
+            self.known_runs.update(p.key for p in spec.planned_runs())
             with run_executor(self.settings) as pool:
                 self.in_process = pool is None
                 # runs in other processes or hosts report and hear a cancel through files in

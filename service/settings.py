@@ -53,7 +53,7 @@ class Settings(BaseSettings):
     # admission limits of a study
     max_particles_per_run: int = Field(50_000, gt=0, description="Largest run allowed [-].")
     max_particle_steps: float = Field(
-        2e10, gt=0, description="Largest estimated particle-steps of a whole study [-]."
+        5e10, gt=0, description="Largest worst-case particle-steps of a whole study [-]."
     )
     max_runs: int = Field(64, gt=0, description="Largest number of runs in a study [-].")
     max_curve_samples: int = Field(

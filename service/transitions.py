@@ -174,6 +174,22 @@ def heartbeat(session: Session, study_id: uuid.UUID, worker_id: str, **progress)
     return Beat(owned, bool(cancel))
 
 
+def add_runs(session: Session, study_id: uuid.UUID, runs: list[dict]) -> int:
+    """Rows for runs a ``decide`` study added (each a dict of key, radius, rule, seed,
+    particles), after the study's other runs; keys it already has are skipped. Returns how
+    many were added; the study's ``n_runs`` follows."""
+    have = set(session.execute(select(Run.key).where(Run.study_id == study_id)).scalars())
+    position = len(have)
+    new = [r for r in runs if r["key"] not in have]
+    for r in new:
+        session.add(Run(study_id=study_id, position=position, **r))
+        position += 1
+    if new:
+        session.execute(update(Study).where(Study.id == study_id).values(n_runs=position))
+    session.commit()
+    return len(new)
+
+
 def run_started(session: Session, study_id: uuid.UUID, key: str) -> None:
     """Mark run ``key`` running."""
     _runs(session, study_id, (Q,), R, Run.key == key, started_at=utcnow())

@@ -219,3 +219,25 @@ def test_callback_can_stop_a_study():
                             rules=(engine.ScalingRule.named("paper"),))
     with pytest.raises(engine.StopRequested):
         engine.run_study(spec, progress=lambda p: p.run_index == 0)
+
+
+def test_a_deciding_study_resumes_with_the_runs_it_added():
+    # a study that adds seeds, interrupted after its first added run: the resumed study
+    # finds the same added runs (replayed from the stored ones) and runs only the rest
+    spec = engine.StudySpec(reference=tiny(), coarse_radii=(3.1e-3,), seeds=(1, 2),
+                            reference_seeds=(1,), rules=(engine.ScalingRule.named("paper"),),
+                            decide=True, rounds=1, max_seeds=3, max_reference_seeds=3)
+    stored: dict = {}
+    full = engine.run_study(spec, on_run=stored.__setitem__)
+    added = [a["run"] for a in full.advisor["adaptive"]["added_runs"]]
+    assert added and added[0] == "ref-s2"  # one reference seed: its spread first
+    planned = [p.key for p in spec.planned_runs()]
+    partial = {k: v for k, v in stored.items() if k in planned + added[:1]}
+    ran: list = []
+    again = engine.run_study(spec, completed=partial, on_run=lambda k, o: ran.append(k))
+    assert ran == added[1:]
+    assert [a["run"] for a in again.advisor["adaptive"]["added_runs"]] == added
+    assert [r["run"] for r in again.table] == [r["run"] for r in full.table]
+    # the runs are deterministic: the resumed study's verdicts are the uninterrupted one's
+    assert [v["verdict"] for v in again.advisor["verdicts"]] == [
+        v["verdict"] for v in full.advisor["verdicts"]]

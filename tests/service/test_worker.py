@@ -391,3 +391,25 @@ def test_pool_processes_exit_when_their_worker_is_killed(client, workers, settin
     while time.monotonic() < deadline and any(_alive(p) for p in pool):
         time.sleep(0.2)
     assert not [p for p in pool if _alive(p)]
+
+
+@pytest.mark.timeout(RUN_TIMEOUT + 60)
+def test_a_study_that_decides_adds_runs_with_rows_and_shows_them(client, workers, settings):
+    from .conftest import TINIEST
+
+    body = {**TINIEST, "name": "decide", "decide": True, "rounds": 1, "max_seeds": 3,
+            "max_reference_seeds": 3}
+    sid = submit(client, body)
+    workers.start()
+    done = wait_for(study_getter(client, sid),
+                    lambda s: s["status"] in ("succeeded", "failed"), RUN_TIMEOUT,
+                    "the study to finish", workers)
+    assert done["status"] == "succeeded", done["error"]
+    summary = client.get(f"/studies/{sid}/summary").json()
+    adaptive = summary["advisor"]["adaptive"]
+    added = [a["run"] for a in adaptive["added_runs"]]
+    assert adaptive["planned_runs"] == 2 and added  # one reference seed: a second is added
+    keys = [r["key"] for r in done["runs"]]
+    assert keys[:2] == ["ref-s1", "r3.1mm-paper-s1"] and set(added) <= set(keys)
+    assert done["n_runs"] == len(keys)
+    assert all(r["status"] in ("succeeded", "failed") for r in done["runs"])

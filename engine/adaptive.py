@@ -45,28 +45,34 @@ class Addition:
     reason: str
 
 
-def _components(name, values, ref_values, cons):
-    """Means and sample variances (per level) of a metric's coarse and reference values."""
+def _arrays(name, values, ref_values, cons):
+    """A metric's coarse and reference values (seeds x levels) and its scale."""
     c = np.array([np.atleast_1d(v[name]) for v in values], dtype=float)
     r = np.array([np.atleast_1d(v[name]) for v in ref_values], dtype=float)
-    return c.mean(0), c.var(0, ddof=1), r.mean(0), r.var(0, ddof=1), reference_scale(
-        name, r.mean(0), cons)
+    return c, r, reference_scale(name, r.mean(0), cons)
 
 
 def next_runs(spec, ref_values: list[dict], variants: dict[tuple, list[dict]],
               verdicts: list[dict], costs: dict, round_no: int,
-              budget_left: float | None) -> list[Addition]:
+              budget_left: float | None, attempted: dict | None = None) -> list[Addition]:
     """The runs of round ``round_no`` (module docstring). ``ref_values`` and ``variants``
-    hold metric values per seed (as :func:`engine.advisor.judge_groups` takes them),
-    ``verdicts`` are their judgements, ``costs`` maps ``"reference"`` and each variant to
-    the estimated particle-steps of one more run; ``budget_left``: particle-steps still
-    allowed (None: unbounded)."""
+    hold metric values per finished seed (as :func:`engine.advisor.judge_groups` takes
+    them), ``verdicts`` are their judgements, ``costs`` maps ``"reference"`` and each variant
+    to the estimated particle-steps of one more run; ``budget_left``: particle-steps still
+    allowed (None: unbounded); ``attempted``: runs planned so far per variant and
+    ``"reference"``, failed ones included, which the seed caps count (default: the finished
+    ones)."""
     cons = spec.reference.consolidation_stress
     names = [m["metric"] for m in verdicts[0]["metrics"]] if verdicts else []
     alpha_e, alpha_d = error_rates(spec.confidence, len(names), spec.looks)
+    attempted = dict(attempted or {})
     n_ref0 = len(ref_values)
+    tried_r = max(attempted.get("reference", n_ref0), n_ref0)
+    left = np.inf if budget_left is None else float(budget_left)
     if n_ref0 < 2:  # no interval without a second reference seed
-        k = min(2 - n_ref0, spec.max_reference_seeds - n_ref0)
+        k = min(2 - n_ref0, spec.max_reference_seeds - tried_r)
+        while k > 0 and k * costs["reference"] > left:  # within the budget
+            k -= 1
         return [Addition("reference", None, round_no, f"round {round_no}: one reference "
                          "seed: its spread, which every interval needs, is unknown")] * max(k, 0)
     undecided = {}
@@ -78,17 +84,18 @@ def next_runs(spec, ref_values: list[dict], variants: dict[tuple, list[dict]],
         if len(variants[key]) < 2:
             comps = {}
         else:
-            comps = {n: _components(n, variants[key], ref_values, cons) for n in ms}
+            comps = {n: _arrays(n, variants[key], ref_values, cons) for n in ms}
         undecided[key] = (ms, comps)
     if not undecided:
         return []
     n_c = {k: len(variants[k]) for k in undecided}
+    tried_c = {k: max(attempted.get(k, n_c[k]), n_c[k]) for k in undecided}
+    start = (dict(n_c), n_ref0)
     n_r = n_ref0
-    limit_c = {k: min(spec.max_seeds - n_c[k], max(1, n_c[k])) for k in undecided}
-    limit_r = min(spec.max_reference_seeds - n_ref0, max(1, n_ref0))
+    limit_c = {k: min(spec.max_seeds - tried_c[k], max(1, n_c[k])) for k in undecided}
+    limit_r = min(spec.max_reference_seeds - tried_r, max(1, n_ref0))
     added_c = dict.fromkeys(undecided, 0)
     added_r = 0
-    left = np.inf if budget_left is None else float(budget_left)
     out: list[Addition] = []
 
     def decided(k, nc=None, nr=None) -> bool:
@@ -97,32 +104,36 @@ def next_runs(spec, ref_values: list[dict], variants: dict[tuple, list[dict]],
         nr = n_r if nr is None else nr
         if not comps:  # one seed: a second one first
             return nc >= 2
-        return all(_decides(cm, cv, nc, rm, rv, nr, spec.tolerances[n], alpha_e, alpha_d,
-                            _floored(n, float(rm[0]), cons) if len(rm) == 1 else None)
-                   for n, (cm, cv, rm, rv, _) in comps.items())
+        if nc == start[0][k] and nr == start[1]:
+            return False  # as observed: its verdict is undecided
+        return all(_decides(c, r, nc, nr, spec.tolerances[n], alpha_e, alpha_d,
+                            _floored(n, float(r.mean(0)[0]), cons) if r.shape[1] == 1
+                            else None)
+                   for n, (c, r, _) in comps.items())
 
     # a variant that the caps cannot decide (if its means and spreads stayed as observed)
     # takes no run: seeds spent there would buy nothing
     for k in list(undecided):
-        if not decided(k, spec.max_seeds, spec.max_reference_seeds):
+        if not decided(k, n_c[k] + spec.max_seeds - tried_c[k],
+                       n_r + spec.max_reference_seeds - tried_r):
             del undecided[k]
     if not undecided:
         return []
-    n_c = {k: n_c[k] for k in undecided}
 
     def shrink(k, coarse: bool) -> float:
         comps = undecided[k][1]
         if not comps:
             return 1.0
         total = 0.0
-        for _, cv, _, rv, sc in comps.values():
-            u2 = float(np.mean((cv / n_c[k] + rv / n_r) / sc**2))
+        for c, r, sc in comps.values():
+            cv, rv = c.var(0, ddof=1) / sc**2, r.var(0, ddof=1) / sc**2
+            u2 = float(np.mean(cv / n_c[k] + rv / n_r))
             if u2 <= 0:
                 continue
             if coarse:
-                dv = float(np.mean(cv / sc**2)) * (1 / n_c[k] - 1 / (n_c[k] + 1))
+                dv = float(np.mean(cv)) * (1 / n_c[k] - 1 / (n_c[k] + 1))
             else:
-                dv = float(np.mean(rv / sc**2)) * (1 / n_r - 1 / (n_r + 1))
+                dv = float(np.mean(rv)) * (1 / n_r - 1 / (n_r + 1))
             total += dv / u2
         return total
 

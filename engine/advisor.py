@@ -19,12 +19,16 @@ and coordination):
   variant whose true error exceeds the tolerance at any level is called equivalent in at
   most :math:`\alpha` of studies); ``differs`` when the interval of the level-summed ratio
   (for a curve; the value itself for a scalar metric) lies wholly outside ± tolerance at
-  one-sided rate :math:`\alpha / M` over the :math:`M` metrics judged (Bonferroni: a
-  variant inside the tolerance in every metric is called different in at most
-  :math:`\alpha` of studies; the summed ratio is a weighted mean of the level ratios, so
-  it is outside the tolerance only if some level is); else ``undecided``;
+  rate :math:`\alpha / 2M` per end over the :math:`M` metrics judged (Bonferroni over the
+  metrics and the two ends, either of which may clear its bound: a variant inside the
+  tolerance in every metric is called different in at most :math:`\alpha` of studies; the
+  summed ratio is a weighted mean of the level ratios, positive reference values assumed,
+  so it is outside the tolerance only if some level is); else ``undecided``;
 - a study that adds seeds until decided looks at the data up to ``looks`` times; each look
-  spends :math:`\alpha /` looks (Bonferroni over looks), so peeking keeps the rates;
+  spends :math:`\alpha /` looks (Bonferroni over looks). The bound is proven for seed
+  counts fixed in advance; the adaptive rule chooses them from the observed spreads
+  (sample-size re-estimation, for which Bonferroni is not a proof), so its rates are shown
+  by simulation (tests/engine/test_coverage.py);
 - with fewer than two reference seeds, or fewer than two seeds of the variant, a spread is
   unknown and the metric is ``undecided``.
 
@@ -32,7 +36,7 @@ A (radius, rule) ``differs`` when any metric differs, is ``equivalent`` when all
 ``undecided`` otherwise; its reason says which metrics decided, with their intervals, and
 an undecided metric says how many more seeds would decide it if the means and spreads
 stayed as observed. docs/PHYSICS.md section 7 states why; tests/engine/test_coverage.py
-proves the rates by simulation.
+checks the rates by simulation.
 """
 
 from __future__ import annotations
@@ -41,7 +45,7 @@ import math
 
 import numpy as np
 
-from .intervals import fieller, hsu_df, t_quantile, welch_interval
+from .intervals import fieller, fieller_from_stats, hsu_df, t_quantile, welch_interval
 from .metrics import METRICS, STRENGTH_FLOOR, reference_scale, relative_error, signed_error
 from .uniaxial_spec import MIN_THICKNESS_DIAMETERS
 
@@ -56,12 +60,14 @@ VERDICTS = ("equivalent", "differs", "undecided")
 
 
 def error_rates(confidence: float, metrics_judged: int, looks: int = 1) -> tuple[float, float]:
-    """One-sided error rates (equivalence, differs) of one metric's tests for a variant
-    judged on ``metrics_judged`` metrics over ``looks`` looks (module docstring)."""
+    """One-sided error rates per end of the intervals of one metric's tests for a variant
+    judged on ``metrics_judged`` metrics over ``looks`` looks (module docstring):
+    equivalence alpha / looks; differs alpha / (2 looks metrics), since either end of its
+    interval may clear its tolerance bound."""
     if not 0.5 < confidence < 1.0:
         raise ValueError(f"confidence {confidence} outside (0.5, 1)")
     alpha = 1.0 - confidence
-    return alpha / looks, alpha / (looks * max(metrics_judged, 1))
+    return alpha / looks, alpha / (2 * looks * max(metrics_judged, 1))
 
 
 def _stack(values: list[dict], name: str) -> np.ndarray:
@@ -147,30 +153,35 @@ def judge_metric(name: str, values: list[dict], ref: dict, tolerance: float,
     return out
 
 
-def _decides(c_mean, c_var, n, r_mean, r_var, m, tolerance, alpha_e, alpha_d, floor) -> bool:
-    """Whether the metric would be decided with n coarse and m reference seeds if the means
-    and spreads stayed as observed (the delta-method interval of the relative error with
-    the verdicts' min(n, m) - 1 degrees of freedom)."""
+def _decides(c: np.ndarray, r: np.ndarray, n: int, m: int, tolerance: float,
+             alpha_e: float, alpha_d: float, floor: float | None) -> bool:
+    """Whether a metric would be decided with ``n`` coarse and ``m`` reference seeds if the
+    means and spreads of the observed values ``c`` (seeds x levels) and ``r`` stayed as
+    they are: the verdict's own intervals (Fieller per level for ``equivalent``, of the
+    per-seed level sums for ``differs``; Welch over the floor for a floored strength) at the
+    projected counts and their min(n, m) - 1 degrees of freedom."""
     df = hsu_df(n, m)
     te = t_quantile(1 - alpha_e, df)
     td = t_quantile(1 - alpha_d, df)
-    if floor is None:
-        rho = c_mean / r_mean
-        u = np.sqrt((c_var / n + rho * rho * r_var / m) / (r_mean * r_mean))
-    else:
-        rho = 1.0 + (c_mean - r_mean) / floor
-        u = np.sqrt((c_var / n + r_var / m) / floor**2)
-    if bool(np.all(np.abs(rho - 1.0) + te * u <= tolerance)):
+    cm, rm = c.mean(axis=0), r.mean(axis=0)
+    cv, rv = c.var(axis=0, ddof=1) / n, r.var(axis=0, ddof=1) / m
+    if floor is not None:
+        d = float(cm[0] - rm[0]) / floor
+        u = math.sqrt(float(cv[0] + rv[0])) / floor
+        return abs(d) + te * u <= tolerance or abs(d) - td * u > tolerance
+    inside = True
+    for k in range(len(cm)):
+        _, lo, hi = fieller_from_stats(float(cm[k]), float(rm[k]), float(cv[k]), float(rv[k]),
+                                       te)
+        if not (lo - 1.0 >= -tolerance and hi - 1.0 <= tolerance):
+            inside = False
+            break
+    if inside:
         return True
-    # differs: the summed levels (or the one value) beyond the tolerance
-    if floor is None:
-        cs, rs = float(np.sum(c_mean)), float(np.sum(r_mean))
-        rho_s = cs / rs
-        u_s = float(np.sqrt((np.sum(c_var) / n + rho_s * rho_s * np.sum(r_var) / m) / rs**2))
-        d = rho_s - 1.0
-    else:
-        d, u_s = float(rho[0] - 1.0), float(u[0])
-    return abs(d) - td * u_s > tolerance
+    cs, rs = c.sum(axis=1), r.sum(axis=1)  # the level sums vary together within a seed
+    _, lo, hi = fieller_from_stats(float(cs.mean()), float(rs.mean()),
+                                   float(cs.var(ddof=1)) / n, float(rs.var(ddof=1)) / m, td)
+    return lo - 1.0 > tolerance or hi - 1.0 < -tolerance
 
 
 def seeds_needed(name: str, c: np.ndarray, r: np.ndarray, tolerance: float,
@@ -180,13 +191,12 @@ def seeds_needed(name: str, c: np.ndarray, r: np.ndarray, tolerance: float,
     ``coarse_and_reference`` (the same number more of each) where coarse seeds alone cannot,
     each None when more than :data:`MAX_SEEDS_NEEDED` would be needed (an error that sits
     at the tolerance is decided by no seed count)."""
-    c_mean, r_mean = c.mean(axis=0), r.mean(axis=0)
-    c_var, r_var = c.var(axis=0, ddof=1), r.var(axis=0, ddof=1)
-    floor = _floored(name, float(r_mean[0]), consolidation_stress) if c.shape[1] == 1 else None
+    floor = _floored(name, float(r.mean(axis=0)[0]), consolidation_stress) if (
+        c.shape[1] == 1) else None
     n0, m0 = len(c), len(r)
 
     def first(pred):
-        lo, hi = 0, MAX_SEEDS_NEEDED
+        lo, hi = 1, MAX_SEEDS_NEEDED  # undecided now: at least one more seed
         if not pred(hi):
             return None
         while lo < hi:  # smallest k with pred(k): decidedness grows with seeds
@@ -197,11 +207,9 @@ def seeds_needed(name: str, c: np.ndarray, r: np.ndarray, tolerance: float,
                 lo = mid + 1
         return lo
 
-    coarse = first(lambda k: _decides(c_mean, c_var, n0 + k, r_mean, r_var, m0, tolerance,
-                                      alpha_e, alpha_d, floor))
+    coarse = first(lambda k: _decides(c, r, n0 + k, m0, tolerance, alpha_e, alpha_d, floor))
     both = None if coarse is not None else first(
-        lambda k: _decides(c_mean, c_var, n0 + k, r_mean, r_var, m0 + k, tolerance,
-                           alpha_e, alpha_d, floor))
+        lambda k: _decides(c, r, n0 + k, m0 + k, tolerance, alpha_e, alpha_d, floor))
     return {"coarse": coarse, "coarse_and_reference": both}
 
 

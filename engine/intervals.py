@@ -213,7 +213,9 @@ def fieller(c, r, alpha: float) -> tuple[float, float, float, int]:
     with :math:`\nu` = :func:`hsu_df`, so that an end equal to a tolerance bound is a
     one-sided test at that bound whose rate is at most ``alpha`` for any two spreads.
     Returns (ratio, low end, high end, degrees of freedom). Where the reference mean is not
-    told apart from zero the interval has no bounds: (ratio, -inf, inf, dof)."""
+    told apart from zero the interval has no bounds: (ratio, -inf, inf, dof). Exact for
+    normal means with equal spreads; with unequal spreads the Hsu degrees of freedom make it
+    conservative."""
     c = np.asarray(c, dtype=float)
     r = np.asarray(r, dtype=float)
     nc, nr = len(c), len(r)
@@ -222,15 +224,25 @@ def fieller(c, r, alpha: float) -> tuple[float, float, float, int]:
     mc, mr = float(c.mean()), float(r.mean())
     vc, vr = float(c.var(ddof=1)) / nc, float(r.var(ddof=1)) / nr
     df = hsu_df(nc, nr)
+    rho, lo, hi = fieller_from_stats(mc, mr, vc, vr, t_quantile(1.0 - alpha, df))
+    return rho, lo, hi, df
+
+
+def fieller_from_stats(mc: float, mr: float, vc: float, vr: float, t: float
+                       ) -> tuple[float, float, float]:
+    """:func:`fieller` from summary statistics: the means ``mc``, ``mr``, the squared
+    standard errors ``vc`` = s_c^2 / n_c and ``vr`` = s_r^2 / n_r, and the quantile ``t``.
+    Returns (ratio, low end, high end); (ratio, -inf, inf) where the reference mean is not
+    told apart from zero."""
     rho = mc / mr if mr != 0 else math.inf
-    t2 = t_quantile(1.0 - alpha, df) ** 2
+    t2 = t * t
     a = mr * mr - t2 * vr
     if a <= 0:
-        return rho, -math.inf, math.inf, df
+        return rho, -math.inf, math.inf
     b = -2.0 * mc * mr
     cc = mc * mc - t2 * vc
     root = math.sqrt(max(b * b - 4 * a * cc, 0.0))
-    return rho, (-b - root) / (2 * a), (-b + root) / (2 * a), df
+    return rho, (-b - root) / (2 * a), (-b + root) / (2 * a)
 
 
 def welch_interval(c, r, alpha: float) -> tuple[float, float, float, float]:
@@ -244,5 +256,5 @@ def welch_interval(c, r, alpha: float) -> tuple[float, float, float, float]:
     return d, d - t * u, d + t * u, df
 
 
-__all__ = ["betainc", "fieller", "hsu_df", "one_sided_t", "t_cdf", "t_pdf", "t_quantile", "t_sf",
-           "welch", "welch_interval"]
+__all__ = ["betainc", "fieller", "fieller_from_stats", "hsu_df", "one_sided_t", "t_cdf",
+           "t_pdf", "t_quantile", "t_sf", "welch", "welch_interval"]

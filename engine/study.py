@@ -274,18 +274,25 @@ def plan_runs(spec: StudySpec, outcomes: dict) -> tuple[list[PlannedRun], list[d
             return planned, added, None
         new = _added_runs(spec, planned, outcomes, round_no, spent)
         if not new:
-            return planned, added, (
-                "every verdict decided" if not _open(spec, planned, outcomes) else
-                "no undecided verdict can be decided within the seed caps and budget (each "
-                "reason says how many seeds it would need)")
+            return planned, added, _stop_reason(
+                spec, planned, outcomes, "no undecided verdict can be decided within the seed "
+                "caps and budget (each reason says how many seeds it would need)")
         for p, a in new:
             planned.append(p)
             spent += estimated_steps(p.test) * p.test.n_particles
             added.append({"run": p.key, "round": a.round, "kind": a.kind, "reason": a.reason})
     if any(p.key not in outcomes for p in planned):
         return planned, added, None
-    return planned, added, ("every verdict decided" if not _open(spec, planned, outcomes)
-                            else f"all {spec.rounds} rounds run")
+    return planned, added, _stop_reason(spec, planned, outcomes, f"all {spec.rounds} rounds run")
+
+
+def _stop_reason(spec, planned, outcomes, otherwise: str) -> str:
+    names, ref_values, variants = _judged_values(spec, planned, outcomes)
+    if not ref_values:
+        return "no reference run finished"
+    _, verdicts = judge_groups(spec, ref_values, variants, names, looks=spec.looks)
+    return otherwise if any(v["verdict"] == "undecided" for v in verdicts) else (
+        "every verdict decided")
 
 
 def _adaptive_summary(spec: StudySpec, planned: list[PlannedRun], added: list[dict],
@@ -314,24 +321,23 @@ def _monotone_progress(progress: StudyCallback | None) -> StudyCallback | None:
 
 
 def _judged_values(spec: StudySpec, planned: list[PlannedRun], outcomes: dict):
-    """Metric values of the finished references and of every variant's finished seeds."""
+    """Metric values of the finished references and of every variant's finished seeds that
+    :func:`assemble` judges (a run whose curves cannot be compared is left out there too)."""
     names = metric_names(spec.reference.unconfined)
     ok = [p for p in planned if p.key in outcomes and not isinstance(outcomes[p.key], str)]
-    ref_values = [metric_values(outcomes[p.key]) for p in ok if p.is_reference]
+    refs = {p.seed: outcomes[p.key] for p in ok if p.is_reference}
+    ref_values = [metric_values(r) for r in refs.values()]
     variants: dict[tuple, list[dict]] = {}
     for p in ok:
-        if not p.is_reference:
-            variants.setdefault((p.radius, p.rule.name), []).append(metric_values(outcomes[p.key]))
+        if p.is_reference:
+            continue
+        res = outcomes[p.key]
+        try:
+            shape_errors(res, refs.get(p.seed, next(iter(refs.values()))))
+        except (ValueError, StopIteration):
+            continue
+        variants.setdefault((p.radius, p.rule.name), []).append(metric_values(res))
     return names, ref_values, variants
-
-
-def _open(spec, planned, outcomes) -> bool:
-    """Whether some verdict is still undecided."""
-    names, ref_values, variants = _judged_values(spec, planned, outcomes)
-    if not ref_values:
-        return False
-    _, verdicts = judge_groups(spec, ref_values, variants, names, looks=spec.looks)
-    return any(v["verdict"] == "undecided" for v in verdicts)
 
 
 def _added_runs(spec: StudySpec, planned: list[PlannedRun], outcomes: dict, round_no: int,
@@ -346,7 +352,12 @@ def _added_runs(spec: StudySpec, planned: list[PlannedRun], outcomes: dict, roun
         k = "reference" if p.is_reference else (p.radius, p.rule.name)
         cost.setdefault(k, estimated_steps(p.test) * p.test.n_particles)
     budget_left = None if spec.budget is None else spec.budget - spent
-    adds = next_runs(spec, ref_values, variants, verdicts, cost, round_no, budget_left)
+    attempted: dict = {}
+    for p in planned:
+        k = "reference" if p.is_reference else (p.radius, p.rule.name)
+        attempted[k] = attempted.get(k, 0) + 1
+    adds = next_runs(spec, ref_values, variants, verdicts, cost, round_no, budget_left,
+                     attempted)
     dt_ref = spec.reference.resolved_dt()
     used: dict = {}
     for p in planned:

@@ -109,7 +109,7 @@ def test_advisor_picks_coarsest_equivalent_and_fits_exponent():
             groups.append({"radius": r, "rule": rule.name, "stiffness_exponent": 1.0,
                            "adhesion_exponent": b, "dt": "fixed", "err_strength": err,
                            "unconfined_strength": strength, "speedup": 2.0,
-                           "thickness_diameters": 8.0})
+                           "thickness_diameters": 12.0})
             verdicts.append({"radius": r, "rule": rule.name,
                              "verdict": "equivalent" if err < 0.2 else "differs"})
     adv = advise(spec, groups, verdicts, reference_strength=1000.0)

@@ -394,10 +394,10 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None,
         "the variant's mean to the reference's, with min(seeds) - 1 degrees of freedom "
         "(which hold whatever the two spreads): `equivalent` when the interval lies inside "
         "± tolerance at every level, `differs` when the interval of the values summed over "
-        "the levels lies wholly outside it (its rate split over the metrics and the two ends), `undecided` "
-        "otherwise (docs/PHYSICS.md section 7, engine/advisor.py). Table cells: relative "
-        "error [interval] in per cent, at the worst level of a curve, or the interval that "
-        "lies outside the tolerance for `differs` (metric verdict).",
+        "the levels lies wholly outside it (its rate split over the metrics and the two "
+        "ends), `undecided` otherwise (docs/PHYSICS.md section 7, engine/advisor.py). Table "
+        "cells: relative error [interval] in per cent, at the worst level of a curve, or the "
+        "interval that lies outside the tolerance for `differs` (metric verdict).",
         "",
     ]
     def _radii(name: str) -> str:

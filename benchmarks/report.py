@@ -454,11 +454,11 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None,
         lines.append(f"- *About 9x less compute.* {claim_d(b, machines.get('b_cohesive'))}")
         n_fail = sum(1 for r in b.runs.values()
                      if r.result.scalars.get("unconfined_failure") == 1.0)
-        hard = ("every one fails" if n_fail == len(b.runs) else
-                f"the other {len(b.runs) - n_fail} harden to the strain limit and their "
+        hard = ("" if n_fail == len(b.runs) else
+                f"; the other {len(b.runs) - n_fail} harden to the strain limit and their "
                 "strength is the documented fallback")
         lines.append(f"- Unconfined failure: {n_fail} of {len(b.runs)} cohesive runs fail (a "
-                     "peak followed by sustained softening, docs/PHYSICS.md section 7.3); "
+                     "peak followed by sustained softening, docs/PHYSICS.md section 7.3)"
                      f"{hard}. Platen friction, height / width and adhesion tried one at a "
                      "time: [FAILURE.md](FAILURE.md).")
     else:

@@ -181,9 +181,12 @@ def test_tiny_study_end_to_end(tiny_study, tmp_path):
 def test_process_pool_gives_the_same_table_and_resumes(tiny_study):
     spec, res, _, stored = tiny_study
     ctx = mp.get_context("spawn")
+    deciding = _tiny_spec(decide=True, rounds=1, max_seeds=2, max_reference_seeds=2)
     with cf.ProcessPoolExecutor(2, mp_context=ctx) as pool:
         done = {}
         pooled = engine.run_study(spec, executor=pool, on_run=done.__setitem__)
+        # a study that decides: a round's added runs go to the pool side by side
+        pooled_d = engine.run_study(deciding, executor=pool, completed=dict(stored))
     strip = ("wall_time", "speedup")
     def table(r):
         return [{k: v for k, v in row.items() if k not in strip} for row in r.table]
@@ -197,6 +200,13 @@ def test_process_pool_gives_the_same_table_and_resumes(tiny_study):
     ran = []
     resumed = engine.run_study(spec, completed=partial, on_run=lambda k, r: ran.append(k))
     assert ran == ["r3.1mm-paper-s1"] and table(resumed) == table(res)
+    # one seed per variant: its spread is unknown, so a second seed of each is added, and
+    # the pool's added runs are those of the same study run here
+    added = [a["run"] for a in pooled_d.advisor["adaptive"]["added_runs"]]
+    assert sorted(added) == ["r3.1mm-paper-s3", "r3.1mm-unscaled-s3"]
+    here = engine.run_study(deciding, completed=dict(stored))
+    assert [a["run"] for a in here.advisor["adaptive"]["added_runs"]] == added
+    assert table(here) == table(pooled_d)
 
 
 def test_a_failed_coarse_run_leaves_the_rest():

@@ -294,6 +294,18 @@ def control_report_lines(text: str) -> list[str]:
             "stress, particle-scale rate, time step)."]
 
 
+def one_sitting_lines() -> list[str]:
+    """Claim (d) as wall time: the runs of benchmarks/timing_d.py (one reference and the
+    paper rule's coarse runs, same threads, one machine, one sitting), where stored."""
+    from benchmarks import timing_d
+
+    if not (timing_d.STORE / "ref-s1.h5").exists():
+        return []
+    return ["  - Wall time in one sitting (benchmarks/timing_d.py, same threads and machine, "
+            "interleaved):", "", *["    " + li if li else "" for li in
+                                   timing_d.report().splitlines()], ""]
+
+
 def confidence_line(data: dict) -> str:
     """The confidence the experiments' verdicts state, in words."""
     confs = sorted({spec.confidence for spec, _ in data.values()})
@@ -452,6 +464,8 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None,
         lines += ["- *Quadratic adhesion matches the unconfined strength; linear under- and "
                   "cubic over-predicts.*"] + [f"  - {t}" for t in claim_c(b)]
         lines.append(f"- *About 9x less compute.* {claim_d(b, machines.get('b_cohesive'))}")
+        if scale == "paper":
+            lines += one_sitting_lines()
         n_fail = sum(1 for r in b.runs.values()
                      if r.result.scalars.get("unconfined_failure") == 1.0)
         hard = ("" if n_fail == len(b.runs) else

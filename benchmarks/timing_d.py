@@ -13,6 +13,7 @@ The report gives each wall-time ratio beside the particle-steps ratio of the sam
 from __future__ import annotations
 
 import argparse
+import math
 import time
 
 import numba
@@ -65,6 +66,17 @@ def report() -> str:
                 ps = ref["particle_steps"] / s["particle_steps"]
                 lines.append(f"\n{k}: wall-time speed-up {wall:.1f}x, particle-steps ratio "
                              f"{ps:.1f}x")
+    pairs = [(k, s) for k, s in (("r3.75mm-b2-s1", 1.5), ("r5mm-b2-s1", 2.0)) if k in runs]
+    if "ref-s1" in runs and pairs:
+        ref = runs["ref-s1"].scalars
+        ks = [math.log(ref["wall_time"] / runs[k].scalars["wall_time"]) / math.log(s)
+              for k, s in pairs]
+        k = sum(ks) / len(ks)
+        at = 1.875**k
+        word = "agrees" if abs(at - 9.0) <= 0.25 * 9.0 else "differs"
+        lines.append(f"\nWall time falls as s^{k:.2f}, which gives {at:.1f}x at the seed's "
+                     f"2 -> 3.75 mm (s = 1.875): **{word}** with the seed's 9x within 25 % "
+                     "(the rule of claim (d), applied to wall time)")
     return "\n".join(lines)
 
 

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .advisor import _decides, _floored, error_rates
+from .advisor import _decides, _floored, _stack, error_rates
 from .metrics import reference_scale
 
 
@@ -47,8 +47,7 @@ class Addition:
 
 def _arrays(name, values, ref_values, cons):
     """A metric's coarse and reference values (seeds x levels) and its scale."""
-    c = np.array([np.atleast_1d(v[name]) for v in values], dtype=float)
-    r = np.array([np.atleast_1d(v[name]) for v in ref_values], dtype=float)
+    c, r = _stack(values, name), _stack(ref_values, name)
     return c, r, reference_scale(name, r.mean(0), cons)
 
 

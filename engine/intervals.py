@@ -12,9 +12,7 @@ Everything here is plain numpy and :mod:`math` (the engine carries no scipy):
             \nu = \frac{u^4}{\frac{(s_c^2/n_c)^2}{n_c - 1} + \frac{(s_r^2/n_r)^2}{n_r - 1}};
 
 - :func:`fieller`: the interval of a ratio of two means (a relative error), whose degrees of
-  freedom (:func:`hsu_df`) hold for any ratio of the two spreads;
-- :func:`one_sided_t`: the one-sided quantile :math:`t_{1-\alpha,\nu}` that a two one-sided
-  tests (TOST) decision at error rate :math:`\alpha` uses.
+  freedom (:func:`hsu_df`) hold for any ratio of the two spreads.
 """
 
 from __future__ import annotations
@@ -166,12 +164,6 @@ def _normal_quantile(q: float) -> float:
     return x
 
 
-def one_sided_t(alpha: float, df) -> np.ndarray:
-    """:math:`t_{1-\\alpha,\\nu}` for every entry of ``df`` (array or number)."""
-    d = np.atleast_1d(np.asarray(df, dtype=float))
-    return np.array([t_quantile(1.0 - alpha, float(v)) for v in d]).reshape(np.shape(df))
-
-
 def welch(c: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Difference of means of samples ``c`` (n_c, ...) and ``r`` (n_r, ...) along axis 0,
     its standard uncertainty and Welch-Satterthwaite degrees of freedom (module docstring),
@@ -256,5 +248,5 @@ def welch_interval(c, r, alpha: float) -> tuple[float, float, float, float]:
     return d, d - t * u, d + t * u, df
 
 
-__all__ = ["betainc", "fieller", "fieller_from_stats", "hsu_df", "one_sided_t", "t_cdf",
+__all__ = ["betainc", "fieller", "fieller_from_stats", "hsu_df", "t_cdf",
            "t_pdf", "t_quantile", "t_sf", "welch", "welch_interval"]

@@ -9,6 +9,7 @@ Public API (stable names)::
     Simulation                                      run it
     critical_time_step                              time-step limits of a scene
     UniaxialTest, preset, run_uniaxial              the uniaxial test and its stages
+    Checkpoint                                      resume a killed run where it was
     ScalingRule, StudySpec, run_study               scaling studies, errors and costs
     FileChannel                                     progress and stop of runs on other hosts
     NAMED_RULES, METRICS, DEFAULT_TOLERANCES        named rules, verdict metrics
@@ -18,6 +19,7 @@ Public API (stable names)::
 """
 
 from .channel import FileChannel
+from .checkpoint import Checkpoint
 from .errors import InstabilityError, ParameterError, StabilityError, StopRequested
 from .kernels import FEATURES
 from .materials import EEPA, BilinearAdhesive, HertzMindlin, WallMaterial
@@ -57,6 +59,7 @@ __all__ = [
     "METRICS",
     "NAMED_RULES",
     "BilinearAdhesive",
+    "Checkpoint",
     "Contacts",
     "FileChannel",
     "HertzMindlin",

@@ -553,6 +553,26 @@ class Simulation:
         if not (isinstance(index, (int, np.integer)) and 0 <= index < len(self._walls.point)):
             raise ParameterError("wall index", index, f"in [0, {len(self._walls.point)})")
 
+    # ------------------------------------------------------------------ checkpoints
+    def __getstate__(self) -> dict:
+        """The full state for a checkpoint (pickle): particles, neighbour list with the
+        contact history, walls, parameters, step count and the phase of the next kernel call.
+        The compiled kernel and ``between_calls`` are left out; unpickling loads the kernel
+        for the same features again, so the resumed trajectory is bit-identical to the one
+        that was not interrupted (tests/engine/test_checkpoint.py)."""
+        state = self.__dict__.copy()
+        del state["_k"]
+        state["between_calls"] = None
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._k = load_kernel(self._features)
+        # the thread team's counters are cleared by every kernel call; sized for this process
+        self._scratch = self._scratch._replace(
+            sync=np.zeros(sync_length(numba.config.NUMBA_NUM_THREADS), dtype=np.int64)
+        )
+
     # ------------------------------------------------------------------ state
     @property
     def n(self) -> int:

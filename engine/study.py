@@ -13,14 +13,17 @@ back stored runs so that a resumed study runs only what is missing.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
 from .adaptive import Addition, next_runs
 from .advisor import advise, judge_groups
 from .channel import task_progress
+from .checkpoint import CHECKPOINT_INTERVAL, Checkpoint, check_interval
 from .errors import StopRequested
 from .metrics import (
     METRIC_COLUMNS,
@@ -168,8 +171,8 @@ class RunFailed(RuntimeError):
         return type(self), (self.run_key, self.text)
 
 
-def _execute(test, threads: int | None = None, key: str = "", channel=None
-             ) -> UniaxialResult:
+def _execute(test, threads: int | None = None, key: str = "", channel=None,
+             checkpoint: Checkpoint | None = None) -> UniaxialResult:
     """One run as a task (a picklable top-level function for process and cluster pools);
     with a ``channel`` (:mod:`engine.channel`) it reports its progress there and stops with
     :class:`engine.StopRequested` when the study asks it to."""
@@ -179,7 +182,8 @@ def _execute(test, threads: int | None = None, key: str = "", channel=None
         numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
     if channel is not None and channel.stop_requested():
         raise StopRequested(f"run {key} not started: the study was stopped")
-    return run_uniaxial(test, progress=None if channel is None else task_progress(channel, key))
+    return run_uniaxial(test, progress=None if channel is None else task_progress(channel, key),
+                        checkpoint=checkpoint)
 
 
 def _weights(planned: list[PlannedRun]) -> np.ndarray:
@@ -190,7 +194,9 @@ def _weights(planned: list[PlannedRun]) -> np.ndarray:
 def run_study(spec: StudySpec, progress: StudyCallback | None = None,
               executor: cf.Executor | None = None, *, completed: dict | None = None,
               on_run: RunCallback | None = None, task_threads: int | None = 1,
-              channel=None, poll_interval: float = 1.0) -> StudyResult:
+              channel=None, poll_interval: float = 1.0,
+              checkpoints: str | os.PathLike | None = None,
+              checkpoint_interval: float = CHECKPOINT_INTERVAL) -> StudyResult:
     """Run every run of ``spec`` that is not in ``completed``, then judge the study.
 
     Args:
@@ -213,6 +219,11 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
             and hear a stop request (:class:`engine.FileChannel`); reset when the study
             starts.
         poll_interval: seconds between two reads of the ``channel`` [s].
+        checkpoints: a folder (shared with the executor's processes or hosts) where each
+            run in flight keeps its :class:`engine.Checkpoint` ``<key>.ckpt``, written every
+            ``checkpoint_interval`` seconds of wall time [s]; a run started again (the study
+            resumed after a crash) goes on from its checkpoint, bit-identically. A run's
+            checkpoint is removed once ``on_run`` has returned (its outcome is stored).
 
     Raises: :class:`RunFailed` as soon as every reference run has failed; ``ValueError``
     at once, before any run starts, for a ``ProcessPoolExecutor`` that forks
@@ -226,10 +237,20 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
 
     refs = [q.key for q in planned if q.is_reference]
 
+    if checkpoints is not None:
+        check_interval(checkpoint_interval, "run_study.checkpoint_interval")
+
+    def checkpoint(p: PlannedRun) -> Checkpoint | None:
+        if checkpoints is None:
+            return None
+        return Checkpoint(Path(checkpoints) / f"{p.key}.ckpt", checkpoint_interval)
+
     def record(p: PlannedRun, outcome) -> None:
         outcomes[p.key] = outcome
         if on_run is not None:
             on_run(p.key, outcome)
+        if checkpoints is not None:  # stored: the run is never resumed again
+            checkpoint(p).remove()
         if p.is_reference and all(isinstance(outcomes.get(k), str) for k in refs):
             # every reference failed: nothing can be compared, stop at once
             raise RunFailed(refs[0], outcomes[refs[0]])
@@ -239,10 +260,10 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
 
     def run(todo: list[int]) -> None:
         if executor is None:
-            _run_here(planned, todo, weights, outcomes, progress, record)
+            _run_here(planned, todo, weights, outcomes, progress, record, checkpoint)
         else:
             _run_on(executor, planned, todo, weights, outcomes, progress, record,
-                    task_threads, channel, poll_interval)
+                    task_threads, channel, poll_interval, checkpoint)
 
     while True:
         planned, added, stopped = plan_runs(spec, outcomes)
@@ -402,7 +423,7 @@ def _done_weight(planned, weights, outcomes) -> float:
     return float(sum(w for p, w in zip(planned, weights) if p.key in outcomes))
 
 
-def _run_here(planned, todo, weights, outcomes, progress, record) -> None:
+def _run_here(planned, todo, weights, outcomes, progress, record, checkpoint) -> None:
     done_weight = _done_weight(planned, weights, outcomes)
     for i in todo:
         p = planned[i]
@@ -419,7 +440,7 @@ def _run_here(planned, todo, weights, outcomes, progress, record) -> None:
         if report(Progress(0.0, "setup", 0.0, 0.0, 0, "building the packing")) is False:
             raise StopRequested(f"stopped by the progress callback before run {p.key}")
         try:
-            outcome = run_uniaxial(p.test, progress=report)
+            outcome = run_uniaxial(p.test, progress=report, checkpoint=checkpoint(p))
         except StopRequested:
             raise
         except Exception as e:
@@ -429,9 +450,10 @@ def _run_here(planned, todo, weights, outcomes, progress, record) -> None:
 
 
 def _run_on(executor, planned, todo, weights, outcomes, progress, record, threads, channel,
-            poll_interval) -> None:
+            poll_interval, checkpoint) -> None:
     # in planned order: the references first (the longest runs, needed by every comparison)
-    futures = {executor.submit(_execute, planned[i].test, threads, planned[i].key, channel): i
+    futures = {executor.submit(_execute, planned[i].test, threads, planned[i].key, channel,
+                               checkpoint(planned[i])): i
                for i in todo}
     done_weight = _done_weight(planned, weights, outcomes)
     pending = set(futures)

@@ -11,12 +11,14 @@ fails the run with :class:`StageError` rather than hanging. Curves are sampled e
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from .checkpoint import Checkpoint
 from .errors import StopRequested
 from .packing import sphere_volume
 from .simulation import Simulation
@@ -160,14 +162,19 @@ SCALAR_UNITS = {
 
 
 class _Recorder:
-    """Samples the curves of one stage."""
+    """Samples the curves of one stage, and holds what a checkpoint needs to re-enter the
+    stage's loop: its start height ``h0`` [m] and simulated time ``t0`` [s], the rows so far,
+    the steps run in it, and the unconfined stage's failure detector."""
 
     def __init__(self, driver: _Driver, stage: str, h0: float):
         self.d = driver
         self.stage = stage
         self.h0 = h0
+        self.t0 = driver.sim.time
         self.rows: list[tuple] = []
         self.steps0 = driver.sim.steps
+        self.steps = 0
+        self.failure: FailureDetector | None = None
 
     def sample(self) -> tuple:
         d = self.d
@@ -208,7 +215,13 @@ class _Recorder:
 
 
 class _Driver:
-    """Runs the stages on one :class:`Simulation`."""
+    """Runs the stages on one :class:`Simulation`.
+
+    A stage is begun (its platen and periodicity set-up, then its first curve sample), looped
+    (run ``output_interval``, sample, report) until its criterion holds, and ended (its
+    result kept, then its closing platen move). Everything the loop needs lives on the driver
+    and its current :class:`_Recorder`, so a checkpoint taken between two samples (a pickle of
+    the driver, see :class:`engine.checkpoint.Checkpoint`) re-enters the loop where it was."""
 
     def __init__(self, test: UniaxialTest, progress: ProgressCallback | None,
                  on_snapshot: SnapshotCallback | None = None,
@@ -220,6 +233,7 @@ class _Driver:
         self.next_snapshot = snapshot_interval
         self.area = test.cell[0] * test.cell[1]
         self.stages: dict[str, StageResult] = {}
+        self.current: _Recorder | None = None
         self.last_fraction = 0.0
         self.scalars: dict[str, float] = {}
         self.t_wall = time.perf_counter()
@@ -239,19 +253,31 @@ class _Driver:
         self.setup_time = time.perf_counter() - t0
         self.sample_steps = max(1, round(test.output_interval / self.sim.dt))
         self.max_steps = max(1, round(test.max_stage_time / self.sim.dt))
+        self.h_consolidation = math.nan
+        self.checkpoint = None
         # within a long curve sample, a progress report (and so a stop request) at least
         # every engine.simulation.CALL_SECONDS of wall time
         self.stage_now, self.stage_fraction = "fill", 0.0
+        self.sim.between_calls = self._between_calls
+
+    # ------------------------------------------------------------------ checkpoints
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        for k in ("progress", "on_snapshot", "checkpoint"):
+            state[k] = None
+        # wall time so far instead of the start of a clock that does not survive the process
+        state["t_wall"] = time.perf_counter() - self.t_wall
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self.t_wall = time.perf_counter() - state["t_wall"]
         self.sim.between_calls = self._between_calls
 
     # ------------------------------------------------------------------ helpers
     def gap(self) -> float:
         """Distance between the platens [m]."""
         return float(self.sim.wall_positions[1, 2] - self.sim.wall_positions[0, 2])
-
-    def top_stress(self) -> float:
-        """Compressive stress on the top platen [Pa]."""
-        return float(self.sim.wall_forces[1, 2]) / self.area
 
     def bed_top(self) -> float:
         """Highest particle surface [m]."""
@@ -280,97 +306,124 @@ class _Driver:
         its last sample (so the fraction never goes back), the stop request heard."""
         self.report(self.stage_now, self.stage_fraction, "running")
 
-    def run_stage(self, stage: str, h0: float, done: Callable[[tuple], bool],
-                  fraction: Callable[[tuple], float], what: str) -> None:
-        self.stage_now, self.stage_fraction = stage, 0.0
-        rec = _Recorder(self, stage, h0)
-        row = rec.sample()
-        steps = 0
-        while not done(row):
-            # the stage goes on (its end makes its own snapshot)
-            if self.next_snapshot is not None and steps and self.sim.time >= self.next_snapshot:
-                self.on_snapshot(capture(self.sim, stage))
-                while self.next_snapshot <= self.sim.time:
-                    self.next_snapshot += self.snapshot_interval
-            if steps >= self.max_steps:
-                raise StageError(
-                    f"stage {stage} did not {what} within {steps} steps "
-                    f"({steps * self.sim.dt:.3g} s, max_stage_time); now: top stress "
-                    f"{row[2]:.4g} Pa, platen gap {row[8]:.4g} m, kinetic energy "
-                    f"{row[6]:.3g} J", stage, steps)
-            self.sim.run(self.sample_steps)
-            steps += self.sample_steps
-            row = rec.sample()
-            self.stage_fraction = fraction(row)
-            self.report(stage, self.stage_fraction)
-        self.stages[stage] = rec.result()
-        self.report(stage, 1.0, "done")
-
     def settled(self, row, t_min: float, t0: float) -> bool:
         return row[0] - t0 >= t_min and row[6] <= self.settle_energy
 
     def move_top(self, speed: float) -> None:
         self.sim.set_wall_velocity(1, (0.0, 0.0, speed))
 
-    # ------------------------------------------------------------------ stages
-    def fill(self) -> None:
-        t0 = self.sim.time
-        t_fall = math.sqrt(2 * self.test.cell[2] / GRAVITY)
-        self.run_stage("fill", self.gap(), lambda r: self.settled(r, t_fall, t0),
-                       lambda r: min(1.0, (r[0] - t0) / (2 * t_fall)),
-                       "settle (kinetic energy below settle_ke x N m g R)")
+    # ------------------------------------------------------------------ the stage machine
+    def run(self) -> UniaxialResult:
+        """Run (or, resumed from a checkpoint, go on with) the stages, then the scalars."""
+        for stage in STAGES:
+            if stage in ("release", "unconfined") and not self.test.unconfined:
+                break
+            if stage in self.stages:
+                continue
+            if self.current is None or self.current.stage != stage:
+                self.begin(stage)
+            self.loop()
+            self.end(stage)
+        return self.finish()
 
-    def pre_compression(self) -> None:
-        top = self.bed_top() + 0.05 * self.test.radius
-        self.sim.set_wall_position(1, (0.0, 0.0, top))
-        self.move_top(-self.test.platen_speed)
-        target = self.test.pre_stress
-        self.run_stage("pre_compression", self.gap(), lambda r: r[2] >= target,
-                       lambda r: r[2] / target, f"reach the pre-compression stress {target:g} Pa")
-
-    def consolidation(self) -> None:
-        h0 = self.gap()
-        target = self.test.consolidation_stress
-        self.h_consolidation = h0
-        self.run_stage("consolidation", h0, lambda r: r[2] >= target,
-                       lambda r: r[2] / target,
-                       f"reach the consolidation stress {target:g} Pa")
-        self.move_top(+self.test.platen_speed)
-        low = self.test.unloaded_stress * target
-        self.run_stage("unloading", h0, lambda r: r[2] <= low,
-                       lambda r: 1.0 - r[2] / target, f"relax the stress below {low:g} Pa")
-        self.move_top(0.0)
-
-    def release(self) -> None:
-        t_setup = time.perf_counter()
-        self.sim.set_periodic((False, False, False))
-        self.setup_time += time.perf_counter() - t_setup
-        t0 = self.sim.time
-        t_min = 5 * math.sqrt(2 * self.test.radius / GRAVITY)  # a few particle fall times
-        t_max = max(t_min, self.test.release_time)
-        self.run_stage("release", self.gap(),
-                       lambda r: self.settled(r, t_min, t0) or r[0] - t0 >= t_max,
-                       lambda r: min(1.0, (r[0] - t0) / t_max),
-                       "settle after the release (kinetic energy below settle_ke x N m g R)")
-
-    def unconfined(self) -> None:
+    def begin(self, stage: str) -> None:
+        """The stage's set-up (platens, periodicity), then its first curve sample."""
         t = self.test
-        # the platen starts where unloading left it, on top of the consolidated sample, and
-        # strain is measured against that height: a sample that collapsed on release is never
-        # reached within max_unconfined_strain and has exactly zero strength
-        self.move_top(-t.platen_speed)
-        h0 = self.gap()
-        failure = FailureDetector(t.failure_drop, t.failure_strain)
+        h0 = None
+        if stage == "pre_compression":
+            top = self.bed_top() + 0.05 * t.radius
+            self.sim.set_wall_position(1, (0.0, 0.0, top))
+            self.move_top(-t.platen_speed)
+        elif stage == "consolidation":
+            self.h_consolidation = self.gap()
+        elif stage == "unloading":
+            self.move_top(+t.platen_speed)
+            h0 = self.h_consolidation
+        elif stage == "release":
+            t_setup = time.perf_counter()
+            self.sim.set_periodic((False, False, False))
+            self.setup_time += time.perf_counter() - t_setup
+        elif stage == "unconfined":
+            # the platen starts where unloading left it, on top of the consolidated sample,
+            # and strain is measured against that height: a sample that collapsed on release
+            # is never reached within max_unconfined_strain and has exactly zero strength
+            self.move_top(-t.platen_speed)
+        rec = _Recorder(self, stage, self.gap() if h0 is None else h0)
+        if stage == "unconfined":
+            rec.failure = FailureDetector(t.failure_drop, t.failure_strain)
+        self.current = rec
+        self.stage_now, self.stage_fraction = stage, 0.0
+        rec.sample()
 
-        def done(r) -> bool:
-            if failure.update(r[1], r[2]):
+    def criterion(self, rec: _Recorder) -> tuple[Callable, Callable, str]:
+        """The stage's end criterion, its progress fraction and what it waits for."""
+        t, t0 = self.test, rec.t0
+        stage = rec.stage
+        if stage == "fill":
+            t_fall = math.sqrt(2 * t.cell[2] / GRAVITY)
+            return (lambda r: self.settled(r, t_fall, t0),
+                    lambda r: min(1.0, (r[0] - t0) / (2 * t_fall)),
+                    "settle (kinetic energy below settle_ke x N m g R)")
+        if stage in ("pre_compression", "consolidation"):
+            target = t.pre_stress if stage == "pre_compression" else t.consolidation_stress
+            return (lambda r: r[2] >= target, lambda r: r[2] / target,
+                    f"reach the {stage.replace('_', '-')} stress {target:g} Pa")
+        if stage == "unloading":
+            target = t.consolidation_stress
+            low = t.unloaded_stress * target
+            return (lambda r: r[2] <= low, lambda r: 1.0 - r[2] / target,
+                    f"relax the stress below {low:g} Pa")
+        if stage == "release":
+            t_min = 5 * math.sqrt(2 * t.radius / GRAVITY)  # a few particle fall times
+            t_max = max(t_min, t.release_time)
+            return (lambda r: self.settled(r, t_min, t0) or r[0] - t0 >= t_max,
+                    lambda r: min(1.0, (r[0] - t0) / t_max),
+                    "settle after the release (kinetic energy below settle_ke x N m g R)")
+
+        def failed(r) -> bool:
+            if rec.failure.update(r[1], r[2]):
                 self.unconfined_failed = True
                 return True
             return r[1] >= t.max_unconfined_strain
 
-        self.run_stage("unconfined", h0, done, lambda r: r[1] / t.max_unconfined_strain,
-                       "fail (post-peak drop) or reach max_unconfined_strain")
-        self.move_top(0.0)
+        return (failed, lambda r: r[1] / t.max_unconfined_strain,
+                "fail (post-peak drop) or reach max_unconfined_strain")
+
+    def loop(self) -> None:
+        """Run the current stage from its last sample until its criterion holds."""
+        rec = self.current
+        stage = rec.stage
+        done, fraction, what = self.criterion(rec)
+        row = rec.rows[-1]
+        while not done(row):
+            # the stage goes on (its end makes its own snapshot)
+            if (self.next_snapshot is not None and rec.steps
+                    and self.sim.time >= self.next_snapshot):
+                self.on_snapshot(capture(self.sim, stage))
+                while self.next_snapshot <= self.sim.time:
+                    self.next_snapshot += self.snapshot_interval
+            if rec.steps >= self.max_steps:
+                raise StageError(
+                    f"stage {stage} did not {what} within {rec.steps} steps "
+                    f"({rec.steps * self.sim.dt:.3g} s, max_stage_time); now: top stress "
+                    f"{row[2]:.4g} Pa, platen gap {row[8]:.4g} m, kinetic energy "
+                    f"{row[6]:.3g} J", stage, rec.steps)
+            self.sim.run(self.sample_steps)
+            rec.steps += self.sample_steps
+            row = rec.sample()
+            self.stage_fraction = fraction(row)
+            self.report(stage, self.stage_fraction)
+            if self.checkpoint is not None:
+                # between two samples, before the criterion sees the new row: a resumed run
+                # re-enters here and asks the criterion about that same row
+                self.checkpoint.due(self)
+
+    def end(self, stage: str) -> None:
+        self.stages[stage] = self.current.result()
+        self.current = None
+        self.report(stage, 1.0, "done")
+        if stage in ("unloading", "unconfined"):
+            self.move_top(0.0)
 
     # ------------------------------------------------------------------ scalars
     def finish(self) -> UniaxialResult:
@@ -541,7 +594,8 @@ def _secant_slope(strain: np.ndarray, stress: np.ndarray, lo: float, hi: float) 
 
 def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *,
                  on_snapshot: SnapshotCallback | None = None,
-                 snapshot_interval: float | None = None) -> UniaxialResult:
+                 snapshot_interval: float | None = None,
+                 checkpoint: Checkpoint | str | os.PathLike | None = None) -> UniaxialResult:
     """Run the uniaxial test: fill, pre-compression, consolidation, unloading and (with
     ``test.unconfined``) release and unconfined compression.
 
@@ -555,6 +609,11 @@ def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *
             ``engine.snapshots.SnapshotWriter(dir).add`` to write them as they come).
         snapshot_interval: simulated time between snapshots during the stages [s], at the
             first curve sample past each multiple (None: stage ends only).
+        checkpoint: a :class:`engine.Checkpoint` (or its path, written every
+            ``CHECKPOINT_INTERVAL`` s): the run resumes from it when it holds this test's
+            state, and writes it between curve samples as it goes; the result is
+            bit-identical to that of an uninterrupted run. The file is left for the caller to
+            remove once the result is stored (:meth:`engine.Checkpoint.remove`).
     Raises: :class:`StageError` when a stage misses its criterion within its bound,
         :class:`engine.InstabilityError` when the integration blows up.
     """
@@ -563,11 +622,20 @@ def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *
             raise ValueError("snapshot_interval needs on_snapshot to receive the snapshots")
         if not (math.isfinite(snapshot_interval) and snapshot_interval > 0):
             raise ValueError(f"snapshot_interval must be a time > 0 s, not {snapshot_interval}")
-    d = _Driver(test, progress, on_snapshot, snapshot_interval)
-    d.fill()
-    d.pre_compression()
-    d.consolidation()
-    if test.unconfined:
-        d.release()
-        d.unconfined()
-    return d.finish()
+    if checkpoint is not None and not isinstance(checkpoint, Checkpoint):
+        checkpoint = Checkpoint(checkpoint)
+    d = None
+    if checkpoint is not None:
+        t0 = time.perf_counter()
+        d = checkpoint.load(test)
+        if d is not None:  # loading its kernel is set-up time, as for a new Simulation
+            load = time.perf_counter() - t0
+            d.setup_time += load
+            d.t_wall -= load  # wall_time = now - t_wall - setup_time
+            d.progress, d.on_snapshot = progress, on_snapshot
+    if d is None:
+        d = _Driver(test, progress, on_snapshot, snapshot_interval)
+    d.checkpoint = checkpoint
+    if checkpoint is not None:
+        checkpoint.start()
+    return d.run()

@@ -1,0 +1,211 @@
+"""Checkpoints of a run in flight: a run killed mid-stage and resumed from its checkpoint gives
+curves byte for byte equal to those of a run that was never interrupted."""
+
+from __future__ import annotations
+
+import itertools
+import os
+import pickle
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import engine
+from engine.checkpoint import Checkpoint
+from engine.uniaxial import STAGES
+
+from .test_uniaxial import COHESIVE, tiny
+
+ROOT = Path(__file__).resolve().parents[2]
+TIMINGS = ("wall_time", "setup_time")
+
+
+class Killed(Exception):
+    """Stands for the process dying: raised from the progress callback."""
+
+
+def same_result(a: engine.UniaxialResult, b: engine.UniaxialResult) -> None:
+    assert list(a.stages) == list(b.stages)
+    for name, st in a.stages.items():
+        other = b.stages[name]
+        assert st.steps == other.steps, name
+        for k, v in st.curves.items():
+            assert v.tobytes() == other.curves[k].tobytes(), f"{name}.{k}"
+        assert st.positions.tobytes() == other.positions.tobytes(), name
+    for k, v in a.scalars.items():
+        if k not in TIMINGS:
+            assert v == b.scalars[k], k
+
+
+@pytest.fixture(scope="module")
+def cohesive_test():
+    return tiny(pair_law=COHESIVE, unconfined=True)
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(cohesive_test):
+    return engine.run_uniaxial(cohesive_test)
+
+
+def test_a_simulation_pickled_mid_run_goes_on_bit_identically(cohesive_test):
+    """A cohesive bed falling onto its platen (pairs with plastic history, walls, periodic
+    sides, rebuilds): pickled mid-run, unpickled, run on."""
+    pos, radii = cohesive_test.initial_packing()
+    scene = cohesive_test.scene(pos, radii)
+    # the same two calls without the pickle: a run() ends with the closing half kick, so two
+    # calls round differently from one of 6,000 steps (the driver always runs one curve
+    # sample per call, and checkpoints between two of them)
+    a = engine.Simulation(scene, dt=cohesive_test.dt)
+    b = engine.Simulation(scene, dt=cohesive_test.dt)
+    a.run(3500)
+    a.run(2500)
+    b.run(3500)
+    c = pickle.loads(pickle.dumps(b))
+    c.run(2500)
+    assert a.n_contacts() > 0 and a.n_rebuilds > 1
+    for attr in ("positions", "velocities", "angular_velocities", "forces", "wall_forces"):
+        assert getattr(a, attr).tobytes() == getattr(c, attr).tobytes(), attr
+    assert a.steps == c.steps == 6000
+    ca, cc = a.contacts(), c.contacts()
+    assert ca.max_overlaps.tobytes() == cc.max_overlaps.tobytes()
+    assert ca.tangential_springs.tobytes() == cc.tangential_springs.tobytes()
+    assert c.between_calls is None
+
+
+@pytest.mark.parametrize("kills", [(3,), (40, 80, 130)])
+def test_a_run_killed_and_resumed_gives_the_same_curves(tmp_path, cohesive_test, uninterrupted,
+                                                        kills):
+    """Killed after the k-th checkpoint of each attempt (every sample is checkpointed), in
+    different stages, then resumed until it finishes."""
+    path = tmp_path / "run.ckpt"
+    seen_stages = []
+    resumed = []
+    for k in kills:
+        ck = Checkpoint(path, interval=1e-12)
+
+        def stop(p, ck=ck, k=k):
+            if ck.writes >= k:
+                seen_stages.append(p.stage)
+                raise Killed()
+
+        with pytest.raises(Killed):
+            engine.run_uniaxial(cohesive_test, progress=stop, checkpoint=ck)
+        assert path.exists()
+    last = Checkpoint(path, interval=1e9)
+    res = engine.run_uniaxial(cohesive_test, checkpoint=last)
+    resumed.append(last.resumed_steps)
+    assert last.resumed_steps is not None and last.resumed_steps > 0
+    same_result(uninterrupted, res)
+    assert path.exists()  # left for the caller, who stores the result first
+    last.remove()
+    assert not path.exists()
+    if len(kills) > 1:  # the kills fell in more than one stage
+        assert len(set(seen_stages)) > 1, seen_stages
+
+
+def test_progress_never_goes_back_across_a_resume(tmp_path, cohesive_test):
+    path = tmp_path / "run.ckpt"
+    ck = Checkpoint(path, interval=1e-12)
+    before = []
+
+    def stop(p):
+        before.append(p.fraction)
+        if ck.writes >= 60:
+            raise Killed()
+
+    with pytest.raises(Killed):
+        engine.run_uniaxial(cohesive_test, progress=stop, checkpoint=ck)
+    after = []
+    engine.run_uniaxial(cohesive_test, progress=lambda p: after.append(p.fraction),
+                        checkpoint=Checkpoint(path))
+    assert after[0] >= before[-2]  # resumed where the last checkpoint was
+    assert all(b >= a for a, b in itertools.pairwise(after))
+    assert after[-1] == 1.0
+
+
+def test_a_checkpoint_of_another_test_or_a_torn_file_is_ignored(tmp_path, cohesive_test):
+    path = tmp_path / "run.ckpt"
+    ck = Checkpoint(path, interval=1e-12)
+
+    def stop(p):
+        if ck.writes >= 5:
+            raise Killed()
+
+    with pytest.raises(Killed):
+        engine.run_uniaxial(cohesive_test, progress=stop, checkpoint=ck)
+    other = tiny(pair_law=COHESIVE, unconfined=True, seed=cohesive_test.seed + 1)
+    with pytest.warns(RuntimeWarning, match="another test"):
+        assert Checkpoint(path).load(other) is None
+    path.write_bytes(path.read_bytes()[:100])
+    with pytest.warns(RuntimeWarning, match="unreadable"):
+        assert Checkpoint(path).load(cohesive_test) is None
+    path.write_bytes(pickle.dumps({"format": "something else"}))
+    with pytest.warns(RuntimeWarning, match="not a demscale checkpoint"):
+        assert Checkpoint(path).load(cohesive_test) is None
+
+
+def test_the_interval_is_checked():
+    for bad in (0, -1.0, float("nan"), float("inf"), True, "60"):
+        with pytest.raises(engine.ParameterError, match="Checkpoint.interval"):
+            Checkpoint("x.ckpt", interval=bad)
+
+
+def test_writes_are_spaced_by_the_interval(tmp_path, cohesive_test, uninterrupted):
+    """With an interval longer than the run, no checkpoint is written at all: the cost of
+    checkpointing a short run is nil."""
+    ck = Checkpoint(tmp_path / "run.ckpt", interval=3600.0)
+    res = engine.run_uniaxial(cohesive_test, checkpoint=ck)
+    assert ck.writes == 0 and not ck.path.exists()
+    same_result(uninterrupted, res)
+
+
+_CHILD = textwrap.dedent("""
+    import sys, time
+    import engine
+    from tests.engine.test_uniaxial import COHESIVE, tiny
+    test = tiny(pair_law=COHESIVE, unconfined=True)
+    ck = engine.Checkpoint(sys.argv[1], interval=0.05)
+    def slow(p):
+        time.sleep(0.002)  # stretches the run in wall time only
+        print(p.stage, ck.writes, flush=True)
+    engine.run_uniaxial(test, progress=slow, checkpoint=ck)
+    print("finished", flush=True)
+""")
+
+
+def test_a_process_killed_with_sigkill_resumes_bit_identically(tmp_path, cohesive_test,
+                                                                 uninterrupted):
+    """The real thing: a process SIGKILLed mid-stage after some checkpoints, resumed here."""
+    path = tmp_path / "run.ckpt"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    child = subprocess.Popen([sys.executable, "-c", _CHILD, str(path)], cwd=ROOT, env=env,
+                             stdout=subprocess.PIPE, text=True)
+    stage = None
+    deadline = time.monotonic() + 240
+    try:
+        for line in child.stdout:
+            stage, writes = line.split()[0], line.split()[-1]
+            if stage == "consolidation" and int(writes) >= 3:
+                break
+            assert time.monotonic() < deadline, "the child did not reach consolidation"
+        else:
+            pytest.fail(f"the child ended before it was killed (last: {stage})")
+        child.send_signal(signal.SIGKILL)
+    finally:
+        child.kill()
+        child.wait(30)
+    assert child.returncode == -signal.SIGKILL
+    ck = Checkpoint(path)
+    res = engine.run_uniaxial(cohesive_test, checkpoint=ck)
+    assert ck.resumed_steps > 0
+    same_result(uninterrupted, res)
+    assert res.stages["fill"].snapshot is not None  # stage-end snapshots survive the resume
+    np.testing.assert_array_equal(res.stages["fill"].snapshot.positions,
+                                  uninterrupted.stages["fill"].snapshot.positions)
+    assert set(res.stages) == set(STAGES)

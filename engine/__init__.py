@@ -41,6 +41,7 @@ from .study import (
     run_study,
 )
 from .uniaxial import (
+    RESUMED,
     Progress,
     StageError,
     StageResult,
@@ -58,6 +59,7 @@ __all__ = [
     "FEATURES",
     "METRICS",
     "NAMED_RULES",
+    "RESUMED",
     "BilinearAdhesive",
     "Checkpoint",
     "Contacts",

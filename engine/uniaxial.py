@@ -30,6 +30,7 @@ __all__ = [
     "GRAVITY",
     "MIN_THICKNESS_DIAMETERS",
     "PRESETS",
+    "RESUMED",
     "SCALAR_UNITS",
     "SOFTENING",
     "STAGES",
@@ -63,6 +64,9 @@ CURVE_UNITS = {
     "porosity_interior": "1",
     "coordination_interior": "1",
 }
+
+#: How the progress message of a run resumed from its checkpoint begins.
+RESUMED = "resumed from its checkpoint"
 
 #: Stage weights of the overall progress fraction.
 _WEIGHTS = {"fill": 0.3, "pre_compression": 0.05, "consolidation": 0.25, "unloading": 0.1,
@@ -638,4 +642,7 @@ def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *
     d.checkpoint = checkpoint
     if checkpoint is not None:
         checkpoint.start()
+        if checkpoint.resumed_steps is not None:
+            d.report(d.stage_now, d.stage_fraction,
+                     f"{RESUMED} at step {checkpoint.resumed_steps}")
     return d.run()

@@ -21,7 +21,7 @@ from engine.runstore import completed_runs
 from engine.runstore import save_run as store_run
 from engine.study import plan_runs
 
-from . import transitions
+from . import checkpoints, transitions
 from .db import engine_for
 from .h5store import NotOurs, write_results
 from .models import Status, Study
@@ -98,6 +98,9 @@ class StudyExecution:
             except Exception:  # bookkeeping only: the study goes on
                 log.exception("study %s: could not mark run %s", self.study_id, p.run_key)
             log.info("study %s: run %d/%d %s", self.study_id, p.run_index + 1, p.n_runs, p.run_key)
+        if p.message.startswith(engine.RESUMED):
+            log.info("study %s: resuming run %s from its checkpoint (%s, %s)", self.study_id,
+                     p.run_key, p.stage, p.message)
         stop = self.cancel or self.lost or self.shutdown.is_set()
         limit = self.settings.max_run_wall_time
         if (not stop and self.in_process and p.stage != "setup"
@@ -169,7 +172,7 @@ class StudyExecution:
         killed while writing leaves its ``*.h5.tmp``): the study is this worker's now, and
         only its owner writes there."""
         d = self.settings.study_dir(self.study_id)
-        for tmp in [*d.glob("*.h5.tmp"), *d.glob("runs/.*.tmp")]:
+        for tmp in [*d.glob("*.h5.tmp"), *d.glob("runs/.*.tmp"), *d.glob("checkpoints/.*.tmp")]:
             log.warning("study %s: removing %s of an earlier attempt", self.study_id, tmp.name)
             tmp.unlink(missing_ok=True)
         for tmp in d.glob("snapshots/.*.tmp"):
@@ -191,9 +194,12 @@ class StudyExecution:
                 # the study's folder (engine.FileChannel)
                 channel = (None if pool is None else
                            engine.FileChannel(self.settings.study_dir(self.study_id) / "channel"))
-                result = engine.run_study(spec, progress=self.progress, executor=pool,
-                                          completed=self.stored_runs(spec), on_run=self.on_run,
-                                          channel=channel)
+                # a run in flight keeps a checkpoint: after a crash it resumes where it was
+                result = engine.run_study(
+                    spec, progress=self.progress, executor=pool,
+                    completed=self.stored_runs(spec), on_run=self.on_run, channel=channel,
+                    checkpoints=self.settings.checkpoints_dir(self.study_id),
+                    checkpoint_interval=self.settings.checkpoint_interval)
             write_results(self.settings.results_path(self.study_id), self.study_id, result,
                           still_ours=self._still_ours)
         except engine.StopRequested:
@@ -214,6 +220,8 @@ class StudyExecution:
                     time.perf_counter() - t0,
                     run_key,
                 )
+            if ok:
+                self.drop_checkpoints()
             return Status.failed if ok else None
         finally:
             self._finish_beats(beats)
@@ -221,8 +229,14 @@ class StudyExecution:
             ok = transitions.succeed(
                 s, self.study_id, self.worker_id, time.perf_counter() - t0, result.table
             )
+        if ok:
+            self.drop_checkpoints()
         log.info("study %s: %s", self.study_id, "succeeded" if ok else "done, but not ours")
         return Status.succeeded if ok else None
+
+    def drop_checkpoints(self) -> None:
+        """The study has ended: the checkpoints of runs it left in flight go."""
+        checkpoints.remove_all(self.settings.checkpoints_dir(self.study_id))
 
     def _still_ours(self) -> bool:
         """A heartbeat right before the results file is renamed into place."""
@@ -239,10 +253,9 @@ class StudyExecution:
                 return None
             if self.cancel:
                 log.info("study %s: cancelled", self.study_id)
-                return (
-                    Status.cancelled
-                    if transitions.cancelled(s, self.study_id, self.worker_id, run_time)
-                    else None
-                )
+                if not transitions.cancelled(s, self.study_id, self.worker_id, run_time):
+                    return None
+                self.drop_checkpoints()
+                return Status.cancelled
             log.info("study %s: worker shutting down, back to the queue", self.study_id)
             return Status.queued if transitions.release(s, self.study_id, self.worker_id) else None

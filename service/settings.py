@@ -77,8 +77,14 @@ class Settings(BaseSettings):
         30.0, gt=0, description="A running study whose heartbeat is this old [s] is orphaned."
     )
     max_attempts: int = Field(
-        3, ge=1, description="Claims of a study in a row that finish no run before it is "
-        "failed (its interrupted run is a poison run); a claim that finishes a run resets it.")
+        3, ge=1, description="Claims of a study in a row that finish no run and advance no "
+        "checkpoint before it is failed (its interrupted run, brought down at the same point "
+        "each time, is a poison run); a claim that finishes a run or writes a newer "
+        "checkpoint resets the count.")
+    checkpoint_interval: float = Field(
+        60.0, gt=0, le=3600, description="Wall time [s] between two checkpoints of a run in "
+        "flight (engine.Checkpoint): a killed worker's run resumes from its last one, "
+        "bit-identically, losing at most this much work.")
     run_workers: int = Field(
         1, ge=0, le=256, description="Runs of a study side by side on a local process pool, "
         "one engine thread each; 1: one run at a time in the worker with the engine's own "
@@ -172,6 +178,10 @@ class Settings(BaseSettings):
             return {}
         return {d.name: sorted(f.name for f in d.iterdir() if f.is_file())
                 for d in sorted(root.iterdir()) if d.is_dir() and not d.name.startswith(".")}
+
+    def checkpoints_dir(self, study_id: object) -> Path:
+        """Checkpoints of one study's runs in flight (``<key>.ckpt``), removed once stored."""
+        return self.study_dir(study_id) / "checkpoints"
 
     def runs_dir(self, study_id: object) -> Path:
         """The per-run HDF5 files of one study, each stored as soon as its run ends."""

@@ -11,6 +11,7 @@ its runs' changes commit together.
 from __future__ import annotations
 
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime
 
@@ -303,11 +304,16 @@ def release(session: Session, study_id: uuid.UUID, worker_id: str) -> bool:
 
 
 def recover_stale(
-    session: Session, stale_before: datetime, max_attempts: int
+    session: Session, stale_before: datetime, max_attempts: int,
+    advanced: Callable[[uuid.UUID, datetime], bool] | None = None,
 ) -> list[tuple[uuid.UUID, Status]]:
     """Requeue every running study whose heartbeat is older than ``stale_before`` (its
-    worker died); fail it once it has used ``max_attempts`` claims; cancel it if a cancel
-    was requested. Returns (id, new status) of each study recovered."""
+    worker died); fail it once ``max_attempts`` claims in a row died without progress;
+    cancel it if a cancel was requested. An attempt made progress when it finished a run,
+    or when ``advanced(study_id, started_at)`` says it wrote a newer checkpoint of its run
+    in flight: only a run that brings its worker down at the same point again and again
+    (a poison run) uses up the attempts, not a worker killed from outside now and then.
+    Returns (id, new status) of each study recovered."""
     cols = (Study.id, Study.worker_id, Study.attempts, Study.cancel_requested, Study.heartbeat_at)
     rows = session.execute(
         select(*cols).where(Study.status == R, Study.heartbeat_at < stale_before)
@@ -321,17 +327,21 @@ def recover_stale(
                 Run.study_id == sid, Run.status.in_((S, F)), Run.finished_at >= started)
         ).scalar()
         current = session.execute(select(Study.current_run).where(Study.id == sid)).scalar()
-        if finished:
-            # an interruption, not a failure: this attempt finished runs, which are stored;
-            # only claims in a row that finish nothing count towards max_attempts
+        if finished or (advanced is not None and started is not None
+                        and advanced(sid, started)):
+            # an interruption, not a failure: this attempt finished runs, which are stored,
+            # or moved its run's checkpoint on; only claims in a row that do neither count
+            # towards max_attempts
             attempts = 0
         if cancel:
             dst, values = C, {"error": f"cancelled; {last}", "finished_at": utcnow()}
         elif attempts >= max_attempts:
-            poison = f"; run {current} was interrupted each time (a poison run)" if current else ""
+            poison = (f"; run {current} was interrupted each time at the same point (a poison run)"
+                      if current else "")
             dst, values = (
                 F,
-                {"error": f"gave up after {attempts} attempts that finished no run: {last}"
+                {"error": f"gave up after {attempts} attempts that finished no run and "
+                          f"advanced no checkpoint: {last}"
                           f"{poison}", "finished_at": utcnow()},
             )
         else:

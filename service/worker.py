@@ -20,10 +20,10 @@ from datetime import timedelta
 
 from sqlmodel import Session
 
-from . import transitions
+from . import checkpoints, transitions
 from .db import engine_for
 from .execute import StudyExecution
-from .models import utcnow
+from .models import Status, utcnow
 from .settings import Settings, get_settings, secure_data_dir
 
 log = logging.getLogger("demscale.worker")
@@ -65,9 +65,15 @@ class Worker:
     def recover(self) -> None:
         """Requeue (or fail) the studies of dead workers."""
         cutoff = utcnow() - timedelta(seconds=self.settings.stale_after)
+        def advanced(sid, since) -> bool:
+            return checkpoints.advanced_since(self.settings.checkpoints_dir(sid), since)
+
         with Session(self.db) as s:
-            for sid, status in transitions.recover_stale(s, cutoff, self.settings.max_attempts):
+            for sid, status in transitions.recover_stale(s, cutoff, self.settings.max_attempts,
+                                                         advanced):
                 log.warning("study %s had a dead worker: now %s", sid, status.value)
+                if status is not Status.queued:  # ended: its checkpoints will not be resumed
+                    checkpoints.remove_all(self.settings.checkpoints_dir(sid))
 
     def parent_gone(self) -> bool:
         """Whether the embedding API process has exited."""

@@ -191,3 +191,38 @@ def test_remove_only_finished_studies(session):
     session.expire_all()
     assert session.get(Study, study.id) is None
     assert session.exec(select(Run).where(Run.study_id == study.id)).all() == []
+
+
+@pytest.mark.timeout(30)
+def test_only_attempts_without_progress_count_towards_the_poison_rule(session):
+    """An attempt that moved its run's checkpoint on is an interruption; one that died at
+    the same point (no newer checkpoint, no finished run) counts; max_attempts of those in a
+    row fail the study as a poison run."""
+    study = new_study(session)
+    later = timedelta(seconds=1)
+    moved = {"value": True}
+    seen = []
+
+    def advanced(sid, since):
+        seen.append((sid, since))
+        return moved["value"]
+
+    for attempt in range(5):  # killed from outside five times, progress each time
+        assert transitions.claim_next(session, f"w{attempt}").attempts == 1
+        transitions.run_started(session, study.id, "run0")
+        assert transitions.recover_stale(session, utcnow() + later, 2, advanced) == [
+            (study.id, Status.queued)]
+    assert seen and all(sid == study.id for sid, _ in seen)
+    moved["value"] = False  # now it dies at the same point every time
+    assert transitions.claim_next(session, "w5").attempts == 1
+    assert transitions.recover_stale(session, utcnow() + later, 2, advanced) == [
+        (study.id, Status.queued)]
+    assert transitions.claim_next(session, "w6").attempts == 2
+    transitions.heartbeat(session, study.id, "w6", progress=0.3, run_index=0,
+                          current_run="run0", current_stage="consolidation")
+    assert transitions.recover_stale(session, utcnow() + later, 2, advanced) == [
+        (study.id, Status.failed)]
+    session.expire_all()
+    row = session.get(Study, study.id)
+    assert "advanced no checkpoint" in row.error
+    assert "run run0 was interrupted each time at the same point" in row.error

@@ -1,0 +1,85 @@
+"""A run in flight survives its worker: SIGKILLed mid-run more often than ``max_attempts``,
+each time after its checkpoint moved on, the study succeeds, and its stored run is byte for
+byte the run that was never interrupted (the poison rule that counts only attempts without
+progress: tests/service/test_transitions.py)."""
+
+from __future__ import annotations
+
+import random
+import signal
+import time
+from datetime import timedelta
+
+import pytest
+
+import engine
+from engine.runstore import load_run
+from service import checkpoints
+from service.models import utcnow
+
+from .conftest import TINY, study_getter, wait_for
+
+#: One reference of a few seconds (a small time step), so that it can be killed mid-run.
+LONG = {**TINY, "name": "long", "reference": {**TINY["reference"], "unconfined": False,
+                                              "dt": 1e-6}}
+KILLS = 3
+
+
+@pytest.mark.timeout(300)
+def test_a_run_killed_again_and_again_resumes_and_is_stored_bit_identically(client, workers,
+                                                                             settings):
+    settings.checkpoint_interval = 0.3
+    settings.max_attempts = 2  # fewer than the kills: each attempt moved its checkpoint on
+    r = client.post("/studies", json=LONG)
+    assert r.status_code == 202, r.text
+    sid = r.json()["id"]
+    ckpt = settings.checkpoints_dir(sid) / "ref-s1.ckpt"
+    rng = random.Random(int(time.time()))
+    for kill in range(KILLS):
+        started = time.time()
+        worker = workers.start()
+        deadline = time.monotonic() + 120
+        # this attempt has written a checkpoint of its own (not only resumed an older one)
+        while not (ckpt.exists() and ckpt.stat().st_mtime > started + 0.05):
+            assert worker.poll() is None, workers.logs()
+            assert time.monotonic() < deadline, f"kill {kill}: no checkpoint\n{workers.logs()}"
+            time.sleep(0.02)
+        time.sleep(rng.uniform(0.0, 0.3))
+        worker.send_signal(signal.SIGKILL)
+        worker.wait()
+        status = client.get(f"/studies/{sid}").json()
+        assert status["status"] == "running", status  # killed mid-run, not after it
+        assert status["runs"][0]["status"] == "running"
+    workers.start()
+    done = wait_for(study_getter(client, sid), lambda s: s["status"] in ("succeeded", "failed"),
+                    120, "the study to finish after the kills", workers)
+    assert done["status"] == "succeeded", done["error"]
+    logs = workers.logs(None)
+    assert logs.count("resuming run ref-s1 from its checkpoint") >= KILLS, logs[-3000:]
+    # the stored run is the uninterrupted one, byte for byte
+    spec = engine.StudySpec.from_dict({k: v for k, v in LONG.items() if k != "name"})
+    ref = next(p for p in spec.planned_runs() if p.key == "ref-s1")
+    clean = engine.run_uniaxial(ref.test)
+    stored = load_run(settings.runs_dir(sid) / "ref-s1.h5")
+    assert list(stored.stages) == list(clean.stages)
+    for name, st in clean.stages.items():
+        for k, v in st.curves.items():
+            assert stored.stages[name].curves[k].tobytes() == v.tobytes(), f"{name}.{k}"
+    assert stored.scalars["steps"] == clean.scalars["steps"]
+    # checkpoints go once the runs are stored
+    assert not settings.checkpoints_dir(sid).exists() or not any(
+        settings.checkpoints_dir(sid).iterdir())
+
+
+def test_advanced_since_reads_checkpoint_times(tmp_path):
+    d = tmp_path / "checkpoints"
+    assert not checkpoints.advanced_since(d, utcnow())  # no folder
+    d.mkdir()
+    before = utcnow() - timedelta(seconds=5)
+    (d / "ref-s1.ckpt").write_bytes(b"x")
+    (d / ".ref-s1.ckpt.1.tmp").write_bytes(b"x")
+    assert checkpoints.advanced_since(d, before)
+    assert checkpoints.advanced_since(d, before.replace(tzinfo=None))  # naive = UTC
+    assert not checkpoints.advanced_since(d, utcnow() + timedelta(seconds=5))
+    checkpoints.remove_all(d)
+    assert not d.exists()

@@ -20,7 +20,13 @@ Public API (stable names)::
 
 from .channel import FileChannel
 from .checkpoint import Checkpoint
-from .errors import InstabilityError, ParameterError, StabilityError, StopRequested
+from .errors import (
+    InstabilityError,
+    ParameterError,
+    StabilityError,
+    StopRequested,
+    WallTimeExceeded,
+)
 from .kernels import FEATURES
 from .materials import EEPA, BilinearAdhesive, HertzMindlin, WallMaterial
 from .metrics import DEFAULT_TOLERANCES, METRICS
@@ -89,6 +95,7 @@ __all__ = [
     "UniaxialResult",
     "UniaxialTest",
     "WallMaterial",
+    "WallTimeExceeded",
     "critical_time_step",
     "default_study",
     "preset",

@@ -72,3 +72,23 @@ def _instability_error(cls, message, step, time, particles, reason):
 
 class StopRequested(RuntimeError):
     """Raised out of a stage driver or study when the progress callback asked to stop."""
+
+
+class WallTimeExceeded(RuntimeError):
+    """A run went on past its limit on wall time (``run_uniaxial(max_wall_time=...)``).
+
+    Attributes: ``limit`` and ``elapsed`` [s] of wall time (set-up, i.e. kernel compilation,
+    left out; a run resumed from a checkpoint counts the time of its earlier attempts up to
+    that checkpoint), ``setting`` (the name of the knob that set the limit).
+    """
+
+    def __init__(self, limit: float, elapsed: float, setting: str = "max_wall_time"):
+        self.limit = limit
+        self.elapsed = elapsed
+        self.setting = setting
+        super().__init__(f"the run went on for {elapsed:.4g} s of wall time, more than "
+                         f"{setting} = {limit:g} s: it was stopped; use a smaller or shorter "
+                         "test, or raise the limit")
+
+    def __reduce__(self):
+        return type(self), (self.limit, self.elapsed, self.setting)

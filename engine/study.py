@@ -172,7 +172,8 @@ class RunFailed(RuntimeError):
 
 
 def _execute(test, threads: int | None = None, key: str = "", channel=None,
-             checkpoint: Checkpoint | None = None) -> UniaxialResult:
+             checkpoint: Checkpoint | None = None, limit: tuple | None = None
+             ) -> UniaxialResult:
     """One run as a task (a picklable top-level function for process and cluster pools);
     with a ``channel`` (:mod:`engine.channel`) it reports its progress there and stops with
     :class:`engine.StopRequested` when the study asks it to."""
@@ -183,7 +184,14 @@ def _execute(test, threads: int | None = None, key: str = "", channel=None,
     if channel is not None and channel.stop_requested():
         raise StopRequested(f"run {key} not started: the study was stopped")
     return run_uniaxial(test, progress=None if channel is None else task_progress(channel, key),
-                        checkpoint=checkpoint)
+                        checkpoint=checkpoint, **_limit_args(limit))
+
+
+def _limit_args(limit: tuple | None) -> dict:
+    """run_uniaxial's arguments for a (max_wall_time, setting name) pair."""
+    if limit is None or limit[0] is None:
+        return {}
+    return {"max_wall_time": limit[0], "wall_time_setting": limit[1]}
 
 
 def _weights(planned: list[PlannedRun]) -> np.ndarray:
@@ -196,7 +204,9 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
               on_run: RunCallback | None = None, task_threads: int | None = 1,
               channel=None, poll_interval: float = 1.0,
               checkpoints: str | os.PathLike | None = None,
-              checkpoint_interval: float = CHECKPOINT_INTERVAL) -> StudyResult:
+              checkpoint_interval: float = CHECKPOINT_INTERVAL,
+              max_run_wall_time: float | None = None,
+              wall_time_setting: str = "max_run_wall_time") -> StudyResult:
     """Run every run of ``spec`` that is not in ``completed``, then judge the study.
 
     Args:
@@ -224,12 +234,18 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
             ``checkpoint_interval`` seconds of wall time [s]; a run started again (the study
             resumed after a crash) goes on from its checkpoint, bit-identically. A run's
             checkpoint is removed once ``on_run`` has returned (its outcome is stored).
+        max_run_wall_time: a run that goes on longer than this [s] of wall time fails with
+            :class:`engine.WallTimeExceeded` (in this process and on any executor; the study
+            goes on with the others); ``wall_time_setting`` names the limit in the message.
 
     Raises: :class:`RunFailed` as soon as every reference run has failed; ``ValueError``
     at once, before any run starts, for a ``ProcessPoolExecutor`` that forks
     (:func:`check_executor`).
     """
     check_executor(executor)
+    if max_run_wall_time is not None:
+        check_interval(max_run_wall_time, "run_study.max_run_wall_time")
+    limit = (max_run_wall_time, wall_time_setting)
     planned = spec.planned_runs()
     weights = _weights(planned)
     outcomes: dict[str, UniaxialResult | str] = dict(completed or {})
@@ -260,10 +276,10 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
 
     def run(todo: list[int]) -> None:
         if executor is None:
-            _run_here(planned, todo, weights, outcomes, progress, record, checkpoint)
+            _run_here(planned, todo, weights, outcomes, progress, record, checkpoint, limit)
         else:
             _run_on(executor, planned, todo, weights, outcomes, progress, record,
-                    task_threads, channel, poll_interval, checkpoint)
+                    task_threads, channel, poll_interval, checkpoint, limit)
 
     while True:
         planned, added, stopped = plan_runs(spec, outcomes)
@@ -423,7 +439,7 @@ def _done_weight(planned, weights, outcomes) -> float:
     return float(sum(w for p, w in zip(planned, weights) if p.key in outcomes))
 
 
-def _run_here(planned, todo, weights, outcomes, progress, record, checkpoint) -> None:
+def _run_here(planned, todo, weights, outcomes, progress, record, checkpoint, limit) -> None:
     done_weight = _done_weight(planned, weights, outcomes)
     for i in todo:
         p = planned[i]
@@ -440,7 +456,8 @@ def _run_here(planned, todo, weights, outcomes, progress, record, checkpoint) ->
         if report(Progress(0.0, "setup", 0.0, 0.0, 0, "building the packing")) is False:
             raise StopRequested(f"stopped by the progress callback before run {p.key}")
         try:
-            outcome = run_uniaxial(p.test, progress=report, checkpoint=checkpoint(p))
+            outcome = run_uniaxial(p.test, progress=report, checkpoint=checkpoint(p),
+                                   **_limit_args(limit))
         except StopRequested:
             raise
         except Exception as e:
@@ -450,10 +467,10 @@ def _run_here(planned, todo, weights, outcomes, progress, record, checkpoint) ->
 
 
 def _run_on(executor, planned, todo, weights, outcomes, progress, record, threads, channel,
-            poll_interval, checkpoint) -> None:
+            poll_interval, checkpoint, limit) -> None:
     # in planned order: the references first (the longest runs, needed by every comparison)
     futures = {executor.submit(_execute, planned[i].test, threads, planned[i].key, channel,
-                               checkpoint(planned[i])): i
+                               checkpoint(planned[i]), limit): i
                for i in todo}
     done_weight = _done_weight(planned, weights, outcomes)
     pending = set(futures)

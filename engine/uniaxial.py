@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .checkpoint import Checkpoint
-from .errors import StopRequested
+from .errors import ParameterError, StopRequested, WallTimeExceeded
 from .packing import sphere_volume
 from .simulation import Simulation
 from .snapshots import Snapshot, capture
@@ -259,6 +259,8 @@ class _Driver:
         self.max_steps = max(1, round(test.max_stage_time / self.sim.dt))
         self.h_consolidation = math.nan
         self.checkpoint = None
+        self.max_wall_time: float | None = None
+        self.wall_time_setting = "max_wall_time"
         # within a long curve sample, a progress report (and so a stop request) at least
         # every engine.simulation.CALL_SECONDS of wall time
         self.stage_now, self.stage_fraction = "fill", 0.0
@@ -287,7 +289,15 @@ class _Driver:
         """Highest particle surface [m]."""
         return float(np.max(self.sim.positions[:, 2] + self.sim.radii))
 
+    def wall_time(self) -> float:
+        """Wall time of the run so far, set-up left out [s]."""
+        return time.perf_counter() - self.t_wall - self.setup_time
+
     def report(self, stage: str, stage_fraction: float, message: str = "") -> None:
+        if self.max_wall_time is not None:
+            elapsed = self.wall_time()
+            if elapsed > self.max_wall_time:
+                raise WallTimeExceeded(self.max_wall_time, elapsed, self.wall_time_setting)
         if self.progress is None:
             return
         done = 0.0
@@ -455,7 +465,7 @@ class _Driver:
         s["steps"] = float(self.sim.steps)
         s["dt"] = self.sim.dt
         s["setup_time"] = self.setup_time
-        s["wall_time"] = time.perf_counter() - self.t_wall - self.setup_time
+        s["wall_time"] = self.wall_time()
         s["particle_steps"] = float(self.sim.n) * self.sim.steps
         s["threads"] = float(self.sim.threads)  # wall time is per this many engine threads
         s["max_inertial_number"] = max(
@@ -599,7 +609,9 @@ def _secant_slope(strain: np.ndarray, stress: np.ndarray, lo: float, hi: float) 
 def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *,
                  on_snapshot: SnapshotCallback | None = None,
                  snapshot_interval: float | None = None,
-                 checkpoint: Checkpoint | str | os.PathLike | None = None) -> UniaxialResult:
+                 checkpoint: Checkpoint | str | os.PathLike | None = None,
+                 max_wall_time: float | None = None,
+                 wall_time_setting: str = "max_wall_time") -> UniaxialResult:
     """Run the uniaxial test: fill, pre-compression, consolidation, unloading and (with
     ``test.unconfined``) release and unconfined compression.
 
@@ -618,6 +630,10 @@ def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *
             state, and writes it between curve samples as it goes; the result is
             bit-identical to that of an uninterrupted run. The file is left for the caller to
             remove once the result is stored (:meth:`engine.Checkpoint.remove`).
+        max_wall_time: stop the run with :class:`engine.WallTimeExceeded` once it has run
+            this long [s] (set-up left out; checked after every curve sample and between
+            kernel calls, at least every 0.2 s); ``wall_time_setting`` names the limit in
+            the message.
     Raises: :class:`StageError` when a stage misses its criterion within its bound,
         :class:`engine.InstabilityError` when the integration blows up.
     """
@@ -626,6 +642,11 @@ def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *
             raise ValueError("snapshot_interval needs on_snapshot to receive the snapshots")
         if not (math.isfinite(snapshot_interval) and snapshot_interval > 0):
             raise ValueError(f"snapshot_interval must be a time > 0 s, not {snapshot_interval}")
+    if max_wall_time is not None and not (
+            isinstance(max_wall_time, (int, float)) and not isinstance(max_wall_time, bool)
+            and math.isfinite(max_wall_time) and max_wall_time > 0):
+        raise ParameterError("run_uniaxial.max_wall_time", max_wall_time,
+                             "a wall time > 0 s, or None")
     if checkpoint is not None and not isinstance(checkpoint, Checkpoint):
         checkpoint = Checkpoint(checkpoint)
     d = None
@@ -640,6 +661,7 @@ def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *
     if d is None:
         d = _Driver(test, progress, on_snapshot, snapshot_interval)
     d.checkpoint = checkpoint
+    d.max_wall_time, d.wall_time_setting = max_wall_time, wall_time_setting
     if checkpoint is not None:
         checkpoint.start()
         if checkpoint.resumed_steps is not None:

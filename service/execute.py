@@ -31,10 +31,6 @@ from .settings import Settings
 log = logging.getLogger("demscale.worker")
 
 
-class RunTimeLimit(RuntimeError):
-    """A run went on past ``DEMSCALE_MAX_RUN_WALL_TIME``: the run fails, the study goes on."""
-
-
 class StudyExecution:
     """One attempt at a study by worker ``worker_id``; ``shutdown`` is set on SIGTERM."""
 
@@ -47,8 +43,6 @@ class StudyExecution:
         self.db = engine_for(settings)
         self.latest: engine.StudyProgress | None = None
         self.current_run: str | None = None
-        self.run_started = time.monotonic()
-        self.in_process = True  # runs in this process (not on a pool): the run limit applies
         self.cancel = False
         self.lost = False
         self.done = threading.Event()
@@ -83,14 +77,12 @@ class StudyExecution:
 
     # --------------------------------------------------------------------- engine thread
     def progress(self, p: engine.StudyProgress) -> bool:
-        """The engine's progress callback: returns False to stop the study; raises
-        :class:`RunTimeLimit` in a run (in this process) older than the per-run limit. The
-        fraction shown never goes back (pool runs report as they come, out of step)."""
+        """The engine's progress callback: returns False to stop the study. The fraction
+        shown never goes back (pool runs report as they come, out of step)."""
         if self.latest is not None and p.fraction < self.latest.fraction:
             p = dataclasses.replace(p, fraction=self.latest.fraction)
         self.latest = p
         if p.run_key != self.current_run:
-            self.run_started = time.monotonic()
             self.current_run = p.run_key
             try:
                 with Session(self.db) as s:
@@ -101,14 +93,7 @@ class StudyExecution:
         if p.message.startswith(engine.RESUMED):
             log.info("study %s: resuming run %s from its checkpoint (%s, %s)", self.study_id,
                      p.run_key, p.stage, p.message)
-        stop = self.cancel or self.lost or self.shutdown.is_set()
-        limit = self.settings.max_run_wall_time
-        if (not stop and self.in_process and p.stage != "setup"
-                and time.monotonic() - self.run_started > limit):
-            raise RunTimeLimit(f"run {p.run_key} ran for more than {limit:g} s of wall time "
-                               "(DEMSCALE_MAX_RUN_WALL_TIME): it was stopped; use a smaller "
-                               "or shorter test, or raise the limit")
-        return not stop
+        return not (self.cancel or self.lost or self.shutdown.is_set())
 
     def ensure_row(self, key: str) -> None:
         """Give a run a ``decide`` study added a row, with the others of its round: the
@@ -189,7 +174,6 @@ class StudyExecution:
             spec = self.spec = engine.StudySpec.from_dict(self.spec_dict)
             self.known_runs.update(p.key for p in spec.planned_runs())
             with run_executor(self.settings) as pool:
-                self.in_process = pool is None
                 # runs in other processes or hosts report and hear a cancel through files in
                 # the study's folder (engine.FileChannel)
                 channel = (None if pool is None else
@@ -199,7 +183,10 @@ class StudyExecution:
                     spec, progress=self.progress, executor=pool,
                     completed=self.stored_runs(spec), on_run=self.on_run, channel=channel,
                     checkpoints=self.settings.checkpoints_dir(self.study_id),
-                    checkpoint_interval=self.settings.checkpoint_interval)
+                    checkpoint_interval=self.settings.checkpoint_interval,
+                    # in this process, on a pool or on a cluster alike (engine.WallTimeExceeded)
+                    max_run_wall_time=self.settings.max_run_wall_time,
+                    wall_time_setting="DEMSCALE_MAX_RUN_WALL_TIME")
             write_results(self.settings.results_path(self.study_id), self.study_id, result,
                           still_ours=self._still_ours)
         except engine.StopRequested:

@@ -61,8 +61,9 @@ class Settings(BaseSettings):
         "case its bounds allow (stage time caps / output_interval, summed over stages and "
         "runs) [-]; each is 11 float64 values.")
     max_run_wall_time: float = Field(
-        21_600.0, gt=0, description="Wall time [s] after which a run in the worker's own "
-        "process fails (the study goes on with the other runs).")
+        21_600.0, gt=0, description="Wall time [s] after which a run fails (the study goes "
+        "on with the other runs), in the worker's process, on a pool or on a Dask cluster "
+        "alike; a resumed run counts its earlier attempts up to its checkpoint.")
     submit_rate: float = Field(
         30.0, gt=0, description="Submissions (and refused requests) a token may make per "
         "minute, in bursts of up to submit_burst; beyond: 429 with Retry-After.")

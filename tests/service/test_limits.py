@@ -17,7 +17,7 @@ import pytest
 
 import engine
 from service import cost
-from service.execute import RunTimeLimit, StudyExecution
+from service.execute import StudyExecution
 from service.models import Study
 from service.ratelimit import Buckets
 
@@ -257,18 +257,6 @@ def test_progress_never_goes_back(settings):
     assert seen == [0.568, 0.623, 0.623] and ex.latest.fraction == 0.7
 
 
-def test_a_run_past_the_wall_time_limit_fails(settings):
-    settings.max_run_wall_time = 5.0
-    ex = _execution(settings)
-    p = engine.StudyProgress(0.1, 0, 2, "ref-s1", "fill", 0.0)
-    assert ex.progress(p) is True
-    ex.run_started -= 6.0
-    with pytest.raises(RunTimeLimit, match="DEMSCALE_MAX_RUN_WALL_TIME"):
-        ex.progress(p)
-    ex.in_process = False  # on a pool the limit is not the worker's to apply
-    assert ex.progress(p) is True
-
-
 # --- with a real worker ---------------------------------------------------------------------
 
 
@@ -315,9 +303,13 @@ def test_sigterm_during_a_long_curve_sample_drains_at_once(client, settings, wor
 
 
 @pytest.mark.timeout(RUN_TIMEOUT + 60)
-def test_a_run_past_the_wall_time_limit_fails_with_that_reason(client, settings, workers):
+@pytest.mark.parametrize("where", ["worker", "process pool"])
+def test_a_run_past_the_wall_time_limit_fails_with_that_reason(client, settings, workers,
+                                                               where):
     settings.max_run_wall_time = 1.0
     settings.max_particle_steps = 1e11
+    if where == "process pool":  # the limit holds where the worker cannot see the run
+        settings.run_workers = 2
     r = client.post("/studies", json=LONG_SAMPLES)
     sid = r.json()["id"]
     workers.start()

@@ -32,7 +32,7 @@ from .errors import validation_error
 from .guard import Guard, Tokens
 from .headers import SecurityHeaders
 from .models import Status, Study
-from .ratelimit import SubmitRateLimit
+from .ratelimit import Buckets, SubmitRateLimit
 from .routes import results, studies
 from .settings import ConfigError, Settings, get_settings, secure_data_dir
 from .web import router as web_router
@@ -133,8 +133,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     # inside the guard (it knows the owner): a token's submissions, refused ones included
     app.add_middleware(SubmitRateLimit, per_minute=settings.submit_rate,
                        burst=settings.submit_burst)
-    app.add_middleware(Guard, tokens=tokens, max_body_bytes=settings.max_body_bytes)
-    app.add_middleware(BrowserLogin, tokens=tokens)  # outside the guard: the page's cookie
+    # wrong tokens per client address, the header's and the login form's in one bucket
+    failures = Buckets(settings.auth_failure_rate, settings.auth_failure_burst)
+    app.add_middleware(Guard, tokens=tokens, max_body_bytes=settings.max_body_bytes,
+                       failures=failures)
+    # outside the guard: the page's cookie
+    app.add_middleware(BrowserLogin, tokens=tokens, failures=failures)
     app.add_middleware(SecurityHeaders)  # outermost: on every answer, the guard's too
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
     app.include_router(studies.router)

@@ -16,6 +16,7 @@ from __future__ import annotations
 import hashlib
 import hmac
 import json
+import math
 
 from .settings import FINGERPRINT_DIGITS
 
@@ -63,14 +64,36 @@ def _bearer(headers: list[tuple[bytes, bytes]]) -> bytes | None:
     return None
 
 
+def client_address(scope) -> str:
+    """The client's address as the server saw it (a proxy's own, behind one)."""
+    client = scope.get("client")
+    return client[0] if client else "unknown"
+
+
+def failure_wait(failures, scope) -> int:
+    """Count a wrong token against the client's address (``failures``: a
+    :class:`service.ratelimit.Buckets`, or None for no limit): 0 while within the limit, else
+    the seconds to wait, for ``Retry-After``."""
+    if failures is None:
+        return 0
+    wait = failures.take(client_address(scope))
+    return max(1, math.ceil(wait)) if wait > 0 else 0
+
+
+#: What a client past the limit on wrong tokens is told.
+TOO_MANY_FAILURES = ("too many requests with a wrong token from this address: retry after "
+                     "{} s (DEMSCALE_AUTH_FAILURE_RATE)")
+
+
 class Guard:
     """ASGI middleware: token check (401 with ``WWW-Authenticate: Bearer``), then body size
     (413)."""
 
-    def __init__(self, app, tokens: Tokens, max_body_bytes: int):
+    def __init__(self, app, tokens: Tokens, max_body_bytes: int, failures=None):
         self.app = app
         self.tokens = tokens
         self.max_body = max_body_bytes
+        self.failures = failures  # service.ratelimit.Buckets of wrong tokens per address
 
     async def __call__(self, scope, receive, send) -> None:
         if scope["type"] != "http":
@@ -86,6 +109,11 @@ class Guard:
             if owner is None:
                 challenge = 'Bearer realm="demscale"'
                 if presented is not None:
+                    wait = failure_wait(self.failures, scope)
+                    if wait:
+                        await _answer(send, 429, TOO_MANY_FAILURES.format(wait),
+                                      {"Retry-After": str(wait)})
+                        return
                     challenge += ', error="invalid_token"'
                 detail = ("a valid bearer token is required (header 'Authorization: Bearer "
                           "<token>')")

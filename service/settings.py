@@ -68,6 +68,13 @@ class Settings(BaseSettings):
         30.0, gt=0, description="Submissions (and refused requests) a token may make per "
         "minute, in bursts of up to submit_burst; beyond: 429 with Retry-After.")
     submit_burst: int = Field(10, ge=1, description="Largest burst of submissions of a token.")
+    auth_failure_rate: float = Field(
+        10.0, gt=0, description="Requests with a wrong token (bearer header or login form) "
+        "one client address may make per minute, in bursts of up to auth_failure_burst; "
+        "beyond: 429 with Retry-After, until the bucket refills (a right token always "
+        "passes).")
+    auth_failure_burst: int = Field(20, ge=1, description="Largest burst of wrong tokens "
+                                    "from one client address.")
     max_storage_per_token: float = Field(
         20e9, gt=0, description="Bytes one token's studies may take on disk: what its studies "
         "hold plus the worst-case size of a new one; beyond: 507.")

@@ -78,13 +78,15 @@ def move(session: Session, study_id: uuid.UUID, src: Status, dst: Status, *where
 
 # ---------------------------------------------------------------------------------- API side
 def submit(
-    session: Session, study: Study, runs: list[Run], max_active: int, max_active_per_owner: int
+    session: Session, study: Study, runs: list[Run], max_active: int, max_active_per_owner: int,
+    check: Callable[[Session], None] | None = None,
 ) -> Study:
     """Insert a new queued study and its queued runs, unless that makes more than
     ``max_active`` queued or running studies in all, or ``max_active_per_owner`` of the
-    study's owner (:class:`QueueFull`, nothing stored). The count is taken after the insert,
-    in its transaction: SQLite lets one writer in at a time, so two submissions cannot both
-    slip under the bound."""
+    study's owner (:class:`QueueFull`, nothing stored), or ``check(session)`` raises (e.g.
+    the storage quota; nothing stored, the exception goes on). The counts are taken after
+    the insert, in its transaction: SQLite lets one writer in at a time, so two submissions
+    cannot both slip under a bound."""
     study.status = Q
     session.add(study)
     session.flush()  # the study row first: the runs refer to it (and the write lock is ours)
@@ -100,6 +102,12 @@ def submit(
         if count > limit:
             session.rollback()
             raise QueueFull(count - 1, limit, whose)
+    if check is not None:
+        try:
+            check(session)
+        except BaseException:
+            session.rollback()
+            raise
     for run in runs:
         run.study_id, run.status = study.id, Q
     session.add_all(runs)

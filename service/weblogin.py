@@ -7,7 +7,7 @@ from __future__ import annotations
 import re
 from urllib.parse import parse_qs, quote, unquote, urlencode
 
-from .guard import Tokens
+from .guard import TOO_MANY_FAILURES, Tokens, failure_wait
 from .web import templates
 
 #: Name of the cookie that keeps a browser's API token.
@@ -106,9 +106,10 @@ class BrowserLogin:
 
     max_form_bytes = 4096
 
-    def __init__(self, app, tokens: Tokens):
+    def __init__(self, app, tokens: Tokens, failures=None):
         self.app = app
         self.tokens = tokens
+        self.failures = failures  # wrong tokens per client address (shared with the guard)
 
     async def __call__(self, scope, receive, send) -> None:
         if scope["type"] != "http":
@@ -197,6 +198,11 @@ class BrowserLogin:
                 await _redirect(send, target, self._set_cookie(scope, token))
                 return
             failed = True  # no cookie for a token the guard would refuse
+            wait = failure_wait(self.failures, scope)
+            if wait:
+                await _html(send, 429, TOO_MANY_FAILURES.format(wait),
+                            [(b"retry-after", str(wait).encode())])
+                return
         elif method not in ("GET", "HEAD"):
             await _html(send, 405, "GET shows the login form, POST sends it",
                         [(b"allow", b"GET, HEAD, POST")])

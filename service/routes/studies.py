@@ -55,12 +55,13 @@ def public(study: Study) -> StudyPublic:
     return StudyPublic.model_validate(study, update={"links": links(study.id)})
 
 
-def check_storage(session, settings, owner: str, new_bytes: float) -> None:
+def check_storage(session, settings, owner: str, new_id, new_bytes: float) -> None:
     """507 when the owner's studies would take more than ``DEMSCALE_MAX_STORAGE_PER_TOKEN``:
     what each holds on disk (a queued or running one: at least its worst-case size, it has
-    yet to write) plus the worst-case size of the new one."""
+    yet to write) plus the worst-case size of the new one (``new_id``, already inserted in
+    this transaction: two submissions cannot both slip under the quota)."""
     rows = session.exec(select(Study.id, Study.status, Study.spec)
-                        .where(Study.owner == owner)).all()
+                        .where(Study.owner == owner, Study.id != new_id)).all()
     used = 0.0
     for sid, status, spec in rows:
         held = stored_bytes([settings.study_dir(sid)])
@@ -104,7 +105,6 @@ def submit_study(
     except SpecRejected as e:
         raise RequestValidationError(e.errors) from e
     costs = worst_case(spec)
-    check_storage(session, settings, owner, output_bytes(costs))
     planned = spec.planned_runs()
     study = Study(
         owner=owner,
@@ -129,7 +129,9 @@ def submit_study(
     ]
     try:
         study = transitions.submit(
-            session, study, runs, settings.max_active, settings.max_active_per_token
+            session, study, runs, settings.max_active, settings.max_active_per_token,
+            # inside the insert's transaction (SQLite's one writer at a time)
+            check=lambda s: check_storage(s, settings, owner, study.id, output_bytes(costs)),
         )
     except transitions.QueueFull as e:
         raise HTTPException(

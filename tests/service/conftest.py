@@ -70,6 +70,8 @@ def settings(tmp_path: Path) -> Settings:
         api_token=TOKEN,
         submit_rate=1e6,  # tests submit in bursts; the limit has its own test
         submit_burst=10**6,
+        auth_failure_rate=1e6,  # tests send wrong tokens on purpose; the limit has its test
+        auth_failure_burst=10**6,
     )
 
 

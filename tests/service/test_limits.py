@@ -191,6 +191,51 @@ def test_a_token_over_its_storage_quota_gets_507(client, settings):
     assert post().status_code == 202
 
 
+@pytest.mark.timeout(60)
+def test_concurrent_submissions_cannot_both_slip_under_the_quota(settings):
+    """Eight submissions at once against a quota with room for two: the quota is checked
+    inside the insert's transaction, so exactly two are queued."""
+    import httpx
+
+    from service.app import create_app
+
+    from .conftest import AUTH
+
+    one = cost.output_bytes(cost.worst_case(TINY))
+    settings.max_storage_per_token = 2.5 * one
+    app = create_app(settings)
+    import threading
+
+    import uvicorn
+
+    from .conftest import free_port
+
+    port = free_port()
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port,
+                                           log_level="warning"))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    try:
+        while not server.started:
+            time.sleep(0.02)
+        start = threading.Barrier(8)
+
+        def post(_):
+            with httpx.Client(base_url=f"http://127.0.0.1:{port}", headers=AUTH,
+                              timeout=30) as c:
+                start.wait()
+                return c.post("/studies", json=TINY).status_code
+
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(8) as pool:
+            codes = sorted(pool.map(post, range(8)))
+    finally:
+        server.should_exit = True
+        thread.join(10)
+    assert codes == [202, 202] + [507] * 6, codes
+
+
 # --- rate limit -------------------------------------------------------------------------
 
 
@@ -221,6 +266,33 @@ def test_submissions_of_a_token_are_rate_limited_with_retry_after(settings, tmp_
         assert c.get("/studies", headers=AUTH).status_code == 200
         theirs = {"Authorization": f"Bearer {other}"}
         assert c.post("/studies", json=TINY, headers=theirs).status_code == 202
+
+
+def test_wrong_tokens_from_one_address_are_limited_with_retry_after(settings):
+    """Guessing tokens (header or login form, one bucket per client address) gets 429 past
+    the burst; the right token still passes, and reading with it is not limited."""
+    from fastapi.testclient import TestClient
+
+    from service.app import create_app
+
+    from .conftest import AUTH
+
+    settings.auth_failure_rate, settings.auth_failure_burst = 1.0, 3
+    wrong = {"Authorization": "Bearer guess-0123456789"}
+    with TestClient(create_app(settings)) as c:
+        assert [c.get("/studies", headers=wrong).status_code for _ in range(2)] == [401, 401]
+        origin = {"Origin": "http://testserver"}
+        r = c.post("/login", data={"token": "guess"}, headers=origin, follow_redirects=False)
+        assert r.status_code == 401  # the third wrong token, from the form
+        r = c.get("/studies", headers=wrong)
+        assert r.status_code == 429, r.text
+        assert 1 <= int(r.headers["retry-after"]) <= 60
+        assert "DEMSCALE_AUTH_FAILURE_RATE" in r.json()["detail"]
+        r = c.post("/login", data={"token": "guess"}, headers=origin, follow_redirects=False)
+        assert r.status_code == 429 and "retry-after" in r.headers
+        assert c.get("/studies", headers=AUTH).status_code == 200
+        # no token at all is not a guess: still the plain 401
+        assert c.get("/studies").status_code == 401
 
 
 def test_buckets_refill_at_the_rate():

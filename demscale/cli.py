@@ -19,6 +19,8 @@ import os
 import sys
 from pathlib import Path
 
+from .report import summary_text
+
 DESCRIPTION = """\
 demscale: coarse-graining studies for cohesive DEM. How large can the particles be, and how
 must the contact parameters scale with their size, before the bulk behaviour changes?
@@ -186,19 +188,6 @@ class StudyBars:
                            f"{s['wall_time']:.1f} s{extra}")
 
 
-def _verdict_table(result):
-    from rich.table import Table
-
-    table = Table(title="verdicts (coarse variant against the reference)")
-    for c in ("radius [mm]", "rule", "verdict", "speed-up", "reason"):
-        table.add_column(c, overflow="fold")
-    for v in result.advisor["verdicts"]:
-        speedup = v.get("speedup")
-        table.add_row(f"{v['radius'] * 1e3:g}", v["rule"], v["verdict"],
-                      f"{speedup:.2f}x" if speedup is not None else "-", v.get("reason", ""))
-    return table
-
-
 def study(args) -> int:
     """``demscale study``: run the study, write summary, HDF5, plots and snapshots."""
     if _lacks_extra("study", ("rich", "h5py", "matplotlib"), "cli"):
@@ -265,7 +254,10 @@ def study(args) -> int:
                                        for k, v in snapshot_paths.items()}}}
     (out / "summary.json").write_text(json.dumps(_strict_json(summary), indent=1,
                                                  allow_nan=False))
-    console.print(_verdict_table(result))
+    # the same report as the main job's (demscale.report), from the same summary
+    console.print("verdicts (coarse variant against the reference):\n"
+                  + summary_text(result.to_summary()), soft_wrap=True, markup=False,
+                  highlight=False)
     adaptive = result.advisor.get("adaptive")
     if adaptive:
         console.print(f"seeds until decided: {adaptive['planned_runs']} planned runs, "
@@ -391,6 +383,15 @@ def serve(args) -> int:
     return 0
 
 
+def job(argv: list[str]) -> int:
+    """The main job over the service (``demscale job --help`` lists its options)."""
+    if _lacks_extra("job", ("fastapi", "sqlmodel", "uvicorn", "httpx"), "service"):
+        return 2
+    from .job import main as job_main
+
+    return job_main(argv)
+
+
 def worker(args) -> int:
     """``demscale worker``: a worker process (``python -m service.worker``)."""
     if _service_env(args):
@@ -412,6 +413,8 @@ def parser() -> argparse.ArgumentParser:
                "  demscale run examples/quick_test.json --out results/one "
                "--snapshot-interval 0.02\n"
                "  demscale serve --port 8000          then open http://127.0.0.1:8000/\n"
+               "  demscale job --exit                 the main job: the default study "
+               "through the service\n"
                "run `demscale COMMAND --help` for the options of each command.")
     ap.add_argument("--version", action="version", version=f"demscale {_version()}")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
@@ -460,6 +463,10 @@ def parser() -> argparse.ArgumentParser:
                    help="do not start the embedded worker (run `demscale worker` instead)")
     p.set_defaults(func=serve)
 
+    # parsed by demscale.job itself (main() hands it the arguments after "job")
+    sub.add_parser("job", help="the main job: serve, submit a study (default: the default "
+                   "study), follow it, print its results", add_help=False)
+
     p = sub.add_parser("worker", help="start a worker that runs the service's queued studies",
                        description=WORKER_HELP, formatter_class=fmt)
     p.add_argument("--once", action="store_true", help="exit after one study")
@@ -480,8 +487,11 @@ def _version() -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``demscale`` console script."""
-    args = parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
     try:
+        if argv[:1] == ["job"]:
+            return job(argv[1:])
+        args = parser().parse_args(argv)
         return args.func(args)
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

@@ -15,5 +15,4 @@ Modules:
     routes/      the REST endpoints
     app          the FastAPI application (optionally with an embedded worker)
     worker       ``python -m service.worker``; execute runs one study
-    main_job     ``python -m service.main_job``: serve, submit the default study, report
 """

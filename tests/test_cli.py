@@ -36,14 +36,15 @@ def _strict(text: str):
     return json.loads(text, parse_constant=refuse)
 
 
-@pytest.mark.parametrize("argv", [[], ["study"], ["run"], ["serve"], ["worker"]])
+@pytest.mark.parametrize("argv", [[], ["study"], ["run"], ["serve"], ["worker"], ["job"]])
 def test_help_explains_every_command(argv, capsys):
     with pytest.raises(SystemExit) as e:
         main([*argv, "--help"])
     assert e.value.code == 0
     out = capsys.readouterr().out
     assert out.startswith("usage: demscale")
-    want = {(): ("study", "run", "serve", "worker", "examples"),
+    want = {(): ("study", "run", "serve", "worker", "job", "examples"),
+            ("job",): ("--exit", "--study", "--port", "default study"),
             ("run",): ("TEST.json", "--snapshot-interval", "ParaView", "Exit status"),
             ("study",): ("SPEC.json", "--out", "--workers", "summary.json", "results.h5",
                          "ParaView", "Exit status"),

@@ -153,9 +153,9 @@ def test_no_command_prints_a_login_url_with_the_token():
     import inspect
 
     import demscale.cli
-    import service.main_job
+    import demscale.job
 
-    for module in (demscale.cli, service.main_job):
+    for module in (demscale.cli, demscale.job):
         assert "login?token" not in inspect.getsource(module), module
 
 

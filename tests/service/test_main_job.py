@@ -24,7 +24,8 @@ def test_main_job_runs_a_study_with_the_embedded_worker(settings, tmp_path):
         [
             sys.executable,
             "-m",
-            "service.main_job",
+            "demscale",
+            "job",
             "--exit",
             "--port",
             str(port),

@@ -1,4 +1,4 @@
-"""The main job: ``python -m service.main_job [--port 8000] [--exit] [--study FILE]``.
+"""The main job: ``demscale job [--port 8000] [--exit] [--study FILE]``.
 
 Starts the API (uvicorn, 127.0.0.1) with its embedded worker, submits the default study
 (``engine.default_study()``, or the JSON spec in ``--study``), prints its progress until it
@@ -24,9 +24,10 @@ import httpx
 import uvicorn
 
 import engine
+from service.app import create_app
+from service.settings import ConfigError, Settings, with_local_token
 
-from .app import create_app
-from .settings import ConfigError, Settings, with_local_token
+from .report import summary_text
 
 _TERMINAL = {"succeeded", "failed", "cancelled"}
 
@@ -68,36 +69,10 @@ def _follow(client: httpx.Client, study_id: str) -> dict:
         time.sleep(1.0)
 
 
-def _table(summary: dict) -> str:
-    """Per run: size, cost and its errors against the mean reference; then the verdicts
-    with their reasons and the advisor's warnings."""
-    cols = (("err_density", "dens"), ("err_loading_stiffness", "K_ld"),
-            ("err_unloading_stiffness", "K_ul"), ("err_coordination_interior", "Z"),
-            ("err_strength", "UCS"))
-    head = (f"{'run':<22}{'R [mm]':>7}{'rule':>10}{'N':>7}{'cell [d]':>9}{'time [s]':>9}"
-            f"{'speed-up':>9}" + "".join(f"{lab:>7}" for _, lab in cols))
-    lines = [head, "-" * len(head)]
-    for row in summary["table"]:
-        lines.append(
-            f"{row['run']:<22}{row['radius'] * 1e3:>7.3g}{row['rule']:>10}"
-            f"{row['particles']:>7}{row.get('thickness_diameters', 0):>9.1f}"
-            f"{row['wall_time']:>9.1f}{row['speedup']:>9.2f}"
-            + "".join(f"{100 * row[c]:>6.1f}%" if c in row else f"{'-':>7}" for c, _ in cols)
-        )
-    lines.append("errors [%] against the mean of the reference seeds; cell [d]: thinnest "
-                 "side in particle diameters")
-    advisor = summary.get("advisor", {})
-    for v in advisor.get("verdicts", []):
-        lines.append(f"R = {v['radius'] * 1e3:g} mm, {v['rule']}: {v['verdict'].upper()}: "
-                     f"{v['reason']}")
-    lines += [f"warning: {w}" for w in advisor.get("warnings", [])]
-    return "\n".join(lines)
-
-
 def main(argv: list[str] | None = None) -> int:
     """Run the main job; returns the exit status (0 when the study succeeded)."""
     ap = argparse.ArgumentParser(
-        prog="python -m service.main_job",
+        prog="demscale job",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -140,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
                     if name.startswith("plot_"):
                         print(f"  {name:<24} {base}{url}")
                 summary = client.get(links["summary"]).raise_for_status().json()
-                print("\n" + _table(summary))
+                print("\n" + summary_text(summary))
             else:
                 print(f"study {final['status']}: {final['error']}", file=sys.stderr)
         code = 0 if final["status"] == "succeeded" else 1

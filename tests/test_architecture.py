@@ -1,0 +1,81 @@
+"""The import contract of the layers (ARCHITECTURE.md): the engine needs only numpy and
+numba to import and never reaches up into the service or the command; the service never
+imports the command."""
+
+from __future__ import annotations
+
+import ast
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+#: What engine modules may import at module level besides the standard library and engine.
+ENGINE_TOP = {"numpy", "numba", "llvmlite"}
+#: What they may import inside a function (files and figures, on request).
+ENGINE_LAZY = ENGINE_TOP | {"h5py", "matplotlib", "distributed"}
+#: Packages of the layers above the engine, or of the web and the database.
+ABOVE = {"service", "demscale", "fastapi", "starlette", "sqlmodel", "sqlalchemy", "pydantic",
+         "uvicorn", "httpx", "rich"}
+
+
+def imports(path: Path) -> list[tuple[str, bool]]:
+    """(top-level package, at module level?) of every absolute import in a file."""
+    tree = ast.parse(path.read_text())
+    module_level = set()
+    for node in tree.body:  # module body, and the bodies of its if/try blocks
+        stack = [node]
+        while stack:
+            n = stack.pop()
+            module_level.add(n)
+            if isinstance(n, (ast.If, ast.Try)):
+                stack += [*n.body, *n.orelse, *getattr(n, "finalbody", []),
+                          *[x for h in getattr(n, "handlers", []) for x in h.body]]
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0:
+            names = [node.module or ""]
+        else:
+            continue
+        out += [(n.split(".")[0], node in module_level) for n in names]
+    return out
+
+
+def files(package: str) -> list[Path]:
+    return sorted((ROOT / package).rglob("*.py"))
+
+
+@pytest.mark.parametrize("path", files("engine"), ids=lambda p: str(p.relative_to(ROOT)))
+def test_engine_modules_import_only_numpy_numba_and_the_standard_library(path):
+    for name, top in imports(path):
+        if name == "engine" or name in sys.stdlib_module_names or name == "__future__":
+            continue
+        allowed = ENGINE_TOP if top else ENGINE_LAZY
+        assert name not in ABOVE, f"{path.name} imports {name}: the engine is below it"
+        assert name in allowed, (f"{path.name} imports {name} "
+                                 f"{'at module level' if top else 'in a function'}")
+
+
+@pytest.mark.parametrize("path", files("service"), ids=lambda p: str(p.relative_to(ROOT)))
+def test_the_service_never_imports_the_command(path):
+    assert "demscale" not in {name for name, _ in imports(path)}, path.name
+
+
+def test_import_engine_and_a_run_load_nothing_else():
+    code = ("import sys, engine\n"
+            "from tests.engine.test_uniaxial import tiny\n"
+            "engine.run_uniaxial(tiny(unconfined=False))\n"
+            "bad = sorted({m.split('.')[0] for m in sys.modules} & set(sys.argv[1:]))\n"
+            "cuda = [m for m in sys.modules if m.startswith('numba.cuda')]\n"
+            "print(bad, cuda)\n")
+    forbidden = sorted(ABOVE | {"h5py", "matplotlib", "distributed", "scipy", "pandas"})
+    proc = subprocess.run([sys.executable, "-c", code, *forbidden], cwd=ROOT,
+                          capture_output=True, text=True, timeout=300,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "[] []", proc.stdout

@@ -25,7 +25,6 @@ from types import ModuleType
 import numba
 
 from .config import cache_dir
-from .materials import ADHESIVE_LAWS, EEPA, HertzMindlin
 
 #: The compile-time switches, in template order, with what each one adds.
 FEATURES: dict[str, str] = {
@@ -95,42 +94,21 @@ _lock = threading.Lock()
 
 def scene_features(scene, periodic: tuple[bool, bool, bool] | None = None) -> dict[str, bool]:
     """The features ``scene`` uses (``periodic`` overrides the scene's periodic flags)."""
-    law = scene.pair_law
     per = scene.periodic if periodic is None else tuple(bool(p) for p in periodic)
     f = dict.fromkeys(FEATURES, False)
-    if isinstance(law, HertzMindlin):
-        f.update(
-            pair_hertz=True, friction=law.mu > 0, rolling=law.mu_r > 0, damping=law.restitution < 1
-        )
-    elif isinstance(law, ADHESIVE_LAWS):
-        f.update(
-            adhesion=law.f0 != 0,
-            adhesive_branch=law.kadh > 0,
-            plastic=law.k2 > law.k1,
-            friction=law.mu_s > 0,
-            rolling=law.mu_r > 0,
-            damping=law.restitution < 1,
-        )
-        if isinstance(law, EEPA):
-            # n = chi = 1 still takes the EEPA branches: the law a user chose is the law run
-            f.update(eepa=True, normal_cap=law.friction_cap == "normal" and law.mu_s > 0)
+    f.update(scene.pair_law.pair_features())  # each law says what it switches on
     f.update(periodic_x=per[0], periodic_y=per[1], periodic_z=per[2])
     if scene.walls:
-        wl = scene.wall_law
-        f.update(
-            walls=True,
-            wall_friction=wl.mu > 0,
-            wall_rolling=wl.mu_r > 0,
-            wall_damping=wl.restitution < 1,
-        )
+        f["walls"] = True
+        f.update(scene.wall_law.wall_features())
     f["gravity"] = any(g != 0 for g in scene.gravity)
     return f
 
 
 def pair_slots(features: dict[str, bool]) -> tuple[str, ...]:
     """Names of the pair-law parameters the kernel for ``features`` reads, in slot order."""
-    law = "hertz" if features["pair_hertz"] else "bilinear"
-    return tuple(name for name, need in PAIR_SLOTS[law] if need is None or features[need])
+    family = "hertz" if features["pair_hertz"] else "bilinear"  # a law's ``kernel``
+    return tuple(name for name, need in PAIR_SLOTS[family] if need is None or features[need])
 
 
 def wall_slots(features: dict[str, bool]) -> tuple[str, ...]:

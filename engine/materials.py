@@ -1,8 +1,20 @@
 """Contact-law parameter records: validated once in Python, read by the compiled kernels.
 
 Each record is a frozen dataclass. Construction checks every field and raises
-:class:`engine.ParameterError` naming the field and its allowed range. The records know how to
-pack themselves into the flat ``float64`` parameter arrays that the kernels read.
+:class:`engine.ParameterError` naming the field and its allowed range. Each law states
+everything the rest of the engine needs to know about it, so that nothing outside this module
+asks which law it is (the LAMMPS ``GranularModel`` way):
+
+- ``kernel``: the kernel family and its slot table (``engine.kernels.PAIR_SLOTS``);
+- ``adhesive``: whether the scaling rules act on it (K1, K2, f0, kadh);
+- ``pair``/``wall``: where it may be used (a scene's pair law, its wall law);
+- :meth:`pair_features` / :meth:`wall_features`: the compile-time switches it turns on;
+- :meth:`pair_values` / :meth:`wall_values`: the values of its kernel slots;
+- :meth:`pair_time_steps` / :meth:`wall_time_steps`: its time-step limits
+  (:mod:`engine.limits`);
+- :meth:`adhesion_overlap`: the overlap its adhesion alone holds a contact at.
+
+:data:`LAWS` registers them by name (the ``type`` of a law in JSON).
 """
 
 from __future__ import annotations
@@ -13,25 +25,20 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .errors import ParameterError
+from .limits import (
+    TimeStepCandidate,
+    damping_ratio,
+    eepa_impact_overlap,
+    hertz_candidates,
+    oscillator_limit,
+    rayleigh_time,
+)
 from .params import check_fields, param
 
 
 def _check(owner: str, name: str, value: float, ok: bool, limit: str, why: str = "") -> None:
     if not ok:
         raise ParameterError(f"{owner}.{name}", value, limit, why)
-
-
-def damping_ratio(restitution: float) -> float:
-    r"""Viscous damping ratio for a coefficient of restitution [-].
-
-    .. math:: \zeta = -\ln e / \sqrt{\pi^2 + \ln^2 e}
-
-    ``e = 1`` gives 0 (no damping); ``e -> 0`` gives 1 (critical damping).
-    """
-    if restitution >= 1.0:
-        return 0.0
-    ln_e = math.log(restitution)
-    return -ln_e / math.sqrt(math.pi**2 + ln_e**2)
 
 
 def hertz_damping_factor(restitution: float) -> float:
@@ -60,6 +67,10 @@ class _AdhesiveLaw:
 
     n = 1.0
     chi = 1.0
+    kernel = "bilinear"
+    adhesive = True
+    pair = True
+    wall = False
 
     @property
     def kt(self) -> float:
@@ -96,6 +107,53 @@ class _AdhesiveLaw:
         return {"k1": self.k1, "k2": self.k2, "f0": self.f0, "kadh": self.kadh, "kt": self.kt,
                 "zeta": self.zeta, "mu_s": self.mu_s, "mu_r": self.mu_r, "n": self.n,
                 "chi": self.chi}
+
+    def pair_features(self) -> dict[str, bool]:
+        """The step kernel's switches this law turns on (engine.kernels.FEATURES)."""
+        return {"adhesion": self.f0 != 0, "adhesive_branch": self.kadh > 0,
+                "plastic": self.k2 > self.k1, "friction": self.mu_s > 0,
+                "rolling": self.mu_r > 0, "damping": self.restitution < 1}
+
+    def pair_values(self) -> dict[str, float]:
+        """Kernel slot values of a particle-particle contact (:meth:`kernel_params`)."""
+        return self.kernel_params()
+
+    def adhesion_overlap(self, rmin: float, fraction: float) -> float | None:
+        """Overlap (|f0|/k1)^(1/n) [m] at which adhesion alone holds a contact on the
+        loading branch, when it lies beyond ``fraction`` x the smallest radius ``rmin`` [m];
+        None when it does not (or f0 = 0)."""
+        if self.f0 < 0:
+            d_eq = (-self.f0 / self.k1) ** (1.0 / self.n)
+            if d_eq > fraction * rmin:
+                return d_eq
+        return None
+
+    def pair_time_steps(self, m_eff: float, r_eff: float, r_min: float, rho_min: float,
+                        v: float) -> list[TimeStepCandidate]:
+        """Stability limits of the lightest pair (reduced mass ``m_eff`` [kg]) at the expected
+        speed ``v`` [m/s]: the K2 branch with the damping of K1, and the tangential spring
+        with rotation. (``r_eff``, ``r_min``, ``rho_min`` are for laws that need them.)"""
+        zeta = damping_ratio(self.restitution)
+        # the tangent stiffnesses n K d^(n-1) at the largest expected overlap, that of a
+        # head-on impact of two particles each at the expected speed (n = 1: K itself)
+        tangent, where, unit = 1.0, "", "N/m"
+        if self.n != 1.0:
+            d_exp = eepa_impact_overlap(m_eff, self, 2.0 * v)
+            tangent = self.n * d_exp ** (self.n - 1.0)
+            where = (f" x n d^(n-1) at the overlap {d_exp:.3g} m of a {2 * v:.3g} m/s "
+                     "head-on impact")
+            unit = "N/m^n"
+        # damping c_n = 2 zeta sqrt(m K1) seen by the stiffer K2 branch
+        out = [TimeStepCandidate(
+            "pair", f"pair unloading stiffness k2 = {self.k2:g} {unit}{where}, lightest pair",
+            oscillator_limit(self.k2 * tangent, m_eff, zeta * math.sqrt(self.k1 / self.k2)),
+            True)]
+        if self.mu_s > 0 and self.kt > 0:
+            # relative tangential motion with rotation: 1/m_t = 3.5 (1/mi + 1/mj)
+            out.append(TimeStepCandidate(
+                "pair", f"pair tangential stiffness kt = {self.kt:g} {unit}{where} with rotation",
+                oscillator_limit(3.5 * self.kt * tangent, m_eff, zeta * math.sqrt(3.5)), True))
+        return out
 
     def to_array(self, slots: tuple[str, ...] = ("k1", "k2", "f0", "kadh", "kt", "zeta",
                                                 "mu_s", "mu_r")) -> np.ndarray:
@@ -215,9 +273,12 @@ class EEPA(_AdhesiveLaw):
         _check(o, "k2", self.k2, self.k2 >= self.k1, f">= k1 = {self.k1:g} N/m^n",
                "unloading must be at least as stiff as loading")
 
+    def pair_features(self) -> dict[str, bool]:
+        # n = chi = 1 still takes the EEPA branches: the law a user chose is the law run
+        return {**super().pair_features(), "eepa": True,
+                "normal_cap": self.friction_cap == "normal" and self.mu_s > 0}
 
-#: The adhesive elasto-plastic pair laws: the scaling rules act on their K1, K2, f0, kadh.
-ADHESIVE_LAWS = (BilinearAdhesive, EEPA)
+
 
 
 @dataclass(frozen=True)
@@ -244,8 +305,57 @@ class HertzMindlin:
     mu: float = param(0.3, unit="1", doc="sliding friction coefficient", ge=0)
     mu_r: float = param(0.0, unit="1", doc="rolling friction coefficient", ge=0)
 
+    kernel = "hertz"
+    adhesive = False
+    pair = True
+    wall = True
+
     def __post_init__(self) -> None:
         check_fields(self, "HertzMindlin")
+
+    def pair_features(self) -> dict[str, bool]:
+        """The step kernel's switches this law turns on as the pair law."""
+        return {"pair_hertz": True, "friction": self.mu > 0, "rolling": self.mu_r > 0,
+                "damping": self.restitution < 1}
+
+    def wall_features(self) -> dict[str, bool]:
+        """The step kernel's switches this law turns on as the wall law."""
+        return {"wall_friction": self.mu > 0, "wall_rolling": self.mu_r > 0,
+                "wall_damping": self.restitution < 1}
+
+    def pair_values(self) -> dict[str, float]:
+        """Kernel slot values of a contact between two particles of this material."""
+        return self.kernel_params(*self.pair_moduli())
+
+    def wall_values(self, wall: WallMaterial) -> dict[str, float]:
+        """Kernel slot values of a contact between a particle of this material and ``wall``."""
+        return self.kernel_params(*self.wall_moduli(wall))
+
+    def adhesion_overlap(self, rmin: float, fraction: float) -> None:
+        """No adhesion: None."""
+        return None
+
+    def pair_time_steps(self, m_eff: float, r_eff: float, r_min: float, rho_min: float,
+                        v: float) -> list[TimeStepCandidate]:
+        """The Hertz limits of the lightest pair (``m_eff`` [kg], ``r_eff`` [m]) at ``v``
+        [m/s], and the Rayleigh time of the smallest particle (``r_min`` [m], ``rho_min``
+        [kg/m^3])."""
+        e_star, _ = self.pair_moduli()
+        out = hertz_candidates("pair", np.array([m_eff]), np.array([r_eff]), e_star,
+                               self.restitution, v)
+        out.append(TimeStepCandidate("pair", "pair Rayleigh time of the smallest particle",
+                                     rayleigh_time(r_min, rho_min, self.G, self.nu), False))
+        return out
+
+    def wall_time_steps(self, wall: WallMaterial, m, r, r_min: float, rho_min: float,
+                        v: float) -> list[TimeStepCandidate]:
+        """The Hertz limits of particles of masses ``m`` [kg] and radii ``r`` [m] on
+        ``wall`` at ``v`` [m/s], and the Rayleigh time of the smallest particle."""
+        e_star, _ = self.wall_moduli(wall)
+        out = hertz_candidates("wall", m, r, e_star, self.restitution, v)
+        out.append(TimeStepCandidate("wall", "wall Rayleigh time of the smallest particle",
+                                     rayleigh_time(r_min, rho_min, self.G, self.nu), False))
+        return out
 
     @property
     def G(self) -> float:
@@ -300,3 +410,34 @@ class WallMaterial:
     def G(self) -> float:
         """Shear modulus [Pa]."""
         return self.E / (2.0 * (1.0 + self.nu))
+
+
+#: Every contact law by name (the ``type`` of a law in JSON); a new law is a record with the
+#: attributes and methods listed in this module's docstring, added here.
+LAWS: dict[str, type] = {"BilinearAdhesive": BilinearAdhesive, "EEPA": EEPA,
+                         "HertzMindlin": HertzMindlin}
+
+
+#: The adhesive elasto-plastic pair laws: the scaling rules act on their K1, K2, f0, kadh.
+ADHESIVE_LAWS = tuple(c for c in LAWS.values() if c.adhesive)
+
+
+def adhesive_laws() -> tuple[type, ...]:
+    """The registered laws the scaling rules act on (``adhesive``)."""
+    return tuple(c for c in LAWS.values() if c.adhesive)
+
+
+def pair_laws() -> tuple[type, ...]:
+    """The laws a scene may take as its pair law."""
+    return tuple(c for c in LAWS.values() if c.pair)
+
+
+def wall_laws() -> tuple[type, ...]:
+    """The laws a scene may take as its wall law."""
+    return tuple(c for c in LAWS.values() if c.wall)
+
+
+def law_names(laws) -> str:
+    """``engine.A, engine.B or engine.C``: the laws' names for an error message."""
+    names = [f"engine.{c.__name__}" for c in laws]
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " or " + names[-1]

@@ -14,7 +14,15 @@ import numpy as np
 
 from .config import MAX_RADIUS_RATIO
 from .errors import ParameterError
-from .materials import ADHESIVE_LAWS, EEPA, BilinearAdhesive, HertzMindlin, WallMaterial
+from .materials import (
+    EEPA,
+    BilinearAdhesive,
+    HertzMindlin,
+    WallMaterial,
+    law_names,
+    pair_laws,
+    wall_laws,
+)
 
 
 def _vec3(owner: str, name: str, value) -> tuple[float, float, float]:
@@ -165,17 +173,13 @@ class Scene:
                 raise ParameterError(f"Scene.walls[{k}]", w, "an engine.Plane")
         self.gravity = _vec3("Scene", "gravity", gravity)
 
-        if not isinstance(pair_law, (*ADHESIVE_LAWS, HertzMindlin)):
-            raise ParameterError(
-                "Scene.pair_law", pair_law,
-                "an engine.BilinearAdhesive, engine.EEPA or engine.HertzMindlin"
-            )
+        if not isinstance(pair_law, pair_laws()):
+            raise ParameterError("Scene.pair_law", pair_law, f"an {law_names(pair_laws())}")
         self.pair_law = pair_law
         if self.walls:
-            if not isinstance(wall_law, HertzMindlin):
-                raise ParameterError(
-                    "Scene.wall_law", wall_law, "an engine.HertzMindlin when the scene has walls"
-                )
+            if not isinstance(wall_law, wall_laws()):
+                raise ParameterError("Scene.wall_law", wall_law,
+                                     f"an {law_names(wall_laws())} when the scene has walls")
             if not isinstance(wall_material, WallMaterial):
                 raise ParameterError(
                     "Scene.wall_material",

@@ -19,7 +19,7 @@ from .config import (
 )
 from .errors import InstabilityError, ParameterError, StabilityError
 from .kernels import load_kernel, pair_slots, scene_features, wall_slots
-from .materials import ADHESIVE_LAWS
+from .materials import pack_params
 from .neighbour import build_neighbour_list, wrap_positions
 from .scene import Scene
 from .stability import TimeStepLimit, adhesion_overlap, critical_time_step
@@ -168,9 +168,6 @@ class Simulation:
         nw = len(scene.walls)
         self._lo = scene.box[:, 0].copy()
         self._images = np.zeros((n, 3), dtype=np.int64)
-        self._wall_material_moduli = (
-            scene.wall_law.wall_moduli(scene.wall_material) if scene.walls else (0.0, 0.0)
-        )
         self._load(scene_features(scene))
         k = self._k
         # internal id k is particle order[k] of the scene; every accessor maps back
@@ -297,18 +294,14 @@ class Simulation:
 
     def _pair_params(self) -> np.ndarray:
         """The pair law's kernel parameters in the slots the specialised kernel names."""
-        law = self.scene.pair_law
-        slots = pair_slots(self._features)
-        if isinstance(law, ADHESIVE_LAWS):
-            return law.to_array(slots)
-        return law.to_array(*law.pair_moduli(), slots=slots)
+        return pack_params(self.scene.pair_law.pair_values(), pair_slots(self._features))
 
     def _wall_params(self) -> np.ndarray:
         """The wall law's kernel parameters in the slots the specialised kernel names."""
         slots = wall_slots(self._features)
         if not self.scene.walls:
             return np.full(len(slots) + 1, math.nan)
-        return self.scene.wall_law.to_array(*self._wall_material_moduli, slots=slots)
+        return pack_params(self.scene.wall_law.wall_values(self.scene.wall_material), slots)
 
     def _load(self, features: dict[str, bool]) -> None:
         self._features = features

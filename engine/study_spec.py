@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass, replace
 
 from .errors import ParameterError
-from .materials import ADHESIVE_LAWS, BilinearAdhesive
+from .materials import BilinearAdhesive
 from .metrics import DEFAULT_TOLERANCES, METRICS
 from .params import check_fields, param
 from .uniaxial_spec import GRAVITY, UniaxialTest, preset
@@ -196,7 +196,7 @@ class StudySpec:
         o = "StudySpec"
         if not isinstance(self.reference, UniaxialTest):
             raise ParameterError(f"{o}.reference", self.reference, "an engine.UniaxialTest")
-        if not isinstance(self.reference.pair_law, ADHESIVE_LAWS):
+        if not getattr(self.reference.pair_law, "adhesive", False):
             raise ParameterError(f"{o}.reference.pair_law", type(self.reference.pair_law).__name__,
                                  "a BilinearAdhesive or EEPA law (the scaling rules act on K1, "
                                  "K2, f0, kadh)")
@@ -261,7 +261,13 @@ class StudySpec:
     def planned_runs(self) -> list[PlannedRun]:
         """Every run: the references first (one per reference seed), then every coarse
         variant for every seed. Each test is complete: a coarse run with ``dt="fixed"``
-        takes the reference's time step, which is known before the reference runs."""
+        takes the reference's time step, which is known before the reference runs.
+
+        Planned once per spec (the record is frozen, so is its plan): admission, the cost
+        estimate, the worker and the study all read the same list."""
+        cached = self.__dict__.get("_plan")
+        if cached is not None:
+            return list(cached)
         out = []
         dt_ref = self.reference.resolved_dt()
         for seed in self.reference_seeds:
@@ -273,7 +279,8 @@ class StudySpec:
                 for rule in self.rules:
                     test = rule.apply(ref, r, dt_ref)
                     out.append(PlannedRun(run_key(r, rule, seed), r, rule, seed, test))
-        return out
+        object.__setattr__(self, "_plan", tuple(out))
+        return list(out)
 
     @property
     def looks(self) -> int:

@@ -15,7 +15,16 @@ import numpy as np
 
 from .config import MAX_OVERLAP_FRACTION
 from .errors import ParameterError
-from .materials import ADHESIVE_LAWS, EEPA, BilinearAdhesive, HertzMindlin, WallMaterial
+from .materials import (
+    EEPA,
+    LAWS,
+    BilinearAdhesive,
+    HertzMindlin,
+    WallMaterial,
+    law_names,
+    pair_laws,
+    wall_laws,
+)
 from .packing import draw_radii, loose_packing, sphere_volume
 from .params import check_fields, param
 from .scene import Plane, Scene
@@ -145,11 +154,10 @@ class UniaxialTest:
             raise ParameterError(f"{o}.pour_fraction", self.pour_fraction,
                                  f"<= solid_fraction = {self.solid_fraction:g}",
                                  "the poured cloud cannot be denser than the settled bed")
-        if not isinstance(self.pair_law, (*ADHESIVE_LAWS, HertzMindlin)):
-            raise ParameterError(f"{o}.pair_law", self.pair_law,
-                                 "an engine.BilinearAdhesive, engine.EEPA or engine.HertzMindlin")
-        if not isinstance(self.wall_law, HertzMindlin):
-            raise ParameterError(f"{o}.wall_law", self.wall_law, "an engine.HertzMindlin")
+        if not isinstance(self.pair_law, pair_laws()):
+            raise ParameterError(f"{o}.pair_law", self.pair_law, f"an {law_names(pair_laws())}")
+        if not isinstance(self.wall_law, wall_laws()):
+            raise ParameterError(f"{o}.wall_law", self.wall_law, f"an {law_names(wall_laws())}")
         if not isinstance(self.wall_material, WallMaterial):
             raise ParameterError(f"{o}.wall_material", self.wall_material,
                                  "an engine.WallMaterial")
@@ -267,15 +275,19 @@ class UniaxialTest:
         if isinstance(d.get("pair_law"), dict):
             pl = dict(d["pair_law"])
             kind = pl.pop("type", "BilinearAdhesive")
-            law_cls = {c.__name__: c for c in (*ADHESIVE_LAWS, HertzMindlin)}.get(kind)
-            if law_cls is None:
+            law_cls = LAWS.get(kind)
+            if law_cls is None or not law_cls.pair:
                 raise ParameterError("UniaxialTest.pair_law.type", kind,
-                                     "BilinearAdhesive, EEPA or HertzMindlin")
+                                     law_names(pair_laws()).replace("engine.", ""))
             d["pair_law"] = law_cls(**pl)
         if isinstance(d.get("wall_law"), dict):
             wl = dict(d["wall_law"])
-            wl.pop("type", None)
-            d["wall_law"] = HertzMindlin(**wl)
+            kind = wl.pop("type", "HertzMindlin")
+            law_cls = LAWS.get(kind)
+            if law_cls is None or not law_cls.wall:
+                raise ParameterError("UniaxialTest.wall_law.type", kind,
+                                     law_names(wall_laws()).replace("engine.", ""))
+            d["wall_law"] = law_cls(**wl)
         if isinstance(d.get("wall_material"), dict):
             d["wall_material"] = WallMaterial(**d["wall_material"])
         if "cell" in d:

@@ -25,7 +25,7 @@ import math
 from dataclasses import dataclass
 
 import engine
-from engine.materials import ADHESIVE_LAWS, HertzMindlin, WallMaterial
+from engine.materials import LAWS, WallMaterial
 from engine.uniaxial_spec import GRAVITY, PRESETS
 
 #: Bounds on the knobs that set work, as the admission enforces them (docs/SERVICE.md).
@@ -72,7 +72,7 @@ def _law(value, default: str):
         return value
     value = dict(value)
     kind = value.pop("type", default)
-    cls = {c.__name__: c for c in (*ADHESIVE_LAWS, HertzMindlin)}[kind]
+    cls = LAWS[kind]
     return cls(**value)
 
 

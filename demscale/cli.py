@@ -198,8 +198,8 @@ def study(args) -> int:
     from rich.console import Console
 
     import engine
+    from engine.runstore import save_study
     from engine.snapshots import save as save_snapshots
-    from service.h5store import write_results
 
     console = Console(stderr=True)
     spec_path = Path(args.spec)
@@ -245,7 +245,7 @@ def study(args) -> int:
             console.print(f"[red]{e}[/red]: no reference run finished, nothing to compare")
             return 1
 
-    h5 = write_results(out / "results.h5", spec_path.stem, result)
+    h5 = save_study(out / "results.h5", spec_path.stem, result)
     plots = result.save_plots(out / "plots")
     summary = {"spec": spec.to_dict(), **result.to_summary(),
                "files": {"results": h5.name,

@@ -138,7 +138,7 @@ def test_study_end_to_end(tmp_path):
     h5py = pytest.importorskip("h5py")
     with h5py.File(out / summary["files"]["results"], "r") as f:
         assert list(f["runs"]) == keys
-        assert np.all(np.isfinite(f["runs/ref-s1/consolidation/stress_top"][()]))
+        assert np.all(np.isfinite(f["runs/ref-s1/stages/consolidation/stress_top"][()]))
 
     from matplotlib.image import imread
 

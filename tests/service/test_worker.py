@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import json
 import signal
 import time
 from pathlib import Path
@@ -12,6 +13,8 @@ import h5py
 import numpy as np
 import pytest
 
+import engine
+from engine.runstore import read_run_group, stage_names
 from service.plots import KINDS
 
 from .conftest import SLOW, TINY, study_getter, wait_for
@@ -124,15 +127,17 @@ def test_study_runs_end_to_end(client, workers, settings):
     r = client.get(f"/studies/{sid}/results.h5")
     assert r.status_code == 200 and r.content[:8] == b"\x89HDF\r\n\x1a\n"
     with h5py.File(io.BytesIO(r.content), "r") as f:
-        assert f.attrs["schema_version"] == 1 and f.attrs["study_id"] == sid
+        assert f.attrs["schema_version"] == 2 and f.attrs["study_id"] == sid
         assert '"coarse_radii": [0.0031]' in f.attrs["spec"]
         for pkg in ("demscale", "numpy", "numba", "h5py"):
             assert f.attrs[f"version_{pkg}"]
         assert list(f["runs"]) == ["ref-s1", "r3.1mm-paper-s1"]
         ref = f["runs/ref-s1"]
         assert ref.attrs["reference"] and ref.attrs["radius_units"] == "m"
-        assert ref.attrs["unconfined_strength_units"] == "Pa"
-        assert list(ref) == [
+        # the run in the one layout of a run (engine.runstore), as in its own file
+        assert ref["scalars"].attrs["unconfined_strength_units"] == "Pa"
+        assert engine.UniaxialTest.from_dict(json.loads(ref.attrs["test"])).seed == 1
+        assert stage_names(ref) == [
             "fill",
             "pre_compression",
             "consolidation",
@@ -140,11 +145,13 @@ def test_study_runs_end_to_end(client, workers, settings):
             "release",
             "unconfined",
         ]
-        stress = ref["consolidation/stress_top"]
+        stress = ref["stages/consolidation/stress_top"]
         assert stress.attrs["units"] == "Pa" and stress.shape == (len(cons["stress_top"]),)
         np.testing.assert_allclose(stress[()], cons["stress_top"])
-        assert ref["unconfined/positions"].shape[1] == 3
-        assert ref["unconfined/radii"].attrs["units"] == "m"
+        assert ref["stages/unconfined/particles/positions"].shape[1] == 3
+        assert ref["stages/unconfined/particles/radii"].attrs["units"] == "m"
+        stored = read_run_group(ref)  # reads back as a run
+        assert stored.stages["consolidation"].curves["stress_top"].tobytes() == stress[()].tobytes()
         assert f["summary/wall_time"].attrs["units"] == "s"
         assert [x.decode() for x in f["summary/run"][()]] == ["ref-s1", "r3.1mm-paper-s1"]
     assert not list(settings.study_dir(sid).glob("*.tmp"))

@@ -20,6 +20,7 @@ import numpy as np
 
 from .adaptive import Addition, next_runs
 from .advisor import advise, judge_groups
+from .backend import check_backend
 from .channel import task_progress
 from .errors import StopRequested
 from .metrics import (
@@ -168,8 +169,8 @@ class RunFailed(RuntimeError):
         return type(self), (self.run_key, self.text)
 
 
-def _execute(test, threads: int | None = None, key: str = "", channel=None
-             ) -> UniaxialResult:
+def _execute(test, threads: int | None = None, key: str = "", channel=None,
+             backend: str | None = None) -> UniaxialResult:
     """One run as a task (a picklable top-level function for process and cluster pools);
     with a ``channel`` (:mod:`engine.channel`) it reports its progress there and stops with
     :class:`engine.StopRequested` when the study asks it to."""
@@ -179,7 +180,8 @@ def _execute(test, threads: int | None = None, key: str = "", channel=None
         numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
     if channel is not None and channel.stop_requested():
         raise StopRequested(f"run {key} not started: the study was stopped")
-    return run_uniaxial(test, progress=None if channel is None else task_progress(channel, key))
+    return run_uniaxial(test, progress=None if channel is None else task_progress(channel, key),
+                        backend=backend)
 
 
 def _weights(planned: list[PlannedRun]) -> np.ndarray:
@@ -190,7 +192,8 @@ def _weights(planned: list[PlannedRun]) -> np.ndarray:
 def run_study(spec: StudySpec, progress: StudyCallback | None = None,
               executor: cf.Executor | None = None, *, completed: dict | None = None,
               on_run: RunCallback | None = None, task_threads: int | None = 1,
-              channel=None, poll_interval: float = 1.0) -> StudyResult:
+              channel=None, poll_interval: float = 1.0,
+              backend: str | None = None) -> StudyResult:
     """Run every run of ``spec`` that is not in ``completed``, then judge the study.
 
     Args:
@@ -213,12 +216,16 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
             and hear a stop request (:class:`engine.FileChannel`); reset when the study
             starts.
         poll_interval: seconds between two reads of the ``channel`` [s].
+        backend: where each run runs, ``"cpu"``, ``"cuda"`` or ``"auto"`` (see
+            :class:`engine.Simulation`; on an executor, decided where the task runs); None:
+            ``DEMSCALE_BACKEND`` there, else the CPU.
 
     Raises: :class:`RunFailed` as soon as every reference run has failed; ``ValueError``
     at once, before any run starts, for a ``ProcessPoolExecutor`` that forks
     (:func:`check_executor`).
     """
     check_executor(executor)
+    backend = check_backend(backend, "run_study.backend")
     planned = spec.planned_runs()
     weights = _weights(planned)
     outcomes: dict[str, UniaxialResult | str] = dict(completed or {})
@@ -239,10 +246,10 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
 
     def run(todo: list[int]) -> None:
         if executor is None:
-            _run_here(planned, todo, weights, outcomes, progress, record)
+            _run_here(planned, todo, weights, outcomes, progress, record, backend)
         else:
             _run_on(executor, planned, todo, weights, outcomes, progress, record,
-                    task_threads, channel, poll_interval)
+                    task_threads, channel, poll_interval, backend)
 
     while True:
         planned, added, stopped = plan_runs(spec, outcomes)
@@ -402,7 +409,7 @@ def _done_weight(planned, weights, outcomes) -> float:
     return float(sum(w for p, w in zip(planned, weights) if p.key in outcomes))
 
 
-def _run_here(planned, todo, weights, outcomes, progress, record) -> None:
+def _run_here(planned, todo, weights, outcomes, progress, record, backend=None) -> None:
     done_weight = _done_weight(planned, weights, outcomes)
     for i in todo:
         p = planned[i]
@@ -419,7 +426,7 @@ def _run_here(planned, todo, weights, outcomes, progress, record) -> None:
         if report(Progress(0.0, "setup", 0.0, 0.0, 0, "building the packing")) is False:
             raise StopRequested(f"stopped by the progress callback before run {p.key}")
         try:
-            outcome = run_uniaxial(p.test, progress=report)
+            outcome = run_uniaxial(p.test, progress=report, backend=backend)
         except StopRequested:
             raise
         except Exception as e:
@@ -429,10 +436,10 @@ def _run_here(planned, todo, weights, outcomes, progress, record) -> None:
 
 
 def _run_on(executor, planned, todo, weights, outcomes, progress, record, threads, channel,
-            poll_interval) -> None:
+            poll_interval, backend=None) -> None:
     # in planned order: the references first (the longest runs, needed by every comparison)
-    futures = {executor.submit(_execute, planned[i].test, threads, planned[i].key, channel): i
-               for i in todo}
+    futures = {executor.submit(_execute, planned[i].test, threads, planned[i].key, channel,
+                               backend): i for i in todo}
     done_weight = _done_weight(planned, weights, outcomes)
     pending = set(futures)
 

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .backend import check_backend
 from .errors import StopRequested
 from .packing import sphere_volume
 from .simulation import Simulation
@@ -212,7 +213,7 @@ class _Driver:
 
     def __init__(self, test: UniaxialTest, progress: ProgressCallback | None,
                  on_snapshot: SnapshotCallback | None = None,
-                 snapshot_interval: float | None = None):
+                 snapshot_interval: float | None = None, backend: str | None = None):
         self.test = test
         self.progress = progress
         self.on_snapshot = on_snapshot
@@ -235,7 +236,7 @@ class _Driver:
         # kernels are compiled (or loaded from the disk cache) when a Simulation is built and
         # when its periodicity changes: that time is kept out of the run's wall time
         t0 = time.perf_counter()
-        self.sim = Simulation(scene, dt=test.dt)
+        self.sim = Simulation(scene, dt=test.dt, backend=backend)
         self.setup_time = time.perf_counter() - t0
         self.sample_steps = max(1, round(test.output_interval / self.sim.dt))
         self.max_steps = max(1, round(test.max_stage_time / self.sim.dt))
@@ -541,7 +542,8 @@ def _secant_slope(strain: np.ndarray, stress: np.ndarray, lo: float, hi: float) 
 
 def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *,
                  on_snapshot: SnapshotCallback | None = None,
-                 snapshot_interval: float | None = None) -> UniaxialResult:
+                 snapshot_interval: float | None = None,
+                 backend: str | None = None) -> UniaxialResult:
     """Run the uniaxial test: fill, pre-compression, consolidation, unloading and (with
     ``test.unconfined``) release and unconfined compression.
 
@@ -555,6 +557,8 @@ def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *
             ``engine.snapshots.SnapshotWriter(dir).add`` to write them as they come).
         snapshot_interval: simulated time between snapshots during the stages [s], at the
             first curve sample past each multiple (None: stage ends only).
+        backend: ``"cpu"``, ``"cuda"`` or ``"auto"`` (see :class:`engine.Simulation`);
+            None: ``DEMSCALE_BACKEND``, else the CPU.
     Raises: :class:`StageError` when a stage misses its criterion within its bound,
         :class:`engine.InstabilityError` when the integration blows up.
     """
@@ -563,7 +567,8 @@ def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *
             raise ValueError("snapshot_interval needs on_snapshot to receive the snapshots")
         if not (math.isfinite(snapshot_interval) and snapshot_interval > 0):
             raise ValueError(f"snapshot_interval must be a time > 0 s, not {snapshot_interval}")
-    d = _Driver(test, progress, on_snapshot, snapshot_interval)
+    backend = check_backend(backend, "run_uniaxial.backend")
+    d = _Driver(test, progress, on_snapshot, snapshot_interval, backend)
     d.fill()
     d.pre_compression()
     d.consolidation()

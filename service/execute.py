@@ -193,7 +193,7 @@ class StudyExecution:
                            engine.FileChannel(self.settings.study_dir(self.study_id) / "channel"))
                 result = engine.run_study(spec, progress=self.progress, executor=pool,
                                           completed=self.stored_runs(spec), on_run=self.on_run,
-                                          channel=channel)
+                                          channel=channel, backend=self.settings.backend)
             write_results(self.settings.results_path(self.study_id), self.study_id, result,
                           still_ours=self._still_ours)
         except engine.StopRequested:

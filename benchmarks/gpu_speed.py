@@ -1,0 +1,221 @@
+"""The CUDA backend's targets (issue 21), each against the same scene on the CPU of the same
+host, in one call:
+
+    python -m benchmarks.engine_speed --backend cuda [--deadline 480]
+
+1. particle-steps/s on a settled bed (the 2,025-particle LIGGGHTS anchor packing, periodic
+   in x and y, tiled 3x3, 8x8, 22x22 and 63x63: 18k, 130k, 980k and 8.0M particles, the
+   full bilinear law, a bottom and a moving top platen) on the GPU and on the CPU (all
+   cores; fewer steps at the large sizes);
+2. the paper-scale reference of experiment (b) (``ref-s1``, 20,626 particles) on the GPU,
+   its wall time against the target; the CPU's time for it is projected from the CPU rate
+   measured in 1 on the 18k bed (the full run on the CPU takes about 7 minutes on 16 cores);
+3. its bulk curves against the stored CPU run of the same test
+   (benchmarks/results/paper/b_cohesive/ref-s1.h5): each verdict metric's relative
+   difference against the noise floor of the three stored reference seeds;
+4. experiment (b)'s 15 runs as one batch on the card: not built yet (issue 21 (d)), so
+   reported as not measured.
+
+Without a usable CUDA device every GPU figure is printed as "not measured" and the exit
+status is 1. No figure is ever estimated where it says measured. ``--deadline`` [s] skips
+what would start after it (reported as not measured).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import time
+from pathlib import Path
+
+import numba
+import numpy as np
+
+import engine
+from benchmarks.checks import report
+
+HERE = Path(__file__).resolve().parent
+STORED_REF = HERE / "results" / "paper" / "b_cohesive"
+TILES = {"18k": 3, "130k": 8, "980k": 22, "8.0M": 63}
+#: steps timed per size (after 50 warm-up steps): GPU, CPU
+STEPS = {"18k": (4000, 400), "130k": (2000, 100), "980k": (1000, 30), "8.0M": (300, 10)}
+TARGET_RATE_1M = 5e8
+TARGET_REFERENCE_S = 120.0
+TARGET_BATCH_S = 900.0
+
+
+def cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def tiled_bed(k: int):
+    """The anchor bed tiled k x k in x and y (periodic there, so the tiles join without a
+    seam): positions [m], radii [m], box lengths [m]."""
+    from benchmarks.engine_speed import anchor_bed
+
+    pos, rad, lengths = anchor_bed()
+    shifts = np.array([(ix * lengths[0], iy * lengths[1], 0.0)
+                       for ix in range(k) for iy in range(k)])
+    big = (pos[None, :, :] + shifts[:, None, :]).reshape(-1, 3)
+    return big, np.tile(rad, k * k), np.array([k * lengths[0], k * lengths[1], lengths[2]])
+
+
+def rate(backend: str, k: int, steps: int) -> tuple[float, float, object]:
+    """Particle-steps per second over ``steps`` steps after a warm-up, and the set-up time
+    (kernel compile or load, first list build) [s]."""
+    from benchmarks.engine_speed import DT, FULL, R, scene_for
+
+    pos, rad, lengths = tiled_bed(k)
+    top = float((pos[:, 2] + rad).max()) + 0.1 * R
+    t0 = time.perf_counter()
+    sim = engine.Simulation(scene_for(pos, rad, lengths, FULL, top), dt=DT, backend=backend,
+                            threads=os.cpu_count() if backend == "cpu" else None)
+    sim.run(50)
+    _ = sim.positions  # the device has finished (a copy waits for it)
+    setup = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    sim.run(steps)
+    _ = sim.wall_forces
+    return sim.n * steps / (time.perf_counter() - t0), setup, sim
+
+
+def reference_test():
+    from benchmarks.reproduce import experiments
+
+    spec = experiments("paper")["b_cohesive"]
+    return next(p.test for p in spec.planned_runs() if p.key == "ref-s1")
+
+
+def run_reference(cap_s: float):
+    """The paper-scale reference on the GPU, stopped at ``cap_s`` of wall time."""
+    t0 = time.perf_counter()
+
+    def progress(p):
+        return time.perf_counter() - t0 < cap_s
+
+    try:
+        res = engine.run_uniaxial(reference_test(), progress, backend="cuda")
+    except engine.StopRequested:
+        return None, time.perf_counter() - t0
+    return res, time.perf_counter() - t0
+
+
+def curve_check(res) -> list[tuple[str, bool | None]]:
+    """Each verdict metric of the GPU reference against the stored CPU run of the same test,
+    relative to the noise floor of the stored reference seeds."""
+    from engine.advisor import noise_floor
+    from engine.metrics import metric_names, metric_values, relative_error
+    from engine.runstore import load_run
+
+    paths = [STORED_REF / f"ref-s{s}.h5" for s in (1, 2, 3)]
+    if not all(p.exists() for p in paths):
+        return [("GPU and CPU bulk curves within the noise floor: not measured (stored CPU "
+                 "references missing)", None)]
+    refs = [load_run(p) for p in paths]
+    test = res.test
+    names = metric_names(test.unconfined)
+    floor = noise_floor([metric_values(r) for r in refs], names, test.consolidation_stress)
+    gpu, cpu = metric_values(res), metric_values(refs[0])
+    out = []
+    for n in names:
+        err = relative_error(n, gpu[n], cpu[n], test.consolidation_stress)
+        nf = floor[n]["noise"]
+        out.append((f"GPU vs CPU ref-s1 {n}: relative difference {err:.2e} <= noise floor "
+                    f"{nf:.2e}", err <= nf))
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description="issue 21 targets of the CUDA backend")
+    ap.add_argument("--deadline", type=float, default=480.0,
+                    help="seconds after which nothing new starts [s]")
+    ap.add_argument("--sizes", default=",".join(TILES), help="bed sizes to time")
+    args = ap.parse_args(argv)
+    t_start = time.perf_counter()
+    from engine.backend import cuda_status
+
+    ok, device = cuda_status()
+    print(f"demscale CUDA benchmark: GPU {device}; CPU {cpu_model()}, {os.cpu_count()} "
+          f"cores, numba {numba.__version__} ({numba.config.NUMBA_NUM_THREADS} threads), "
+          f"numpy {np.__version__}")
+    if not ok or "simulator" in device:
+        why = "no CUDA device" if not ok else "the simulator is no GPU"
+        print(f"{why}: not measured ({device})")
+        return report([
+            (f"GPU >= {TARGET_RATE_1M:.0e} particle-steps/s at 1M particles: {why}: not "
+             "measured", False),
+            (f"paper-scale reference <= {TARGET_REFERENCE_S:.0f} s: {why}: not measured",
+             False),
+            (f"experiment (b)'s 15 runs <= {TARGET_BATCH_S:.0f} s: {why}: not measured",
+             False),
+            (f"GPU and CPU bulk curves within the noise floor: {why}: not measured", False),
+        ])
+    from numba import cuda
+
+    print(f"numba-cuda {getattr(cuda, '__version__', '?')}, driver/runtime "
+          f"{cuda.runtime.get_version() if hasattr(cuda, 'runtime') else '?'}", flush=True)
+
+    def late() -> bool:
+        return time.perf_counter() - t_start > args.deadline
+
+    checks: list[tuple[str, bool | None]] = []
+    rates: dict[tuple[str, str], float] = {}
+    print("\n| bed | particles | backend | particle-steps/s | set-up [s] | steps |")
+    print("|---|---:|---|---:|---:|---:|")
+    for name in args.sizes.split(","):
+        for backend, steps in zip(("cuda", "cpu"), STEPS[name]):
+            if late():
+                print(f"| {name} | | {backend} | not measured (deadline) | | |")
+                continue
+            try:
+                r, setup, sim = rate(backend, TILES[name], steps)
+            except Exception as e:  # e.g. out of device memory: reported, the rest goes on
+                print(f"| {name} | | {backend} | failed: {type(e).__name__}: {e} | | |")
+                continue
+            rates[name, backend] = r
+            print(f"| {name} | {sim.n} | {backend} | {r:.3e} | {setup:.1f} | {steps} |",
+                  flush=True)
+            del sim
+    for name in TILES:
+        g, c = rates.get((name, "cuda")), rates.get((name, "cpu"))
+        if g and c:
+            print(f"  {name}: GPU / CPU = {g / c:.1f}x")
+    g1 = rates.get(("980k", "cuda"))
+    checks.append((f"GPU >= {TARGET_RATE_1M:.0e} particle-steps/s at 1M particles (980k "
+                   f"bed): {g1:.3e}" if g1 else "GPU rate at 1M: not measured",
+                   (g1 >= TARGET_RATE_1M) if g1 else False))
+
+    if late():
+        checks.append(("paper-scale reference: not measured (deadline)", False))
+        checks.append(("GPU and CPU bulk curves: not measured (deadline)", False))
+    else:
+        cap = max(60.0, args.deadline - (time.perf_counter() - t_start))
+        res, wall = run_reference(cap)
+        ref = reference_test()
+        if res is None:
+            checks.append((f"paper-scale reference <= {TARGET_REFERENCE_S:.0f} s: stopped "
+                           f"unfinished after {wall:.0f} s", False))
+            checks.append(("GPU and CPU bulk curves: not measured (reference unfinished)",
+                           False))
+        else:
+            s = res.scalars
+            c18 = rates.get(("18k", "cpu"))
+            proj = (f"; CPU of this host projected from its 18k rate: "
+                    f"{s['particle_steps'] / c18:.0f} s" if c18 else "")
+            print(f"\npaper-scale reference {ref.n_particles} particles, {s['steps']:.0f} "
+                  f"steps: GPU wall time {s['wall_time']:.1f} s (set-up {s['setup_time']:.1f}"
+                  f" s, {wall:.1f} s in all){proj}")
+            checks.append((f"paper-scale reference <= {TARGET_REFERENCE_S:.0f} s on the GPU: "
+                           f"{s['wall_time']:.1f} s", s["wall_time"] <= TARGET_REFERENCE_S))
+            checks += curve_check(res)
+    checks.append((f"experiment (b)'s 15 runs as one batch <= {TARGET_BATCH_S:.0f} s: not "
+                   "measured (batching on one card not built yet, issue 21 (d))", False))
+    print(f"\nelapsed {time.perf_counter() - t_start:.0f} s")
+    return report([(w, bool(o)) for w, o in checks])

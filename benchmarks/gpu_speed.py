@@ -27,9 +27,9 @@ from __future__ import annotations
 
 import argparse
 import os
-from dataclasses import replace
 import platform
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numba

@@ -34,22 +34,17 @@ def reset_ctl(ctl):
         ctl[CTL_STEPS] = 0
 
 
-def pair_kernel(ctl, P, L, prm, stat):
-    """Pair pass: one thread per particle i, its half list in order."""
-    i = cuda.grid(1)
-    if ctl[CTL_STOP] != 0 or i >= P.pos.shape[0]:
-        return
+def _pair_body(i, P, L, prm, stat):
+    """Pair pass of particle i: its half list in order (the CPU's :func:`_pair_one`)."""
     law, flags, lx, ly, lz, ilx, ily, ilz = _pair_setup(prm)
     stat[i, 0] = 0.0
     _pair_one(i, i, P, L, prm, stat, law, flags, lx, ly, lz, ilx, ily, ilz)
 
 
-def particle_kernel(ctl, mode, P, L, W, prm, stat, wpart, disp):
-    """Particle pass: one thread per particle (gather in the reverse list's order, walls,
-    rolling, gravity, kick, drift); its squared displacement to ``disp``."""
-    i = cuda.grid(1)
-    if ctl[CTL_STOP] != 0 or i >= P.pos.shape[0]:
-        return
+def _particle_body(i, mode, P, L, W, prm, stat, wpart, disp):
+    """Particle pass of particle i (gather in the reverse list's order, walls, rolling,
+    gravity, kick, drift: the CPU's :func:`_particle_one`); its squared displacement to
+    ``disp``."""
     if mode == OPEN:
         stat[i, 0] = 0.0
     else:
@@ -61,13 +56,10 @@ def particle_kernel(ctl, mode, P, L, W, prm, stat, wpart, disp):
     disp[i] = _particle_one(i, i, mode, P, L, W, prm, stat, wpart, wlaw, wflags)
 
 
-def chunk_kernel(ctl, mode, stat, wpart, disp, cstat, cdisp, cacc):
-    """One thread per CPU chunk of ``CHUNK`` particles, reducing it in particle order as
-    the CPU chunk does: largest displacement, first problem, force on each wall (the
-    particles' in order: the same additions as the CPU's)."""
-    c = cuda.grid(1)
-    if ctl[CTL_STOP] != 0 or c >= cdisp.shape[0]:
-        return
+def _chunk_body(c, mode, stat, wpart, disp, cstat, cdisp, cacc):
+    """CPU chunk c of ``CHUNK`` particles reduced in particle order, as the CPU chunk
+    does: largest displacement, first problem, force on each wall (the particles' in order:
+    the same additions as the CPU's)."""
     lo = c * CHUNK
     hi = min(disp.shape[0], lo + CHUNK)
     m = 0.0
@@ -89,12 +81,81 @@ def chunk_kernel(ctl, mode, stat, wpart, disp, cstat, cdisp, cacc):
                 cacc[c, w, a] = acc
 
 
+def pair_kernel(ctl, P, L, prm, stat):
+    """Pair pass: one thread per particle."""
+    i = cuda.grid(1)
+    if ctl[CTL_STOP] == 0 and i < P.pos.shape[0]:
+        _pair_body(i, P, L, prm, stat)
+
+
+def particle_kernel(ctl, mode, P, L, W, prm, stat, wpart, disp):
+    """Particle pass: one thread per particle."""
+    i = cuda.grid(1)
+    if ctl[CTL_STOP] == 0 and i < P.pos.shape[0]:
+        _particle_body(i, mode, P, L, W, prm, stat, wpart, disp)
+
+
+def chunk_kernel(ctl, mode, stat, wpart, disp, cstat, cdisp, cacc):
+    """Chunk reductions: one thread per CPU chunk."""
+    c = cuda.grid(1)
+    if ctl[CTL_STOP] == 0 and c < cdisp.shape[0]:
+        _chunk_body(c, mode, stat, wpart, disp, cstat, cdisp, cacc)
+
+
 def finish_kernel(ctl, s, nsteps, opening, W, prm, cstat, cdisp, cacc, info):
+    """End of a step (one block of ``RED_T`` threads): see :func:`_finish_body`."""
+    if ctl[CTL_STOP] == 0:
+        _finish_body(ctl, s, nsteps, opening, W, prm, cstat, cdisp, cacc, info)
+
+
+def steps_kernel(ctl, s0, s1, nsteps, opening, P, L, W, prm, stat, wpart, disp, cstat, cdisp,
+                 cacc, info):
+    """Steps ``s0`` to ``s1 - 1`` of a call (with ``opening``, the opening kick and drift
+    first) in one launch: the grid (cooperative, all blocks resident) goes through the same
+    passes as the separate kernels, element by element in grid-stride loops, and meets at a
+    grid barrier after each; block 0 ends each step (:func:`_finish_body`). Every thread
+    reads the control record after a barrier, so all leave together when a step stops."""
+    g = cuda.cg.this_grid()
+    t = cuda.grid(1)
+    nt = cuda.gridsize(1)
+    n = P.pos.shape[0]
+    nchunk = cdisp.shape[0]
+    first_block = cuda.blockIdx.x == 0
+    if opening != 0:
+        if ctl[CTL_STOP] != 0:
+            return
+        for i in range(t, n, nt):
+            _particle_body(i, OPEN, P, L, W, prm, stat, wpart, disp)
+        g.sync()
+        for c in range(t, nchunk, nt):
+            _chunk_body(c, OPEN, stat, wpart, disp, cstat, cdisp, cacc)
+        g.sync()
+        if first_block:
+            _finish_body(ctl, 0, nsteps, 1, W, prm, cstat, cdisp, cacc, info)
+        g.sync()
+    for s in range(s0, s1):
+        if ctl[CTL_STOP] != 0:
+            return
+        mode = FORCES if nsteps == 0 else (STEP if s < nsteps - 1 else CLOSE)
+        for i in range(t, n, nt):
+            _pair_body(i, P, L, prm, stat)
+        g.sync()
+        for i in range(t, n, nt):
+            _particle_body(i, mode, P, L, W, prm, stat, wpart, disp)
+        g.sync()
+        for c in range(t, nchunk, nt):
+            _chunk_body(c, mode, stat, wpart, disp, cstat, cdisp, cacc)
+        g.sync()
+        if first_block:
+            _finish_body(ctl, s, nsteps, 0, W, prm, cstat, cdisp, cacc, info)
+        g.sync()
+
+
+def _finish_body(ctl, s, nsteps, opening, W, prm, cstat, cdisp, cacc, info):
     """End of a step (one block): the largest displacement and the first problem over the
     chunks, the force on each wall (chunk sums in a fixed tree), then the decision the CPU
-    team takes (go on, rebuild, stop) written to ``ctl``; the wall motion."""
-    if ctl[CTL_STOP] != 0:
-        return
+    team takes (go on, rebuild, stop) written to ``ctl``; the wall motion. Called by the
+    ``RED_T`` threads of one block."""
     t = cuda.threadIdx.x
     nchunk = cdisp.shape[0]
     shm = cuda.shared.array(RED_T, float64)

@@ -18,6 +18,8 @@ are the wall forces over chunks (a fixed tree): run twice on one card, bit-ident
 
 from __future__ import annotations
 
+import logging
+import os
 from types import SimpleNamespace
 
 import numpy as np
@@ -26,12 +28,16 @@ from numba import cuda
 from ..simulation import Simulation
 from ..step_common import OK, PAUSE, NeighbourList, Particles, StepParams, Walls
 from . import _sources as src
+from .device import SIMULATOR
 from .kernels import RED_T, SCAN_SEG, SCAN_T, THREADS, search_kernels, step_kernels
 
 #: First and largest number of steps queued before the control record is read.
 _FIRST_BATCH = 16
 _MAX_BATCH = 256
 _GROUPS = ("particles", "walls", "list")
+#: Most steps of one launch of the cooperative kernel (the control record is read between)
+_STEPS_PER_LAUNCH = 1024
+log = logging.getLogger("engine.cuda")
 
 
 def _blocks(count: int, threads: int = THREADS) -> int:
@@ -97,6 +103,7 @@ class CudaSimulation(Simulation):
         d.total_host = np.zeros(1, dtype=np.int64)
         d.scan_bufs = {}
         d.batch = _FIRST_BATCH
+        d.persistent = None  # decided at the first call (_choose_launch)
         self._dev = d
         self._push_all()
 
@@ -191,6 +198,10 @@ class CudaSimulation(Simulation):
         P, L, W, prm = d.P, d.L, d.W, d.prm
         d.stale.update(_GROUPS)  # entries hold the contact history and the stored forces
         dk.reset_ctl[1, 1](d.ctl)
+        if d.persistent is None:
+            self._choose_launch()
+        if d.persistent:
+            return self._call_persistent(nsteps, phase)
 
         def step(s: int, mode: int) -> None:
             pair(d.ctl, P, L, prm, d.stat)
@@ -220,6 +231,11 @@ class CudaSimulation(Simulation):
                 d.batch = min(2 * d.batch, _MAX_BATCH)
             if ctl is None:
                 ctl = self._read_ctl()
+        return self._outcome(ctl)
+
+    def _outcome(self, ctl) -> tuple[int, int]:
+        d = self._dev
+        mod = self._dk.cpu
         if not ctl[src.CTL_STOP]:
             return int(ctl[src.CTL_STEPS]), PAUSE
         steps, status = int(ctl[src.CTL_STEPS]), int(ctl[src.CTL_STATUS])
@@ -229,6 +245,57 @@ class CudaSimulation(Simulation):
             # queue about half the steps a list lasted, so that few queued steps are idle
             d.batch = max(4, min(_MAX_BATCH, steps // 2))
         return steps, status
+
+    def _steps_args(self) -> tuple:
+        d = self._dev
+        return (d.P, d.L, d.W, d.prm, d.stat, d.wpart, d.disp, d.cstat, d.cdisp, d.W.acc,
+                d.info)
+
+    def _choose_launch(self) -> None:
+        """One launch per batch of steps (cooperative grid, ``steps_kernel``) unless
+        ``DEMSCALE_CUDA_LAUNCH=passes`` or the device cannot run it: then four launches a
+        step. The grid: as many resident blocks of ``RED_T`` threads as the particles fill,
+        at most what the device keeps resident at once (a grid barrier needs all)."""
+        d = self._dev
+        d.persistent = os.environ.get("DEMSCALE_CUDA_LAUNCH", "persistent") != "passes"
+        if not d.persistent:
+            return
+        want = _blocks(self.n, RED_T)
+        if SIMULATOR:
+            d.coop_blocks = 1  # the simulator runs cooperative grids of one block
+            return
+        try:
+            args = (d.ctl, 0, 1, 1, 0, *self._steps_args())
+            spec = self._dk.steps_kernel.specialize(*args)
+            kern = next(iter(spec.overloads.values()))
+            d.coop_blocks = max(1, min(want, int(kern.max_cooperative_grid_blocks(RED_T))))
+            d.steps_launch = spec
+        except Exception as e:  # no cooperative launch here: the four-launch step
+            log.warning("CUDA: cooperative launch unavailable (%s: %s), one launch per pass",
+                        type(e).__name__, e)
+            d.persistent = False
+
+    def _call_persistent(self, nsteps: int, phase: int) -> tuple[int, int]:
+        d = self._dev
+        kernel = getattr(d, "steps_launch", None) or self._dk.steps_kernel
+        launch = kernel[d.coop_blocks, RED_T]
+        tail = self._steps_args()
+        if nsteps == 0:
+            launch(d.ctl, 0, 1, 0, 0, *tail)
+            return self._outcome(self._read_ctl())
+        todo = min(int(nsteps), int(self._pause))
+        s = 0
+        opening = 1 if phase == 0 else 0
+        ctl = None
+        while s < todo or opening:
+            end = min(todo, s + _STEPS_PER_LAUNCH)
+            launch(d.ctl, s, end, int(nsteps), opening, *tail)
+            opening = 0
+            s = end
+            ctl = self._read_ctl()
+            if ctl[src.CTL_STOP]:
+                break
+        return self._outcome(ctl)
 
     # ------------------------------------------------------------------ neighbour list
     def _scan(self, src_arr, n: int, dst) -> None:

@@ -151,6 +151,7 @@ def case(name: str) -> dict:
         b = engine.Simulation(sc, backend="cuda", skin=0.05 * R)
         for sim in (a, b):
             sim.run(20)
+        out["launch"] = "persistent" if a._dev.persistent else "passes"
         out["bit_identical_twice"] = all(
             np.array_equal(getattr(a, q), getattr(b, q)) for q in Compare.QUANTITIES)
         out["rebuilds"] = [a.n_rebuilds, b.n_rebuilds]
@@ -173,6 +174,7 @@ def case(name: str) -> dict:
         return out
     else:
         raise SystemExit(f"unknown case {name}")
+    out.update(launch="persistent" if gpu._dev.persistent else "passes")
     out.update(rel=cmp.rel, bit_identical=cmp.bit_identical, contacts=cmp.contacts,
                wall_contacts=cmp.wall_contacts, rebuilds=list(rb), steps=cpu.steps,
                features=[k for k, v in gpu.features.items() if v])

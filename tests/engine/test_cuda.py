@@ -38,8 +38,9 @@ def _python(code_or_args: list[str], simulator: bool, timeout: float = 240.0,
                           capture_output=True, text=True, timeout=timeout)
 
 
-def _case(name: str) -> dict:
-    proc = _python(["-m", "tests.engine.cuda_cases", name], simulator=True)
+def _case(name: str, launch: str = "persistent") -> dict:
+    proc = _python(["-m", "tests.engine.cuda_cases", name], simulator=True,
+                   extra_env={"DEMSCALE_CUDA_LAUNCH": launch})
     assert proc.returncode == 0, proc.stderr[-4000:]
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
@@ -54,10 +55,15 @@ DIFFERENTIAL = {
 }
 
 
+#: every case in the one-launch-per-batch (cooperative) kernel; one also in the kernel per pass
+CASES = [(name, "persistent") for name in DIFFERENTIAL] + [("bilinear-walls", "passes")]
+
+
 @needs_numba_cuda
-@pytest.mark.parametrize("name", list(DIFFERENTIAL))
-def test_cuda_kernels_follow_the_cpu_kernel(name):
-    r = _case(name)
+@pytest.mark.parametrize(("name", "launch"), CASES)
+def test_cuda_kernels_follow_the_cpu_kernel(name, launch):
+    r = _case(name, launch)
+    assert r["launch"] == launch
     for quantity, rel in r["rel"].items():
         assert rel <= REL, (quantity, rel, r)
     assert r["contacts"] > 20, r  # the contact law was exercised, not just free flight
@@ -76,7 +82,7 @@ def test_cuda_kernels_follow_the_cpu_kernel(name):
 @needs_numba_cuda
 def test_cuda_run_twice_is_bit_identical():
     r = _case("determinism")
-    assert r["bit_identical_twice"], r
+    assert r["bit_identical_twice"] and r["launch"] == "persistent", r
     assert r["rebuilds"][0] == r["rebuilds"][1] >= 2, r
 
 

@@ -21,8 +21,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from numba.cuda import compile_ptx  # noqa: E402
-from numba.cuda.typing.typeof import typeof  # noqa: E402
+from numba.cuda import compile_ptx
+from numba.cuda.typing.typeof import typeof
 
 
 class HostArray(np.ndarray):

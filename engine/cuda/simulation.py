@@ -57,6 +57,9 @@ class CudaSimulation(Simulation):
     def _load(self, features: dict[str, bool]) -> None:
         super()._load(features)
         self._dk = step_kernels(features)
+        if self._dev is not None:  # new kernels (set_periodic): choose their launch again
+            self._dev.persistent = None
+            self._dev.steps_launch = None
 
     def _ensure_device(self) -> None:
         if self._dk is None:
@@ -104,6 +107,7 @@ class CudaSimulation(Simulation):
         d.scan_bufs = {}
         d.batch = _FIRST_BATCH
         d.persistent = None  # decided at the first call (_choose_launch)
+        d.steps_launch = None  # the steps kernel specialised to the state's types
         self._dev = d
         self._push_all()
 
@@ -277,7 +281,7 @@ class CudaSimulation(Simulation):
 
     def _call_persistent(self, nsteps: int, phase: int) -> tuple[int, int]:
         d = self._dev
-        kernel = getattr(d, "steps_launch", None) or self._dk.steps_kernel
+        kernel = d.steps_launch or self._dk.steps_kernel
         launch = kernel[d.coop_blocks, RED_T]
         tail = self._steps_args()
         if nsteps == 0:

@@ -109,6 +109,34 @@ def test_backend_names_are_checked():
             del os.environ["DEMSCALE_BACKEND"]
 
 
+def test_backend_is_checked_where_it_is_given():
+    import engine
+    from demscale.cli import parser as build_parser
+
+    test = engine.preset("quick")
+    with pytest.raises(engine.ParameterError, match="run_uniaxial.backend"):
+        engine.run_uniaxial(test, backend="gpu")
+    spec = engine.default_study()
+    with pytest.raises(engine.ParameterError, match="run_study.backend"):
+        engine.run_study(spec, backend="tpu")  # refused before any run starts
+    args = build_parser().parse_args(["study", "s.json", "--out", "o", "--backend", "cuda"])
+    assert args.backend == "cuda"
+    assert build_parser().parse_args(["run", "t.json", "--out", "o"]).backend is None
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["run", "t.json", "--out", "o", "--backend", "gpu"])
+
+
+def test_service_setting_names_the_backend(monkeypatch):
+    pydantic = pytest.importorskip("pydantic")
+    from service.settings import Settings
+
+    monkeypatch.setenv("DEMSCALE_BACKEND", "auto")
+    assert Settings().backend == "auto"
+    monkeypatch.setenv("DEMSCALE_BACKEND", "gpu")
+    with pytest.raises(pydantic.ValidationError, match="backend"):
+        Settings()
+
+
 BLOCK_NUMBA_CUDA = """
 import sys, importlib.abc
 class Block(importlib.abc.MetaPathFinder):

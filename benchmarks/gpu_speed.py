@@ -89,6 +89,53 @@ def rate(backend: str, k: int, steps: int) -> tuple[float, float, object]:
     return sim.n * steps / (time.perf_counter() - t0), setup, sim
 
 
+def profile_passes(sim, reps: int = 20) -> dict[str, float]:
+    """Where a step's time goes on the device [s per call]: each pass of the four-launch
+    step timed alone (``reps`` times, synchronised; the pair pass and the particle pass in
+    force-only mode, which leave the positions as they are), a neighbour-list build, and the
+    host's cost of one launch (kernels that return at once: the control record says stop)."""
+    from numba import cuda
+
+    from engine.cuda.kernels import RED_T, THREADS
+    from engine.cuda.simulation import _blocks
+
+    sim.run(1)
+    d, dk = sim._dev, sim._dk
+    n, nchunk, forces = sim.n, len(d.cdisp), dk.cpu.FORCES
+    P, L, W, prm = d.P, d.L, d.W, d.prm
+    calls = {
+        "pair pass": lambda: dk.pair_kernel[_blocks(n), THREADS](d.ctl, P, L, prm, d.stat),
+        "particle pass": lambda: dk.particle_kernel[_blocks(n), THREADS](
+            d.ctl, forces, P, L, W, prm, d.stat, d.wpart, d.disp),
+        "chunk reductions": lambda: dk.chunk_kernel[_blocks(nchunk), THREADS](
+            d.ctl, forces, d.stat, d.wpart, d.disp, d.cstat, d.cdisp, W.acc),
+        "end of step": lambda: dk.finish_kernel[1, RED_T](
+            d.ctl, 0, 1, 0, W, prm, d.cstat, d.cdisp, W.acc, d.info),
+        "list build": sim._rebuild,
+    }
+    out = {}
+    for name, call in calls.items():
+        dk.reset_ctl[1, 1](d.ctl)
+        call()
+        cuda.synchronize()
+        t0 = time.perf_counter()
+        for _ in range(reps):
+            dk.reset_ctl[1, 1](d.ctl)
+            call()
+        cuda.synchronize()
+        out[name] = (time.perf_counter() - t0) / reps
+    d.ctl.copy_to_device(np.array([1, 0, 0, 0], dtype=np.int64))  # stopped: kernels return
+    cuda.synchronize()
+    t0 = time.perf_counter()
+    for _ in range(reps * 10):
+        calls["pair pass"]()
+    t1 = time.perf_counter()
+    cuda.synchronize()
+    out["host time of one launch (pair kernel)"] = (t1 - t0) / (reps * 10)
+    dk.reset_ctl[1, 1](d.ctl)
+    return out
+
+
 def reference_test():
     from benchmarks.reproduce import experiments
 
@@ -260,6 +307,23 @@ def main(argv=None) -> int:
             checks += curve_check(res)
     if "8.0M" in sizes:
         measure(["8.0M"])
+    if not late():  # the closing note's profile: the 980k bed, one launch per pass
+        from benchmarks.engine_speed import DT, FULL, R, scene_for
+
+        os.environ["DEMSCALE_CUDA_LAUNCH"] = "passes"
+        try:
+            pos, rad, lengths = tiled_bed(TILES["980k"])
+            top = float((pos[:, 2] + rad).max()) + 0.1 * R
+            sim = engine.Simulation(scene_for(pos, rad, lengths, FULL, top), dt=DT,
+                                    backend="cuda")
+            print(f"\nprofile, {sim.n} particles, one launch per pass [ms per call]:")
+            for what, sec in profile_passes(sim).items():
+                print(f"  {what}: {sec * 1e3:.3f} ms")
+            del sim
+        except Exception as e:
+            print(f"profile failed: {type(e).__name__}: {e}")
+        finally:
+            os.environ.pop("DEMSCALE_CUDA_LAUNCH", None)
     for name in TILES:
         g, c = rates.get((name, "cuda")), rates.get((name, "cpu"))
         if g and c:

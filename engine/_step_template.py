@@ -219,9 +219,10 @@ def _pair_chunk(c, P, L, prm, S):
     each, in order). (A plain function: the parallel wrapper stays small, which keeps numba's
     parfor pass, and so the compile time, short.)"""
     law, flags, lx, ly, lz, ilx, ily, ilz = _pair_setup(prm)
-    S.chunk_stat[c, 0] = 0.0
+    stat = S.chunk_stat
+    stat[c, 0] = 0.0
     for i in range(c * CHUNK, min(P.pos.shape[0], (c + 1) * CHUNK)):
-        _pair_one(i, c, P, L, prm, S.chunk_stat, law, flags, lx, ly, lz, ilx, ily, ilz)
+        _pair_one(i, c, P, L, prm, stat, law, flags, lx, ly, lz, ilx, ily, ilz)
 
 
 @njit(**NJIT_INLINE)
@@ -355,33 +356,59 @@ def _particle_chunk(c, mode, P, L, W, prm, S):
             W.acc[c, w, 0] = 0.0
             W.acc[c, w, 1] = 0.0
             W.acc[c, w, 2] = 0.0
-    for i in range(c * CHUNK, min(P.pos.shape[0], (c + 1) * CHUNK)):
-        disp2 = max(disp2, _particle_one(i, c, mode, P, L, W, prm, S.chunk_stat, W.acc, wlaw,
-                                         wflags))
-    S.chunk_disp[c] = disp2
-
-
-@njit(**NJIT_INLINE)
-def _particle_one(i, c, mode, P, L, W, prm, stat, wacc, wlaw, wflags):
-    """Particle i of the particle pass: gather the pair forces stored for it, add walls,
-    rolling resistance and gravity, integrate (velocity Verlet kick and drift).
-
-    Problems are flagged in row c of ``stat`` and the force of i on each wall is subtracted
-    from ``wacc[c]`` [N] (the CPU: i's chunk; CUDA: i itself). Returns the squared
-    displacement of i since the last list build [m^2] (0 in a mode without drift). The one
-    body of the particle pass for both targets (a CUDA device function in engine.cuda).
-    """
+    stat = S.chunk_stat
+    wacc = W.acc
     pos = P.pos
     vel = P.vel
     omg = P.omg
     frc = P.frc
     trq = P.trq
+    roll_in = P.roll
+    rad = P.rad
+    mass = P.mass
+    inv_mass = P.inv_mass
+    inv_inertia = P.inv_inertia
+    pos_build = P.pos_build
+    rev_start = L.rev_start
+    rev_k = L.rev_k
     entry = L.entry
-    nw = W.point.shape[0]
+    wpoint = W.point
+    wnormal = W.normal
+    wvel = W.vel
+    whist = W.hist
     dt = prm.dt
     ovl_frac = prm.max_overlap
+    max_step = prm.max_step
+    grav = prm.gravity
+    for i in range(c * CHUNK, min(P.pos.shape[0], (c + 1) * CHUNK)):
+        # >>> _particle_one (engine.kernels writes its body here: the same code, inlined in
+        # the source, as fast as the pass was before it became a function)
+        e2 = _particle_one(i, c, mode, pos, vel, omg, frc, trq, roll_in, rad, mass, inv_mass,
+                           inv_inertia, pos_build, rev_start, rev_k, entry, wpoint, wnormal,
+                           wvel, whist, wacc, stat, dt, ovl_frac, max_step, grav, wlaw, wflags)
+        # <<< _particle_one
+        disp2 = max(disp2, e2)
+    S.chunk_disp[c] = disp2
+
+
+@njit(**NJIT_INLINE)
+def _particle_one(i, c, mode, pos, vel, omg, frc, trq, roll_in, rad, mass, inv_mass,
+                  inv_inertia, pos_build, rev_start, rev_k, entry, wpoint, wnormal, wvel, whist,
+                  wacc, stat, dt, ovl_frac, max_step, grav, wlaw, wflags):
+    """Particle i of the particle pass: gather the pair forces stored for it, add walls,
+    rolling resistance and gravity, integrate (velocity Verlet kick and drift).
+
+    Problems are flagged in row c of ``stat`` and the force of i on each wall is subtracted
+    from ``wacc[c]`` [N] (the CPU: i's chunk; CUDA: i itself). It takes the records' fields
+    as arrays and scalars, not the records: passed a record, the
+    inlined body took a reference to each of its arrays per particle, which made the CPU
+    pass ten times slower. Returns the squared
+    displacement of i since the last list build [m^2] (0 in a mode without drift). The one
+    body of the particle pass for both targets (a CUDA device function in engine.cuda).
+    """
+    nw = wpoint.shape[0]
     h = dt if mode == STEP else 0.5 * dt
-    ri = P.rad[i]
+    ri = rad[i]
     fx = frc[i, 0]
     fy = frc[i, 1]
     fz = frc[i, 2]
@@ -395,9 +422,9 @@ def _particle_one(i, c, mode, P, L, W, prm, stat, wacc, wlaw, wflags):
     if mode != OPEN:
         roll = 0.0
         if ROLLING:
-            roll = P.roll[i]
-        for kk in range(L.rev_start[i], L.rev_start[i + 1]):
-            k = L.rev_k[kk]
+            roll = roll_in[i]
+        for kk in range(rev_start[i], rev_start[i + 1]):
+            k = rev_k[kk]
             fx += entry[k, F_SLOT]
             fy += entry[k, F_SLOT + 1]
             fz += entry[k, F_SLOT + 2]
@@ -409,19 +436,19 @@ def _particle_one(i, c, mode, P, L, W, prm, stat, wacc, wlaw, wflags):
                 roll += entry[k, R_SLOT]
         if WALLS:
             for w in range(nw):
-                nx = W.normal[w, 0]
-                ny = W.normal[w, 1]
-                nz = W.normal[w, 2]
+                nx = wnormal[w, 0]
+                ny = wnormal[w, 1]
+                nz = wnormal[w, 2]
                 d = ri - (
-                    (pos[i, 0] - W.point[w, 0]) * nx
-                    + (pos[i, 1] - W.point[w, 1]) * ny
-                    + (pos[i, 2] - W.point[w, 2]) * nz
+                    (pos[i, 0] - wpoint[w, 0]) * nx
+                    + (pos[i, 1] - wpoint[w, 1]) * ny
+                    + (pos[i, 2] - wpoint[w, 2]) * nz
                 )
                 row = i * nw + w
                 if d <= 0.0:
-                    if W.hist[row, 0] != 0.0:  # the contact just opened
+                    if whist[row, 0] != 0.0:  # the contact just opened
                         for s in range(N_WALL_HIST):
-                            W.hist[row, s] = 0.0
+                            whist[row, s] = 0.0
                     continue
                 if d > ovl_frac * ri:
                     _flag(stat, c, OVERLAP, i, -1 - w, d / ri)
@@ -433,22 +460,22 @@ def _particle_one(i, c, mode, P, L, W, prm, stat, wacc, wlaw, wflags):
                     sy = ri * omg[i, 1]
                     sz = ri * omg[i, 2]
                 fcx, fcy, fcz, tix, tiy, tiz, _tjx, _tjy, _tjz, rm = contact(
-                    W.hist,
+                    whist,
                     row,
                     d,
                     nx,
                     ny,
                     nz,
-                    vel[i, 0] - W.vel[w, 0],
-                    vel[i, 1] - W.vel[w, 1],
-                    vel[i, 2] - W.vel[w, 2],
+                    vel[i, 0] - wvel[w, 0],
+                    vel[i, 1] - wvel[w, 1],
+                    vel[i, 2] - wvel[w, 2],
                     sx,
                     sy,
                     sz,
                     ri,
                     0.0,
                     ri,
-                    P.mass[i],
+                    mass[i],
                     wlaw,
                     wflags,
                     dt,
@@ -471,9 +498,9 @@ def _particle_one(i, c, mode, P, L, W, prm, stat, wacc, wlaw, wflags):
             ty += ay
             tz += az
         if GRAVITY:
-            fx += P.mass[i] * prm.gravity[0]
-            fy += P.mass[i] * prm.gravity[1]
-            fz += P.mass[i] * prm.gravity[2]
+            fx += mass[i] * grav[0]
+            fy += mass[i] * grav[1]
+            fz += mass[i] * grav[2]
         frc[i, 0] = fx
         frc[i, 1] = fy
         frc[i, 2] = fz
@@ -484,36 +511,39 @@ def _particle_one(i, c, mode, P, L, W, prm, stat, wacc, wlaw, wflags):
         if mode == FORCES:
             if not math.isfinite(fx + fy + fz + tx + ty + tz):
                 _flag(stat, c, NAN, i, -1, 0.0)
-            return 0.0
-    im = P.inv_mass[i]
-    vx = vel[i, 0] + h * fx * im
-    vy = vel[i, 1] + h * fy * im
-    vz = vel[i, 2] + h * fz * im
-    vel[i, 0] = vx
-    vel[i, 1] = vy
-    vel[i, 2] = vz
-    if ROTATION:
-        ii = P.inv_inertia[i]
-        omg[i, 0] += h * tx * ii
-        omg[i, 1] += h * ty * ii
-        omg[i, 2] += h * tz * ii
-    v2 = vx * vx + vy * vy + vz * vz
-    if not math.isfinite(v2 + pos[i, 0] + pos[i, 1] + pos[i, 2]):
-        _flag(stat, c, NAN, i, -1, 0.0)
-    elif v2 * dt * dt > (prm.max_step * ri) ** 2:
-        _flag(stat, c, SPEED, i, -1, math.sqrt(v2) * dt / ri)
-    if mode == STEP or mode == OPEN:
-        x = pos[i, 0] + dt * vx
-        y = pos[i, 1] + dt * vy
-        z = pos[i, 2] + dt * vz
-        pos[i, 0] = x
-        pos[i, 1] = y
-        pos[i, 2] = z
-        ex = x - P.pos_build[i, 0]
-        ey = y - P.pos_build[i, 1]
-        ez = z - P.pos_build[i, 2]
-        return ex * ex + ey * ey + ez * ez
-    return 0.0
+    # one exit (no early return): numba then prunes the reference counts of the record
+    # fields this function reads, which it does per particle once inlined
+    e2 = 0.0
+    if mode != FORCES:  # FORCES: no integration
+        im = inv_mass[i]
+        vx = vel[i, 0] + h * fx * im
+        vy = vel[i, 1] + h * fy * im
+        vz = vel[i, 2] + h * fz * im
+        vel[i, 0] = vx
+        vel[i, 1] = vy
+        vel[i, 2] = vz
+        if ROTATION:
+            ii = inv_inertia[i]
+            omg[i, 0] += h * tx * ii
+            omg[i, 1] += h * ty * ii
+            omg[i, 2] += h * tz * ii
+        v2 = vx * vx + vy * vy + vz * vz
+        if not math.isfinite(v2 + pos[i, 0] + pos[i, 1] + pos[i, 2]):
+            _flag(stat, c, NAN, i, -1, 0.0)
+        elif v2 * dt * dt > (max_step * ri) ** 2:
+            _flag(stat, c, SPEED, i, -1, math.sqrt(v2) * dt / ri)
+        if mode == STEP or mode == OPEN:
+            x = pos[i, 0] + dt * vx
+            y = pos[i, 1] + dt * vy
+            z = pos[i, 2] + dt * vz
+            pos[i, 0] = x
+            pos[i, 1] = y
+            pos[i, 2] = z
+            ex = x - pos_build[i, 0]
+            ey = y - pos_build[i, 1]
+            ez = z - pos_build[i, 2]
+            e2 = ex * ex + ey * ey + ez * ez
+    return e2
 
 
 @njit(**NJIT_PARALLEL)

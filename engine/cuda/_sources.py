@@ -53,7 +53,10 @@ def _particle_body(i, mode, P, L, W, prm, stat, wpart, disp):
             wpart[i, w, 1] = 0.0
             wpart[i, w, 2] = 0.0
     wlaw, wflags = _wall_setup(prm)
-    disp[i] = _particle_one(i, i, mode, P, L, W, prm, stat, wpart, wlaw, wflags)
+    disp[i] = _particle_one(i, i, mode, P.pos, P.vel, P.omg, P.frc, P.trq, P.roll, P.rad,
+                            P.mass, P.inv_mass, P.inv_inertia, P.pos_build, L.rev_start,
+                            L.rev_k, L.entry, W.point, W.normal, W.vel, W.hist, wpart, stat,
+                            prm.dt, prm.max_overlap, prm.max_step, prm.gravity, wlaw, wflags)
 
 
 def _chunk_body(c, mode, stat, wpart, disp, cstat, cdisp, cacc):

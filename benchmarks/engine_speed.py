@@ -3,6 +3,7 @@
     python -m benchmarks.engine_speed            # full run (a few minutes)
     python -m benchmarks.engine_speed --quick    # 2k beds only, shorter runs
     python -m benchmarks.engine_speed --profile  # also a profile of the hot loop per pass
+    python -m benchmarks.engine_speed --backend cuda  # the GPU targets (benchmarks/gpu_speed.py)
 
 Scene (issue 2): R = 2.5 mm spheres, density 2000, periodic x and y, bottom platen and a top
 platen moving down at 10 mm/s, dt = 1e-5 s; law K1 = 5e3, K2 = 2.5e4 N/m, f0 = -0.4 N,
@@ -265,7 +266,15 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="2k beds only, shorter runs")
     ap.add_argument("--profile", action="store_true", help="profile of the hot loop per pass")
     ap.add_argument("--repeats", type=int, default=3)
-    args = ap.parse_args(argv)
+    ap.add_argument("--backend", choices=("cpu", "cuda"), default="cpu",
+                    help="cuda: the GPU targets of issue 21 (benchmarks/gpu_speed.py)")
+    args, rest = ap.parse_known_args(argv)
+    if args.backend == "cuda":
+        from benchmarks import gpu_speed
+
+        return gpu_speed.main(rest)
+    if rest:
+        ap.error(f"unrecognised arguments: {' '.join(rest)}")
     steps2k = 4000 if args.quick else 10_000
     steps16k = 1500
 

@@ -238,9 +238,10 @@ def study(args) -> int:
                 ctx = mp.get_context("spawn")
                 with cf.ProcessPoolExecutor(args.workers, mp_context=ctx) as pool:
                     result = engine.run_study(spec, progress=bars.update, executor=pool,
-                                              on_run=on_run)
+                                              on_run=on_run, backend=args.backend)
             else:
-                result = engine.run_study(spec, progress=bars.update, on_run=on_run)
+                result = engine.run_study(spec, progress=bars.update, on_run=on_run,
+                                          backend=args.backend)
         except engine.RunFailed as e:
             console.print(f"[red]{e}[/red]: no reference run finished, nothing to compare")
             return 1
@@ -320,7 +321,8 @@ def run(args) -> int:
 
         try:
             result = engine.run_uniaxial(test, report, on_snapshot=writer.add,
-                                         snapshot_interval=args.snapshot_interval)
+                                         snapshot_interval=args.snapshot_interval,
+                                         backend=args.backend)
         except (engine.StageError, engine.InstabilityError, FloatingPointError) as e:
             console.print(f"[red]the test failed:[/red] {e}; the {len(writer.labels)} "
                           f"snapshots before it are in {snap_dir}")
@@ -436,6 +438,7 @@ def parser() -> argparse.ArgumentParser:
                    help="do not write the ParaView snapshots and PNG sections")
     p.add_argument("--quiet", "-q", action="store_true",
                    help="no progress bars (the runs' results are still printed)")
+    _backend_option(p)
     p.set_defaults(func=study)
 
     p = sub.add_parser("run", help="run one uniaxial test and write its snapshots",
@@ -447,6 +450,7 @@ def parser() -> argparse.ArgumentParser:
                    help="also a snapshot every SECONDS of simulated time (default: stage "
                         "ends only)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+    _backend_option(p)
     p.set_defaults(func=run)
 
     p = sub.add_parser("serve", help="start the job service's HTTP API (and a worker)",
@@ -483,6 +487,13 @@ def _version() -> str:
         return version("demscale")
     except PackageNotFoundError:
         return "(not installed)"
+
+
+
+def _backend_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--backend", choices=("cpu", "cuda", "auto"), default=None,
+                   help="where the engine runs: cpu, cuda (an NVIDIA GPU, the gpu extra) or "
+                        "auto (the GPU when usable); default: DEMSCALE_BACKEND, else cpu")
 
 
 def main(argv: list[str] | None = None) -> int:

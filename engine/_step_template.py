@@ -193,266 +193,329 @@ def serial_pass(which, mode, P, L, W, prm, S):
             _particle_chunk(c, mode, P, L, W, prm, S)
 
 
+@njit(**NJIT_INLINE)
+def _pair_setup(prm):
+    """What the pair pass reads once per chunk (CPU) or per thread (CUDA): the pair law, its
+    switches, the box lengths [m] and their inverses [1/m]."""
+    lx = prm.length[0]
+    ly = prm.length[1]
+    lz = prm.length[2]
+    law = _pair_law(prm.pair)
+    flags = LawFlags(PAIR_HERTZ, PLASTIC, FRICTION, DAMPING, ROLLING, EEPA, NORMAL_CAP)
+    return law, flags, lx, ly, lz, 1.0 / lx, 1.0 / ly, 1.0 / lz
+
+
+@njit(**NJIT_INLINE)
+def _wall_setup(prm):
+    """The wall law and its switches (read once per chunk, or per CUDA thread)."""
+    wlaw = _wall_law(prm.wall)
+    wflags = LawFlags(True, False, WALL_FRICTION, WALL_DAMPING, WALL_ROLLING, False, False)
+    return wlaw, wflags
+
+
 @njit(**NJIT)
 def _pair_chunk(c, P, L, prm, S):
-    """Contact forces of the listed pairs of the particles of chunk c. The force and torque
-    on i are written to ``P.frc``/``P.trq`` [N, N m] and its rolling moments to ``P.roll``
-    [N]; those on j go to the entry's slots for the gather. (A plain function: the parallel
-    wrapper stays small, which keeps numba's parfor pass, and so the compile time, short.)"""
+    """Contact forces of the listed pairs of the particles of chunk c (:func:`_pair_one` for
+    each, in order). (A plain function: the parallel wrapper stays small, which keeps numba's
+    parfor pass, and so the compile time, short.)"""
+    law, flags, lx, ly, lz, ilx, ily, ilz = _pair_setup(prm)
+    stat = S.chunk_stat
+    stat[c, 0] = 0.0
+    for i in range(c * CHUNK, min(P.pos.shape[0], (c + 1) * CHUNK)):
+        _pair_one(i, c, P, L, prm, stat, law, flags, lx, ly, lz, ilx, ily, ilz)
+
+
+@njit(**NJIT_INLINE)
+def _pair_one(i, c, P, L, prm, stat, law, flags, lx, ly, lz, ilx, ily, ilz):
+    """Contact forces of the listed pairs of particle i: the force and torque on i are
+    written to ``P.frc``/``P.trq`` [N, N m] and its rolling moments to ``P.roll`` [N]; those
+    on j go to the entry's slots for the gather. A problem is flagged in row c of ``stat``
+    (the CPU: i's chunk; CUDA: i itself). The one body of the pair pass for both targets
+    (compiled as a CUDA device function by engine.cuda)."""
     pos = P.pos
     vel = P.vel
     omg = P.omg
     rad = P.rad
     mass = P.mass
     entry = L.entry
-    n = pos.shape[0]
-    lx = prm.length[0]
-    ly = prm.length[1]
-    lz = prm.length[2]
-    ilx = 1.0 / lx
-    ily = 1.0 / ly
-    ilz = 1.0 / lz
     ovl_frac = prm.max_overlap
     dt = prm.dt
-    law = _pair_law(prm.pair)
-    flags = LawFlags(PAIR_HERTZ, PLASTIC, FRICTION, DAMPING, ROLLING, EEPA, NORMAL_CAP)
-    S.chunk_stat[c, 0] = 0.0
-    for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-        xi = pos[i, 0]
-        yi = pos[i, 1]
-        zi = pos[i, 2]
-        vxi = vel[i, 0]
-        vyi = vel[i, 1]
-        vzi = vel[i, 2]
-        ri = rad[i]
-        mi = mass[i]
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        tx = 0.0
-        ty = 0.0
-        tz = 0.0
-        roll = 0.0  # sum of mu_r |f_el| over i's listed contacts
-        for k in range(L.start[i], L.start[i + 1]):
-            j = L.j[k]
-            dx = xi - pos[j, 0]
-            dy = yi - pos[j, 1]
-            dz = zi - pos[j, 2]
-            if PERIODIC_X:
-                dx -= lx * math.floor(dx * ilx + 0.5)
-            if PERIODIC_Y:
-                dy -= ly * math.floor(dy * ily + 0.5)
-            if PERIODIC_Z:
-                dz -= lz * math.floor(dz * ilz + 0.5)
-            r2 = dx * dx + dy * dy + dz * dz
-            rj = rad[j]
-            rs = ri + rj
-            if r2 >= rs * rs:
-                if entry[k, 0] != 0.0:  # the contact just opened: delete its history
-                    for s in range(N_SLOT):
-                        entry[k, s] = 0.0
-                continue
-            r = math.sqrt(r2)
-            d = rs - r
-            rmin = min(ri, rj)
-            if d > ovl_frac * rmin:
-                _flag(S.chunk_stat, c, OVERLAP, i, j, d / rmin)
-            inv_r = 1.0 / r
-            sx = 0.0
-            sy = 0.0
-            sz = 0.0
-            if FRICTION:
-                sx = ri * omg[i, 0] + rj * omg[j, 0]
-                sy = ri * omg[i, 1] + rj * omg[j, 1]
-                sz = ri * omg[i, 2] + rj * omg[j, 2]
-            mj = mass[j]
-            m_eff = mi * mj / (mi + mj) if DAMPING else 0.0
-            r_star = ri * rj / rs if PAIR_HERTZ else 0.0
-            fcx, fcy, fcz, tix, tiy, tiz, tjx, tjy, tjz, rm = contact(
-                entry,
-                k,
-                d,
-                dx * inv_r,
-                dy * inv_r,
-                dz * inv_r,
-                vxi - vel[j, 0],
-                vyi - vel[j, 1],
-                vzi - vel[j, 2],
-                sx,
-                sy,
-                sz,
-                ri,
-                rj,
-                r_star,
-                m_eff,
-                law,
-                flags,
-                dt,
-            )
-            fx += fcx
-            fy += fcy
-            fz += fcz
-            entry[k, F_SLOT] = -fcx
-            entry[k, F_SLOT + 1] = -fcy
-            entry[k, F_SLOT + 2] = -fcz
-            if FRICTION:
-                tx += tix
-                ty += tiy
-                tz += tiz
-                entry[k, T_SLOT] = tjx
-                entry[k, T_SLOT + 1] = tjy
-                entry[k, T_SLOT + 2] = tjz
-            if ROLLING:
-                roll += rm
-                entry[k, R_SLOT] = rm
-        P.frc[i, 0] = fx
-        P.frc[i, 1] = fy
-        P.frc[i, 2] = fz
+    xi = pos[i, 0]
+    yi = pos[i, 1]
+    zi = pos[i, 2]
+    vxi = vel[i, 0]
+    vyi = vel[i, 1]
+    vzi = vel[i, 2]
+    ri = rad[i]
+    mi = mass[i]
+    fx = 0.0
+    fy = 0.0
+    fz = 0.0
+    tx = 0.0
+    ty = 0.0
+    tz = 0.0
+    roll = 0.0  # sum of mu_r |f_el| over i's listed contacts
+    for k in range(L.start[i], L.start[i + 1]):
+        j = L.j[k]
+        dx = xi - pos[j, 0]
+        dy = yi - pos[j, 1]
+        dz = zi - pos[j, 2]
+        if PERIODIC_X:
+            dx -= lx * math.floor(dx * ilx + 0.5)
+        if PERIODIC_Y:
+            dy -= ly * math.floor(dy * ily + 0.5)
+        if PERIODIC_Z:
+            dz -= lz * math.floor(dz * ilz + 0.5)
+        r2 = dx * dx + dy * dy + dz * dz
+        rj = rad[j]
+        rs = ri + rj
+        if r2 >= rs * rs:
+            if entry[k, 0] != 0.0:  # the contact just opened: delete its history
+                for s in range(N_SLOT):
+                    entry[k, s] = 0.0
+            continue
+        r = math.sqrt(r2)
+        d = rs - r
+        rmin = min(ri, rj)
+        if d > ovl_frac * rmin:
+            _flag(stat, c, OVERLAP, i, j, d / rmin)
+        inv_r = 1.0 / r
+        sx = 0.0
+        sy = 0.0
+        sz = 0.0
         if FRICTION:
-            P.trq[i, 0] = tx
-            P.trq[i, 1] = ty
-            P.trq[i, 2] = tz
+            sx = ri * omg[i, 0] + rj * omg[j, 0]
+            sy = ri * omg[i, 1] + rj * omg[j, 1]
+            sz = ri * omg[i, 2] + rj * omg[j, 2]
+        mj = mass[j]
+        m_eff = mi * mj / (mi + mj) if DAMPING else 0.0
+        r_star = ri * rj / rs if PAIR_HERTZ else 0.0
+        fcx, fcy, fcz, tix, tiy, tiz, tjx, tjy, tjz, rm = contact(
+            entry,
+            k,
+            d,
+            dx * inv_r,
+            dy * inv_r,
+            dz * inv_r,
+            vxi - vel[j, 0],
+            vyi - vel[j, 1],
+            vzi - vel[j, 2],
+            sx,
+            sy,
+            sz,
+            ri,
+            rj,
+            r_star,
+            m_eff,
+            law,
+            flags,
+            dt,
+        )
+        fx += fcx
+        fy += fcy
+        fz += fcz
+        entry[k, F_SLOT] = -fcx
+        entry[k, F_SLOT + 1] = -fcy
+        entry[k, F_SLOT + 2] = -fcz
+        if FRICTION:
+            tx += tix
+            ty += tiy
+            tz += tiz
+            entry[k, T_SLOT] = tjx
+            entry[k, T_SLOT + 1] = tjy
+            entry[k, T_SLOT + 2] = tjz
         if ROLLING:
-            P.roll[i] = roll
+            roll += rm
+            entry[k, R_SLOT] = rm
+    P.frc[i, 0] = fx
+    P.frc[i, 1] = fy
+    P.frc[i, 2] = fz
+    if FRICTION:
+        P.trq[i, 0] = tx
+        P.trq[i, 1] = ty
+        P.trq[i, 2] = tz
+    if ROLLING:
+        P.roll[i] = roll
 
 
 @njit(**NJIT)
 def _particle_chunk(c, mode, P, L, W, prm, S):
     """Gather the pair forces on each particle of chunk c, add walls, rolling resistance and
-    gravity, integrate.
+    gravity, integrate (:func:`_particle_one` for each, in order).
 
     ``mode``: FORCES, CLOSE, STEP or OPEN (see the constants). The chunk's force on each
     wall [N] goes to ``W.acc[c]``, its largest squared displacement since the last list
     build [m^2] to ``S.chunk_disp[c]``.
     """
+    wlaw, wflags = _wall_setup(prm)
+    disp2 = 0.0
+    if mode == OPEN:
+        S.chunk_stat[c, 0] = 0.0
+    else:
+        for w in range(W.point.shape[0]):
+            W.acc[c, w, 0] = 0.0
+            W.acc[c, w, 1] = 0.0
+            W.acc[c, w, 2] = 0.0
+    stat = S.chunk_stat
+    wacc = W.acc
     pos = P.pos
     vel = P.vel
     omg = P.omg
     frc = P.frc
     trq = P.trq
+    roll_in = P.roll
+    rad = P.rad
+    mass = P.mass
+    inv_mass = P.inv_mass
+    inv_inertia = P.inv_inertia
+    pos_build = P.pos_build
+    rev_start = L.rev_start
+    rev_k = L.rev_k
     entry = L.entry
-    chunk_stat = S.chunk_stat
-    n = pos.shape[0]
-    nw = W.point.shape[0]
+    wpoint = W.point
+    wnormal = W.normal
+    wvel = W.vel
+    whist = W.hist
     dt = prm.dt
     ovl_frac = prm.max_overlap
+    max_step = prm.max_step
+    grav = prm.gravity
+    for i in range(c * CHUNK, min(P.pos.shape[0], (c + 1) * CHUNK)):
+        # >>> _particle_one (engine.kernels writes its body here: the same code, inlined in
+        # the source, as fast as the pass was before it became a function)
+        e2 = _particle_one(i, c, mode, pos, vel, omg, frc, trq, roll_in, rad, mass, inv_mass,
+                           inv_inertia, pos_build, rev_start, rev_k, entry, wpoint, wnormal,
+                           wvel, whist, wacc, stat, dt, ovl_frac, max_step, grav, wlaw, wflags)
+        # <<< _particle_one
+        disp2 = max(disp2, e2)
+    S.chunk_disp[c] = disp2
+
+
+@njit(**NJIT_INLINE)
+def _particle_one(i, c, mode, pos, vel, omg, frc, trq, roll_in, rad, mass, inv_mass,
+                  inv_inertia, pos_build, rev_start, rev_k, entry, wpoint, wnormal, wvel, whist,
+                  wacc, stat, dt, ovl_frac, max_step, grav, wlaw, wflags):
+    """Particle i of the particle pass: gather the pair forces stored for it, add walls,
+    rolling resistance and gravity, integrate (velocity Verlet kick and drift).
+
+    Problems are flagged in row c of ``stat`` and the force of i on each wall is subtracted
+    from ``wacc[c]`` [N] (the CPU: i's chunk; CUDA: i itself). It takes the records' fields
+    as arrays and scalars, not the records: passed a record, the
+    inlined body took a reference to each of its arrays per particle, which made the CPU
+    pass ten times slower. Returns the squared
+    displacement of i since the last list build [m^2] (0 in a mode without drift). The one
+    body of the particle pass for both targets (a CUDA device function in engine.cuda).
+    """
+    nw = wpoint.shape[0]
     h = dt if mode == STEP else 0.5 * dt
-    disp2 = 0.0
-    wlaw = _wall_law(prm.wall)
-    wflags = LawFlags(True, False, WALL_FRICTION, WALL_DAMPING, WALL_ROLLING, False, False)
-    if mode == OPEN:
-        chunk_stat[c, 0] = 0.0
-    else:
-        for w in range(nw):
-            W.acc[c, w, 0] = 0.0
-            W.acc[c, w, 1] = 0.0
-            W.acc[c, w, 2] = 0.0
-    for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-        ri = P.rad[i]
-        fx = frc[i, 0]
-        fy = frc[i, 1]
-        fz = frc[i, 2]
-        tx = 0.0
-        ty = 0.0
-        tz = 0.0
-        if FRICTION or (ROTATION and mode == OPEN):
-            tx = trq[i, 0]
-            ty = trq[i, 1]
-            tz = trq[i, 2]
-        if mode != OPEN:
-            roll = 0.0
+    ri = rad[i]
+    fx = frc[i, 0]
+    fy = frc[i, 1]
+    fz = frc[i, 2]
+    tx = 0.0
+    ty = 0.0
+    tz = 0.0
+    if FRICTION or (ROTATION and mode == OPEN):
+        tx = trq[i, 0]
+        ty = trq[i, 1]
+        tz = trq[i, 2]
+    if mode != OPEN:
+        roll = 0.0
+        if ROLLING:
+            roll = roll_in[i]
+        for kk in range(rev_start[i], rev_start[i + 1]):
+            k = rev_k[kk]
+            fx += entry[k, F_SLOT]
+            fy += entry[k, F_SLOT + 1]
+            fz += entry[k, F_SLOT + 2]
+            if FRICTION:
+                tx += entry[k, T_SLOT]
+                ty += entry[k, T_SLOT + 1]
+                tz += entry[k, T_SLOT + 2]
             if ROLLING:
-                roll = P.roll[i]
-            for kk in range(L.rev_start[i], L.rev_start[i + 1]):
-                k = L.rev_k[kk]
-                fx += entry[k, F_SLOT]
-                fy += entry[k, F_SLOT + 1]
-                fz += entry[k, F_SLOT + 2]
-                if FRICTION:
-                    tx += entry[k, T_SLOT]
-                    ty += entry[k, T_SLOT + 1]
-                    tz += entry[k, T_SLOT + 2]
-                if ROLLING:
-                    roll += entry[k, R_SLOT]
-            if WALLS:
-                for w in range(nw):
-                    nx = W.normal[w, 0]
-                    ny = W.normal[w, 1]
-                    nz = W.normal[w, 2]
-                    d = ri - (
-                        (pos[i, 0] - W.point[w, 0]) * nx
-                        + (pos[i, 1] - W.point[w, 1]) * ny
-                        + (pos[i, 2] - W.point[w, 2]) * nz
-                    )
-                    row = i * nw + w
-                    if d <= 0.0:
-                        if W.hist[row, 0] != 0.0:  # the contact just opened
-                            for s in range(N_WALL_HIST):
-                                W.hist[row, s] = 0.0
-                        continue
-                    if d > ovl_frac * ri:
-                        _flag(chunk_stat, c, OVERLAP, i, -1 - w, d / ri)
-                    sx = 0.0
-                    sy = 0.0
-                    sz = 0.0
-                    if WALL_FRICTION:
-                        sx = ri * omg[i, 0]
-                        sy = ri * omg[i, 1]
-                        sz = ri * omg[i, 2]
-                    fcx, fcy, fcz, tix, tiy, tiz, _tjx, _tjy, _tjz, rm = contact(
-                        W.hist,
-                        row,
-                        d,
-                        nx,
-                        ny,
-                        nz,
-                        vel[i, 0] - W.vel[w, 0],
-                        vel[i, 1] - W.vel[w, 1],
-                        vel[i, 2] - W.vel[w, 2],
-                        sx,
-                        sy,
-                        sz,
-                        ri,
-                        0.0,
-                        ri,
-                        P.mass[i],
-                        wlaw,
-                        wflags,
-                        dt,
-                    )
-                    fx += fcx
-                    fy += fcy
-                    fz += fcz
-                    W.acc[c, w, 0] -= fcx
-                    W.acc[c, w, 1] -= fcy
-                    W.acc[c, w, 2] -= fcz
-                    if WALL_FRICTION:
-                        tx += tix
-                        ty += tiy
-                        tz += tiz
-                    if WALL_ROLLING:
-                        roll += rm
-            if ANY_ROLLING:  # every contact pulls against the same unit spin: applied once
-                ax, ay, az = rolling_torque(omg[i, 0], omg[i, 1], omg[i, 2], 1.0, roll, ri)
-                tx += ax
-                ty += ay
-                tz += az
-            if GRAVITY:
-                fx += P.mass[i] * prm.gravity[0]
-                fy += P.mass[i] * prm.gravity[1]
-                fz += P.mass[i] * prm.gravity[2]
-            frc[i, 0] = fx
-            frc[i, 1] = fy
-            frc[i, 2] = fz
-            if ROTATION:
-                trq[i, 0] = tx
-                trq[i, 1] = ty
-                trq[i, 2] = tz
-            if mode == FORCES:
-                if not math.isfinite(fx + fy + fz + tx + ty + tz):
-                    _flag(chunk_stat, c, NAN, i, -1, 0.0)
-                continue
-        im = P.inv_mass[i]
+                roll += entry[k, R_SLOT]
+        if WALLS:
+            for w in range(nw):
+                nx = wnormal[w, 0]
+                ny = wnormal[w, 1]
+                nz = wnormal[w, 2]
+                d = ri - (
+                    (pos[i, 0] - wpoint[w, 0]) * nx
+                    + (pos[i, 1] - wpoint[w, 1]) * ny
+                    + (pos[i, 2] - wpoint[w, 2]) * nz
+                )
+                row = i * nw + w
+                if d <= 0.0:
+                    if whist[row, 0] != 0.0:  # the contact just opened
+                        for s in range(N_WALL_HIST):
+                            whist[row, s] = 0.0
+                    continue
+                if d > ovl_frac * ri:
+                    _flag(stat, c, OVERLAP, i, -1 - w, d / ri)
+                sx = 0.0
+                sy = 0.0
+                sz = 0.0
+                if WALL_FRICTION:
+                    sx = ri * omg[i, 0]
+                    sy = ri * omg[i, 1]
+                    sz = ri * omg[i, 2]
+                fcx, fcy, fcz, tix, tiy, tiz, _tjx, _tjy, _tjz, rm = contact(
+                    whist,
+                    row,
+                    d,
+                    nx,
+                    ny,
+                    nz,
+                    vel[i, 0] - wvel[w, 0],
+                    vel[i, 1] - wvel[w, 1],
+                    vel[i, 2] - wvel[w, 2],
+                    sx,
+                    sy,
+                    sz,
+                    ri,
+                    0.0,
+                    ri,
+                    mass[i],
+                    wlaw,
+                    wflags,
+                    dt,
+                )
+                fx += fcx
+                fy += fcy
+                fz += fcz
+                wacc[c, w, 0] -= fcx
+                wacc[c, w, 1] -= fcy
+                wacc[c, w, 2] -= fcz
+                if WALL_FRICTION:
+                    tx += tix
+                    ty += tiy
+                    tz += tiz
+                if WALL_ROLLING:
+                    roll += rm
+        if ANY_ROLLING:  # every contact pulls against the same unit spin: applied once
+            ax, ay, az = rolling_torque(omg[i, 0], omg[i, 1], omg[i, 2], 1.0, roll, ri)
+            tx += ax
+            ty += ay
+            tz += az
+        if GRAVITY:
+            fx += mass[i] * grav[0]
+            fy += mass[i] * grav[1]
+            fz += mass[i] * grav[2]
+        frc[i, 0] = fx
+        frc[i, 1] = fy
+        frc[i, 2] = fz
+        if ROTATION:
+            trq[i, 0] = tx
+            trq[i, 1] = ty
+            trq[i, 2] = tz
+        if mode == FORCES:
+            if not math.isfinite(fx + fy + fz + tx + ty + tz):
+                _flag(stat, c, NAN, i, -1, 0.0)
+    # one exit (no early return): numba then prunes the reference counts of the record
+    # fields this function reads, which it does per particle once inlined
+    e2 = 0.0
+    if mode != FORCES:  # FORCES: no integration
+        im = inv_mass[i]
         vx = vel[i, 0] + h * fx * im
         vy = vel[i, 1] + h * fy * im
         vz = vel[i, 2] + h * fz * im
@@ -460,15 +523,15 @@ def _particle_chunk(c, mode, P, L, W, prm, S):
         vel[i, 1] = vy
         vel[i, 2] = vz
         if ROTATION:
-            ii = P.inv_inertia[i]
+            ii = inv_inertia[i]
             omg[i, 0] += h * tx * ii
             omg[i, 1] += h * ty * ii
             omg[i, 2] += h * tz * ii
         v2 = vx * vx + vy * vy + vz * vz
         if not math.isfinite(v2 + pos[i, 0] + pos[i, 1] + pos[i, 2]):
-            _flag(chunk_stat, c, NAN, i, -1, 0.0)
-        elif v2 * dt * dt > (prm.max_step * ri) ** 2:
-            _flag(chunk_stat, c, SPEED, i, -1, math.sqrt(v2) * dt / ri)
+            _flag(stat, c, NAN, i, -1, 0.0)
+        elif v2 * dt * dt > (max_step * ri) ** 2:
+            _flag(stat, c, SPEED, i, -1, math.sqrt(v2) * dt / ri)
         if mode == STEP or mode == OPEN:
             x = pos[i, 0] + dt * vx
             y = pos[i, 1] + dt * vy
@@ -476,11 +539,11 @@ def _particle_chunk(c, mode, P, L, W, prm, S):
             pos[i, 0] = x
             pos[i, 1] = y
             pos[i, 2] = z
-            ex = x - P.pos_build[i, 0]
-            ey = y - P.pos_build[i, 1]
-            ez = z - P.pos_build[i, 2]
-            disp2 = max(disp2, ex * ex + ey * ey + ez * ez)
-    S.chunk_disp[c] = disp2
+            ex = x - pos_build[i, 0]
+            ey = y - pos_build[i, 1]
+            ez = z - pos_build[i, 2]
+            e2 = ex * ex + ey * ey + ez * ez
+    return e2
 
 
 @njit(**NJIT_PARALLEL)

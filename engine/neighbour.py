@@ -31,7 +31,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .config import NJIT
+from .config import NJIT, NJIT_INLINE
 
 
 @njit(**NJIT)
@@ -39,12 +39,18 @@ def wrap_positions(pos, lo, length, periodic, images):
     """Wrap positions into [lo, lo + L) on periodic axes, counting the wraps in ``images``
     (so that ``pos + images * L`` is the unwrapped position) [m]."""
     for i in range(pos.shape[0]):
-        for a in range(3):
-            if periodic[a]:
-                s = math.floor((pos[i, a] - lo[a]) / length[a])
-                if s != 0.0:
-                    pos[i, a] -= s * length[a]
-                    images[i, a] += np.int64(s)
+        wrap_one(i, pos, lo, length, periodic, images)
+
+
+@njit(**NJIT_INLINE)
+def wrap_one(i, pos, lo, length, periodic, images):
+    """:func:`wrap_positions` for particle i (also the CUDA backend's, engine.cuda) [m]."""
+    for a in range(3):
+        if periodic[a]:
+            s = math.floor((pos[i, a] - lo[a]) / length[a])
+            if s != 0.0:
+                pos[i, a] -= s * length[a]
+                images[i, a] += np.int64(s)
 
 
 @njit(**NJIT)

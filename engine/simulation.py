@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from .backend import resolve_backend
 from .config import (
     MAX_OVERLAP_FRACTION,
     MAX_STEP_FRACTION,
@@ -123,8 +124,23 @@ class Simulation:
             run on one thread: a second gains little and loses when other processes share
             the cores). Results do not depend on it.
 
+        backend: ``"cpu"``, ``"cuda"`` (an NVIDIA GPU with numba-cuda, the ``gpu`` extra:
+            a :class:`engine.cuda.CudaSimulation` is made) or ``"auto"`` (the GPU when one is
+            usable); None: ``DEMSCALE_BACKEND``, else ``"cpu"`` (see engine.backend). The
+            one taken is :attr:`backend`.
+
     Only the features the scene uses are compiled in (see :attr:`features`).
     """
+
+    #: the engine that runs it: "cpu" or "cuda"
+    backend = "cpu"
+
+    def __new__(cls, *args, backend: str | None = None, **kwargs):
+        if cls is Simulation and resolve_backend(backend) == "cuda":
+            from .cuda import CudaSimulation  # numba-cuda: imported only for the GPU
+
+            return super().__new__(CudaSimulation)
+        return super().__new__(cls)
 
     def __init__(
         self,
@@ -136,6 +152,7 @@ class Simulation:
         max_overlap_fraction: float = MAX_OVERLAP_FRACTION,
         max_step_fraction: float = MAX_STEP_FRACTION,
         threads: int | None = None,
+        backend: str | None = None,
     ) -> None:
         if not isinstance(scene, Scene):
             raise ParameterError("Simulation.scene", scene, "an engine.Scene")

@@ -22,6 +22,7 @@ import numpy as np
 
 from .adaptive import Addition, next_runs
 from .advisor import advise, judge_groups
+from .backend import check_backend
 from .channel import task_progress
 from .checkpoint import CHECKPOINT_INTERVAL, Checkpoint, check_interval
 from .errors import StopRequested
@@ -172,8 +173,8 @@ class RunFailed(RuntimeError):
 
 
 def _execute(test, threads: int | None = None, key: str = "", channel=None,
-             checkpoint: Checkpoint | None = None, limit: tuple | None = None
-             ) -> UniaxialResult:
+             checkpoint: Checkpoint | None = None, limit: tuple | None = None,
+             backend: str | None = None) -> UniaxialResult:
     """One run as a task (a picklable top-level function for process and cluster pools);
     with a ``channel`` (:mod:`engine.channel`) it reports its progress there and stops with
     :class:`engine.StopRequested` when the study asks it to."""
@@ -184,7 +185,7 @@ def _execute(test, threads: int | None = None, key: str = "", channel=None,
     if channel is not None and channel.stop_requested():
         raise StopRequested(f"run {key} not started: the study was stopped")
     return run_uniaxial(test, progress=None if channel is None else task_progress(channel, key),
-                        checkpoint=checkpoint, **_limit_args(limit))
+                        checkpoint=checkpoint, backend=backend, **_limit_args(limit))
 
 
 def _limit_args(limit: tuple | None) -> dict:
@@ -206,7 +207,8 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
               checkpoints: str | os.PathLike | None = None,
               checkpoint_interval: float = CHECKPOINT_INTERVAL,
               max_run_wall_time: float | None = None,
-              wall_time_setting: str = "max_run_wall_time") -> StudyResult:
+              wall_time_setting: str = "max_run_wall_time",
+              backend: str | None = None) -> StudyResult:
     """Run every run of ``spec`` that is not in ``completed``, then judge the study.
 
     Args:
@@ -237,6 +239,9 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
         max_run_wall_time: a run that goes on longer than this [s] of wall time fails with
             :class:`engine.WallTimeExceeded` (in this process and on any executor; the study
             goes on with the others); ``wall_time_setting`` names the limit in the message.
+        backend: where each run runs, ``"cpu"``, ``"cuda"`` or ``"auto"`` (see
+            :class:`engine.Simulation`; on an executor, decided where the task runs); None:
+            ``DEMSCALE_BACKEND`` there, else the CPU.
 
     Raises: :class:`RunFailed` as soon as every reference run has failed; ``ValueError``
     at once, before any run starts, for a ``ProcessPoolExecutor`` that forks
@@ -246,6 +251,7 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
     if max_run_wall_time is not None:
         check_interval(max_run_wall_time, "run_study.max_run_wall_time")
     limit = (max_run_wall_time, wall_time_setting)
+    backend = check_backend(backend, "run_study.backend")
     planned = spec.planned_runs()
     weights = _weights(planned)
     outcomes: dict[str, UniaxialResult | str] = dict(completed or {})
@@ -276,10 +282,11 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
 
     def run(todo: list[int]) -> None:
         if executor is None:
-            _run_here(planned, todo, weights, outcomes, progress, record, checkpoint, limit)
+            _run_here(planned, todo, weights, outcomes, progress, record, checkpoint, limit,
+                      backend)
         else:
             _run_on(executor, planned, todo, weights, outcomes, progress, record,
-                    task_threads, channel, poll_interval, checkpoint, limit)
+                    task_threads, channel, poll_interval, checkpoint, limit, backend)
 
     while True:
         planned, added, stopped = plan_runs(spec, outcomes)
@@ -439,7 +446,8 @@ def _done_weight(planned, weights, outcomes) -> float:
     return float(sum(w for p, w in zip(planned, weights) if p.key in outcomes))
 
 
-def _run_here(planned, todo, weights, outcomes, progress, record, checkpoint, limit) -> None:
+def _run_here(planned, todo, weights, outcomes, progress, record, checkpoint, limit,
+              backend=None) -> None:
     done_weight = _done_weight(planned, weights, outcomes)
     for i in todo:
         p = planned[i]
@@ -457,7 +465,7 @@ def _run_here(planned, todo, weights, outcomes, progress, record, checkpoint, li
             raise StopRequested(f"stopped by the progress callback before run {p.key}")
         try:
             outcome = run_uniaxial(p.test, progress=report, checkpoint=checkpoint(p),
-                                   **_limit_args(limit))
+                                   backend=backend, **_limit_args(limit))
         except StopRequested:
             raise
         except Exception as e:
@@ -467,10 +475,10 @@ def _run_here(planned, todo, weights, outcomes, progress, record, checkpoint, li
 
 
 def _run_on(executor, planned, todo, weights, outcomes, progress, record, threads, channel,
-            poll_interval, checkpoint, limit) -> None:
+            poll_interval, checkpoint, limit, backend=None) -> None:
     # in planned order: the references first (the longest runs, needed by every comparison)
     futures = {executor.submit(_execute, planned[i].test, threads, planned[i].key, channel,
-                               checkpoint(planned[i]), limit): i
+                               checkpoint(planned[i]), limit, backend): i
                for i in todo}
     done_weight = _done_weight(planned, weights, outcomes)
     pending = set(futures)

@@ -13,11 +13,13 @@ from __future__ import annotations
 import math
 import os
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from .backend import check_backend, resolve_backend
 from .checkpoint import Checkpoint
 from .errors import ParameterError, StopRequested, WallTimeExceeded
 from .packing import sphere_volume
@@ -229,7 +231,7 @@ class _Driver:
 
     def __init__(self, test: UniaxialTest, progress: ProgressCallback | None,
                  on_snapshot: SnapshotCallback | None = None,
-                 snapshot_interval: float | None = None):
+                 snapshot_interval: float | None = None, backend: str | None = None):
         self.test = test
         self.progress = progress
         self.on_snapshot = on_snapshot
@@ -253,7 +255,7 @@ class _Driver:
         # kernels are compiled (or loaded from the disk cache) when a Simulation is built and
         # when its periodicity changes: that time is kept out of the run's wall time
         t0 = time.perf_counter()
-        self.sim = Simulation(scene, dt=test.dt)
+        self.sim = Simulation(scene, dt=test.dt, backend=backend)
         self.setup_time = time.perf_counter() - t0
         self.sample_steps = max(1, round(test.output_interval / self.sim.dt))
         self.max_steps = max(1, round(test.max_stage_time / self.sim.dt))
@@ -611,7 +613,8 @@ def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *
                  snapshot_interval: float | None = None,
                  checkpoint: Checkpoint | str | os.PathLike | None = None,
                  max_wall_time: float | None = None,
-                 wall_time_setting: str = "max_wall_time") -> UniaxialResult:
+                 wall_time_setting: str = "max_wall_time",
+                 backend: str | None = None) -> UniaxialResult:
     """Run the uniaxial test: fill, pre-compression, consolidation, unloading and (with
     ``test.unconfined``) release and unconfined compression.
 
@@ -634,6 +637,8 @@ def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *
             this long [s] (set-up left out; checked after every curve sample and between
             kernel calls, at least every 0.2 s); ``wall_time_setting`` names the limit in
             the message.
+        backend: ``"cpu"``, ``"cuda"`` or ``"auto"`` (see :class:`engine.Simulation`);
+            None: ``DEMSCALE_BACKEND``, else the CPU.
     Raises: :class:`StageError` when a stage misses its criterion within its bound,
         :class:`engine.InstabilityError` when the integration blows up.
     """
@@ -647,19 +652,25 @@ def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *
             and math.isfinite(max_wall_time) and max_wall_time > 0):
         raise ParameterError("run_uniaxial.max_wall_time", max_wall_time,
                              "a wall time > 0 s, or None")
+    backend = check_backend(backend, "run_uniaxial.backend")
     if checkpoint is not None and not isinstance(checkpoint, Checkpoint):
         checkpoint = Checkpoint(checkpoint)
     d = None
     if checkpoint is not None:
         t0 = time.perf_counter()
         d = checkpoint.load(test)
+        if d is not None and d.sim.backend != resolve_backend(backend, "run_uniaxial.backend"):
+            warnings.warn(f"checkpoint {checkpoint.path} was written on the {d.sim.backend} "
+                          "backend, not the one asked for; the run starts from the beginning",
+                          RuntimeWarning, stacklevel=2)
+            d = None
         if d is not None:  # loading its kernel is set-up time, as for a new Simulation
             load = time.perf_counter() - t0
             d.setup_time += load
             d.t_wall -= load  # wall_time = now - t_wall - setup_time
             d.progress, d.on_snapshot = progress, on_snapshot
     if d is None:
-        d = _Driver(test, progress, on_snapshot, snapshot_interval)
+        d = _Driver(test, progress, on_snapshot, snapshot_interval, backend)
     d.checkpoint = checkpoint
     d.max_wall_time, d.wall_time_setting = max_wall_time, wall_time_setting
     if checkpoint is not None:

@@ -186,7 +186,8 @@ class StudyExecution:
                     checkpoint_interval=self.settings.checkpoint_interval,
                     # in this process, on a pool or on a cluster alike (engine.WallTimeExceeded)
                     max_run_wall_time=self.settings.max_run_wall_time,
-                    wall_time_setting="DEMSCALE_MAX_RUN_WALL_TIME")
+                    wall_time_setting="DEMSCALE_MAX_RUN_WALL_TIME",
+                    backend=self.settings.backend)
             write_results(self.settings.results_path(self.study_id), self.study_id, result,
                           still_ours=self._still_ours)
         except engine.StopRequested:

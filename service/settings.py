@@ -15,6 +15,7 @@ import secrets
 import stat
 from functools import lru_cache
 from pathlib import Path
+from typing import Literal
 
 from pydantic import Field, SecretStr
 from pydantic_settings import BaseSettings, SettingsConfigDict
@@ -97,6 +98,9 @@ class Settings(BaseSettings):
         1, ge=0, le=256, description="Runs of a study side by side on a local process pool, "
         "one engine thread each; 1: one run at a time in the worker with the engine's own "
         "threads; 0: one per core.")
+    backend: Literal["cpu", "cuda", "auto"] = Field(
+        "cpu", description="Where the engine runs a study's runs: cpu, cuda (an NVIDIA GPU "
+        "with numba-cuda, the gpu extra) or auto (the GPU when usable, else the CPU).")
     dask_scheduler: str | None = Field(
         None, max_length=500, description="Address of a Dask scheduler (e.g. "
         "tcp://10.0.0.5:8786): runs become tasks on its cluster (needs `distributed`).")

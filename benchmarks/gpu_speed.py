@@ -1,0 +1,334 @@
+"""The CUDA backend's targets (issue 21), each against the same scene on the CPU of the same
+host, in one call:
+
+    python -m benchmarks.engine_speed --backend cuda [--deadline 480]
+    python -m benchmarks.engine_speed --backend cuda --batch 15    # target 4 alone
+
+1. particle-steps/s on a settled bed (the 2,025-particle LIGGGHTS anchor packing, periodic
+   in x and y, tiled 3x3, 8x8, 22x22 and 63x63: 18k, 130k, 980k and 8.0M particles, the
+   full bilinear law, a bottom and a moving top platen) on the GPU and on the CPU (all
+   cores; fewer steps at the large sizes);
+2. the paper-scale reference of experiment (b) (``ref-s1``, 20,626 particles) on the GPU,
+   its wall time against the target; the CPU's time for it is projected from the CPU rate
+   measured in 1 on the 18k bed (the full run on the CPU takes about 7 minutes on 16 cores);
+3. its bulk curves against the stored CPU run of the same test
+   (benchmarks/results/paper/b_cohesive/ref-s1.h5): each verdict metric's relative
+   difference against the noise floor of the three stored reference seeds;
+4. experiment (b)'s 15 runs side by side on the card (one process per run, each stored as
+   it finishes): a call of its own, ``--batch 15`` (its target alone is 15 minutes); the
+   default call reports it as not measured.
+
+Without a usable CUDA device every GPU figure is printed as "not measured" and the exit
+status is 1. No figure is ever estimated where it says measured. ``--deadline`` [s] skips
+what would start after it (reported as not measured).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numba
+import numpy as np
+
+import engine
+from benchmarks.checks import report
+
+HERE = Path(__file__).resolve().parent
+STORED_REF = HERE / "results" / "paper" / "b_cohesive"
+TILES = {"18k": 3, "130k": 8, "980k": 22, "8.0M": 63}
+#: steps timed per size (after 50 warm-up steps): GPU, CPU
+STEPS = {"18k": (4000, 400), "130k": (2000, 100), "980k": (1000, 30), "8.0M": (300, 10)}
+TARGET_RATE_1M = 5e8
+TARGET_REFERENCE_S = 120.0
+TARGET_BATCH_S = 900.0
+
+
+def cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def tiled_bed(k: int):
+    """The anchor bed tiled k x k in x and y (periodic there, so the tiles join without a
+    seam): positions [m], radii [m], box lengths [m]."""
+    from benchmarks.engine_speed import anchor_bed
+
+    pos, rad, lengths = anchor_bed()
+    shifts = np.array([(ix * lengths[0], iy * lengths[1], 0.0)
+                       for ix in range(k) for iy in range(k)])
+    big = (pos[None, :, :] + shifts[:, None, :]).reshape(-1, 3)
+    return big, np.tile(rad, k * k), np.array([k * lengths[0], k * lengths[1], lengths[2]])
+
+
+def rate(backend: str, k: int, steps: int) -> tuple[float, float, object]:
+    """Particle-steps per second over ``steps`` steps after a warm-up, and the set-up time
+    (kernel compile or load, first list build) [s]."""
+    from benchmarks.engine_speed import DT, FULL, R, scene_for
+
+    pos, rad, lengths = tiled_bed(k)
+    top = float((pos[:, 2] + rad).max()) + 0.1 * R
+    t0 = time.perf_counter()
+    sim = engine.Simulation(scene_for(pos, rad, lengths, FULL, top), dt=DT, backend=backend,
+                            threads=os.cpu_count() if backend == "cpu" else None)
+    sim.run(50)
+    _ = sim.positions  # the device has finished (a copy waits for it)
+    setup = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    sim.run(steps)
+    _ = sim.wall_forces
+    return sim.n * steps / (time.perf_counter() - t0), setup, sim
+
+
+def profile_passes(sim, reps: int = 20) -> dict[str, float]:
+    """Where a step's time goes on the device [s per call]: each pass of the four-launch
+    step timed alone (``reps`` times, synchronised; the pair pass and the particle pass in
+    force-only mode, which leave the positions as they are), a neighbour-list build, and the
+    host's cost of one launch (kernels that return at once: the control record says stop)."""
+    from numba import cuda
+
+    from engine.cuda.kernels import RED_T, THREADS
+    from engine.cuda.simulation import _blocks
+
+    sim.run(1)
+    d, dk = sim._dev, sim._dk
+    n, nchunk, forces = sim.n, len(d.cdisp), dk.cpu.FORCES
+    P, L, W, prm = d.P, d.L, d.W, d.prm
+    calls = {
+        "pair pass": lambda: dk.pair_kernel[_blocks(n), THREADS](d.ctl, P, L, prm, d.stat),
+        "particle pass": lambda: dk.particle_kernel[_blocks(n), THREADS](
+            d.ctl, forces, P, L, W, prm, d.stat, d.wpart, d.disp),
+        "chunk reductions": lambda: dk.chunk_kernel[_blocks(nchunk), THREADS](
+            d.ctl, forces, d.stat, d.wpart, d.disp, d.cstat, d.cdisp, W.acc),
+        "end of step": lambda: dk.finish_kernel[1, RED_T](
+            d.ctl, 0, 1, 0, W, prm, d.cstat, d.cdisp, W.acc, d.info),
+        "list build": sim._rebuild,
+    }
+    out = {}
+    for name, call in calls.items():
+        dk.reset_ctl[1, 1](d.ctl)
+        call()
+        cuda.synchronize()
+        t0 = time.perf_counter()
+        for _ in range(reps):
+            dk.reset_ctl[1, 1](d.ctl)
+            call()
+        cuda.synchronize()
+        out[name] = (time.perf_counter() - t0) / reps
+    d.ctl.copy_to_device(np.array([1, 0, 0, 0], dtype=np.int64))  # stopped: kernels return
+    cuda.synchronize()
+    t0 = time.perf_counter()
+    for _ in range(reps * 10):
+        calls["pair pass"]()
+    t1 = time.perf_counter()
+    cuda.synchronize()
+    out["host time of one launch (pair kernel)"] = (t1 - t0) / (reps * 10)
+    dk.reset_ctl[1, 1](d.ctl)
+    return out
+
+
+def reference_test():
+    from benchmarks.reproduce import experiments
+
+    spec = experiments("paper")["b_cohesive"]
+    return next(p.test for p in spec.planned_runs() if p.key == "ref-s1")
+
+
+def run_reference(cap_s: float):
+    """The paper-scale reference on the GPU, stopped at ``cap_s`` of wall time."""
+    t0 = time.perf_counter()
+
+    def progress(p):
+        return time.perf_counter() - t0 < cap_s
+
+    try:
+        res = engine.run_uniaxial(reference_test(), progress, backend="cuda")
+    except engine.StopRequested:
+        return None, time.perf_counter() - t0
+    return res, time.perf_counter() - t0
+
+
+def curve_check(res) -> list[tuple[str, bool | None]]:
+    """Each verdict metric of the GPU reference against the stored CPU run of the same test,
+    relative to the noise floor of the stored reference seeds."""
+    from engine.advisor import noise_floor
+    from engine.metrics import metric_names, metric_values, relative_error
+    from engine.runstore import load_run
+
+    paths = [STORED_REF / f"ref-s{s}.h5" for s in (1, 2, 3)]
+    if not all(p.exists() for p in paths):
+        return [("GPU and CPU bulk curves within the noise floor: not measured (stored CPU "
+                 "references missing)", None)]
+    refs = [load_run(p) for p in paths]
+    test = res.test
+    names = metric_names(test.unconfined)
+    floor = noise_floor([metric_values(r) for r in refs], names, test.consolidation_stress)
+    gpu, cpu = metric_values(res), metric_values(refs[0])
+    out = []
+    for n in names:
+        err = relative_error(n, gpu[n], cpu[n], test.consolidation_stress)
+        nf = floor[n]["noise"]
+        out.append((f"GPU vs CPU ref-s1 {n}: relative difference {err:.2e} <= noise floor "
+                    f"{nf:.2e}", err <= nf))
+    return out
+
+
+def run_batch(workers: int, store: Path) -> tuple[float, dict]:
+    """Experiment (b)'s planned runs (3 references, 12 coarse) side by side on the card: one
+    process per run (``workers`` at a time, one engine thread each, every one on the GPU),
+    each stored under ``store`` as it finishes. Returns the wall time [s] and the outcomes."""
+    import concurrent.futures as cf
+    import multiprocessing as mp
+
+    from benchmarks.reproduce import experiments
+    from engine.runstore import save_run
+
+    spec = experiments("paper")["b_cohesive"]
+    spec = replace(spec, decide=False)  # the 15 planned runs, no added seeds
+    store.mkdir(parents=True, exist_ok=True)
+    outcomes: dict = {}
+
+    def on_run(key, outcome) -> None:
+        outcomes[key] = outcome
+        if not isinstance(outcome, str):
+            save_run(store / f"{key}.h5", outcome, keep_particles=False)
+        print(f"  {key}: {'failed: ' + outcome if isinstance(outcome, str) else 'stored'} "
+              f"at {time.perf_counter() - t0:.0f} s", flush=True)
+
+    t0 = time.perf_counter()
+    with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
+        engine.run_study(spec, executor=pool, on_run=on_run, task_threads=1, backend="cuda")
+    return time.perf_counter() - t0, outcomes
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description="issue 21 targets of the CUDA backend")
+    ap.add_argument("--deadline", type=float, default=480.0,
+                    help="seconds after which nothing new starts [s]")
+    ap.add_argument("--sizes", default=",".join(TILES), help="bed sizes to time")
+    ap.add_argument("--batch", type=int, default=0, metavar="WORKERS",
+                    help="only experiment (b)'s 15 runs side by side on the card, WORKERS "
+                         "processes at a time (a call of its own: the target is 15 minutes)")
+    args = ap.parse_args(argv)
+    t_start = time.perf_counter()
+    from engine.backend import cuda_status
+
+    ok, device = cuda_status()
+    print(f"demscale CUDA benchmark: GPU {device}; CPU {cpu_model()}, {os.cpu_count()} "
+          f"cores, numba {numba.__version__} ({numba.config.NUMBA_NUM_THREADS} threads), "
+          f"numpy {np.__version__}")
+    if not ok or "simulator" in device:
+        why = "no CUDA device" if not ok else "the simulator is no GPU"
+        print(f"{why}: not measured ({device})")
+        return report([
+            (f"GPU >= {TARGET_RATE_1M:.0e} particle-steps/s at 1M particles: {why}: not "
+             "measured", False),
+            (f"paper-scale reference <= {TARGET_REFERENCE_S:.0f} s: {why}: not measured",
+             False),
+            (f"experiment (b)'s 15 runs <= {TARGET_BATCH_S:.0f} s: {why}: not measured",
+             False),
+            (f"GPU and CPU bulk curves within the noise floor: {why}: not measured", False),
+        ])
+    from numba import cuda
+
+    print(f"numba-cuda {getattr(cuda, '__version__', '?')}, driver/runtime "
+          f"{cuda.runtime.get_version() if hasattr(cuda, 'runtime') else '?'}", flush=True)
+
+    def late() -> bool:
+        return time.perf_counter() - t_start > args.deadline
+
+    if args.batch:
+        wall, outcomes = run_batch(args.batch, HERE / "results" / "gpu" / "b_cohesive")
+        failed = [k for k, v in outcomes.items() if isinstance(v, str)]
+        return report([(f"experiment (b)'s {len(outcomes)} runs side by side on the card "
+                        f"({args.batch} processes) <= {TARGET_BATCH_S:.0f} s: {wall:.0f} s"
+                        f"{', failed: ' + ', '.join(failed) if failed else ''}",
+                        wall <= TARGET_BATCH_S and not failed)])
+
+    checks: list[tuple[str, bool | None]] = []
+    rates: dict[tuple[str, str], float] = {}
+    print("\n| bed | particles | backend | particle-steps/s | set-up [s] | steps |")
+    print("|---|---:|---|---:|---:|---:|")
+
+    def measure(sizes) -> None:
+        for name in sizes:
+            for backend, steps in zip(("cuda", "cpu"), STEPS[name]):
+                if late():
+                    print(f"| {name} | | {backend} | not measured (deadline) | | |")
+                    continue
+                try:
+                    r, setup, sim = rate(backend, TILES[name], steps)
+                except Exception as e:  # e.g. out of device memory: reported, go on
+                    print(f"| {name} | | {backend} | failed: {type(e).__name__}: {e} | | |")
+                    continue
+                rates[name, backend] = r
+                print(f"| {name} | {sim.n} | {backend} | {r:.3e} | {setup:.1f} | {steps} |",
+                      flush=True)
+                del sim
+
+    sizes = args.sizes.split(",")
+    measure([s for s in sizes if s != "8.0M"])  # 8M last: after the reference
+    g1 = rates.get(("980k", "cuda"))
+    checks.append((f"GPU >= {TARGET_RATE_1M:.0e} particle-steps/s at 1M particles (980k "
+                   f"bed): {g1:.3e}" if g1 else "GPU rate at 1M: not measured",
+                   (g1 >= TARGET_RATE_1M) if g1 else False))
+
+    if late():
+        checks.append(("paper-scale reference: not measured (deadline)", False))
+        checks.append(("GPU and CPU bulk curves: not measured (deadline)", False))
+    else:
+        cap = max(60.0, args.deadline - (time.perf_counter() - t_start))
+        res, wall = run_reference(cap)
+        ref = reference_test()
+        if res is None:
+            checks.append((f"paper-scale reference <= {TARGET_REFERENCE_S:.0f} s: stopped "
+                           f"unfinished after {wall:.0f} s", False))
+            checks.append(("GPU and CPU bulk curves: not measured (reference unfinished)",
+                           False))
+        else:
+            s = res.scalars
+            c18 = rates.get(("18k", "cpu"))
+            proj = (f"; CPU of this host projected from its 18k rate: "
+                    f"{s['particle_steps'] / c18:.0f} s" if c18 else "")
+            print(f"\npaper-scale reference {ref.n_particles} particles, {s['steps']:.0f} "
+                  f"steps: GPU wall time {s['wall_time']:.1f} s (set-up {s['setup_time']:.1f}"
+                  f" s, {wall:.1f} s in all){proj}")
+            checks.append((f"paper-scale reference <= {TARGET_REFERENCE_S:.0f} s on the GPU: "
+                           f"{s['wall_time']:.1f} s", s["wall_time"] <= TARGET_REFERENCE_S))
+            checks += curve_check(res)
+    if "8.0M" in sizes:
+        measure(["8.0M"])
+    if not late():  # the closing note's profile: the 980k bed, one launch per pass
+        from benchmarks.engine_speed import DT, FULL, R, scene_for
+
+        os.environ["DEMSCALE_CUDA_LAUNCH"] = "passes"
+        try:
+            pos, rad, lengths = tiled_bed(TILES["980k"])
+            top = float((pos[:, 2] + rad).max()) + 0.1 * R
+            sim = engine.Simulation(scene_for(pos, rad, lengths, FULL, top), dt=DT,
+                                    backend="cuda")
+            print(f"\nprofile, {sim.n} particles, one launch per pass [ms per call]:")
+            for what, sec in profile_passes(sim).items():
+                print(f"  {what}: {sec * 1e3:.3f} ms")
+            del sim
+        except Exception as e:
+            print(f"profile failed: {type(e).__name__}: {e}")
+        finally:
+            os.environ.pop("DEMSCALE_CUDA_LAUNCH", None)
+    for name in TILES:
+        g, c = rates.get((name, "cuda")), rates.get((name, "cpu"))
+        if g and c:
+            print(f"  {name}: GPU {g:.3e} / CPU {c:.3e} particle-steps/s = {g / c:.1f}x")
+    checks.append((f"experiment (b)'s 15 runs side by side <= {TARGET_BATCH_S:.0f} s: not "
+                   "measured in this call (a call of its own: --batch 15)", False))
+    print(f"\nelapsed {time.perf_counter() - t_start:.0f} s")
+    return report([(w, bool(o)) for w, o in checks])

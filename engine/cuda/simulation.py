@@ -1,0 +1,432 @@
+"""The :class:`engine.Simulation` on an NVIDIA GPU (numba-cuda): ``Simulation(scene,
+backend="cuda")`` returns a :class:`CudaSimulation`.
+
+It is the CPU class with three things done on the device instead: the kernel calls of
+:meth:`Simulation.run` (the same loop: bounded calls, rebuilds, pauses, instabilities), the
+neighbour-list build (cell sort, counts, scans, the sorted half list with its history carried
+over, the reverse list) and the force evaluation. The state lives on the device; the host
+arrays of the CPU class are refreshed from it only when something reads them (an accessor,
+:meth:`contacts`, a change between runs), per group (particles, walls, list). A change
+between runs (``set_*``) is made by the CPU class on the refreshed host arrays and then sent
+to the device whole. Inside :meth:`run` only the control record of a call (32 bytes) crosses:
+after a batch of queued steps, and after a rebuild the entry count (8 bytes) to size the list.
+
+Same trajectory as the CPU engine up to rounding order: the per-particle work is the CPU's own
+code (:mod:`engine.cuda.device`), gathered in the CPU's order; the only sums in another order
+are the wall forces over chunks (a fixed tree): run twice on one card, bit-identical.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from types import SimpleNamespace
+
+import numpy as np
+from numba import cuda
+
+from ..simulation import Simulation
+from ..step_common import OK, PAUSE, NeighbourList, Particles, StepParams, Walls
+from . import _sources as src
+from .device import SIMULATOR
+from .kernels import RED_T, SCAN_SEG, SCAN_T, THREADS, search_kernels, step_kernels
+
+#: First and largest number of steps queued before the control record is read.
+_FIRST_BATCH = 16
+_MAX_BATCH = 256
+_GROUPS = ("particles", "walls", "list")
+#: Most steps of one launch of the cooperative kernel (the control record is read between)
+_STEPS_PER_LAUNCH = 1024
+log = logging.getLogger("engine.cuda")
+
+
+def _blocks(count: int, threads: int = THREADS) -> int:
+    return max(1, -(-int(count) // threads))
+
+
+class CudaSimulation(Simulation):
+    """A :class:`engine.Simulation` whose state and kernels are on the GPU (see the module
+    docstring); made by ``Simulation(..., backend="cuda")``. Same arguments and methods."""
+
+    backend = "cuda"
+    _dev: SimpleNamespace | None = None
+    _dk: SimpleNamespace | None = None
+    _dirty = False  # host arrays changed by a set_* method: send them before device work
+
+    # ------------------------------------------------------------------ device state
+    def _load(self, features: dict[str, bool]) -> None:
+        super()._load(features)
+        self._dk = step_kernels(features)
+        if self._dev is not None:  # new kernels (set_periodic): choose their launch again
+            self._dev.persistent = None
+            self._dev.steps_launch = None
+
+    def _ensure_device(self) -> None:
+        if self._dk is None:
+            self._dk = step_kernels(self._features)
+        if self._dev is None:
+            self._init_device()
+        elif self._dirty:
+            self._push_all()
+        self._dirty = False
+
+    def _init_device(self) -> None:
+        n = self.n
+        k = self._k
+        p = self._particles
+        nw = len(self._walls.point)
+        nchunk = -(-n // k.CHUNK)
+        maxc = 4 * n + 64  # the CPU build's bound on cells
+        d = SimpleNamespace()
+        d.stale = set()
+        d.ctl = cuda.to_device(np.zeros(4, dtype=np.int64))
+        d.ctl_host = np.zeros(4, dtype=np.int64)
+        d.info = cuda.to_device(np.zeros(3))
+        d.stat = cuda.to_device(np.zeros((n, 4)))
+        d.wpart = cuda.to_device(np.zeros((n, nw, 3)))
+        d.cstat = cuda.to_device(np.zeros((nchunk, 4)))
+        d.cdisp = cuda.to_device(np.zeros(nchunk))
+        d.disp = cuda.to_device(np.zeros(n))
+        d.maxc = maxc
+        d.cut = 2.0 * float(p.rad.max()) + self.skin
+        d.bounds = cuda.to_device(np.zeros((3, 2)))
+        d.grid = cuda.to_device(np.zeros((2, 3)))
+        d.ncell = cuda.to_device(np.ones(3, dtype=np.int64))
+        d.cell3 = cuda.to_device(np.zeros((n, 3), dtype=np.int64))
+        d.key = cuda.to_device(np.zeros(n, dtype=np.int64))
+        d.cell_count = cuda.to_device(np.zeros(maxc, dtype=np.int64))
+        d.cell_start = cuda.to_device(np.zeros(maxc + 1, dtype=np.int64))
+        d.cell_fill = cuda.to_device(np.zeros(maxc, dtype=np.int64))
+        d.cell_list = cuda.to_device(np.zeros(n, dtype=np.int64))
+        d.cnt = cuda.to_device(np.zeros(n, dtype=np.int64))
+        d.new_start = cuda.to_device(np.zeros(n + 1, dtype=np.int64))
+        d.rev_count = cuda.to_device(np.zeros(n, dtype=np.int64))
+        d.rev_fill = cuda.to_device(np.zeros(n, dtype=np.int64))
+        d.none = cuda.to_device(np.zeros(0, dtype=np.int32))
+        d.total_host = np.zeros(1, dtype=np.int64)
+        d.scan_bufs = {}
+        d.batch = _FIRST_BATCH
+        d.persistent = None  # decided at the first call (_choose_launch)
+        d.steps_launch = None  # the steps kernel specialised to the state's types
+        self._dev = d
+        self._push_all()
+
+    def _push_all(self) -> None:
+        """Send every host array to the device (after construction or a set_* change)."""
+        d = self._dev
+        p = self._particles
+        d.P = Particles(*(cuda.to_device(np.ascontiguousarray(a)) for a in p))
+        w = self._walls
+        cacc = np.zeros((len(d.cdisp), len(w.point), 3))
+        d.W = Walls(point=cuda.to_device(w.point), normal=cuda.to_device(w.normal),
+                    vel=cuda.to_device(w.vel), hist=cuda.to_device(w.hist),
+                    force=cuda.to_device(w.force), acc=cuda.to_device(cacc))
+        prm = self._params
+        d.prm = StepParams(pair=cuda.to_device(prm.pair), wall=cuda.to_device(prm.wall),
+                           gravity=cuda.to_device(prm.gravity),
+                           length=cuda.to_device(prm.length), dt=float(prm.dt),
+                           skin=float(prm.skin), max_overlap=float(prm.max_overlap),
+                           max_step=float(prm.max_step))
+        d.lo = cuda.to_device(self._lo)
+        d.periodic = cuda.to_device(self._periodic.astype(np.bool_))
+        d.images = cuda.to_device(self._images)
+        lst = self._list
+        cap = max(16, len(lst.j))
+        j = np.zeros(cap, dtype=np.int32)
+        entry = np.zeros((cap, self._k.N_SLOT))
+        rev_k = np.zeros(cap, dtype=np.int32)
+        m = len(lst.j)
+        j[:m] = lst.j
+        entry[:m] = lst.entry[:, : self._k.N_SLOT]
+        rev_k[:m] = lst.rev_k
+        d.L = NeighbourList(start=cuda.to_device(lst.start), j=cuda.to_device(j),
+                            entry=cuda.to_device(entry), rev_start=cuda.to_device(lst.rev_start),
+                            rev_k=cuda.to_device(rev_k))
+        d.new_j = cuda.to_device(np.zeros(cap, dtype=np.int32))
+        d.new_entry = cuda.to_device(np.zeros((cap, self._k.N_SLOT)))
+        d.stale = set()
+
+    def _pull(self, *groups: str) -> None:
+        """Refresh the host arrays of ``groups`` from the device where the device is newer."""
+        d = self._dev
+        if d is None:
+            return
+        for g in groups:
+            if g not in d.stale:
+                continue
+            if g == "particles":
+                for host, dev in zip(self._particles, d.P):
+                    dev.copy_to_host(host)
+                d.images.copy_to_host(self._images)
+            elif g == "walls":
+                w = self._walls
+                for name in ("point", "vel", "hist", "force"):
+                    getattr(d.W, name).copy_to_host(getattr(w, name))
+            else:
+                self._list = NeighbourList(*(a.copy_to_host() for a in d.L))
+            d.stale.discard(g)
+
+    def _pull_all(self) -> None:
+        self._pull(*_GROUPS)
+
+    def _host_edit(self, method, *args):
+        """A set_* change: made by the CPU class on fresh host arrays, then sent whole."""
+        self._pull_all()
+        self._dirty = True
+        try:
+            return method(self, *args)
+        finally:
+            if self._dirty and self._dev is not None:
+                self._push_all()
+            self._dirty = False
+
+    # ------------------------------------------------------------------ kernel calls
+    def _call(self, nsteps: int, phase: int = 0) -> tuple[int, int]:
+        return self._call_kernel(nsteps, phase, 1)
+
+    def _read_ctl(self) -> np.ndarray:
+        d = self._dev
+        d.ctl.copy_to_host(d.ctl_host)
+        return d.ctl_host
+
+    def _call_kernel(self, nsteps: int, phase: int, team: int) -> tuple[int, int]:
+        self._ensure_device()
+        d, dk = self._dev, self._dk
+        mod = dk.cpu
+        n = self.n
+        nchunk = len(d.cdisp)
+        pair = dk.pair_kernel[_blocks(n), THREADS]
+        particle = dk.particle_kernel[_blocks(n), THREADS]
+        chunk = dk.chunk_kernel[_blocks(nchunk), THREADS]
+        finish = dk.finish_kernel[1, RED_T]
+        P, L, W, prm = d.P, d.L, d.W, d.prm
+        d.stale.update(_GROUPS)  # entries hold the contact history and the stored forces
+        dk.reset_ctl[1, 1](d.ctl)
+        if d.persistent is None:
+            self._choose_launch()
+        if d.persistent:
+            return self._call_persistent(nsteps, phase)
+
+        def step(s: int, mode: int) -> None:
+            pair(d.ctl, P, L, prm, d.stat)
+            particle(d.ctl, mode, P, L, W, prm, d.stat, d.wpart, d.disp)
+            chunk(d.ctl, mode, d.stat, d.wpart, d.disp, d.cstat, d.cdisp, W.acc)
+            finish(d.ctl, s, nsteps, 0, W, prm, d.cstat, d.cdisp, W.acc, d.info)
+
+        if nsteps == 0:
+            step(0, mod.FORCES)
+            ctl = self._read_ctl()
+        else:
+            if phase == 0:
+                particle(d.ctl, mod.OPEN, P, L, W, prm, d.stat, d.wpart, d.disp)
+                chunk(d.ctl, mod.OPEN, d.stat, d.wpart, d.disp, d.cstat, d.cdisp, W.acc)
+                finish(d.ctl, 0, nsteps, 1, W, prm, d.cstat, d.cdisp, W.acc, d.info)
+            todo = min(int(nsteps), int(self._pause))
+            s = 0
+            ctl = None
+            while s < todo:
+                end = min(todo, s + d.batch)
+                while s < end:
+                    step(s, mod.STEP if s < nsteps - 1 else mod.CLOSE)
+                    s += 1
+                ctl = self._read_ctl()
+                if ctl[src.CTL_STOP]:
+                    break
+                d.batch = min(2 * d.batch, _MAX_BATCH)
+            if ctl is None:
+                ctl = self._read_ctl()
+        return self._outcome(ctl)
+
+    def _outcome(self, ctl) -> tuple[int, int]:
+        d = self._dev
+        mod = self._dk.cpu
+        if not ctl[src.CTL_STOP]:
+            return int(ctl[src.CTL_STEPS]), PAUSE
+        steps, status = int(ctl[src.CTL_STEPS]), int(ctl[src.CTL_STATUS])
+        if status != OK and status != mod.REBUILD:
+            d.info.copy_to_host(self._scratch.info)
+        if status == mod.REBUILD:
+            # queue about half the steps a list lasted, so that few queued steps are idle
+            d.batch = max(4, min(_MAX_BATCH, steps // 2))
+        return steps, status
+
+    def _steps_args(self) -> tuple:
+        d = self._dev
+        return (d.P, d.L, d.W, d.prm, d.stat, d.wpart, d.disp, d.cstat, d.cdisp, d.W.acc,
+                d.info)
+
+    def _choose_launch(self) -> None:
+        """One launch per batch of steps (cooperative grid, ``steps_kernel``) unless
+        ``DEMSCALE_CUDA_LAUNCH=passes`` or the device cannot run it: then four launches a
+        step. The grid: as many resident blocks of ``RED_T`` threads as the particles fill,
+        at most what the device keeps resident at once (a grid barrier needs all)."""
+        d = self._dev
+        d.persistent = os.environ.get("DEMSCALE_CUDA_LAUNCH", "persistent") != "passes"
+        if not d.persistent:
+            return
+        want = _blocks(self.n, RED_T)
+        if SIMULATOR:
+            d.coop_blocks = 1  # the simulator runs cooperative grids of one block
+            return
+        try:
+            args = (d.ctl, 0, 1, 1, 0, *self._steps_args())
+            spec = self._dk.steps_kernel.specialize(*args)
+            kern = next(iter(spec.overloads.values()))
+            d.coop_blocks = max(1, min(want, int(kern.max_cooperative_grid_blocks(RED_T))))
+            d.steps_launch = spec
+        except Exception as e:  # no cooperative launch here: the four-launch step
+            log.warning("CUDA: cooperative launch unavailable (%s: %s), one launch per pass",
+                        type(e).__name__, e)
+            d.persistent = False
+
+    def _call_persistent(self, nsteps: int, phase: int) -> tuple[int, int]:
+        d = self._dev
+        kernel = d.steps_launch or self._dk.steps_kernel
+        launch = kernel[d.coop_blocks, RED_T]
+        tail = self._steps_args()
+        if nsteps == 0:
+            launch(d.ctl, 0, 1, 0, 0, *tail)
+            return self._outcome(self._read_ctl())
+        todo = min(int(nsteps), int(self._pause))
+        s = 0
+        opening = 1 if phase == 0 else 0
+        ctl = None
+        while s < todo or opening:
+            end = min(todo, s + _STEPS_PER_LAUNCH)
+            launch(d.ctl, s, end, int(nsteps), opening, *tail)
+            opening = 0
+            s = end
+            ctl = self._read_ctl()
+            if ctl[src.CTL_STOP]:
+                break
+        return self._outcome(ctl)
+
+    # ------------------------------------------------------------------ neighbour list
+    def _scan(self, src_arr, n: int, dst) -> None:
+        """Exclusive prefix sum: ``dst[0] = 0``, ``dst[k + 1] = sum(src[:k + 1])`` (int64)."""
+        d = self._dev
+        sk = search_kernels()
+        per = SCAN_T * SCAN_SEG
+        nb = max(1, -(-int(n) // per))
+        bufs = d.scan_bufs.get(n)
+        if bufs is None:
+            bufs = d.scan_bufs[n] = (cuda.to_device(np.zeros(nb, dtype=np.int64)),
+                                     cuda.to_device(np.zeros(nb + 1, dtype=np.int64)))
+        sums, offs = bufs
+        sk.scan_block_kernel[nb, SCAN_T](src_arr, n, dst, sums)
+        if nb > 1:
+            self._scan(sums, nb, offs)
+            sk.scan_add_kernel[_blocks(n), THREADS](n, dst, offs)
+
+    def _rebuild(self) -> None:
+        self._ensure_device()
+        d = self._dev
+        sk = search_kernels()
+        n = self.n
+        P, L = d.P, d.L
+        nb = _blocks(n)
+        if self._periodic.any():
+            sk.wrap_kernel[nb, THREADS](P.pos, d.lo, d.prm.length, d.periodic, d.images)
+        if not self._periodic.all():
+            sk.bounds_kernel[1, RED_T](P.pos, d.bounds)
+        sk.grid_kernel[1, 1](d.bounds, d.lo, d.prm.length, d.periodic, d.cut, d.maxc, d.grid,
+                             d.ncell)
+        sk.zero_kernel[_blocks(d.maxc), THREADS](d.cell_count)
+        sk.zero_kernel[_blocks(d.maxc), THREADS](d.cell_fill)
+        sk.cell_kernel[nb, THREADS](P.pos, d.grid, d.ncell, d.cell3, d.key, d.cell_count)
+        self._scan(d.cell_count, d.maxc, d.cell_start)
+        sk.cell_fill_kernel[nb, THREADS](d.key, d.cell_start, d.cell_fill, d.cell_list)
+        args = (P.pos, P.rad, float(self.skin), d.cell3, d.ncell, d.cell_start, d.cell_list,
+                d.periodic, d.prm.length)
+        sk.count_kernel[nb, THREADS](*args, d.cnt, d.none)
+        self._scan(d.cnt, n, d.new_start)
+        d.new_start[n:].copy_to_host(d.total_host)  # the one read of a build: its size
+        total = int(d.total_host[0])
+        cap = len(d.new_j)
+        if total > cap:
+            cap = int(total * 1.25) + 16
+            d.new_j = cuda.to_device(np.zeros(cap, dtype=np.int32))
+            d.new_entry = cuda.to_device(np.zeros((cap, self._k.N_SLOT)))
+        sk.list_kernel[nb, THREADS](*args, d.new_start, d.new_j, d.new_entry, L.start, L.j,
+                                    L.entry, self._k.N_HIST)
+        if cap > len(L.j):
+            L = d.L = L._replace(j=cuda.to_device(np.zeros(cap, dtype=np.int32)),
+                                 entry=cuda.to_device(np.zeros((cap, self._k.N_SLOT))),
+                                 rev_k=cuda.to_device(np.zeros(cap, dtype=np.int32)))
+        sk.zero_kernel[nb, THREADS](d.rev_count)
+        sk.zero_kernel[nb, THREADS](d.rev_fill)
+        sk.commit_kernel[_blocks(max(total, n + 1)), THREADS](
+            total, d.new_start, d.new_j, d.new_entry, L.start, L.j, L.entry, d.rev_count)
+        self._scan(d.rev_count, n, L.rev_start)
+        sk.rev_fill_kernel[_blocks(max(total, 1)), THREADS](total, L.j, L.rev_start,
+                                                            d.rev_fill, L.rev_k)
+        sk.rev_sort_kernel[nb, THREADS](L.rev_start, L.rev_k, P.pos, P.pos_build)
+        d.stale.update(_GROUPS)
+        self._n_entries = total
+        self._n_rebuilds += 1
+
+    # ------------------------------------------------------------------ host side
+    def set_wall_velocity(self, index: int, velocity) -> None:
+        return self._host_edit(Simulation.set_wall_velocity, index, velocity)
+
+    def set_wall_position(self, index: int, point) -> None:
+        return self._host_edit(Simulation.set_wall_position, index, point)
+
+    def set_velocities(self, velocities=None, angular_velocities=None) -> None:
+        return self._host_edit(Simulation.set_velocities, velocities, angular_velocities)
+
+    def set_positions(self, positions) -> None:
+        return self._host_edit(Simulation.set_positions, positions)
+
+    def set_periodic(self, periodic) -> None:
+        return self._host_edit(Simulation.set_periodic, periodic)
+
+    def __getstate__(self):
+        self._pull_all()
+        base = getattr(super(), "__getstate__", None)
+        state = base() if base is not None else self.__dict__.copy()
+        if isinstance(state, dict):
+            state = {k: v for k, v in state.items() if k not in ("_dev", "_dk", "_dirty")}
+        return state
+
+    def __setstate__(self, state) -> None:
+        base = getattr(super(), "__setstate__", None)
+        if base is not None:
+            base(state)
+        else:
+            self.__dict__.update(state)
+        self._dev = None  # sent to the device again at the next device call
+        self._dk = None
+
+
+def _pulling_property(name: str, *groups: str) -> property:
+    prop = getattr(Simulation, name)
+
+    def get(self):
+        self._pull(*groups)
+        return prop.fget(self)
+
+    return property(get, doc=prop.__doc__)
+
+
+def _pulling_method(name: str, *groups: str):
+    method = getattr(Simulation, name)
+
+    def call(self, *args, **kwargs):
+        self._pull(*groups)
+        return method(self, *args, **kwargs)
+
+    call.__name__ = name
+    call.__doc__ = method.__doc__
+    return call
+
+
+for _name in ("positions", "unwrapped_positions", "velocities", "angular_velocities",
+              "forces"):
+    setattr(CudaSimulation, _name, _pulling_property(_name, "particles"))
+for _name in ("wall_forces", "wall_positions", "wall_velocities"):
+    setattr(CudaSimulation, _name, _pulling_property(_name, "walls"))
+CudaSimulation.kinetic_energy = _pulling_method("kinetic_energy", "particles")
+for _name in ("n_contacts", "contact_counts", "contacts", "memory_bytes"):
+    setattr(CudaSimulation, _name, _pulling_method(_name, *_GROUPS))
+del _name

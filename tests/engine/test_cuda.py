@@ -1,0 +1,179 @@
+"""The CUDA backend (engine.cuda) against the CPU kernel, under numba-cuda's simulator.
+
+The simulator must be switched on before numba.cuda is first imported, so every case runs in
+a process of its own (``python -m tests.engine.cuda_cases CASE`` with
+``NUMBA_ENABLE_CUDASIM=1``): this process, and the CPU tests beside it under ``pytest -n``,
+never import numba.cuda. Tiny scenes, tens of steps; see tests/engine/cuda_cases.py.
+Skipped, with the reason, when numba-cuda (the ``gpu`` extra) is not installed.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+HAS_NUMBA_CUDA = importlib.util.find_spec("numba_cuda") is not None
+needs_numba_cuda = pytest.mark.skipif(
+    not HAS_NUMBA_CUDA, reason="numba-cuda is not installed (pip install 'demscale[gpu]')")
+#: the tolerance of issue 21: float64, relative to each quantity's largest magnitude
+REL = 1e-12
+
+
+def _python(code_or_args: list[str], simulator: bool, timeout: float = 240.0,
+            extra_env: dict | None = None) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env.pop("NUMBA_ENABLE_CUDASIM", None)
+    env.pop("DEMSCALE_BACKEND", None)
+    if simulator:
+        env["NUMBA_ENABLE_CUDASIM"] = "1"
+    env.update(extra_env or {})
+    return subprocess.run([sys.executable, *code_or_args], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def _case(name: str, launch: str = "persistent") -> dict:
+    proc = _python(["-m", "tests.engine.cuda_cases", name], simulator=True,
+                   extra_env={"DEMSCALE_CUDA_LAUNCH": launch})
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+DIFFERENTIAL = {
+    # case: features it must have exercised
+    "bilinear-walls": ("adhesion", "plastic", "friction", "rolling", "walls", "wall_friction"),
+    "periodic-rebuilds": ("periodic_x", "periodic_y", "periodic_z"),
+    "eepa": ("eepa", "adhesion", "walls", "periodic_x"),
+    "eepa-normal-cap": ("eepa", "normal_cap", "walls"),
+    "hertz-open-box": ("pair_hertz", "friction", "rolling", "walls"),
+}
+
+
+#: every case in the one-launch-per-batch (cooperative) kernel; one also in the kernel per pass
+CASES = [(name, "persistent") for name in DIFFERENTIAL] + [("bilinear-walls", "passes")]
+
+
+@needs_numba_cuda
+@pytest.mark.parametrize(("name", "launch"), CASES)
+def test_cuda_kernels_follow_the_cpu_kernel(name, launch):
+    r = _case(name, launch)
+    assert r["launch"] == launch
+    for quantity, rel in r["rel"].items():
+        assert rel <= REL, (quantity, rel, r)
+    assert r["contacts"] > 20, r  # the contact law was exercised, not just free flight
+    for f in DIFFERENTIAL[name]:
+        assert f in r["features"] or name == "bilinear-walls", (f, r["features"])
+    if name in ("bilinear-walls", "eepa", "eepa-normal-cap", "hertz-open-box"):
+        assert r["wall_contacts"] > 0, r
+    # the device builds the list as often as the CPU does, from the same positions
+    assert r["rebuilds"][0] == r["rebuilds"][1] or name != "periodic-rebuilds", r
+    if name in ("periodic-rebuilds", "hertz-open-box"):
+        assert r["rebuilds"][1] >= 2, r
+    if name == "periodic-rebuilds":
+        assert r["n_entries"][0] == r["n_entries"][1] > 0
+
+
+@needs_numba_cuda
+def test_cuda_run_twice_is_bit_identical():
+    r = _case("determinism")
+    assert r["bit_identical_twice"] and r["launch"] == "persistent", r
+    assert r["rebuilds"][0] == r["rebuilds"][1] >= 2, r
+
+
+@needs_numba_cuda
+def test_cuda_reports_the_instability_the_cpu_reports():
+    r = _case("instability")
+    assert r["errors"][0] is not None and r["errors"][0][0] == "speed", r
+    assert r["errors"][1] == r["errors"][0], r
+
+
+def test_backend_names_are_checked():
+    import engine
+    from engine.backend import check_backend, resolve_backend
+
+    assert resolve_backend("cpu") == "cpu"
+    assert check_backend(" CUDA ") == "cuda"
+    with pytest.raises(engine.ParameterError, match="Simulation.backend"):
+        resolve_backend("gpu")
+    with pytest.raises(engine.ParameterError, match="DEMSCALE_BACKEND"):
+        os.environ["DEMSCALE_BACKEND"] = "tpu"
+        try:
+            resolve_backend(None)
+        finally:
+            del os.environ["DEMSCALE_BACKEND"]
+
+
+def test_backend_is_checked_where_it_is_given():
+    import engine
+    from demscale.cli import parser as build_parser
+
+    test = engine.preset("quick")
+    with pytest.raises(engine.ParameterError, match="run_uniaxial.backend"):
+        engine.run_uniaxial(test, backend="gpu")
+    spec = engine.default_study()
+    with pytest.raises(engine.ParameterError, match="run_study.backend"):
+        engine.run_study(spec, backend="tpu")  # refused before any run starts
+    args = build_parser().parse_args(["study", "s.json", "--out", "o", "--backend", "cuda"])
+    assert args.backend == "cuda"
+    assert build_parser().parse_args(["run", "t.json", "--out", "o"]).backend is None
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["run", "t.json", "--out", "o", "--backend", "gpu"])
+
+
+def test_service_setting_names_the_backend(monkeypatch):
+    pydantic = pytest.importorskip("pydantic")
+    from service.settings import Settings
+
+    monkeypatch.setenv("DEMSCALE_BACKEND", "auto")
+    assert Settings().backend == "auto"
+    monkeypatch.setenv("DEMSCALE_BACKEND", "gpu")
+    with pytest.raises(pydantic.ValidationError, match="backend"):
+        Settings()
+
+
+BLOCK_NUMBA_CUDA = """
+import sys, importlib.abc
+class Block(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path=None, target=None):
+        if name == 'numba.cuda' or name.startswith('numba.cuda.') or name == 'numba_cuda':
+            raise ImportError('blocked: no numba-cuda here')
+sys.meta_path.insert(0, Block())
+"""
+
+WITHOUT_GPU = BLOCK_NUMBA_CUDA + """
+import numpy as np, engine
+sc = engine.Scene(np.array([[0.01, 0.01, 0.01], [0.02, 0.01, 0.01]]), np.full(2, 2.5e-3),
+                  2000.0, box=[(0, 0.03)] * 3, pair_law=engine.BilinearAdhesive(k1=5e3, k2=5e3))
+sim = engine.Simulation(sc, dt=1e-5, backend="auto")
+sim.run(3)
+print("auto:", sim.backend, type(sim).__name__)
+try:
+    engine.Simulation(sc, dt=1e-5, backend="cuda")
+except engine.ParameterError as e:
+    print("cuda:", e.field, "|", e)
+print("imported:", sorted(m for m in sys.modules if m.startswith('numba.cuda')))
+"""
+
+
+def test_without_numba_cuda_auto_takes_the_cpu_and_cuda_names_the_field():
+    proc = _python(["-c", WITHOUT_GPU], simulator=False, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    out = proc.stdout
+    assert "auto: cpu Simulation" in out
+    assert "cuda: Simulation.backend |" in out and "numba-cuda is not installed" in out
+    assert "imported: []" in out
+
+
+@needs_numba_cuda
+def test_import_engine_does_not_import_numba_cuda():
+    code = ("import sys, engine, engine.study, engine.uniaxial; "
+            "print(sorted(m for m in sys.modules if m.startswith('numba.cuda')))")
+    proc = _python(["-c", code], simulator=False)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert proc.stdout.strip() == "[]"

@@ -49,17 +49,32 @@ def baseline_cost(rev: str, steps: int, repeats: int) -> float:
     """CPU ns per particle-step of the bilinear law on the engine at git revision ``rev``."""
     with tempfile.TemporaryDirectory() as tmp:
         tree = Path(tmp) / "baseline"
-        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree), rev],
-                       check=True, capture_output=True)
+        subprocess.run(
+            ["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree), rev],
+            check=True,
+            capture_output=True,
+        )
         try:
-            env = {**os.environ, "DEMSCALE_CACHE_DIR": str(Path(tmp) / "cache"),
-                   "PYTHONPATH": str(tree)}
-            out = subprocess.run([sys.executable, "-c", _CHILD, str(steps), str(repeats)],
-                                 cwd=tree, env=env, check=True, capture_output=True, text=True)
+            env = {
+                **os.environ,
+                "DEMSCALE_CACHE_DIR": str(Path(tmp) / "cache"),
+                "PYTHONPATH": str(tree),
+            }
+            out = subprocess.run(
+                [sys.executable, "-c", _CHILD, str(steps), str(repeats)],
+                cwd=tree,
+                env=env,
+                check=True,
+                capture_output=True,
+                text=True,
+            )
             return float(json.loads(out.stdout.strip().splitlines()[-1]))
         finally:
-            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tree)],
-                           check=False, capture_output=True)
+            subprocess.run(
+                ["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tree)],
+                check=False,
+                capture_output=True,
+            )
 
 
 def main(argv=None) -> int:
@@ -69,31 +84,42 @@ def main(argv=None) -> int:
     ap.add_argument("--baseline", default=BASELINE, help="git revision of the baseline engine")
     args = ap.parse_args(argv)
     pos, rad, lengths = anchor_bed()
-    fields = {k: getattr(FULL, k) for k in ("k1", "k2", "f0", "kadh", "kt_ratio", "mu_s",
-                                            "mu_r", "restitution")}
+    fields = {
+        k: getattr(FULL, k)
+        for k in ("k1", "k2", "f0", "kadh", "kt_ratio", "mu_s", "mu_r", "restitution")
+    }
     laws = {
         "bilinear": FULL,
         "EEPA n=1": engine.EEPA(n=1.0, chi=1.0, **fields),
         "EEPA n=1.5": engine.EEPA(**{**fields, "k1": 5e5, "k2": 2.5e6, "n": 1.5, "chi": 1.5}),
     }
-    print(f"anchor bed: {len(rad)} particles, {args.steps} steps x {args.repeats} repeats, "
-          "1 thread")
+    print(
+        f"anchor bed: {len(rad)} particles, {args.steps} steps x {args.repeats} repeats, 1 thread"
+    )
     for _, law in laws.items():  # compile every kernel before timing any
         time_run(pos, rad, lengths, law, 1, 10, 1)
     base = baseline_cost(args.baseline, args.steps, args.repeats)
     cost = {}
     for name, law in laws.items():
         _, cost[name], sim = time_run(pos, rad, lengths, law, 1, args.steps, args.repeats)
-        print(f"  {name:12s} {cost[name]:7.1f} ns CPU per particle-step "
-              f"({len(sim.contacts().pairs)} contacts at the end)")
-    print(f"  {'baseline':12s} {base:7.1f} ns CPU per particle-step (bilinear on "
-          f"{args.baseline})")
+        print(
+            f"  {name:12s} {cost[name]:7.1f} ns CPU per particle-step "
+            f"({len(sim.contacts().pairs)} contacts at the end)"
+        )
+    print(f"  {'baseline':12s} {base:7.1f} ns CPU per particle-step (bilinear on {args.baseline})")
     lin = cost["bilinear"] / base
     print(f"\nbilinear, this engine / baseline: {lin:.3f}")
     print(f"EEPA n=1 / bilinear: {cost['EEPA n=1'] / cost['bilinear']:.3f}")
     print(f"EEPA n=1.5 / bilinear: {cost['EEPA n=1.5'] / cost['bilinear']:.3f}")
-    return report([(f"a linear scene costs what it did before the EEPA law (ratio {lin:.3f}, "
-                    f"within {LINEAR_TOLERANCE:.0%})", abs(lin - 1) <= LINEAR_TOLERANCE)])
+    return report(
+        [
+            (
+                f"a linear scene costs what it did before the EEPA law (ratio {lin:.3f}, "
+                f"within {LINEAR_TOLERANCE:.0%})",
+                abs(lin - 1) <= LINEAR_TOLERANCE,
+            )
+        ]
+    )
 
 
 if __name__ == "__main__":

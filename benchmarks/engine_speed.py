@@ -54,10 +54,18 @@ def scene_for(pos, rad, lengths, law, top: float | None, platen_speed: float = P
     walls = [engine.Plane((0, 0, 0), (0, 0, 1))]
     if top is not None:
         walls.append(engine.Plane((0, 0, top), (0, 0, -1), velocity=(0, 0, -platen_speed)))
-    return engine.Scene(pos, rad, RHO, box=[(0, lengths[0]), (0, lengths[1]),
-                                            (0, lengths[2])],
-                        periodic=(True, True, False), walls=walls, gravity=(0, 0, -9.81),
-                        pair_law=law, wall_law=WALL_LAW, wall_material=WALL)
+    return engine.Scene(
+        pos,
+        rad,
+        RHO,
+        box=[(0, lengths[0]), (0, lengths[1]), (0, lengths[2])],
+        periodic=(True, True, False),
+        walls=walls,
+        gravity=(0, 0, -9.81),
+        pair_law=law,
+        wall_law=WALL_LAW,
+        wall_material=WALL,
+    )
 
 
 def settled_bed(n: int, side: float, seed: int = 1):
@@ -83,8 +91,11 @@ def settled_bed(n: int, side: float, seed: int = 1):
     pos = sim.positions
     CACHE.mkdir(exist_ok=True)
     np.savez(path, pos=pos, rad=rad, lengths=lengths)
-    print(f"  settled {n} particles in {steps} steps ({time.perf_counter() - t0:.0f} s), "
-          f"bed height {pos[:, 2].max() + R:.4f} m, max speed {vmax:.1e} m/s", flush=True)
+    print(
+        f"  settled {n} particles in {steps} steps ({time.perf_counter() - t0:.0f} s), "
+        f"bed height {pos[:, 2].max() + R:.4f} m, max speed {vmax:.1e} m/s",
+        flush=True,
+    )
     return pos, rad, lengths
 
 
@@ -130,18 +141,25 @@ def time_run(pos, rad, lengths, law, threads: int, steps: int, repeats: int):
 def compile_times() -> tuple[float, float]:
     """Seconds from interpreter start to a ready full-law Simulation, with empty caches and
     then with the caches they left (two fresh processes)."""
-    code = ("import time; t = time.perf_counter(); import numpy as np; import engine;"
-            "from benchmarks.engine_speed import scene_for, FULL;"
-            "pos = np.array([[0.01, 0.01, 0.003], [0.02, 0.01, 0.003]]);"
-            "sim = engine.Simulation(scene_for(pos, np.full(2, 2.5e-3), [0.05, 0.05, 0.1],"
-            " FULL, top=0.01), dt=1e-5); sim.run(2); print(time.perf_counter() - t)")
+    code = (
+        "import time; t = time.perf_counter(); import numpy as np; import engine;"
+        "from benchmarks.engine_speed import scene_for, FULL;"
+        "pos = np.array([[0.01, 0.01, 0.003], [0.02, 0.01, 0.003]]);"
+        "sim = engine.Simulation(scene_for(pos, np.full(2, 2.5e-3), [0.05, 0.05, 0.1],"
+        " FULL, top=0.01), dt=1e-5); sim.run(2); print(time.perf_counter() - t)"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         env = {**os.environ, "DEMSCALE_CACHE_DIR": tmp + "/k", "NUMBA_CACHE_DIR": tmp + "/n"}
         out = []
         for _ in range(2):
             t0 = time.perf_counter()
-            subprocess.run([sys.executable, "-c", code], env=env, check=True,
-                           capture_output=True, cwd=HERE.parent)
+            subprocess.run(
+                [sys.executable, "-c", code],
+                env=env,
+                check=True,
+                capture_output=True,
+                cwd=HERE.parent,
+            )
             out.append(time.perf_counter() - t0)
     return out[0], out[1]
 
@@ -149,15 +167,27 @@ def compile_times() -> tuple[float, float]:
 def write_lammps_data(path: Path, pos, rad, lengths) -> None:
     """A settled bed as a LAMMPS ``atom_style granular`` data file (id type diameter density
     x y z), for the LIGGGHTS deck."""
+
     def f(x) -> str:
         return repr(float(x))
 
-    lines = ["LAMMPS data file written by benchmarks.engine_speed", "",
-             f"{len(pos)} atoms", "1 atom types", "",
-             f"0 {f(lengths[0])} xlo xhi", f"0 {f(lengths[1])} ylo yhi",
-             f"0 {f(lengths[2])} zlo zhi", "", "Atoms # sphere", ""]
-    lines += [f"{i + 1} 1 {f(2 * r)} {f(RHO)} {f(x)} {f(y)} {f(z)}"
-              for i, (r, (x, y, z)) in enumerate(zip(rad, pos))]
+    lines = [
+        "LAMMPS data file written by benchmarks.engine_speed",
+        "",
+        f"{len(pos)} atoms",
+        "1 atom types",
+        "",
+        f"0 {f(lengths[0])} xlo xhi",
+        f"0 {f(lengths[1])} ylo yhi",
+        f"0 {f(lengths[2])} zlo zhi",
+        "",
+        "Atoms # sphere",
+        "",
+    ]
+    lines += [
+        f"{i + 1} 1 {f(2 * r)} {f(RHO)} {f(x)} {f(y)} {f(z)}"
+        for i, (r, (x, y, z)) in enumerate(zip(rad, pos))
+    ]
     path.write_text("\n".join(lines) + "\n")
 
 
@@ -174,19 +204,42 @@ def liggghts(ranks: int, steps: int, bed=None) -> float | None:
         if bed is not None:
             data = "bed.data"
             write_lammps_data(Path(tmp, data), *bed)
-        cmd = [exe, "-in", "in.liggghts_bench", "-var", "data", data, "-var", "model",
-               "hysteresis", "-var", "nsteps", str(steps), "-var", "nequil", "1000", "-log",
-               "lig.log"]
+        cmd = [
+            exe,
+            "-in",
+            "in.liggghts_bench",
+            "-var",
+            "data",
+            data,
+            "-var",
+            "model",
+            "hysteresis",
+            "-var",
+            "nsteps",
+            str(steps),
+            "-var",
+            "nequil",
+            "1000",
+            "-log",
+            "lig.log",
+        ]
         if ranks > 1:
             cmd = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-np", str(ranks), *cmd]
         # LIGGGHTS crashes with screen output disabled: send it to /dev/null instead
-        subprocess.run(cmd, cwd=tmp, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                       timeout=1200, check=False)
+        subprocess.run(
+            cmd,
+            cwd=tmp,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            timeout=1200,
+            check=False,
+        )
         log = Path(tmp, "lig.log")
         if not log.exists():
             return None
-        loops = re.findall(r"Loop time of (\S+) on \d+ procs for (\d+) steps with (\d+) atoms",
-                           log.read_text())
+        loops = re.findall(
+            r"Loop time of (\S+) on \d+ procs for (\d+) steps with (\d+) atoms", log.read_text()
+        )
         if not loops:
             return None
         t, n_steps, atoms = loops[-1]
@@ -213,9 +266,17 @@ def profile(name: str, pos, rad, lengths, threads: int, steps: int) -> None:
     builds = sim.n_rebuilds - b0
     k = sim._k
     args = (sim._particles, sim._list, sim._walls, sim._params, sim._scratch)
-    tiny = engine.Simulation(scene_for(np.array([[0.01, 0.01, 0.003], [0.02, 0.01, 0.003]]),
-                                       np.full(2, R), [0.05, 0.05, 0.1], FULL, top=0.01),
-                             dt=DT, threads=threads)
+    tiny = engine.Simulation(
+        scene_for(
+            np.array([[0.01, 0.01, 0.003], [0.02, 0.01, 0.003]]),
+            np.full(2, R),
+            [0.05, 0.05, 0.1],
+            FULL,
+            top=0.01,
+        ),
+        dt=DT,
+        threads=threads,
+    )
     targs = (tiny._particles, tiny._list, tiny._walls, tiny._params, tiny._scratch)
     reps = max(50, steps // 4)
 
@@ -253,12 +314,15 @@ def profile(name: str, pos, rad, lengths, threads: int, steps: int) -> None:
     build = t_build * builds / steps
     rest = step - t_forces[0] - build
     us = 1e6
-    print(f"  profile {name:10s} {threads} thread(s): step {step * us:7.1f} us (CPU "
-          f"{step_cpu * us:7.1f}) = force evaluation {t_forces[0] * us:7.1f} (CPU "
-          f"{t_forces[1] * us:7.1f}; both passes on {threads} thread(s), one parallel region) "
-          f"+ list builds {build * us:5.1f} ({builds} x {t_build * 1e3:.2f} ms) + rest "
-          f"{rest * us:6.1f}; one thread: pair pass {t_pair[0] * us:7.1f}, particle pass "
-          f"{t_part[0] * us:6.1f}; {step / sim.n * 1e9:.0f} ns per particle-step", flush=True)
+    print(
+        f"  profile {name:10s} {threads} thread(s): step {step * us:7.1f} us (CPU "
+        f"{step_cpu * us:7.1f}) = force evaluation {t_forces[0] * us:7.1f} (CPU "
+        f"{t_forces[1] * us:7.1f}; both passes on {threads} thread(s), one parallel region) "
+        f"+ list builds {build * us:5.1f} ({builds} x {t_build * 1e3:.2f} ms) + rest "
+        f"{rest * us:6.1f}; one thread: pair pass {t_pair[0] * us:7.1f}, particle pass "
+        f"{t_part[0] * us:6.1f}; {step / sim.n * 1e9:.0f} ns per particle-step",
+        flush=True,
+    )
 
 
 def main(argv=None) -> int:
@@ -266,8 +330,12 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="2k beds only, shorter runs")
     ap.add_argument("--profile", action="store_true", help="profile of the hot loop per pass")
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--backend", choices=("cpu", "cuda"), default="cpu",
-                    help="cuda: the GPU targets of issue 21 (benchmarks/gpu_speed.py)")
+    ap.add_argument(
+        "--backend",
+        choices=("cpu", "cuda"),
+        default="cpu",
+        help="cuda: the GPU targets of issue 21 (benchmarks/gpu_speed.py)",
+    )
     args, rest = ap.parse_known_args(argv)
     if args.backend == "cuda":
         from benchmarks import gpu_speed
@@ -278,11 +346,13 @@ def main(argv=None) -> int:
     steps2k = 4000 if args.quick else 10_000
     steps16k = 1500
 
-    print(f"demscale engine benchmark: {platform.processor() or platform.machine()}, "
-          f"{os.cpu_count()} cores, numba {numba.__version__} "
-          f"({numba.config.NUMBA_NUM_THREADS} threads), numpy {np.__version__}, "
-          f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}, "
-          f"load {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    print(
+        f"demscale engine benchmark: {platform.processor() or platform.machine()}, "
+        f"{os.cpu_count()} cores, numba {numba.__version__} "
+        f"({numba.config.NUMBA_NUM_THREADS} threads), numpy {np.__version__}, "
+        f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}, "
+        f"load {' '.join(f'{x:.2f}' for x in os.getloadavg())}"
+    )
     print("building / loading settled beds ...", flush=True)
     beds = {"anchor-2k": anchor_bed(), "bed-2k": settled_bed(2025, 0.05)}
     if not args.quick:
@@ -306,11 +376,17 @@ def main(argv=None) -> int:
                 rate, cpu, sim = time_run(pos, rad, lengths, law, threads, steps, args.repeats)
                 rows.append((name, len(pos), law_name, threads, rate, sim.threads, cpu))
                 if law is FULL and threads == 1:
-                    stats[name] = (len(sim.contacts().pairs) * 2 / sim.n,
-                                   sim.memory_bytes() / sim.n, sim.n_rebuilds)
-                print(f"  {name:10s} {len(pos):6d}  {law_name:26s} {threads} thread(s) "
-                      f"({sim.threads} used) {rate:10.3e} particle-steps/s, CPU {cpu:.0f} ns "
-                      "per particle-step", flush=True)
+                    stats[name] = (
+                        len(sim.contacts().pairs) * 2 / sim.n,
+                        sim.memory_bytes() / sim.n,
+                        sim.n_rebuilds,
+                    )
+                print(
+                    f"  {name:10s} {len(pos):6d}  {law_name:26s} {threads} thread(s) "
+                    f"({sim.threads} used) {rate:10.3e} particle-steps/s, CPU {cpu:.0f} ns "
+                    "per particle-step",
+                    flush=True,
+                )
 
     lig: dict[tuple[str, int], float | None] = {}
     if shutil.which("liggghts"):
@@ -320,35 +396,44 @@ def main(argv=None) -> int:
             print(f"LIGGGHTS 3.8 hooke/hysteresis on {name} ...", flush=True)
             for ranks in (1, 2):
                 lig[name, ranks] = liggghts(
-                    ranks, steps16k if name == "bed-16k" else steps2k,
-                    None if name == "anchor-2k" else beds[name])
+                    ranks,
+                    steps16k if name == "bed-16k" else steps2k,
+                    None if name == "anchor-2k" else beds[name],
+                )
     first, cached = compile_times()
     load = " ".join(f"{x:.2f}" for x in os.getloadavg())
 
     def rate(name, law, threads):
         return next(r[4] for r in rows if r[0] == name and r[2] == law and r[3] == threads)
 
-    print("\n| scene | particles | law | threads (used) | particle-steps/s | CPU ns per "
-          "particle-step | ratio |")
+    print(
+        "\n| scene | particles | law | threads (used) | particle-steps/s | CPU ns per "
+        "particle-step | ratio |"
+    )
     print("|---|---:|---|---:|---:|---:|---|")
     for name, n, law_name, threads, r, used, cpu in rows:
         base = rate(name, "full", 1)
-        note = ("baseline" if (law_name, threads) == ("full", 1)
-                else f"{r / base:.2f} x full 1-thread")
+        note = (
+            "baseline" if (law_name, threads) == ("full", 1) else f"{r / base:.2f} x full 1-thread"
+        )
         if law_name == "full" and lig.get((name, threads)):
             note += f"; {r / lig[name, threads]:.2f} x LIGGGHTS {threads} rank(s)"
-        print(f"| {name} | {n} | {law_name} | {threads} ({used}) | {r:.3e} | {cpu:.0f} | "
-              f"{note} |")
+        print(f"| {name} | {n} | {law_name} | {threads} ({used}) | {r:.3e} | {cpu:.0f} | {note} |")
     for (name, ranks), r in lig.items():
-        print(f"| {name} | {len(beds[name][0])} | LIGGGHTS hooke/hysteresis | {ranks} MPI | "
-              f"{r:.3e} | | same packing, same session |" if r else
-              f"| {name} | {len(beds[name][0])} | LIGGGHTS | {ranks} MPI | failed | | |")
+        print(
+            f"| {name} | {len(beds[name][0])} | LIGGGHTS hooke/hysteresis | {ranks} MPI | "
+            f"{r:.3e} | | same packing, same session |"
+            if r
+            else f"| {name} | {len(beds[name][0])} | LIGGGHTS | {ranks} MPI | failed | | |"
+        )
     print("\n| scene | contacts per particle | engine memory per particle | list builds |")
     print("|---|---:|---:|---:|")
     for name, (cpp, mem, builds) in stats.items():
         print(f"| {name} | {cpp:.2f} | {mem:.0f} B | {builds} |")
-    print(f"\ncompile: first {first:.1f} s (empty caches, includes interpreter start and "
-          f"imports), cached {cached:.2f} s; load at the end: {load}")
+    print(
+        f"\ncompile: first {first:.1f} s (empty caches, includes interpreter start and "
+        f"imports), cached {cached:.2f} s; load at the end: {load}"
+    )
 
     big = "bed-16k" if "bed-16k" in stats else "bed-2k"
     checks: list[tuple[str, bool | None]] = []
@@ -362,30 +447,53 @@ def main(argv=None) -> int:
             # while it waits): then the faster of the two is the baseline, never the collapse
             lg = max(lg2, lg1 or 0.0)
             which = "2 ranks" if lg == lg2 else "1 rank (faster than its 2 ranks here)"
-            checks.append((f"{name} full law 2 threads >= 2x LIGGGHTS on 2 ranks: {r2:.3e} vs "
-                           f"{lg:.3e} (LIGGGHTS {which}) = {r2 / lg:.2f}x", r2 >= 2.0 * lg))
+            checks.append(
+                (
+                    f"{name} full law 2 threads >= 2x LIGGGHTS on 2 ranks: {r2:.3e} vs "
+                    f"{lg:.3e} (LIGGGHTS {which}) = {r2 / lg:.2f}x",
+                    r2 >= 2.0 * lg,
+                )
+            )
         else:
-            checks.append((f"{name} full law 2 threads >= 2x LIGGGHTS on 2 ranks: {r2:.3e}, "
-                           "LIGGGHTS not measured (not installed or failed)", None))
+            checks.append(
+                (
+                    f"{name} full law 2 threads >= 2x LIGGGHTS on 2 ranks: {r2:.3e}, "
+                    "LIGGGHTS not measured (not installed or failed)",
+                    None,
+                )
+            )
         r1 = rate(name, "full", 1)
-        checks.append((f"{name} full law 2 threads >= 1.7x 1 thread: {r2:.3e} / {r1:.3e} = "
-                       f"{r2 / r1:.2f}x", r2 >= 1.7 * r1))
+        checks.append(
+            (
+                f"{name} full law 2 threads >= 1.7x 1 thread: {r2:.3e} / {r1:.3e} = {r2 / r1:.2f}x",
+                r2 >= 1.7 * r1,
+            )
+        )
     lo1 = min(rate(n, "full", 1) for n in beds)
     lo2 = min(rate(n, "full", 2) for n in beds)
-    plain = [rate(n, "cohesionless-frictionless", t) / rate(n, "full", t)
-             for n in beds if n != "anchor-2k" for t in (1, 2)]
+    plain = [
+        rate(n, "cohesionless-frictionless", t) / rate(n, "full", t)
+        for n in beds
+        if n != "anchor-2k"
+        for t in (1, 2)
+    ]
     checks += [
         (f"1 thread full law >= 2.5e6 (issue 2): lowest {lo1:.3e}", lo1 >= 2.5e6),
         (f"2 threads full law >= 4.5e6 (issue 2): lowest {lo2:.3e}", lo2 >= 4.5e6),
-        (f"cohesionless frictionless >= 1.2x full law (issue 2): {min(plain):.2f}x to "
-         f"{max(plain):.2f}x", min(plain) >= 1.2),
+        (
+            f"cohesionless frictionless >= 1.2x full law (issue 2): {min(plain):.2f}x to "
+            f"{max(plain):.2f}x",
+            min(plain) >= 1.2,
+        ),
         (f"memory <= 1 KB per particle ({big}): {stats[big][1]:.0f} B", stats[big][1] <= 1024),
         (f"compile <= 20 s cold: {first:.1f} s", first <= 20.0),
         (f"compile <= 2 s cached: {cached:.2f} s", cached <= 2.0),
-        ("16 threads >= 12x 1 thread at 128k particles: not measured (no 16-core machine)",
-         None),
-        ("cost per particle-step at 1M within 30 % of 16k, 16 threads: not measured (no "
-         "16-core machine)", None),
+        ("16 threads >= 12x 1 thread at 128k particles: not measured (no 16-core machine)", None),
+        (
+            "cost per particle-step at 1M within 30 % of 16k, 16 threads: not measured (no "
+            "16-core machine)",
+            None,
+        ),
     ]
     print(f"\nthreading layer {numba.threading_layer()}")
     for what, ok in checks:

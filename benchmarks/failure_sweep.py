@@ -93,8 +93,11 @@ def report() -> Path:
     import matplotlib.pyplot as plt
 
     tests = variants()
-    rows = ["| variant | particles | failed | peak [kPa] at strain [%] | stress at the limit "
-            "[kPa] | strength [kPa] |", "|---|---|---|---|---|---|"]
+    rows = [
+        "| variant | particles | failed | peak [kPa] at strain [%] | stress at the limit "
+        "[kPa] | strength [kPa] |",
+        "|---|---|---|---|---|---|",
+    ]
     fig, ax = plt.subplots(figsize=(7, 4.5))
     missing = []
     strengths: dict[str, float] = {}
@@ -109,9 +112,11 @@ def report() -> Path:
             continue
         strain, stress, k = _peak(res)
         s = res.scalars
-        rows.append(f"| {name} | {s['particles']:.0f} | {_outcome(s)} | "
-                    f"{stress[k] / 1e3:.2f} at {100 * strain[k]:.1f} | "
-                    f"{stress[-1] / 1e3:.2f} | {s['unconfined_strength'] / 1e3:.2f} |")
+        rows.append(
+            f"| {name} | {s['particles']:.0f} | {_outcome(s)} | "
+            f"{stress[k] / 1e3:.2f} at {100 * strain[k]:.1f} | "
+            f"{stress[-1] / 1e3:.2f} | {s['unconfined_strength'] / 1e3:.2f} |"
+        )
         ax.plot(100 * strain, stress / 1e3, label=name)
         strengths[name] = s["unconfined_strength"]
         fails[name] = bool(s["unconfined_failure"])
@@ -168,20 +173,26 @@ def _paper_references(ax) -> list[str]:
     paths = sorted(PAPER_REFERENCES.glob("ref-s*.h5"))
     if not paths:
         return []
-    rows = ["At the seed's scale (the cohesive references of experiment (b) of "
-            "`python -m benchmarks.reproduce --scale paper`, the same law and platens in the "
-            "seed's filled 50 x 150 x 300 mm cuboid; the same failure detector):", "",
-            "| reference | particles | cross-section x height [diameters] | failed | "
-            "peak [kPa] at strain [%] | strength [kPa] |", "|---|---|---|---|---|---|"]
+    rows = [
+        "At the seed's scale (the cohesive references of experiment (b) of "
+        "`python -m benchmarks.reproduce --scale paper`, the same law and platens in the "
+        "seed's filled 50 x 150 x 300 mm cuboid; the same failure detector):",
+        "",
+        "| reference | particles | cross-section x height [diameters] | failed | "
+        "peak [kPa] at strain [%] | strength [kPa] |",
+        "|---|---|---|---|---|---|",
+    ]
     for path in paths:
         res = load_run(path)
         s = res.scalars
         strain, stress, k = _peak(res)
         cell = np.asarray(res.test.cell) / (2 * res.test.radius)
-        rows.append(f"| {path.stem} | {s['particles']:.0f} | {cell[0]:.0f} x {cell[1]:.0f} x "
-                    f"{s['height_diameters']:.0f} | {_outcome(s)} | "
-                    f"{stress[k] / 1e3:.2f} at {100 * strain[k]:.1f} | "
-                    f"{s['unconfined_strength'] / 1e3:.2f} |")
+        rows.append(
+            f"| {path.stem} | {s['particles']:.0f} | {cell[0]:.0f} x {cell[1]:.0f} x "
+            f"{s['height_diameters']:.0f} | {_outcome(s)} | "
+            f"{stress[k] / 1e3:.2f} at {100 * strain[k]:.1f} | "
+            f"{s['unconfined_strength'] / 1e3:.2f} |"
+        )
         ax.plot(100 * strain, stress / 1e3, "--", label=f"paper {path.stem}")
     rows += ["", _width_or_height(), ""]
     return rows
@@ -193,8 +204,11 @@ def _width_or_height() -> str:
     tests = variants()
     names = ("tall", "wide", "wide_tall")
     out = {n: stored(n, tests[n]) for n in names}
-    fails = {n: bool(r.scalars["unconfined_failure"]) for n, r in out.items()
-             if r is not None and not isinstance(r, str)}
+    fails = {
+        n: bool(r.scalars["unconfined_failure"])
+        for n, r in out.items()
+        if r is not None and not isinstance(r, str)
+    }
     d = 2 * tests["base"].radius
 
     def dims(n: str) -> str:
@@ -203,16 +217,24 @@ def _width_or_height() -> str:
 
     base = tests["base"].cell
     paper = engine.preset("paper").cell
-    text = (f"The quick sample is {base[0] / d:.0f} x {base[1] / d:.0f} x {base[2] / d:.0f} "
-            f"diameters; the paper preset differs from it in the cell alone "
-            f"({paper[0] / d:.0f} x {paper[1] / d:.0f} x {paper[2] / d:.0f}). ")
+    text = (
+        f"The quick sample is {base[0] / d:.0f} x {base[1] / d:.0f} x {base[2] / d:.0f} "
+        f"diameters; the paper preset differs from it in the cell alone "
+        f"({paper[0] / d:.0f} x {paper[1] / d:.0f} x {paper[2] / d:.0f}). "
+    )
     missing = [n for n in names if n not in fails]
     if missing:
         return text + f"Not stored yet: {', '.join(missing)}."
     failing = [dims(n) for n in names if fails[n]]
     if failing:
-        return text + "Failing within the limit: " + ", ".join(failing) + "; hardening: " + (
-            ", ".join(dims(n) for n in names if not fails[n]) or "none") + "."
+        return (
+            text
+            + "Failing within the limit: "
+            + ", ".join(failing)
+            + "; hardening: "
+            + (", ".join(dims(n) for n in names if not fails[n]) or "none")
+            + "."
+        )
     tallest = max(tests[n].cell[2] for n in names)
     return text + (
         "None of " + ", ".join(dims(n) for n in names) + " fails. So the seed's cross-section and "
@@ -221,7 +243,8 @@ def _width_or_height() -> str:
         f"{paper[2] / paper[0]:.0f} times its {paper[0] / d:.0f}-diameter thickness, against "
         f"at most {tallest / d:.0f} ({tallest / base[0]:.0f} times) here. A quick variant "
         "of the seed's height was not run: at the seed's cross-section it is the paper "
-        "reference itself.")
+        "reference itself."
+    )
 
 
 def _reading(strengths: dict[str, float], fails: dict[str, bool]) -> list[str]:
@@ -229,19 +252,26 @@ def _reading(strengths: dict[str, float], fails: dict[str, bool]) -> list[str]:
     if "base" not in strengths:
         return []
     base = strengths["base"]
-    out = ["What changes the outcome (strength: the peak, or the largest stress up to the "
-           "limit; against `base`):", ""]
-    what = {"frictionless_platens": "platen friction 0.3 -> 0",
-            "tall": "height / width 2 -> 4",
-            "adhesion_x4": "adhesion f0 x 4",
-            "adhesion_x0.25": "adhesion f0 x 0.25",
-            "strain_25": "strain limit 10 % -> 25 %",
-            "wide": "cross-section 10 x 10 -> 10 x 30 diameters",
-            "wide_tall": "cross-section 10 x 30 and height / width 2 -> 4"}
+    out = [
+        "What changes the outcome (strength: the peak, or the largest stress up to the "
+        "limit; against `base`):",
+        "",
+    ]
+    what = {
+        "frictionless_platens": "platen friction 0.3 -> 0",
+        "tall": "height / width 2 -> 4",
+        "adhesion_x4": "adhesion f0 x 4",
+        "adhesion_x0.25": "adhesion f0 x 0.25",
+        "strain_25": "strain limit 10 % -> 25 %",
+        "wide": "cross-section 10 x 10 -> 10 x 30 diameters",
+        "wide_tall": "cross-section 10 x 30 and height / width 2 -> 4",
+    }
     for name, text in what.items():
         if name in strengths:
-            out.append(f"- {text}: strength x {strengths[name] / base:.2f}, "
-                       f"{'fails' if fails[name] else 'hardens'}.")
+            out.append(
+                f"- {text}: strength x {strengths[name] / base:.2f}, "
+                f"{'fails' if fails[name] else 'hardens'}."
+            )
     n = sum(fails.values())
     out += ["", f"{n} of {len(fails)} samples fail within the strain limit."]
     return out

@@ -78,15 +78,21 @@ def reference_test() -> UniaxialTest:
     return experiments("paper")["b_cohesive"].reference
 
 
-def control_test(seed: int, reference: UniaxialTest | None = None,
-                 coarse_radius: float = COARSE_RADIUS) -> UniaxialTest:
+def control_test(
+    seed: int, reference: UniaxialTest | None = None, coarse_radius: float = COARSE_RADIUS
+) -> UniaxialTest:
     """The control for ``seed``: ``reference`` (default :func:`reference_test`) with its law
     and particles unchanged and every length of the cell, and the platen speed, scaled by
     R_ref / ``coarse_radius`` (module docstring)."""
     ref = reference if reference is not None else reference_test()
     s = ref.radius / coarse_radius
-    return replace(ref, seed=seed, cell=tuple(s * c for c in ref.cell),
-                   interior_margin=s * ref.margin, platen_speed=s * ref.platen_speed)
+    return replace(
+        ref,
+        seed=seed,
+        cell=tuple(s * c for c in ref.cell),
+        interior_margin=s * ref.margin,
+        platen_speed=s * ref.platen_speed,
+    )
 
 
 def run_key(seed: int) -> str:
@@ -109,9 +115,12 @@ class _Ticker:
         now = time.perf_counter()
         if now - self.last >= self.every:
             self.last = now
-            print(f"    [{now - self.t0:6.0f} s] {self.key}: {pr.stage}, "
-                  f"t = {pr.time:.3f} s simulated, {pr.steps} steps, "
-                  f"{100 * pr.fraction:.1f} % done", flush=True)
+            print(
+                f"    [{now - self.t0:6.0f} s] {self.key}: {pr.stage}, "
+                f"t = {pr.time:.3f} s simulated, {pr.steps} steps, "
+                f"{100 * pr.fraction:.1f} % done",
+                flush=True,
+            )
 
 
 def run(seeds=SEEDS, threads: int = 1, directory: Path = STORE) -> None:
@@ -131,11 +140,13 @@ def run(seeds=SEEDS, threads: int = 1, directory: Path = STORE) -> None:
                 print(f"{key}: stored, skipped", flush=True)
                 continue
             print(f"{key}: stored with other parameters, will run again", flush=True)
-        print(f"{key}: {test.n_particles} particles, cell "
-              f"{' x '.join(f'{1e3 * c:g}' for c in test.cell)} mm, "
-              f"{test.thickness_diameters:g} diameters thick, platen "
-              f"{1e3 * test.platen_speed:g} mm/s, {numba.get_num_threads()} thread(s)",
-              flush=True)
+        print(
+            f"{key}: {test.n_particles} particles, cell "
+            f"{' x '.join(f'{1e3 * c:g}' for c in test.cell)} mm, "
+            f"{test.thickness_diameters:g} diameters thick, platen "
+            f"{1e3 * test.platen_speed:g} mm/s, {numba.get_num_threads()} thread(s)",
+            flush=True,
+        )
         t0 = time.perf_counter()
         try:
             outcome = run_uniaxial(test, _Ticker(key))
@@ -149,11 +160,14 @@ def run(seeds=SEEDS, threads: int = 1, directory: Path = STORE) -> None:
 def _line(r) -> str:
     s = r.scalars
     kind = "fails" if s["unconfined_failure"] else "hardens"
-    return (f"{s['particles']:.0f} particles, {s['steps']:.0f} steps, "
-            f"{s['wall_time']:.0f} s, {kind} at {s['unconfined_strength'] / 1e3:.2f} kPa")
+    return (
+        f"{s['particles']:.0f} particles, {s['steps']:.0f} steps, "
+        f"{s['wall_time']:.0f} s, {kind} at {s['unconfined_strength'] / 1e3:.2f} kPa"
+    )
 
 
 # ---------------------------------------------------------------------------------- report
+
 
 def _b_runs(prefix: str, directory: Path) -> dict:
     out = {}
@@ -193,51 +207,65 @@ def _summed(m: dict) -> str:
     return f"{_pct(m['differs_error'])} in [{_pct(lo)}, {_pct(hi)}]"
 
 
-def _judge(values: list[dict], against: list[dict], names, cons: float,
-           confidence: float) -> list[dict]:
+def _judge(
+    values: list[dict], against: list[dict], names, cons: float, confidence: float
+) -> list[dict]:
     floor = noise_floor(against, names, cons)
     a_e, a_d = error_rates(confidence, len(names))
-    return [judge_metric(n, values, floor[n], METRICS[n].tolerance, cons, a_e, a_d)
-            for n in names]
+    return [judge_metric(n, values, floor[n], METRICS[n].tolerance, cons, a_e, a_d) for n in names]
 
 
-def _table(title: str, what: str, judged: list[dict], n_side: int, n_against: int,
-           confidence: float) -> list[str]:
+def _table(
+    title: str, what: str, judged: list[dict], n_side: int, n_against: int, confidence: float
+) -> list[str]:
     a_e, a_d = judged[0]["alpha_equivalent"], judged[0]["alpha_differs"]
-    lines = [f"### {title}", "",
-             f"{what} ({n_side} against {n_against} seeds; equivalence interval at "
-             f"{1 - a_e:.1%} one-sided per end, worst level; differs interval of the "
-             f"level-summed ratio at {1 - a_d:.1%} one-sided, Bonferroni over "
-             f"{len(judged)} metrics; confidence {confidence:.0%}).", "",
-             "| metric | mean signed error | interval (equivalence) | "
-             "summed (differs) | tolerance | verdict |",
-             "|---|---|---|---|---|---|"]
+    lines = [
+        f"### {title}",
+        "",
+        f"{what} ({n_side} against {n_against} seeds; equivalence interval at "
+        f"{1 - a_e:.1%} one-sided per end, worst level; differs interval of the "
+        f"level-summed ratio at {1 - a_d:.1%} one-sided, Bonferroni over "
+        f"{len(judged)} metrics; confidence {confidence:.0%}).",
+        "",
+        "| metric | mean signed error | interval (equivalence) | "
+        "summed (differs) | tolerance | verdict |",
+        "|---|---|---|---|---|---|",
+    ]
     for m in judged:
-        lines.append(f"| {m['metric']} | {_pct(m['signed_error'])} | {_interval(m)} | "
-                     f"{_summed(m)} | ± {m['tolerance']:.0%} | {m['verdict']} |")
+        lines.append(
+            f"| {m['metric']} | {_pct(m['signed_error'])} | {_interval(m)} | "
+            f"{_summed(m)} | ± {m['tolerance']:.0%} | {m['verdict']} |"
+        )
     return [*lines, ""]
 
 
 def _split(v_ctrl: list[dict], v_ref: list[dict], v_coarse: list[dict], names) -> list[str]:
     """The study's error split in two: coarse / reference = (control / reference) x
     (coarse / control), ratios of the seed means summed over levels."""
+
     def total(values, n):
         return float(np.mean([np.sum(v[n]) for v in values]))
 
-    lines = ["### Split of the coarse runs' error", "",
-             "Ratios of seed means (summed over levels for density and coordination): "
-             "coarse / reference = finite size (control / reference) x rule's remainder "
-             "(coarse / control).", "",
-             "| metric | coarse / reference | control / reference (finite size) | "
-             "coarse / control (what the rule leaves) |", "|---|---|---|---|"]
+    lines = [
+        "### Split of the coarse runs' error",
+        "",
+        "Ratios of seed means (summed over levels for density and coordination): "
+        "coarse / reference = finite size (control / reference) x rule's remainder "
+        "(coarse / control).",
+        "",
+        "| metric | coarse / reference | control / reference (finite size) | "
+        "coarse / control (what the rule leaves) |",
+        "|---|---|---|---|",
+    ]
     for n in names:
         c, r, k = total(v_ctrl, n), total(v_ref, n), total(v_coarse, n)
         lines.append(f"| {n} | {k / r:.3f} | {c / r:.3f} | {k / c:.3f} |")
     return [*lines, ""]
 
 
-def control_report(directory: Path = STORE, b_directory: Path = B_STORE,
-                   confidence: float = CONFIDENCE) -> str:
+def control_report(
+    directory: Path = STORE, b_directory: Path = B_STORE, confidence: float = CONFIDENCE
+) -> str:
     """Markdown: every stored control run (failed or hardened, strength, porosity, particles,
     steps, wall time) and the control judged per verdict metric, with the engine's verdict
     functions, against (i) the references of experiment (b) (the pure finite-size effect)
@@ -251,16 +279,21 @@ def control_report(directory: Path = STORE, b_directory: Path = B_STORE,
     ok = {k: r for k, r in controls.items() if not isinstance(r, str)}
     if ok:
         t = next(iter(ok.values())).test
-        lines += [f"The 2.5 mm reference law, unscaled, in a "
-                  f"{' x '.join(f'{1e3 * c:g}' for c in t.cell)} mm cell "
-                  f"({t.thickness_diameters:g} diameters thick), platen "
-                  f"{1e3 * t.platen_speed:g} mm/s, interior margin "
-                  f"{1e3 * t.margin:g} mm: the coarse 5 mm bed in particle diameters.", ""]
-    lines += ["| run | particles | thickness [d] | height [d] | steps | wall time [s] | "
-              "threads | unconfined | strength [kPa] | strain at peak | consolidated "
-              "porosity (interior) | loading stiffness [kPa] | unloading stiffness [kPa] | "
-              "self-weight at the base [kPa] | max inertial number |",
-              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+        lines += [
+            f"The 2.5 mm reference law, unscaled, in a "
+            f"{' x '.join(f'{1e3 * c:g}' for c in t.cell)} mm cell "
+            f"({t.thickness_diameters:g} diameters thick), platen "
+            f"{1e3 * t.platen_speed:g} mm/s, interior margin "
+            f"{1e3 * t.margin:g} mm: the coarse 5 mm bed in particle diameters.",
+            "",
+        ]
+    lines += [
+        "| run | particles | thickness [d] | height [d] | steps | wall time [s] | "
+        "threads | unconfined | strength [kPa] | strain at peak | consolidated "
+        "porosity (interior) | loading stiffness [kPa] | unloading stiffness [kPa] | "
+        "self-weight at the base [kPa] | max inertial number |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     groups = (("control", controls), ("reference", refs), (f"coarse 5 mm {COARSE_RULE}", coarse))
     for label, runs in groups:
         for k, r in runs.items():
@@ -277,16 +310,18 @@ def control_report(directory: Path = STORE, b_directory: Path = B_STORE,
                 f"{s['unconfined_strength'] / 1e3:.2f} | {s['strain_at_peak']:.4f} | "
                 f"{s['consolidated_porosity']:.4f} ({s['consolidated_porosity_interior']:.4f})"
                 f" | {s['loading_stiffness'] / 1e3:.0f} | {s['unloading_stiffness'] / 1e3:.0f} | "
-                f"{_self_weight(r) / 1e3:.2f} | {s['max_inertial_number']:.2e} |")
+                f"{_self_weight(r) / 1e3:.2f} | {s['max_inertial_number']:.2e} |"
+            )
     lines.append("")
     for label, runs in groups:
         if len(runs) > 0:
-            st = [r.scalars["unconfined_strength"] for r in runs.values()
-                  if not isinstance(r, str)]
+            st = [r.scalars["unconfined_strength"] for r in runs.values() if not isinstance(r, str)]
             if st:
                 sd = f" ± {np.std(st, ddof=1) / 1e3:.2f}" if len(st) > 1 else ""
-                lines.append(f"- {label}: strength {np.mean(st) / 1e3:.2f}{sd} kPa "
-                             f"(mean ± sample SD of {len(st)})")
+                lines.append(
+                    f"- {label}: strength {np.mean(st) / 1e3:.2f}{sd} kPa "
+                    f"(mean ± sample SD of {len(st)})"
+                )
     lines.append("")
     if not ok or not refs:
         return "\n".join([*lines, "No control or reference run stored yet: nothing judged."])
@@ -296,36 +331,52 @@ def control_report(directory: Path = STORE, b_directory: Path = B_STORE,
     v_ctrl = [metric_values(r) for r in ok.values()]
     v_ref = [metric_values(r) for r in refs.values()]
     v_coarse = [metric_values(r) for r in coarse.values()]
-    lines += _table("(i) control against the references: the finite-size effect",
-                    "Error of the control relative to the full 2.5 mm references",
-                    _judge(v_ctrl, v_ref, names, cons, confidence), len(v_ctrl), len(v_ref),
-                    confidence)
+    lines += _table(
+        "(i) control against the references: the finite-size effect",
+        "Error of the control relative to the full 2.5 mm references",
+        _judge(v_ctrl, v_ref, names, cons, confidence),
+        len(v_ctrl),
+        len(v_ref),
+        confidence,
+    )
     if v_coarse:
-        lines += _table(f"(ii) coarse 5 mm {COARSE_RULE} against the control: what the rule "
-                        "leaves",
-                        f"Error of the coarse 5 mm {COARSE_RULE} runs relative to the control "
-                        "(same bed in diameters)",
-                        _judge(v_coarse, v_ctrl, names, cons, confidence), len(v_coarse),
-                        len(v_ctrl), confidence)
-        lines += _table(f"(iii) coarse 5 mm {COARSE_RULE} against the references, for scale",
-                        "The study's own comparison (its verdict on this variant), recomputed "
-                        "with the same functions",
-                        _judge(v_coarse, v_ref, names, cons, confidence), len(v_coarse),
-                        len(v_ref), confidence)
+        lines += _table(
+            f"(ii) coarse 5 mm {COARSE_RULE} against the control: what the rule leaves",
+            f"Error of the coarse 5 mm {COARSE_RULE} runs relative to the control "
+            "(same bed in diameters)",
+            _judge(v_coarse, v_ctrl, names, cons, confidence),
+            len(v_coarse),
+            len(v_ctrl),
+            confidence,
+        )
+        lines += _table(
+            f"(iii) coarse 5 mm {COARSE_RULE} against the references, for scale",
+            "The study's own comparison (its verdict on this variant), recomputed "
+            "with the same functions",
+            _judge(v_coarse, v_ref, names, cons, confidence),
+            len(v_coarse),
+            len(v_ref),
+            confidence,
+        )
         lines += _split(v_ctrl, v_ref, v_coarse, names)
-    lines += ["Signed errors are (mean of the first - mean of the second) / mean of the second "
-              "(per level, then averaged, for density and coordination); intervals from "
-              "engine.advisor.judge_metric (Fieller, min(n) - 1 dof, TOST).", ""]
+    lines += [
+        "Signed errors are (mean of the first - mean of the second) / mean of the second "
+        "(per level, then averaged, for density and coordination); intervals from "
+        "engine.advisor.judge_metric (Fieller, min(n) - 1 dof, TOST).",
+        "",
+    ]
     return "\n".join(lines)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="*", default=list(SEEDS))
-    ap.add_argument("--threads", type=int, default=1,
-                    help="engine threads (at most NUMBA_NUM_THREADS)")
-    ap.add_argument("--report", action="store_true",
-                    help="only print the report from the stored runs")
+    ap.add_argument(
+        "--threads", type=int, default=1, help="engine threads (at most NUMBA_NUM_THREADS)"
+    )
+    ap.add_argument(
+        "--report", action="store_true", help="only print the report from the stored runs"
+    )
     ap.add_argument("--store", type=Path, default=STORE, help="folder of the control runs")
     args = ap.parse_args(argv)
     if not args.report:

@@ -64,8 +64,9 @@ def tiled_bed(k: int):
     from benchmarks.engine_speed import anchor_bed
 
     pos, rad, lengths = anchor_bed()
-    shifts = np.array([(ix * lengths[0], iy * lengths[1], 0.0)
-                       for ix in range(k) for iy in range(k)])
+    shifts = np.array(
+        [(ix * lengths[0], iy * lengths[1], 0.0) for ix in range(k) for iy in range(k)]
+    )
     big = (pos[None, :, :] + shifts[:, None, :]).reshape(-1, 3)
     return big, np.tile(rad, k * k), np.array([k * lengths[0], k * lengths[1], lengths[2]])
 
@@ -78,8 +79,12 @@ def rate(backend: str, k: int, steps: int) -> tuple[float, float, object]:
     pos, rad, lengths = tiled_bed(k)
     top = float((pos[:, 2] + rad).max()) + 0.1 * R
     t0 = time.perf_counter()
-    sim = engine.Simulation(scene_for(pos, rad, lengths, FULL, top), dt=DT, backend=backend,
-                            threads=os.cpu_count() if backend == "cpu" else None)
+    sim = engine.Simulation(
+        scene_for(pos, rad, lengths, FULL, top),
+        dt=DT,
+        backend=backend,
+        threads=os.cpu_count() if backend == "cpu" else None,
+    )
     sim.run(50)
     _ = sim.positions  # the device has finished (a copy waits for it)
     setup = time.perf_counter() - t0
@@ -106,11 +111,14 @@ def profile_passes(sim, reps: int = 20) -> dict[str, float]:
     calls = {
         "pair pass": lambda: dk.pair_kernel[_blocks(n), THREADS](d.ctl, P, L, prm, d.stat),
         "particle pass": lambda: dk.particle_kernel[_blocks(n), THREADS](
-            d.ctl, forces, P, L, W, prm, d.stat, d.wpart, d.disp),
+            d.ctl, forces, P, L, W, prm, d.stat, d.wpart, d.disp
+        ),
         "chunk reductions": lambda: dk.chunk_kernel[_blocks(nchunk), THREADS](
-            d.ctl, forces, d.stat, d.wpart, d.disp, d.cstat, d.cdisp, W.acc),
+            d.ctl, forces, d.stat, d.wpart, d.disp, d.cstat, d.cdisp, W.acc
+        ),
         "end of step": lambda: dk.finish_kernel[1, RED_T](
-            d.ctl, 0, 1, 0, W, prm, d.cstat, d.cdisp, W.acc, d.info),
+            d.ctl, 0, 1, 0, W, prm, d.cstat, d.cdisp, W.acc, d.info
+        ),
         "list build": sim._rebuild,
     }
     out = {}
@@ -166,8 +174,13 @@ def curve_check(res) -> list[tuple[str, bool | None]]:
 
     paths = [STORED_REF / f"ref-s{s}.h5" for s in (1, 2, 3)]
     if not all(p.exists() for p in paths):
-        return [("GPU and CPU bulk curves within the noise floor: not measured (stored CPU "
-                 "references missing)", None)]
+        return [
+            (
+                "GPU and CPU bulk curves within the noise floor: not measured (stored CPU "
+                "references missing)",
+                None,
+            )
+        ]
     refs = [load_run(p) for p in paths]
     test = res.test
     names = metric_names(test.unconfined)
@@ -177,8 +190,12 @@ def curve_check(res) -> list[tuple[str, bool | None]]:
     for n in names:
         err = relative_error(n, gpu[n], cpu[n], test.consolidation_stress)
         nf = floor[n]["noise"]
-        out.append((f"GPU vs CPU ref-s1 {n}: relative difference {err:.2e} <= noise floor "
-                    f"{nf:.2e}", err <= nf))
+        out.append(
+            (
+                f"GPU vs CPU ref-s1 {n}: relative difference {err:.2e} <= noise floor {nf:.2e}",
+                err <= nf,
+            )
+        )
     return out
 
 
@@ -201,8 +218,11 @@ def run_batch(workers: int, store: Path) -> tuple[float, dict]:
         outcomes[key] = outcome
         if not isinstance(outcome, str):
             save_run(store / f"{key}.h5", outcome, keep_particles=False)
-        print(f"  {key}: {'failed: ' + outcome if isinstance(outcome, str) else 'stored'} "
-              f"at {time.perf_counter() - t0:.0f} s", flush=True)
+        print(
+            f"  {key}: {'failed: ' + outcome if isinstance(outcome, str) else 'stored'} "
+            f"at {time.perf_counter() - t0:.0f} s",
+            flush=True,
+        )
 
     t0 = time.perf_counter()
     with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
@@ -212,36 +232,53 @@ def run_batch(workers: int, store: Path) -> tuple[float, dict]:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description="issue 21 targets of the CUDA backend")
-    ap.add_argument("--deadline", type=float, default=480.0,
-                    help="seconds after which nothing new starts [s]")
+    ap.add_argument(
+        "--deadline", type=float, default=480.0, help="seconds after which nothing new starts [s]"
+    )
     ap.add_argument("--sizes", default=",".join(TILES), help="bed sizes to time")
-    ap.add_argument("--batch", type=int, default=0, metavar="WORKERS",
-                    help="only experiment (b)'s 15 runs side by side on the card, WORKERS "
-                         "processes at a time (a call of its own: the target is 15 minutes)")
+    ap.add_argument(
+        "--batch",
+        type=int,
+        default=0,
+        metavar="WORKERS",
+        help="only experiment (b)'s 15 runs side by side on the card, WORKERS "
+        "processes at a time (a call of its own: the target is 15 minutes)",
+    )
     args = ap.parse_args(argv)
     t_start = time.perf_counter()
     from engine.backend import cuda_status
 
     ok, device = cuda_status()
-    print(f"demscale CUDA benchmark: GPU {device}; CPU {cpu_model()}, {os.cpu_count()} "
-          f"cores, numba {numba.__version__} ({numba.config.NUMBA_NUM_THREADS} threads), "
-          f"numpy {np.__version__}")
+    print(
+        f"demscale CUDA benchmark: GPU {device}; CPU {cpu_model()}, {os.cpu_count()} "
+        f"cores, numba {numba.__version__} ({numba.config.NUMBA_NUM_THREADS} threads), "
+        f"numpy {np.__version__}"
+    )
     if not ok or "simulator" in device:
         why = "no CUDA device" if not ok else "the simulator is no GPU"
         print(f"{why}: not measured ({device})")
-        return report([
-            (f"GPU >= {TARGET_RATE_1M:.0e} particle-steps/s at 1M particles: {why}: not "
-             "measured", False),
-            (f"paper-scale reference <= {TARGET_REFERENCE_S:.0f} s: {why}: not measured",
-             False),
-            (f"experiment (b)'s 15 runs <= {TARGET_BATCH_S:.0f} s: {why}: not measured",
-             False),
-            (f"GPU and CPU bulk curves within the noise floor: {why}: not measured", False),
-        ])
+        return report(
+            [
+                (
+                    f"GPU >= {TARGET_RATE_1M:.0e} particle-steps/s at 1M particles: {why}: not "
+                    "measured",
+                    False,
+                ),
+                (
+                    f"paper-scale reference <= {TARGET_REFERENCE_S:.0f} s: {why}: not measured",
+                    False,
+                ),
+                (f"experiment (b)'s 15 runs <= {TARGET_BATCH_S:.0f} s: {why}: not measured", False),
+                (f"GPU and CPU bulk curves within the noise floor: {why}: not measured", False),
+            ]
+        )
     from numba import cuda
 
-    print(f"numba-cuda {getattr(cuda, '__version__', '?')}, driver/runtime "
-          f"{cuda.runtime.get_version() if hasattr(cuda, 'runtime') else '?'}", flush=True)
+    print(
+        f"numba-cuda {getattr(cuda, '__version__', '?')}, driver/runtime "
+        f"{cuda.runtime.get_version() if hasattr(cuda, 'runtime') else '?'}",
+        flush=True,
+    )
 
     def late() -> bool:
         return time.perf_counter() - t_start > args.deadline
@@ -249,10 +286,16 @@ def main(argv=None) -> int:
     if args.batch:
         wall, outcomes = run_batch(args.batch, HERE / "results" / "gpu" / "b_cohesive")
         failed = [k for k, v in outcomes.items() if isinstance(v, str)]
-        return report([(f"experiment (b)'s {len(outcomes)} runs side by side on the card "
-                        f"({args.batch} processes) <= {TARGET_BATCH_S:.0f} s: {wall:.0f} s"
-                        f"{', failed: ' + ', '.join(failed) if failed else ''}",
-                        wall <= TARGET_BATCH_S and not failed)])
+        return report(
+            [
+                (
+                    f"experiment (b)'s {len(outcomes)} runs side by side on the card "
+                    f"({args.batch} processes) <= {TARGET_BATCH_S:.0f} s: {wall:.0f} s"
+                    f"{', failed: ' + ', '.join(failed) if failed else ''}",
+                    wall <= TARGET_BATCH_S and not failed,
+                )
+            ]
+        )
 
     checks: list[tuple[str, bool | None]] = []
     rates: dict[tuple[str, str], float] = {}
@@ -271,16 +314,23 @@ def main(argv=None) -> int:
                     print(f"| {name} | | {backend} | failed: {type(e).__name__}: {e} | | |")
                     continue
                 rates[name, backend] = r
-                print(f"| {name} | {sim.n} | {backend} | {r:.3e} | {setup:.1f} | {steps} |",
-                      flush=True)
+                print(
+                    f"| {name} | {sim.n} | {backend} | {r:.3e} | {setup:.1f} | {steps} |",
+                    flush=True,
+                )
                 del sim
 
     sizes = args.sizes.split(",")
     measure([s for s in sizes if s != "8.0M"])  # 8M last: after the reference
     g1 = rates.get(("980k", "cuda"))
-    checks.append((f"GPU >= {TARGET_RATE_1M:.0e} particle-steps/s at 1M particles (980k "
-                   f"bed): {g1:.3e}" if g1 else "GPU rate at 1M: not measured",
-                   (g1 >= TARGET_RATE_1M) if g1 else False))
+    checks.append(
+        (
+            f"GPU >= {TARGET_RATE_1M:.0e} particle-steps/s at 1M particles (980k bed): {g1:.3e}"
+            if g1
+            else "GPU rate at 1M: not measured",
+            (g1 >= TARGET_RATE_1M) if g1 else False,
+        )
+    )
 
     if late():
         checks.append(("paper-scale reference: not measured (deadline)", False))
@@ -290,20 +340,34 @@ def main(argv=None) -> int:
         res, wall = run_reference(cap)
         ref = reference_test()
         if res is None:
-            checks.append((f"paper-scale reference <= {TARGET_REFERENCE_S:.0f} s: stopped "
-                           f"unfinished after {wall:.0f} s", False))
-            checks.append(("GPU and CPU bulk curves: not measured (reference unfinished)",
-                           False))
+            checks.append(
+                (
+                    f"paper-scale reference <= {TARGET_REFERENCE_S:.0f} s: stopped "
+                    f"unfinished after {wall:.0f} s",
+                    False,
+                )
+            )
+            checks.append(("GPU and CPU bulk curves: not measured (reference unfinished)", False))
         else:
             s = res.scalars
             c18 = rates.get(("18k", "cpu"))
-            proj = (f"; CPU of this host projected from its 18k rate: "
-                    f"{s['particle_steps'] / c18:.0f} s" if c18 else "")
-            print(f"\npaper-scale reference {ref.n_particles} particles, {s['steps']:.0f} "
-                  f"steps: GPU wall time {s['wall_time']:.1f} s (set-up {s['setup_time']:.1f}"
-                  f" s, {wall:.1f} s in all){proj}")
-            checks.append((f"paper-scale reference <= {TARGET_REFERENCE_S:.0f} s on the GPU: "
-                           f"{s['wall_time']:.1f} s", s["wall_time"] <= TARGET_REFERENCE_S))
+            proj = (
+                f"; CPU of this host projected from its 18k rate: {s['particle_steps'] / c18:.0f} s"
+                if c18
+                else ""
+            )
+            print(
+                f"\npaper-scale reference {ref.n_particles} particles, {s['steps']:.0f} "
+                f"steps: GPU wall time {s['wall_time']:.1f} s (set-up {s['setup_time']:.1f}"
+                f" s, {wall:.1f} s in all){proj}"
+            )
+            checks.append(
+                (
+                    f"paper-scale reference <= {TARGET_REFERENCE_S:.0f} s on the GPU: "
+                    f"{s['wall_time']:.1f} s",
+                    s["wall_time"] <= TARGET_REFERENCE_S,
+                )
+            )
             checks += curve_check(res)
     if "8.0M" in sizes:
         measure(["8.0M"])
@@ -314,8 +378,7 @@ def main(argv=None) -> int:
         try:
             pos, rad, lengths = tiled_bed(TILES["980k"])
             top = float((pos[:, 2] + rad).max()) + 0.1 * R
-            sim = engine.Simulation(scene_for(pos, rad, lengths, FULL, top), dt=DT,
-                                    backend="cuda")
+            sim = engine.Simulation(scene_for(pos, rad, lengths, FULL, top), dt=DT, backend="cuda")
             print(f"\nprofile, {sim.n} particles, one launch per pass [ms per call]:")
             for what, sec in profile_passes(sim).items():
                 print(f"  {what}: {sec * 1e3:.3f} ms")
@@ -328,7 +391,12 @@ def main(argv=None) -> int:
         g, c = rates.get((name, "cuda")), rates.get((name, "cpu"))
         if g and c:
             print(f"  {name}: GPU {g:.3e} / CPU {c:.3e} particle-steps/s = {g / c:.1f}x")
-    checks.append((f"experiment (b)'s 15 runs side by side <= {TARGET_BATCH_S:.0f} s: not "
-                   "measured in this call (a call of its own: --batch 15)", False))
+    checks.append(
+        (
+            f"experiment (b)'s 15 runs side by side <= {TARGET_BATCH_S:.0f} s: not "
+            "measured in this call (a call of its own: --batch 15)",
+            False,
+        )
+    )
     print(f"\nelapsed {time.perf_counter() - t_start:.0f} s")
     return report([(w, bool(o)) for w, o in checks])

@@ -106,13 +106,24 @@ class Case:
         return NEQUIL * k, NSTEPS * k, EVERY * k, WINDOW * k
 
     def eepa(self) -> engine.EEPA:
-        return engine.EEPA(k1=self.k1, k2=self.k2, f0=self.f0, kadh=0.0, n=self.n, chi=self.chi,
-                           kt_ratio=self.kt_ratio, mu_s=self.mu_s, mu_r=self.mu_r,
-                           restitution=self.restitution, friction_cap=self.friction_cap)
+        return engine.EEPA(
+            k1=self.k1,
+            k2=self.k2,
+            f0=self.f0,
+            kadh=0.0,
+            n=self.n,
+            chi=self.chi,
+            kt_ratio=self.kt_ratio,
+            mu_s=self.mu_s,
+            mu_r=self.mu_r,
+            restitution=self.restitution,
+            friction_cap=self.friction_cap,
+        )
 
     def wall_law(self) -> engine.HertzMindlin:
-        return engine.HertzMindlin(E=WALL_E, nu=WALL_NU, restitution=self.platen_restitution,
-                                   mu=self.mu_s, mu_r=self.mu_r)
+        return engine.HertzMindlin(
+            E=WALL_E, nu=WALL_NU, restitution=self.platen_restitution, mu=self.mu_s, mu_r=self.mu_r
+        )
 
     @property
     def platen_restitution(self) -> float:
@@ -136,28 +147,46 @@ D_REF = 3.7e-5
 D_REF_FRICTION = 5.7e-5
 
 
-CASES: dict[str, Case] = {c.key: c for c in (
-    Case("1", "n = 1.5, frictionless, cohesionless", mu_s=0.0, mu_r=0.0),
-    Case("2", "n = 1.5, friction, cohesionless"),
-    Case("3", "n = 1.5, f0 = -0.4 N, adhesive cap", f0=-0.4, friction_cap="adhesive"),
-    Case("4", "n = 1.5, f0 = -0.4 N, normal cap (LIGGGHTS')", f0=-0.4),
-    Case("5", "n = 1 (K1 = 5e3 N/m), friction, cohesionless", n=1.0, chi=1.0, k1=5e3,
-         k2=2.5e4),
-    Case("1b", "1, LIGGGHTS damping matched at 37 um", mu_s=0.0, mu_r=0.0,
-         lig_restitution=round(matched_restitution(0.5, 1.5, D_REF), 3), diagnostic=True),
-    Case("2b", "2 without rolling friction", mu_r=0.0, diagnostic=True),
-    Case("2c", "2 at dt = 5e-6 s in both codes", dt=5e-6, diagnostic=True),
-    Case("2d", "2c, demscale kt = LIGGGHTS' at 57 um", dt=5e-6,
-         kt_ratio=round(1.0 / (1.5 * math.sqrt(D_REF_FRICTION))), diagnostic=True),
-)}
+CASES: dict[str, Case] = {
+    c.key: c
+    for c in (
+        Case("1", "n = 1.5, frictionless, cohesionless", mu_s=0.0, mu_r=0.0),
+        Case("2", "n = 1.5, friction, cohesionless"),
+        Case("3", "n = 1.5, f0 = -0.4 N, adhesive cap", f0=-0.4, friction_cap="adhesive"),
+        Case("4", "n = 1.5, f0 = -0.4 N, normal cap (LIGGGHTS')", f0=-0.4),
+        Case("5", "n = 1 (K1 = 5e3 N/m), friction, cohesionless", n=1.0, chi=1.0, k1=5e3, k2=2.5e4),
+        Case(
+            "1b",
+            "1, LIGGGHTS damping matched at 37 um",
+            mu_s=0.0,
+            mu_r=0.0,
+            lig_restitution=round(matched_restitution(0.5, 1.5, D_REF), 3),
+            diagnostic=True,
+        ),
+        Case("2b", "2 without rolling friction", mu_r=0.0, diagnostic=True),
+        Case("2c", "2 at dt = 5e-6 s in both codes", dt=5e-6, diagnostic=True),
+        Case(
+            "2d",
+            "2c, demscale kt = LIGGGHTS' at 57 um",
+            dt=5e-6,
+            kt_ratio=round(1.0 / (1.5 * math.sqrt(D_REF_FRICTION))),
+            diagnostic=True,
+        ),
+    )
+}
 MPI_CASE = "2"
 #: the chaotic spread of a run: cases rerun with every initial position moved by a random
 #: vector of scale JITTER, seeds of demscale's and of LIGGGHTS' reruns
 JITTER = 1e-9  # m
 SPREAD = {"1": ((1, 2, 3, 4), (1,)), "2": ((1,), ())}
-SPREAD_CODES = tuple(dict.fromkeys(f"{code}-jitter{seed}" for seeds in SPREAD.values()
-                                   for code, ss in zip(("demscale", "liggghts"), seeds)
-                                   for seed in ss))
+SPREAD_CODES = tuple(
+    dict.fromkeys(
+        f"{code}-jitter{seed}"
+        for seeds in SPREAD.values()
+        for code, ss in zip(("demscale", "liggghts"), seeds)
+        for seed in ss
+    )
+)
 
 
 # ---------------------------------------------------------------------------- metric
@@ -203,11 +232,18 @@ def run_demscale(case: Case, threads: int = 1, jitter: float = 0.0, seed: int = 
     pos, rad, lengths, top = bed()
     pos = jittered(pos, jitter, seed)
     walls = [engine.Plane((0, 0, 0), (0, 0, 1)), engine.Plane((0, 0, top), (0, 0, -1))]
-    scene = engine.Scene(pos, rad, RHO, box=[(0, lengths[0]), (0, lengths[1]),
-                                             (0, lengths[2])],
-                         periodic=(True, True, False), walls=walls, gravity=(0, 0, -9.81),
-                         pair_law=case.eepa(), wall_law=case.wall_law(),
-                         wall_material=engine.WallMaterial(E=WALL_E, nu=WALL_NU))
+    scene = engine.Scene(
+        pos,
+        rad,
+        RHO,
+        box=[(0, lengths[0]), (0, lengths[1]), (0, lengths[2])],
+        periodic=(True, True, False),
+        walls=walls,
+        gravity=(0, 0, -9.81),
+        pair_law=case.eepa(),
+        wall_law=case.wall_law(),
+        wall_material=engine.WallMaterial(E=WALL_E, nu=WALL_NU),
+    )
     t0 = time.perf_counter()
     nequil, nsteps, every, window = case.steps
     sim = engine.Simulation(scene, dt=case.dt, threads=threads)
@@ -227,11 +263,20 @@ def run_demscale(case: Case, threads: int = 1, jitter: float = 0.0, seed: int = 
         ke.append(sim.kinetic_energy())
     wall = time.perf_counter() - t0
     c = sim.contacts()
-    return {"strain": strain, "stress": stress, "ke": ke, "seconds": wall, "setup": setup,
-            "threads": sim.threads, "rebuilds": sim.n_rebuilds, "dt_limit": sim.limit.dt,
-            "dt_reason": sim.limit.reason, "contacts": len(c.overlaps),
-            "overlap_median": float(np.median(c.overlaps)),
-            "overlap_p90": float(np.percentile(c.overlaps, 90))}
+    return {
+        "strain": strain,
+        "stress": stress,
+        "ke": ke,
+        "seconds": wall,
+        "setup": setup,
+        "threads": sim.threads,
+        "rebuilds": sim.n_rebuilds,
+        "dt_limit": sim.limit.dt,
+        "dt_reason": sim.limit.reason,
+        "contacts": len(c.overlaps),
+        "overlap_median": float(np.median(c.overlaps)),
+        "overlap_p90": float(np.percentile(c.overlaps, 90)),
+    }
 
 
 # ---------------------------------------------------------------------------- LIGGGHTS
@@ -297,8 +342,9 @@ run             {nequil + nsteps}
 def deck_id(case: Case) -> str:
     """Digest of the deck without its comments: cases with the same LIGGGHTS input (they
     differ only in a demscale option) share one LIGGGHTS run."""
-    body = "\n".join(line for line in deck(case, *bed()[3:]).splitlines()
-                     if not line.startswith("#"))
+    body = "\n".join(
+        line for line in deck(case, *bed()[3:]).splitlines() if not line.startswith("#")
+    )
     return hashlib.sha256(body.encode()).hexdigest()[:16]
 
 
@@ -323,14 +369,16 @@ def parse_log(text: str) -> dict:
     loop = re.findall(r"Loop time of (\S+) on (\d+) procs", text)
     builds = re.findall(r"Neighbor list builds = (\d+)", text)
     danger = re.findall(r"Dangerous builds = (\d+)", text)
-    return {"rows": rows, "seconds": float(loop[-1][0]) if loop else None,
-            "procs": int(loop[-1][1]) if loop else None,
-            "builds": int(builds[-1]) if builds else None,
-            "dangerous": int(danger[-1]) if danger else None}
+    return {
+        "rows": rows,
+        "seconds": float(loop[-1][0]) if loop else None,
+        "procs": int(loop[-1][1]) if loop else None,
+        "builds": int(builds[-1]) if builds else None,
+        "dangerous": int(danger[-1]) if danger else None,
+    }
 
 
-def run_liggghts(case: Case, ranks: int = 1, jitter: float = 0.0,
-                 seed: int = 1) -> dict | None:
+def run_liggghts(case: Case, ranks: int = 1, jitter: float = 0.0, seed: int = 1) -> dict | None:
     """The compression in LIGGGHTS (None if it is not installed or failed); ``jitter`` as
     :func:`run_demscale` (the moved bed is written as a new data file)."""
     exe = shutil.which("liggghts")
@@ -352,8 +400,9 @@ def run_liggghts(case: Case, ranks: int = 1, jitter: float = 0.0,
         t0 = time.perf_counter()
         # LIGGGHTS crashes with screen output disabled: send it to a file instead
         with open(Path(tmp, "screen.txt"), "w") as screen:
-            subprocess.run(cmd, cwd=tmp, stdout=screen, stderr=subprocess.STDOUT,
-                           timeout=3600, check=False)
+            subprocess.run(
+                cmd, cwd=tmp, stdout=screen, stderr=subprocess.STDOUT, timeout=3600, check=False
+            )
         wall = time.perf_counter() - t0
         log = Path(tmp, "lig.log")
         if not log.exists():
@@ -372,9 +421,16 @@ def run_liggghts(case: Case, ranks: int = 1, jitter: float = 0.0,
     # the first row: instantaneous force (the window average there is the settle's)
     stress = rows[keep, 3] / area
     stress[0] = rows[keep, 4][0] / area
-    return {"strain": list(PLATEN_SPEED * steps * case.dt / top), "stress": list(stress),
-            "ke": list(rows[keep, 2]), "seconds": wall, "loop": out["seconds"],
-            "ranks": ranks, "builds": out["builds"], "dangerous": out["dangerous"]}
+    return {
+        "strain": list(PLATEN_SPEED * steps * case.dt / top),
+        "stress": list(stress),
+        "ke": list(rows[keep, 2]),
+        "seconds": wall,
+        "loop": out["seconds"],
+        "ranks": ranks,
+        "builds": out["builds"],
+        "dangerous": out["dangerous"],
+    }
 
 
 # ---------------------------------------------------------------------------- cache
@@ -394,8 +450,11 @@ def load(code: str, key: str, case: Case) -> dict | None:
     d = json.loads(p.read_text())
     stored = d.pop("case")
     defaults = {f.name: f.default for f in fields(Case)}
-    if any(stored.get(k, defaults[k]) != v for k, v in asdict(case).items()
-           if k not in ("title", "diagnostic")):
+    if any(
+        stored.get(k, defaults[k]) != v
+        for k, v in asdict(case).items()
+        if k not in ("title", "diagnostic")
+    ):
         return None  # stale: the case's parameters changed since
     return d
 
@@ -414,9 +473,11 @@ def same_liggghts_run(case: Case) -> dict | None:
 
 # ---------------------------------------------------------------------------- report
 def table(results: dict) -> str:
-    rows = ["| case | law | rel. RMS difference | within 5 % | stress at 5.7 % strain, "
-            "demscale / LIGGGHTS [kPa] | run time demscale / LIGGGHTS [s] |",
-            "|---|---|---:|---|---:|---:|"]
+    rows = [
+        "| case | law | rel. RMS difference | within 5 % | stress at 5.7 % strain, "
+        "demscale / LIGGGHTS [kPa] | run time demscale / LIGGGHTS [s] |",
+        "|---|---|---:|---|---:|---:|",
+    ]
     for key, case in CASES.items():
         dem, lig = results.get(("demscale", key)), results.get(("liggghts", key))
         name = f"{key} (diagnostic)" if case.diagnostic else key
@@ -427,41 +488,56 @@ def table(results: dict) -> str:
         rows.append(
             f"| {name} | {case.title} | {d:.1f} % | {'yes' if d <= TARGET else 'no'} | "
             f"{dem['stress'][-1] / 1e3:.2f} / {lig['stress'][-1] / 1e3:.2f} | "
-            f"{dem['seconds']:.0f} / {lig['seconds']:.0f} |")
+            f"{dem['seconds']:.0f} / {lig['seconds']:.0f} |"
+        )
     for key, seeds in SPREAD.items():
         for code, name in (("demscale", "demscale"), ("liggghts", "LIGGGHTS")):
             base = results.get((code, key))
-            runs = [results[f"{code}-jitter{s}", key] for s in seeds[code == "liggghts"]
-                    if (f"{code}-jitter{s}", key) in results]
+            runs = [
+                results[f"{code}-jitter{s}", key]
+                for s in seeds[code == "liggghts"]
+                if (f"{code}-jitter{s}", key) in results
+            ]
             if base is None or not runs:
                 continue
-            d = [rel_rms(a["strain"], a["stress"], base["strain"], base["stress"])
-                 for a in runs]
+            d = [rel_rms(a["strain"], a["stress"], base["strain"], base["stress"]) for a in runs]
             span = f"{d[0]:.1f} %" if len(d) == 1 else f"{min(d):.1f} to {max(d):.1f} %"
             ends = ", ".join(f"{a['stress'][-1] / 1e3:.2f}" for a in runs)
-            rows.append(f"| {key} (spread) | {name} against itself, bed moved by "
-                        f"{JITTER * 1e9:g} nm ({len(runs)} seed(s)) | {span} | | {ends} / "
-                        f"{base['stress'][-1] / 1e3:.2f} ({name}) | |")
-        dem = [results[c, key] for c in ("demscale", *(f"demscale-jitter{s}" for s in seeds[0]))
-               if (c, key) in results]
-        lig = [results[c, key] for c in ("liggghts", *(f"liggghts-jitter{s}" for s in seeds[1]))
-               if (c, key) in results]
+            rows.append(
+                f"| {key} (spread) | {name} against itself, bed moved by "
+                f"{JITTER * 1e9:g} nm ({len(runs)} seed(s)) | {span} | | {ends} / "
+                f"{base['stress'][-1] / 1e3:.2f} ({name}) | |"
+            )
+        dem = [
+            results[c, key]
+            for c in ("demscale", *(f"demscale-jitter{s}" for s in seeds[0]))
+            if (c, key) in results
+        ]
+        lig = [
+            results[c, key]
+            for c in ("liggghts", *(f"liggghts-jitter{s}" for s in seeds[1]))
+            if (c, key) in results
+        ]
         if len(dem) > 1 and len(lig) > 1:
             x = np.asarray(lig[0]["strain"])
             mean_d = np.mean([np.interp(x, r["strain"], r["stress"]) for r in dem], axis=0)
             mean_l = np.mean([np.interp(x, r["strain"], r["stress"]) for r in lig], axis=0)
             d = rel_rms(x, mean_d, x, mean_l)
-            rows.append(f"| {key} (ensemble) | mean of {len(dem)} demscale runs against the mean "
-                        f"of {len(lig)} LIGGGHTS runs | {d:.1f} % | "
-                        f"{'yes' if d <= TARGET else 'no'} | {mean_d[-1] / 1e3:.2f} / "
-                        f"{mean_l[-1] / 1e3:.2f} | |")
+            rows.append(
+                f"| {key} (ensemble) | mean of {len(dem)} demscale runs against the mean "
+                f"of {len(lig)} LIGGGHTS runs | {d:.1f} % | "
+                f"{'yes' if d <= TARGET else 'no'} | {mean_d[-1] / 1e3:.2f} / "
+                f"{mean_l[-1] / 1e3:.2f} | |"
+            )
     one, two = results.get(("liggghts", MPI_CASE)), results.get(("liggghts-2ranks", MPI_CASE))
     if one is not None and two is not None:
         d = rel_rms(two["strain"], two["stress"], one["strain"], one["stress"])
-        rows.append(f"| {MPI_CASE} (MPI) | LIGGGHTS 2 ranks against LIGGGHTS 1 rank | {d:.1f} % "
-                    f"| {'yes' if d <= TARGET else 'no'} | {two['stress'][-1] / 1e3:.2f} / "
-                    f"{one['stress'][-1] / 1e3:.2f} | {two['seconds']:.0f} / "
-                    f"{one['seconds']:.0f} |")
+        rows.append(
+            f"| {MPI_CASE} (MPI) | LIGGGHTS 2 ranks against LIGGGHTS 1 rank | {d:.1f} % "
+            f"| {'yes' if d <= TARGET else 'no'} | {two['stress'][-1] / 1e3:.2f} / "
+            f"{one['stress'][-1] / 1e3:.2f} | {two['seconds']:.0f} / "
+            f"{one['seconds']:.0f} |"
+        )
     elif shutil.which("mpirun") is None:
         rows.append(f"| {MPI_CASE} (MPI) | LIGGGHTS 2 ranks | not run: no mpirun | | | |")
     notes = []
@@ -469,13 +545,17 @@ def table(results: dict) -> str:
         if code.startswith("liggghts"):
             same = f" (the run of case {r['same_as']}: the same deck)" if r.get("same_as") else ""
             moved = ", bed moved by 1 nm" if "jitter" in code else ""
-            notes.append(f"LIGGGHTS case {key} ({r['ranks']} rank(s){moved}){same}: "
-                         f"{r['builds']} "
-                         "neighbour-list builds after the one at the start, "
-                         f"{r['dangerous']} dangerous")
+            notes.append(
+                f"LIGGGHTS case {key} ({r['ranks']} rank(s){moved}){same}: "
+                f"{r['builds']} "
+                "neighbour-list builds after the one at the start, "
+                f"{r['dangerous']} dangerous"
+            )
         elif code == "demscale":
-            notes.append(f"demscale case {key}: {r['threads']} thread(s), dt limit "
-                         f"{r['dt_limit']:.3g} s ({r['dt_reason']})")
+            notes.append(
+                f"demscale case {key}: {r['threads']} thread(s), dt limit "
+                f"{r['dt_limit']:.3g} s ({r['dt_reason']})"
+            )
     return "\n".join(rows) + "\n\n" + "\n".join(f"- {n}" for n in notes) + "\n"
 
 
@@ -489,34 +569,51 @@ def figure(results: dict, path: Path) -> None:
     ncol = 4
     nrow = -(-len(keys) // ncol)
     fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.9 * nrow), squeeze=False)
-    for ax in axes.flat[len(keys):]:
+    for ax in axes.flat[len(keys) :]:
         ax.set_visible(False)
     for ax, key in zip(axes.flat, keys):
         case = CASES[key]
-        for code, style, label in (("liggghts", "k-", "LIGGGHTS 3.8"),
-                                   ("liggghts-2ranks", "k:", "LIGGGHTS, 2 MPI ranks"),
-                                   ("demscale", "C3--", "demscale")):
+        for code, style, label in (
+            ("liggghts", "k-", "LIGGGHTS 3.8"),
+            ("liggghts-2ranks", "k:", "LIGGGHTS, 2 MPI ranks"),
+            ("demscale", "C3--", "demscale"),
+        ):
             r = results.get((code, key))
             if r is None:
                 continue
-            ax.plot(100 * np.asarray(r["strain"]), np.asarray(r["stress"]) / 1e3, style,
-                    lw=1.4, label=label)
+            ax.plot(
+                100 * np.asarray(r["strain"]),
+                np.asarray(r["stress"]) / 1e3,
+                style,
+                lw=1.4,
+                label=label,
+            )
         first = {"demscale": True, "liggghts": True}
         for code in SPREAD_CODES:
             r = results.get((code, key))
             if r is None:
                 continue
             kind = code.split("-")[0]
-            label = (f"{'demscale' if kind == 'demscale' else 'LIGGGHTS'}, bed moved 1 nm"
-                     if first[kind] else None)
+            label = (
+                f"{'demscale' if kind == 'demscale' else 'LIGGGHTS'}, bed moved 1 nm"
+                if first[kind]
+                else None
+            )
             first[kind] = False
-            ax.plot(100 * np.asarray(r["strain"]), np.asarray(r["stress"]) / 1e3,
-                    "C3:" if kind == "demscale" else "C7-", lw=1.0, label=label)
+            ax.plot(
+                100 * np.asarray(r["strain"]),
+                np.asarray(r["stress"]) / 1e3,
+                "C3:" if kind == "demscale" else "C7-",
+                lw=1.0,
+                label=label,
+            )
         dem, lig = results.get(("demscale", key)), results.get(("liggghts", key))
         sub = ""
         if dem is not None and lig is not None:
-            sub = (f"\nrel. RMS difference "
-                   f"{rel_rms(dem['strain'], dem['stress'], lig['strain'], lig['stress']):.1f} %")
+            sub = (
+                f"\nrel. RMS difference "
+                f"{rel_rms(dem['strain'], dem['stress'], lig['strain'], lig['stress']):.1f} %"
+            )
         kind = " (diagnostic)" if case.diagnostic else ""
         ax.set_title(f"case {key}{kind}: {case.title}{sub}", fontsize=9)
         ax.set_xlabel("strain [%]")
@@ -546,32 +643,44 @@ def write_doc(text: str) -> None:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cases", nargs="*", default=None, choices=[*CASES, "mpi", "spread"],
-                    help="cases to (re)run; default: all, the MPI check and demscale's "
-                         "spread")
-    ap.add_argument("--codes", nargs="*", default=["demscale", "liggghts"],
-                    choices=["demscale", "liggghts"])
+    ap.add_argument(
+        "--cases",
+        nargs="*",
+        default=None,
+        choices=[*CASES, "mpi", "spread"],
+        help="cases to (re)run; default: all, the MPI check and demscale's spread",
+    )
+    ap.add_argument(
+        "--codes", nargs="*", default=["demscale", "liggghts"], choices=["demscale", "liggghts"]
+    )
     ap.add_argument("--report", action="store_true", help="only the table and the figure")
     args = ap.parse_args(argv)
-    todo = [] if args.report else (args.cases if args.cases is not None
-                                   else [*CASES, "mpi", "spread"])
+    todo = (
+        [] if args.report else (args.cases if args.cases is not None else [*CASES, "mpi", "spread"])
+    )
     if shutil.which("liggghts") is None:
         print("liggghts is not on the PATH: only cached LIGGGHTS curves can be compared")
     for key in todo:
         if key == "spread":
             for k, (dseeds, lseeds) in SPREAD.items():
-                for code, seeds, run in (("demscale", dseeds, run_demscale),
-                                         ("liggghts", lseeds, run_liggghts)):
+                for code, seeds, run in (
+                    ("demscale", dseeds, run_demscale),
+                    ("liggghts", lseeds, run_liggghts),
+                ):
                     if code not in args.codes:
                         continue
                     for seed in seeds:
-                        print(f"{code} case {k}, bed moved by {JITTER:g} m (seed {seed}) ...",
-                              flush=True)
+                        print(
+                            f"{code} case {k}, bed moved by {JITTER:g} m (seed {seed}) ...",
+                            flush=True,
+                        )
                         r = run(CASES[k], jitter=JITTER, seed=seed)
                         if r is not None:
                             save(f"{code}-jitter{seed}", k, r, CASES[k])
-                            print(f"  {r['seconds']:.0f} s, final stress "
-                                  f"{r['stress'][-1]:.4g} Pa", flush=True)
+                            print(
+                                f"  {r['seconds']:.0f} s, final stress {r['stress'][-1]:.4g} Pa",
+                                flush=True,
+                            )
             continue
         if key == "mpi":
             if "liggghts" not in args.codes:
@@ -601,8 +710,11 @@ def main(argv=None) -> int:
                 r = run_liggghts(case)
             if r is not None:
                 save("liggghts", key, r, case)
-                print(f"  {r['seconds']:.0f} s, final stress {r['stress'][-1]:.4g} Pa, "
-                      f"{r['builds']} list builds ({r['dangerous']} dangerous)", flush=True)
+                print(
+                    f"  {r['seconds']:.0f} s, final stress {r['stress'][-1]:.4g} Pa, "
+                    f"{r['builds']} list builds ({r['dangerous']} dangerous)",
+                    flush=True,
+                )
     results = {}
     for code in ("demscale", "liggghts", "liggghts-2ranks", *SPREAD_CODES):
         for key, case in CASES.items():
@@ -619,11 +731,20 @@ def main(argv=None) -> int:
         if case.diagnostic:
             continue
         if ("demscale", k) in results and ("liggghts", k) in results:
-            d = rel_rms(results["demscale", k]["strain"], results["demscale", k]["stress"],
-                        results["liggghts", k]["strain"], results["liggghts", k]["stress"])
-            checks.append((f"case {k} ({case.title}): stress-strain within {TARGET:g} % of "
-                           f"LIGGGHTS: {d:.1f} % (docs/LIGGGHTS_EEPA.md explains the "
-                           "differences)", d <= TARGET))
+            d = rel_rms(
+                results["demscale", k]["strain"],
+                results["demscale", k]["stress"],
+                results["liggghts", k]["strain"],
+                results["liggghts", k]["stress"],
+            )
+            checks.append(
+                (
+                    f"case {k} ({case.title}): stress-strain within {TARGET:g} % of "
+                    f"LIGGGHTS: {d:.1f} % (docs/LIGGGHTS_EEPA.md explains the "
+                    "differences)",
+                    d <= TARGET,
+                )
+            )
         else:
             checks.append((f"case {k}: not compared (a code did not run)", False))
     return report(checks)

@@ -47,9 +47,13 @@ import engine
 from engine.study import _adaptive_summary, assemble, plan_runs
 
 ROOT = Path(__file__).resolve().parent.parent
-_COLS = (("density", "density"), ("loading_stiffness", "K load"),
-         ("unloading_stiffness", "K unload"), ("coordination", "coordination"),
-         ("strength", "strength"))
+_COLS = (
+    ("density", "density"),
+    ("loading_stiffness", "K load"),
+    ("unloading_stiffness", "K unload"),
+    ("coordination", "coordination"),
+    ("strength", "strength"),
+)
 
 
 def _pct(x, signed=False):
@@ -76,11 +80,16 @@ def _metric(v: dict, name: str) -> dict | None:
 
 
 def verdict_table(res: engine.StudyResult) -> str:
-    names = [n for n, _ in _COLS if n in res.spec.tolerances and (
-        n != "strength" or res.spec.reference.unconfined)]
-    head = ("| R [mm] | rule (a, b) | seeds | speed-up (wall) | particle-steps ratio | "
-            + " | ".join(f"{lab} (tol {res.spec.tolerances[n]:.0%})" for n, lab in _COLS
-                         if n in names) + " | verdict |")
+    names = [
+        n
+        for n, _ in _COLS
+        if n in res.spec.tolerances and (n != "strength" or res.spec.reference.unconfined)
+    ]
+    head = (
+        "| R [mm] | rule (a, b) | seeds | speed-up (wall) | particle-steps ratio | "
+        + " | ".join(f"{lab} (tol {res.spec.tolerances[n]:.0%})" for n, lab in _COLS if n in names)
+        + " | verdict |"
+    )
     lines = [head, "|" + "---|" * (6 + len(names))]
     rules = {r.name: r for r in res.spec.rules}
     for v in res.advisor["verdicts"]:
@@ -96,17 +105,23 @@ def verdict_table(res: engine.StudyResult) -> str:
         ps = particle_steps_ratio(res, v["rule"], v["radius"])
         ratio = "-" if ps is None else f"{ps:.1f}x"
         a, b, _ = r.exponents(res.spec.reference.pair_law)
-        lines.append(f"| {v['radius'] * 1e3:g} | {r.name} ({a:g}, {b:g}) | {v['seeds']} | "
-                     f"{'-' if sp is None else f'{sp:.1f}x'} | {ratio} | " + " | ".join(cells)
-                     + f" | **{v['verdict']}** |")
+        lines.append(
+            f"| {v['radius'] * 1e3:g} | {r.name} ({a:g}, {b:g}) | {v['seeds']} | "
+            f"{'-' if sp is None else f'{sp:.1f}x'} | {ratio} | "
+            + " | ".join(cells)
+            + f" | **{v['verdict']}** |"
+        )
     return "\n".join(lines)
 
 
 def particle_steps_ratio(res: engine.StudyResult, rule: str, radius: float) -> float | None:
     """Mean particle-steps of the references over those of the variant's seeds (the cost
     ratio that does not depend on machine, load or threads); None without a variant run."""
-    ps = [x.result.scalars["particle_steps"] for x in res.runs.values()
-          if x.rule is not None and x.rule.name == rule and abs(x.radius - radius) < 1e-12]
+    ps = [
+        x.result.scalars["particle_steps"]
+        for x in res.runs.values()
+        if x.rule is not None and x.rule.name == rule and abs(x.radius - radius) < 1e-12
+    ]
     ref = [x.result.scalars["particle_steps"] for x in res.runs.values() if x.rule is None]
     return float(np.mean(ref) / np.mean(ps)) if ps and ref else None
 
@@ -114,28 +129,36 @@ def particle_steps_ratio(res: engine.StudyResult, rule: str, radius: float) -> f
 def _ran_on(s: dict, machine: dict | None) -> str:
     """Where a run's wall time was measured: engine threads and machine, where recorded."""
     t = f"{s['threads']:.0f} thr" if "threads" in s else "threads not recorded"
-    m = ("machine not recorded" if machine is None
-         else f"{machine['cpu']} ({machine['logical_cpus']} CPUs)")
+    m = (
+        "machine not recorded"
+        if machine is None
+        else f"{machine['cpu']} ({machine['logical_cpus']} CPUs)"
+    )
     return f"{t}, {m}"
 
 
 def run_table(res: engine.StudyResult, machines: dict | None = None) -> str:
     machines = machines or {}
-    lines = ["| run | particles | steps | wall time [s] | ran on | thickness [d] | "
-             "height [d] | porosity whole / interior | K load [kPa] | UCS [kPa] | failed |",
-             "|" + "---|" * 11]
+    lines = [
+        "| run | particles | steps | wall time [s] | ran on | thickness [d] | "
+        "height [d] | porosity whole / interior | K load [kPa] | UCS [kPa] | failed |",
+        "|" + "---|" * 11,
+    ]
     for key, r in res.runs.items():
         s = r.result.scalars
-        ucs = (f"{s['unconfined_strength'] / 1e3:.2f}" if "unconfined_strength" in s
-               else "-")
-        failed = "-" if "unconfined_failure" not in s else (
-            "yes" if s["unconfined_failure"] else "no (hardens)")
+        ucs = f"{s['unconfined_strength'] / 1e3:.2f}" if "unconfined_strength" in s else "-"
+        failed = (
+            "-"
+            if "unconfined_failure" not in s
+            else ("yes" if s["unconfined_failure"] else "no (hardens)")
+        )
         lines.append(
             f"| {key} | {s['particles']:.0f} | {s['steps']:.0f} | {s['wall_time']:.0f} | "
             f"{_ran_on(s, machines.get(key))} | {s['thickness_diameters']:.1f} | "
             f"{s['height_diameters']:.1f} | "
             f"{s['consolidated_porosity']:.3f} / {s['consolidated_porosity_interior']:.3f} | "
-            f"{s['loading_stiffness'] / 1e3:.0f} | {ucs} | {failed} |")
+            f"{s['loading_stiffness'] / 1e3:.0f} | {ucs} | {failed} |"
+        )
     for key, err in res.failed.items():
         lines.append(f"| {key} | - | - | - | - | - | - | - | - | - | {err} |")
     return "\n".join(lines)
@@ -145,17 +168,27 @@ def noise_line(res: engine.StudyResult) -> str:
     noise = res.advisor["noise_floor"]
     ref = res.advisor["reference"]
     parts = [f"{n} {_pct(v)}" for n, v in noise.items()]
-    text = (f"Reference seeds {', '.join(map(str, ref['seeds']))}: seed-to-seed spread "
-            f"(noise floor, 1 sd relative to the mean): " + ", ".join(parts) + ".")
+    text = (
+        f"Reference seeds {', '.join(map(str, ref['seeds']))}: seed-to-seed spread "
+        f"(noise floor, 1 sd relative to the mean): " + ", ".join(parts) + "."
+    )
     if "unconfined_strength" in ref:
-        text += (f" Reference unconfined strength {ref['unconfined_strength'] / 1e3:.2f} ± "
-                 f"{ref['unconfined_strength_std'] / 1e3:.2f} kPa.")
+        text += (
+            f" Reference unconfined strength {ref['unconfined_strength'] / 1e3:.2f} ± "
+            f"{ref['unconfined_strength_std'] / 1e3:.2f} kPa."
+        )
     return text
 
 
 def _verdict_of(res, radius, rule, metric):
-    v = next((v for v in res.advisor["verdicts"] if v["rule"] == rule
-              and abs(v["radius"] - radius) < 1e-12), None)
+    v = next(
+        (
+            v
+            for v in res.advisor["verdicts"]
+            if v["rule"] == rule and abs(v["radius"] - radius) < 1e-12
+        ),
+        None,
+    )
     return None if v is None else _metric(v, metric)
 
 
@@ -164,10 +197,17 @@ def claim_a(res) -> str:
     if m is None:
         return "*undecided*: the unscaled runs are missing."
     soft = m["signed_error"] < 0
-    state = ("agrees" if soft and m["verdict"] == "differs" else
-             "differs" if not soft or m["verdict"] == "equivalent" else "undecided")
-    return (f"**{state}**. At R = 5 mm with the reference's stiffness the confined loading "
-            f"modulus is {interval_text(m)} off the reference (verdict {m['verdict']}).")
+    state = (
+        "agrees"
+        if soft and m["verdict"] == "differs"
+        else "differs"
+        if not soft or m["verdict"] == "equivalent"
+        else "undecided"
+    )
+    return (
+        f"**{state}**. At R = 5 mm with the reference's stiffness the confined loading "
+        f"modulus is {interval_text(m)} off the reference (verdict {m['verdict']})."
+    )
 
 
 def claim_b(res) -> str:
@@ -176,10 +216,18 @@ def claim_b(res) -> str:
     if any(m is None for m in ms):
         return "*undecided*: the linearly scaled runs are missing."
     vs = [m["verdict"] for m in ms]
-    state = ("agrees" if all(v == "equivalent" for v in vs) else
-             "differs" if "differs" in vs else "undecided")
-    return f"**{state}**. Linear stiffness at R = 5 mm: " + "; ".join(
-        f"{n} {interval_text(m)} ({m['verdict']})" for n, m in zip(names, ms)) + "."
+    state = (
+        "agrees"
+        if all(v == "equivalent" for v in vs)
+        else "differs"
+        if "differs" in vs
+        else "undecided"
+    )
+    return (
+        f"**{state}**. Linear stiffness at R = 5 mm: "
+        + "; ".join(f"{n} {interval_text(m)} ({m['verdict']})" for n, m in zip(names, ms))
+        + "."
+    )
 
 
 def claim_c(res) -> list[str]:
@@ -192,19 +240,25 @@ def claim_c(res) -> list[str]:
         under, over = ms["b1"]["signed_error"] < 0, ms["b3"]["signed_error"] > 0
         if not under or not over or ms["b2"]["verdict"] == "differs":
             state = "differs"
-        elif (ms["b2"]["verdict"] == "equivalent" and ms["b1"]["verdict"] == "differs"
-              and ms["b3"]["verdict"] == "differs"):
+        elif (
+            ms["b2"]["verdict"] == "equivalent"
+            and ms["b1"]["verdict"] == "differs"
+            and ms["b3"]["verdict"] == "differs"
+        ):
             state = "agrees"
         else:
             state = "undecided"
-        out.append(f"R = {r * 1e3:g} mm: **{state}**. Strength against the reference: " +
-                   ", ".join(f"b = {b[1]}: {interval_text(m)} ({m['verdict']})"
-                             for b, m in ms.items()) + ".")
+        out.append(
+            f"R = {r * 1e3:g} mm: **{state}**. Strength against the reference: "
+            + ", ".join(f"b = {b[1]}: {interval_text(m)} ({m['verdict']})" for b, m in ms.items())
+            + "."
+        )
     adh = res.advisor.get("adhesion_exponent") or {}
     for r, v in (adh.get("by_radius") or {}).items():
         fit = "" if v["fitted"] is None else f", fitted b = {v['fitted']:.2f}"
-        out.append(f"Adhesion exponent at R = {float(r) * 1e3:g} mm: closest b = "
-                   f"{v['best']:g}{fit}.")
+        out.append(
+            f"Adhesion exponent at R = {float(r) * 1e3:g} mm: closest b = {v['best']:g}{fit}."
+        )
     return out
 
 
@@ -212,34 +266,48 @@ def comparable_wall_times(res: engine.StudyResult, machines: dict | None) -> boo
     """Whether every run's wall time was measured with the same engine threads on the same,
     known machine: only then is a wall-time ratio a speed-up."""
     machines = machines or {}
-    setups = {(r.result.scalars.get("threads"),
-               None if machines.get(k) is None else json.dumps(machines[k], sort_keys=True))
-              for k, r in res.runs.items()}
+    setups = {
+        (
+            r.result.scalars.get("threads"),
+            None if machines.get(k) is None else json.dumps(machines[k], sort_keys=True),
+        )
+        for k, r in res.runs.items()
+    }
     return len(setups) == 1 and None not in next(iter(setups))
 
 
 def claim_d(res, machines: dict | None = None) -> str:
     """The seed's ~9x: judged on particle-steps, which do not depend on the machine, its load
     or the thread count; wall-time ratios are quoted only where every run was timed alike."""
-    ps = {rad: v for rad in res.spec.coarse_radii
-          if (v := particle_steps_ratio(res, "b2", rad)) is not None}
+    ps = {
+        rad: v
+        for rad in res.spec.coarse_radii
+        if (v := particle_steps_ratio(res, "b2", rad)) is not None
+    }
     if not ps:
         return "*undecided*: no paper-rule runs."
     s = np.array([rad / res.spec.reference.radius for rad in ps])
     k = float(np.mean(np.log(list(ps.values())) / np.log(s)))
     at = (3.75 / 2.0) ** k
     state = "agrees" if abs(at - 9.0) <= 0.25 * 9.0 else "differs"
-    text = (f"**{state}**. Paper rule, fixed dt: particle-steps fall " + ", ".join(
-        f"{v:.1f}x at R = {rad * 1e3:g} mm" for rad, v in ps.items())
+    text = (
+        f"**{state}**. Paper rule, fixed dt: particle-steps fall "
+        + ", ".join(f"{v:.1f}x at R = {rad * 1e3:g} mm" for rad, v in ps.items())
         + f", as s^{k:.2f}, which gives {at:.1f}x at the seed's 2 -> 3.75 mm (s = 1.875); "
         "particle-steps, unlike wall time, do not depend on the machine, its load or the "
-        "thread count. ")
+        "thread count. "
+    )
     if comparable_wall_times(res, machines):
-        wall = ", ".join(f"{g['speedup']:.1f}x at R = {g['radius'] * 1e3:g} mm"
-                         for g in res.groups if g["rule"] == "b2")
+        wall = ", ".join(
+            f"{g['speedup']:.1f}x at R = {g['radius'] * 1e3:g} mm"
+            for g in res.groups
+            if g["rule"] == "b2"
+        )
         return text + f"Wall time, every run timed alike: {wall}."
-    return text + ("Wall-time ratios are not a speed-up here: the runs were timed with "
-                   "different thread counts, machines or loads (column 'ran on').")
+    return text + (
+        "Wall-time ratios are not a speed-up here: the runs were timed with "
+        "different thread counts, machines or loads (column 'ran on')."
+    )
 
 
 def claim_eepa(res) -> list[str]:
@@ -254,16 +322,24 @@ def claim_eepa(res) -> list[str]:
             continue
         e = {"equivalent": "agrees", "differs": "differs"}.get(sim["verdict"], "undecided")
         k = _metric(lin, "loading_stiffness")
-        f = ("agrees" if lin["verdict"] == "differs" and k is not None
-             and k["signed_error"] > 0 else
-             "differs" if lin["verdict"] == "equivalent" else "undecided")
+        f = (
+            "agrees"
+            if lin["verdict"] == "differs" and k is not None and k["signed_error"] > 0
+            else "differs"
+            if lin["verdict"] == "equivalent"
+            else "undecided"
+        )
 
         def cells(v):
-            return ", ".join(f"{n} {interval_text(m)}" for n in shown
-                             if (m := _metric(v, n)) is not None)
-        out.append(f"R = {r * 1e3:g} mm: (e) similarity **{e}** ({sim['verdict']}: "
-                   f"{cells(sim)}); (f) linear stiffness fails: **{f}** ({lin['verdict']}: "
-                   f"{cells(lin)}).")
+            return ", ".join(
+                f"{n} {interval_text(m)}" for n in shown if (m := _metric(v, n)) is not None
+            )
+
+        out.append(
+            f"R = {r * 1e3:g} mm: (e) similarity **{e}** ({sim['verdict']}: "
+            f"{cells(sim)}); (f) linear stiffness fails: **{f}** ({lin['verdict']}: "
+            f"{cells(lin)})."
+        )
     return out
 
 
@@ -272,26 +348,38 @@ def adaptive_lines(res) -> list[str]:
     a = res.advisor.get("adaptive")
     if not a:
         return []
-    head = (f"Seeds until decided (budget {a['budget']:.3g} particle-steps of added runs"
-            if a["budget"] else "Seeds until decided (no particle-step budget")
-    out = [f"{head}, {res.spec.rounds} rounds, at most {res.spec.max_seeds} seeds per variant "
-           f"and {res.spec.max_reference_seeds} reference seeds; verdicts over {a['looks']} "
-           f"looks): {a['planned_runs']} planned runs, {len(a['added_runs'])} added "
-           f"({a['added_particle_steps']:.3g} particle-steps); "
-           + (f"stopped: {a['stopped']}." if a["stopped"] else
-              "**still adding**: the runs of the last round are not all stored."), ""]
+    head = (
+        f"Seeds until decided (budget {a['budget']:.3g} particle-steps of added runs"
+        if a["budget"]
+        else "Seeds until decided (no particle-step budget"
+    )
+    out = [
+        f"{head}, {res.spec.rounds} rounds, at most {res.spec.max_seeds} seeds per variant "
+        f"and {res.spec.max_reference_seeds} reference seeds; verdicts over {a['looks']} "
+        f"looks): {a['planned_runs']} planned runs, {len(a['added_runs'])} added "
+        f"({a['added_particle_steps']:.3g} particle-steps); "
+        + (
+            f"stopped: {a['stopped']}."
+            if a["stopped"]
+            else "**still adding**: the runs of the last round are not all stored."
+        ),
+        "",
+    ]
     out += [f"- added {x['run']} ({x['kind']}): {x['reason']}" for x in a["added_runs"]]
     return out + ([""] if a["added_runs"] else [])
 
 
 def control_report_lines(text: str) -> list[str]:
     """The finite-size control's section (benchmarks/finite_size.py), with its reading."""
-    return [*text.rstrip().splitlines(), "",
-            "Reading: coarse / reference = (control / reference) x (coarse / control). The "
-            "control has the reference's particles and law in the coarse bed's size (5 x 15 "
-            "x 30 diameters) and half its overburden; against the references it measures "
-            "the finite-size effect, against the coarse runs what the rule leaves (gravity "
-            "stress, particle-scale rate, time step)."]
+    return [
+        *text.rstrip().splitlines(),
+        "",
+        "Reading: coarse / reference = (control / reference) x (coarse / control). The "
+        "control has the reference's particles and law in the coarse bed's size (5 x 15 "
+        "x 30 diameters) and half its overburden; against the references it measures "
+        "the finite-size effect, against the coarse runs what the rule leaves (gravity "
+        "stress, particle-scale rate, time step).",
+    ]
 
 
 def one_sitting_lines() -> list[str]:
@@ -301,9 +389,13 @@ def one_sitting_lines() -> list[str]:
 
     if not (timing_d.STORE / "ref-s1.h5").exists():
         return []
-    return ["  - Wall time in one sitting (benchmarks/timing_d.py, same threads and machine, "
-            "interleaved):", "", *["    " + li if li else "" for li in
-                                   timing_d.report().splitlines()], ""]
+    return [
+        "  - Wall time in one sitting (benchmarks/timing_d.py, same threads and machine, "
+        "interleaved):",
+        "",
+        *["    " + li if li else "" for li in timing_d.report().splitlines()],
+        "",
+    ]
 
 
 def confidence_line(data: dict) -> str:
@@ -316,27 +408,38 @@ def law_line(spec) -> str:
     """The reference pair law of an experiment, in words."""
     law = spec.reference.pair_law
     if isinstance(law, engine.EEPA):
-        return (f"Reference law: EEPA n = {law.n:g}, chi = {law.chi:g}, K1 = {law.k1:g} "
-                f"N/m^{law.n:g}, K2 = {law.k2:g} N/m^{law.n:g}, f0 = {law.f0:g} N, "
-                f"kadh = {law.kadh:g}, Kt = {law.kt_ratio:.3g} n K1 d^(n-1), "
-                f"mu_s = {law.mu_s:g}, mu_r = {law.mu_r:g}, restitution {law.restitution:g}.")
-    return (f"Reference law: bilinear, K1 = {law.k1:g} N/m, K2 = {law.k2:g} N/m, "
-            f"f0 = {law.f0:g} N, kadh = {law.kadh:g} N/m.")
+        return (
+            f"Reference law: EEPA n = {law.n:g}, chi = {law.chi:g}, K1 = {law.k1:g} "
+            f"N/m^{law.n:g}, K2 = {law.k2:g} N/m^{law.n:g}, f0 = {law.f0:g} N, "
+            f"kadh = {law.kadh:g}, Kt = {law.kt_ratio:.3g} n K1 d^(n-1), "
+            f"mu_s = {law.mu_s:g}, mu_r = {law.mu_r:g}, restitution {law.restitution:g}."
+        )
+    return (
+        f"Reference law: bilinear, K1 = {law.k1:g} N/m, K2 = {law.k2:g} N/m, "
+        f"f0 = {law.f0:g} N, kadh = {law.kadh:g} N/m."
+    )
 
 
 def porosity_note(res) -> str:
     rows = []
     for g in res.groups:
-        por = [r.result.scalars["consolidated_porosity_interior"] for r in res.runs.values()
-               if r.rule is not None and r.rule.name == g["rule"] and r.radius == g["radius"]]
+        por = [
+            r.result.scalars["consolidated_porosity_interior"]
+            for r in res.runs.values()
+            if r.rule is not None and r.rule.name == g["rule"] and r.radius == g["radius"]
+        ]
         rows.append(f"{g['rule']} at {g['radius'] * 1e3:g} mm: {np.mean(por):.3f}")
     ref = res.advisor["reference"].get("consolidated_porosity_interior")
-    return f"Consolidated interior porosity: reference {ref:.3f}" + "".join(
-        f"; {r}" for r in rows) + "."
+    return (
+        f"Consolidated interior porosity: reference {ref:.3f}"
+        + "".join(f"; {r}" for r in rows)
+        + "."
+    )
 
 
-def write_report(scale: str, data: dict, out_dir: Path | None = None,
-                 machines: dict | None = None) -> Path:
+def write_report(
+    scale: str, data: dict, out_dir: Path | None = None, machines: dict | None = None
+) -> Path:
     """``data``: experiment name -> (spec, stored outcomes); ``machines``: experiment name
     -> run key -> the stored run's machine (engine.runstore.stored_machine). Writes
     VALIDATION.md and its figures into ``out_dir`` (default: docs/ for the paper scale,
@@ -361,8 +464,10 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None,
         if spec.decide:
             results[name].advisor["adaptive"] = _adaptive_summary(spec, planned, added, stopped)
         results[name].save_plots(fig_root / f"{scale}_{name}")
-    machine = (f"{platform.machine()}, {os.cpu_count()} cores, numba {numba.__version__}, "
-               f"Python {sys.version.split()[0]}")
+    machine = (
+        f"{platform.machine()}, {os.cpu_count()} cores, numba {numba.__version__}, "
+        f"Python {sys.version.split()[0]}"
+    )
     p = next(iter(data.values()))[0].reference
     lines = [
         f"# Validation: Thakur et al. (2013) reproduced at the `{scale}` scale",
@@ -370,17 +475,32 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None,
         f"Generated by `python -m benchmarks.reproduce --scale {scale}` (`--report` recomputes "
         f"it from the stored runs) on {machine}. Runs are stored in "
         f"`benchmarks/results/{scale}/`; every number below is computed from them. "
-        + "; ".join(f"{n}: {c[0]} of {c[1]} runs stored" for n, c in counts.items()) + ".",
+        + "; ".join(f"{n}: {c[0]} of {c[1]} runs stored" for n, c in counts.items())
+        + ".",
         "",
-        *([f"**Incomplete**: {sum(c[1] - c[0] for c in counts.values())} runs are not stored "
-           f"yet; `python -m benchmarks.reproduce --scale {scale} --workers 2` runs only "
-           "those. Claims below are judged from the runs stored so far.", ""]
-          if any(c[0] < c[1] for c in counts.values()) else []),
-        *(["The smoke-test scale of the same experiments (`--scale quick`, 2,292 particles "
-           "per reference) is in [VALIDATION_quick.md](VALIDATION_quick.md).", ""]
-          if scale == "paper" else
-          ["This is the smoke-test scale; the seed's own scale is in "
-           "[VALIDATION.md](VALIDATION.md).", ""]),
+        *(
+            [
+                f"**Incomplete**: {sum(c[1] - c[0] for c in counts.values())} runs are not stored "
+                f"yet; `python -m benchmarks.reproduce --scale {scale} --workers 2` runs only "
+                "those. Claims below are judged from the runs stored so far.",
+                "",
+            ]
+            if any(c[0] < c[1] for c in counts.values())
+            else []
+        ),
+        *(
+            [
+                "The smoke-test scale of the same experiments (`--scale quick`, 2,292 particles "
+                "per reference) is in [VALIDATION_quick.md](VALIDATION_quick.md).",
+                "",
+            ]
+            if scale == "paper"
+            else [
+                "This is the smoke-test scale; the seed's own scale is in "
+                "[VALIDATION.md](VALIDATION.md).",
+                "",
+            ]
+        ),
         f"Scene: preset `{scale}`: a {p.cell[0] * 1e3:g} x {p.cell[1] * 1e3:g} x "
         f"{p.cell[2] * 1e3:g} mm cuboid (periodic in x and y until the release) filled with "
         f"{p.n_particles} spheres of R = {p.radius * 1e3:g} mm (solid fraction "
@@ -412,21 +532,24 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None,
         "interval that lies outside the tolerance for `differs` (metric verdict).",
         "",
     ]
+
     def _radii(name: str) -> str:
         if name not in data:
             return "coarse radii"
         r = [f"{x * 1e3:g}" for x in data[name][0].coarse_radii]
         return (" and ".join(r) if len(r) < 3 else ", ".join(r)) + " mm"
 
-    titles = {"a_cohesionless": "(a) Cohesionless: 2.5 mm against 5 mm, stiffness unscaled "
-              "and linearly scaled (confined stages only)",
-              "b_cohesive": f"(b) Cohesive (f0 = -0.8 N at 2.5 mm): {_radii('b_cohesive')}, "
-              "stiffness ~ R, adhesion ~ R^b with b = 1, 2, 3",
-              "c_eepa_cohesionless": "(c) EEPA n = 1.5, cohesionless: 2.5 against 5 mm, "
-              "stress similarity (K ~ R^0.5) against linear stiffness (K ~ R)",
-              "d_eepa_cohesive": "(d) EEPA n = 1.5, cohesive (f0 = -0.8 N at 2.5 mm): "
-              f"{_radii('d_eepa_cohesive')}, stress similarity (K ~ R^0.5, f0 ~ R^2) "
-              "against linear stiffness (K ~ R, f0 ~ R^2)"}
+    titles = {
+        "a_cohesionless": "(a) Cohesionless: 2.5 mm against 5 mm, stiffness unscaled "
+        "and linearly scaled (confined stages only)",
+        "b_cohesive": f"(b) Cohesive (f0 = -0.8 N at 2.5 mm): {_radii('b_cohesive')}, "
+        "stiffness ~ R, adhesion ~ R^b with b = 1, 2, 3",
+        "c_eepa_cohesionless": "(c) EEPA n = 1.5, cohesionless: 2.5 against 5 mm, "
+        "stress similarity (K ~ R^0.5) against linear stiffness (K ~ R)",
+        "d_eepa_cohesive": "(d) EEPA n = 1.5, cohesive (f0 = -0.8 N at 2.5 mm): "
+        f"{_radii('d_eepa_cohesive')}, stress similarity (K ~ R^0.5, f0 ~ R^2) "
+        "against linear stiffness (K ~ R, f0 ~ R^2)",
+    }
     for name, res in results.items():
         lines += [f"## {titles.get(name, name)}", "", law_line(data[name][0]), ""]
         if isinstance(res, str):
@@ -436,59 +559,94 @@ def write_report(scale: str, data: dict, out_dir: Path | None = None,
         lines += [noise_line(res), "", verdict_table(res), ""]
         lines += adaptive_lines(res)
         lines += ["Reasons:", ""]
-        lines += [f"- R = {v['radius'] * 1e3:g} mm, {v['rule']}: {v['verdict']}: "
-                  f"{v['reason']}" for v in res.advisor["verdicts"]]
+        lines += [
+            f"- R = {v['radius'] * 1e3:g} mm, {v['rule']}: {v['verdict']}: {v['reason']}"
+            for v in res.advisor["verdicts"]
+        ]
         lines += [f"- warning: {w}" for w in res.advisor["warnings"]]
-        lines += ["", porosity_note(res), "", "Per run:", "",
-                  run_table(res, machines.get(name)), ""]
+        lines += [
+            "",
+            porosity_note(res),
+            "",
+            "Per run:",
+            "",
+            run_table(res, machines.get(name)),
+            "",
+        ]
         if not comparable_wall_times(res, machines.get(name)):
-            lines += ["Wall times here were measured with different engine threads, "
-                      "machines or loads (or where that was not recorded; column 'ran on'): "
-                      "the wall-time speed-up and the error-against-run-time figure show them "
-                      "as measured, and the particle-steps ratio is the cost that does not "
-                      "depend on them.", ""]
-        lines += [f"![{k}]({fig}/{k}.png)" for k in
-                  ("stress_strain", "stress_porosity", "coordination", "unconfined",
-                   "error_vs_runtime")
-                  if k != "unconfined" or res.spec.reference.unconfined]
+            lines += [
+                "Wall times here were measured with different engine threads, "
+                "machines or loads (or where that was not recorded; column 'ran on'): "
+                "the wall-time speed-up and the error-against-run-time figure show them "
+                "as measured, and the particle-steps ratio is the cost that does not "
+                "depend on them.",
+                "",
+            ]
+        lines += [
+            f"![{k}]({fig}/{k}.png)"
+            for k in (
+                "stress_strain",
+                "stress_porosity",
+                "coordination",
+                "unconfined",
+                "error_vs_runtime",
+            )
+            if k != "unconfined" or res.spec.reference.unconfined
+        ]
         lines.append("")
     lines += ["## The seed's claims", ""]
     a, b = results.get("a_cohesionless"), results.get("b_cohesive")
     if isinstance(a, engine.StudyResult):
-        lines += [f"- *Unscaled stiffness softens the bulk response.* {claim_a(a)}",
-                  f"- *Linear stiffness converges in stress-strain, porosity and "
-                  f"coordination.* {claim_b(a)}"]
+        lines += [
+            f"- *Unscaled stiffness softens the bulk response.* {claim_a(a)}",
+            f"- *Linear stiffness converges in stress-strain, porosity and "
+            f"coordination.* {claim_b(a)}",
+        ]
     else:
         lines.append("- Claims (a) and (b): experiment (a) not available.")
     if isinstance(b, engine.StudyResult):
-        lines += ["- *Quadratic adhesion matches the unconfined strength; linear under- and "
-                  "cubic over-predicts.*"] + [f"  - {t}" for t in claim_c(b)]
+        lines += [
+            "- *Quadratic adhesion matches the unconfined strength; linear under- and "
+            "cubic over-predicts.*"
+        ] + [f"  - {t}" for t in claim_c(b)]
         lines.append(f"- *About 9x less compute.* {claim_d(b, machines.get('b_cohesive'))}")
         if scale == "paper":
             lines += one_sitting_lines()
-        n_fail = sum(1 for r in b.runs.values()
-                     if r.result.scalars.get("unconfined_failure") == 1.0)
-        hard = ("" if n_fail == len(b.runs) else
-                f"; the other {len(b.runs) - n_fail} harden to the strain limit and their "
-                "strength is the documented fallback")
-        lines.append(f"- Unconfined failure: {n_fail} of {len(b.runs)} cohesive runs fail (a "
-                     "peak followed by sustained softening, docs/PHYSICS.md section 7.3)"
-                     f"{hard}. Platen friction, height / width and adhesion tried one at a "
-                     "time: [FAILURE.md](FAILURE.md).")
+        n_fail = sum(
+            1 for r in b.runs.values() if r.result.scalars.get("unconfined_failure") == 1.0
+        )
+        hard = (
+            ""
+            if n_fail == len(b.runs)
+            else f"; the other {len(b.runs) - n_fail} harden to the strain limit and their "
+            "strength is the documented fallback"
+        )
+        lines.append(
+            f"- Unconfined failure: {n_fail} of {len(b.runs)} cohesive runs fail (a "
+            "peak followed by sustained softening, docs/PHYSICS.md section 7.3)"
+            f"{hard}. Platen friction, height / width and adhesion tried one at a "
+            "time: [FAILURE.md](FAILURE.md)."
+        )
     else:
         lines.append("- Claims (c) and (d): experiment (b) not available.")
-    lines += ["", "## EEPA at n = 1.5: how to coarse-grain a non-linear adhesive law", "",
-              "Claims (e) *stress similarity keeps the bulk response* and (f) *the seed's "
-              "linear-stiffness rule does not*, judged by the rules fixed in "
-              "benchmarks/report.py before any EEPA study run was looked at (the law itself "
-              "against LIGGGHTS 3.8 on one packing: [LIGGGHTS_EEPA.md](LIGGGHTS_EEPA.md)):", ""]
+    lines += [
+        "",
+        "## EEPA at n = 1.5: how to coarse-grain a non-linear adhesive law",
+        "",
+        "Claims (e) *stress similarity keeps the bulk response* and (f) *the seed's "
+        "linear-stiffness rule does not*, judged by the rules fixed in "
+        "benchmarks/report.py before any EEPA study run was looked at (the law itself "
+        "against LIGGGHTS 3.8 on one packing: [LIGGGHTS_EEPA.md](LIGGGHTS_EEPA.md)):",
+        "",
+    ]
     for name in ("c_eepa_cohesionless", "d_eepa_cohesive"):
         res = results.get(name)
         if isinstance(res, engine.StudyResult):
             lines += [f"- {titles[name][:3]} {t}" for t in claim_eepa(res)]
         elif name in data:
-            lines.append(f"- {titles[name][:3]} not judged: "
-                         f"{res if isinstance(res, str) else 'no runs'}.")
+            lines.append(
+                f"- {titles[name][:3]} not judged: {res if isinstance(res, str) else 'no runs'}."
+            )
     lines.append("")
     if scale == "paper":
         from benchmarks import finite_size

@@ -60,38 +60,54 @@ EEPA_COARSE_RADII = {"quick": (1.5 * R, 2 * R), "paper": (2 * R,)}
 #: within this budget, stated on 2026-12-01 before any added run was made: two rounds, up
 #: to 10 seeds per coarse variant and 5 reference seeds, at most 4e10 estimated
 #: particle-steps of added runs per experiment (about three paper-scale references).
-DECIDE = {"decide": True, "rounds": 2, "max_seeds": 10, "max_reference_seeds": 5,
-          "budget": 4e10}
+DECIDE = {"decide": True, "rounds": 2, "max_seeds": 10, "max_reference_seeds": 5, "budget": 4e10}
 
 
 def experiments(scale: str) -> dict[str, engine.StudySpec]:
     """The experiments of the seed at ``scale`` ("paper" or "quick"); at the paper scale
     each adds seeds until decided, within :data:`DECIDE`."""
     plain = replace(engine.preset(scale), unconfined=False)  # f0 = 0: cohesionless
-    cohesive = engine.preset(scale, pair_law=engine.BilinearAdhesive(
-        k1=5e3, k2=2.5e4, f0=-0.8, mu_s=0.5, mu_r=0.001, restitution=0.4))
+    cohesive = engine.preset(
+        scale,
+        pair_law=engine.BilinearAdhesive(
+            k1=5e3, k2=2.5e4, f0=-0.8, mu_s=0.5, mu_r=0.001, restitution=0.4
+        ),
+    )
     rule = engine.ScalingRule
-    common = {"reference_seeds": REFERENCE_SEEDS, "seeds": COARSE_SEEDS,
-              **(DECIDE if scale == "paper" else {})}
-    eepa = engine.EEPA(k1=5e5, k2=2.5e6, n=1.5, chi=1.5, mu_s=0.5, mu_r=0.001,
-                       restitution=0.4)
+    common = {
+        "reference_seeds": REFERENCE_SEEDS,
+        "seeds": COARSE_SEEDS,
+        **(DECIDE if scale == "paper" else {}),
+    }
+    eepa = engine.EEPA(k1=5e5, k2=2.5e6, n=1.5, chi=1.5, mu_s=0.5, mu_r=0.001, restitution=0.4)
     eepa_rules = (rule.named("similarity"), rule("linear", 1.0, 2.0))
     eepa_common = {**common, "seeds": EEPA_COARSE_SEEDS[scale]}
     eepa_radii = EEPA_COARSE_RADII[scale]
     return {
         "a_cohesionless": engine.StudySpec(
-            reference=plain, coarse_radii=(2 * R,),
-            rules=(rule("unscaled", 0.0, 0.0), rule("linear", 1.0, 2.0)), **common),
+            reference=plain,
+            coarse_radii=(2 * R,),
+            rules=(rule("unscaled", 0.0, 0.0), rule("linear", 1.0, 2.0)),
+            **common,
+        ),
         "b_cohesive": engine.StudySpec(
-            reference=cohesive, coarse_radii=(1.5 * R, 2 * R),
+            reference=cohesive,
+            coarse_radii=(1.5 * R, 2 * R),
             rules=(rule("b1", 1.0, 1.0), rule("b2", 1.0, 2.0), rule("b3", 1.0, 3.0)),
-            **common),
+            **common,
+        ),
         "c_eepa_cohesionless": engine.StudySpec(
             reference=engine.preset(scale, pair_law=eepa, unconfined=False),
-            coarse_radii=(2 * R,), rules=eepa_rules, **eepa_common),
+            coarse_radii=(2 * R,),
+            rules=eepa_rules,
+            **eepa_common,
+        ),
         "d_eepa_cohesive": engine.StudySpec(
             reference=engine.preset(scale, pair_law=replace(eepa, f0=-0.8)),
-            coarse_radii=eepa_radii, rules=eepa_rules, **eepa_common),
+            coarse_radii=eepa_radii,
+            rules=eepa_rules,
+            **eepa_common,
+        ),
     }
 
 
@@ -121,22 +137,23 @@ class _Ticker:
         now = time.perf_counter()
         if now - self.last >= self.every:
             self.last = now
-            print(f"    {pr.run_key}: {pr.stage}, t = {pr.time:.3f} s simulated, "
-                  f"study {100 * pr.fraction:.1f} % done", flush=True)
+            print(
+                f"    {pr.run_key}: {pr.stage}, t = {pr.time:.3f} s simulated, "
+                f"study {100 * pr.fraction:.1f} % done",
+                flush=True,
+            )
 
 
 SKIPPED = "skipped by --runs"
 
 
-def select(spec: engine.StudySpec, stored: dict, runs: list[str] | None
-           ) -> tuple[dict, list[str]]:
+def select(spec: engine.StudySpec, stored: dict, runs: list[str] | None) -> tuple[dict, list[str]]:
     """(outcomes to hand to run_study as done, keys to run): the planned runs not stored,
     and with ``runs`` only those of them named there (every other one counts as done, with
     the text ``SKIPPED``, for this call)."""
     done = dict(stored)
     if runs:
-        done = {**{p.key: SKIPPED for p in plan_runs(spec, stored)[0] if p.key not in runs},
-                **done}
+        done = {**{p.key: SKIPPED for p in plan_runs(spec, stored)[0] if p.key not in runs}, **done}
     return done, [p.key for p in plan_runs(spec, done)[0] if p.key not in done]
 
 
@@ -145,8 +162,7 @@ def machines_of(directory: Path) -> dict:
     return {p.stem: stored_machine(p) for p in sorted(directory.glob("*.h5"))}
 
 
-def run(scale: str, workers: int, only: list[str] | None,
-        runs: list[str] | None = None) -> None:
+def run(scale: str, workers: int, only: list[str] | None, runs: list[str] | None = None) -> None:
     specs = experiments(scale)
     for name in only or specs:
         spec = specs[name]
@@ -157,17 +173,21 @@ def run(scale: str, workers: int, only: list[str] | None,
             if unknown and len(only or specs) == 1:
                 raise SystemExit(f"--runs: {name} has no run {', '.join(sorted(unknown))}")
         done, todo = select(spec, stored, runs)
-        print(f"{name}: {len(stored)} runs stored, {len(todo)} to run: {', '.join(todo)}",
-              flush=True)
+        print(
+            f"{name}: {len(stored)} runs stored, {len(todo)} to run: {', '.join(todo)}", flush=True
+        )
         if not todo:
             continue
         t0 = time.perf_counter()
 
         def on_run(key, outcome, d=d, t0=t0):
             save_run(d / f"{key}.h5", outcome, keep_particles=False)
-            what = (outcome if isinstance(outcome, str) else
-                    f"{outcome.scalars['particles']:.0f} particles, "
-                    f"{outcome.scalars['wall_time']:.0f} s")
+            what = (
+                outcome
+                if isinstance(outcome, str)
+                else f"{outcome.scalars['particles']:.0f} particles, "
+                f"{outcome.scalars['wall_time']:.0f} s"
+            )
             print(f"  [{time.perf_counter() - t0:7.0f} s] {key}: {what}", flush=True)
 
         try:
@@ -184,23 +204,39 @@ def run(scale: str, workers: int, only: list[str] | None,
             # judged here; every run asked for is stored, and --report judges them all
 
 
-
 def main(argv=None) -> int:
     global STORE
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scale", choices=("paper", "quick"), default="quick")
-    ap.add_argument("--workers", type=int, default=1,
-                    help="runs side by side (a process pool, one engine thread each); 1: one "
-                         "run at a time with the engine's own threads")
-    ap.add_argument("--report", action="store_true",
-                    help="only recompute the report from the stored runs")
-    ap.add_argument("--only", nargs="*", choices=EXPERIMENTS,
-                    help="experiments to run, in this order (default: all)")
-    ap.add_argument("--runs", nargs="*", metavar="KEY",
-                    help="only these runs, by key (e.g. ref-s3 r5mm-similarity-s2); "
-                         "for running a study's runs on several machines")
-    ap.add_argument("--store", type=Path, default=None,
-                    help="folder of the stored runs (default: benchmarks/results)")
+    ap.add_argument(
+        "--workers",
+        type=int,
+        default=1,
+        help="runs side by side (a process pool, one engine thread each); 1: one "
+        "run at a time with the engine's own threads",
+    )
+    ap.add_argument(
+        "--report", action="store_true", help="only recompute the report from the stored runs"
+    )
+    ap.add_argument(
+        "--only",
+        nargs="*",
+        choices=EXPERIMENTS,
+        help="experiments to run, in this order (default: all)",
+    )
+    ap.add_argument(
+        "--runs",
+        nargs="*",
+        metavar="KEY",
+        help="only these runs, by key (e.g. ref-s3 r5mm-similarity-s2); "
+        "for running a study's runs on several machines",
+    )
+    ap.add_argument(
+        "--store",
+        type=Path,
+        default=None,
+        help="folder of the stored runs (default: benchmarks/results)",
+    )
     args = ap.parse_args(argv)
     if args.store is not None:
         STORE = args.store
@@ -208,16 +244,21 @@ def main(argv=None) -> int:
     if not args.report:
         run(args.scale, args.workers, args.only, args.runs)
         if args.runs:  # a share of a study: the report waits for all of its runs
-            print(f"stored the runs asked for ({time.perf_counter() - t0:.0f} s); "
-                  "no report written")
+            print(
+                f"stored the runs asked for ({time.perf_counter() - t0:.0f} s); no report written"
+            )
             return 0
     from benchmarks.report import write_report
 
     specs = experiments(args.scale)
-    path = write_report(args.scale, {name: (spec, stored_runs(spec, store_dir(args.scale, name)))
-                                     for name, spec in specs.items()},
-                        machines={name: machines_of(store_dir(args.scale, name))
-                                  for name in specs})
+    path = write_report(
+        args.scale,
+        {
+            name: (spec, stored_runs(spec, store_dir(args.scale, name)))
+            for name, spec in specs.items()
+        },
+        machines={name: machines_of(store_dir(args.scale, name)) for name in specs},
+    )
     print(f"wrote {path} ({time.perf_counter() - t0:.0f} s)")
     return 0
 

@@ -58,21 +58,47 @@ def parse_job(text: str) -> Job:
 
 def reproduce_argv(job: Job, scale: str, store: Path) -> list[str]:
     """The command of one job: the reproduction, restricted to the job's run."""
-    return [sys.executable, "-m", "benchmarks.reproduce", "--scale", scale, "--workers", "1",
-            "--only", job.experiment, "--runs", job.key, "--store", str(store)]
+    return [
+        sys.executable,
+        "-m",
+        "benchmarks.reproduce",
+        "--scale",
+        scale,
+        "--workers",
+        "1",
+        "--only",
+        job.experiment,
+        "--runs",
+        job.key,
+        "--store",
+        str(store),
+    ]
 
 
 def launch(job: Job, argv: list[str], logs: Path) -> None:
-    env = {**os.environ, "NUMBA_NUM_THREADS": str(job.threads), "PYTHONUNBUFFERED": "1",
-           "DEMSCALE_CACHE_DIR": str(logs / "cache" / f"{job.experiment}-{job.key}")}
+    env = {
+        **os.environ,
+        "NUMBA_NUM_THREADS": str(job.threads),
+        "PYTHONUNBUFFERED": "1",
+        "DEMSCALE_CACHE_DIR": str(logs / "cache" / f"{job.experiment}-{job.key}"),
+    }
     with open(logs / f"{job.experiment}-{job.key}.log", "w") as log:
-        job.proc = subprocess.Popen(argv, cwd=ROOT, env=env, stdout=log,
-                                    stderr=subprocess.STDOUT, start_new_session=True)
+        job.proc = subprocess.Popen(
+            argv, cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True
+        )
     job.state = "running"
 
 
-def run_batch(jobs: list[Job], cores: int, deadline: float, scale: str, store: Path,
-              logs: Path, poll: float = 2.0, argv_of=reproduce_argv) -> list[Job]:
+def run_batch(
+    jobs: list[Job],
+    cores: int,
+    deadline: float,
+    scale: str,
+    store: Path,
+    logs: Path,
+    poll: float = 2.0,
+    argv_of=reproduce_argv,
+) -> list[Job]:
     """Run ``jobs`` on ``cores`` cores until all end or ``deadline`` seconds have passed;
     ``argv_of(job, scale, store)`` gives each job's command."""
     for job in jobs:
@@ -86,8 +112,10 @@ def run_batch(jobs: list[Job], cores: int, deadline: float, scale: str, store: P
             if job.state == "running" and job.proc.poll() is not None:
                 job.end = now
                 job.state = "done" if job.proc.returncode == 0 else f"exit {job.proc.returncode}"
-                print(f"[{now:6.0f} s] {job.name}: {job.state} after {job.end - job.start:.0f} s",
-                      flush=True)
+                print(
+                    f"[{now:6.0f} s] {job.name}: {job.state} after {job.end - job.start:.0f} s",
+                    flush=True,
+                )
         running = [j for j in jobs if j.state == "running"]
         if now >= deadline:
             for job in running:
@@ -124,13 +152,17 @@ def main(argv=None) -> int:
 
     for job in jobs:
         if job.experiment not in EXPERIMENTS:
-            raise SystemExit(f"job {job.name}: no experiment {job.experiment!r} "
-                             f"(one of {', '.join(EXPERIMENTS)})")
+            raise SystemExit(
+                f"job {job.name}: no experiment {job.experiment!r} "
+                f"(one of {', '.join(EXPERIMENTS)})"
+            )
     logs = args.logs or args.store / "logs"
     run_batch(jobs, args.cores, args.deadline, args.scale, args.store, logs)
     for job in jobs:
-        print(f"{job.name}: {job.state}" + (f", {job.end - job.start:.0f} s"
-                                            if job.state != "waiting" else ""))
+        print(
+            f"{job.name}: {job.state}"
+            + (f", {job.end - job.start:.0f} s" if job.state != "waiting" else "")
+        )
     if args.tar is not None:
         with tarfile.open(args.tar, "w") as tar:
             if (args.store / args.scale).exists():

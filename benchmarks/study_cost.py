@@ -33,10 +33,13 @@ def pool_speedup(workers: int = 2) -> list[tuple[str, bool]]:
     cell: comparable runs) run in process against the same study on a ``workers``-process
     pool, in the same run; the tables must be identical."""
     ref = engine.preset("quick", pair_law=LAW, cell=(0.05, 0.05, 0.05))
-    spec = engine.StudySpec(reference=ref, coarse_radii=(3e-3,),
-                            rules=(engine.ScalingRule.named("paper"),
-                                   engine.ScalingRule.named("unscaled")),
-                            reference_seeds=(1, 2, 3, 4), seeds=(1, 2))
+    spec = engine.StudySpec(
+        reference=ref,
+        coarse_radii=(3e-3,),
+        rules=(engine.ScalingRule.named("paper"), engine.ScalingRule.named("unscaled")),
+        reference_seeds=(1, 2, 3, 4),
+        seeds=(1, 2),
+    )
     engine.run_uniaxial(engine.preset("quick", pair_law=LAW, cell=(0.015, 0.015, 0.015)))
     t0 = time.perf_counter()
     seq = engine.run_study(spec)
@@ -47,19 +50,24 @@ def pool_speedup(workers: int = 2) -> list[tuple[str, bool]]:
         t0 = time.perf_counter()
         par = engine.run_study(spec, executor=pool)
         t_par = time.perf_counter() - t0
-    same = [{k: v for k, v in r.items() if k not in ("wall_time", "speedup")}
-            for r in seq.table] == [{k: v for k, v in r.items()
-                                     if k not in ("wall_time", "speedup")} for r in par.table]
+    same = [
+        {k: v for k, v in r.items() if k not in ("wall_time", "speedup")} for r in seq.table
+    ] == [{k: v for k, v in r.items() if k not in ("wall_time", "speedup")} for r in par.table]
     n = len(spec.planned_runs())
-    print(f"\n| study ({n} runs, {ref.n_particles} particles per reference) | wall time [s] |"
-          " ratio |\n|---|---:|---:|")
-    print(f"| in process (engine threads: one per {engine.config.PARTICLES_PER_THREAD:,} "
-          f"particles) | {t_seq:.1f} | baseline |")
-    print(f"| process pool, {workers} workers x 1 thread | {t_par:.1f} | "
-          f"{t_seq / t_par:.2f}x |")
+    print(
+        f"\n| study ({n} runs, {ref.n_particles} particles per reference) | wall time [s] |"
+        " ratio |\n|---|---:|---:|"
+    )
+    print(
+        f"| in process (engine threads: one per {engine.config.PARTICLES_PER_THREAD:,} "
+        f"particles) | {t_seq:.1f} | baseline |"
+    )
+    print(f"| process pool, {workers} workers x 1 thread | {t_par:.1f} | {t_seq / t_par:.2f}x |")
     print(f"load average during the run: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
-    return [(f"{workers}-worker pool >= 1.6x less wall time than in process",
-             t_seq / t_par >= 1.6), ("pool table identical to the in-process table", same)]
+    return [
+        (f"{workers}-worker pool >= 1.6x less wall time than in process", t_seq / t_par >= 1.6),
+        ("pool table identical to the in-process table", same),
+    ]
 
 
 def main(argv=None) -> int:
@@ -71,31 +79,51 @@ def main(argv=None) -> int:
         return report(pool_speedup(args.workers))
     ref = engine.preset("quick", pair_law=LAW)
     # warm the kernels (compile or load from the disk cache) outside the timed runs
-    engine.run_uniaxial(engine.preset("quick", pair_law=LAW, cell=(0.015, 0.015, 0.015),
-                                      unconfined=True, output_interval=2e-3))
+    engine.run_uniaxial(
+        engine.preset(
+            "quick", pair_law=LAW, cell=(0.015, 0.015, 0.015), unconfined=True, output_interval=2e-3
+        )
+    )
     runs = {"reference R": ref}
     paper = engine.ScalingRule.named("paper")
     runs["2R, fixed dt"] = paper.apply(ref, 2 * R, ref.dt)
-    runs["2R, scaled dt"] = engine.ScalingRule.named("paper", dt="scaled").apply(ref, 2 * R,
-                                                                                ref.dt)
+    runs["2R, scaled dt"] = engine.ScalingRule.named("paper", dt="scaled").apply(ref, 2 * R, ref.dt)
     rows = []
     for name, test in runs.items():
         res = engine.run_uniaxial(test)
         s = res.scalars
-        rows.append((name, int(s["particles"]), int(s["steps"]), s["dt"], s["wall_time"],
-                     s["particle_steps"] / s["wall_time"], s["unconfined_strength"]))
-        print(f"  {name:14s} {rows[-1][1]:5d} particles {rows[-1][2]:7d} steps "
-              f"{s['wall_time']:7.1f} s", flush=True)
+        rows.append(
+            (
+                name,
+                int(s["particles"]),
+                int(s["steps"]),
+                s["dt"],
+                s["wall_time"],
+                s["particle_steps"] / s["wall_time"],
+                s["unconfined_strength"],
+            )
+        )
+        print(
+            f"  {name:14s} {rows[-1][1]:5d} particles {rows[-1][2]:7d} steps "
+            f"{s['wall_time']:7.1f} s",
+            flush=True,
+        )
     base = rows[0][4]
-    print("\n| run | particles | steps | dt [s] | wall time [s] | particle-steps/s | "
-          "UCS [Pa] | cost ratio |")
+    print(
+        "\n| run | particles | steps | dt [s] | wall time [s] | particle-steps/s | "
+        "UCS [Pa] | cost ratio |"
+    )
     print("|---|---:|---:|---:|---:|---:|---:|---:|")
     for name, n, steps, dt, wall, rate, ucs in rows:
-        print(f"| {name} | {n} | {steps} | {dt:.2g} | {wall:.1f} | {rate:.3e} | {ucs:.0f} | "
-              f"{base / wall:.1f}x |")
+        print(
+            f"| {name} | {n} | {steps} | {dt:.2g} | {wall:.1f} | {rate:.3e} | {ucs:.0f} | "
+            f"{base / wall:.1f}x |"
+        )
     fixed, scaled = base / rows[1][4], base / rows[2][4]
-    checks = [("2R at fixed dt >= 8x cheaper", fixed >= 8.0),
-              ("2R at scaled dt >= 14x cheaper", scaled >= 14.0)]
+    checks = [
+        ("2R at fixed dt >= 8x cheaper", fixed >= 8.0),
+        ("2R at scaled dt >= 14x cheaper", scaled >= 14.0),
+    ]
     return report(checks + pool_speedup(args.workers))
 
 

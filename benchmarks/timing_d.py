@@ -44,19 +44,26 @@ def run(threads: int) -> None:
         t0 = time.perf_counter()
         res = run_uniaxial(tests[key])
         save_run(path, res, keep_particles=False)
-        print(f"{key}: {res.scalars['particles']:.0f} particles, "
-              f"{res.scalars['wall_time']:.0f} s ({time.perf_counter() - t0:.0f} s with "
-              "set-up)", flush=True)
+        print(
+            f"{key}: {res.scalars['particles']:.0f} particles, "
+            f"{res.scalars['wall_time']:.0f} s ({time.perf_counter() - t0:.0f} s with "
+            "set-up)",
+            flush=True,
+        )
 
 
 def report() -> str:
     runs = {k: load_run(STORE / f"{k}.h5") for k in ORDER if (STORE / f"{k}.h5").exists()}
-    lines = ["| run | particles | steps | threads | wall time [s] | machine |",
-             "|---|---|---|---|---|---|"]
+    lines = [
+        "| run | particles | steps | threads | wall time [s] | machine |",
+        "|---|---|---|---|---|---|",
+    ]
     for k, r in runs.items():
         s, m = r.scalars, stored_machine(STORE / f"{k}.h5")
-        lines.append(f"| {k} | {s['particles']:.0f} | {s['steps']:.0f} | {s['threads']:.0f} | "
-                     f"{s['wall_time']:.0f} | {m['cpu'] if m else '?'} |")
+        lines.append(
+            f"| {k} | {s['particles']:.0f} | {s['steps']:.0f} | {s['threads']:.0f} | "
+            f"{s['wall_time']:.0f} | {m['cpu'] if m else '?'} |"
+        )
     if "ref-s1" in runs:
         ref = runs["ref-s1"].scalars
         for k in ("r3.75mm-b2-s1", "r5mm-b2-s1"):
@@ -64,19 +71,24 @@ def report() -> str:
                 s = runs[k].scalars
                 wall = ref["wall_time"] / s["wall_time"]
                 ps = ref["particle_steps"] / s["particle_steps"]
-                lines.append(f"\n{k}: wall-time speed-up {wall:.1f}x, particle-steps ratio "
-                             f"{ps:.1f}x")
+                lines.append(
+                    f"\n{k}: wall-time speed-up {wall:.1f}x, particle-steps ratio {ps:.1f}x"
+                )
     pairs = [(k, s) for k, s in (("r3.75mm-b2-s1", 1.5), ("r5mm-b2-s1", 2.0)) if k in runs]
     if "ref-s1" in runs and pairs:
         ref = runs["ref-s1"].scalars
-        ks = [math.log(ref["wall_time"] / runs[k].scalars["wall_time"]) / math.log(s)
-              for k, s in pairs]
+        ks = [
+            math.log(ref["wall_time"] / runs[k].scalars["wall_time"]) / math.log(s)
+            for k, s in pairs
+        ]
         k = sum(ks) / len(ks)
         at = 1.875**k
         word = "agrees" if abs(at - 9.0) <= 0.25 * 9.0 else "differs"
-        lines.append(f"\nWall time falls as s^{k:.2f}, which gives {at:.1f}x at the seed's "
-                     f"2 -> 3.75 mm (s = 1.875): **{word}** with the seed's 9x within 25 % "
-                     "(the rule of claim (d), applied to wall time)")
+        lines.append(
+            f"\nWall time falls as s^{k:.2f}, which gives {at:.1f}x at the seed's "
+            f"2 -> 3.75 mm (s = 1.875): **{word}** with the seed's 9x within 25 % "
+            "(the rule of claim (d), applied to wall time)"
+        )
     return "\n".join(lines)
 
 

@@ -95,8 +95,10 @@ def _lacks_extra(command: str, modules, extra: str) -> bool:
     installed; True then (the command exits with 2)."""
     missing = _missing(modules)
     if missing:
-        print(f"demscale {command} needs {', '.join(missing)}: pip install "
-              f"\"demscale[{extra}]\"", file=sys.stderr)
+        print(
+            f'demscale {command} needs {", ".join(missing)}: pip install "demscale[{extra}]"',
+            file=sys.stderr,
+        )
     return bool(missing)
 
 
@@ -136,20 +138,32 @@ class StudyBars:
         self.weights = [c / total for c in cost]
         self.bases = [sum(self.weights[:i]) for i in range(len(planned))]
         self.progress = Progress(
-            TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
-            TextColumn("{task.fields[stage]}"), TimeElapsedColumn(), TimeRemainingColumn(),
-            console=console, disable=not enabled)
+            TextColumn("{task.description}"),
+            BarColumn(),
+            TaskProgressColumn(),
+            TextColumn("{task.fields[stage]}"),
+            TimeElapsedColumn(),
+            TimeRemainingColumn(),
+            console=console,
+            disable=not enabled,
+        )
         self.study = self.progress.add_task("[bold]study", total=1.0, stage="")
         self.width = max(len(p.key) for p in planned)
-        self.runs = {p.key: self.progress.add_task(
-            f"  {p.key:<{self.width}} {p.test.n_particles:>6} particles", total=1.0,
-            stage="waiting") for p in planned}
+        self.runs = {
+            p.key: self.progress.add_task(
+                f"  {p.key:<{self.width}} {p.test.n_particles:>6} particles",
+                total=1.0,
+                stage="waiting",
+            )
+            for p in planned
+        }
 
     def _task(self, key: str):
         """The bar of run ``key``; a run a study added (``decide``) gets one when it starts."""
         if key not in self.runs:
-            self.runs[key] = self.progress.add_task(f"  {key:<{self.width}} (added)",
-                                                    total=1.0, stage="waiting")
+            self.runs[key] = self.progress.add_task(
+                f"  {key:<{self.width}} (added)", total=1.0, stage="waiting"
+            )
         return self.runs[key]
 
     def __enter__(self) -> StudyBars:
@@ -161,8 +175,9 @@ class StudyBars:
 
     def update(self, p) -> None:
         """The study's progress callback (an :class:`engine.StudyProgress`)."""
-        self.progress.update(self.study, completed=p.fraction,
-                             stage=f"run {p.run_index + 1} of {p.n_runs}")
+        self.progress.update(
+            self.study, completed=p.fraction, stage=f"run {p.run_index + 1} of {p.n_runs}"
+        )
         if p.stage == "done":  # on an executor: a run has finished
             return
         i = p.run_index
@@ -184,8 +199,10 @@ class StudyBars:
         self.progress.update(task, completed=1.0, stage="done")
         strength = s.get("unconfined_strength")
         extra = f", unconfined strength {strength:.4g} Pa" if strength is not None else ""
-        self.console.print(f"{key} done: {s['particles']:.0f} particles, {s['steps']:.0f} steps, "
-                           f"{s['wall_time']:.1f} s{extra}")
+        self.console.print(
+            f"{key} done: {s['particles']:.0f} particles, {s['steps']:.0f} steps, "
+            f"{s['wall_time']:.1f} s{extra}"
+        )
 
 
 def study(args) -> int:
@@ -222,12 +239,15 @@ def study(args) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     planned = spec.planned_runs()
-    console.print(f"{spec_path.name}: {len(planned)} runs, "
-                  f"{sum(p.test.n_particles for p in planned)} particles in all, about "
-                  f"{spec.estimated_particle_steps():.3g} particle-steps; writing to {out}")
+    console.print(
+        f"{spec_path.name}: {len(planned)} runs, "
+        f"{sum(p.test.n_particles for p in planned)} particles in all, about "
+        f"{spec.estimated_particle_steps():.3g} particle-steps; writing to {out}"
+    )
     snapshot_paths: dict[str, list[Path]] = {}
 
     with StudyBars(planned, console, enabled=not args.quiet) as bars:
+
         def on_run(key, outcome) -> None:
             bars.finished(key, outcome)
             if args.snapshots and not isinstance(outcome, str):
@@ -237,43 +257,67 @@ def study(args) -> int:
             if args.workers > 1:
                 ctx = mp.get_context("spawn")
                 with cf.ProcessPoolExecutor(args.workers, mp_context=ctx) as pool:
-                    result = engine.run_study(spec, progress=bars.update, executor=pool,
-                                              on_run=on_run, backend=args.backend)
+                    result = engine.run_study(
+                        spec,
+                        progress=bars.update,
+                        executor=pool,
+                        on_run=on_run,
+                        backend=args.backend,
+                    )
             else:
-                result = engine.run_study(spec, progress=bars.update, on_run=on_run,
-                                          backend=args.backend)
+                result = engine.run_study(
+                    spec, progress=bars.update, on_run=on_run, backend=args.backend
+                )
         except engine.RunFailed as e:
             console.print(f"[red]{e}[/red]: no reference run finished, nothing to compare")
             return 1
 
     h5 = save_study(out / "results.h5", spec_path.stem, result)
     plots = result.save_plots(out / "plots")
-    summary = {"spec": spec.to_dict(), **result.to_summary(),
-               "files": {"results": h5.name,
-                         "plots": [str(p.relative_to(out)) for p in plots],
-                         "snapshots": {k: [str(p.relative_to(out)) for p in v]
-                                       for k, v in snapshot_paths.items()}}}
-    (out / "summary.json").write_text(json.dumps(_strict_json(summary), indent=1,
-                                                 allow_nan=False))
+    summary = {
+        "spec": spec.to_dict(),
+        **result.to_summary(),
+        "files": {
+            "results": h5.name,
+            "plots": [str(p.relative_to(out)) for p in plots],
+            "snapshots": {
+                k: [str(p.relative_to(out)) for p in v] for k, v in snapshot_paths.items()
+            },
+        },
+    }
+    (out / "summary.json").write_text(json.dumps(_strict_json(summary), indent=1, allow_nan=False))
     # the same report as the main job's (demscale.report), from the same summary
-    console.print("verdicts (coarse variant against the reference):\n"
-                  + summary_text(result.to_summary()), soft_wrap=True, markup=False,
-                  highlight=False)
+    console.print(
+        "verdicts (coarse variant against the reference):\n" + summary_text(result.to_summary()),
+        soft_wrap=True,
+        markup=False,
+        highlight=False,
+    )
     adaptive = result.advisor.get("adaptive")
     if adaptive:
-        console.print(f"seeds until decided: {adaptive['planned_runs']} planned runs, "
-                      f"{len(adaptive['added_runs'])} added "
-                      f"({adaptive['added_particle_steps']:.3g} particle-steps), stopped: "
-                      f"{adaptive['stopped']}", soft_wrap=True)
+        console.print(
+            f"seeds until decided: {adaptive['planned_runs']} planned runs, "
+            f"{len(adaptive['added_runs'])} added "
+            f"({adaptive['added_particle_steps']:.3g} particle-steps), stopped: "
+            f"{adaptive['stopped']}",
+            soft_wrap=True,
+        )
         for a in adaptive["added_runs"]:
             console.print(f"  + {a['run']}: {a['reason']}", soft_wrap=True)
     console.print(result.advisor["message"], soft_wrap=True)
-    console.print(f"wrote {out / 'summary.json'}, {h5}, {len(plots)} plots"
-                  + (f", snapshots of {len(snapshot_paths)} runs in {out / 'snapshots'}"
-                     if snapshot_paths else ""))
+    console.print(
+        f"wrote {out / 'summary.json'}, {h5}, {len(plots)} plots"
+        + (
+            f", snapshots of {len(snapshot_paths)} runs in {out / 'snapshots'}"
+            if snapshot_paths
+            else ""
+        )
+    )
     if result.failed:
-        console.print(f"[red]{len(result.failed)} runs failed:[/red] "
-                      + "; ".join(f"{k}: {v}" for k, v in result.failed.items()))
+        console.print(
+            f"[red]{len(result.failed)} runs failed:[/red] "
+            + "; ".join(f"{k}: {v}" for k, v in result.failed.items())
+        )
         return 1
     return 0
 
@@ -308,11 +352,19 @@ def run(args) -> int:
         return 2
     out = Path(args.out)
     snap_dir = out / "snapshots"
-    console.print(f"{path.name}: {test.n_particles} particles, R = {test.radius * 1e3:g} mm, "
-                  f"cell {' x '.join(f'{c * 1e3:g}' for c in test.cell)} mm; writing to {out}")
-    bars = Progress(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
-                    TextColumn("{task.fields[stage]}"), TimeElapsedColumn(), console=console,
-                    disable=args.quiet)
+    console.print(
+        f"{path.name}: {test.n_particles} particles, R = {test.radius * 1e3:g} mm, "
+        f"cell {' x '.join(f'{c * 1e3:g}' for c in test.cell)} mm; writing to {out}"
+    )
+    bars = Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TaskProgressColumn(),
+        TextColumn("{task.fields[stage]}"),
+        TimeElapsedColumn(),
+        console=console,
+        disable=args.quiet,
+    )
     with bars, SnapshotWriter(snap_dir) as writer:
         task = bars.add_task("[bold]uniaxial test", total=1.0, stage="setup")
 
@@ -320,36 +372,50 @@ def run(args) -> int:
             bars.update(task, completed=p.fraction, stage=f"{p.stage} (t = {p.time:.3g} s)")
 
         try:
-            result = engine.run_uniaxial(test, report, on_snapshot=writer.add,
-                                         snapshot_interval=args.snapshot_interval,
-                                         backend=args.backend)
+            result = engine.run_uniaxial(
+                test,
+                report,
+                on_snapshot=writer.add,
+                snapshot_interval=args.snapshot_interval,
+                backend=args.backend,
+            )
         except (engine.StageError, engine.InstabilityError, FloatingPointError) as e:
-            console.print(f"[red]the test failed:[/red] {e}; the {len(writer.labels)} "
-                          f"snapshots before it are in {snap_dir}")
+            console.print(
+                f"[red]the test failed:[/red] {e}; the {len(writer.labels)} "
+                f"snapshots before it are in {snap_dir}"
+            )
             return 1
     for st in result.stages.values():
-        section_figure(st.snapshot, path.stem).savefig(snap_dir / f"{st.name}.png",
-                                                      format="png")
-    summary = {"test": test.to_dict(), "scalars": result.scalars,
-               "units": {k: SCALAR_UNITS.get(k, "") for k in result.scalars},
-               "snapshots": {"files": ["snapshots/particles.vtkhdf",
-                                       "snapshots/contacts.vtkhdf",
-                                       *(f"snapshots/{k}.png" for k in result.stages)],
-                             "time_steps": writer.labels}}
-    (out / "result.json").write_text(json.dumps(_strict_json(summary), indent=1,
-                                                allow_nan=False))
+        section_figure(st.snapshot, path.stem).savefig(snap_dir / f"{st.name}.png", format="png")
+    summary = {
+        "test": test.to_dict(),
+        "scalars": result.scalars,
+        "units": {k: SCALAR_UNITS.get(k, "") for k in result.scalars},
+        "snapshots": {
+            "files": [
+                "snapshots/particles.vtkhdf",
+                "snapshots/contacts.vtkhdf",
+                *(f"snapshots/{k}.png" for k in result.stages),
+            ],
+            "time_steps": writer.labels,
+        },
+    }
+    (out / "result.json").write_text(json.dumps(_strict_json(summary), indent=1, allow_nan=False))
     s = result.scalars
     strength = s.get("unconfined_strength")
-    console.print(f"done: {s['steps']:.0f} steps in {s['wall_time']:.1f} s; consolidated "
-                  f"porosity {s['consolidated_porosity']:.3f}"
-                  + (f", unconfined strength {strength:.4g} Pa" if strength is not None else "")
-                  + f"; {len(writer.labels)} snapshots in {snap_dir}")
+    console.print(
+        f"done: {s['steps']:.0f} steps in {s['wall_time']:.1f} s; consolidated "
+        f"porosity {s['consolidated_porosity']:.3f}"
+        + (f", unconfined strength {strength:.4g} Pa" if strength is not None else "")
+        + f"; {len(writer.labels)} snapshots in {snap_dir}"
+    )
     return 0
 
 
 def _service_env(args) -> int:
-    if _lacks_extra(args.command, ("fastapi", "uvicorn", "sqlmodel", "pydantic_settings",
-                                   "h5py"), "service"):
+    if _lacks_extra(
+        args.command, ("fastapi", "uvicorn", "sqlmodel", "pydantic_settings", "h5py"), "service"
+    ):
         return 2
     if args.data_dir is not None:
         os.environ["DEMSCALE_DATA_DIR"] = str(args.data_dir)
@@ -376,11 +442,15 @@ def serve(args) -> int:
     url = f"http://{host}:{args.port}/"
     if token is not None:
         # the token apart from the URL: a login link would leave it in logs and histories
-        print(f"demscale serve: the studies page: {url} (log in with the API token {token}, "
-              f"kept in {Path(get_settings().data_dir) / 'api-token'})", file=sys.stderr)
+        print(
+            f"demscale serve: the studies page: {url} (log in with the API token {token}, "
+            f"kept in {Path(get_settings().data_dir) / 'api-token'})",
+            file=sys.stderr,
+        )
     else:
-        print(f"demscale serve: the studies page: {url} (log in with your API token)",
-              file=sys.stderr)
+        print(
+            f"demscale serve: the studies page: {url} (log in with your API token)", file=sys.stderr
+        )
     service_main(["api"])
     return 0
 
@@ -408,74 +478,152 @@ def parser() -> argparse.ArgumentParser:
     """The argument parser of the ``demscale`` command."""
     fmt = argparse.RawDescriptionHelpFormatter
     ap = argparse.ArgumentParser(
-        prog="demscale", description=DESCRIPTION, formatter_class=fmt,
+        prog="demscale",
+        description=DESCRIPTION,
+        formatter_class=fmt,
         epilog="examples:\n"
-               "  demscale study examples/quick_study.json --out results/quick\n"
-               "  demscale study my_study.json --out results/mine --workers 4\n"
-               "  demscale run examples/quick_test.json --out results/one "
-               "--snapshot-interval 0.02\n"
-               "  demscale serve --port 8000          then open http://127.0.0.1:8000/\n"
-               "  demscale job --exit                 the main job: the default study "
-               "through the service\n"
-               "run `demscale COMMAND --help` for the options of each command.")
+        "  demscale study examples/quick_study.json --out results/quick\n"
+        "  demscale study my_study.json --out results/mine --workers 4\n"
+        "  demscale run examples/quick_test.json --out results/one "
+        "--snapshot-interval 0.02\n"
+        "  demscale serve --port 8000          then open http://127.0.0.1:8000/\n"
+        "  demscale job --exit                 the main job: the default study "
+        "through the service\n"
+        "run `demscale COMMAND --help` for the options of each command.",
+    )
     ap.add_argument("--version", action="version", version=f"demscale {_version()}")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
-    p = sub.add_parser("study", help="run a scaling study from a JSON file, here",
-                       description=STUDY_HELP, formatter_class=fmt)
+    p = sub.add_parser(
+        "study",
+        help="run a scaling study from a JSON file, here",
+        description=STUDY_HELP,
+        formatter_class=fmt,
+    )
     p.add_argument("spec", metavar="SPEC.json", help="the study (an engine.StudySpec as JSON)")
-    p.add_argument("--out", "-o", metavar="DIR", required=True,
-                   help="folder for the results (created if missing; files are overwritten)")
-    p.add_argument("--workers", "-j", type=int, default=1, metavar="N",
-                   help="runs side by side in N processes (one core each; default 1: one "
-                        "run at a time, the engine using the cores it wants)")
-    p.add_argument("--decide", action="store_true",
-                   help="add seeds where a verdict is undecided (the spec's decide: its "
-                        "max_seeds, max_reference_seeds, rounds and budget apply)")
-    p.add_argument("--budget", type=float, default=None, metavar="PARTICLE_STEPS",
-                   help="with --decide: most particle-steps of the added runs")
-    p.add_argument("--no-snapshots", dest="snapshots", action="store_false",
-                   help="do not write the ParaView snapshots and PNG sections")
-    p.add_argument("--quiet", "-q", action="store_true",
-                   help="no progress bars (the runs' results are still printed)")
+    p.add_argument(
+        "--out",
+        "-o",
+        metavar="DIR",
+        required=True,
+        help="folder for the results (created if missing; files are overwritten)",
+    )
+    p.add_argument(
+        "--workers",
+        "-j",
+        type=int,
+        default=1,
+        metavar="N",
+        help="runs side by side in N processes (one core each; default 1: one "
+        "run at a time, the engine using the cores it wants)",
+    )
+    p.add_argument(
+        "--decide",
+        action="store_true",
+        help="add seeds where a verdict is undecided (the spec's decide: its "
+        "max_seeds, max_reference_seeds, rounds and budget apply)",
+    )
+    p.add_argument(
+        "--budget",
+        type=float,
+        default=None,
+        metavar="PARTICLE_STEPS",
+        help="with --decide: most particle-steps of the added runs",
+    )
+    p.add_argument(
+        "--no-snapshots",
+        dest="snapshots",
+        action="store_false",
+        help="do not write the ParaView snapshots and PNG sections",
+    )
+    p.add_argument(
+        "--quiet",
+        "-q",
+        action="store_true",
+        help="no progress bars (the runs' results are still printed)",
+    )
     _backend_option(p)
     p.set_defaults(func=study)
 
-    p = sub.add_parser("run", help="run one uniaxial test and write its snapshots",
-                       description=RUN_HELP, formatter_class=fmt)
+    p = sub.add_parser(
+        "run",
+        help="run one uniaxial test and write its snapshots",
+        description=RUN_HELP,
+        formatter_class=fmt,
+    )
     p.add_argument("test", metavar="TEST.json", help="the test (an engine.UniaxialTest as JSON)")
-    p.add_argument("--out", "-o", metavar="DIR", required=True,
-                   help="folder for the results (created if missing; files are overwritten)")
-    p.add_argument("--snapshot-interval", type=float, default=None, metavar="SECONDS",
-                   help="also a snapshot every SECONDS of simulated time (default: stage "
-                        "ends only)")
+    p.add_argument(
+        "--out",
+        "-o",
+        metavar="DIR",
+        required=True,
+        help="folder for the results (created if missing; files are overwritten)",
+    )
+    p.add_argument(
+        "--snapshot-interval",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="also a snapshot every SECONDS of simulated time (default: stage ends only)",
+    )
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
     _backend_option(p)
     p.set_defaults(func=run)
 
-    p = sub.add_parser("serve", help="start the job service's HTTP API (and a worker)",
-                       description=SERVE_HELP, formatter_class=fmt)
-    p.add_argument("--host", default=os.environ.get("DEMSCALE_HOST", "127.0.0.1"),
-                   help="address to listen on (default 127.0.0.1, this machine only; "
-                        "0.0.0.0 for every interface)")
-    p.add_argument("--port", type=int, default=int(os.environ.get("DEMSCALE_PORT", "8000")),
-                   help="port to listen on (default 8000)")
-    p.add_argument("--data-dir", type=Path, default=None, metavar="DIR",
-                   help="where the database and result files live (default: "
-                        "DEMSCALE_DATA_DIR, else ./var)")
-    p.add_argument("--no-worker", action="store_true",
-                   help="do not start the embedded worker (run `demscale worker` instead)")
+    p = sub.add_parser(
+        "serve",
+        help="start the job service's HTTP API (and a worker)",
+        description=SERVE_HELP,
+        formatter_class=fmt,
+    )
+    p.add_argument(
+        "--host",
+        default=os.environ.get("DEMSCALE_HOST", "127.0.0.1"),
+        help="address to listen on (default 127.0.0.1, this machine only; "
+        "0.0.0.0 for every interface)",
+    )
+    p.add_argument(
+        "--port",
+        type=int,
+        default=int(os.environ.get("DEMSCALE_PORT", "8000")),
+        help="port to listen on (default 8000)",
+    )
+    p.add_argument(
+        "--data-dir",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="where the database and result files live (default: DEMSCALE_DATA_DIR, else ./var)",
+    )
+    p.add_argument(
+        "--no-worker",
+        action="store_true",
+        help="do not start the embedded worker (run `demscale worker` instead)",
+    )
     p.set_defaults(func=serve)
 
     # parsed by demscale.job itself (main() hands it the arguments after "job")
-    sub.add_parser("job", help="the main job: serve, submit a study (default: the default "
-                   "study), follow it, print its results", add_help=False)
+    sub.add_parser(
+        "job",
+        help="the main job: serve, submit a study (default: the default "
+        "study), follow it, print its results",
+        add_help=False,
+    )
 
-    p = sub.add_parser("worker", help="start a worker that runs the service's queued studies",
-                       description=WORKER_HELP, formatter_class=fmt)
+    p = sub.add_parser(
+        "worker",
+        help="start a worker that runs the service's queued studies",
+        description=WORKER_HELP,
+        formatter_class=fmt,
+    )
     p.add_argument("--once", action="store_true", help="exit after one study")
-    p.add_argument("--data-dir", type=Path, default=None, metavar="DIR",
-                   help="the API's data folder (default: DEMSCALE_DATA_DIR, else ./var)")
+    p.add_argument(
+        "--data-dir",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="the API's data folder (default: DEMSCALE_DATA_DIR, else ./var)",
+    )
     p.set_defaults(func=worker)
     return ap
 
@@ -489,11 +637,14 @@ def _version() -> str:
         return "(not installed)"
 
 
-
 def _backend_option(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--backend", choices=("cpu", "cuda", "auto"), default=None,
-                   help="where the engine runs: cpu, cuda (an NVIDIA GPU, the gpu extra) or "
-                        "auto (the GPU when usable); default: DEMSCALE_BACKEND, else cpu")
+    p.add_argument(
+        "--backend",
+        choices=("cpu", "cuda", "auto"),
+        default=None,
+        help="where the engine runs: cpu, cuda (an NVIDIA GPU, the gpu extra) or "
+        "auto (the GPU when usable); default: DEMSCALE_BACKEND, else cpu",
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

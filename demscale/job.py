@@ -94,8 +94,9 @@ def main(argv: list[str] | None = None) -> int:
     base = f"http://{args.host}:{args.port}"
     print(f"demscale API at {base} (docs: {base}/docs), data in {settings.data_dir.resolve()}")
     where = f" (kept in {settings.api_token_file})" if settings.api_token_file else ""
-    print(f"API token{where}: {token}\n  e.g. curl -H 'Authorization: Bearer {token}' "
-          f"{base}/studies")
+    print(
+        f"API token{where}: {token}\n  e.g. curl -H 'Authorization: Bearer {token}' {base}/studies"
+    )
     auth = {"Authorization": f"Bearer {token}"}
     try:
         with httpx.Client(base_url=base, timeout=60.0, headers=auth) as client:

@@ -8,11 +8,17 @@ from __future__ import annotations
 def summary_text(summary: dict) -> str:
     """Per run: size, cost and its errors against the mean reference; then the verdicts
     with their reasons and the advisor's warnings."""
-    cols = (("err_density", "dens"), ("err_loading_stiffness", "K_ld"),
-            ("err_unloading_stiffness", "K_ul"), ("err_coordination_interior", "Z"),
-            ("err_strength", "UCS"))
-    head = (f"{'run':<22}{'R [mm]':>7}{'rule':>10}{'N':>7}{'cell [d]':>9}{'time [s]':>9}"
-            f"{'speed-up':>9}" + "".join(f"{lab:>7}" for _, lab in cols))
+    cols = (
+        ("err_density", "dens"),
+        ("err_loading_stiffness", "K_ld"),
+        ("err_unloading_stiffness", "K_ul"),
+        ("err_coordination_interior", "Z"),
+        ("err_strength", "UCS"),
+    )
+    head = (
+        f"{'run':<22}{'R [mm]':>7}{'rule':>10}{'N':>7}{'cell [d]':>9}{'time [s]':>9}"
+        f"{'speed-up':>9}" + "".join(f"{lab:>7}" for _, lab in cols)
+    )
     lines = [head, "-" * len(head)]
     for row in summary["table"]:
         lines.append(
@@ -21,12 +27,14 @@ def summary_text(summary: dict) -> str:
             f"{row['wall_time']:>9.1f}{row['speedup']:>9.2f}"
             + "".join(f"{100 * row[c]:>6.1f}%" if c in row else f"{'-':>7}" for c, _ in cols)
         )
-    lines.append("errors [%] against the mean of the reference seeds; cell [d]: thinnest "
-                 "side in particle diameters")
+    lines.append(
+        "errors [%] against the mean of the reference seeds; cell [d]: thinnest "
+        "side in particle diameters"
+    )
     advisor = summary.get("advisor", {})
     for v in advisor.get("verdicts", []):
-        lines.append(f"R = {v['radius'] * 1e3:g} mm, {v['rule']}: {v['verdict'].upper()}: "
-                     f"{v['reason']}")
+        lines.append(
+            f"R = {v['radius'] * 1e3:g} mm, {v['rule']}: {v['verdict'].upper()}: {v['reason']}"
+        )
     lines += [f"warning: {w}" for w in advisor.get("warnings", [])]
     return "\n".join(lines)
-

@@ -383,18 +383,74 @@ def _particle_chunk(c, mode, P, L, W, prm, S):
     for i in range(c * CHUNK, min(P.pos.shape[0], (c + 1) * CHUNK)):
         # >>> _particle_one (engine.kernels writes its body here: the same code, inlined in
         # the source, as fast as the pass was before it became a function)
-        e2 = _particle_one(i, c, mode, pos, vel, omg, frc, trq, roll_in, rad, mass, inv_mass,
-                           inv_inertia, pos_build, rev_start, rev_k, entry, wpoint, wnormal,
-                           wvel, whist, wacc, stat, dt, ovl_frac, max_step, grav, wlaw, wflags)
+        e2 = _particle_one(
+            i,
+            c,
+            mode,
+            pos,
+            vel,
+            omg,
+            frc,
+            trq,
+            roll_in,
+            rad,
+            mass,
+            inv_mass,
+            inv_inertia,
+            pos_build,
+            rev_start,
+            rev_k,
+            entry,
+            wpoint,
+            wnormal,
+            wvel,
+            whist,
+            wacc,
+            stat,
+            dt,
+            ovl_frac,
+            max_step,
+            grav,
+            wlaw,
+            wflags,
+        )
         # <<< _particle_one
         disp2 = max(disp2, e2)
     S.chunk_disp[c] = disp2
 
 
 @njit(**NJIT_INLINE)
-def _particle_one(i, c, mode, pos, vel, omg, frc, trq, roll_in, rad, mass, inv_mass,
-                  inv_inertia, pos_build, rev_start, rev_k, entry, wpoint, wnormal, wvel, whist,
-                  wacc, stat, dt, ovl_frac, max_step, grav, wlaw, wflags):
+def _particle_one(
+    i,
+    c,
+    mode,
+    pos,
+    vel,
+    omg,
+    frc,
+    trq,
+    roll_in,
+    rad,
+    mass,
+    inv_mass,
+    inv_inertia,
+    pos_build,
+    rev_start,
+    rev_k,
+    entry,
+    wpoint,
+    wnormal,
+    wvel,
+    whist,
+    wacc,
+    stat,
+    dt,
+    ovl_frac,
+    max_step,
+    grav,
+    wlaw,
+    wflags,
+):
     """Particle i of the particle pass: gather the pair forces stored for it, add walls,
     rolling resistance and gravity, integrate (velocity Verlet kick and drift).
 

@@ -51,9 +51,16 @@ def _arrays(name, values, ref_values, cons):
     return c, r, reference_scale(name, r.mean(0), cons)
 
 
-def next_runs(spec, ref_values: list[dict], variants: dict[tuple, list[dict]],
-              verdicts: list[dict], costs: dict, round_no: int,
-              budget_left: float | None, attempted: dict | None = None) -> list[Addition]:
+def next_runs(
+    spec,
+    ref_values: list[dict],
+    variants: dict[tuple, list[dict]],
+    verdicts: list[dict],
+    costs: dict,
+    round_no: int,
+    budget_left: float | None,
+    attempted: dict | None = None,
+) -> list[Addition]:
     """The runs of round ``round_no`` (module docstring). ``ref_values`` and ``variants``
     hold metric values per finished seed (as :func:`engine.advisor.judge_groups` takes
     them), ``verdicts`` are their judgements, ``costs`` maps ``"reference"`` and each variant
@@ -72,8 +79,15 @@ def next_runs(spec, ref_values: list[dict], variants: dict[tuple, list[dict]],
         k = min(2 - n_ref0, spec.max_reference_seeds - tried_r)
         while k > 0 and k * costs["reference"] > left:  # within the budget
             k -= 1
-        return [Addition("reference", None, round_no, f"round {round_no}: one reference "
-                         "seed: its spread, which every interval needs, is unknown")] * max(k, 0)
+        return [
+            Addition(
+                "reference",
+                None,
+                round_no,
+                f"round {round_no}: one reference "
+                "seed: its spread, which every interval needs, is unknown",
+            )
+        ] * max(k, 0)
     undecided = {}
     for v in verdicts:
         key = (v["radius"], v["rule"])
@@ -105,16 +119,26 @@ def next_runs(spec, ref_values: list[dict], variants: dict[tuple, list[dict]],
             return nc >= 2
         if nc == start[0][k] and nr == start[1]:
             return False  # as observed: its verdict is undecided
-        return all(_decides(c, r, nc, nr, spec.tolerances[n], alpha_e, alpha_d,
-                            _floored(n, float(r.mean(0)[0]), cons) if r.shape[1] == 1
-                            else None)
-                   for n, (c, r, _) in comps.items())
+        return all(
+            _decides(
+                c,
+                r,
+                nc,
+                nr,
+                spec.tolerances[n],
+                alpha_e,
+                alpha_d,
+                _floored(n, float(r.mean(0)[0]), cons) if r.shape[1] == 1 else None,
+            )
+            for n, (c, r, _) in comps.items()
+        )
 
     # a variant that the caps cannot decide (if its means and spreads stayed as observed)
     # takes no run: seeds spent there would buy nothing
     for k in list(undecided):
-        if not decided(k, n_c[k] + spec.max_seeds - tried_c[k],
-                       n_r + spec.max_reference_seeds - tried_r):
+        if not decided(
+            k, n_c[k] + spec.max_seeds - tried_c[k], n_r + spec.max_reference_seeds - tried_r
+        ):
             del undecided[k]
     if not undecided:
         return []
@@ -153,19 +177,31 @@ def next_runs(spec, ref_values: list[dict], variants: dict[tuple, list[dict]],
         _, kind, k = max(cands, key=lambda c: (c[0], c[1] == "coarse"))
         if kind == "coarse":
             ms = undecided[k][0]
-            out.append(Addition("coarse", k, round_no,
-                                f"round {round_no}: {', '.join(ms)} undecided for R = "
-                                f"{k[0] * 1e3:g} mm, {k[1]}; a coarse seed shrinks its "
-                                "intervals most per particle-step"))
+            out.append(
+                Addition(
+                    "coarse",
+                    k,
+                    round_no,
+                    f"round {round_no}: {', '.join(ms)} undecided for R = "
+                    f"{k[0] * 1e3:g} mm, {k[1]}; a coarse seed shrinks its "
+                    "intervals most per particle-step",
+                )
+            )
             n_c[k] += 1
             added_c[k] += 1
             left -= costs[k]
         else:
             names_open = ", ".join(f"{x[0] * 1e3:g} mm {x[1]}" for x in open_)
-            out.append(Addition("reference", None, round_no,
-                                f"round {round_no}: the reference term dominates the "
-                                f"intervals of the undecided variants ({names_open}); a "
-                                "reference seed shrinks them most per particle-step"))
+            out.append(
+                Addition(
+                    "reference",
+                    None,
+                    round_no,
+                    f"round {round_no}: the reference term dominates the "
+                    f"intervals of the undecided variants ({names_open}); a "
+                    "reference seed shrinks them most per particle-step",
+                )
+            )
             n_r += 1
             added_r += 1
             left -= costs["reference"]

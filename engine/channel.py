@@ -63,8 +63,7 @@ class FileChannel:
         simulated time [s]."""
         tmp = self._path(f"{key}.{os.getpid()}.tmp")
         try:
-            tmp.write_text(json.dumps({"fraction": fraction, "stage": stage,
-                                       "time": sim_time}))
+            tmp.write_text(json.dumps({"fraction": fraction, "stage": stage, "time": sim_time}))
             os.replace(tmp, self._path(f"{key}.json"))
         except OSError:  # the folder is not reachable from this host: run on silently
             tmp.unlink(missing_ok=True)

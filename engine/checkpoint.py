@@ -58,8 +58,12 @@ def code_digest() -> str:
 def check_interval(interval: float, field: str) -> None:
     """Raise :class:`engine.ParameterError` naming ``field`` unless ``interval`` is a finite
     wall time > 0 s."""
-    if not (isinstance(interval, (int, float)) and not isinstance(interval, bool)
-            and math.isfinite(interval) and interval > 0):
+    if not (
+        isinstance(interval, (int, float))
+        and not isinstance(interval, bool)
+        and math.isfinite(interval)
+        and interval > 0
+    ):
         raise ParameterError(field, interval, "a wall time > 0 s")
 
 
@@ -96,8 +100,12 @@ class Checkpoint:
         except FileNotFoundError:
             return None
         except Exception as e:  # a torn or foreign file is not fatal
-            warnings.warn(f"checkpoint {self.path} is unreadable ({type(e).__name__}: {e}); "
-                          "the run starts from the beginning", RuntimeWarning, stacklevel=3)
+            warnings.warn(
+                f"checkpoint {self.path} is unreadable ({type(e).__name__}: {e}); "
+                "the run starts from the beginning",
+                RuntimeWarning,
+                stacklevel=3,
+            )
             return None
         why = None
         if not isinstance(stored, dict) or stored.get("format") != _FORMAT:
@@ -107,8 +115,11 @@ class Checkpoint:
         elif stored.get("test") != test.to_dict():
             why = "written for another test"
         if why:
-            warnings.warn(f"checkpoint {self.path} is {why}; the run starts from the "
-                          "beginning", RuntimeWarning, stacklevel=3)
+            warnings.warn(
+                f"checkpoint {self.path} is {why}; the run starts from the beginning",
+                RuntimeWarning,
+                stacklevel=3,
+            )
             return None
         driver = stored["driver"]
         self.resumed_steps = int(driver.sim.steps)
@@ -132,9 +143,15 @@ class Checkpoint:
         to disk, then renamed over the old one): a kill at any moment leaves either the old
         checkpoint or the new one, never a torn file."""
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        blob = pickle.dumps({"format": _FORMAT, "code": code_digest(),
-                             "test": driver.test.to_dict(), "driver": driver},
-                            protocol=pickle.HIGHEST_PROTOCOL)
+        blob = pickle.dumps(
+            {
+                "format": _FORMAT,
+                "code": code_digest(),
+                "test": driver.test.to_dict(),
+                "driver": driver,
+            },
+            protocol=pickle.HIGHEST_PROTOCOL,
+        )
         tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
         try:

@@ -61,8 +61,14 @@ class InstabilityError(RuntimeError):
         super().__init__(message)
 
     def __reduce__(self):
-        return _instability_error, (type(self), self.args[0], self.step, self.time,
-                                    self.particles, self.reason)
+        return _instability_error, (
+            type(self),
+            self.args[0],
+            self.step,
+            self.time,
+            self.particles,
+            self.reason,
+        )
 
 
 def _instability_error(cls, message, step, time, particles, reason):
@@ -86,9 +92,11 @@ class WallTimeExceeded(RuntimeError):
         self.limit = limit
         self.elapsed = elapsed
         self.setting = setting
-        super().__init__(f"the run went on for {elapsed:.4g} s of wall time, more than "
-                         f"{setting} = {limit:g} s: it was stopped; use a smaller or shorter "
-                         "test, or raise the limit")
+        super().__init__(
+            f"the run went on for {elapsed:.4g} s of wall time, more than "
+            f"{setting} = {limit:g} s: it was stopped; use a smaller or shorter "
+            "test, or raise the limit"
+        )
 
     def __reduce__(self):
         return type(self), (self.limit, self.elapsed, self.setting)

@@ -64,8 +64,7 @@ def betainc(a: float, b: float, x: float) -> float:
 def _betainc(a: float, b: float, x: float) -> float:
     if x == 0.0 or x == 1.0:
         return x
-    ln = (math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b)
-          + a * math.log(x) + b * math.log1p(-x))
+    ln = math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b) + a * math.log(x) + b * math.log1p(-x)
     front = math.exp(ln)
     if x < (a + 1.0) / (a + b + 2.0):
         return front * _betacf(a, b, x) / a
@@ -92,8 +91,12 @@ def t_pdf(x: float, df: float) -> float:
     """Density of Student's t with ``df`` > 0 degrees of freedom."""
     if math.isinf(df):
         return math.exp(-0.5 * x * x) / math.sqrt(2.0 * math.pi)
-    ln = (math.lgamma(0.5 * (df + 1.0)) - math.lgamma(0.5 * df)
-          - 0.5 * math.log(df * math.pi) - 0.5 * (df + 1.0) * math.log1p(x * x / df))
+    ln = (
+        math.lgamma(0.5 * (df + 1.0))
+        - math.lgamma(0.5 * df)
+        - 0.5 * math.log(df * math.pi)
+        - 0.5 * (df + 1.0) * math.log1p(x * x / df)
+    )
     return math.exp(ln)
 
 
@@ -129,8 +132,11 @@ def _t_upper(q: float, df: float) -> float:
         if hi > 1e300:
             return math.inf
     z = _normal_quantile(q)
-    x = z if math.isinf(df) else z + (z**3 + z) / (4 * df) + (
-        5 * z**5 + 16 * z**3 + 3 * z) / (96 * df**2)
+    x = (
+        z
+        if math.isinf(df)
+        else z + (z**3 + z) / (4 * df) + (5 * z**5 + 16 * z**3 + 3 * z) / (96 * df**2)
+    )
     if not lo < x < hi:
         x = 0.5 * (lo + hi)
     for _ in range(200):
@@ -154,7 +160,8 @@ def _normal_quantile(q: float) -> float:
     erfc from the Abramowitz-Stegun 26.2.23 start)."""
     t = math.sqrt(-2.0 * math.log(q))
     x = t - (2.515517 + 0.802853 * t + 0.010328 * t * t) / (
-        1.0 + 1.432788 * t + 0.189269 * t * t + 0.001308 * t**3)
+        1.0 + 1.432788 * t + 0.189269 * t * t + 0.001308 * t**3
+    )
     for _ in range(50):
         f = q - 0.5 * math.erfc(x / math.sqrt(2.0))
         step = f / (math.exp(-0.5 * x * x) / math.sqrt(2.0 * math.pi))
@@ -181,8 +188,6 @@ def welch(c: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
     with np.errstate(divide="ignore", invalid="ignore"):
         df = np.where(den > 0, u2**2 / np.where(den > 0, den, 1.0), np.inf)
     return c.mean(axis=0) - r.mean(axis=0), np.sqrt(u2), df
-
-
 
 
 def hsu_df(nc: int, nr: int) -> int:
@@ -220,8 +225,9 @@ def fieller(c, r, alpha: float) -> tuple[float, float, float, int]:
     return rho, lo, hi, df
 
 
-def fieller_from_stats(mc: float, mr: float, vc: float, vr: float, t: float
-                       ) -> tuple[float, float, float]:
+def fieller_from_stats(
+    mc: float, mr: float, vc: float, vr: float, t: float
+) -> tuple[float, float, float]:
     """:func:`fieller` from summary statistics: the means ``mc``, ``mr``, the squared
     standard errors ``vc`` = s_c^2 / n_c and ``vr`` = s_r^2 / n_r, and the quantile ``t``.
     Returns (ratio, low end, high end); (ratio, -inf, inf) where the reference mean is not
@@ -248,5 +254,15 @@ def welch_interval(c, r, alpha: float) -> tuple[float, float, float, float]:
     return d, d - t * u, d + t * u, df
 
 
-__all__ = ["betainc", "fieller", "fieller_from_stats", "hsu_df", "t_cdf",
-           "t_pdf", "t_quantile", "t_sf", "welch", "welch_interval"]
+__all__ = [
+    "betainc",
+    "fieller",
+    "fieller_from_stats",
+    "hsu_df",
+    "t_cdf",
+    "t_pdf",
+    "t_quantile",
+    "t_sf",
+    "welch",
+    "welch_interval",
+]

@@ -81,8 +81,20 @@ WALL_SLOTS: tuple[tuple[str, str | None], ...] = (
     ("mu_r", "wall_rolling"),
 )
 #: The slot constants the template reads: PAIR_<NAME> for both pair laws, WALL_<NAME>.
-_PAIR_NAMES = ("k1", "k2", "f0", "kadh", "kt", "e_star", "g_star", "zeta", "mu_s", "mu_r", "n",
-               "chi")
+_PAIR_NAMES = (
+    "k1",
+    "k2",
+    "f0",
+    "kadh",
+    "kt",
+    "e_star",
+    "g_star",
+    "zeta",
+    "mu_s",
+    "mu_r",
+    "n",
+    "chi",
+)
 
 _HERE = Path(__file__).resolve().parent
 _TEMPLATE = _HERE / "_step_template.py"
@@ -141,9 +153,10 @@ def _inline_particle_pass(src: str) -> str:
     if body is None or call is None:
         raise RuntimeError("step template: _particle_one or its call marker not found")
     pad = call.group(1)[4:]  # the body is indented once; the call sits in the chunk's loop
-    text = "".join(pad + line if line.strip() else line
-                   for line in body.group(1).splitlines(keepends=True))
-    return src[: call.start()] + "\n" + text + src[call.end():]
+    text = "".join(
+        pad + line if line.strip() else line for line in body.group(1).splitlines(keepends=True)
+    )
+    return src[: call.start()] + "\n" + text + src[call.end() :]
 
 
 def _source(features: dict[str, bool]) -> str:

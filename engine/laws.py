@@ -45,15 +45,17 @@ from .config import NJIT_INLINE, ROLLING_OMEGA_EPS
 #: ``zeta``: damping ratio applied to the contact's stiffness [-] (Hertz: sqrt(5/6) zeta,
 #: Tsuji et al. 1992); ``mu_s``: sliding friction [-]; ``mu_r``: rolling friction [-].
 #: ``n``, ``chi``: EEPA overlap and adhesive exponents [-] (1 for the bilinear and Hertz laws).
-ContactLaw = namedtuple("ContactLaw", "k_n k_unload f0 kadh k_t zeta mu_s mu_r n chi",
-                        defaults=(1.0, 1.0))
+ContactLaw = namedtuple(
+    "ContactLaw", "k_n k_unload f0 kadh k_t zeta mu_s mu_r n chi", defaults=(1.0, 1.0)
+)
 
 #: Compile-time switches of :func:`contact`: Hertz instead of bilinear normal law, plastic
 #: unloading branch, tangential spring and friction, normal and tangential damping, rolling,
 #: the non-linear EEPA branches (exponents n, chi), the friction cap on the total normal force
 #: (LIGGGHTS convention) instead of the adhesion-aware one.
-LawFlags = namedtuple("LawFlags", "hertz plastic friction damping rolling eepa normal_cap",
-                      defaults=(False, False))
+LawFlags = namedtuple(
+    "LawFlags", "hertz plastic friction damping rolling eepa normal_cap", defaults=(False, False)
+)
 
 
 @njit(**NJIT_INLINE)
@@ -227,8 +229,9 @@ def hertz_tangential_stiffness(d, g_star, r_star):
 
 
 @njit(**NJIT_INLINE)
-def contact_force(d, nx, ny, nz, vx, vy, vz, sx, sy, sz, dmax, xix, xiy, xiz, r_star, m_eff,
-                  law, flags, dt):
+def contact_force(
+    d, nx, ny, nz, vx, vy, vz, sx, sy, sz, dmax, xix, xiy, xiz, r_star, m_eff, law, flags, dt
+):
     r"""One contact, composed in the fixed order (steps 1 to 5 of the module docstring).
 
     Normal force: bilinear :math:`f_{el} = f_{hys}` (:func:`bilinear_normal_force`, or
@@ -254,8 +257,9 @@ def contact_force(d, nx, ny, nz, vx, vy, vz, sx, sy, sz, dmax, xix, xiy, xiz, r_
         f_adh = 0.0
         dmax = d
     elif flags.eepa:
-        f_el, tangent, f_adh, dmax = eepa_normal_force(d, dmax, law.k_n, law.k_unload, law.f0,
-                                                       law.kadh, law.n, law.chi)
+        f_el, tangent, f_adh, dmax = eepa_normal_force(
+            d, dmax, law.k_n, law.k_unload, law.f0, law.kadh, law.n, law.chi
+        )
         stiff = tangent * law.k_n
     elif flags.plastic:
         f_el, dmax = bilinear_normal_force(d, dmax, law.k_n, law.k_unload, law.f0, law.kadh)
@@ -295,8 +299,7 @@ def contact_force(d, nx, ny, nz, vx, vy, vz, sx, sy, sz, dmax, xix, xiy, xiz, r_
 
 
 @njit(**NJIT_INLINE)
-def contact(hist, k, d, nx, ny, nz, vx, vy, vz, sx, sy, sz, ri, rj, r_star, m_eff, law, flags,
-            dt):
+def contact(hist, k, d, nx, ny, nz, vx, vy, vz, sx, sy, sz, ri, rj, r_star, m_eff, law, flags, dt):
     r"""A contact of the step kernel, pair or wall: :func:`contact_force` on the history row
     ``hist[k]`` (slot 0: largest overlap or contact marker [m]; slots 1-3: tangential spring
     [m], with friction), written back in place, and the torque split.
@@ -315,8 +318,25 @@ def contact(hist, k, d, nx, ny, nz, vx, vy, vz, sx, sy, sz, ri, rj, r_star, m_ef
         xiy = hist[k, 2]
         xiz = hist[k, 3]
     fn, f_el, ftx, fty, ftz, dmax, xix, xiy, xiz = contact_force(
-        d, nx, ny, nz, vx, vy, vz, sx, sy, sz, hist[k, 0], xix, xiy, xiz, r_star, m_eff, law,
-        flags, dt
+        d,
+        nx,
+        ny,
+        nz,
+        vx,
+        vy,
+        vz,
+        sx,
+        sy,
+        sz,
+        hist[k, 0],
+        xix,
+        xiy,
+        xiz,
+        r_star,
+        m_eff,
+        law,
+        flags,
+        dt,
     )
     # 7. history write-back
     hist[k, 0] = dmax
@@ -332,5 +352,15 @@ def contact(hist, k, d, nx, ny, nz, vx, vy, vz, sx, sy, sz, ri, rj, r_star, m_ef
         cy = nz * ftx - nx * ftz
         cz = nx * fty - ny * ftx
     roll = law.mu_r * abs(f_el) if flags.rolling else 0.0
-    return (fn * nx + ftx, fn * ny + fty, fn * nz + ftz, -ri * cx, -ri * cy, -ri * cz,
-            -rj * cx, -rj * cy, -rj * cz, roll)
+    return (
+        fn * nx + ftx,
+        fn * ny + fty,
+        fn * nz + ftz,
+        -ri * cx,
+        -ri * cy,
+        -ri * cz,
+        -rj * cx,
+        -rj * cy,
+        -rj * cz,
+        roll,
+    )

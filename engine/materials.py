@@ -89,30 +89,54 @@ class _AdhesiveLaw:
         kadh ~ s^(2-chi); (1, 2, 1) for the bilinear law, the rule of Thakur et al. 2013."""
         return 2.0 - self.n, 2.0, 2.0 - self.chi
 
-    def scaled(self, s: float, stiffness_exponent: float, adhesion_exponent: float,
-               adhesive_exponent: float | None = None):
+    def scaled(
+        self,
+        s: float,
+        stiffness_exponent: float,
+        adhesion_exponent: float,
+        adhesive_exponent: float | None = None,
+    ):
         """The law for particles ``s`` times the reference size: K1, K2 (and so Kt) times
         ``s**stiffness_exponent``, f0 times ``s**adhesion_exponent``, kadh times
         ``s**adhesive_exponent`` (default: the stiffness exponent). Friction coefficients and
         restitution do not scale."""
         c = stiffness_exponent if adhesive_exponent is None else adhesive_exponent
         ks = s**stiffness_exponent
-        return replace(self, k1=self.k1 * ks, k2=self.k2 * ks, kadh=self.kadh * s**c,
-                       f0=self.f0 * s**adhesion_exponent)
+        return replace(
+            self,
+            k1=self.k1 * ks,
+            k2=self.k2 * ks,
+            kadh=self.kadh * s**c,
+            f0=self.f0 * s**adhesion_exponent,
+        )
 
     def kernel_params(self) -> dict[str, float]:
         """The values the step kernel reads, by slot name (engine.kernels.PAIR_SLOTS):
         k1, k2, kt [N/m^n], kadh [N/m^chi], f0 [N], damping ratio zeta, mu_s, mu_r, and the
         exponents n, chi [-] (bilinear: n = chi = 1, units N/m)."""
-        return {"k1": self.k1, "k2": self.k2, "f0": self.f0, "kadh": self.kadh, "kt": self.kt,
-                "zeta": self.zeta, "mu_s": self.mu_s, "mu_r": self.mu_r, "n": self.n,
-                "chi": self.chi}
+        return {
+            "k1": self.k1,
+            "k2": self.k2,
+            "f0": self.f0,
+            "kadh": self.kadh,
+            "kt": self.kt,
+            "zeta": self.zeta,
+            "mu_s": self.mu_s,
+            "mu_r": self.mu_r,
+            "n": self.n,
+            "chi": self.chi,
+        }
 
     def pair_features(self) -> dict[str, bool]:
         """The step kernel's switches this law turns on (engine.kernels.FEATURES)."""
-        return {"adhesion": self.f0 != 0, "adhesive_branch": self.kadh > 0,
-                "plastic": self.k2 > self.k1, "friction": self.mu_s > 0,
-                "rolling": self.mu_r > 0, "damping": self.restitution < 1}
+        return {
+            "adhesion": self.f0 != 0,
+            "adhesive_branch": self.kadh > 0,
+            "plastic": self.k2 > self.k1,
+            "friction": self.mu_s > 0,
+            "rolling": self.mu_r > 0,
+            "damping": self.restitution < 1,
+        }
 
     def pair_values(self) -> dict[str, float]:
         """Kernel slot values of a particle-particle contact (:meth:`kernel_params`)."""
@@ -128,8 +152,9 @@ class _AdhesiveLaw:
                 return d_eq
         return None
 
-    def pair_time_steps(self, m_eff: float, r_eff: float, r_min: float, rho_min: float,
-                        v: float) -> list[TimeStepCandidate]:
+    def pair_time_steps(
+        self, m_eff: float, r_eff: float, r_min: float, rho_min: float, v: float
+    ) -> list[TimeStepCandidate]:
         """Stability limits of the lightest pair (reduced mass ``m_eff`` [kg]) at the expected
         speed ``v`` [m/s]: the K2 branch with the damping of K1, and the tangential spring
         with rotation. (``r_eff``, ``r_min``, ``rho_min`` are for laws that need them.)"""
@@ -140,23 +165,32 @@ class _AdhesiveLaw:
         if self.n != 1.0:
             d_exp = eepa_impact_overlap(m_eff, self, 2.0 * v)
             tangent = self.n * d_exp ** (self.n - 1.0)
-            where = (f" x n d^(n-1) at the overlap {d_exp:.3g} m of a {2 * v:.3g} m/s "
-                     "head-on impact")
+            where = f" x n d^(n-1) at the overlap {d_exp:.3g} m of a {2 * v:.3g} m/s head-on impact"
             unit = "N/m^n"
         # damping c_n = 2 zeta sqrt(m K1) seen by the stiffer K2 branch
-        out = [TimeStepCandidate(
-            "pair", f"pair unloading stiffness k2 = {self.k2:g} {unit}{where}, lightest pair",
-            oscillator_limit(self.k2 * tangent, m_eff, zeta * math.sqrt(self.k1 / self.k2)),
-            True)]
+        out = [
+            TimeStepCandidate(
+                "pair",
+                f"pair unloading stiffness k2 = {self.k2:g} {unit}{where}, lightest pair",
+                oscillator_limit(self.k2 * tangent, m_eff, zeta * math.sqrt(self.k1 / self.k2)),
+                True,
+            )
+        ]
         if self.mu_s > 0 and self.kt > 0:
             # relative tangential motion with rotation: 1/m_t = 3.5 (1/mi + 1/mj)
-            out.append(TimeStepCandidate(
-                "pair", f"pair tangential stiffness kt = {self.kt:g} {unit}{where} with rotation",
-                oscillator_limit(3.5 * self.kt * tangent, m_eff, zeta * math.sqrt(3.5)), True))
+            out.append(
+                TimeStepCandidate(
+                    "pair",
+                    f"pair tangential stiffness kt = {self.kt:g} {unit}{where} with rotation",
+                    oscillator_limit(3.5 * self.kt * tangent, m_eff, zeta * math.sqrt(3.5)),
+                    True,
+                )
+            )
         return out
 
-    def to_array(self, slots: tuple[str, ...] = ("k1", "k2", "f0", "kadh", "kt", "zeta",
-                                                "mu_s", "mu_r")) -> np.ndarray:
+    def to_array(
+        self, slots: tuple[str, ...] = ("k1", "k2", "f0", "kadh", "kt", "zeta", "mu_s", "mu_r")
+    ) -> np.ndarray:
         """Kernel parameter array: the values of ``slots`` in order, then a trailing NaN
         (where the kernel's absent slots point, see engine.kernels)."""
         return pack_params(self.kernel_params(), slots)
@@ -254,31 +288,47 @@ class EEPA(_AdhesiveLaw):
     k2: float = param(unit="N/m^n", doc="unloading/reloading stiffness K2 (>= k1)", gt=0)
     f0: float = param(0.0, unit="N", doc="adhesion (pull-off) force, <= 0", le=0)
     kadh: float = param(0.0, unit="N/m^chi", doc="adhesive branch stiffness", ge=0)
-    n: float = param(1.5, unit="1", doc="overlap exponent n of the loading and unloading "
-                     "branches", ge=1, le=3)
+    n: float = param(
+        1.5, unit="1", doc="overlap exponent n of the loading and unloading branches", ge=1, le=3
+    )
     chi: float = param(1.5, unit="1", doc="exponent chi of the adhesive branch", ge=1, le=3)
-    kt_ratio: float = param(2.0 / 7.0, unit="1",
-                            doc="tangential stiffness / loading tangent stiffness n k1 d^(n-1)",
-                            ge=0)
+    kt_ratio: float = param(
+        2.0 / 7.0,
+        unit="1",
+        doc="tangential stiffness / loading tangent stiffness n k1 d^(n-1)",
+        ge=0,
+    )
     mu_s: float = param(0.5, unit="1", doc="sliding friction coefficient", ge=0)
     mu_r: float = param(0.001, unit="1", doc="rolling friction coefficient", ge=0)
     restitution: float = param(0.4, unit="1", doc="coefficient of restitution", gt=0, le=1)
-    friction_cap: str = param("adhesive", unit="", kind="str", choices=FRICTION_CAPS,
-                              doc="Coulomb cap: mu_s |f_hys - f0 + kadh d^chi| (adhesive) or "
-                                  "mu_s |F_n| (normal, as LIGGGHTS)")
+    friction_cap: str = param(
+        "adhesive",
+        unit="",
+        kind="str",
+        choices=FRICTION_CAPS,
+        doc="Coulomb cap: mu_s |f_hys - f0 + kadh d^chi| (adhesive) or "
+        "mu_s |F_n| (normal, as LIGGGHTS)",
+    )
 
     def __post_init__(self) -> None:
         o = "EEPA"
         check_fields(self, o)
-        _check(o, "k2", self.k2, self.k2 >= self.k1, f">= k1 = {self.k1:g} N/m^n",
-               "unloading must be at least as stiff as loading")
+        _check(
+            o,
+            "k2",
+            self.k2,
+            self.k2 >= self.k1,
+            f">= k1 = {self.k1:g} N/m^n",
+            "unloading must be at least as stiff as loading",
+        )
 
     def pair_features(self) -> dict[str, bool]:
         # n = chi = 1 still takes the EEPA branches: the law a user chose is the law run
-        return {**super().pair_features(), "eepa": True,
-                "normal_cap": self.friction_cap == "normal" and self.mu_s > 0}
-
-
+        return {
+            **super().pair_features(),
+            "eepa": True,
+            "normal_cap": self.friction_cap == "normal" and self.mu_s > 0,
+        }
 
 
 @dataclass(frozen=True)
@@ -299,8 +349,7 @@ class HertzMindlin:
     """
 
     E: float = param(unit="Pa", doc="Young's modulus of the particle material", gt=0)
-    nu: float = param(0.25, unit="1", doc="Poisson's ratio of the particle material", gt=-1,
-                      lt=0.5)
+    nu: float = param(0.25, unit="1", doc="Poisson's ratio of the particle material", gt=-1, lt=0.5)
     restitution: float = param(0.4, unit="1", doc="coefficient of restitution", gt=0, le=1)
     mu: float = param(0.3, unit="1", doc="sliding friction coefficient", ge=0)
     mu_r: float = param(0.0, unit="1", doc="rolling friction coefficient", ge=0)
@@ -315,13 +364,20 @@ class HertzMindlin:
 
     def pair_features(self) -> dict[str, bool]:
         """The step kernel's switches this law turns on as the pair law."""
-        return {"pair_hertz": True, "friction": self.mu > 0, "rolling": self.mu_r > 0,
-                "damping": self.restitution < 1}
+        return {
+            "pair_hertz": True,
+            "friction": self.mu > 0,
+            "rolling": self.mu_r > 0,
+            "damping": self.restitution < 1,
+        }
 
     def wall_features(self) -> dict[str, bool]:
         """The step kernel's switches this law turns on as the wall law."""
-        return {"wall_friction": self.mu > 0, "wall_rolling": self.mu_r > 0,
-                "wall_damping": self.restitution < 1}
+        return {
+            "wall_friction": self.mu > 0,
+            "wall_rolling": self.mu_r > 0,
+            "wall_damping": self.restitution < 1,
+        }
 
     def pair_values(self) -> dict[str, float]:
         """Kernel slot values of a contact between two particles of this material."""
@@ -335,26 +391,41 @@ class HertzMindlin:
         """No adhesion: None."""
         return None
 
-    def pair_time_steps(self, m_eff: float, r_eff: float, r_min: float, rho_min: float,
-                        v: float) -> list[TimeStepCandidate]:
+    def pair_time_steps(
+        self, m_eff: float, r_eff: float, r_min: float, rho_min: float, v: float
+    ) -> list[TimeStepCandidate]:
         """The Hertz limits of the lightest pair (``m_eff`` [kg], ``r_eff`` [m]) at ``v``
         [m/s], and the Rayleigh time of the smallest particle (``r_min`` [m], ``rho_min``
         [kg/m^3])."""
         e_star, _ = self.pair_moduli()
-        out = hertz_candidates("pair", np.array([m_eff]), np.array([r_eff]), e_star,
-                               self.restitution, v)
-        out.append(TimeStepCandidate("pair", "pair Rayleigh time of the smallest particle",
-                                     rayleigh_time(r_min, rho_min, self.G, self.nu), False))
+        out = hertz_candidates(
+            "pair", np.array([m_eff]), np.array([r_eff]), e_star, self.restitution, v
+        )
+        out.append(
+            TimeStepCandidate(
+                "pair",
+                "pair Rayleigh time of the smallest particle",
+                rayleigh_time(r_min, rho_min, self.G, self.nu),
+                False,
+            )
+        )
         return out
 
-    def wall_time_steps(self, wall: WallMaterial, m, r, r_min: float, rho_min: float,
-                        v: float) -> list[TimeStepCandidate]:
+    def wall_time_steps(
+        self, wall: WallMaterial, m, r, r_min: float, rho_min: float, v: float
+    ) -> list[TimeStepCandidate]:
         """The Hertz limits of particles of masses ``m`` [kg] and radii ``r`` [m] on
         ``wall`` at ``v`` [m/s], and the Rayleigh time of the smallest particle."""
         e_star, _ = self.wall_moduli(wall)
         out = hertz_candidates("wall", m, r, e_star, self.restitution, v)
-        out.append(TimeStepCandidate("wall", "wall Rayleigh time of the smallest particle",
-                                     rayleigh_time(r_min, rho_min, self.G, self.nu), False))
+        out.append(
+            TimeStepCandidate(
+                "wall",
+                "wall Rayleigh time of the smallest particle",
+                rayleigh_time(r_min, rho_min, self.G, self.nu),
+                False,
+            )
+        )
         return out
 
     @property
@@ -380,13 +451,20 @@ class HertzMindlin:
         :meth:`wall_moduli`), damping ratio on the contact stiffness zeta = sqrt(5/6) x
         the restitution's damping ratio (so that :math:`c = 2\\zeta\\sqrt{S m^*}` is the Tsuji
         damping :math:`-2\\sqrt{5/6}\\beta\\sqrt{S m^*}`), mu_s (the record's ``mu``), mu_r [-]."""
-        return {"e_star": e_star, "g_star": g_star,
-                "zeta": 0.5 * hertz_damping_factor(self.restitution), "mu_s": self.mu,
-                "mu_r": self.mu_r}
+        return {
+            "e_star": e_star,
+            "g_star": g_star,
+            "zeta": 0.5 * hertz_damping_factor(self.restitution),
+            "mu_s": self.mu,
+            "mu_r": self.mu_r,
+        }
 
-    def to_array(self, e_star: float, g_star: float,
-                 slots: tuple[str, ...] = ("e_star", "g_star", "zeta", "mu_s", "mu_r"),
-                 ) -> np.ndarray:
+    def to_array(
+        self,
+        e_star: float,
+        g_star: float,
+        slots: tuple[str, ...] = ("e_star", "g_star", "zeta", "mu_s", "mu_r"),
+    ) -> np.ndarray:
         """Kernel parameter array: the values of ``slots`` in order, then a trailing NaN."""
         return pack_params(self.kernel_params(e_star, g_star), slots)
 
@@ -414,8 +492,11 @@ class WallMaterial:
 
 #: Every contact law by name (the ``type`` of a law in JSON); a new law is a record with the
 #: attributes and methods listed in this module's docstring, added here.
-LAWS: dict[str, type] = {"BilinearAdhesive": BilinearAdhesive, "EEPA": EEPA,
-                         "HertzMindlin": HertzMindlin}
+LAWS: dict[str, type] = {
+    "BilinearAdhesive": BilinearAdhesive,
+    "EEPA": EEPA,
+    "HertzMindlin": HertzMindlin,
+}
 
 
 #: The adhesive elasto-plastic pair laws: the scaling rules act on their K1, K2, f0, kadh.

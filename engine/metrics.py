@@ -48,29 +48,53 @@ class Metric:
 METRICS = {
     m.name: m
     for m in (
-        Metric("density", "1", 0.03,
-               "bulk density sets the mass a hopper or die holds and a calibration matches it "
-               "first; laboratory bulk densities of one powder differ by a few per cent "
-               "between fill methods, so 3 % is as close as a calibration target is known"),
-        Metric("loading_stiffness", "Pa", 0.15,
-               "confined compressibility of powders repeats to 10-20 % between samples in "
-               "the laboratory; 15 % is the usual calibration tolerance for compressibility"),
-        Metric("unloading_stiffness", "Pa", 0.15,
-               "the elastic recovery on unloading is measured with the same test and "
-               "repeatability as the loading modulus"),
-        Metric("coordination", "1", 0.10,
-               "the contact count carries cohesion and conduction through the bed; "
-               "0.1 relative is about 0.4 contacts per particle in a consolidated bed"),
-        Metric("strength", "Pa", 0.15,
-               "unconfined and shear-cell strengths of cohesive powders repeat to 10-20 % "
-               "between laboratory samples; 15 % is the usual flowability tolerance"),
+        Metric(
+            "density",
+            "1",
+            0.03,
+            "bulk density sets the mass a hopper or die holds and a calibration matches it "
+            "first; laboratory bulk densities of one powder differ by a few per cent "
+            "between fill methods, so 3 % is as close as a calibration target is known",
+        ),
+        Metric(
+            "loading_stiffness",
+            "Pa",
+            0.15,
+            "confined compressibility of powders repeats to 10-20 % between samples in "
+            "the laboratory; 15 % is the usual calibration tolerance for compressibility",
+        ),
+        Metric(
+            "unloading_stiffness",
+            "Pa",
+            0.15,
+            "the elastic recovery on unloading is measured with the same test and "
+            "repeatability as the loading modulus",
+        ),
+        Metric(
+            "coordination",
+            "1",
+            0.10,
+            "the contact count carries cohesion and conduction through the bed; "
+            "0.1 relative is about 0.4 contacts per particle in a consolidated bed",
+        ),
+        Metric(
+            "strength",
+            "Pa",
+            0.15,
+            "unconfined and shear-cell strengths of cohesive powders repeat to 10-20 % "
+            "between laboratory samples; 15 % is the usual flowability tolerance",
+        ),
     )
 }
 
 #: Column of each verdict metric's per-run error in a study table.
-METRIC_COLUMNS = {"density": "err_density", "loading_stiffness": "err_loading_stiffness",
-                  "unloading_stiffness": "err_unloading_stiffness",
-                  "coordination": "err_coordination_interior", "strength": "err_strength"}
+METRIC_COLUMNS = {
+    "density": "err_density",
+    "loading_stiffness": "err_loading_stiffness",
+    "unloading_stiffness": "err_unloading_stiffness",
+    "coordination": "err_coordination_interior",
+    "strength": "err_strength",
+}
 
 #: Default tolerance per verdict metric [-].
 DEFAULT_TOLERANCES = {k: m.tolerance for k, m in METRICS.items()}
@@ -110,16 +134,19 @@ def _monotone(stress: np.ndarray, loading: bool) -> np.ndarray:
     return np.flatnonzero(keep)
 
 
-def branch_on_levels(curves: dict, levels: np.ndarray, loading: bool,
-                     names=("strain", "porosity", "coordination")) -> dict[str, np.ndarray]:
+def branch_on_levels(
+    curves: dict, levels: np.ndarray, loading: bool, names=("strain", "porosity", "coordination")
+) -> dict[str, np.ndarray]:
     """``names`` of one branch's curves interpolated at the stress ``levels`` [Pa] (held at
     the end values outside the branch's stress range)."""
     stress = np.asarray(curves["stress_top"], dtype=float)
     idx = _monotone(stress, loading)
     s = stress[idx]
     order = np.argsort(s)
-    return {n: np.interp(levels, s[order], np.asarray(curves[n], dtype=float)[idx][order])
-            for n in names}
+    return {
+        n: np.interp(levels, s[order], np.asarray(curves[n], dtype=float)[idx][order])
+        for n in names
+    }
 
 
 def metric_values(result) -> dict[str, np.ndarray]:
@@ -129,8 +156,10 @@ def metric_values(result) -> dict[str, np.ndarray]:
     test = result.test
     names = ("porosity_interior", "coordination_interior", "porosity", "coordination")
     parts: dict[str, list] = {n: [] for n in names}
-    for stage, levels, loading in (("consolidation", stress_levels(test)[0], True),
-                                   ("unloading", stress_levels(test)[1], False)):
+    for stage, levels, loading in (
+        ("consolidation", stress_levels(test)[0], True),
+        ("unloading", stress_levels(test)[1], False),
+    ):
         b = branch_on_levels(result.stages[stage].curves, levels, loading, names)
         for n in names:
             parts[n].append(b[n])
@@ -170,8 +199,7 @@ def relative_error(name: str, values, ref, consolidation_stress: float) -> float
 def signed_error(name: str, values, ref, consolidation_stress: float) -> float:
     """Mean relative difference (values - ref) / scale [-]: > 0 over-, < 0 under-predicts."""
     ref = np.asarray(ref, dtype=float)
-    rel = (np.asarray(values, dtype=float) - ref) / reference_scale(name, ref,
-                                                                    consolidation_stress)
+    rel = (np.asarray(values, dtype=float) - ref) / reference_scale(name, ref, consolidation_stress)
     return float(np.mean(rel))
 
 
@@ -193,8 +221,10 @@ def _common_levels(a: np.ndarray, b: np.ndarray, loading: bool, n: int = 40) -> 
     lo = max(a[ia].min(), b[ib].min())
     hi = min(a[ia].max(), b[ib].max())
     if not hi > lo:
-        raise ValueError(f"the {'loading' if loading else 'unloading'} branches share no "
-                         f"stress range ({lo:g} to {hi:g} Pa)")
+        raise ValueError(
+            f"the {'loading' if loading else 'unloading'} branches share no "
+            f"stress range ({lo:g} to {hi:g} Pa)"
+        )
     return np.linspace(lo, hi, n)
 
 
@@ -206,12 +236,15 @@ def shape_errors(run, ref) -> dict[str, float]:
     parts_ref: dict[str, list] = {"strain": [], "porosity": [], "coordination": []}
     for stage, loading in (("consolidation", True), ("unloading", False)):
         c_run, c_ref = run.stages[stage].curves, ref.stages[stage].curves
-        levels = _common_levels(np.asarray(c_run["stress_top"]), np.asarray(c_ref["stress_top"]),
-                                loading)
+        levels = _common_levels(
+            np.asarray(c_run["stress_top"]), np.asarray(c_ref["stress_top"]), loading
+        )
         a = branch_on_levels(c_run, levels, loading)
         b = branch_on_levels(c_ref, levels, loading)
         for n in parts_run:
             parts_run[n].append(a[n])
             parts_ref[n].append(b[n])
-    return {name: nrmse(np.concatenate(parts_run[c]), np.concatenate(parts_ref[c]))
-            for name, c in zip(SHAPE_NAMES, ("strain", "porosity", "coordination"))}
+    return {
+        name: nrmse(np.concatenate(parts_run[c]), np.concatenate(parts_ref[c]))
+        for name, c in zip(SHAPE_NAMES, ("strain", "porosity", "coordination"))
+    }

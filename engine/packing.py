@@ -105,8 +105,9 @@ def draw_radii(n: int, radius: float, polydispersity: float, seed: int) -> np.nd
     return radius * rng.uniform(1.0 - polydispersity, 1.0 + polydispersity, n)
 
 
-def loose_packing(radii, box, periodic=(True, True, False), seed: int = 0,
-                  max_tries: int = 5000) -> np.ndarray:
+def loose_packing(
+    radii, box, periodic=(True, True, False), seed: int = 0, max_tries: int = 5000
+) -> np.ndarray:
     """Overlap-free random positions [m] for spheres of ``radii`` in ``box``
     ((xlo, xhi), (ylo, yhi), (zlo, zhi)) [m]; on open axes the spheres stay inside.
 
@@ -117,12 +118,13 @@ def loose_packing(radii, box, periodic=(True, True, False), seed: int = 0,
     b = np.asarray(box, dtype=np.float64)
     lo, hi = b[:, 0].copy(), b[:, 1].copy()
     fraction = float(sphere_volume(radii).sum() / np.prod(hi - lo))
-    pos, placed = _rsa(radii, lo, hi, np.array(periodic, dtype=np.bool_), int(seed),
-                       int(max_tries))
+    pos, placed = _rsa(radii, lo, hi, np.array(periodic, dtype=np.bool_), int(seed), int(max_tries))
     if placed < len(radii):
         raise ParameterError(
-            "loose_packing.box", f"solid fraction {fraction:.3f}",
+            "loose_packing.box",
+            f"solid fraction {fraction:.3f}",
             "large enough to place the particles without overlap",
             f"placed {placed} of {len(radii)}; random sequential addition jams near 0.38, "
-            "use a taller fill region")
+            "use a taller fill region",
+        )
     return pos

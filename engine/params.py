@@ -53,10 +53,20 @@ class ParamInfo:
         if self.kind == "bool":
             return "true or false"
         unit = "" if self.unit in ("", "1") else f" {self.unit}"
-        lo = (f"({self.gt:g}" if self.gt is not None else
-              f"[{self.ge:g}" if self.ge is not None else None)
-        hi = (f"{self.lt:g})" if self.lt is not None else
-              f"{self.le:g}]" if self.le is not None else None)
+        lo = (
+            f"({self.gt:g}"
+            if self.gt is not None
+            else f"[{self.ge:g}"
+            if self.ge is not None
+            else None
+        )
+        hi = (
+            f"{self.lt:g})"
+            if self.lt is not None
+            else f"{self.le:g}]"
+            if self.le is not None
+            else None
+        )
         what = "an integer" if self.kind == "int" else "a finite number"
         if lo and hi:
             text = f"in {lo}, {hi}{unit}"
@@ -71,17 +81,44 @@ class ParamInfo:
         return text
 
     def accepts(self, v: float) -> bool:
-        return ((self.gt is None or v > self.gt) and (self.ge is None or v >= self.ge)
-                and (self.lt is None or v < self.lt) and (self.le is None or v <= self.le))
+        return (
+            (self.gt is None or v > self.gt)
+            and (self.ge is None or v >= self.ge)
+            and (self.lt is None or v < self.lt)
+            and (self.le is None or v <= self.le)
+        )
 
 
-def param(default: Any = MISSING, *, unit: str, doc: str, gt: float | None = None,
-          ge: float | None = None, lt: float | None = None, le: float | None = None,
-          kind: str = "float", choices: tuple | None = None, nullable: bool = False,
-          default_factory: Any = MISSING, max_items: int | None = None) -> Any:
+def param(
+    default: Any = MISSING,
+    *,
+    unit: str,
+    doc: str,
+    gt: float | None = None,
+    ge: float | None = None,
+    lt: float | None = None,
+    le: float | None = None,
+    kind: str = "float",
+    choices: tuple | None = None,
+    nullable: bool = False,
+    default_factory: Any = MISSING,
+    max_items: int | None = None,
+) -> Any:
     """A dataclass field carrying its unit, bounds and description (see :class:`ParamInfo`)."""
-    md = {_KEY: dict(unit=unit, doc=doc, gt=gt, ge=ge, lt=lt, le=le, kind=kind,
-                     choices=choices, nullable=nullable, max_items=max_items)}
+    md = {
+        _KEY: dict(
+            unit=unit,
+            doc=doc,
+            gt=gt,
+            ge=ge,
+            lt=lt,
+            le=le,
+            kind=kind,
+            choices=choices,
+            nullable=nullable,
+            max_items=max_items,
+        )
+    }
     if default_factory is not MISSING:
         return field(default_factory=default_factory, metadata=md)
     return field(default=default, metadata=md)

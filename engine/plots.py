@@ -29,9 +29,13 @@ KINDS = {
 
 _CONFINED = ("consolidation", "unloading")
 #: Verdict metrics: table column (engine.metrics.METRIC_COLUMNS) and panel title.
-_TITLES = {"density": "bulk density (interior)", "loading_stiffness": "loading stiffness",
-           "unloading_stiffness": "unloading stiffness",
-           "coordination": "coordination (interior)", "strength": "unconfined strength"}
+_TITLES = {
+    "density": "bulk density (interior)",
+    "loading_stiffness": "loading stiffness",
+    "unloading_stiffness": "unloading stiffness",
+    "coordination": "coordination (interior)",
+    "strength": "unconfined strength",
+}
 _METRIC_PANELS = {n: (METRIC_COLUMNS[n], t) for n, t in _TITLES.items()}
 _MARKERS = "osD^vP*X"
 
@@ -39,8 +43,11 @@ _MARKERS = "osD^vP*X"
 def study_plot_data(result) -> tuple[dict, list[dict], dict]:
     """``(runs, table, advisor)`` of a live :class:`engine.StudyResult`."""
     runs = {
-        key: {"label": key, "reference": r.rule is None,
-              "stages": {name: st.curves for name, st in r.result.stages.items()}}
+        key: {
+            "label": key,
+            "reference": r.rule is None,
+            "stages": {name: st.curves for name, st in r.result.stages.items()},
+        }
         for key, r in result.runs.items()
     }
     return runs, result.table, result.advisor
@@ -69,8 +76,9 @@ def _groups(runs: dict, table: list[dict]) -> dict[str, list[str]]:
     return out
 
 
-def _mean_band(xs: list[np.ndarray], ys: list[np.ndarray], increasing: bool,
-               n: int = 120) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+def _mean_band(
+    xs: list[np.ndarray], ys: list[np.ndarray], increasing: bool, n: int = 120
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """Mean and sample standard deviation over seeds of curves y(x), each read along its
     monotone part in x (running max, or min where x falls) on the x range all share."""
     parts = []
@@ -92,8 +100,9 @@ def _mean_band(xs: list[np.ndarray], ys: list[np.ndarray], increasing: bool,
     return grid, a.mean(axis=0), a.std(axis=0, ddof=1)
 
 
-def _plot_groups(ax, runs: dict, table: list[dict], curve, stages, styles,
-                 along_y: bool = False) -> None:
+def _plot_groups(
+    ax, runs: dict, table: list[dict], curve, stages, styles, along_y: bool = False
+) -> None:
     """Every group of runs: one seed as its curve; two or more as the mean curve over the
     seeds with a band of one standard deviation (many seeds stay readable). ``curve(c)``
     gives (x, y) of a stage's curves; the mean is taken at common values of x (of y with
@@ -108,31 +117,33 @@ def _plot_groups(ax, runs: dict, table: list[dict], curve, stages, styles,
             cs = [c for c in cs if c is not None]
             if not cs:
                 continue
-            name = (label if n == 1 else f"{label} (mean of {len(cs)} seeds ± 1 sd)") if (
-                stage == stages[0][0]) else None
+            name = (
+                (label if n == 1 else f"{label} (mean of {len(cs)} seeds ± 1 sd)")
+                if (stage == stages[0][0])
+                else None
+            )
             if len(cs) == 1:
                 x, y = curve(cs[0])
                 ax.plot(x, y, ls=ls, label=name, **st)
                 continue
             xs, ys = zip(*(curve(c) for c in cs))
-            band = _mean_band(ys, xs, increasing) if along_y else _mean_band(xs, ys,
-                                                                              increasing)
+            band = _mean_band(ys, xs, increasing) if along_y else _mean_band(xs, ys, increasing)
             if band is None:
                 continue
             grid, mean, sd = band
             if along_y:
                 ax.plot(mean, grid, ls=ls, label=name, **st)
-                ax.fill_betweenx(grid, mean - sd, mean + sd, color=st["color"], alpha=0.2,
-                                 lw=0)
+                ax.fill_betweenx(grid, mean - sd, mean + sd, color=st["color"], alpha=0.2, lw=0)
             else:
                 ax.plot(grid, mean, ls=ls, label=name, **st)
-                ax.fill_between(grid, mean - sd, mean + sd, color=st["color"], alpha=0.2,
-                                lw=0)
+                ax.fill_between(grid, mean - sd, mean + sd, color=st["color"], alpha=0.2, lw=0)
 
 
-def _confined(ax, runs: dict, table: list[dict], x: str | None, y: str | None, xscale=1.0,
-              yscale=1.0) -> None:
+def _confined(
+    ax, runs: dict, table: list[dict], x: str | None, y: str | None, xscale=1.0, yscale=1.0
+) -> None:
     """Consolidation (solid) and unloading (dashed) of every group; ``None`` means stress."""
+
     def curve(c):
         xs = np.asarray(c["stress_top"] if x is None else c[x]) * xscale
         ys = np.asarray(c["stress_top"] if y is None else c[y]) * yscale
@@ -140,8 +151,15 @@ def _confined(ax, runs: dict, table: list[dict], x: str | None, y: str | None, x
 
     # seeds are averaged at common stresses (the controlled quantity), which rise on
     # loading and fall on unloading
-    _plot_groups(ax, runs, table, curve, (("consolidation", True), ("unloading", False)),
-                 ("-", "--"), along_y=y is None)
+    _plot_groups(
+        ax,
+        runs,
+        table,
+        curve,
+        (("consolidation", True), ("unloading", False)),
+        ("-", "--"),
+        along_y=y is None,
+    )
 
 
 def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
@@ -161,8 +179,7 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
     for ax, name in zip(axes, names):
         col, title = _METRIC_PANELS[name]
         if noise.get(name) is not None:
-            ax.axhspan(0, 100 * noise[name], color="0.85", zorder=0,
-                       label="reference noise (1 sd)")
+            ax.axhspan(0, 100 * noise[name], color="0.85", zorder=0, label="reference noise (1 sd)")
         if name in tol:
             ax.axhline(100 * tol[name], color="black", ls="--", lw=1, label="tolerance")
         for t in ref_times:
@@ -170,9 +187,14 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
         for row in table:
             if row["rule"] == "reference" or col not in row:
                 continue
-            ax.scatter(row["wall_time"], 100 * row[col], s=30, zorder=3,
-                       color=f"C{rules.index(row['rule']) % 10}",
-                       marker=_MARKERS[radii.index(row["radius"]) % len(_MARKERS)])
+            ax.scatter(
+                row["wall_time"],
+                100 * row[col],
+                s=30,
+                zorder=3,
+                color=f"C{rules.index(row['rule']) % 10}",
+                marker=_MARKERS[radii.index(row["radius"]) % len(_MARKERS)],
+            )
         ax.set_title(title, fontsize=9)
         ax.set_xscale("log")
         ax.xaxis.set_minor_formatter(NullFormatter())
@@ -190,8 +212,7 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
         labels.append(f"R = {r * 1e3:g} mm")
     handles.append(Line2D([], [], ls=":", color="black"))
     labels.append("reference run time")
-    fig.legend(handles, labels, loc="outside lower center", ncol=min(6, len(labels)),
-               fontsize=7)
+    fig.legend(handles, labels, loc="outside lower center", ncol=min(6, len(labels)), fontsize=7)
     fig.suptitle(KINDS["error_vs_runtime"], fontsize=10)
 
 
@@ -212,19 +233,28 @@ def draw(ax, kind: str, runs: dict, table: list[dict]) -> None:
         ax.set_xlabel("top platen stress [kPa]")
         ax.set_ylabel("coordination number [-]")
     elif kind == "unconfined":
-        _plot_groups(ax, runs, table, lambda c: (np.asarray(c["strain"]) * 100,
-                                                 np.asarray(c["stress_top"]) * 1e-3),
-                     (("unconfined", True),), ("-",))
+        _plot_groups(
+            ax,
+            runs,
+            table,
+            lambda c: (np.asarray(c["strain"]) * 100, np.asarray(c["stress_top"]) * 1e-3),
+            (("unconfined", True),),
+            ("-",),
+        )
         ax.set_xlabel("axial strain since release [%]")
         ax.set_ylabel("top platen stress [kPa]")
     else:
         raise ValueError("error_vs_runtime is drawn on a whole figure: use figure()")
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=8, title="solid: loading, dashed: unloading"
-                  if kind != "unconfined" else None, title_fontsize=7)
+        ax.legend(
+            fontsize=8,
+            title="solid: loading, dashed: unloading" if kind != "unconfined" else None,
+            title_fontsize=7,
+        )
     else:
-        ax.text(0.5, 0.5, "no run of this study has this stage", ha="center",
-                transform=ax.transAxes)
+        ax.text(
+            0.5, 0.5, "no run of this study has this stage", ha="center", transform=ax.transAxes
+        )
     ax.set_title(KINDS[kind], fontsize=10)
     ax.grid(alpha=0.3)
 
@@ -245,8 +275,7 @@ def figure(kind: str, runs: dict, table: list[dict], advisor: dict | None = None
     return fig
 
 
-def save_all(directory, runs: dict, table: list[dict], advisor: dict | None = None
-             ) -> list[Path]:
+def save_all(directory, runs: dict, table: list[dict], advisor: dict | None = None) -> list[Path]:
     """Write ``<kind>.png`` for every kind into ``directory``; returns the paths."""
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)

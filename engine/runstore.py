@@ -44,8 +44,9 @@ def this_machine() -> dict:
     cpu = platform.processor() or platform.machine()
     try:
         with open("/proc/cpuinfo") as f:
-            cpu = next((line.split(":", 1)[1].strip() for line in f
-                        if line.startswith("model name")), cpu)
+            cpu = next(
+                (line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), cpu
+            )
     except OSError:
         pass
     return {"cpu": cpu, "logical_cpus": os.cpu_count()}
@@ -101,15 +102,19 @@ def read_run_group(g):
         sg = g["stages"][name]
         p = sg.get("particles")
         stages[name] = StageResult(
-            name, {c: sg[c][()] for c in sg if c != "particles"},
-            None if p is None else p["positions"][()], None if p is None else p["radii"][()],
-            int(sg.attrs["steps"]))
+            name,
+            {c: sg[c][()] for c in sg if c != "particles"},
+            None if p is None else p["positions"][()],
+            None if p is None else p["radii"][()],
+            int(sg.attrs["steps"]),
+        )
     if "unconfined_failure" in scalars and "unconfined" in stages:
         # one criterion for every run, stored before or after it was written: failure is
         # derived from the stored curve (engine.uniaxial.failed_by_curve)
         u = stages["unconfined"].curves
         failed = scalars["unconfined_failure"] == 1.0 or failed_by_curve(
-            u["strain"], u["stress_top"], test.failure_strain)
+            u["strain"], u["stress_top"], test.failure_strain
+        )
         scalars["unconfined_failure"] = 1.0 if failed else 0.0
     return UniaxialResult(test, stages, scalars)
 
@@ -127,9 +132,9 @@ def save_run(path: Path, outcome, keep_particles: bool = True) -> Path:
     tmp = path.with_name(f".{path.name}.{socket.gethostname()}.{os.getpid()}.tmp")
     try:
         with h5py.File(tmp, "w") as f:
-            f.attrs["versions"] = json.dumps({"demscale": __version__,
-                                              "numba": numba.__version__,
-                                              "numpy": np.__version__})
+            f.attrs["versions"] = json.dumps(
+                {"demscale": __version__, "numba": numba.__version__, "numpy": np.__version__}
+            )
             f.attrs["machine"] = json.dumps(this_machine())
             write_run_group(f, outcome, keep_particles)
         os.replace(tmp, path)
@@ -177,8 +182,9 @@ def strict_json(obj) -> str:
     if isinstance(obj, float) and not np.isfinite(obj):
         return "null"
     if isinstance(obj, dict):
-        return ("{" + ", ".join(f"{json.dumps(str(k))}: {strict_json(v)}" for k, v in obj.items())
-                + "}")
+        return (
+            "{" + ", ".join(f"{json.dumps(str(k))}: {strict_json(v)}" for k, v in obj.items()) + "}"
+        )
     if isinstance(obj, (list, tuple)):
         return "[" + ", ".join(strict_json(v) for v in obj) + "]"
     return json.dumps(obj.item() if isinstance(obj, np.generic) else obj)
@@ -224,25 +230,44 @@ def save_study(path: Path, study_id: object, result, before_rename=lambda: True)
     try:
         with h5py.File(tmp, "w", track_order=True) as f:
             vs = versions()
-            f.attrs.update({
-                "schema": SCHEMA, "schema_version": SCHEMA_VERSION,
-                "study_id": str(study_id), "created": datetime.now(timezone.utc).isoformat(),
-                "spec": json.dumps(result.spec.to_dict()),
-                "summary": strict_json(result.to_summary()),
-                "advisor": strict_json(result.advisor), "versions": json.dumps(vs),
-                **{f"version_{k}": v for k, v in vs.items()}})
+            f.attrs.update(
+                {
+                    "schema": SCHEMA,
+                    "schema_version": SCHEMA_VERSION,
+                    "study_id": str(study_id),
+                    "created": datetime.now(timezone.utc).isoformat(),
+                    "spec": json.dumps(result.spec.to_dict()),
+                    "summary": strict_json(result.to_summary()),
+                    "advisor": strict_json(result.advisor),
+                    "versions": json.dumps(vs),
+                    **{f"version_{k}": v for k, v in vs.items()},
+                }
+            )
             runs = f.create_group("runs", track_order=True)
             for i, (key, run) in enumerate(result.runs.items()):
                 g = runs.create_group(key, track_order=True)
                 write_run_group(g, run.result)
-                g.attrs.update({"label": run.key, "reference": run.rule is None,
-                                "position": i, "radius": run.radius, "radius_units": "m",
-                                "seed": run.seed,
-                                "rule": "reference" if run.rule is None else run.rule.name})
+                g.attrs.update(
+                    {
+                        "label": run.key,
+                        "reference": run.rule is None,
+                        "position": i,
+                        "radius": run.radius,
+                        "radius_units": "m",
+                        "seed": run.seed,
+                        "rule": "reference" if run.rule is None else run.rule.name,
+                    }
+                )
                 if run.rule is not None:
                     a, b, c = run.rule.exponents(run.result.test.pair_law)
-                    g.attrs.update({"stiffness_exponent": a, "adhesion_exponent": b,
-                                    "adhesive_exponent": c, "dt_rule": run.rule.dt})
+                    g.attrs.update(
+                        {
+                            "stiffness_exponent": a,
+                            "adhesion_exponent": b,
+                            "adhesive_exponent": c,
+                            "dt_rule": run.rule.dt,
+                        }
+                    )
                 for name, value in run.errors.items():
                     g.attrs[name] = float(value)
                     g.attrs[f"{name}_units"] = "1"
@@ -251,8 +276,7 @@ def save_study(path: Path, study_id: object, result, before_rename=lambda: True)
             columns += [c for c in result.table[0] if c not in columns]
             summary.attrs["columns"] = columns
             for c in columns:
-                ds = summary.create_dataset(c, data=_column([row[c] for row in result.table],
-                                                            text))
+                ds = summary.create_dataset(c, data=_column([row[c] for row in result.table], text))
                 ds.attrs["units"] = TABLE_UNITS.get(c, "")
         with open(tmp, "rb+") as fh:
             os.fsync(fh.fileno())

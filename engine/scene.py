@@ -178,8 +178,11 @@ class Scene:
         self.pair_law = pair_law
         if self.walls:
             if not isinstance(wall_law, wall_laws()):
-                raise ParameterError("Scene.wall_law", wall_law,
-                                     f"an {law_names(wall_laws())} when the scene has walls")
+                raise ParameterError(
+                    "Scene.wall_law",
+                    wall_law,
+                    f"an {law_names(wall_laws())} when the scene has walls",
+                )
             if not isinstance(wall_material, WallMaterial):
                 raise ParameterError(
                     "Scene.wall_material",

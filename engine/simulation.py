@@ -70,8 +70,9 @@ def _concat(parts: list, dtype) -> np.ndarray:
     return np.concatenate(parts) if parts else np.zeros(0, dtype)
 
 
-def cell_order(pos: np.ndarray, rad: np.ndarray, lo: np.ndarray, length: np.ndarray,
-               periodic) -> np.ndarray:
+def cell_order(
+    pos: np.ndarray, rad: np.ndarray, lo: np.ndarray, length: np.ndarray, periodic
+) -> np.ndarray:
     """Particle ids sorted by the cell (one particle diameter wide, z fastest) they lie in:
     neighbours get nearby ids, so the step's loops over neighbours stay in cache, and the
     fixed chunks of consecutive ids are compact in space. The grid does not depend on the
@@ -359,8 +360,17 @@ class Simulation:
                 numba.set_num_threads(prev)
 
     def _call_kernel(self, nsteps: int, phase: int, team: int) -> tuple[int, int]:
-        return self._k.run_steps(nsteps, self._pause, phase, team, self._particles,
-                                 self._list, self._walls, self._params, self._scratch)
+        return self._k.run_steps(
+            nsteps,
+            self._pause,
+            phase,
+            team,
+            self._particles,
+            self._list,
+            self._walls,
+            self._params,
+            self._scratch,
+        )
 
     def _rebuild(self) -> None:
         p = self._particles

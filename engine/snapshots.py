@@ -147,8 +147,9 @@ def particle_fields(snap: Snapshot) -> dict[str, np.ndarray]:
     half_overlap = 0.5 * (snap.radii[i] + snap.radii[j] - dist)
     force_sum = np.bincount(i, fn, n) + np.bincount(j, fn, n)
     counts = np.bincount(i, minlength=n) + np.bincount(j, minlength=n)
-    moment = (np.bincount(i, (snap.radii[i] - half_overlap) * fn, n)
-              + np.bincount(j, (snap.radii[j] - half_overlap) * fn, n))
+    moment = np.bincount(i, (snap.radii[i] - half_overlap) * fn, n) + np.bincount(
+        j, (snap.radii[j] - half_overlap) * fn, n
+    )
     volume = 4.0 / 3.0 * np.pi * snap.radii**3
     return {
         "mean_normal_force": np.divide(force_sum, counts, out=np.zeros(n), where=counts > 0),
@@ -190,19 +191,28 @@ class _TemporalPolyData:
     def _append(self, group, name: str, data) -> None:
         data = np.asarray(data)
         if name not in group:
-            compress = {"compression": "gzip", "shuffle": True} if data.dtype.kind == "f" \
-                else {}
-            group.create_dataset(name, data=data, maxshape=(None, *data.shape[1:]),
-                                 chunks=(max(1, min(65536, len(data))), *data.shape[1:])
-                                 if len(data) else True, **compress)
+            compress = {"compression": "gzip", "shuffle": True} if data.dtype.kind == "f" else {}
+            group.create_dataset(
+                name,
+                data=data,
+                maxshape=(None, *data.shape[1:]),
+                chunks=(max(1, min(65536, len(data))), *data.shape[1:]) if len(data) else True,
+                **compress,
+            )
             return
         ds = group[name]
         start = ds.shape[0]
         ds.resize(start + len(data), axis=0)
         ds[start:] = data
 
-    def add(self, time: float, points: np.ndarray, cells: dict[str, np.ndarray],
-            point_data: dict[str, np.ndarray], cell_data: dict[str, np.ndarray]) -> None:
+    def add(
+        self,
+        time: float,
+        points: np.ndarray,
+        cells: dict[str, np.ndarray],
+        point_data: dict[str, np.ndarray],
+        cell_data: dict[str, np.ndarray],
+    ) -> None:
         """Append one time step: ``points`` (P, 3), ``cells`` topology -> (C, k) point ids
         (k = 1 for vertices, 2 for lines), data arrays with one row per point or cell."""
         r, s = self.root, self.steps
@@ -211,10 +221,14 @@ class _TemporalPolyData:
         self._append(s, "PartOffsets", np.array([self.n], dtype=np.int64))
         self._append(s, "NumberOfParts", np.array([1], dtype=np.int64))
         self._append(s, "PointOffsets", np.array([self.points], dtype=np.int64))
-        self._append(s, "CellOffsets",
-                     np.array([[self.cells[t] for t in _TOPOLOGIES]], dtype=np.int64))
-        self._append(s, "ConnectivityIdOffsets",
-                     np.array([[self.ids[t] for t in _TOPOLOGIES]], dtype=np.int64))
+        self._append(
+            s, "CellOffsets", np.array([[self.cells[t] for t in _TOPOLOGIES]], dtype=np.int64)
+        )
+        self._append(
+            s,
+            "ConnectivityIdOffsets",
+            np.array([[self.ids[t] for t in _TOPOLOGIES]], dtype=np.int64),
+        )
         self._append(r, "NumberOfPoints", np.array([npts], dtype=np.int64))
         self._append(r, "Points", np.asarray(points, dtype=np.float64).reshape(-1, 3))
         total_cells = 0
@@ -271,23 +285,36 @@ class SnapshotWriter:
         n = len(snap.radii)
         fields = particle_fields(snap)
         self.particles.add(
-            snap.time, snap.positions,
+            snap.time,
+            snap.positions,
             {"Vertices": np.arange(n, dtype=np.int64)[:, None]},
-            {"radius": snap.radii, "velocity": snap.velocities,
-             "angular_velocity": snap.angular_velocities,
-             "contact_count": snap.contact_counts,
-             "mean_normal_force": fields["mean_normal_force"],
-             "pressure": fields["pressure"], "id": np.arange(n, dtype=np.int64)},
-            {})
+            {
+                "radius": snap.radii,
+                "velocity": snap.velocities,
+                "angular_velocity": snap.angular_velocities,
+                "contact_count": snap.contact_counts,
+                "mean_normal_force": fields["mean_normal_force"],
+                "pressure": fields["pressure"],
+                "id": np.arange(n, dtype=np.int64),
+            },
+            {},
+        )
         m = len(snap.pairs)
         first = snap.positions[snap.pairs[:, 0]]
         ends = np.empty((2 * m, 3))
         ends[0::2] = first
         ends[1::2] = first - snap.branches  # the second particle's nearest image
         self.contacts.add(
-            snap.time, ends, {"Lines": np.arange(2 * m, dtype=np.int64).reshape(m, 2)},
-            {}, {"normal_force": snap.normal_forces, "particle_i": snap.pairs[:, 0],
-                 "particle_j": snap.pairs[:, 1]})
+            snap.time,
+            ends,
+            {"Lines": np.arange(2 * m, dtype=np.int64).reshape(m, 2)},
+            {},
+            {
+                "normal_force": snap.normal_forces,
+                "particle_i": snap.pairs[:, 0],
+                "particle_j": snap.pairs[:, 1],
+            },
+        )
         self.labels.append(snap.stage)
         self.last_steps = snap.steps
         self._write_labels()
@@ -363,9 +390,15 @@ def section_figure(snap: Snapshot, title: str = ""):
     else:
         p_cmap, p_norm = "viridis", Normalize(min(p_lo, 0.0), max(p_hi, 1e-30))
     discs = PatchCollection(
-        [Circle((x * mm, z * mm), r * mm) for x, z, r in
-         zip(pos[cut, across], pos[cut, 2], section)],
-        cmap=p_cmap, norm=p_norm, edgecolor="0.25", linewidth=0.3)
+        [
+            Circle((x * mm, z * mm), r * mm)
+            for x, z, r in zip(pos[cut, across], pos[cut, 2], section)
+        ],
+        cmap=p_cmap,
+        norm=p_norm,
+        edgecolor="0.25",
+        linewidth=0.3,
+    )
     discs.set_array(kpa)
     ax_p.add_collection(discs)
     bar = fig.colorbar(discs, ax=ax_p, label="particle pressure (Love-Weber) [kPa]", shrink=0.8)
@@ -379,10 +412,17 @@ def section_figure(snap: Snapshot, title: str = ""):
     a = pos[i[keep]]
     b = a - snap.branches[keep]
     fn = snap.normal_forces[keep].astype(np.float64)
-    ax_f.add_collection(PatchCollection(
-        [Circle((x * mm, z * mm), r * mm) for x, z, r in
-         zip(pos[cut, across], pos[cut, 2], section)],
-        facecolor="0.93", edgecolor="0.75", linewidth=0.3))
+    ax_f.add_collection(
+        PatchCollection(
+            [
+                Circle((x * mm, z * mm), r * mm)
+                for x, z, r in zip(pos[cut, across], pos[cut, 2], section)
+            ],
+            facecolor="0.93",
+            edgecolor="0.75",
+            linewidth=0.3,
+        )
+    )
     if fn.size:
         f_lo, f_hi = float(fn.min()), float(fn.max())
         scale = max(abs(f_lo), abs(f_hi), 1e-30)
@@ -393,11 +433,15 @@ def section_figure(snap: Snapshot, title: str = ""):
             norm = Normalize(min(f_lo, 0.0), max(f_hi, 1e-30))
         chains = LineCollection(
             np.stack([a[:, [across, 2]], b[:, [across, 2]]], axis=1) * mm,
-            cmap=cmap, norm=norm, linewidths=0.4 + 3.6 * np.abs(fn) / scale)
+            cmap=cmap,
+            norm=norm,
+            linewidths=0.4 + 3.6 * np.abs(fn) / scale,
+        )
         chains.set_array(fn)
         ax_f.add_collection(chains)
-        bar = fig.colorbar(chains, ax=ax_f, label="normal contact force [N] (> 0 compressive)",
-                           shrink=0.8)
+        bar = fig.colorbar(
+            chains, ax=ax_f, label="normal contact force [N] (> 0 compressive)", shrink=0.8
+        )
         _signed_ticks(bar, norm)
     ax_f.set_title(f"force chains: {int(keep.sum())} contacts in the section", fontsize=9)
     axis_name = "xy"[across]
@@ -405,14 +449,19 @@ def section_figure(snap: Snapshot, title: str = ""):
         for z in snap.platens:
             ax.axhline(z * mm, color="black", lw=2)
         ax.set_xlim(lo[across] * mm, hi[across] * mm)
-        ax.set_ylim(min(lo[2], float(np.min(snap.platens))) * mm - 1,
-                    max(hi[2], float(np.max(snap.platens))) * mm + 1)
+        ax.set_ylim(
+            min(lo[2], float(np.min(snap.platens))) * mm - 1,
+            max(hi[2], float(np.max(snap.platens))) * mm + 1,
+        )
         ax.set_aspect("equal")
         ax.set_xlabel(f"{axis_name} [mm]")
         ax.tick_params(labelsize=7)
     ax_p.set_ylabel("z [mm]")
-    fig.suptitle(f"{title + ': ' if title else ''}{snap.stage} end, t = {snap.time:.4g} s, "
-                 f"section at {'xy'[normal]} = {mid * mm:.3g} mm", fontsize=10)
+    fig.suptitle(
+        f"{title + ': ' if title else ''}{snap.stage} end, t = {snap.time:.4g} s, "
+        f"section at {'xy'[normal]} = {mid * mm:.3g} mm",
+        fontsize=10,
+    )
     return fig
 
 
@@ -440,5 +489,4 @@ def save(result, directory, label: str = "") -> list[Path]:
 def save_study(study, directory) -> dict[str, list[Path]]:
     """Snapshots of every run of the :class:`engine.StudyResult` ``study``, one directory per
     run (``directory/<run key>/``); returns run key -> paths."""
-    return {key: save(run.result, Path(directory) / key, key)
-            for key, run in study.runs.items()}
+    return {key: save(run.result, Path(directory) / key, key) for key, run in study.runs.items()}

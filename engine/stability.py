@@ -104,18 +104,24 @@ def _critical_time_step(scene: Scene, max_speed: float | None) -> TimeStepLimit:
         m0, m1 = masses[order[0]], masses[order[1]]
         r0, r1 = radii[order[0]], radii[order[1]]
         i = int(np.argmin(radii))
-        cands += scene.pair_law.pair_time_steps(m0 * m1 / (m0 + m1), r0 * r1 / (r0 + r1),
-                                                radii[i], scene.density[i], v)
+        cands += scene.pair_law.pair_time_steps(
+            m0 * m1 / (m0 + m1), r0 * r1 / (r0 + r1), radii[i], scene.density[i], v
+        )
     if scene.walls:
         # distinct (m, R) only: monodisperse scenes do this once
         mr = np.unique(np.stack([masses, radii], axis=1), axis=0)
         i = int(np.argmin(radii))
-        cands += scene.wall_law.wall_time_steps(scene.wall_material, mr[:, 0], mr[:, 1],
-                                                radii[i], scene.density[i], v)
+        cands += scene.wall_law.wall_time_steps(
+            scene.wall_material, mr[:, 0], mr[:, 1], radii[i], scene.density[i], v
+        )
     # masses or stiffnesses beyond the float range (extreme inputs) give inf or NaN limits: a
     # NaN limit would compare false with any step and let it through, so it counts as 0
-    cands = [c if c.value == c.value else TimeStepCandidate(c.kind, f"{c.name} (not finite)",
-                                                             0.0, c.hard) for c in cands]
+    cands = [
+        c
+        if c.value == c.value
+        else TimeStepCandidate(c.kind, f"{c.name} (not finite)", 0.0, c.hard)
+        for c in cands
+    ]
     hard = [c for c in cands if c.hard]
     if hard:
         h = min(hard, key=lambda c: c.value)

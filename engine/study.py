@@ -45,9 +45,21 @@ from .study_spec import (
 )
 from .uniaxial import Progress, UniaxialResult, run_uniaxial
 
-__all__ = ["NAMED_RULES", "TABLE_UNITS", "PlannedRun", "RunFailed", "RunResult", "ScalingRule",
-           "StudyProgress", "StudyResult", "StudySpec", "default_study", "plan_runs", "run_key",
-           "run_study"]
+__all__ = [
+    "NAMED_RULES",
+    "TABLE_UNITS",
+    "PlannedRun",
+    "RunFailed",
+    "RunResult",
+    "ScalingRule",
+    "StudyProgress",
+    "StudyResult",
+    "StudySpec",
+    "default_study",
+    "plan_runs",
+    "run_key",
+    "run_study",
+]
 
 #: Units of the columns of :attr:`StudyResult.table`.
 TABLE_UNITS = {
@@ -69,7 +81,6 @@ TABLE_UNITS = {
     **dict.fromkeys(METRIC_COLUMNS.values(), "1"),
     **dict.fromkeys(SHAPE_NAMES, "1"),
 }
-
 
 
 @dataclass(frozen=True)
@@ -106,12 +117,18 @@ class RunResult:
         """The run's row of the study table."""
         s = self.result.scalars
         row = {
-            "run": self.key, "radius": self.radius,
-            "rule": "reference" if self.rule is None else self.rule.name, "seed": self.seed,
+            "run": self.key,
+            "radius": self.radius,
+            "rule": "reference" if self.rule is None else self.rule.name,
+            "seed": self.seed,
             "scale": self.scale,
-            "particles": int(s["particles"]), "steps": int(s["steps"]), "dt": s["dt"],
-            "wall_time": s["wall_time"], "particle_steps": s["particle_steps"],
-            "speedup": self.speedup, "thickness_diameters": s["thickness_diameters"],
+            "particles": int(s["particles"]),
+            "steps": int(s["steps"]),
+            "dt": s["dt"],
+            "wall_time": s["wall_time"],
+            "particle_steps": s["particle_steps"],
+            "speedup": self.speedup,
+            "thickness_diameters": s["thickness_diameters"],
             "height_diameters": s["height_diameters"],
         }
         if "unconfined_strength" in s:
@@ -138,8 +155,13 @@ class StudyResult:
 
     def to_summary(self) -> dict:
         """JSON-friendly summary: table, groups, advisor, failed runs and units."""
-        return {"table": self.table, "groups": self.groups, "advisor": self.advisor,
-                "failed": self.failed, "units": TABLE_UNITS}
+        return {
+            "table": self.table,
+            "groups": self.groups,
+            "advisor": self.advisor,
+            "failed": self.failed,
+            "units": TABLE_UNITS,
+        }
 
     def figure(self, kind: str):
         """A matplotlib Figure (no pyplot) of ``kind`` in :data:`engine.plots.KINDS`."""
@@ -172,9 +194,15 @@ class RunFailed(RuntimeError):
         return type(self), (self.run_key, self.text)
 
 
-def _execute(test, threads: int | None = None, key: str = "", channel=None,
-             checkpoint: Checkpoint | None = None, limit: tuple | None = None,
-             backend: str | None = None) -> UniaxialResult:
+def _execute(
+    test,
+    threads: int | None = None,
+    key: str = "",
+    channel=None,
+    checkpoint: Checkpoint | None = None,
+    limit: tuple | None = None,
+    backend: str | None = None,
+) -> UniaxialResult:
     """One run as a task (a picklable top-level function for process and cluster pools);
     with a ``channel`` (:mod:`engine.channel`) it reports its progress there and stops with
     :class:`engine.StopRequested` when the study asks it to."""
@@ -184,8 +212,13 @@ def _execute(test, threads: int | None = None, key: str = "", channel=None,
         numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
     if channel is not None and channel.stop_requested():
         raise StopRequested(f"run {key} not started: the study was stopped")
-    return run_uniaxial(test, progress=None if channel is None else task_progress(channel, key),
-                        checkpoint=checkpoint, backend=backend, **_limit_args(limit))
+    return run_uniaxial(
+        test,
+        progress=None if channel is None else task_progress(channel, key),
+        checkpoint=checkpoint,
+        backend=backend,
+        **_limit_args(limit),
+    )
 
 
 def _limit_args(limit: tuple | None) -> dict:
@@ -200,15 +233,22 @@ def _weights(planned: list[PlannedRun]) -> np.ndarray:
     return cost / cost.sum()
 
 
-def run_study(spec: StudySpec, progress: StudyCallback | None = None,
-              executor: cf.Executor | None = None, *, completed: dict | None = None,
-              on_run: RunCallback | None = None, task_threads: int | None = 1,
-              channel=None, poll_interval: float = 1.0,
-              checkpoints: str | os.PathLike | None = None,
-              checkpoint_interval: float = CHECKPOINT_INTERVAL,
-              max_run_wall_time: float | None = None,
-              wall_time_setting: str = "max_run_wall_time",
-              backend: str | None = None) -> StudyResult:
+def run_study(
+    spec: StudySpec,
+    progress: StudyCallback | None = None,
+    executor: cf.Executor | None = None,
+    *,
+    completed: dict | None = None,
+    on_run: RunCallback | None = None,
+    task_threads: int | None = 1,
+    channel=None,
+    poll_interval: float = 1.0,
+    checkpoints: str | os.PathLike | None = None,
+    checkpoint_interval: float = CHECKPOINT_INTERVAL,
+    max_run_wall_time: float | None = None,
+    wall_time_setting: str = "max_run_wall_time",
+    backend: str | None = None,
+) -> StudyResult:
     """Run every run of ``spec`` that is not in ``completed``, then judge the study.
 
     Args:
@@ -282,11 +322,25 @@ def run_study(spec: StudySpec, progress: StudyCallback | None = None,
 
     def run(todo: list[int]) -> None:
         if executor is None:
-            _run_here(planned, todo, weights, outcomes, progress, record, checkpoint, limit,
-                      backend)
+            _run_here(
+                planned, todo, weights, outcomes, progress, record, checkpoint, limit, backend
+            )
         else:
-            _run_on(executor, planned, todo, weights, outcomes, progress, record,
-                    task_threads, channel, poll_interval, checkpoint, limit, backend)
+            _run_on(
+                executor,
+                planned,
+                todo,
+                weights,
+                outcomes,
+                progress,
+                record,
+                task_threads,
+                channel,
+                poll_interval,
+                checkpoint,
+                limit,
+                backend,
+            )
 
     while True:
         planned, added, stopped = plan_runs(spec, outcomes)
@@ -318,9 +372,17 @@ def plan_runs(spec: StudySpec, outcomes: dict) -> tuple[list[PlannedRun], list[d
             return planned, added, None
         new = _added_runs(spec, planned, outcomes, round_no, spent)
         if not new:
-            return planned, added, _stop_reason(
-                spec, planned, outcomes, "no undecided verdict can be decided within the seed "
-                "caps and budget (each reason says how many seeds it would need)")
+            return (
+                planned,
+                added,
+                _stop_reason(
+                    spec,
+                    planned,
+                    outcomes,
+                    "no undecided verdict can be decided within the seed "
+                    "caps and budget (each reason says how many seeds it would need)",
+                ),
+            )
         for p, a in new:
             planned.append(p)
             spent += estimated_steps(p.test) * p.test.n_particles
@@ -335,17 +397,27 @@ def _stop_reason(spec, planned, outcomes, otherwise: str) -> str:
     if not ref_values:
         return "no reference run finished"
     _, verdicts = judge_groups(spec, ref_values, variants, names, looks=spec.looks)
-    return otherwise if any(v["verdict"] == "undecided" for v in verdicts) else (
-        "every verdict decided")
+    return (
+        otherwise
+        if any(v["verdict"] == "undecided" for v in verdicts)
+        else ("every verdict decided")
+    )
 
 
-def _adaptive_summary(spec: StudySpec, planned: list[PlannedRun], added: list[dict],
-                      stopped: str | None) -> dict:
+def _adaptive_summary(
+    spec: StudySpec, planned: list[PlannedRun], added: list[dict], stopped: str | None
+) -> dict:
     keys = {a["run"] for a in added}
-    return {"planned_runs": len(planned) - len(added), "added_runs": added,
-            "looks": spec.looks, "stopped": stopped, "budget": spec.budget,
-            "added_particle_steps": float(sum(estimated_steps(p.test) * p.test.n_particles
-                                              for p in planned if p.key in keys))}
+    return {
+        "planned_runs": len(planned) - len(added),
+        "added_runs": added,
+        "looks": spec.looks,
+        "stopped": stopped,
+        "budget": spec.budget,
+        "added_particle_steps": float(
+            sum(estimated_steps(p.test) * p.test.n_particles for p in planned if p.key in keys)
+        ),
+    }
 
 
 def _monotone_progress(progress: StudyCallback | None) -> StudyCallback | None:
@@ -384,8 +456,9 @@ def _judged_values(spec: StudySpec, planned: list[PlannedRun], outcomes: dict):
     return names, ref_values, variants
 
 
-def _added_runs(spec: StudySpec, planned: list[PlannedRun], outcomes: dict, round_no: int,
-                spent: float) -> list[tuple[PlannedRun, Addition]]:
+def _added_runs(
+    spec: StudySpec, planned: list[PlannedRun], outcomes: dict, round_no: int, spent: float
+) -> list[tuple[PlannedRun, Addition]]:
     """The runs round ``round_no`` adds (engine.adaptive), as planned runs with new seeds."""
     names, ref_values, variants = _judged_values(spec, planned, outcomes)
     if not ref_values:
@@ -400,8 +473,7 @@ def _added_runs(spec: StudySpec, planned: list[PlannedRun], outcomes: dict, roun
     for p in planned:
         k = "reference" if p.is_reference else (p.radius, p.rule.name)
         attempted[k] = attempted.get(k, 0) + 1
-    adds = next_runs(spec, ref_values, variants, verdicts, cost, round_no, budget_left,
-                     attempted)
+    adds = next_runs(spec, ref_values, variants, verdicts, cost, round_no, budget_left, attempted)
     dt_ref = spec.reference.resolved_dt()
     used: dict = {}
     for p in planned:
@@ -414,12 +486,23 @@ def _added_runs(spec: StudySpec, planned: list[PlannedRun], outcomes: dict, roun
         seeds.add(seed)
         ref = replace(spec.reference, seed=seed)
         if a.kind == "reference":
-            out.append((PlannedRun(run_key(ref.radius, None, seed), ref.radius, None, seed,
-                                   ref), a))
+            out.append(
+                (PlannedRun(run_key(ref.radius, None, seed), ref.radius, None, seed, ref), a)
+            )
         else:
             radius, rule = a.variant[0], rules[a.variant[1]]
-            out.append((PlannedRun(run_key(radius, rule, seed), radius, rule, seed,
-                                   rule.apply(ref, radius, dt_ref)), a))
+            out.append(
+                (
+                    PlannedRun(
+                        run_key(radius, rule, seed),
+                        radius,
+                        rule,
+                        seed,
+                        rule.apply(ref, radius, dt_ref),
+                    ),
+                    a,
+                )
+            )
     return out
 
 
@@ -438,7 +521,8 @@ def check_executor(executor: cf.Executor | None) -> None:
             "run_study: this ProcessPoolExecutor forks its processes, and a forked engine "
             "process dies (GNU OpenMP is not fork-safe), breaking the pool: create it with "
             "the spawn or forkserver context, e.g. ProcessPoolExecutor(n, mp_context="
-            "multiprocessing.get_context('spawn'))")
+            "multiprocessing.get_context('spawn'))"
+        )
 
 
 def _done_weight(planned, weights, outcomes) -> float:
@@ -446,8 +530,9 @@ def _done_weight(planned, weights, outcomes) -> float:
     return float(sum(w for p, w in zip(planned, weights) if p.key in outcomes))
 
 
-def _run_here(planned, todo, weights, outcomes, progress, record, checkpoint, limit,
-              backend=None) -> None:
+def _run_here(
+    planned, todo, weights, outcomes, progress, record, checkpoint, limit, backend=None
+) -> None:
     done_weight = _done_weight(planned, weights, outcomes)
     for i in todo:
         p = planned[i]
@@ -456,16 +541,24 @@ def _run_here(planned, todo, weights, outcomes, progress, record, checkpoint, li
             if progress is None:
                 return None
             frac = base + weights[i] * pr.fraction
-            return progress(StudyProgress(float(min(frac, 1.0)), i, len(planned), p.key,
-                                          pr.stage, pr.time, pr.message))
+            return progress(
+                StudyProgress(
+                    float(min(frac, 1.0)), i, len(planned), p.key, pr.stage, pr.time, pr.message
+                )
+            )
 
         # a first report names the run before its packing and kernels are built, so a run
         # that fails there is not blamed on the previous one
         if report(Progress(0.0, "setup", 0.0, 0.0, 0, "building the packing")) is False:
             raise StopRequested(f"stopped by the progress callback before run {p.key}")
         try:
-            outcome = run_uniaxial(p.test, progress=report, checkpoint=checkpoint(p),
-                                   backend=backend, **_limit_args(limit))
+            outcome = run_uniaxial(
+                p.test,
+                progress=report,
+                checkpoint=checkpoint(p),
+                backend=backend,
+                **_limit_args(limit),
+            )
         except StopRequested:
             raise
         except Exception as e:
@@ -474,12 +567,35 @@ def _run_here(planned, todo, weights, outcomes, progress, record, checkpoint, li
         done_weight += weights[i]
 
 
-def _run_on(executor, planned, todo, weights, outcomes, progress, record, threads, channel,
-            poll_interval, checkpoint, limit, backend=None) -> None:
+def _run_on(
+    executor,
+    planned,
+    todo,
+    weights,
+    outcomes,
+    progress,
+    record,
+    threads,
+    channel,
+    poll_interval,
+    checkpoint,
+    limit,
+    backend=None,
+) -> None:
     # in planned order: the references first (the longest runs, needed by every comparison)
-    futures = {executor.submit(_execute, planned[i].test, threads, planned[i].key, channel,
-                               checkpoint(planned[i]), limit, backend): i
-               for i in todo}
+    futures = {
+        executor.submit(
+            _execute,
+            planned[i].test,
+            threads,
+            planned[i].key,
+            channel,
+            checkpoint(planned[i]),
+            limit,
+            backend,
+        ): i
+        for i in todo
+    }
     done_weight = _done_weight(planned, weights, outcomes)
     pending = set(futures)
 
@@ -491,8 +607,9 @@ def _run_on(executor, planned, todo, weights, outcomes, progress, record, thread
 
     try:
         while pending:
-            done, pending = cf.wait(pending, timeout=poll_interval if channel else None,
-                                    return_when=cf.FIRST_COMPLETED)
+            done, pending = cf.wait(
+                pending, timeout=poll_interval if channel else None, return_when=cf.FIRST_COMPLETED
+            )
             for fut in done:
                 i = futures[fut]
                 p = planned[i]
@@ -508,11 +625,21 @@ def _run_on(executor, planned, todo, weights, outcomes, progress, record, thread
                     outcome = f"{type(e).__name__}: {e}"
                 record(p, outcome)
                 done_weight += weights[i]
-                ask(StudyProgress(float(min(done_weight, 1.0)), i, len(planned), p.key, "done",
-                                  0.0, "run finished" if not isinstance(outcome, str) else outcome))
+                ask(
+                    StudyProgress(
+                        float(min(done_weight, 1.0)),
+                        i,
+                        len(planned),
+                        p.key,
+                        "done",
+                        0.0,
+                        "run finished" if not isinstance(outcome, str) else outcome,
+                    )
+                )
             if channel is not None and pending and not done:
-                _report_running(channel, planned, weights, [futures[f] for f in pending],
-                                done_weight, ask)
+                _report_running(
+                    channel, planned, weights, [futures[f] for f in pending], done_weight, ask
+                )
     finally:
         for fut in futures:
             fut.cancel()
@@ -527,8 +654,17 @@ def _report_running(channel, planned, weights, pending, done_weight, ask) -> Non
         return
     frac = done_weight + sum(weights[i] * min(max(r["fraction"], 0.0), 1.0) for i, r in running)
     i, r = min(running, key=lambda ir: ir[1]["fraction"])
-    ask(StudyProgress(float(min(frac, 1.0)), i, len(planned), planned[i].key, r["stage"],
-                      float(r["time"]), f"{len(running)} runs in progress"))
+    ask(
+        StudyProgress(
+            float(min(frac, 1.0)),
+            i,
+            len(planned),
+            planned[i].key,
+            r["stage"],
+            float(r["time"]),
+            f"{len(running)} runs in progress",
+        )
+    )
 
 
 def assemble(spec: StudySpec, planned: list[PlannedRun], outcomes: dict) -> StudyResult:
@@ -538,8 +674,11 @@ def assemble(spec: StudySpec, planned: list[PlannedRun], outcomes: dict) -> Stud
     missing = [p.key for p in planned if p.key not in outcomes]
     for k in missing:
         failed[k] = "not run"
-    refs = {p.seed: outcomes[p.key] for p in planned
-            if p.is_reference and p.key in outcomes and not isinstance(outcomes[p.key], str)}
+    refs = {
+        p.seed: outcomes[p.key]
+        for p in planned
+        if p.is_reference and p.key in outcomes and not isinstance(outcomes[p.key], str)
+    }
     if not refs:
         key = next(p.key for p in planned if p.is_reference)
         raise RunFailed(key, failed.get(key, "no reference run succeeded"))
@@ -556,9 +695,12 @@ def assemble(spec: StudySpec, planned: list[PlannedRun], outcomes: dict) -> Stud
         if res is None or isinstance(res, str):
             continue
         values = metric_values(res)
-        errors = {METRIC_COLUMNS[n]: (0.0 if p.is_reference else
-                                      relative_error(n, values[n], floor_mean[n], cons))
-                  for n in names}
+        errors = {
+            METRIC_COLUMNS[n]: (
+                0.0 if p.is_reference else relative_error(n, values[n], floor_mean[n], cons)
+            )
+            for n in names
+        }
         if p.is_reference:
             errors.update(dict.fromkeys(SHAPE_NAMES, 0.0))
             runs[p.key] = RunResult(p.key, p.radius, None, p.seed, res, errors, 1.0, 1.0)
@@ -568,9 +710,16 @@ def assemble(spec: StudySpec, planned: list[PlannedRun], outcomes: dict) -> Stud
         except ValueError as e:
             failed[p.key] = f"not comparable: {e}"
             continue
-        runs[p.key] = RunResult(p.key, p.radius, p.rule, p.seed, res, errors,
-                                ref_wall / res.scalars["wall_time"],
-                                p.radius / spec.reference.radius)
+        runs[p.key] = RunResult(
+            p.key,
+            p.radius,
+            p.rule,
+            p.seed,
+            res,
+            errors,
+            ref_wall / res.scalars["wall_time"],
+            p.radius / spec.reference.radius,
+        )
         variants.setdefault((p.radius, p.rule.name), []).append(values)
     table = [r.row() for r in runs.values()]
     groups = _groups(spec, runs, names)
@@ -581,17 +730,27 @@ def assemble(spec: StudySpec, planned: list[PlannedRun], outcomes: dict) -> Stud
             keys_of.setdefault((p.radius, p.rule.name), []).append(p.key)
     for v in verdicts:
         g = next(g for g in groups if g["radius"] == v["radius"] and g["rule"] == v["rule"])
-        v.update(speedup=g["speedup"], thickness_diameters=g["thickness_diameters"],
-                 height_diameters=g["height_diameters"])
+        v.update(
+            speedup=g["speedup"],
+            thickness_diameters=g["thickness_diameters"],
+            height_diameters=g["height_diameters"],
+        )
     if spec.reference.unconfined:
         _note_failure_kinds(refs, runs, verdicts)
     judged = {(v["radius"], v["rule"]) for v in verdicts}
     for variant, keys in keys_of.items():
         lost = {k: failed[k] for k in keys if k in failed}
         if variant not in judged:
-            verdicts.append({"radius": variant[0], "rule": variant[1], "verdict": "undecided",
-                             "reason": "no run of this variant finished", "seeds": 0,
-                             "metrics": []})
+            verdicts.append(
+                {
+                    "radius": variant[0],
+                    "rule": variant[1],
+                    "verdict": "undecided",
+                    "reason": "no run of this variant finished",
+                    "seeds": 0,
+                    "metrics": [],
+                }
+            )
         if lost:
             v = next(v for v in verdicts if (v["radius"], v["rule"]) == variant)
             v["missing_runs"] = lost
@@ -611,23 +770,35 @@ def _note_failure_kinds(refs: dict, runs: dict[str, RunResult], verdicts: list[d
     and how many hardened (their strength is the largest stress up to the strain limit)."""
     ref_flags = [r.scalars["unconfined_failure"] == 1.0 for r in refs.values()]
     for v in verdicts:
-        flags = [r.result.scalars["unconfined_failure"] == 1.0 for r in runs.values()
-                 if r.rule is not None and r.rule.name == v["rule"] and r.radius == v["radius"]]
+        flags = [
+            r.result.scalars["unconfined_failure"] == 1.0
+            for r in runs.values()
+            if r.rule is not None and r.rule.name == v["rule"] and r.radius == v["radius"]
+        ]
         v["failed_runs"] = sum(flags)
         v["reference_failed_runs"] = sum(ref_flags)
         if flags and len(set(flags + ref_flags)) > 1:
-            v["reason"] += (f"; strength compares mixed kinds: {sum(ref_flags)} of "
-                            f"{len(ref_flags)} references and {sum(flags)} of {len(flags)} "
-                            "runs of this variant failed at a peak, the others hardened to "
-                            "the strain limit (their strength is the largest stress reached)")
+            v["reason"] += (
+                f"; strength compares mixed kinds: {sum(ref_flags)} of "
+                f"{len(ref_flags)} references and {sum(flags)} of {len(flags)} "
+                "runs of this variant failed at a peak, the others hardened to "
+                "the strain limit (their strength is the largest stress reached)"
+            )
 
 
 def _reference_summary(refs: dict, names, ref_values: list[dict]) -> dict:
     """Mean and spread over reference seeds of the scalars a user quotes."""
     out = {"seeds": sorted(refs)}
-    for k in ("unconfined_strength", "unconfined_failure", "loading_stiffness",
-              "unloading_stiffness", "consolidated_porosity", "consolidated_porosity_interior",
-              "wall_time", "particles"):
+    for k in (
+        "unconfined_strength",
+        "unconfined_failure",
+        "loading_stiffness",
+        "unloading_stiffness",
+        "consolidated_porosity",
+        "consolidated_porosity_interior",
+        "wall_time",
+        "particles",
+    ):
         v = [r.scalars[k] for r in refs.values() if k in r.scalars]
         if v:
             out[k] = float(np.mean(v))
@@ -646,20 +817,28 @@ def _groups(spec: StudySpec, runs: dict[str, RunResult], names) -> list[dict]:
             if not members:
                 continue
             a, b, c = rule.exponents(spec.reference.pair_law)
-            g = {"radius": r, "rule": rule.name, "scale": r / spec.reference.radius,
-                 "stiffness_exponent": a, "adhesion_exponent": b, "adhesive_exponent": c,
-                 "dt": rule.dt,
-                 "seeds": len(members),
-                 "thickness_diameters": members[0].result.scalars["thickness_diameters"]}
+            g = {
+                "radius": r,
+                "rule": rule.name,
+                "scale": r / spec.reference.radius,
+                "stiffness_exponent": a,
+                "adhesion_exponent": b,
+                "adhesive_exponent": c,
+                "dt": rule.dt,
+                "seeds": len(members),
+                "thickness_diameters": members[0].result.scalars["thickness_diameters"],
+            }
             cols = {n: [m.errors[n] for m in members] for n in cols_err}
             for k in ("wall_time", "height_diameters"):
                 cols[k] = [m.result.scalars[k] for m in members]
             cols["speedup"] = [m.speedup for m in members]
             if spec.reference.unconfined:
-                cols["unconfined_strength"] = [m.result.scalars["unconfined_strength"]
-                                               for m in members]
-                g["failed_runs"] = int(sum(m.result.scalars["unconfined_failure"] == 1.0
-                                           for m in members))
+                cols["unconfined_strength"] = [
+                    m.result.scalars["unconfined_strength"] for m in members
+                ]
+                g["failed_runs"] = int(
+                    sum(m.result.scalars["unconfined_failure"] == 1.0 for m in members)
+                )
             for n, v in cols.items():
                 g[n] = float(np.mean(v))
                 g[n + "_std"] = float(np.std(v, ddof=1)) if len(v) > 1 else 0.0

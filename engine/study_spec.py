@@ -27,8 +27,7 @@ NAMED_RULES = {
     "unscaled": (0.0, 0.0, "parameters of the reference, unchanged"),
     "linear_adhesion": (1.0, 1.0, "stiffness ~ R, adhesion ~ R"),
     "cubic_adhesion": (1.0, 3.0, "stiffness ~ R, adhesion ~ R^3"),
-    "similarity": (None, 2.0, "stress similarity: K1, K2 ~ R^(2-n), kadh ~ R^(2-chi), "
-                   "f0 ~ R^2"),
+    "similarity": (None, 2.0, "stress similarity: K1, K2 ~ R^(2-n), kadh ~ R^(2-chi), f0 ~ R^2"),
 }
 
 
@@ -48,22 +47,41 @@ class ScalingRule:
 
     name: str = param(unit="", kind="str", doc="label: 1-40 of letters, digits, '_', '-', '.'")
     stiffness_exponent: float | None = param(
-        1.0, unit="1", ge=-1, le=4, nullable=True,
-        doc="a in K1, K2, Kt ~ (R/R_ref)^a; null: stress similarity, a = 2 - n")
+        1.0,
+        unit="1",
+        ge=-1,
+        le=4,
+        nullable=True,
+        doc="a in K1, K2, Kt ~ (R/R_ref)^a; null: stress similarity, a = 2 - n",
+    )
     adhesion_exponent: float = param(2.0, unit="1", ge=-1, le=5, doc="b in f0 ~ (R/R_ref)^b")
-    dt: str = param("fixed", unit="", kind="str", choices=DT_POLICIES,
-                    doc="time step of coarse runs: the reference's, or scaled by R/R_ref")
+    dt: str = param(
+        "fixed",
+        unit="",
+        kind="str",
+        choices=DT_POLICIES,
+        doc="time step of coarse runs: the reference's, or scaled by R/R_ref",
+    )
     adhesive_exponent: float | None = param(
-        None, unit="1", ge=-1, le=5, nullable=True,
-        doc="c in kadh ~ (R/R_ref)^c; null: as the stiffness (similarity: 2 - chi)")
+        None,
+        unit="1",
+        ge=-1,
+        le=5,
+        nullable=True,
+        doc="c in kadh ~ (R/R_ref)^c; null: as the stiffness (similarity: 2 - chi)",
+    )
 
     def __post_init__(self) -> None:
         o = "ScalingRule"
-        if not isinstance(self.name, str) or not self.name or len(self.name) > 40 or not all(
-            c.isalnum() or c in "_-." for c in self.name
+        if (
+            not isinstance(self.name, str)
+            or not self.name
+            or len(self.name) > 40
+            or not all(c.isalnum() or c in "_-." for c in self.name)
         ):
-            raise ParameterError(f"{o}.name", self.name,
-                                 "1 to 40 characters among letters, digits, '_', '-', '.'")
+            raise ParameterError(
+                f"{o}.name", self.name, "1 to 40 characters among letters, digits, '_', '-', '.'"
+            )
         check_fields(self, o)
 
     @classmethod
@@ -95,9 +113,13 @@ class ScalingRule:
         return a, self.adhesion_exponent, c
 
     def to_dict(self) -> dict:
-        return {"name": self.name, "stiffness_exponent": self.stiffness_exponent,
-                "adhesion_exponent": self.adhesion_exponent, "dt": self.dt,
-                "adhesive_exponent": self.adhesive_exponent}
+        return {
+            "name": self.name,
+            "stiffness_exponent": self.stiffness_exponent,
+            "adhesion_exponent": self.adhesion_exponent,
+            "dt": self.dt,
+            "adhesive_exponent": self.adhesive_exponent,
+        }
 
 
 @dataclass(frozen=True)
@@ -125,8 +147,10 @@ def run_key(radius: float, rule: ScalingRule | None, seed: int) -> str:
 
 def _seed_list(owner: str, seeds) -> tuple[int, ...]:
     seeds = tuple(seeds)
-    if not 1 <= len(seeds) <= 10 or len(set(seeds)) != len(seeds) or not all(
-        isinstance(s, int) and not isinstance(s, bool) and 0 <= s < 2**31 for s in seeds
+    if (
+        not 1 <= len(seeds) <= 10
+        or len(set(seeds)) != len(seeds)
+        or not all(isinstance(s, int) and not isinstance(s, bool) and 0 <= s < 2**31 for s in seeds)
     ):
         raise ParameterError(owner, seeds, "1 to 10 distinct integers in [0, 2^31)")
     return seeds
@@ -161,45 +185,87 @@ class StudySpec:
             is started); None: the caps alone bound them.
     """
 
-    reference: UniaxialTest = param(unit="", kind="record", default_factory=lambda: preset(
-        "quick"), doc="the fine reference test")
-    coarse_radii: tuple[float, ...] = param((5e-3,), unit="m", kind="list", max_items=8,
-                                            doc="radii of the coarse variants")
+    reference: UniaxialTest = param(
+        unit="",
+        kind="record",
+        default_factory=lambda: preset("quick"),
+        doc="the fine reference test",
+    )
+    coarse_radii: tuple[float, ...] = param(
+        (5e-3,), unit="m", kind="list", max_items=8, doc="radii of the coarse variants"
+    )
     rules: tuple[ScalingRule, ...] = param(
-        unit="", kind="list", max_items=8,
+        unit="",
+        kind="list",
+        max_items=8,
         default_factory=lambda: (ScalingRule.named("paper"), ScalingRule.named("unscaled")),
-        doc="scaling rules applied to every coarse radius (or names of NAMED_RULES)")
-    seeds: tuple[int, ...] | None = param(None, unit="", kind="list", nullable=True,
-                                          max_items=10, doc="packing seeds of coarse runs")
+        doc="scaling rules applied to every coarse radius (or names of NAMED_RULES)",
+    )
+    seeds: tuple[int, ...] | None = param(
+        None, unit="", kind="list", nullable=True, max_items=10, doc="packing seeds of coarse runs"
+    )
     reference_seeds: tuple[int, ...] | None = param(
-        None, unit="", kind="list", nullable=True, max_items=10,
-        doc="packing seeds of the reference runs (>= 2 for a noise floor)")
-    tolerances: dict | None = param(None, unit="1", kind="dict", nullable=True,
-                                    doc="largest accepted relative error per verdict metric")
-    interior_diameters: float = param(2.0, unit="1", ge=2, le=10,
-                                      doc="platen layer left out of interior measurements, "
-                                          "in largest diameters")
-    confidence: float = param(0.95, unit="1", gt=0.5, lt=1.0,
-                              doc="confidence of every verdict (1 - its largest error rate)")
-    decide: bool = param(False, unit="", kind="bool",
-                         doc="add seeds where a verdict is undecided, until decided or capped")
-    max_seeds: int = param(10, unit="1", kind="int", ge=2, le=30,
-                           doc="with decide: most seeds of one coarse variant")
-    max_reference_seeds: int = param(5, unit="1", kind="int", ge=2, le=30,
-                                     doc="with decide: most reference seeds")
-    rounds: int = param(3, unit="1", kind="int", ge=1, le=10,
-                        doc="with decide: most rounds of added runs")
-    budget: float | None = param(None, unit="1", gt=0, nullable=True,
-                                 doc="with decide: most particle-steps of the added runs")
+        None,
+        unit="",
+        kind="list",
+        nullable=True,
+        max_items=10,
+        doc="packing seeds of the reference runs (>= 2 for a noise floor)",
+    )
+    tolerances: dict | None = param(
+        None,
+        unit="1",
+        kind="dict",
+        nullable=True,
+        doc="largest accepted relative error per verdict metric",
+    )
+    interior_diameters: float = param(
+        2.0,
+        unit="1",
+        ge=2,
+        le=10,
+        doc="platen layer left out of interior measurements, in largest diameters",
+    )
+    confidence: float = param(
+        0.95,
+        unit="1",
+        gt=0.5,
+        lt=1.0,
+        doc="confidence of every verdict (1 - its largest error rate)",
+    )
+    decide: bool = param(
+        False,
+        unit="",
+        kind="bool",
+        doc="add seeds where a verdict is undecided, until decided or capped",
+    )
+    max_seeds: int = param(
+        10, unit="1", kind="int", ge=2, le=30, doc="with decide: most seeds of one coarse variant"
+    )
+    max_reference_seeds: int = param(
+        5, unit="1", kind="int", ge=2, le=30, doc="with decide: most reference seeds"
+    )
+    rounds: int = param(
+        3, unit="1", kind="int", ge=1, le=10, doc="with decide: most rounds of added runs"
+    )
+    budget: float | None = param(
+        None,
+        unit="1",
+        gt=0,
+        nullable=True,
+        doc="with decide: most particle-steps of the added runs",
+    )
 
     def __post_init__(self) -> None:
         o = "StudySpec"
         if not isinstance(self.reference, UniaxialTest):
             raise ParameterError(f"{o}.reference", self.reference, "an engine.UniaxialTest")
         if not getattr(self.reference.pair_law, "adhesive", False):
-            raise ParameterError(f"{o}.reference.pair_law", type(self.reference.pair_law).__name__,
-                                 "a BilinearAdhesive or EEPA law (the scaling rules act on K1, "
-                                 "K2, f0, kadh)")
+            raise ParameterError(
+                f"{o}.reference.pair_law",
+                type(self.reference.pair_law).__name__,
+                "a BilinearAdhesive or EEPA law (the scaling rules act on K1, K2, f0, kadh)",
+            )
         check_fields(self, o)
         radii = tuple(self.coarse_radii)
         if not 1 <= len(radii) <= 8:
@@ -210,8 +276,12 @@ class StudySpec:
             if isinstance(r, bool) or not isinstance(r, (int, float)) or not math.isfinite(r):
                 raise ParameterError(f, r, "a finite number of metres")
             if not 0 < r <= 4 * r_ref or abs(r - r_ref) <= 1e-9 * r_ref:
-                raise ParameterError(f, r, f"in (0, {4 * r_ref:g}] m (4 reference radii) and "
-                                     f"different from the reference radius {r_ref:g} m")
+                raise ParameterError(
+                    f,
+                    r,
+                    f"in (0, {4 * r_ref:g}] m (4 reference radii) and "
+                    f"different from the reference radius {r_ref:g} m",
+                )
         if len(set(radii)) != len(radii):
             raise ParameterError(f"{o}.coarse_radii", radii, "distinct radii")
         object.__setattr__(self, "coarse_radii", tuple(float(r) for r in radii))
@@ -222,8 +292,11 @@ class StudySpec:
             raise ParameterError(f"{o}.rules", [r.name for r in rules], "rules with unique names")
         object.__setattr__(self, "rules", rules)
         seeds = None if self.seeds is None else _seed_list(f"{o}.seeds", self.seeds)
-        ref_seeds = _seed_list(f"{o}.reference_seeds", self.reference_seeds) if (
-            self.reference_seeds is not None) else (seeds or (self.reference.seed,))
+        ref_seeds = (
+            _seed_list(f"{o}.reference_seeds", self.reference_seeds)
+            if (self.reference_seeds is not None)
+            else (seeds or (self.reference.seed,))
+        )
         seeds = seeds or ref_seeds
         object.__setattr__(self, "reference_seeds", ref_seeds)
         object.__setattr__(self, "seeds", seeds)
@@ -236,14 +309,19 @@ class StudySpec:
             tol[k] = float(v)
         object.__setattr__(self, "tolerances", tol)
         if self.decide and self.max_seeds < len(seeds):
-            raise ParameterError(f"{o}.max_seeds", self.max_seeds,
-                                 f">= the {len(seeds)} planned seeds")
+            raise ParameterError(
+                f"{o}.max_seeds", self.max_seeds, f">= the {len(seeds)} planned seeds"
+            )
         if self.decide and self.max_reference_seeds < len(ref_seeds):
-            raise ParameterError(f"{o}.max_reference_seeds", self.max_reference_seeds,
-                                 f">= the {len(ref_seeds)} planned reference seeds")
+            raise ParameterError(
+                f"{o}.max_reference_seeds",
+                self.max_reference_seeds,
+                f">= the {len(ref_seeds)} planned reference seeds",
+            )
         # one interior window for every run: a layer of interior_diameters largest diameters
-        margin = self.interior_diameters * 2 * max((*radii, r_ref)) * (
-            1 + self.reference.polydispersity)
+        margin = (
+            self.interior_diameters * 2 * max((*radii, r_ref)) * (1 + self.reference.polydispersity)
+        )
         ref = replace(self.reference, interior_margin=margin)
         object.__setattr__(self, "reference", ref)
         # every coarse test must itself be runnable: the cell holds the coarse radius, the
@@ -254,9 +332,12 @@ class StudySpec:
                 try:
                     rule.apply(self.reference, r, dt_ref)
                 except ParameterError as e:
-                    raise ParameterError(f"{o}.coarse_radii[{i}]", r,
-                                         "a radius the reference's cell and laws can run",
-                                         f"with rule {rule.name!r}: {e}") from None
+                    raise ParameterError(
+                        f"{o}.coarse_radii[{i}]",
+                        r,
+                        "a radius the reference's cell and laws can run",
+                        f"with rule {rule.name!r}: {e}",
+                    ) from None
 
     def planned_runs(self) -> list[PlannedRun]:
         """Every run: the references first (one per reference seed), then every coarse
@@ -298,13 +379,19 @@ class StudySpec:
         planned = self.planned_runs()
         cost = {}
         for p in planned:
-            cost.setdefault((p.radius, None if p.rule is None else p.rule.name),
-                            estimated_steps(p.test) * p.test.n_particles)
+            cost.setdefault(
+                (p.radius, None if p.rule is None else p.rule.name),
+                estimated_steps(p.test) * p.test.n_particles,
+            )
         total = float(sum(estimated_steps(p.test) * p.test.n_particles for p in planned))
         if not self.decide:
             return total
-        worst = sum(c * (self.max_reference_seeds - len(self.reference_seeds)) if k[1] is None
-                    else c * (self.max_seeds - len(self.seeds)) for k, c in cost.items())
+        worst = sum(
+            c * (self.max_reference_seeds - len(self.reference_seeds))
+            if k[1] is None
+            else c * (self.max_seeds - len(self.seeds))
+            for k, c in cost.items()
+        )
         return total + float(worst if self.budget is None else min(worst, self.budget))
 
     def to_dict(self) -> dict:
@@ -332,12 +419,25 @@ class StudySpec:
         """Build from :meth:`to_dict` output. ``reference`` may hold ``"preset": "quick"``
         (or ``"paper"``) with overrides; rules may be given by name only."""
         d = dict(d)
-        known = {"reference", "coarse_radii", "rules", "seeds", "reference_seeds",
-                 "tolerances", "interior_diameters", "confidence", "decide", "max_seeds",
-                 "max_reference_seeds", "rounds", "budget"}
+        known = {
+            "reference",
+            "coarse_radii",
+            "rules",
+            "seeds",
+            "reference_seeds",
+            "tolerances",
+            "interior_diameters",
+            "confidence",
+            "decide",
+            "max_seeds",
+            "max_reference_seeds",
+            "rounds",
+            "budget",
+        }
         if set(d) - known:
-            raise ParameterError("StudySpec", sorted(set(d) - known),
-                                 f"fields among {sorted(known)}")
+            raise ParameterError(
+                "StudySpec", sorted(set(d) - known), f"fields among {sorted(known)}"
+            )
         ref = d.get("reference", {"preset": "quick"})
         if isinstance(ref, dict):
             ref = dict(ref)
@@ -354,8 +454,9 @@ class StudySpec:
             if k in d and not isinstance(d[k], (list, tuple)):
                 raise ParameterError(f"StudySpec.{k}", d[k], "a list")
         if "tolerances" in d and not isinstance(d["tolerances"], dict):
-            raise ParameterError("StudySpec.tolerances", d["tolerances"],
-                                 "an object of metric name -> tolerance")
+            raise ParameterError(
+                "StudySpec.tolerances", d["tolerances"], "an object of metric name -> tolerance"
+            )
         if "rules" in d:
             rules = []
             for i, r in enumerate(d["rules"]):
@@ -365,9 +466,13 @@ class StudySpec:
                     try:
                         rules.append(ScalingRule(**r))
                     except TypeError as e:
-                        raise ParameterError(f"StudySpec.rules[{i}]", r, "fields name, "
-                                             "stiffness_exponent, adhesion_exponent, dt, "
-                                             "adhesive_exponent") from e
+                        raise ParameterError(
+                            f"StudySpec.rules[{i}]",
+                            r,
+                            "fields name, "
+                            "stiffness_exponent, adhesion_exponent, dt, "
+                            "adhesive_exponent",
+                        ) from e
                 else:
                     rules.append(r)
             d["rules"] = tuple(rules)
@@ -385,12 +490,22 @@ def default_study() -> StudySpec:
     than the reference, so one seed would understate it). Where a verdict stays undecided it
     adds seeds in one round (up to four per variant and three reference seeds, within 1.5e9
     particle-steps: half the planned runs' cost)."""
-    ref = preset("quick", pair_law=BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5,
-                                                    mu_r=0.001, restitution=0.4))
-    return StudySpec(reference=ref, coarse_radii=(3.75e-3, 5e-3),
-                     rules=(ScalingRule.named("paper"), ScalingRule.named("unscaled")),
-                     seeds=(1, 2), reference_seeds=(1, 2), decide=True, rounds=1,
-                     max_seeds=4, max_reference_seeds=3, budget=1.5e9)
+    ref = preset(
+        "quick",
+        pair_law=BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001, restitution=0.4),
+    )
+    return StudySpec(
+        reference=ref,
+        coarse_radii=(3.75e-3, 5e-3),
+        rules=(ScalingRule.named("paper"), ScalingRule.named("unscaled")),
+        seeds=(1, 2),
+        reference_seeds=(1, 2),
+        decide=True,
+        rounds=1,
+        max_seeds=4,
+        max_reference_seeds=3,
+        budget=1.5e9,
+    )
 
 
 def estimated_steps(test: UniaxialTest) -> float:

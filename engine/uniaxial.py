@@ -71,8 +71,14 @@ CURVE_UNITS = {
 RESUMED = "resumed from its checkpoint"
 
 #: Stage weights of the overall progress fraction.
-_WEIGHTS = {"fill": 0.3, "pre_compression": 0.05, "consolidation": 0.25, "unloading": 0.1,
-            "release": 0.1, "unconfined": 0.2}
+_WEIGHTS = {
+    "fill": 0.3,
+    "pre_compression": 0.05,
+    "consolidation": 0.25,
+    "unloading": 0.1,
+    "release": 0.1,
+    "unconfined": 0.2,
+}
 
 
 class StageError(RuntimeError):
@@ -194,15 +200,27 @@ class _Recorder:
         counts = sim.contact_counts()
         coordination = float(counts.sum()) / sim.n
         bottom = float(sim.wall_positions[0, 2])
-        por_in, coord_in = interior_measures(sim.positions[:, 2] - bottom, sim.radii, counts,
-                                             gap, d.test.margin, area)
+        por_in, coord_in = interior_measures(
+            sim.positions[:, 2] - bottom, sim.radii, counts, gap, d.test.margin, area
+        )
         ke = sim.kinetic_energy()
         speed = abs(float(sim.wall_velocities[1, 2])) if d.n_walls > 1 else 0.0
         # inertial number with the pressure floored at the weight of one particle layer
         p = max(abs(s_top), abs(s_bot), d.layer_stress)
         inertial = speed / gap * 2.0 * d.test.radius * math.sqrt(d.test.density / p)
-        row = (sim.time, (self.h0 - gap) / self.h0, s_top, s_bot, porosity, coordination, ke,
-               inertial, gap, por_in, coord_in)
+        row = (
+            sim.time,
+            (self.h0 - gap) / self.h0,
+            s_top,
+            s_bot,
+            porosity,
+            coordination,
+            ke,
+            inertial,
+            gap,
+            por_in,
+            coord_in,
+        )
         self.rows.append(row)
         return row
 
@@ -211,13 +229,13 @@ class _Recorder:
         curves = {k: a[:, i].copy() for i, k in enumerate(CURVE_UNITS)}
         for k, v in curves.items():
             if not np.all(np.isfinite(v)):
-                raise FloatingPointError(f"stage {self.stage}: non-finite values in the "
-                                         f"{k} curve")
+                raise FloatingPointError(f"stage {self.stage}: non-finite values in the {k} curve")
         snap = capture(self.d.sim, self.stage)
         if self.d.on_snapshot is not None:
             self.d.on_snapshot(snap)
-        return StageResult(self.stage, curves, snap.positions, snap.radii,
-                           self.d.sim.steps - self.steps0, snap)
+        return StageResult(
+            self.stage, curves, snap.positions, snap.radii, self.d.sim.steps - self.steps0, snap
+        )
 
 
 class _Driver:
@@ -229,9 +247,14 @@ class _Driver:
     and its current :class:`_Recorder`, so a checkpoint taken between two samples (a pickle of
     the driver, see :class:`engine.checkpoint.Checkpoint`) re-enters the loop where it was."""
 
-    def __init__(self, test: UniaxialTest, progress: ProgressCallback | None,
-                 on_snapshot: SnapshotCallback | None = None,
-                 snapshot_interval: float | None = None, backend: str | None = None):
+    def __init__(
+        self,
+        test: UniaxialTest,
+        progress: ProgressCallback | None,
+        on_snapshot: SnapshotCallback | None = None,
+        snapshot_interval: float | None = None,
+        backend: str | None = None,
+    ):
         self.test = test
         self.progress = progress
         self.on_snapshot = on_snapshot
@@ -307,13 +330,17 @@ class _Driver:
             if s == stage:
                 break
             done += _WEIGHTS[s]
-        total = sum(_WEIGHTS[s] for s in STAGES if self.test.unconfined or s not in
-                    ("release", "unconfined"))
+        total = sum(
+            _WEIGHTS[s]
+            for s in STAGES
+            if self.test.unconfined or s not in ("release", "unconfined")
+        )
         frac = min(1.0, (done + _WEIGHTS[stage] * min(max(stage_fraction, 0.0), 1.0)) / total)
         # stress fluctuates: never report less progress than before
         frac = self.last_fraction = max(frac, self.last_fraction)
-        answer = self.progress(Progress(frac, stage, stage_fraction, self.sim.time,
-                                        self.sim.steps, message))
+        answer = self.progress(
+            Progress(frac, stage, stage_fraction, self.sim.time, self.sim.steps, message)
+        )
         if answer is False:
             raise StopRequested(f"stopped by the progress callback during {stage}")
 
@@ -377,24 +404,34 @@ class _Driver:
         stage = rec.stage
         if stage == "fill":
             t_fall = math.sqrt(2 * t.cell[2] / GRAVITY)
-            return (lambda r: self.settled(r, t_fall, t0),
-                    lambda r: min(1.0, (r[0] - t0) / (2 * t_fall)),
-                    "settle (kinetic energy below settle_ke x N m g R)")
+            return (
+                lambda r: self.settled(r, t_fall, t0),
+                lambda r: min(1.0, (r[0] - t0) / (2 * t_fall)),
+                "settle (kinetic energy below settle_ke x N m g R)",
+            )
         if stage in ("pre_compression", "consolidation"):
             target = t.pre_stress if stage == "pre_compression" else t.consolidation_stress
-            return (lambda r: r[2] >= target, lambda r: r[2] / target,
-                    f"reach the {stage.replace('_', '-')} stress {target:g} Pa")
+            return (
+                lambda r: r[2] >= target,
+                lambda r: r[2] / target,
+                f"reach the {stage.replace('_', '-')} stress {target:g} Pa",
+            )
         if stage == "unloading":
             target = t.consolidation_stress
             low = t.unloaded_stress * target
-            return (lambda r: r[2] <= low, lambda r: 1.0 - r[2] / target,
-                    f"relax the stress below {low:g} Pa")
+            return (
+                lambda r: r[2] <= low,
+                lambda r: 1.0 - r[2] / target,
+                f"relax the stress below {low:g} Pa",
+            )
         if stage == "release":
             t_min = 5 * math.sqrt(2 * t.radius / GRAVITY)  # a few particle fall times
             t_max = max(t_min, t.release_time)
-            return (lambda r: self.settled(r, t_min, t0) or r[0] - t0 >= t_max,
-                    lambda r: min(1.0, (r[0] - t0) / t_max),
-                    "settle after the release (kinetic energy below settle_ke x N m g R)")
+            return (
+                lambda r: self.settled(r, t_min, t0) or r[0] - t0 >= t_max,
+                lambda r: min(1.0, (r[0] - t0) / t_max),
+                "settle after the release (kinetic energy below settle_ke x N m g R)",
+            )
 
         def failed(r) -> bool:
             if rec.failure.update(r[1], r[2]):
@@ -402,8 +439,11 @@ class _Driver:
                 return True
             return r[1] >= t.max_unconfined_strain
 
-        return (failed, lambda r: r[1] / t.max_unconfined_strain,
-                "fail (post-peak drop) or reach max_unconfined_strain")
+        return (
+            failed,
+            lambda r: r[1] / t.max_unconfined_strain,
+            "fail (post-peak drop) or reach max_unconfined_strain",
+        )
 
     def loop(self) -> None:
         """Run the current stage from its last sample until its criterion holds."""
@@ -413,8 +453,7 @@ class _Driver:
         row = rec.rows[-1]
         while not done(row):
             # the stage goes on (its end makes its own snapshot)
-            if (self.next_snapshot is not None and rec.steps
-                    and self.sim.time >= self.next_snapshot):
+            if self.next_snapshot is not None and rec.steps and self.sim.time >= self.next_snapshot:
                 self.on_snapshot(capture(self.sim, stage))
                 while self.next_snapshot <= self.sim.time:
                     self.next_snapshot += self.snapshot_interval
@@ -423,7 +462,10 @@ class _Driver:
                     f"stage {stage} did not {what} within {rec.steps} steps "
                     f"({rec.steps * self.sim.dt:.3g} s, max_stage_time); now: top stress "
                     f"{row[2]:.4g} Pa, platen gap {row[8]:.4g} m, kinetic energy "
-                    f"{row[6]:.3g} J", stage, rec.steps)
+                    f"{row[6]:.3g} J",
+                    stage,
+                    rec.steps,
+                )
             self.sim.run(self.sample_steps)
             rec.steps += self.sample_steps
             row = rec.sample()
@@ -446,8 +488,9 @@ class _Driver:
         s = self.scalars
         cons, unl = self.stages["consolidation"].curves, self.stages["unloading"].curves
         s["loading_stiffness"] = _secant_slope(cons["strain"], cons["stress_top"], 0.5, 1.0)
-        s["unloading_stiffness"] = _secant_slope(unl["strain"][::-1], unl["stress_top"][::-1],
-                                                 0.5, 1.0)
+        s["unloading_stiffness"] = _secant_slope(
+            unl["strain"][::-1], unl["stress_top"][::-1], 0.5, 1.0
+        )
         s["consolidated_porosity"] = float(cons["porosity"][-1])
         s["consolidated_porosity_interior"] = float(cons["porosity_interior"][-1])
         dmax = 2 * self.test.radius * (1 + self.test.polydispersity)
@@ -458,7 +501,8 @@ class _Driver:
         if "unconfined" in self.stages:
             u = self.stages["unconfined"].curves
             failed = self.unconfined_failed or failed_by_curve(
-                u["strain"], u["stress_top"], self.test.failure_strain)
+                u["strain"], u["stress_top"], self.test.failure_strain
+            )
             strength, strain, failed = unconfined_strength(u["strain"], u["stress_top"], failed)
             s["unconfined_strength"] = strength
             s["strain_at_peak"] = strain
@@ -473,7 +517,8 @@ class _Driver:
         s["max_inertial_number"] = max(
             float(np.max(self.stages[k].curves["inertial_number"]))
             for k in ("pre_compression", "consolidation", "unloading", "unconfined")
-            if k in self.stages)
+            if k in self.stages
+        )
         bad = [k for k, v in s.items() if not math.isfinite(v)]
         if bad:
             raise FloatingPointError(f"non-finite scalars {bad}: the run is not usable")
@@ -518,8 +563,9 @@ def smoothed(strain: np.ndarray, stress: np.ndarray, window: float) -> np.ndarra
     return (c[hi] - c[lo]) / np.maximum(hi - lo, 1)
 
 
-def failed_by_curve(strain: np.ndarray, stress: np.ndarray, window: float,
-                    softening: float = SOFTENING) -> bool:
+def failed_by_curve(
+    strain: np.ndarray, stress: np.ndarray, window: float, softening: float = SOFTENING
+) -> bool:
     """Whether an unconfined curve shows a peak followed by sustained softening (failure),
     as opposed to hardening to the strain limit. On the stress smoothed over ``window`` of
     strain [-] (the test's ``failure_strain``): the peak lies at least two windows before the
@@ -538,8 +584,9 @@ def failed_by_curve(strain: np.ndarray, stress: np.ndarray, window: float,
     return bool(peak > 0 and e[-1] - e[k] >= 2 * w and sm[-1] < (1 - softening) * peak)
 
 
-def unconfined_strength(strain: np.ndarray, stress: np.ndarray, failed: bool
-                        ) -> tuple[float, float, bool]:
+def unconfined_strength(
+    strain: np.ndarray, stress: np.ndarray, failed: bool
+) -> tuple[float, float, bool]:
     """The unconfined strength [Pa], the strain at it [-] and whether the sample failed.
 
     A sample that failed (its stress fell ``failure_drop`` below the peak and stayed there for
@@ -564,8 +611,10 @@ def slab_volumes(z: np.ndarray, radii: np.ndarray, lo: float, hi: float) -> np.n
     r = np.asarray(radii, dtype=float)
     a = np.clip(lo - z, -r, r)
     b = np.clip(hi - z, -r, r)
+
     def f(u):
         return np.pi * (r * r * u - u**3 / 3.0)
+
     return np.maximum(f(b) - f(a), 0.0)
 
 
@@ -575,8 +624,9 @@ def interior_margin(margin: float, gap: float, rmax: float) -> float:
     return max(0.0, min(margin, 0.5 * gap - rmax))
 
 
-def interior_measures(z: np.ndarray, radii: np.ndarray, counts: np.ndarray, gap: float,
-                      margin: float, area: float) -> tuple[float, float]:
+def interior_measures(
+    z: np.ndarray, radii: np.ndarray, counts: np.ndarray, gap: float, margin: float, area: float
+) -> tuple[float, float]:
     """Porosity [-] and coordination number [-] of the interior slab of a sample between
     platens at heights 0 and ``gap`` [m] (``z`` measured from the bottom platen [m]).
 
@@ -608,13 +658,17 @@ def _secant_slope(strain: np.ndarray, stress: np.ndarray, lo: float, hi: float) 
     return float(np.polyfit(strain[sel], stress[sel], 1)[0])
 
 
-def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *,
-                 on_snapshot: SnapshotCallback | None = None,
-                 snapshot_interval: float | None = None,
-                 checkpoint: Checkpoint | str | os.PathLike | None = None,
-                 max_wall_time: float | None = None,
-                 wall_time_setting: str = "max_wall_time",
-                 backend: str | None = None) -> UniaxialResult:
+def run_uniaxial(
+    test: UniaxialTest,
+    progress: ProgressCallback | None = None,
+    *,
+    on_snapshot: SnapshotCallback | None = None,
+    snapshot_interval: float | None = None,
+    checkpoint: Checkpoint | str | os.PathLike | None = None,
+    max_wall_time: float | None = None,
+    wall_time_setting: str = "max_wall_time",
+    backend: str | None = None,
+) -> UniaxialResult:
     """Run the uniaxial test: fill, pre-compression, consolidation, unloading and (with
     ``test.unconfined``) release and unconfined compression.
 
@@ -648,10 +702,14 @@ def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *
         if not (math.isfinite(snapshot_interval) and snapshot_interval > 0):
             raise ValueError(f"snapshot_interval must be a time > 0 s, not {snapshot_interval}")
     if max_wall_time is not None and not (
-            isinstance(max_wall_time, (int, float)) and not isinstance(max_wall_time, bool)
-            and math.isfinite(max_wall_time) and max_wall_time > 0):
-        raise ParameterError("run_uniaxial.max_wall_time", max_wall_time,
-                             "a wall time > 0 s, or None")
+        isinstance(max_wall_time, (int, float))
+        and not isinstance(max_wall_time, bool)
+        and math.isfinite(max_wall_time)
+        and max_wall_time > 0
+    ):
+        raise ParameterError(
+            "run_uniaxial.max_wall_time", max_wall_time, "a wall time > 0 s, or None"
+        )
     backend = check_backend(backend, "run_uniaxial.backend")
     if checkpoint is not None and not isinstance(checkpoint, Checkpoint):
         checkpoint = Checkpoint(checkpoint)
@@ -660,9 +718,12 @@ def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *
         t0 = time.perf_counter()
         d = checkpoint.load(test)
         if d is not None and d.sim.backend != resolve_backend(backend, "run_uniaxial.backend"):
-            warnings.warn(f"checkpoint {checkpoint.path} was written on the {d.sim.backend} "
-                          "backend, not the one asked for; the run starts from the beginning",
-                          RuntimeWarning, stacklevel=2)
+            warnings.warn(
+                f"checkpoint {checkpoint.path} was written on the {d.sim.backend} "
+                "backend, not the one asked for; the run starts from the beginning",
+                RuntimeWarning,
+                stacklevel=2,
+            )
             d = None
         if d is not None:  # loading its kernel is set-up time, as for a new Simulation
             load = time.perf_counter() - t0
@@ -676,6 +737,5 @@ def run_uniaxial(test: UniaxialTest, progress: ProgressCallback | None = None, *
     if checkpoint is not None:
         checkpoint.start()
         if checkpoint.resumed_steps is not None:
-            d.report(d.stage_now, d.stage_fraction,
-                     f"{RESUMED} at step {checkpoint.resumed_steps}")
+            d.report(d.stage_now, d.stage_fraction, f"{RESUMED} at step {checkpoint.resumed_steps}")
     return d.run()

@@ -93,48 +93,78 @@ class UniaxialTest:
     """
 
     cell: tuple[float, float, float] = param(
-        (0.05, 0.05, 0.1), unit="m", kind="list", max_items=3,
-        doc="(Lx, Ly, H): periodic cross-section and height the settled sample fills")
+        (0.05, 0.05, 0.1),
+        unit="m",
+        kind="list",
+        max_items=3,
+        doc="(Lx, Ly, H): periodic cross-section and height the settled sample fills",
+    )
     radius: float = param(2.5e-3, unit="m", doc="particle radius", gt=0, le=0.05)
-    polydispersity: float = param(0.0, unit="1", doc="radii uniform in [R(1-p), R(1+p)]",
-                                  ge=0, lt=0.5)
+    polydispersity: float = param(
+        0.0, unit="1", doc="radii uniform in [R(1-p), R(1+p)]", ge=0, lt=0.5
+    )
     density: float = param(2000.0, unit="kg/m^3", doc="particle density", gt=0)
-    solid_fraction: float = param(0.6, unit="1", gt=0, le=0.74,
-                                  doc="solid fraction assumed for the settled sample")
-    pour_fraction: float = param(0.3, unit="1", gt=0, le=0.32,
-                                 doc="solid fraction of the poured cloud")
+    solid_fraction: float = param(
+        0.6, unit="1", gt=0, le=0.74, doc="solid fraction assumed for the settled sample"
+    )
+    pour_fraction: float = param(
+        0.3, unit="1", gt=0, le=0.32, doc="solid fraction of the poured cloud"
+    )
     pair_law: BilinearAdhesive | EEPA | HertzMindlin = param(
-        unit="", kind="record", default_factory=_cohesionless_law,
-        doc="particle-particle contact law")
-    wall_law: HertzMindlin = param(unit="", kind="record", default_factory=_platen_law,
-                                   doc="platen contact law (Hertz-Mindlin)")
-    wall_material: WallMaterial = param(unit="", kind="record", default_factory=WallMaterial,
-                                        doc="platen material")
+        unit="",
+        kind="record",
+        default_factory=_cohesionless_law,
+        doc="particle-particle contact law",
+    )
+    wall_law: HertzMindlin = param(
+        unit="",
+        kind="record",
+        default_factory=_platen_law,
+        doc="platen contact law (Hertz-Mindlin)",
+    )
+    wall_material: WallMaterial = param(
+        unit="", kind="record", default_factory=WallMaterial, doc="platen material"
+    )
     pre_stress: float = param(5e3, unit="Pa", doc="pre-compression stress", gt=0)
-    consolidation_stress: float = param(20e3, unit="Pa", gt=0,
-                                        doc="consolidation stress (> pre_stress)")
+    consolidation_stress: float = param(
+        20e3, unit="Pa", gt=0, doc="consolidation stress (> pre_stress)"
+    )
     platen_speed: float = param(0.01, unit="m/s", doc="top platen speed", gt=0)
-    unloaded_stress: float = param(0.01, unit="1", gt=0, lt=1,
-                                   doc="unloading ends below this fraction of the "
-                                       "consolidation stress")
-    unconfined: bool = param(True, unit="", kind="bool",
-                             doc="run the release and unconfined compression stages")
-    failure_drop: float = param(0.2, unit="1", gt=0, lt=1,
-                                doc="post-peak stress drop that marks failure")
-    failure_strain: float = param(0.005, unit="1", ge=0, lt=0.5,
-                                  doc="strain the drop must persist for")
-    max_unconfined_strain: float = param(0.1, unit="1", gt=0, lt=0.8,
-                                         doc="unconfined compression ends here at the latest")
-    settle_ke: float = param(1e-4, unit="1", gt=0,
-                             doc="settled below this kinetic energy / (N m g R)")
+    unloaded_stress: float = param(
+        0.01,
+        unit="1",
+        gt=0,
+        lt=1,
+        doc="unloading ends below this fraction of the consolidation stress",
+    )
+    unconfined: bool = param(
+        True, unit="", kind="bool", doc="run the release and unconfined compression stages"
+    )
+    failure_drop: float = param(
+        0.2, unit="1", gt=0, lt=1, doc="post-peak stress drop that marks failure"
+    )
+    failure_strain: float = param(
+        0.005, unit="1", ge=0, lt=0.5, doc="strain the drop must persist for"
+    )
+    max_unconfined_strain: float = param(
+        0.1, unit="1", gt=0, lt=0.8, doc="unconfined compression ends here at the latest"
+    )
+    settle_ke: float = param(
+        1e-4, unit="1", gt=0, doc="settled below this kinetic energy / (N m g R)"
+    )
     release_time: float = param(0.2, unit="s", gt=0, doc="longest release stage")
     interior_margin: float | None = param(
-        None, unit="m", ge=0, nullable=True,
-        doc="layer at each platen left out of interior measurements (None: 2 diameters)")
+        None,
+        unit="m",
+        ge=0,
+        nullable=True,
+        doc="layer at each platen left out of interior measurements (None: 2 diameters)",
+    )
     seed: int = param(1, unit="", kind="int", ge=0, lt=2**31, doc="packing seed")
     output_interval: float = param(1e-3, unit="s", gt=0, doc="time between curve samples")
-    dt: float | None = param(1e-5, unit="s", gt=0, nullable=True,
-                             doc="time step (None: chosen from the stability limit)")
+    dt: float | None = param(
+        1e-5, unit="s", gt=0, nullable=True, doc="time step (None: chosen from the stability limit)"
+    )
     max_stage_time: float = param(5.0, unit="s", gt=0, doc="bound on any stage's time")
 
     def __post_init__(self) -> None:
@@ -148,28 +178,36 @@ class UniaxialTest:
         object.__setattr__(self, "cell", cell)
         check_fields(self, o)
         if self.consolidation_stress <= self.pre_stress:
-            raise ParameterError(f"{o}.consolidation_stress", self.consolidation_stress,
-                                 f"> pre_stress = {self.pre_stress:g} Pa")
+            raise ParameterError(
+                f"{o}.consolidation_stress",
+                self.consolidation_stress,
+                f"> pre_stress = {self.pre_stress:g} Pa",
+            )
         if self.pour_fraction > self.solid_fraction:
-            raise ParameterError(f"{o}.pour_fraction", self.pour_fraction,
-                                 f"<= solid_fraction = {self.solid_fraction:g}",
-                                 "the poured cloud cannot be denser than the settled bed")
+            raise ParameterError(
+                f"{o}.pour_fraction",
+                self.pour_fraction,
+                f"<= solid_fraction = {self.solid_fraction:g}",
+                "the poured cloud cannot be denser than the settled bed",
+            )
         if not isinstance(self.pair_law, pair_laws()):
             raise ParameterError(f"{o}.pair_law", self.pair_law, f"an {law_names(pair_laws())}")
         if not isinstance(self.wall_law, wall_laws()):
             raise ParameterError(f"{o}.wall_law", self.wall_law, f"an {law_names(wall_laws())}")
         if not isinstance(self.wall_material, WallMaterial):
-            raise ParameterError(f"{o}.wall_material", self.wall_material,
-                                 "an engine.WallMaterial")
+            raise ParameterError(f"{o}.wall_material", self.wall_material, "an engine.WallMaterial")
         rmax = self.radius * (1 + self.polydispersity)
         for a, name in ((0, "x"), (1, "y")):
             if cell[a] < 2.4 * 2 * rmax:
-                raise ParameterError(f"{o}.cell", f"{cell[a]:g} m along {name}",
-                                     f">= {4.8 * rmax:.4g} m (2.4 largest diameters) for the "
-                                     "periodic minimum image")
+                raise ParameterError(
+                    f"{o}.cell",
+                    f"{cell[a]:g} m along {name}",
+                    f">= {4.8 * rmax:.4g} m (2.4 largest diameters) for the periodic minimum image",
+                )
         if cell[2] < 4 * rmax:
-            raise ParameterError(f"{o}.cell", f"{cell[2]:g} m along z",
-                                 f">= {4 * rmax:.4g} m (2 largest diameters)")
+            raise ParameterError(
+                f"{o}.cell", f"{cell[2]:g} m along z", f">= {4 * rmax:.4g} m (2 largest diameters)"
+            )
         self._check_runnable()
 
     def _check_runnable(self) -> None:
@@ -181,22 +219,32 @@ class UniaxialTest:
         law = self.pair_law
         d_eq = adhesion_overlap(law, rmin, MAX_OVERLAP_FRACTION)
         if d_eq is not None:
-            raise ParameterError(f"{o}.pair_law.f0", law.f0,
-                                 f">= {-MAX_OVERLAP_FRACTION * rmin * law.k1:.4g} N",
-                                 f"|f0|/k1 = {d_eq:.3g} m would pull contacts beyond "
-                                 f"{MAX_OVERLAP_FRACTION:g} x the smallest radius")
+            raise ParameterError(
+                f"{o}.pair_law.f0",
+                law.f0,
+                f">= {-MAX_OVERLAP_FRACTION * rmin * law.k1:.4g} N",
+                f"|f0|/k1 = {d_eq:.3g} m would pull contacts beyond "
+                f"{MAX_OVERLAP_FRACTION:g} x the smallest radius",
+            )
         if self.dt is not None:
             lim = self.time_step_limit()
             if self.dt > lim.dt:
-                raise ParameterError(f"{o}.dt", self.dt, f"<= {lim.dt:.4g} s, the stable limit "
-                                     f"set by {lim.reason} (recommended {lim.recommended:.4g} s)")
+                raise ParameterError(
+                    f"{o}.dt",
+                    self.dt,
+                    f"<= {lim.dt:.4g} s, the stable limit "
+                    f"set by {lim.reason} (recommended {lim.recommended:.4g} s)",
+                )
         # the packer is deterministic for a seed: place the fill now, exactly as the run will
         try:
             self.initial_packing()
         except ParameterError as e:
-            raise ParameterError(f"{o}.pour_fraction", self.pour_fraction,
-                                 "low enough for the fill to be placed without overlap",
-                                 f"{e}; lower pour_fraction") from None
+            raise ParameterError(
+                f"{o}.pour_fraction",
+                self.pour_fraction,
+                "low enough for the fill to be placed without overlap",
+                f"{e}; lower pour_fraction",
+            ) from None
 
     @property
     def margin(self) -> float:
@@ -228,16 +276,25 @@ class UniaxialTest:
         x and y, gravity, the bottom platen at z = 0 and the top one above the pour column."""
         lx, ly, lz = self.pour_region
         walls = [Plane((0, 0, 0), (0, 0, 1)), Plane((0, 0, lz + 4 * self.radius), (0, 0, -1))]
-        return Scene(positions, radii, self.density, box=[(0, lx), (0, ly), (0, lz)],
-                     periodic=(True, True, False), walls=walls, gravity=(0, 0, -GRAVITY),
-                     pair_law=self.pair_law, wall_law=self.wall_law,
-                     wall_material=self.wall_material)
+        return Scene(
+            positions,
+            radii,
+            self.density,
+            box=[(0, lx), (0, ly), (0, lz)],
+            periodic=(True, True, False),
+            walls=walls,
+            gravity=(0, 0, -GRAVITY),
+            pair_law=self.pair_law,
+            wall_law=self.wall_law,
+            wall_material=self.wall_material,
+        )
 
     def initial_packing(self) -> tuple[np.ndarray, np.ndarray]:
         """Positions [m] and radii [m] of the poured fill: ``n_particles`` overlap-free
         spheres in the pour column (periodic x and y), from ``seed``."""
-        pos, radii = _packing(self.n_particles, self.radius, self.polydispersity, self.seed,
-                              self.pour_region)
+        pos, radii = _packing(
+            self.n_particles, self.radius, self.polydispersity, self.seed, self.pour_region
+        )
         return pos.copy(), radii.copy()
 
     def resolved_dt(self) -> float:
@@ -277,16 +334,22 @@ class UniaxialTest:
             kind = pl.pop("type", "BilinearAdhesive")
             law_cls = LAWS.get(kind)
             if law_cls is None or not law_cls.pair:
-                raise ParameterError("UniaxialTest.pair_law.type", kind,
-                                     law_names(pair_laws()).replace("engine.", ""))
+                raise ParameterError(
+                    "UniaxialTest.pair_law.type",
+                    kind,
+                    law_names(pair_laws()).replace("engine.", ""),
+                )
             d["pair_law"] = law_cls(**pl)
         if isinstance(d.get("wall_law"), dict):
             wl = dict(d["wall_law"])
             kind = wl.pop("type", "HertzMindlin")
             law_cls = LAWS.get(kind)
             if law_cls is None or not law_cls.wall:
-                raise ParameterError("UniaxialTest.wall_law.type", kind,
-                                     law_names(wall_laws()).replace("engine.", ""))
+                raise ParameterError(
+                    "UniaxialTest.wall_law.type",
+                    kind,
+                    law_names(wall_laws()).replace("engine.", ""),
+                )
             d["wall_law"] = law_cls(**wl)
         if isinstance(d.get("wall_material"), dict):
             d["wall_material"] = WallMaterial(**d["wall_material"])
@@ -298,8 +361,9 @@ class UniaxialTest:
 
 
 @functools.lru_cache(maxsize=16)
-def _packing(n: int, radius: float, polydispersity: float, seed: int,
-             region: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
+def _packing(
+    n: int, radius: float, polydispersity: float, seed: int, region: tuple[float, float, float]
+) -> tuple[np.ndarray, np.ndarray]:
     """The poured fill, computed once: admission (every UniaxialTest places its fill when it
     is built) and the run use the same one."""
     radii = draw_radii(n, radius, polydispersity, seed)

@@ -70,8 +70,12 @@ def main() -> int:
                     t0 = time.perf_counter()
                     ptx, _ = compile_ptx(self.py_func, sig, cc=cc)
                     compiled[key] = len(ptx)
-                    print(f"  {self.py_func.__name__}: {len(ptx)} bytes of PTX "
-                          f"({time.perf_counter() - t0:.1f} s)", flush=True)
+                    print(
+                        f"  {self.py_func.__name__}: {len(ptx)} bytes of PTX "
+                        f"({time.perf_counter() - t0:.1f} s)",
+                        flush=True,
+                    )
+
             return launch
 
     real_kernel = ck.kernel
@@ -89,8 +93,7 @@ def main() -> int:
         "eepa": cc_.scene(cc_.EEPA),
         "eepa-normal-cap": cc_.scene(cc_.EEPA_NORMAL_CAP, periodic=(True, False, False)),
         "hertz-open-box": cc_.scene(cc_.HERTZ, periodic=(False, False, False)),
-        "periodic": cc_.scene(cc_.ELASTIC, periodic=(True, True, True), walls=False,
-                              gravity=False),
+        "periodic": cc_.scene(cc_.ELASTIC, periodic=(True, True, True), walls=False, gravity=False),
     }
     for launch in ("persistent", "passes"):
         os.environ["DEMSCALE_CUDA_LAUNCH"] = launch

@@ -106,8 +106,16 @@ def _too_many_particles(loc: tuple, key: str, n: float, settings: Settings) -> S
 
 
 def _too_many_runs(n: int, settings: Settings) -> SpecRejected:
-    return SpecRejected([_error((), f"the study has {n} runs (seeds x (1 + radii x rules)); "
-                                f"the limit is {settings.max_runs} (DEMSCALE_MAX_RUNS)", n)])
+    return SpecRejected(
+        [
+            _error(
+                (),
+                f"the study has {n} runs (seeds x (1 + radii x rules)); "
+                f"the limit is {settings.max_runs} (DEMSCALE_MAX_RUNS)",
+                n,
+            )
+        ]
+    )
 
 
 def check_costs(costs: list[cost.RunCost], settings: Settings) -> None:
@@ -115,28 +123,49 @@ def check_costs(costs: list[cost.RunCost], settings: Settings) -> None:
     steps = sum(c.particle_steps for c in costs)
     if steps > settings.max_particle_steps:
         worst = max(costs, key=lambda c: c.particle_steps)
-        raise SpecRejected([_error(
-            (), f"the study could take {steps:.3g} particle-steps at worst (every stage "
-            f"to its bound: max_stage_time, the platen travel, release_time, "
-            f"max_unconfined_strain; the largest run {worst.key}: {worst.particle_steps:.3g}); "
-            f"the limit is {settings.max_particle_steps:.3g} (DEMSCALE_MAX_PARTICLE_STEPS): "
-            "use fewer or coarser runs, a smaller cell, fewer seeds or a lower "
-            "max_stage_time", steps)])
+        raise SpecRejected(
+            [
+                _error(
+                    (),
+                    f"the study could take {steps:.3g} particle-steps at worst (every stage "
+                    f"to its bound: max_stage_time, the platen travel, release_time, "
+                    f"max_unconfined_strain; the largest run {worst.key}: "
+                    f"{worst.particle_steps:.3g}); the limit is "
+                    f"{settings.max_particle_steps:.3g} (DEMSCALE_MAX_PARTICLE_STEPS): "
+                    "use fewer or coarser runs, a smaller cell, fewer seeds or a lower "
+                    "max_stage_time",
+                    steps,
+                )
+            ]
+        )
     samples = sum(c.samples for c in costs)
     if samples > settings.max_curve_samples:
-        raise SpecRejected([_error(
-            ("reference", "output_interval"),
-            f"the study could store {samples:.3g} curve samples at worst; the limit is "
-            f"{settings.max_curve_samples} (DEMSCALE_MAX_CURVE_SAMPLES): use a longer "
-            "output_interval, a lower max_stage_time or fewer runs", samples)])
+        raise SpecRejected(
+            [
+                _error(
+                    ("reference", "output_interval"),
+                    f"the study could store {samples:.3g} curve samples at worst; the limit is "
+                    f"{settings.max_curve_samples} (DEMSCALE_MAX_CURVE_SAMPLES): use a longer "
+                    "output_interval, a lower max_stage_time or fewer runs",
+                    samples,
+                )
+            ]
+        )
 
 
 def _check_bounds(fields: dict) -> None:
     bad = cost.work_bounds(fields, cost.reference_dt(fields))
     if bad:
-        raise SpecRejected([_error(("reference", name), f"UniaxialTest.{name} = {value!r} is "
-                                   f"not allowed: must be {bound}", value)
-                            for name, value, bound in bad])
+        raise SpecRejected(
+            [
+                _error(
+                    ("reference", name),
+                    f"UniaxialTest.{name} = {value!r} is not allowed: must be {bound}",
+                    value,
+                )
+                for name, value, bound in bad
+            ]
+        )
 
 
 def _check_size_first(data: dict, settings: Settings) -> None:
@@ -150,8 +179,10 @@ def _check_size_first(data: dict, settings: Settings) -> None:
     if not isinstance(fields.get("radius"), (int, float)):
         return  # the engine names the bad field
     radii = [("reference", (("reference",)), fields["radius"])]
-    radii += [(f"r{r * 1e3:g}mm", ("coarse_radii", i), r)
-              for i, r in enumerate(data.get("coarse_radii", ()))]
+    radii += [
+        (f"r{r * 1e3:g}mm", ("coarse_radii", i), r)
+        for i, r in enumerate(data.get("coarse_radii", ()))
+    ]
     for key, loc, radius in radii:
         n = particles_before_packing(fields, radius)
         if n > settings.max_particles_per_run:

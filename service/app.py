@@ -131,12 +131,14 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.dependency_overrides[get_settings] = lambda: settings
     app.state.worker = None
     # inside the guard (it knows the owner): a token's submissions, refused ones included
-    app.add_middleware(SubmitRateLimit, per_minute=settings.submit_rate,
-                       burst=settings.submit_burst)
+    app.add_middleware(
+        SubmitRateLimit, per_minute=settings.submit_rate, burst=settings.submit_burst
+    )
     # wrong tokens per client address, the header's and the login form's in one bucket
     failures = Buckets(settings.auth_failure_rate, settings.auth_failure_burst)
-    app.add_middleware(Guard, tokens=tokens, max_body_bytes=settings.max_body_bytes,
-                       failures=failures)
+    app.add_middleware(
+        Guard, tokens=tokens, max_body_bytes=settings.max_body_bytes, failures=failures
+    )
     # outside the guard: the page's cookie
     app.add_middleware(BrowserLogin, tokens=tokens, failures=failures)
     app.add_middleware(SecurityHeaders)  # outermost: on every answer, the guard's too
@@ -159,9 +161,16 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @app.get("/docs", include_in_schema=False, response_class=HTMLResponse)
     def docs(request: Request) -> HTMLResponse:
         """The API described from its OpenAPI document, drawn here (no CDN, no script)."""
-        return templates.TemplateResponse(request, "docs.html", {
-            "api": request.app.openapi(), "kind": _kind, "default": _default,
-            "base": str(request.base_url)})
+        return templates.TemplateResponse(
+            request,
+            "docs.html",
+            {
+                "api": request.app.openapi(),
+                "kind": _kind,
+                "default": _default,
+                "base": str(request.base_url),
+            },
+        )
 
     @app.get("/healthz", tags=["health"], responses={503: {"description": "Down."}})
     def healthz(request: Request):

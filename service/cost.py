@@ -120,8 +120,10 @@ def _decide_caps(data: dict) -> tuple[int, int] | None:
     if not data.get("decide"):
         return None
     info = {i.name: i for i in engine.params.describe(engine.StudySpec)}
-    return (int(data.get("max_reference_seeds") or info["max_reference_seeds"].default),
-            int(data.get("max_seeds") or info["max_seeds"].default))
+    return (
+        int(data.get("max_reference_seeds") or info["max_reference_seeds"].default),
+        int(data.get("max_seeds") or info["max_seeds"].default),
+    )
 
 
 def plan_counts(data: dict) -> int:
@@ -148,8 +150,12 @@ def worst_stage_times(test: engine.UniaxialTest) -> dict[str, float]:
     column tall."""
     cap = test.max_stage_time
     travel = test.pour_height / test.platen_speed
-    out = {"fill": cap, "pre_compression": min(cap, travel), "consolidation": min(cap, travel),
-           "unloading": min(cap, travel)}
+    out = {
+        "fill": cap,
+        "pre_compression": min(cap, travel),
+        "consolidation": min(cap, travel),
+        "unloading": min(cap, travel),
+    }
     if test.unconfined:
         t_min = 5 * math.sqrt(2 * test.radius / GRAVITY)
         out["release"] = min(cap, max(t_min, test.release_time))
@@ -179,8 +185,9 @@ def run_cost(key: str, test: engine.UniaxialTest, dt: float) -> RunCost:
     stage_steps = [max(1.0, _ceil(t / dt)) for t in times.values()]
     ratio = test.output_interval / dt
     sample_steps = max(1.0, float(round(ratio)) if math.isfinite(ratio) else math.inf)
-    samples = sum(1 + _ceil(n / sample_steps) if math.isfinite(sample_steps) else 1.0
-                  for n in stage_steps)
+    samples = sum(
+        1 + _ceil(n / sample_steps) if math.isfinite(sample_steps) else 1.0 for n in stage_steps
+    )
     return RunCost(key, float(test.n_particles), float(sum(stage_steps)), float(samples))
 
 
@@ -220,15 +227,16 @@ def worst_case(data: dict) -> list[RunCost]:
     caps = _decide_caps(data)
     if caps is not None:
         extra = [out[0]] * max(0, caps[0] - len(ref_seeds)) + [
-            c for c in coarse.values() for _ in range(max(0, caps[1] - len(seeds)))]
+            c for c in coarse.values() for _ in range(max(0, caps[1] - len(seeds)))
+        ]
         if extra:
-            out.append(_added_worst_case(extra, ref, coarse, radii, rules, dt_ref, data,
-                                         fields))
+            out.append(_added_worst_case(extra, ref, coarse, radii, rules, dt_ref, data, fields))
     return out
 
 
-def _added_worst_case(extra: list[RunCost], ref, coarse, radii, rules, dt_ref, data,
-                      fields) -> RunCost:
+def _added_worst_case(
+    extra: list[RunCost], ref, coarse, radii, rules, dt_ref, data, fields
+) -> RunCost:
     """One :class:`RunCost` for every run a ``decide`` study may add: all of them at their
     seed caps, or, with a ``budget`` of (estimated) particle-steps, that budget times the
     largest ratio of worst-case to estimated particle-steps (and of curve samples to
@@ -245,7 +253,8 @@ def _added_worst_case(extra: list[RunCost], ref, coarse, radii, rules, dt_ref, d
             for rule in rules:
                 dt = dt_ref * (r / ref.radius if rule.dt == "scaled" else 1.0)
                 typical[r, rule.name] = estimated_steps(dataclasses.replace(test, dt=dt)) * (
-                    test.n_particles)
+                    test.n_particles
+                )
         pairs = [(out_c, typical["ref"]) for out_c in extra[:1] if out_c.key.startswith("ref")]
         pairs += [(coarse[k], typical[k]) for k in coarse]
         ps_ratio = max(c.particle_steps / t for c, t in pairs if t > 0)
@@ -253,8 +262,9 @@ def _added_worst_case(extra: list[RunCost], ref, coarse, radii, rules, dt_ref, d
         particle_steps = min(particle_steps, ps_ratio * float(budget))
         samples = min(samples, sample_ratio * float(budget))
     particles = max(c.particles for c in extra)
-    return RunCost("runs added until decided (worst case)", particles,
-                   particle_steps / particles, samples)
+    return RunCost(
+        "runs added until decided (worst case)", particles, particle_steps / particles, samples
+    )
 
 
 def work_bounds(fields: dict, dt: float) -> list[tuple[str, float, str]]:
@@ -265,22 +275,40 @@ def work_bounds(fields: dict, dt: float) -> list[tuple[str, float, str]]:
     oi = fields["output_interval"]
     top = SAMPLE_STRAIN * test.cell[2] / test.platen_speed
     if oi < dt:
-        out.append(("output_interval", oi, f">= dt = {dt:.4g} s (one curve sample a time step "
-                    "at most)"))
+        out.append(
+            ("output_interval", oi, f">= dt = {dt:.4g} s (one curve sample a time step at most)")
+        )
     elif oi > top * (1 + 1e-9):  # (rounding of the bound itself)
-        out.append(("output_interval", oi, f"<= {top:.4g} s ({SAMPLE_STRAIN:g} x H / "
-                    "platen_speed: one curve sample per 1 % of axial strain at least)"))
+        out.append(
+            (
+                "output_interval",
+                oi,
+                f"<= {top:.4g} s ({SAMPLE_STRAIN:g} x H / "
+                "platen_speed: one curve sample per 1 % of axial strain at least)",
+            )
+        )
     fall = 2 * math.sqrt(2 * test.pour_height / GRAVITY)
     scale = max(fall, test.pour_height / test.platen_speed)
     cap = STAGE_TIME_FACTOR * scale
     if fields["max_stage_time"] > cap:
-        out.append(("max_stage_time", fields["max_stage_time"],
-                    f"<= {cap:.4g} s ({STAGE_TIME_FACTOR:g} x max(2 free-fall times of the "
-                    f"pour column = {fall:.3g} s, pour column / platen_speed = "
-                    f"{test.pour_height / test.platen_speed:.3g} s))"))
+        out.append(
+            (
+                "max_stage_time",
+                fields["max_stage_time"],
+                f"<= {cap:.4g} s ({STAGE_TIME_FACTOR:g} x max(2 free-fall times of the "
+                f"pour column = {fall:.3g} s, pour column / platen_speed = "
+                f"{test.pour_height / test.platen_speed:.3g} s))",
+            )
+        )
     if fields["settle_ke"] < MIN_SETTLE_KE:
-        out.append(("settle_ke", fields["settle_ke"], f">= {MIN_SETTLE_KE:g} (a fill never "
-                    "settles below that: it would run to max_stage_time)"))
+        out.append(
+            (
+                "settle_ke",
+                fields["settle_ke"],
+                f">= {MIN_SETTLE_KE:g} (a fill never "
+                "settles below that: it would run to max_stage_time)",
+            )
+        )
     return out
 
 
@@ -295,8 +323,11 @@ BYTES_PER_PARTICLE_STAGE = 512
 def output_bytes(costs: list[RunCost]) -> float:
     """What a study's files can take on disk at worst [bytes] (an estimate on the safe side:
     its worst-case curve samples, and the stage-end state of every particle of every run)."""
-    return float(sum(BYTES_PER_SAMPLE * c.samples + 6 * BYTES_PER_PARTICLE_STAGE * c.particles
-                     for c in costs))
+    return float(
+        sum(
+            BYTES_PER_SAMPLE * c.samples + 6 * BYTES_PER_PARTICLE_STAGE * c.particles for c in costs
+        )
+    )
 
 
 def stored_bytes(directories) -> int:

@@ -49,8 +49,10 @@ _ANSWERS: dict[int, dict] = {
             "Retry-After": {**_INT_HEADER, "description": "Seconds to wait before trying again."}
         },
     },
-    507: {"description": "The token's studies would take more disk than "
-          "`DEMSCALE_MAX_STORAGE_PER_TOKEN`: delete finished studies first."},
+    507: {
+        "description": "The token's studies would take more disk than "
+        "`DEMSCALE_MAX_STORAGE_PER_TOKEN`: delete finished studies first."
+    },
 }
 
 
@@ -95,9 +97,14 @@ async def validation_error(request, exc: RequestValidationError) -> JSONResponse
     for path in _non_finite_paths(body):
         loc = ("body", *path)
         if loc not in seen:
-            errors.append({"type": "finite_number", "loc": list(loc),
-                           "msg": "Input should be a finite number (JSON has no NaN or "
-                           "Infinity)", "input": body_at(body, path)})
+            errors.append(
+                {
+                    "type": "finite_number",
+                    "loc": list(loc),
+                    "msg": "Input should be a finite number (JSON has no NaN or Infinity)",
+                    "input": body_at(body, path),
+                }
+            )
     return JSONResponse(status_code=422, content={"detail": finite(errors)})
 
 

@@ -91,8 +91,13 @@ class StudyExecution:
                 log.exception("study %s: could not mark run %s", self.study_id, p.run_key)
             log.info("study %s: run %d/%d %s", self.study_id, p.run_index + 1, p.n_runs, p.run_key)
         if p.message.startswith(engine.RESUMED):
-            log.info("study %s: resuming run %s from its checkpoint (%s, %s)", self.study_id,
-                     p.run_key, p.stage, p.message)
+            log.info(
+                "study %s: resuming run %s from its checkpoint (%s, %s)",
+                self.study_id,
+                p.run_key,
+                p.stage,
+                p.message,
+            )
         return not (self.cancel or self.lost or self.shutdown.is_set())
 
     def ensure_row(self, key: str) -> None:
@@ -103,9 +108,16 @@ class StudyExecution:
         spec = self.spec
         done, _ = completed_runs(spec, self.settings.runs_dir(self.study_id))
         planned = plan_runs(spec, done)[0]
-        rows = [{"key": p.key, "radius": p.radius, "seed": p.seed,
-                 "rule": "reference" if p.rule is None else p.rule.name,
-                 "particles": p.test.n_particles} for p in planned]
+        rows = [
+            {
+                "key": p.key,
+                "radius": p.radius,
+                "seed": p.seed,
+                "rule": "reference" if p.rule is None else p.rule.name,
+                "particles": p.test.n_particles,
+            }
+            for p in planned
+        ]
         with Session(self.db) as s:
             added = transitions.add_runs(s, self.study_id, rows)
         if added:
@@ -123,9 +135,13 @@ class StudyExecution:
             self.store_snapshots(key, outcome)
         with Session(self.db) as s:
             transitions.run_finished(
-                s, self.study_id, key, error=outcome if failed else None,
+                s,
+                self.study_id,
+                key,
+                error=outcome if failed else None,
                 steps=None if failed else int(outcome.scalars["steps"]),
-                wall_time=None if failed else float(outcome.scalars["wall_time"]))
+                wall_time=None if failed else float(outcome.scalars["wall_time"]),
+            )
         log.info("study %s: run %s %s", self.study_id, key, "failed" if failed else "stored")
 
     def store_snapshots(self, key: str, result) -> None:
@@ -148,8 +164,12 @@ class StudyExecution:
         """Runs of this study stored by earlier attempts whose test is the planned one."""
         out, _ = completed_runs(spec, self.settings.runs_dir(self.study_id))
         if out:
-            log.info("study %s: resuming with %d of %d runs stored", self.study_id, len(out),
-                     len(spec.planned_runs()))
+            log.info(
+                "study %s: resuming with %d of %d runs stored",
+                self.study_id,
+                len(out),
+                len(spec.planned_runs()),
+            )
         return out
 
     def remove_leftovers(self) -> None:
@@ -176,20 +196,32 @@ class StudyExecution:
             with run_executor(self.settings) as pool:
                 # runs in other processes or hosts report and hear a cancel through files in
                 # the study's folder (engine.FileChannel)
-                channel = (None if pool is None else
-                           engine.FileChannel(self.settings.study_dir(self.study_id) / "channel"))
+                channel = (
+                    None
+                    if pool is None
+                    else engine.FileChannel(self.settings.study_dir(self.study_id) / "channel")
+                )
                 # a run in flight keeps a checkpoint: after a crash it resumes where it was
                 result = engine.run_study(
-                    spec, progress=self.progress, executor=pool,
-                    completed=self.stored_runs(spec), on_run=self.on_run, channel=channel,
+                    spec,
+                    progress=self.progress,
+                    executor=pool,
+                    completed=self.stored_runs(spec),
+                    on_run=self.on_run,
+                    channel=channel,
                     checkpoints=self.settings.checkpoints_dir(self.study_id),
                     checkpoint_interval=self.settings.checkpoint_interval,
                     # in this process, on a pool or on a cluster alike (engine.WallTimeExceeded)
                     max_run_wall_time=self.settings.max_run_wall_time,
                     wall_time_setting="DEMSCALE_MAX_RUN_WALL_TIME",
-                    backend=self.settings.backend)
-            write_results(self.settings.results_path(self.study_id), self.study_id, result,
-                          still_ours=self._still_ours)
+                    backend=self.settings.backend,
+                )
+            write_results(
+                self.settings.results_path(self.study_id),
+                self.study_id,
+                result,
+                still_ours=self._still_ours,
+            )
         except engine.StopRequested:
             return self._stopped(time.perf_counter() - t0)
         except NotOurs:

@@ -81,8 +81,10 @@ def failure_wait(failures, scope) -> int:
 
 
 #: What a client past the limit on wrong tokens is told.
-TOO_MANY_FAILURES = ("too many requests with a wrong token from this address: retry after "
-                     "{} s (DEMSCALE_AUTH_FAILURE_RATE)")
+TOO_MANY_FAILURES = (
+    "too many requests with a wrong token from this address: retry after "
+    "{} s (DEMSCALE_AUTH_FAILURE_RATE)"
+)
 
 
 class Guard:
@@ -111,12 +113,12 @@ class Guard:
                 if presented is not None:
                     wait = failure_wait(self.failures, scope)
                     if wait:
-                        await _answer(send, 429, TOO_MANY_FAILURES.format(wait),
-                                      {"Retry-After": str(wait)})
+                        await _answer(
+                            send, 429, TOO_MANY_FAILURES.format(wait), {"Retry-After": str(wait)}
+                        )
                         return
                     challenge += ', error="invalid_token"'
-                detail = ("a valid bearer token is required (header 'Authorization: Bearer "
-                          "<token>')")
+                detail = "a valid bearer token is required (header 'Authorization: Bearer <token>')"
                 await _answer(send, 401, detail, {"WWW-Authenticate": challenge})
                 return
         for name, value in headers:

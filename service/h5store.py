@@ -11,8 +11,15 @@ import h5py
 
 from engine.runstore import SCHEMA, SCHEMA_VERSION, StoreRefused, save_study, stage_names
 
-__all__ = ["SCHEMA", "SCHEMA_VERSION", "NotOurs", "read_plot_data", "read_runs",
-           "read_summary", "write_results"]
+__all__ = [
+    "SCHEMA",
+    "SCHEMA_VERSION",
+    "NotOurs",
+    "read_plot_data",
+    "read_runs",
+    "read_summary",
+    "write_results",
+]
 
 #: The study was taken over while its results were being written: nothing was renamed into
 #: place (the engine's refusal, under the service's name).

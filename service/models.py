@@ -104,6 +104,7 @@ class StudyPublic(StudyBase):
     @classmethod
     def _utc(cls, v: datetime | None) -> datetime | None:
         return _as_utc(v)
+
     error: str | None
     max_particles: int
     estimated_particle_steps: float

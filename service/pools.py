@@ -49,8 +49,9 @@ def run_executor(settings: Settings) -> Iterator[cf.Executor | None]:
         yield None
         return
     # spawn: the worker's own OpenMP threads and database connections are not forked
-    pool = cf.ProcessPoolExecutor(n, mp_context=mp.get_context("spawn"),
-                                  initializer=exit_with_parent, initargs=(os.getpid(),))
+    pool = cf.ProcessPoolExecutor(
+        n, mp_context=mp.get_context("spawn"), initializer=exit_with_parent, initargs=(os.getpid(),)
+    )
     try:
         yield pool
     finally:

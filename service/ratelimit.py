@@ -55,15 +55,23 @@ class SubmitRateLimit:
         self.buckets = Buckets(per_minute, burst)
 
     async def __call__(self, scope, receive, send) -> None:
-        if (scope["type"] == "http" and scope["method"] == "POST"
-                and scope["path"].rstrip("/") == "/studies"):
+        if (
+            scope["type"] == "http"
+            and scope["method"] == "POST"
+            and scope["path"].rstrip("/") == "/studies"
+        ):
             owner = scope.get("state", {}).get("owner")
             if owner is not None:
                 wait = self.buckets.take(owner)
                 if wait > 0:
                     retry = max(1, math.ceil(wait))
-                    await _answer(send, 429, "too many submissions from this token: try again "
-                                  f"in {retry} s (DEMSCALE_SUBMIT_RATE per minute, bursts of "
-                                  "DEMSCALE_SUBMIT_BURST)", {"Retry-After": str(retry)})
+                    await _answer(
+                        send,
+                        429,
+                        "too many submissions from this token: try again "
+                        f"in {retry} s (DEMSCALE_SUBMIT_RATE per minute, bursts of "
+                        "DEMSCALE_SUBMIT_BURST)",
+                        {"Retry-After": str(retry)},
+                    )
                     return
         await self.app(scope, receive, send)

@@ -58,27 +58,43 @@ class Settings(BaseSettings):
     )
     max_runs: int = Field(64, gt=0, description="Largest number of runs in a study [-].")
     max_curve_samples: int = Field(
-        1_000_000, gt=0, description="Most curve samples a study may store, at the worst "
+        1_000_000,
+        gt=0,
+        description="Most curve samples a study may store, at the worst "
         "case its bounds allow (stage time caps / output_interval, summed over stages and "
-        "runs) [-]; each is 11 float64 values.")
+        "runs) [-]; each is 11 float64 values.",
+    )
     max_run_wall_time: float = Field(
-        21_600.0, gt=0, description="Wall time [s] after which a run fails (the study goes "
+        21_600.0,
+        gt=0,
+        description="Wall time [s] after which a run fails (the study goes "
         "on with the other runs), in the worker's process, on a pool or on a Dask cluster "
-        "alike; a resumed run counts its earlier attempts up to its checkpoint.")
+        "alike; a resumed run counts its earlier attempts up to its checkpoint.",
+    )
     submit_rate: float = Field(
-        30.0, gt=0, description="Submissions (and refused requests) a token may make per "
-        "minute, in bursts of up to submit_burst; beyond: 429 with Retry-After.")
+        30.0,
+        gt=0,
+        description="Submissions (and refused requests) a token may make per "
+        "minute, in bursts of up to submit_burst; beyond: 429 with Retry-After.",
+    )
     submit_burst: int = Field(10, ge=1, description="Largest burst of submissions of a token.")
     auth_failure_rate: float = Field(
-        10.0, gt=0, description="Requests with a wrong token (bearer header or login form) "
+        10.0,
+        gt=0,
+        description="Requests with a wrong token (bearer header or login form) "
         "one client address may make per minute, in bursts of up to auth_failure_burst; "
         "beyond: 429 with Retry-After, until the bucket refills (a right token always "
-        "passes).")
-    auth_failure_burst: int = Field(20, ge=1, description="Largest burst of wrong tokens "
-                                    "from one client address.")
+        "passes).",
+    )
+    auth_failure_burst: int = Field(
+        20, ge=1, description="Largest burst of wrong tokens from one client address."
+    )
     max_storage_per_token: float = Field(
-        20e9, gt=0, description="Bytes one token's studies may take on disk: what its studies "
-        "hold plus the worst-case size of a new one; beyond: 507.")
+        20e9,
+        gt=0,
+        description="Bytes one token's studies may take on disk: what its studies "
+        "hold plus the worst-case size of a new one; beyond: 507.",
+    )
 
     # worker
     heartbeat_interval: float = Field(2.0, gt=0, description="Seconds between heartbeats.")
@@ -86,24 +102,40 @@ class Settings(BaseSettings):
         30.0, gt=0, description="A running study whose heartbeat is this old [s] is orphaned."
     )
     max_attempts: int = Field(
-        3, ge=1, description="Claims of a study in a row that finish no run and advance no "
+        3,
+        ge=1,
+        description="Claims of a study in a row that finish no run and advance no "
         "checkpoint before it is failed (its interrupted run, brought down at the same point "
         "each time, is a poison run); a claim that finishes a run or writes a newer "
-        "checkpoint resets the count.")
+        "checkpoint resets the count.",
+    )
     checkpoint_interval: float = Field(
-        60.0, gt=0, le=3600, description="Wall time [s] between two checkpoints of a run in "
+        60.0,
+        gt=0,
+        le=3600,
+        description="Wall time [s] between two checkpoints of a run in "
         "flight (engine.Checkpoint): a killed worker's run resumes from its last one, "
-        "bit-identically, losing at most this much work.")
+        "bit-identically, losing at most this much work.",
+    )
     run_workers: int = Field(
-        1, ge=0, le=256, description="Runs of a study side by side on a local process pool, "
+        1,
+        ge=0,
+        le=256,
+        description="Runs of a study side by side on a local process pool, "
         "one engine thread each; 1: one run at a time in the worker with the engine's own "
-        "threads; 0: one per core.")
+        "threads; 0: one per core.",
+    )
     backend: Literal["cpu", "cuda", "auto"] = Field(
-        "cpu", description="Where the engine runs a study's runs: cpu, cuda (an NVIDIA GPU "
-        "with numba-cuda, the gpu extra) or auto (the GPU when usable, else the CPU).")
+        "cpu",
+        description="Where the engine runs a study's runs: cpu, cuda (an NVIDIA GPU "
+        "with numba-cuda, the gpu extra) or auto (the GPU when usable, else the CPU).",
+    )
     dask_scheduler: str | None = Field(
-        None, max_length=500, description="Address of a Dask scheduler (e.g. "
-        "tcp://10.0.0.5:8786): runs become tasks on its cluster (needs `distributed`).")
+        None,
+        max_length=500,
+        description="Address of a Dask scheduler (e.g. "
+        "tcp://10.0.0.5:8786): runs become tasks on its cluster (needs `distributed`).",
+    )
     poll_interval: float = Field(1.0, gt=0, description="Seconds between queue polls.")
     shutdown_grace: float = Field(
         20.0,
@@ -150,15 +182,18 @@ class Settings(BaseSettings):
             try:
                 text = self.api_token_file.read_text()
             except OSError as e:
-                raise ConfigError(f"DEMSCALE_API_TOKEN_FILE: cannot read {e.filename}: "
-                                  f"{e.strerror}") from e
+                raise ConfigError(
+                    f"DEMSCALE_API_TOKEN_FILE: cannot read {e.filename}: {e.strerror}"
+                ) from e
             lines = (line.strip() for line in text.splitlines())
             out += [line for line in lines if line and not line.startswith("#")]
         short = [t for t in out if len(t) < MIN_TOKEN_LENGTH]
         if short:
-            raise ConfigError(f"{len(short)} API token(s) shorter than {MIN_TOKEN_LENGTH} "
-                              "characters: use e.g. `python -c 'import secrets; "
-                              "print(secrets.token_urlsafe(32))'`")
+            raise ConfigError(
+                f"{len(short)} API token(s) shorter than {MIN_TOKEN_LENGTH} "
+                "characters: use e.g. `python -c 'import secrets; "
+                "print(secrets.token_urlsafe(32))'`"
+            )
         return tuple(dict.fromkeys(out))
 
     @property
@@ -188,8 +223,11 @@ class Settings(BaseSettings):
         root = self.snapshots_dir(study_id)
         if not root.is_dir():
             return {}
-        return {d.name: sorted(f.name for f in d.iterdir() if f.is_file())
-                for d in sorted(root.iterdir()) if d.is_dir() and not d.name.startswith(".")}
+        return {
+            d.name: sorted(f.name for f in d.iterdir() if f.is_file())
+            for d in sorted(root.iterdir())
+            if d.is_dir() and not d.name.startswith(".")
+        }
 
     def checkpoints_dir(self, study_id: object) -> Path:
         """Checkpoints of one study's runs in flight (``<key>.ckpt``), removed once stored."""
@@ -208,12 +246,18 @@ def check_token_file(path: Path) -> None:
     except OSError:
         return  # the read that follows names the error
     if mode & (stat.S_IROTH | stat.S_IWOTH):
-        raise ConfigError(f"DEMSCALE_API_TOKEN_FILE: {path} can be read or written by every "
-                          f"user of this machine (mode {stat.filemode(mode)}): "
-                          f"`chmod 600 {path}`")
+        raise ConfigError(
+            f"DEMSCALE_API_TOKEN_FILE: {path} can be read or written by every "
+            f"user of this machine (mode {stat.filemode(mode)}): "
+            f"`chmod 600 {path}`"
+        )
     if mode & (stat.S_IRGRP | stat.S_IWGRP):
-        log.warning("DEMSCALE_API_TOKEN_FILE: %s can be read by its group (mode %s); "
-                    "`chmod 600` keeps the tokens to their owner", path, stat.filemode(mode))
+        log.warning(
+            "DEMSCALE_API_TOKEN_FILE: %s can be read by its group (mode %s); "
+            "`chmod 600` keeps the tokens to their owner",
+            path,
+            stat.filemode(mode),
+        )
 
 
 def secure_data_dir(settings: Settings) -> None:
@@ -227,8 +271,11 @@ def secure_data_dir(settings: Settings) -> None:
     url = settings.sqlalchemy_url
     if url.startswith("sqlite:///"):
         db = Path(url.removeprefix("sqlite:///"))
-        paths += [(f, 0o600) for f in (db, db.with_name(db.name + "-wal"),
-                                       db.with_name(db.name + "-shm")) if f.is_file()]
+        paths += [
+            (f, 0o600)
+            for f in (db, db.with_name(db.name + "-wal"), db.with_name(db.name + "-shm"))
+            if f.is_file()
+        ]
     for path, mode in paths:
         try:
             if stat.S_IMODE(path.stat().st_mode) & 0o077:

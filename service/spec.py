@@ -159,8 +159,11 @@ def _field_type(owner: type, info: ParamInfo, hint: Any) -> Any:
         default = classes[0].__name__
 
         def tag(value: Any) -> str:  # an untagged law is the first record (BilinearAdhesive)
-            return (value.get("type", default) if isinstance(value, dict)
-                    else getattr(value, "type", default))
+            return (
+                value.get("type", default)
+                if isinstance(value, dict)
+                else getattr(value, "type", default)
+            )
 
         tagged = tuple(Annotated[m, Tag(c.__name__)] for m, c in zip(models, classes))
         return Annotated[Union[tagged], Discriminator(tag)]  # noqa: UP007
@@ -240,8 +243,12 @@ ReferenceIn = create_model(
         Field(None, description="a named test (engine.preset) whose fields the others override"),
     ),
     **{
-        name: (kind, Field(spec.default, description=spec.description,
-                           json_schema_extra=spec.json_schema_extra))
+        name: (
+            kind,
+            Field(
+                spec.default, description=spec.description, json_schema_extra=spec.json_schema_extra
+            ),
+        )
         for name, (kind, spec) in _reference_fields.items()
     },
 )

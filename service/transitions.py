@@ -78,7 +78,11 @@ def move(session: Session, study_id: uuid.UUID, src: Status, dst: Status, *where
 
 # ---------------------------------------------------------------------------------- API side
 def submit(
-    session: Session, study: Study, runs: list[Run], max_active: int, max_active_per_owner: int,
+    session: Session,
+    study: Study,
+    runs: list[Run],
+    max_active: int,
+    max_active_per_owner: int,
     check: Callable[[Session], None] | None = None,
 ) -> Study:
     """Insert a new queued study and its queued runs, unless that makes more than
@@ -205,13 +209,28 @@ def run_started(session: Session, study_id: uuid.UUID, key: str) -> None:
     session.commit()
 
 
-def run_finished(session: Session, study_id: uuid.UUID, key: str, error: str | None = None,
-                 steps: int | None = None, wall_time: float | None = None) -> None:
+def run_finished(
+    session: Session,
+    study_id: uuid.UUID,
+    key: str,
+    error: str | None = None,
+    steps: int | None = None,
+    wall_time: float | None = None,
+) -> None:
     """Mark run ``key`` succeeded (its results are stored) or failed with ``error``."""
     dst = S if error is None else F
     _runs(session, study_id, (Q,), R, Run.key == key)  # a run reported only at its end
-    _runs(session, study_id, (R,), dst, Run.key == key, finished_at=utcnow(), error=error,
-          steps=steps, wall_time=wall_time)
+    _runs(
+        session,
+        study_id,
+        (R,),
+        dst,
+        Run.key == key,
+        finished_at=utcnow(),
+        error=error,
+        steps=steps,
+        wall_time=wall_time,
+    )
     session.commit()
 
 
@@ -312,7 +331,9 @@ def release(session: Session, study_id: uuid.UUID, worker_id: str) -> bool:
 
 
 def recover_stale(
-    session: Session, stale_before: datetime, max_attempts: int,
+    session: Session,
+    stale_before: datetime,
+    max_attempts: int,
     advanced: Callable[[uuid.UUID, datetime], bool] | None = None,
 ) -> list[tuple[uuid.UUID, Status]]:
     """Requeue every running study whose heartbeat is older than ``stale_before`` (its
@@ -331,12 +352,12 @@ def recover_stale(
         last = f"worker {worker} stopped sending heartbeats (last {beat:%Y-%m-%d %H:%M:%S} UTC)"
         started = session.execute(select(Study.started_at).where(Study.id == sid)).scalar()
         finished = session.execute(
-            select(func.count()).select_from(Run).where(
-                Run.study_id == sid, Run.status.in_((S, F)), Run.finished_at >= started)
+            select(func.count())
+            .select_from(Run)
+            .where(Run.study_id == sid, Run.status.in_((S, F)), Run.finished_at >= started)
         ).scalar()
         current = session.execute(select(Study.current_run).where(Study.id == sid)).scalar()
-        if finished or (advanced is not None and started is not None
-                        and advanced(sid, started)):
+        if finished or (advanced is not None and started is not None and advanced(sid, started)):
             # an interruption, not a failure: this attempt finished runs, which are stored,
             # or moved its run's checkpoint on; only claims in a row that do neither count
             # towards max_attempts
@@ -344,13 +365,19 @@ def recover_stale(
         if cancel:
             dst, values = C, {"error": f"cancelled; {last}", "finished_at": utcnow()}
         elif attempts >= max_attempts:
-            poison = (f"; run {current} was interrupted each time at the same point (a poison run)"
-                      if current else "")
+            poison = (
+                f"; run {current} was interrupted each time at the same point (a poison run)"
+                if current
+                else ""
+            )
             dst, values = (
                 F,
-                {"error": f"gave up after {attempts} attempts that finished no run and "
-                          f"advanced no checkpoint: {last}"
-                          f"{poison}", "finished_at": utcnow()},
+                {
+                    "error": f"gave up after {attempts} attempts that finished no run and "
+                    f"advanced no checkpoint: {last}"
+                    f"{poison}",
+                    "finished_at": utcnow(),
+                },
             )
         else:
             dst, values = Q, {"worker_id": None, "heartbeat_at": None, "attempts": attempts}

@@ -101,11 +101,14 @@ def study_page(
             "headings": headings,
             "table": table,
             # the unconfined plot only for a study with that stage
-            "plots": {k: t for k, t in KINDS.items() if k != "unconfined" or any(
-                "unconfined_strength" in row for row in (summary or {}).get("table", []))},
+            "plots": {
+                k: t
+                for k, t in KINDS.items()
+                if k != "unconfined"
+                or any("unconfined_strength" in row for row in (summary or {}).get("table", []))
+            },
             "terminal": TERMINAL,
             "fmt": cell,
             "snapshots": settings.snapshot_files(study.id) if summary is not None else {},
         },
     )
-

@@ -74,8 +74,11 @@ _SECURITY_HEADERS = [(b"cache-control", b"no-store")]
 
 
 async def _redirect(send, location: str, cookie: str | None = None) -> None:
-    headers = [(b"location", location.encode("ascii")), (b"content-length", b"0"),
-               *_SECURITY_HEADERS]
+    headers = [
+        (b"location", location.encode("ascii")),
+        (b"content-length", b"0"),
+        *_SECURITY_HEADERS,
+    ]
     if cookie is not None:
         headers.append((b"set-cookie", cookie.encode()))
     await send({"type": "http.response.start", "status": 303, "headers": headers})
@@ -84,9 +87,18 @@ async def _redirect(send, location: str, cookie: str | None = None) -> None:
 
 async def _html(send, status: int, html: str, extra: list | None = None) -> None:
     body = html.encode()
-    await send({"type": "http.response.start", "status": status, "headers": [
-        (b"content-type", b"text/html; charset=utf-8"),
-        (b"content-length", str(len(body)).encode()), *_SECURITY_HEADERS, *(extra or [])]})
+    await send(
+        {
+            "type": "http.response.start",
+            "status": status,
+            "headers": [
+                (b"content-type", b"text/html; charset=utf-8"),
+                (b"content-length", str(len(body)).encode()),
+                *_SECURITY_HEADERS,
+                *(extra or []),
+            ],
+        }
+    )
     await send({"type": "http.response.body", "body": body})
 
 
@@ -142,8 +154,11 @@ class BrowserLogin:
             nonlocal refused
             if message["type"] == "http.response.start" and message["status"] == 401:
                 refused = True
-                await _redirect(send, "/login?" + urlencode({"next": path, "failed": 1}),
-                                self._set_cookie(scope, ""))
+                await _redirect(
+                    send,
+                    "/login?" + urlencode({"next": path, "failed": 1}),
+                    self._set_cookie(scope, ""),
+                )
             elif not refused:
                 await send(message)
 
@@ -172,8 +187,12 @@ class BrowserLogin:
 
     async def _logout(self, scope, send) -> None:
         if scope["method"] != "POST":
-            await _html(send, 405, "log out with the button of the page (POST /logout)",
-                        [(b"allow", b"POST")])
+            await _html(
+                send,
+                405,
+                "log out with the button of the page (POST /logout)",
+                [(b"allow", b"POST")],
+            )
             return
         if not same_origin(scope):
             await _html(send, 403, "logging out is only possible from this site's pages")
@@ -200,12 +219,20 @@ class BrowserLogin:
             failed = True  # no cookie for a token the guard would refuse
             wait = failure_wait(self.failures, scope)
             if wait:
-                await _html(send, 429, TOO_MANY_FAILURES.format(wait),
-                            [(b"retry-after", str(wait).encode())])
+                await _html(
+                    send,
+                    429,
+                    TOO_MANY_FAILURES.format(wait),
+                    [(b"retry-after", str(wait).encode())],
+                )
                 return
         elif method not in ("GET", "HEAD"):
-            await _html(send, 405, "GET shows the login form, POST sends it",
-                        [(b"allow", b"GET, HEAD, POST")])
+            await _html(
+                send,
+                405,
+                "GET shows the login form, POST sends it",
+                [(b"allow", b"GET, HEAD, POST")],
+            )
             return
         html = templates.get_template("login.html").render(next=target, failed=failed)
         await _html(send, 401 if failed and method == "POST" else 200, html)

@@ -65,12 +65,14 @@ class Worker:
     def recover(self) -> None:
         """Requeue (or fail) the studies of dead workers."""
         cutoff = utcnow() - timedelta(seconds=self.settings.stale_after)
+
         def advanced(sid, since) -> bool:
             return checkpoints.advanced_since(self.settings.checkpoints_dir(sid), since)
 
         with Session(self.db) as s:
-            for sid, status in transitions.recover_stale(s, cutoff, self.settings.max_attempts,
-                                                         advanced):
+            for sid, status in transitions.recover_stale(
+                s, cutoff, self.settings.max_attempts, advanced
+            ):
                 log.warning("study %s had a dead worker: now %s", sid, status.value)
                 if status is not Status.queued:  # ended: its checkpoints will not be resumed
                     checkpoints.remove_all(self.settings.checkpoints_dir(sid))

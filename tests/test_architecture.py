@@ -18,8 +18,18 @@ ENGINE_TOP = {"numpy", "numba", "llvmlite"}
 #: What they may import inside a function (files and figures, on request).
 ENGINE_LAZY = ENGINE_TOP | {"h5py", "matplotlib", "distributed"}
 #: Packages of the layers above the engine, or of the web and the database.
-ABOVE = {"service", "demscale", "fastapi", "starlette", "sqlmodel", "sqlalchemy", "pydantic",
-         "uvicorn", "httpx", "rich"}
+ABOVE = {
+    "service",
+    "demscale",
+    "fastapi",
+    "starlette",
+    "sqlmodel",
+    "sqlalchemy",
+    "pydantic",
+    "uvicorn",
+    "httpx",
+    "rich",
+}
 
 
 def imports(path: Path) -> list[tuple[str, bool]]:
@@ -32,8 +42,12 @@ def imports(path: Path) -> list[tuple[str, bool]]:
             n = stack.pop()
             module_level.add(n)
             if isinstance(n, (ast.If, ast.Try)):
-                stack += [*n.body, *n.orelse, *getattr(n, "finalbody", []),
-                          *[x for h in getattr(n, "handlers", []) for x in h.body]]
+                stack += [
+                    *n.body,
+                    *n.orelse,
+                    *getattr(n, "finalbody", []),
+                    *[x for h in getattr(n, "handlers", []) for x in h.body],
+                ]
     out = []
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
@@ -57,8 +71,9 @@ def test_engine_modules_import_only_numpy_numba_and_the_standard_library(path):
             continue
         allowed = ENGINE_TOP if top else ENGINE_LAZY
         assert name not in ABOVE, f"{path.name} imports {name}: the engine is below it"
-        assert name in allowed, (f"{path.name} imports {name} "
-                                 f"{'at module level' if top else 'in a function'}")
+        assert name in allowed, (
+            f"{path.name} imports {name} {'at module level' if top else 'in a function'}"
+        )
 
 
 @pytest.mark.parametrize("path", files("service"), ids=lambda p: str(p.relative_to(ROOT)))
@@ -67,15 +82,22 @@ def test_the_service_never_imports_the_command(path):
 
 
 def test_import_engine_and_a_run_load_nothing_else():
-    code = ("import sys, engine\n"
-            "from tests.engine.test_uniaxial import tiny\n"
-            "engine.run_uniaxial(tiny(unconfined=False))\n"
-            "bad = sorted({m.split('.')[0] for m in sys.modules} & set(sys.argv[1:]))\n"
-            "cuda = [m for m in sys.modules if m.startswith('numba.cuda')]\n"
-            "print(bad, cuda)\n")
+    code = (
+        "import sys, engine\n"
+        "from tests.engine.test_uniaxial import tiny\n"
+        "engine.run_uniaxial(tiny(unconfined=False))\n"
+        "bad = sorted({m.split('.')[0] for m in sys.modules} & set(sys.argv[1:]))\n"
+        "cuda = [m for m in sys.modules if m.startswith('numba.cuda')]\n"
+        "print(bad, cuda)\n"
+    )
     forbidden = sorted(ABOVE | {"h5py", "matplotlib", "distributed", "scipy", "pandas"})
-    proc = subprocess.run([sys.executable, "-c", code, *forbidden], cwd=ROOT,
-                          capture_output=True, text=True, timeout=300,
-                          env={**os.environ, "PYTHONPATH": str(ROOT)})
+    proc = subprocess.run(
+        [sys.executable, "-c", code, *forbidden],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == "[] []", proc.stdout

@@ -20,9 +20,18 @@ from demscale.cli import StudyBars, main
 ROOT = Path(__file__).resolve().parent.parent
 TINY = {
     "reference": {
-        "cell": [0.015, 0.015, 0.015], "platen_speed": 0.02, "output_interval": 0.001,
-        "pair_law": {"type": "BilinearAdhesive", "k1": 5e3, "k2": 2.5e4, "f0": -0.4,
-                     "mu_s": 0.5, "mu_r": 0.001, "restitution": 0.4},
+        "cell": [0.015, 0.015, 0.015],
+        "platen_speed": 0.02,
+        "output_interval": 0.001,
+        "pair_law": {
+            "type": "BilinearAdhesive",
+            "k1": 5e3,
+            "k2": 2.5e4,
+            "f0": -0.4,
+            "mu_s": 0.5,
+            "mu_r": 0.001,
+            "restitution": 0.4,
+        },
     },
     "coarse_radii": [0.003],
     "rules": ["paper"],
@@ -43,20 +52,28 @@ def test_help_explains_every_command(argv, capsys):
     assert e.value.code == 0
     out = capsys.readouterr().out
     assert out.startswith("usage: demscale")
-    want = {(): ("study", "run", "serve", "worker", "job", "examples"),
-            ("job",): ("--exit", "--study", "--port", "default study"),
-            ("run",): ("TEST.json", "--snapshot-interval", "ParaView", "Exit status"),
-            ("study",): ("SPEC.json", "--out", "--workers", "summary.json", "results.h5",
-                         "ParaView", "Exit status"),
-            ("serve",): ("--host", "--port", "--no-worker", "/docs", "studies page"),
-            ("worker",): ("--once", "DEMSCALE_DATA_DIR")}[tuple(argv)]
+    want = {
+        (): ("study", "run", "serve", "worker", "job", "examples"),
+        ("job",): ("--exit", "--study", "--port", "default study"),
+        ("run",): ("TEST.json", "--snapshot-interval", "ParaView", "Exit status"),
+        ("study",): (
+            "SPEC.json",
+            "--out",
+            "--workers",
+            "summary.json",
+            "results.h5",
+            "ParaView",
+            "Exit status",
+        ),
+        ("serve",): ("--host", "--port", "--no-worker", "/docs", "studies page"),
+        ("worker",): ("--once", "DEMSCALE_DATA_DIR"),
+    }[tuple(argv)]
     for w in want:
         assert w in out, w
 
 
 def test_example_spec_is_a_valid_small_study():
-    spec = engine.StudySpec.from_dict(json.loads((ROOT / "examples/quick_study.json")
-                                                 .read_text()))
+    spec = engine.StudySpec.from_dict(json.loads((ROOT / "examples/quick_study.json").read_text()))
     runs = spec.planned_runs()
     assert len(runs) == 4 and len(spec.reference_seeds) == 2  # a noise floor exists
     assert max(p.test.n_particles for p in runs) < 400
@@ -100,7 +117,8 @@ def test_run_streams_interval_snapshots(tmp_path, capsys):
     assert engine.UniaxialTest.from_dict(result["test"]).to_dict() == result["test"]
     stages = result["snapshots"]["time_steps"]
     assert [s for i, s in enumerate(stages) if i == 0 or stages[i - 1] != s] == list(
-        engine.uniaxial.STAGES)  # every stage, in order, with interval steps within
+        engine.uniaxial.STAGES
+    )  # every stage, in order, with interval steps within
     assert len(stages) > 12
     with h5py.File(out / "snapshots" / "particles.vtkhdf", "r") as f:
         assert int(f["VTKHDF/Steps"].attrs["NSteps"]) == len(stages)
@@ -124,8 +142,13 @@ def test_study_end_to_end(tmp_path):
     spec = tmp_path / "tiny.json"
     spec.write_text(json.dumps(TINY))
     out = tmp_path / "out"
-    proc = subprocess.run([sys.executable, "-m", "demscale", "study", str(spec), "--out",
-                           str(out)], cwd=ROOT, capture_output=True, text=True, timeout=900)
+    proc = subprocess.run(
+        [sys.executable, "-m", "demscale", "study", str(spec), "--out", str(out)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     assert proc.returncode == 0, proc.stderr
     assert "ref-s1 done" in proc.stderr and "verdicts" in proc.stderr
 
@@ -158,12 +181,26 @@ def test_study_end_to_end(tmp_path):
 
 def test_study_decide_adds_seeds_and_reports_them(tmp_path):
     spec = tmp_path / "tiny.json"
-    spec.write_text(json.dumps({**TINY, "max_seeds": 3, "max_reference_seeds": 3,
-                                "rounds": 1}))
+    spec.write_text(json.dumps({**TINY, "max_seeds": 3, "max_reference_seeds": 3, "rounds": 1}))
     out = tmp_path / "out"
-    proc = subprocess.run([sys.executable, "-m", "demscale", "study", str(spec), "--out",
-                           str(out), "--decide", "--no-snapshots", "--quiet"], cwd=ROOT,
-                          capture_output=True, text=True, timeout=900)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "demscale",
+            "study",
+            str(spec),
+            "--out",
+            str(out),
+            "--decide",
+            "--no-snapshots",
+            "--quiet",
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     assert proc.returncode in (0, 1), proc.stderr
     summary = _strict((out / "summary.json").read_text())
     adaptive = summary["advisor"]["adaptive"]

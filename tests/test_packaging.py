@@ -14,8 +14,17 @@ import pytest
 tomllib = pytest.importorskip("tomllib")  # Python 3.11+
 
 ROOT = Path(__file__).resolve().parent.parent
-OPTIONAL = ("fastapi", "uvicorn", "sqlmodel", "pydantic", "pydantic_settings", "h5py",
-            "matplotlib", "rich", "httpx")
+OPTIONAL = (
+    "fastapi",
+    "uvicorn",
+    "sqlmodel",
+    "pydantic",
+    "pydantic_settings",
+    "h5py",
+    "matplotlib",
+    "rich",
+    "httpx",
+)
 
 
 def test_pyproject_declares_licence_script_and_extras():
@@ -42,8 +51,9 @@ sys.modules.update(dict.fromkeys(OPTIONAL))
 
 
 def _without_optional(code: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-c", BLOCK + code], cwd=ROOT, capture_output=True,
-                          text=True, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-c", BLOCK + code], cwd=ROOT, capture_output=True, text=True, timeout=300
+    )
 
 
 def test_engine_imports_with_numpy_and_numba_only():

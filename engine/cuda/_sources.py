@@ -53,10 +53,37 @@ def _particle_body(i, mode, P, L, W, prm, stat, wpart, disp):
             wpart[i, w, 1] = 0.0
             wpart[i, w, 2] = 0.0
     wlaw, wflags = _wall_setup(prm)
-    disp[i] = _particle_one(i, i, mode, P.pos, P.vel, P.omg, P.frc, P.trq, P.roll, P.rad,
-                            P.mass, P.inv_mass, P.inv_inertia, P.pos_build, L.rev_start,
-                            L.rev_k, L.entry, W.point, W.normal, W.vel, W.hist, wpart, stat,
-                            prm.dt, prm.max_overlap, prm.max_step, prm.gravity, wlaw, wflags)
+    disp[i] = _particle_one(
+        i,
+        i,
+        mode,
+        P.pos,
+        P.vel,
+        P.omg,
+        P.frc,
+        P.trq,
+        P.roll,
+        P.rad,
+        P.mass,
+        P.inv_mass,
+        P.inv_inertia,
+        P.pos_build,
+        L.rev_start,
+        L.rev_k,
+        L.entry,
+        W.point,
+        W.normal,
+        W.vel,
+        W.hist,
+        wpart,
+        stat,
+        prm.dt,
+        prm.max_overlap,
+        prm.max_step,
+        prm.gravity,
+        wlaw,
+        wflags,
+    )
 
 
 def _chunk_body(c, mode, stat, wpart, disp, cstat, cdisp, cacc):
@@ -111,8 +138,9 @@ def finish_kernel(ctl, s, nsteps, opening, W, prm, cstat, cdisp, cacc, info):
         _finish_body(ctl, s, nsteps, opening, W, prm, cstat, cdisp, cacc, info)
 
 
-def steps_kernel(ctl, s0, s1, nsteps, opening, P, L, W, prm, stat, wpart, disp, cstat, cdisp,
-                 cacc, info):
+def steps_kernel(
+    ctl, s0, s1, nsteps, opening, P, L, W, prm, stat, wpart, disp, cstat, cdisp, cacc, info
+):
     """Steps ``s0`` to ``s1 - 1`` of a call (with ``opening``, the opening kick and drift
     first) in one launch: the grid (cooperative, all blocks resident) goes through the same
     passes as the separate kernels, element by element in grid-stride loops, and meets at a
@@ -319,18 +347,34 @@ def cell_fill_kernel(key, cell_start, fill, cell_list):
     cell_list[cell_start[c] + cuda.atomic.add(fill, c, 1)] = i
 
 
-def count_kernel(pos, rad, skin, cell3, ncell, cell_start, cell_list, periodic, length, cnt,
-                 none):
+def count_kernel(pos, rad, skin, cell3, ncell, cell_start, cell_list, periodic, length, cnt, none):
     """Neighbours j > i of each particle within the skin (``_scan`` of engine.neighbour,
     counting only: ``none`` has length 0)."""
     i = cuda.grid(1)
     if i < pos.shape[0]:
-        cnt[i] = _scan(i, pos, rad, skin, cell3, ncell, cell_start, cell_list, periodic,
-                       length, none, 0)
+        cnt[i] = _scan(
+            i, pos, rad, skin, cell3, ncell, cell_start, cell_list, periodic, length, none, 0
+        )
 
 
-def list_kernel(pos, rad, skin, cell3, ncell, cell_start, cell_list, periodic, length,
-                new_start, new_j, new_entry, start, nbr_j, entry, n_hist):
+def list_kernel(
+    pos,
+    rad,
+    skin,
+    cell3,
+    ncell,
+    cell_start,
+    cell_list,
+    periodic,
+    length,
+    new_start,
+    new_j,
+    new_entry,
+    start,
+    nbr_j,
+    entry,
+    n_hist,
+):
     """The new half list of particle i (sorted), with the history of every pair also in the
     old list carried over (merge of two sorted segments, as engine.neighbour does)."""
     i = cuda.grid(1)

@@ -27,13 +27,31 @@ RED_T = 4 if SIMULATOR else 256
 SCAN_T = 4 if SIMULATOR else 128
 SCAN_SEG = 8
 
-_STEP = ("reset_ctl", "pair_kernel", "particle_kernel", "chunk_kernel", "finish_kernel",
-         "steps_kernel")
+_STEP = (
+    "reset_ctl",
+    "pair_kernel",
+    "particle_kernel",
+    "chunk_kernel",
+    "finish_kernel",
+    "steps_kernel",
+)
 #: CUDA-side helpers of the step kernels, in the order they are built (each sees those above)
 _STEP_HELPERS = ("_stop", "_finish_body", "_pair_body", "_particle_body", "_chunk_body")
-_SEARCH = ("wrap_kernel", "bounds_kernel", "grid_kernel", "cell_kernel", "cell_fill_kernel",
-           "count_kernel", "list_kernel", "commit_kernel", "rev_fill_kernel",
-           "rev_sort_kernel", "zero_kernel", "scan_block_kernel", "scan_add_kernel")
+_SEARCH = (
+    "wrap_kernel",
+    "bounds_kernel",
+    "grid_kernel",
+    "cell_kernel",
+    "cell_fill_kernel",
+    "count_kernel",
+    "list_kernel",
+    "commit_kernel",
+    "rev_fill_kernel",
+    "rev_sort_kernel",
+    "zero_kernel",
+    "scan_block_kernel",
+    "scan_add_kernel",
+)
 
 _lock = threading.Lock()
 _step_cache: dict[tuple, SimpleNamespace] = {}
@@ -62,15 +80,20 @@ def step_kernels(features: dict[str, bool]) -> SimpleNamespace:
         mod = cpu_kernels.load_kernel(features)
         memo: dict = {}
         b = _constants()
-        b.update(CHUNK=mod.CHUNK, OPEN=mod.OPEN, WALLS=mod.WALLS, FORCES=mod.FORCES,
-                 STEP=mod.STEP, CLOSE=mod.CLOSE)
+        b.update(
+            CHUNK=mod.CHUNK,
+            OPEN=mod.OPEN,
+            WALLS=mod.WALLS,
+            FORCES=mod.FORCES,
+            STEP=mod.STEP,
+            CLOSE=mod.CLOSE,
+        )
         for name in ("_pair_setup", "_pair_one", "_wall_setup", "_particle_one"):
             b[name] = device_function(getattr(mod, name), memo)
         b["_advance_walls"] = device_function(step_common._advance_walls, memo)
         for name in _STEP_HELPERS:
             b[name] = plain_device_function(getattr(_sources, name), b, memo)
-        ns = SimpleNamespace(cpu=mod, **{n: kernel(getattr(_sources, n), b, memo)
-                                         for n in _STEP})
+        ns = SimpleNamespace(cpu=mod, **{n: kernel(getattr(_sources, n), b, memo) for n in _STEP})
         _step_cache[key] = ns
         return ns
 
@@ -84,6 +107,5 @@ def search_kernels() -> SimpleNamespace:
             b = _constants()
             b["wrap_one"] = device_function(neighbour.wrap_one, memo)
             b["_scan"] = device_function(neighbour._scan, memo)
-            _search = SimpleNamespace(**{n: kernel(getattr(_sources, n), b, memo)
-                                         for n in _SEARCH})
+            _search = SimpleNamespace(**{n: kernel(getattr(_sources, n), b, memo) for n in _SEARCH})
         return _search

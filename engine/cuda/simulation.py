@@ -118,15 +118,25 @@ class CudaSimulation(Simulation):
         d.P = Particles(*(cuda.to_device(np.ascontiguousarray(a)) for a in p))
         w = self._walls
         cacc = np.zeros((len(d.cdisp), len(w.point), 3))
-        d.W = Walls(point=cuda.to_device(w.point), normal=cuda.to_device(w.normal),
-                    vel=cuda.to_device(w.vel), hist=cuda.to_device(w.hist),
-                    force=cuda.to_device(w.force), acc=cuda.to_device(cacc))
+        d.W = Walls(
+            point=cuda.to_device(w.point),
+            normal=cuda.to_device(w.normal),
+            vel=cuda.to_device(w.vel),
+            hist=cuda.to_device(w.hist),
+            force=cuda.to_device(w.force),
+            acc=cuda.to_device(cacc),
+        )
         prm = self._params
-        d.prm = StepParams(pair=cuda.to_device(prm.pair), wall=cuda.to_device(prm.wall),
-                           gravity=cuda.to_device(prm.gravity),
-                           length=cuda.to_device(prm.length), dt=float(prm.dt),
-                           skin=float(prm.skin), max_overlap=float(prm.max_overlap),
-                           max_step=float(prm.max_step))
+        d.prm = StepParams(
+            pair=cuda.to_device(prm.pair),
+            wall=cuda.to_device(prm.wall),
+            gravity=cuda.to_device(prm.gravity),
+            length=cuda.to_device(prm.length),
+            dt=float(prm.dt),
+            skin=float(prm.skin),
+            max_overlap=float(prm.max_overlap),
+            max_step=float(prm.max_step),
+        )
         d.lo = cuda.to_device(self._lo)
         d.periodic = cuda.to_device(self._periodic.astype(np.bool_))
         d.images = cuda.to_device(self._images)
@@ -139,9 +149,13 @@ class CudaSimulation(Simulation):
         j[:m] = lst.j
         entry[:m] = lst.entry[:, : self._k.N_SLOT]
         rev_k[:m] = lst.rev_k
-        d.L = NeighbourList(start=cuda.to_device(lst.start), j=cuda.to_device(j),
-                            entry=cuda.to_device(entry), rev_start=cuda.to_device(lst.rev_start),
-                            rev_k=cuda.to_device(rev_k))
+        d.L = NeighbourList(
+            start=cuda.to_device(lst.start),
+            j=cuda.to_device(j),
+            entry=cuda.to_device(entry),
+            rev_start=cuda.to_device(lst.rev_start),
+            rev_k=cuda.to_device(rev_k),
+        )
         d.new_j = cuda.to_device(np.zeros(cap, dtype=np.int32))
         d.new_entry = cuda.to_device(np.zeros((cap, self._k.N_SLOT)))
         d.stale = set()
@@ -252,8 +266,7 @@ class CudaSimulation(Simulation):
 
     def _steps_args(self) -> tuple:
         d = self._dev
-        return (d.P, d.L, d.W, d.prm, d.stat, d.wpart, d.disp, d.cstat, d.cdisp, d.W.acc,
-                d.info)
+        return (d.P, d.L, d.W, d.prm, d.stat, d.wpart, d.disp, d.cstat, d.cdisp, d.W.acc, d.info)
 
     def _choose_launch(self) -> None:
         """One launch per batch of steps (cooperative grid, ``steps_kernel``) unless
@@ -275,8 +288,11 @@ class CudaSimulation(Simulation):
             d.coop_blocks = max(1, min(want, int(kern.max_cooperative_grid_blocks(RED_T))))
             d.steps_launch = spec
         except Exception as e:  # no cooperative launch here: the four-launch step
-            log.warning("CUDA: cooperative launch unavailable (%s: %s), one launch per pass",
-                        type(e).__name__, e)
+            log.warning(
+                "CUDA: cooperative launch unavailable (%s: %s), one launch per pass",
+                type(e).__name__,
+                e,
+            )
             d.persistent = False
 
     def _call_persistent(self, nsteps: int, phase: int) -> tuple[int, int]:
@@ -310,8 +326,10 @@ class CudaSimulation(Simulation):
         nb = max(1, -(-int(n) // per))
         bufs = d.scan_bufs.get(n)
         if bufs is None:
-            bufs = d.scan_bufs[n] = (cuda.to_device(np.zeros(nb, dtype=np.int64)),
-                                     cuda.to_device(np.zeros(nb + 1, dtype=np.int64)))
+            bufs = d.scan_bufs[n] = (
+                cuda.to_device(np.zeros(nb, dtype=np.int64)),
+                cuda.to_device(np.zeros(nb + 1, dtype=np.int64)),
+            )
         sums, offs = bufs
         sk.scan_block_kernel[nb, SCAN_T](src_arr, n, dst, sums)
         if nb > 1:
@@ -329,15 +347,25 @@ class CudaSimulation(Simulation):
             sk.wrap_kernel[nb, THREADS](P.pos, d.lo, d.prm.length, d.periodic, d.images)
         if not self._periodic.all():
             sk.bounds_kernel[1, RED_T](P.pos, d.bounds)
-        sk.grid_kernel[1, 1](d.bounds, d.lo, d.prm.length, d.periodic, d.cut, d.maxc, d.grid,
-                             d.ncell)
+        sk.grid_kernel[1, 1](
+            d.bounds, d.lo, d.prm.length, d.periodic, d.cut, d.maxc, d.grid, d.ncell
+        )
         sk.zero_kernel[_blocks(d.maxc), THREADS](d.cell_count)
         sk.zero_kernel[_blocks(d.maxc), THREADS](d.cell_fill)
         sk.cell_kernel[nb, THREADS](P.pos, d.grid, d.ncell, d.cell3, d.key, d.cell_count)
         self._scan(d.cell_count, d.maxc, d.cell_start)
         sk.cell_fill_kernel[nb, THREADS](d.key, d.cell_start, d.cell_fill, d.cell_list)
-        args = (P.pos, P.rad, float(self.skin), d.cell3, d.ncell, d.cell_start, d.cell_list,
-                d.periodic, d.prm.length)
+        args = (
+            P.pos,
+            P.rad,
+            float(self.skin),
+            d.cell3,
+            d.ncell,
+            d.cell_start,
+            d.cell_list,
+            d.periodic,
+            d.prm.length,
+        )
         sk.count_kernel[nb, THREADS](*args, d.cnt, d.none)
         self._scan(d.cnt, n, d.new_start)
         d.new_start[n:].copy_to_host(d.total_host)  # the one read of a build: its size
@@ -347,19 +375,24 @@ class CudaSimulation(Simulation):
             cap = int(total * 1.25) + 16
             d.new_j = cuda.to_device(np.zeros(cap, dtype=np.int32))
             d.new_entry = cuda.to_device(np.zeros((cap, self._k.N_SLOT)))
-        sk.list_kernel[nb, THREADS](*args, d.new_start, d.new_j, d.new_entry, L.start, L.j,
-                                    L.entry, self._k.N_HIST)
+        sk.list_kernel[nb, THREADS](
+            *args, d.new_start, d.new_j, d.new_entry, L.start, L.j, L.entry, self._k.N_HIST
+        )
         if cap > len(L.j):
-            L = d.L = L._replace(j=cuda.to_device(np.zeros(cap, dtype=np.int32)),
-                                 entry=cuda.to_device(np.zeros((cap, self._k.N_SLOT))),
-                                 rev_k=cuda.to_device(np.zeros(cap, dtype=np.int32)))
+            L = d.L = L._replace(
+                j=cuda.to_device(np.zeros(cap, dtype=np.int32)),
+                entry=cuda.to_device(np.zeros((cap, self._k.N_SLOT))),
+                rev_k=cuda.to_device(np.zeros(cap, dtype=np.int32)),
+            )
         sk.zero_kernel[nb, THREADS](d.rev_count)
         sk.zero_kernel[nb, THREADS](d.rev_fill)
         sk.commit_kernel[_blocks(max(total, n + 1)), THREADS](
-            total, d.new_start, d.new_j, d.new_entry, L.start, L.j, L.entry, d.rev_count)
+            total, d.new_start, d.new_j, d.new_entry, L.start, L.j, L.entry, d.rev_count
+        )
         self._scan(d.rev_count, n, L.rev_start)
-        sk.rev_fill_kernel[_blocks(max(total, 1)), THREADS](total, L.j, L.rev_start,
-                                                            d.rev_fill, L.rev_k)
+        sk.rev_fill_kernel[_blocks(max(total, 1)), THREADS](
+            total, L.j, L.rev_start, d.rev_fill, L.rev_k
+        )
         sk.rev_sort_kernel[nb, THREADS](L.rev_start, L.rev_k, P.pos, P.pos_build)
         d.stale.update(_GROUPS)
         self._n_entries = total
@@ -421,8 +454,7 @@ def _pulling_method(name: str, *groups: str):
     return call
 
 
-for _name in ("positions", "unwrapped_positions", "velocities", "angular_velocities",
-              "forces"):
+for _name in ("positions", "unwrapped_positions", "velocities", "angular_velocities", "forces"):
     setattr(CudaSimulation, _name, _pulling_property(_name, "particles"))
 for _name in ("wall_forces", "wall_positions", "wall_velocities"):
     setattr(CudaSimulation, _name, _pulling_property(_name, "walls"))

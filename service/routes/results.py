@@ -15,9 +15,7 @@ from ..deps import ResultsDep, SettingsDep, StudyDep
 from ..errors import answers
 from ..plots import KINDS, plot_png
 
-router = APIRouter(
-    prefix="/studies/{study_id}", tags=["results"], responses=answers(401, 404, 409)
-)
+router = APIRouter(prefix="/studies/{study_id}", tags=["results"], responses=answers(401, 404, 409))
 
 #: The plots the API draws (engine.plots.KINDS).
 PlotKind = Enum("PlotKind", {k: k for k in KINDS}, type=str)
@@ -36,28 +34,51 @@ def summary(study: StudyDep, results: ResultsDep, settings: SettingsDep) -> dict
     """Per run: radius, rule, particles, steps, dt, wall time, speed-up and errors against
     the reference; the spread over seeds; the advisor's answer (verdicts, noise floor,
     warnings); units of every column; the snapshot files of every run."""
-    snaps = {run: [f"/studies/{study.id}/runs/{run}/snapshots/{f}" for f in files]
-             for run, files in settings.snapshot_files(study.id).items()}
-    return {"id": str(study.id), "name": study.name, **h5store.read_summary(results),
-            "snapshots": snaps}
+    snaps = {
+        run: [f"/studies/{study.id}/runs/{run}/snapshots/{f}" for f in files]
+        for run, files in settings.snapshot_files(study.id).items()
+    }
+    return {
+        "id": str(study.id),
+        "name": study.name,
+        **h5store.read_summary(results),
+        "snapshots": snaps,
+    }
 
 
 @router.get(
     "/runs/{run}/snapshots/{name}",
     response_class=FileResponse,
-    responses={200: {"content": {
-        "application/x-hdf5": {"schema": {"type": "string", "format": "binary"}},
-        "image/png": {"schema": {"type": "string", "format": "binary"}}},
-        "description": "A VTKHDF file (ParaView 5.12+) or a PNG section of a stage's end."}},
+    responses={
+        200: {
+            "content": {
+                "application/x-hdf5": {"schema": {"type": "string", "format": "binary"}},
+                "image/png": {"schema": {"type": "string", "format": "binary"}},
+            },
+            "description": "A VTKHDF file (ParaView 5.12+) or a PNG section of a stage's end.",
+        }
+    },
 )
 def snapshot(
     study: StudyDep,
     results: ResultsDep,
     settings: SettingsDep,
-    run: Annotated[str, Path(max_length=RUN_KEY_MAX_LENGTH, pattern=r"^[A-Za-z0-9_.\-]+$",
-                             description="Run key, e.g. ref-s1.")],
-    name: Annotated[str, Path(max_length=64, pattern=SNAPSHOT_NAME,
-                              description="particles.vtkhdf, contacts.vtkhdf or <stage>.png")],
+    run: Annotated[
+        str,
+        Path(
+            max_length=RUN_KEY_MAX_LENGTH,
+            pattern=r"^[A-Za-z0-9_.\-]+$",
+            description="Run key, e.g. ref-s1.",
+        ),
+    ],
+    name: Annotated[
+        str,
+        Path(
+            max_length=64,
+            pattern=SNAPSHOT_NAME,
+            description="particles.vtkhdf, contacts.vtkhdf or <stage>.png",
+        ),
+    ],
 ) -> FileResponse:
     """A snapshot file of a run: the particles or the force chains at every stage end
     (temporal VTKHDF; docs/SNAPSHOTS.md), or the PNG section of one stage's end."""
@@ -116,9 +137,7 @@ def plot(
     response_class=FileResponse,
     responses={
         200: {
-            "content": {
-                "application/x-hdf5": {"schema": {"type": "string", "format": "binary"}}
-            },
+            "content": {"application/x-hdf5": {"schema": {"type": "string", "format": "binary"}}},
             "description": "The HDF5 file.",
         }
     },

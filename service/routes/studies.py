@@ -60,8 +60,9 @@ def check_storage(session, settings, owner: str, new_id, new_bytes: float) -> No
     what each holds on disk (a queued or running one: at least its worst-case size, it has
     yet to write) plus the worst-case size of the new one (``new_id``, already inserted in
     this transaction: two submissions cannot both slip under the quota)."""
-    rows = session.exec(select(Study.id, Study.status, Study.spec)
-                        .where(Study.owner == owner, Study.id != new_id)).all()
+    rows = session.exec(
+        select(Study.id, Study.status, Study.spec).where(Study.owner == owner, Study.id != new_id)
+    ).all()
     used = 0.0
     for sid, status, spec in rows:
         held = stored_bytes([settings.study_dir(sid)])
@@ -77,7 +78,8 @@ def check_storage(session, settings, owner: str, new_id, new_bytes: float) -> No
             status_code=507,
             detail=f"this token's studies take up to {used / 1e6:.1f} MB and this one could "
             f"take {new_bytes / 1e6:.1f} MB more; the limit is {limit / 1e6:.1f} MB per token "
-            "(DEMSCALE_MAX_STORAGE_PER_TOKEN): delete finished studies first")
+            "(DEMSCALE_MAX_STORAGE_PER_TOKEN): delete finished studies first",
+        )
 
 
 @router.post(
@@ -85,8 +87,15 @@ def check_storage(session, settings, owner: str, new_id, new_bytes: float) -> No
     status_code=202,
     response_model=StudySubmitted,
     responses={
-        202: {"headers": {"Location": {"schema": {"type": "string"}, "required": True,
-                                       "description": "URL of the new study."}}},
+        202: {
+            "headers": {
+                "Location": {
+                    "schema": {"type": "string"},
+                    "required": True,
+                    "description": "URL of the new study.",
+                }
+            }
+        },
         **answers(400, 413, 429, 507),
     },
 )
@@ -129,7 +138,11 @@ def submit_study(
     ]
     try:
         study = transitions.submit(
-            session, study, runs, settings.max_active, settings.max_active_per_token,
+            session,
+            study,
+            runs,
+            settings.max_active,
+            settings.max_active_per_token,
             # inside the insert's transaction (SQLite's one writer at a time)
             check=lambda s: check_storage(s, settings, owner, study.id, output_bytes(costs)),
         )
@@ -187,9 +200,7 @@ def cancel_study(study: StudyDep, session: SessionDep) -> StudyPublic:
     return public(study)
 
 
-@router.delete(
-    "/{study_id}", status_code=204, response_class=Response, responses=answers(404, 409)
-)
+@router.delete("/{study_id}", status_code=204, response_class=Response, responses=answers(404, 409))
 def delete_study(study: StudyDep, session: SessionDep, settings: SettingsDep) -> Response:
     """Remove a finished study and its files; 409 while it is queued or running."""
     if not transitions.remove(session, study.id):

@@ -24,38 +24,70 @@ from tests import naive
 
 R = 2.5e-3
 
-FULL = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.2, kadh=1e3, mu_s=0.5, mu_r=0.002,
-                               restitution=0.4)
+FULL = engine.BilinearAdhesive(
+    k1=5e3, k2=2.5e4, f0=-0.2, kadh=1e3, mu_s=0.5, mu_r=0.002, restitution=0.4
+)
 ELASTIC = engine.BilinearAdhesive(k1=5e3, k2=5e3, mu_s=0.3, restitution=0.7)
-EEPA = engine.EEPA(k1=2e5, k2=1e6, f0=-0.05, kadh=5e4, n=1.5, chi=1.5, mu_s=0.4, mu_r=0.002,
-                   restitution=0.5)
-EEPA_NORMAL_CAP = engine.EEPA(k1=2e5, k2=1e6, f0=-0.05, kadh=5e4, n=1.5, chi=1.5, mu_s=0.4,
-                              restitution=0.5, friction_cap="normal")
+EEPA = engine.EEPA(
+    k1=2e5, k2=1e6, f0=-0.05, kadh=5e4, n=1.5, chi=1.5, mu_s=0.4, mu_r=0.002, restitution=0.5
+)
+EEPA_NORMAL_CAP = engine.EEPA(
+    k1=2e5,
+    k2=1e6,
+    f0=-0.05,
+    kadh=5e4,
+    n=1.5,
+    chi=1.5,
+    mu_s=0.4,
+    restitution=0.5,
+    friction_cap="normal",
+)
 HERTZ = engine.HertzMindlin(E=5e7, nu=0.25, restitution=0.5, mu=0.3, mu_r=0.002)
 WALL_LAW = engine.HertzMindlin(E=1e8, nu=0.25, restitution=0.5, mu=0.3, mu_r=0.002)
 
 
-def scene(law, n=36, side=0.016, periodic=(True, True, False), walls=True, gravity=True,
-          speed=0.05, spin=20.0, seed=3):
+def scene(
+    law,
+    n=36,
+    side=0.016,
+    periodic=(True, True, False),
+    walls=True,
+    gravity=True,
+    speed=0.05,
+    spin=20.0,
+    seed=3,
+):
     lengths = np.array([side, side, side])
-    pos, rad = naive.rsa_packing(n, lengths, 0.8 * R, R, seed, max_overlap=0.1,
-                                 periodic=periodic)
+    pos, rad = naive.rsa_packing(n, lengths, 0.8 * R, R, seed, max_overlap=0.1, periodic=periodic)
     rng = np.random.default_rng(seed)
     planes = []
     if walls:
         # each wall touches the outermost particles (overlap 0.02 R): wall contacts at once
         lo = (pos - rad[:, None]).min(axis=0) + 0.02 * R
         hi = (pos + rad[:, None]).max(axis=0) - 0.02 * R
-        planes = [engine.Plane((0, 0, lo[2]), (0, 0, 1)),
-                  engine.Plane((0, 0, hi[2]), (0, 0, -1), velocity=(0, 0, -0.05))]
+        planes = [
+            engine.Plane((0, 0, lo[2]), (0, 0, 1)),
+            engine.Plane((0, 0, hi[2]), (0, 0, -1), velocity=(0, 0, -0.05)),
+        ]
         if not periodic[0]:
-            planes += [engine.Plane((lo[0], 0, 0), (1, 0, 0)),
-                       engine.Plane((hi[0], 0, 0), (-1, 0, 0), velocity=(-0.02, 0, 0))]
+            planes += [
+                engine.Plane((lo[0], 0, 0), (1, 0, 0)),
+                engine.Plane((hi[0], 0, 0), (-1, 0, 0), velocity=(-0.02, 0, 0)),
+            ]
     return engine.Scene(
-        pos, rad, 2000.0, velocities=rng.normal(0, speed, pos.shape),
-        angular_velocities=rng.normal(0, spin, pos.shape), box=[(0, L) for L in lengths],
-        periodic=periodic, walls=planes, gravity=(0, 0, -9.81) if gravity else (0, 0, 0),
-        pair_law=law, wall_law=WALL_LAW, wall_material=engine.WallMaterial())
+        pos,
+        rad,
+        2000.0,
+        velocities=rng.normal(0, speed, pos.shape),
+        angular_velocities=rng.normal(0, spin, pos.shape),
+        box=[(0, L) for L in lengths],
+        periodic=periodic,
+        walls=planes,
+        gravity=(0, 0, -9.81) if gravity else (0, 0, 0),
+        pair_law=law,
+        wall_law=WALL_LAW,
+        wall_material=engine.WallMaterial(),
+    )
 
 
 def _rel(a, b) -> float:
@@ -73,12 +105,12 @@ def _rel(a, b) -> float:
 class Compare:
     """Running record of the largest relative differences between two simulations."""
 
-    QUANTITIES = ("positions", "velocities", "angular_velocities", "wall_forces",
-                  "wall_positions")
+    QUANTITIES = ("positions", "velocities", "angular_velocities", "wall_forces", "wall_positions")
 
     def __init__(self):
-        self.rel = dict.fromkeys((*self.QUANTITIES, "max_overlaps", "tangential_springs",
-                                  "pairs"), 0.0)
+        self.rel = dict.fromkeys(
+            (*self.QUANTITIES, "max_overlaps", "tangential_springs", "pairs"), 0.0
+        )
         self.bit_identical = True
         self.contacts = 0
         self.wall_contacts = 0
@@ -124,27 +156,34 @@ def case(name: str) -> dict:
     if name == "bilinear-walls":
         # the full bilinear law, periodic x and y, a moving platen, gravity; the periodicity
         # is then removed and a wall re-aimed between runs (set_* on the device state)
-        edits = {3: lambda s: s.set_periodic((False, False, False)),
-                 4: lambda s: s.set_wall_velocity(1, (0.0, 0.0, -0.2)),
-                 5: lambda s: s.set_velocities(angular_velocities=np.zeros((s.n, 3))),
-                 2: lambda s: s.set_wall_position(1, s.wall_positions[1] + (0, 0, -0.1 * R))}
+        edits = {
+            3: lambda s: s.set_periodic((False, False, False)),
+            4: lambda s: s.set_wall_velocity(1, (0.0, 0.0, -0.2)),
+            5: lambda s: s.set_velocities(angular_velocities=np.zeros((s.n, 3))),
+            2: lambda s: s.set_wall_position(1, s.wall_positions[1] + (0, 0, -0.1 * R)),
+        }
         cpu, gpu, rb = run_pair(scene(FULL, speed=0.3), 6, 4, cmp, edits=edits, skin=0.05 * R)
     elif name == "periodic-rebuilds":
         # fully periodic, no walls, no gravity, fast particles and a thin skin: rebuilds,
         # pairs across every face
-        cpu, gpu, rb = run_pair(scene(ELASTIC, periodic=(True, True, True), walls=False,
-                                      gravity=False, speed=0.05), 5, 6, cmp, skin=0.02 * R)
+        cpu, gpu, rb = run_pair(
+            scene(ELASTIC, periodic=(True, True, True), walls=False, gravity=False, speed=0.05),
+            5,
+            6,
+            cmp,
+            skin=0.02 * R,
+        )
         out["n_entries"] = [cpu.n_neighbour_entries, gpu.n_neighbour_entries]
     elif name == "eepa":
         cpu, gpu, rb = run_pair(scene(EEPA), 5, 5, cmp)
     elif name == "eepa-normal-cap":
-        cpu, gpu, rb = run_pair(scene(EEPA_NORMAL_CAP, periodic=(True, False, False)), 5, 5,
-                                cmp)
+        cpu, gpu, rb = run_pair(scene(EEPA_NORMAL_CAP, periodic=(True, False, False)), 5, 5, cmp)
     elif name == "hertz-open-box":
         # Hertz-Mindlin pairs in a box of walls on x and z, open y: the grid spans the
         # particles on open axes (the device bounds reduction)
-        cpu, gpu, rb = run_pair(scene(HERTZ, periodic=(False, False, False), speed=0.5),
-                                5, 5, cmp, skin=0.05 * R)
+        cpu, gpu, rb = run_pair(
+            scene(HERTZ, periodic=(False, False, False), speed=0.5), 5, 5, cmp, skin=0.05 * R
+        )
     elif name == "determinism":
         sc = scene(FULL, speed=0.5)
         a = engine.Simulation(sc, backend="cuda", skin=0.05 * R)
@@ -153,15 +192,23 @@ def case(name: str) -> dict:
             sim.run(20)
         out["launch"] = "persistent" if a._dev.persistent else "passes"
         out["bit_identical_twice"] = all(
-            np.array_equal(getattr(a, q), getattr(b, q)) for q in Compare.QUANTITIES)
+            np.array_equal(getattr(a, q), getattr(b, q)) for q in Compare.QUANTITIES
+        )
         out["rebuilds"] = [a.n_rebuilds, b.n_rebuilds]
         return out
     elif name == "instability":
         sc = scene(ELASTIC, walls=False, gravity=False, speed=0.05)
         v = sc.velocities.copy()
         v[5] = (1e3, 0.0, 0.0)  # far beyond max_step_fraction per step
-        sc = engine.Scene(sc.positions, sc.radii, 2000.0, velocities=v,
-                          box=sc.box, periodic=sc.periodic, pair_law=ELASTIC)
+        sc = engine.Scene(
+            sc.positions,
+            sc.radii,
+            2000.0,
+            velocities=v,
+            box=sc.box,
+            periodic=sc.periodic,
+            pair_law=ELASTIC,
+        )
         errors = []
         for backend in ("cpu", "cuda"):
             sim = engine.Simulation(sc, backend=backend, dt=1e-5)
@@ -175,14 +222,27 @@ def case(name: str) -> dict:
     else:
         raise SystemExit(f"unknown case {name}")
     out.update(launch="persistent" if gpu._dev.persistent else "passes")
-    out.update(rel=cmp.rel, bit_identical=cmp.bit_identical, contacts=cmp.contacts,
-               wall_contacts=cmp.wall_contacts, rebuilds=list(rb), steps=cpu.steps,
-               features=[k for k, v in gpu.features.items() if v])
+    out.update(
+        rel=cmp.rel,
+        bit_identical=cmp.bit_identical,
+        contacts=cmp.contacts,
+        wall_contacts=cmp.wall_contacts,
+        rebuilds=list(rb),
+        steps=cpu.steps,
+        features=[k for k, v in gpu.features.items() if v],
+    )
     return out
 
 
-CASES = ("bilinear-walls", "periodic-rebuilds", "eepa", "eepa-normal-cap", "hertz-open-box",
-         "determinism", "instability")
+CASES = (
+    "bilinear-walls",
+    "periodic-rebuilds",
+    "eepa",
+    "eepa-normal-cap",
+    "hertz-open-box",
+    "determinism",
+    "instability",
+)
 
 if __name__ == "__main__":
     sys.setswitchinterval(5e-5)  # the simulator's threads hand the GIL over faster

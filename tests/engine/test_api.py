@@ -155,9 +155,16 @@ def test_unwrapped_positions_undo_the_periodic_wraps():
     """A lone particle drifting along a periodic x axis: wrapped into the box, and unwrapped
     at x0 + v t, two box lengths on."""
     length = 0.05
-    scene = engine.Scene([[0.04, 0.01, 0.01]], R, 2000.0, velocities=[[1.0, 0.0, 0.0]],
-                         box=((0, length), (0, 0.02), (0, 0.02)), periodic=(True, False, False),
-                         pair_law=LAW, gravity=(0, 0, 0))
+    scene = engine.Scene(
+        [[0.04, 0.01, 0.01]],
+        R,
+        2000.0,
+        velocities=[[1.0, 0.0, 0.0]],
+        box=((0, length), (0, 0.02), (0, 0.02)),
+        periodic=(True, False, False),
+        pair_law=LAW,
+        gravity=(0, 0, 0),
+    )
     sim = engine.Simulation(scene, dt=1e-4)
     sim.run(1000)  # 0.1 m: two lengths
     x = 0.04 + 1.0 * sim.time

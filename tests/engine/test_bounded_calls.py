@@ -20,15 +20,23 @@ def _scene(platen_speed: float = 0.1) -> engine.Scene:
         200, lengths, 0.8 * R, R, 5, max_overlap=0.05, periodic=(True, True, False)
     )
     rng = np.random.default_rng(5)
-    law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001,
-                                  restitution=0.4)
-    walls = [engine.Plane((0, 0, 0), (0, 0, 1)),
-             engine.Plane((0, 0, 0.03), (0, 0, -1), velocity=(0, 0, -platen_speed))]
-    return engine.Scene(pos, rad, 2000.0, velocities=rng.normal(0, 0.05, pos.shape),
-                        box=[(0, L) for L in lengths], periodic=(True, True, False),
-                        walls=walls, pair_law=law,
-                        wall_law=engine.HertzMindlin(E=1e8, nu=0.25, mu=0.3),
-                        wall_material=engine.WallMaterial())
+    law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001, restitution=0.4)
+    walls = [
+        engine.Plane((0, 0, 0), (0, 0, 1)),
+        engine.Plane((0, 0, 0.03), (0, 0, -1), velocity=(0, 0, -platen_speed)),
+    ]
+    return engine.Scene(
+        pos,
+        rad,
+        2000.0,
+        velocities=rng.normal(0, 0.05, pos.shape),
+        box=[(0, L) for L in lengths],
+        periodic=(True, True, False),
+        walls=walls,
+        pair_law=law,
+        wall_law=engine.HertzMindlin(E=1e8, nu=0.25, mu=0.3),
+        wall_material=engine.WallMaterial(),
+    )
 
 
 class _Every(engine.Simulation):
@@ -100,8 +108,10 @@ def test_a_long_call_returns_to_python_within_call_seconds():
     sim.between_calls = hook
     t0 = time.perf_counter()
     sim.run(100_000)  # seconds of wall time in one run call
-    print(f"{time.perf_counter() - t0:.2f} s, {len(gaps)} returns to Python, longest gap "
-          f"{max(gaps):.3f} s")
+    print(
+        f"{time.perf_counter() - t0:.2f} s, {len(gaps)} returns to Python, longest gap "
+        f"{max(gaps):.3f} s"
+    )
     assert len(gaps) >= 2
     # generous: the bound is about CALL_SECONDS; a loaded CI machine may stretch it
     assert max(gaps[1:]) < 20 * simulation.CALL_SECONDS, gaps

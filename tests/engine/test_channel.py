@@ -19,8 +19,12 @@ def _slow_spec() -> engine.StudySpec:
     # a small time step: each run takes several seconds (about 8 s on 2 cores), long enough
     # to be seen running and stopped
     ref = tiny(dt=4e-7, unconfined=False)
-    return engine.StudySpec(reference=ref, coarse_radii=(3.1e-3,),
-                            rules=(engine.ScalingRule.named("paper"),), reference_seeds=(1,))
+    return engine.StudySpec(
+        reference=ref,
+        coarse_radii=(3.1e-3,),
+        rules=(engine.ScalingRule.named("paper"),),
+        reference_seeds=(1,),
+    )
 
 
 def test_channel_files_round_trip(tmp_path):
@@ -55,8 +59,14 @@ def test_pool_tasks_report_while_running_and_stop_on_request(tmp_path):
     pool = cf.ProcessPoolExecutor(2, mp_context=ctx)
     try:
         with pytest.raises(engine.StopRequested):
-            engine.run_study(spec, progress=progress, executor=pool, channel=ch,
-                             poll_interval=0.2, on_run=lambda k, r: finished.append(k))
+            engine.run_study(
+                spec,
+                progress=progress,
+                executor=pool,
+                channel=ch,
+                poll_interval=0.2,
+                on_run=lambda k, r: finished.append(k),
+            )
         t_stop = time.monotonic()
         assert ch.stop_requested()
         pool.shutdown(wait=True)  # returns when both running tasks have stopped
@@ -71,15 +81,21 @@ def test_pool_tasks_report_while_running_and_stop_on_request(tmp_path):
 
 @pytest.mark.slow
 def test_pool_with_channel_gives_the_sequential_table(tmp_path):
-    spec = engine.StudySpec(reference=tiny(unconfined=False), coarse_radii=(3.1e-3,),
-                            rules=(engine.ScalingRule.named("paper"),), reference_seeds=(1, 2))
+    spec = engine.StudySpec(
+        reference=tiny(unconfined=False),
+        coarse_radii=(3.1e-3,),
+        rules=(engine.ScalingRule.named("paper"),),
+        reference_seeds=(1, 2),
+    )
     seq = engine.run_study(spec)
     with cf.ProcessPoolExecutor(2, mp_context=mp.get_context("spawn")) as pool:
-        par = engine.run_study(spec, executor=pool, channel=engine.FileChannel(tmp_path / "c"),
-                               poll_interval=0.1)
+        par = engine.run_study(
+            spec, executor=pool, channel=engine.FileChannel(tmp_path / "c"), poll_interval=0.1
+        )
 
     def table(r):
-        return [{k: v for k, v in row.items() if k not in ("wall_time", "speedup")}
-                for row in r.table]
+        return [
+            {k: v for k, v in row.items() if k not in ("wall_time", "speedup")} for row in r.table
+        ]
 
     assert table(par) == table(seq)

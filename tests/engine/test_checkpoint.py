@@ -79,8 +79,9 @@ def test_a_simulation_pickled_mid_run_goes_on_bit_identically(cohesive_test):
 
 
 @pytest.mark.parametrize("kills", [(3,), (40, 80, 130)])
-def test_a_run_killed_and_resumed_gives_the_same_curves(tmp_path, cohesive_test, uninterrupted,
-                                                        kills):
+def test_a_run_killed_and_resumed_gives_the_same_curves(
+    tmp_path, cohesive_test, uninterrupted, kills
+):
     """Killed after the k-th checkpoint of each attempt (every sample is checkpointed), in
     different stages, then resumed until it finishes."""
     path = tmp_path / "run.ckpt"
@@ -122,8 +123,9 @@ def test_progress_never_goes_back_across_a_resume(tmp_path, cohesive_test):
     with pytest.raises(Killed):
         engine.run_uniaxial(cohesive_test, progress=stop, checkpoint=ck)
     after = []
-    engine.run_uniaxial(cohesive_test, progress=lambda p: after.append(p.fraction),
-                        checkpoint=Checkpoint(path))
+    engine.run_uniaxial(
+        cohesive_test, progress=lambda p: after.append(p.fraction), checkpoint=Checkpoint(path)
+    )
     assert after[0] >= before[-2]  # resumed where the last checkpoint was
     assert all(b >= a for a, b in itertools.pairwise(after))
     assert after[-1] == 1.0
@@ -179,13 +181,19 @@ _CHILD = textwrap.dedent("""
 """)
 
 
-def test_a_process_killed_with_sigkill_resumes_bit_identically(tmp_path, cohesive_test,
-                                                                 uninterrupted):
+def test_a_process_killed_with_sigkill_resumes_bit_identically(
+    tmp_path, cohesive_test, uninterrupted
+):
     """The real thing: a process SIGKILLed mid-stage after some checkpoints, resumed here."""
     path = tmp_path / "run.ckpt"
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    child = subprocess.Popen([sys.executable, "-c", _CHILD, str(path)], cwd=ROOT, env=env,
-                             stdout=subprocess.PIPE, text=True)
+    child = subprocess.Popen(
+        [sys.executable, "-c", _CHILD, str(path)],
+        cwd=ROOT,
+        env=env,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     stage = None
     deadline = time.monotonic() + 240
     try:
@@ -206,6 +214,7 @@ def test_a_process_killed_with_sigkill_resumes_bit_identically(tmp_path, cohesiv
     assert ck.resumed_steps > 0
     same_result(uninterrupted, res)
     assert res.stages["fill"].snapshot is not None  # stage-end snapshots survive the resume
-    np.testing.assert_array_equal(res.stages["fill"].snapshot.positions,
-                                  uninterrupted.stages["fill"].snapshot.positions)
+    np.testing.assert_array_equal(
+        res.stages["fill"].snapshot.positions, uninterrupted.stages["fill"].snapshot.positions
+    )
     assert set(res.stages) == set(STAGES)

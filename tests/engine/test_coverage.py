@@ -39,8 +39,18 @@ def _new_rule(name, values, ref, tol):
     return advisor.judge_metric(name, values, ref, tol, CONS, alpha_e, alpha_d)["verdict"]
 
 
-def _rates(rule, n_ref, n_coarse, true_error, spread_ratio, sd=0.1, n=N, seed=0,
-           name="loading_stiffness", tol=TOL):
+def _rates(
+    rule,
+    n_ref,
+    n_coarse,
+    true_error,
+    spread_ratio,
+    sd=0.1,
+    n=N,
+    seed=0,
+    name="loading_stiffness",
+    tol=TOL,
+):
     """Fractions of studies called equivalent and differs, for a scalar metric with
     reference mean 1, reference spread ``sd`` and coarse spread ``spread_ratio * sd``."""
     rng = np.random.default_rng(seed)
@@ -77,8 +87,10 @@ def test_differs_keeps_its_rate_when_the_tolerance_is_small_against_the_noise():
 
 
 def test_the_old_factor_two_fails_the_same_test():
-    worst = max(max(_rates(_old_rule, nr, nc, TOL, k, seed=nr * 100 + nc))
-                for nr, nc, k in [(2, 12, 1.0), (12, 2, 3.0)])
+    worst = max(
+        max(_rates(_old_rule, nr, nc, TOL, k, seed=nr * 100 + nc))
+        for nr, nc, k in [(2, 12, 1.0), (12, 2, 3.0)]
+    )
     assert worst > BOUND
 
 
@@ -107,14 +119,22 @@ def _curve_rates(true_error, n_ref, n_coarse, n=300, seed=0):
     shape[levels // 3] = true_error
     eq = di = 0
     for _ in range(n):
+
         def draw(k, rel):
-            return [{"density": base * (1 + rel) * (1 + rng.normal(0, 0.01)
-                                                    + rng.normal(0, 0.004, levels))}
-                    for _ in range(k)]
+            return [
+                {
+                    "density": base
+                    * (1 + rel)
+                    * (1 + rng.normal(0, 0.01) + rng.normal(0, 0.004, levels))
+                }
+                for _ in range(k)
+            ]
+
         ref = advisor.noise_floor(draw(n_ref, 0.0), ["density"], CONS)["density"]
         ae, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
-        v = advisor.judge_metric("density", draw(n_coarse, shape), ref, 0.03, CONS, ae,
-                                 ad)["verdict"]
+        v = advisor.judge_metric("density", draw(n_coarse, shape), ref, 0.03, CONS, ae, ad)[
+            "verdict"
+        ]
         eq += v == "equivalent"
         di += v == "differs"
     return eq / n, di / n
@@ -141,9 +161,16 @@ def _adaptive_rates(true_error, spread_ratio, n=N, seed=0, sd=0.1, peek_free=Fal
     from engine.adaptive import next_runs
 
     name = "loading_stiffness"
-    spec = SimpleNamespace(reference=SimpleNamespace(consolidation_stress=CONS),
-                           tolerances={name: TOL}, confidence=advisor.CONFIDENCE, decide=True,
-                           max_seeds=10, max_reference_seeds=5, rounds=3, budget=None)
+    spec = SimpleNamespace(
+        reference=SimpleNamespace(consolidation_stress=CONS),
+        tolerances={name: TOL},
+        confidence=advisor.CONFIDENCE,
+        decide=True,
+        max_seeds=10,
+        max_reference_seeds=5,
+        rounds=3,
+        budget=None,
+    )
     spec.looks = 1 if peek_free else spec.rounds + 1
     rng = np.random.default_rng(seed)
     key = (5e-3, "rule")
@@ -151,11 +178,9 @@ def _adaptive_rates(true_error, spread_ratio, n=N, seed=0, sd=0.1, peek_free=Fal
     eq = di = 0
     for _ in range(n):
         refs = [{name: np.array([x])} for x in rng.normal(1.0, sd, 3)]
-        coarse = [{name: np.array([x])} for x in rng.normal(1 + true_error, spread_ratio * sd,
-                                                            2)]
+        coarse = [{name: np.array([x])} for x in rng.normal(1 + true_error, spread_ratio * sd, 2)]
         for round_no in range(1, spec.rounds + 2):
-            _, verdicts = advisor.judge_groups(spec, refs, {key: coarse}, [name],
-                                               looks=spec.looks)
+            _, verdicts = advisor.judge_groups(spec, refs, {key: coarse}, [name], looks=spec.looks)
             v = verdicts[0]["verdict"]
             if v != "undecided" or round_no > spec.rounds:
                 break
@@ -166,8 +191,7 @@ def _adaptive_rates(true_error, spread_ratio, n=N, seed=0, sd=0.1, peek_free=Fal
                 if a.kind == "reference":
                     refs.append({name: np.array([rng.normal(1.0, sd)])})
                 else:
-                    coarse.append({name: np.array([rng.normal(1 + true_error,
-                                                              spread_ratio * sd)])})
+                    coarse.append({name: np.array([rng.normal(1 + true_error, spread_ratio * sd)])})
         eq += v == "equivalent"
         di += v == "differs"
     return eq / n, di / n

@@ -21,26 +21,37 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 HAS_NUMBA_CUDA = importlib.util.find_spec("numba_cuda") is not None
 needs_numba_cuda = pytest.mark.skipif(
-    not HAS_NUMBA_CUDA, reason="numba-cuda is not installed (pip install 'demscale[gpu]')")
+    not HAS_NUMBA_CUDA, reason="numba-cuda is not installed (pip install 'demscale[gpu]')"
+)
 #: the tolerance of issue 21: float64, relative to each quantity's largest magnitude
 REL = 1e-12
 
 
-def _python(code_or_args: list[str], simulator: bool, timeout: float = 240.0,
-            extra_env: dict | None = None) -> subprocess.CompletedProcess:
+def _python(
+    code_or_args: list[str], simulator: bool, timeout: float = 240.0, extra_env: dict | None = None
+) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     env.pop("NUMBA_ENABLE_CUDASIM", None)
     env.pop("DEMSCALE_BACKEND", None)
     if simulator:
         env["NUMBA_ENABLE_CUDASIM"] = "1"
     env.update(extra_env or {})
-    return subprocess.run([sys.executable, *code_or_args], cwd=ROOT, env=env,
-                          capture_output=True, text=True, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, *code_or_args],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
 
 
 def _case(name: str, launch: str = "persistent") -> dict:
-    proc = _python(["-m", "tests.engine.cuda_cases", name], simulator=True,
-                   extra_env={"DEMSCALE_CUDA_LAUNCH": launch})
+    proc = _python(
+        ["-m", "tests.engine.cuda_cases", name],
+        simulator=True,
+        extra_env={"DEMSCALE_CUDA_LAUNCH": launch},
+    )
     assert proc.returncode == 0, proc.stderr[-4000:]
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
@@ -146,7 +157,9 @@ class Block(importlib.abc.MetaPathFinder):
 sys.meta_path.insert(0, Block())
 """
 
-WITHOUT_GPU = BLOCK_NUMBA_CUDA + """
+WITHOUT_GPU = (
+    BLOCK_NUMBA_CUDA
+    + """
 import numpy as np, engine
 sc = engine.Scene(np.array([[0.01, 0.01, 0.01], [0.02, 0.01, 0.01]]), np.full(2, 2.5e-3),
                   2000.0, box=[(0, 0.03)] * 3, pair_law=engine.BilinearAdhesive(k1=5e3, k2=5e3))
@@ -159,6 +172,7 @@ except engine.ParameterError as e:
     print("cuda:", e.field, "|", e)
 print("imported:", sorted(m for m in sys.modules if m.startswith('numba.cuda')))
 """
+)
 
 
 def test_without_numba_cuda_auto_takes_the_cpu_and_cuda_names_the_field():
@@ -172,8 +186,10 @@ def test_without_numba_cuda_auto_takes_the_cpu_and_cuda_names_the_field():
 
 @needs_numba_cuda
 def test_import_engine_does_not_import_numba_cuda():
-    code = ("import sys, engine, engine.study, engine.uniaxial; "
-            "print(sorted(m for m in sys.modules if m.startswith('numba.cuda')))")
+    code = (
+        "import sys, engine, engine.study, engine.uniaxial; "
+        "print(sorted(m for m in sys.modules if m.startswith('numba.cuda')))"
+    )
     proc = _python(["-c", code], simulator=False)
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert proc.stdout.strip() == "[]"

@@ -17,21 +17,31 @@ distributed = pytest.importorskip("distributed")
 
 
 def _spec(**kw):
-    return engine.StudySpec(reference=tiny(pair_law=COHESIVE, **kw), coarse_radii=(3.1e-3,),
-                            rules=(engine.ScalingRule.named("paper"),),
-                            reference_seeds=(1, 2), seeds=(1,))
+    return engine.StudySpec(
+        reference=tiny(pair_law=COHESIVE, **kw),
+        coarse_radii=(3.1e-3,),
+        rules=(engine.ScalingRule.named("paper"),),
+        reference_seeds=(1, 2),
+        seeds=(1,),
+    )
 
 
 def _table(res):
-    return [{k: v for k, v in r.items() if k not in ("wall_time", "speedup")}
-            for r in res.table]
+    return [{k: v for k, v in r.items() if k not in ("wall_time", "speedup")} for r in res.table]
 
 
 @pytest.fixture(scope="module")
 def cluster():
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None, worker_class=distributed.Nanny
-                                  ) as c, distributed.Client(c) as client:
+    with (
+        distributed.LocalCluster(
+            n_workers=2,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            worker_class=distributed.Nanny,
+        ) as c,
+        distributed.Client(c) as client,
+    ):
         yield c, client
 
 
@@ -43,6 +53,7 @@ def test_dask_cluster_gives_the_in_process_table(cluster):
     here = engine.run_study(spec)
     there = engine.run_study(spec, executor=client.get_executor())
     assert _table(there) == _table(here)
+
     def verdicts(r):
         return [{k: v for k, v in x.items() if k != "speedup"} for x in r.advisor["verdicts"]]
 
@@ -57,8 +68,11 @@ def test_a_dask_worker_killed_mid_run_costs_a_retry_not_the_study(cluster):
     seen = []
     executor = client.get_executor()
     result = {}
-    t = threading.Thread(target=lambda: result.setdefault(
-        "study", engine.run_study(spec, executor=executor, on_run=lambda k, r: seen.append(k))))
+    t = threading.Thread(
+        target=lambda: result.setdefault(
+            "study", engine.run_study(spec, executor=executor, on_run=lambda k, r: seen.append(k))
+        )
+    )
     t.start()
     # wait until both workers are busy with a run, then kill one of them
     deadline = time.monotonic() + 120

@@ -24,8 +24,7 @@ K1, K2, F0, KADH = 5e5, 2.5e6, -0.4, 1e4  # N/m^1.5, N/m^1.5, N, N/m^1.25
 
 
 def _law(**kw) -> engine.EEPA:
-    base = dict(k1=K1, k2=K2, f0=F0, kadh=KADH, n=N, chi=CHI, mu_s=0.5, mu_r=0.0,
-                restitution=1.0)
+    base = dict(k1=K1, k2=K2, f0=F0, kadh=KADH, n=N, chi=CHI, mu_s=0.5, mu_r=0.0, restitution=1.0)
     return engine.EEPA(**{**base, **kw})
 
 
@@ -81,8 +80,10 @@ def test_n_and_chi_of_one_is_the_bilinear_law_to_the_last_bit(case):
     from tests.engine.test_kernels import CASES, _trajectory
 
     bilinear, wall_law, gravity = CASES[case]
-    fields = {k: getattr(bilinear, k) for k in ("k1", "k2", "f0", "kadh", "kt_ratio", "mu_s",
-                                                "mu_r", "restitution")}
+    fields = {
+        k: getattr(bilinear, k)
+        for k in ("k1", "k2", "f0", "kadh", "kt_ratio", "mu_s", "mu_r", "restitution")
+    }
     eepa = engine.EEPA(n=1.0, chi=1.0, **fields)
     a, contacts = _trajectory(_bed(bilinear, wall_law, gravity))
     b, _ = _trajectory(_bed(eepa, wall_law, gravity))
@@ -181,8 +182,26 @@ def _contact(flags, f_el_case):
     dmax = 2e-4 if f_el_case == "plateau" else d
     law = laws.ContactLaw(K1, K2, F0, 0.0, 2 / 7 * K1, 0.0, 0.5, 0.0, N, 1.0)
     fn, _, ftx, fty, ftz, *_ = laws.contact_force(
-        d, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, dmax, 0.0, 0.0, 0.0, R / 2, M / 2,
-        law, flags, 1e-3)
+        d,
+        1.0,
+        0.0,
+        0.0,
+        0.0,
+        1.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        dmax,
+        0.0,
+        0.0,
+        0.0,
+        R / 2,
+        M / 2,
+        law,
+        flags,
+        1e-3,
+    )
     return fn, math.sqrt(ftx * ftx + fty * fty + ftz * ftz)
 
 
@@ -213,10 +232,16 @@ def test_features_and_slots():
     assert arr[-3] == N and arr[-2] == CHI and np.isnan(arr[-1])
 
 
-@pytest.mark.parametrize("field,value,limit", [
-    ("n", 0.5, "in [1, 3]"), ("chi", 3.5, "in [1, 3]"), ("k2", 1e5, ">= k1"), ("f0", 0.1, "<= 0"),
-    ("friction_cap", "coulomb", "adhesive"),
-])
+@pytest.mark.parametrize(
+    "field,value,limit",
+    [
+        ("n", 0.5, "in [1, 3]"),
+        ("chi", 3.5, "in [1, 3]"),
+        ("k2", 1e5, ">= k1"),
+        ("f0", 0.1, "<= 0"),
+        ("friction_cap", "coulomb", "adhesive"),
+    ],
+)
 def test_bad_parameters_name_the_field_and_the_limit(field, value, limit):
     with pytest.raises(engine.ParameterError) as err:
         _law(**{field: value})
@@ -243,10 +268,12 @@ def test_similarity_scaling_keeps_every_branch_stress_similar(s):
     big = np.empty(path.size)
     dmax = dmax_s = 0.0
     for i, d in enumerate(path):
-        ref[i], _, _, dmax = laws.eepa_normal_force(d, dmax, law.k1, law.k2, law.f0, law.kadh,
-                                                    N, CHI)
-        big[i], _, _, dmax_s = laws.eepa_normal_force(s * d, dmax_s, scaled.k1, scaled.k2,
-                                                      scaled.f0, scaled.kadh, N, CHI)
+        ref[i], _, _, dmax = laws.eepa_normal_force(
+            d, dmax, law.k1, law.k2, law.f0, law.kadh, N, CHI
+        )
+        big[i], _, _, dmax_s = laws.eepa_normal_force(
+            s * d, dmax_s, scaled.k1, scaled.k2, scaled.f0, scaled.kadh, N, CHI
+        )
     np.testing.assert_allclose(big, s * s * ref, rtol=1e-12)
     # the seed's linear rule does not: K ~ s gives s^(1+n) on the loading branch
     lin = law.scaled(s, 1.0, 2.0)
@@ -258,9 +285,11 @@ def test_study_test_and_result_files_accept_the_law(tmp_path):
     ref = engine.preset("quick", pair_law=_law(kadh=0.0, restitution=0.4))
     again = engine.UniaxialTest.from_dict(json.loads(json.dumps(ref.to_dict())))
     assert again == ref and isinstance(again.pair_law, engine.EEPA)
-    spec = engine.StudySpec(reference=ref, coarse_radii=(3.75e-3,),
-                            rules=(engine.ScalingRule.named("similarity"),
-                                   engine.ScalingRule.named("paper")))
+    spec = engine.StudySpec(
+        reference=ref,
+        coarse_radii=(3.75e-3,),
+        rules=(engine.ScalingRule.named("similarity"), engine.ScalingRule.named("paper")),
+    )
     assert engine.StudySpec.from_dict(json.loads(json.dumps(spec.to_dict()))) == spec
     runs = {p.key: p for p in spec.planned_runs()}
     s = 1.5

@@ -18,8 +18,9 @@ def _errors():
     return [
         ParameterError("BilinearAdhesive.k2", 1.0, ">= k1", "unloading stiffer than loading"),
         StabilityError("dt too large", dt=1e-5, limit=2e-6),
-        InstabilityError("overlap 0.5 R", step=10116, time=0.10116, particles=(1054, 1525),
-                         reason="overlap"),
+        InstabilityError(
+            "overlap 0.5 R", step=10116, time=0.10116, particles=(1054, 1525), reason="overlap"
+        ),
         StageError("fill did not settle", "fill", 400_000),
         RunFailed("r3.75mm-b3-s1", "InstabilityError: overlap 0.5 R"),
         StopRequested("stopped"),

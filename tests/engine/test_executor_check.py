@@ -13,10 +13,14 @@ import engine
 from engine.study import check_executor
 
 TINY = {
-    "reference": {"cell": [0.015, 0.015, 0.03], "output_interval": 1e-3,
-                  "platen_speed": 0.02, "unconfined": False, "dt": 3e-5,
-                  "pair_law": {"type": "BilinearAdhesive", "k1": 5e3, "k2": 2.5e4,
-                               "f0": -0.05}},
+    "reference": {
+        "cell": [0.015, 0.015, 0.03],
+        "output_interval": 1e-3,
+        "platen_speed": 0.02,
+        "unconfined": False,
+        "dt": 3e-5,
+        "pair_law": {"type": "BilinearAdhesive", "k1": 5e3, "k2": 2.5e4, "f0": -0.05},
+    },
     "coarse_radii": [3.1e-3],
     "rules": ["paper"],
 }
@@ -41,8 +45,10 @@ def test_spawn_forkserver_threads_and_none_are_accepted():
         check_executor(pool)
 
 
-@pytest.mark.skipif(mp.get_start_method(allow_none=False) != "fork",
-                    reason="the default start method here does not fork")
+@pytest.mark.skipif(
+    mp.get_start_method(allow_none=False) != "fork",
+    reason="the default start method here does not fork",
+)
 def test_the_default_pool_on_this_platform_is_refused():
     with cf.ProcessPoolExecutor(1) as pool, pytest.raises(ValueError, match="forks"):
         check_executor(pool)

@@ -49,5 +49,4 @@ def test_control_has_the_coarse_bed_in_diameters(tests_):
     assert ref.n_particles / ctrl.n_particles == pytest.approx(8, rel=0.01)
     # the same strain rate (speed / cell height) as the reference and the coarse run
     assert ctrl.platen_speed / ctrl.cell[2] == pytest.approx(ref.platen_speed / ref.cell[2])
-    assert ctrl.platen_speed / ctrl.cell[2] == pytest.approx(
-        coarse.platen_speed / coarse.cell[2])
+    assert ctrl.platen_speed / ctrl.cell[2] == pytest.approx(coarse.platen_speed / coarse.cell[2])

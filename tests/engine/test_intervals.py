@@ -10,14 +10,17 @@ import pytest
 from engine import intervals as iv
 
 
-@pytest.mark.parametrize(("p", "df", "t"), [
-    (0.975, 1, 12.706204736174698),  # closed form: tan(pi (p - 1/2))
-    (0.95, 2, 2.919985580353726),    # closed form: (2p - 1) / sqrt(2 p (1 - p))
-    (0.975, 10, 2.228138851986274),
-    (0.99, 5, 3.364929998907217),
-    (0.995, 30, 2.749995653567),
-    (0.95, math.inf, 1.6448536269514722),
-])
+@pytest.mark.parametrize(
+    ("p", "df", "t"),
+    [
+        (0.975, 1, 12.706204736174698),  # closed form: tan(pi (p - 1/2))
+        (0.95, 2, 2.919985580353726),  # closed form: (2p - 1) / sqrt(2 p (1 - p))
+        (0.975, 10, 2.228138851986274),
+        (0.99, 5, 3.364929998907217),
+        (0.995, 30, 2.749995653567),
+        (0.95, math.inf, 1.6448536269514722),
+    ],
+)
 def test_quantiles_match_tables(p, df, t):
     assert iv.t_quantile(p, df) == pytest.approx(t, rel=1e-9)
     assert iv.t_cdf(t, df) == pytest.approx(p, rel=1e-12)
@@ -26,8 +29,9 @@ def test_quantiles_match_tables(p, df, t):
 def test_closed_forms_for_one_and_two_degrees_of_freedom():
     for p in (0.6, 0.9, 0.99, 0.9999):
         assert iv.t_quantile(p, 1) == pytest.approx(math.tan(math.pi * (p - 0.5)), rel=1e-9)
-        assert iv.t_quantile(p, 2) == pytest.approx((2 * p - 1) / math.sqrt(2 * p * (1 - p)),
-                                                    rel=1e-9)
+        assert iv.t_quantile(p, 2) == pytest.approx(
+            (2 * p - 1) / math.sqrt(2 * p * (1 - p)), rel=1e-9
+        )
     assert iv.t_quantile(0.1, 3) == pytest.approx(-iv.t_quantile(0.9, 3))
 
 

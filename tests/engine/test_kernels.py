@@ -69,18 +69,35 @@ def _trajectory(scene, monkeypatch=None):
 
 HERTZ_WALL = engine.HertzMindlin(E=1e8, nu=0.25, restitution=0.5, mu=0.3, mu_r=0.002)
 CASES = {
-    "plain": (engine.BilinearAdhesive(k1=5e3, k2=5e3, mu_s=0, mu_r=0, restitution=1), None,
-              (0.0, 0.0, 0.0)),
-    "full": (engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.2, kadh=1e3, mu_s=0.5, mu_r=0.002,
-                                     restitution=0.4), HERTZ_WALL, (0.0, 0.0, -9.81)),
-    "friction-only": (engine.BilinearAdhesive(k1=5e3, k2=2.5e4, mu_s=0.5, mu_r=0,
-                                              restitution=1), engine.HertzMindlin(
-        E=1e8, nu=0.25, restitution=1.0, mu=0.0), (0.0, 0.0, -9.81)),
-    "adhesive-elastic": (engine.BilinearAdhesive(k1=5e3, k2=5e3, f0=-0.2, kadh=2e3, mu_s=0.4,
-                                                 mu_r=0, restitution=0.6), None,
-                         (0.0, 0.0, 0.0)),
-    "hertz": (engine.HertzMindlin(E=5e7, nu=0.25, restitution=0.5, mu=0.3, mu_r=0.0),
-              engine.HertzMindlin(E=1e8, nu=0.25, restitution=1.0, mu=0.3), (0.0, 0.0, -9.81)),
+    "plain": (
+        engine.BilinearAdhesive(k1=5e3, k2=5e3, mu_s=0, mu_r=0, restitution=1),
+        None,
+        (0.0, 0.0, 0.0),
+    ),
+    "full": (
+        engine.BilinearAdhesive(
+            k1=5e3, k2=2.5e4, f0=-0.2, kadh=1e3, mu_s=0.5, mu_r=0.002, restitution=0.4
+        ),
+        HERTZ_WALL,
+        (0.0, 0.0, -9.81),
+    ),
+    "friction-only": (
+        engine.BilinearAdhesive(k1=5e3, k2=2.5e4, mu_s=0.5, mu_r=0, restitution=1),
+        engine.HertzMindlin(E=1e8, nu=0.25, restitution=1.0, mu=0.0),
+        (0.0, 0.0, -9.81),
+    ),
+    "adhesive-elastic": (
+        engine.BilinearAdhesive(
+            k1=5e3, k2=5e3, f0=-0.2, kadh=2e3, mu_s=0.4, mu_r=0, restitution=0.6
+        ),
+        None,
+        (0.0, 0.0, 0.0),
+    ),
+    "hertz": (
+        engine.HertzMindlin(E=5e7, nu=0.25, restitution=0.5, mu=0.3, mu_r=0.0),
+        engine.HertzMindlin(E=1e8, nu=0.25, restitution=1.0, mu=0.3),
+        (0.0, 0.0, -9.81),
+    ),
 }
 
 
@@ -98,8 +115,7 @@ def test_all_features_kernel_with_neutral_parameters_is_bit_identical(case, monk
         # bit-identical: the same doubles (an addition of a signed zero may flip the sign
         # of a zero, which compares equal)
         np.testing.assert_array_equal(a, b, err_msg=name)
-    np.testing.assert_array_equal(special.contacts().max_overlaps,
-                                  general.contacts().max_overlaps)
+    np.testing.assert_array_equal(special.contacts().max_overlaps, general.contacts().max_overlaps)
 
 
 def test_parameter_slots_follow_the_features():

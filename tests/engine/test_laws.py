@@ -83,14 +83,27 @@ def test_scalar_kernel_matches_naive_on_random_paths(kadh):
         assert dmax_k == dmax_n
 
 
-BILINEAR_FLAGS = laws.LawFlags(hertz=False, plastic=True, friction=True, damping=False,
-                               rolling=False)
+BILINEAR_FLAGS = laws.LawFlags(
+    hertz=False, plastic=True, friction=True, damping=False, rolling=False
+)
 
 
-def _bilinear_contact(d, dmax, xi, v, kadh=0.0, k2=K2, n=(1.0, 0.0, 0.0), spin=(0.0, 0.0, 0.0),
-                      zeta=0.0, m_eff=1e-4, dt=1e-5):
-    law = laws.ContactLaw(k_n=K1, k_unload=k2, f0=F0, kadh=kadh, k_t=2 / 7 * K1, zeta=zeta,
-                          mu_s=0.5, mu_r=0.0)
+def _bilinear_contact(
+    d,
+    dmax,
+    xi,
+    v,
+    kadh=0.0,
+    k2=K2,
+    n=(1.0, 0.0, 0.0),
+    spin=(0.0, 0.0, 0.0),
+    zeta=0.0,
+    m_eff=1e-4,
+    dt=1e-5,
+):
+    law = laws.ContactLaw(
+        k_n=K1, k_unload=k2, f0=F0, kadh=kadh, k_t=2 / 7 * K1, zeta=zeta, mu_s=0.5, mu_r=0.0
+    )
     flags = BILINEAR_FLAGS._replace(plastic=k2 > K1, damping=zeta > 0)
     return laws.contact_force(d, *n, *v, *spin, dmax, *xi, 0.0, m_eff, law, flags, dt)
 
@@ -141,11 +154,11 @@ def test_tangential_force_stays_in_the_tangent_plane(hertz):
         xi = np.cross(n, rng.normal(0, 1e-5, 3))  # a spring already in the tangent plane
         d = 1e-4
         if hertz:
-            law = laws.ContactLaw(k_n=5e7, k_unload=0.0, f0=0.0, kadh=0.0, k_t=2e7, zeta=0.0,
-                                  mu_s=0.3, mu_r=0.0)
+            law = laws.ContactLaw(
+                k_n=5e7, k_unload=0.0, f0=0.0, kadh=0.0, k_t=2e7, zeta=0.0, mu_s=0.3, mu_r=0.0
+            )
             flags = laws.LawFlags(True, False, True, False, False)
-            out = laws.contact_force(d, *n, *v, *spin, 0.0, *xi, 1.25e-3, 1e-4, law, flags,
-                                     1e-6)
+            out = laws.contact_force(d, *n, *v, *spin, 0.0, *xi, 1.25e-3, 1e-4, law, flags, 1e-6)
             f_el = naive.hertz_force(d, 5e7, 1.25e-3)
         else:
             d = 1.4e-4  # unloading branch above the plastic overlap: f_el > f0
@@ -166,8 +179,9 @@ def test_tangential_force_stays_in_the_tangent_plane(hertz):
             np.testing.assert_allclose(ft, -kt * trial, rtol=1e-9, atol=1e-15)
         else:
             assert np.linalg.norm(ft) == pytest.approx(cap, rel=1e-12)
-            np.testing.assert_allclose(ft / cap, -trial / np.linalg.norm(trial), rtol=1e-9,
-                                       atol=1e-12)
+            np.testing.assert_allclose(
+                ft / cap, -trial / np.linalg.norm(trial), rtol=1e-9, atol=1e-12
+            )
 
 
 def test_tangential_spring_turns_with_the_contact():
@@ -202,11 +216,13 @@ def test_hertz_normal_force_and_stiffness():
 
 
 def test_hertz_contact_friction_cap():
-    law = laws.ContactLaw(k_n=5e7, k_unload=0.0, f0=0.0, kadh=0.0, k_t=2e7, zeta=0.0, mu_s=0.3,
-                          mu_r=0.0)
+    law = laws.ContactLaw(
+        k_n=5e7, k_unload=0.0, f0=0.0, kadh=0.0, k_t=2e7, zeta=0.0, mu_s=0.3, mu_r=0.0
+    )
     flags = laws.LawFlags(hertz=True, plastic=False, friction=True, damping=False, rolling=False)
-    out = laws.contact_force(1e-5, 0, 0, 1, 0.5, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2.5e-3, 1e-4, law,
-                             flags, 1e-5)
+    out = laws.contact_force(
+        1e-5, 0, 0, 1, 0.5, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2.5e-3, 1e-4, law, flags, 1e-5
+    )
     f_el = out[1]
     assert f_el == pytest.approx(naive.hertz_force(1e-5, 5e7, 2.5e-3), rel=1e-12)
     assert math.hypot(*out[2:5]) == pytest.approx(0.3 * f_el, rel=1e-12)

@@ -16,8 +16,7 @@ from benchmarks import liggghts_eepa as lig
 def _fixes(deck: str) -> dict[str, str]:
     """property/global name -> its value(s) as written in the deck."""
     out = {}
-    for m in re.finditer(r"^fix\s+\S+\s+all\s+property/global\s+(\S+)\s+(\S+)\s+(.*)$", deck,
-                         re.M):
+    for m in re.finditer(r"^fix\s+\S+\s+all\s+property/global\s+(\S+)\s+(\S+)\s+(.*)$", deck, re.M):
         name, style, rest = m.groups()
         vals = rest.split()
         out[name] = vals[-1]
@@ -44,13 +43,23 @@ def test_deck_carries_the_case_parameters_in_liggghts_units(key):
     assert float(p["youngsModulus"]) == lig.WALL_E
     assert float(p["poissonsRatio"]) == lig.WALL_NU
     assert "fixKc on" not in deck
-    assert re.search(r"^pair_style\s+gran model edinburgh/stiffness tangential history "
-                     r"rolling_friction cdt\s*$", deck, re.M)
+    assert re.search(
+        r"^pair_style\s+gran model edinburgh/stiffness tangential history "
+        r"rolling_friction cdt\s*$",
+        deck,
+        re.M,
+    )
     assert deck.count("wall/gran model hertz") == 2  # both platens Hertz, as in demscale
     # the same law in demscale
     law = case.eepa()
     assert (law.k1, law.k2, law.n, law.chi, law.f0, law.kadh) == (
-        case.k1, case.k2, case.n, case.chi, case.f0, 0.0)
+        case.k1,
+        case.k2,
+        case.n,
+        case.chi,
+        case.f0,
+        0.0,
+    )
 
 
 def test_deck_protocol_skin_and_platen_motion():
@@ -62,11 +71,15 @@ def test_deck_protocol_skin_and_platen_motion():
     assert re.search(rf"^timestep\s+{lig.DT!r}$", deck, re.M)
     assert lig.CASES["2"].steps == (lig.NEQUIL, lig.NSTEPS, lig.EVERY, lig.WINDOW)
     assert re.search(rf"^run\s+{lig.NEQUIL + lig.NSTEPS}$", deck, re.M)  # one run: one setup
-    assert re.search(rf"^variable\s+vz equal -{lig.PLATEN_SPEED!r}\*\(step>{lig.NEQUIL}\)$",
-                     deck, re.M)
+    assert re.search(
+        rf"^variable\s+vz equal -{lig.PLATEN_SPEED!r}\*\(step>{lig.NEQUIL}\)$", deck, re.M
+    )
     assert re.search(r"scale 0\.05 &\n\s+move 0\.0 0\.0 0\.0873$", deck, re.M)
-    assert re.search(rf"ave/time {lig.EVERY} {lig.WINDOW // lig.EVERY} {lig.WINDOW} "
-                     r"f_topmesh\[3\]", deck)
+    assert re.search(
+        rf"ave/time {lig.EVERY} {lig.WINDOW // lig.EVERY} {lig.WINDOW} "
+        r"f_topmesh\[3\]",
+        deck,
+    )
     assert "fix             grav all gravity 9.81 vector 0.0 0.0 -1.0" in deck
 
 
@@ -76,8 +89,7 @@ def test_a_smaller_time_step_keeps_the_protocol_times():
     deck = lig.deck(case, top=0.0873)
     assert re.search(r"^timestep\s+5e-06$", deck, re.M)
     assert re.search(rf"^run\s+{2 * (lig.NEQUIL + lig.NSTEPS)}$", deck, re.M)
-    assert re.search(rf"ave/time {2 * lig.EVERY} {lig.WINDOW // lig.EVERY} {2 * lig.WINDOW} ",
-                     deck)
+    assert re.search(rf"ave/time {2 * lig.EVERY} {lig.WINDOW // lig.EVERY} {2 * lig.WINDOW} ", deck)
     assert re.search(rf"step>{2 * lig.NEQUIL}\)$", deck, re.M)
 
 

@@ -40,8 +40,14 @@ def _pair(law, vn0: float, vt0: float) -> engine.Scene:
     particle 0 against particle 1 (approaching along x, sliding along y)."""
     x = R + 0.5e-6
     vel = np.array([[0.5 * vn0, 0.5 * vt0, 0.0], [-0.5 * vn0, -0.5 * vt0, 0.0]])
-    return engine.Scene(np.array([[-x, 0.0, 0.0], [x, 0.0, 0.0]]), R, RHO, velocities=vel,
-                        gravity=(0, 0, 0), pair_law=law)
+    return engine.Scene(
+        np.array([[-x, 0.0, 0.0], [x, 0.0, 0.0]]),
+        R,
+        RHO,
+        velocities=vel,
+        gravity=(0, 0, 0),
+        pair_law=law,
+    )
 
 
 def _wall(wall_law, vn0: float, vt0: float) -> engine.Scene:
@@ -130,8 +136,9 @@ def test_wall_oblique_impact_in_gross_sliding():
     wall_law = engine.HertzMindlin(E=1e8, nu=0.25, restitution=1.0, mu=mu)
     e_star, _ = wall_law.wall_moduli(engine.WallMaterial())
     vt0 = 3.0 * vn0
-    sim = engine.Simulation(_wall(wall_law, vn0, vt0),
-                            dt=hertz_contact_time(M, R, e_star, vn0) / 400)
+    sim = engine.Simulation(
+        _wall(wall_law, vn0, vt0), dt=hertz_contact_time(M, R, e_star, vn0) / 400
+    )
     n = _impact(sim, lambda d, _: naive.hertz_force(d, e_star, R), wall=True)
     assert n > 100
     v, w = sim.velocities[0], sim.angular_velocities[0]
@@ -145,12 +152,14 @@ def test_wall_oblique_impact_in_gross_sliding():
 
 def test_pair_oblique_impact_sticking_reverses_the_contact_point_velocity():
     """Linear law, Kt = 2/7 K1, no damping, no sliding: tangential restitution -1."""
-    law = engine.BilinearAdhesive(k1=K1, k2=K1, f0=0.0, kt_ratio=2 / 7, mu_s=50.0, mu_r=0.0,
-                                  restitution=1.0)
+    law = engine.BilinearAdhesive(
+        k1=K1, k2=K1, f0=0.0, kt_ratio=2 / 7, mu_s=50.0, mu_r=0.0, restitution=1.0
+    )
     vn0 = 0.05
     vt0 = 0.2 * vn0
-    sim = engine.Simulation(_pair(law, vn0, vt0),
-                            dt=0.05 * engine.critical_time_step(_pair(law, vn0, 0)).recommended)
+    sim = engine.Simulation(
+        _pair(law, vn0, vt0), dt=0.05 * engine.critical_time_step(_pair(law, vn0, 0)).recommended
+    )
     assert _impact(sim, lambda d, _: K1 * d, wall=False) > 100
     v, w = sim.velocities, sim.angular_velocities
     rel = v[0] - v[1]

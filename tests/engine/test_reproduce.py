@@ -38,16 +38,26 @@ def test_report_judges_the_claims_from_stored_runs(tmp_path):
         "a_cohesionless": engine.StudySpec(
             reference=tiny(unconfined=False, cell=(0.025, 0.025, 0.02), pour_fraction=0.2),
             coarse_radii=(2 * R,),
-            rules=(rule("unscaled", 0, 0), rule("linear", 1, 2)), **seeds),
+            rules=(rule("unscaled", 0, 0), rule("linear", 1, 2)),
+            **seeds,
+        ),
         "b_cohesive": engine.StudySpec(
             reference=tiny(pair_law=COHESIVE, cell=(0.025, 0.025, 0.02), pour_fraction=0.2),
             coarse_radii=(1.5 * R, 2 * R),
-            rules=(rule("b1", 1, 1), rule("b2", 1, 2), rule("b3", 1, 3)), **seeds),
+            rules=(rule("b1", 1, 1), rule("b2", 1, 2), rule("b3", 1, 3)),
+            **seeds,
+        ),
         "c_eepa_cohesionless": engine.StudySpec(
-            reference=tiny(unconfined=False, cell=(0.025, 0.025, 0.02), pour_fraction=0.2,
-                           pair_law=engine.EEPA(k1=5e5, k2=2.5e6, n=1.5, restitution=0.4)),
+            reference=tiny(
+                unconfined=False,
+                cell=(0.025, 0.025, 0.02),
+                pour_fraction=0.2,
+                pair_law=engine.EEPA(k1=5e5, k2=2.5e6, n=1.5, restitution=0.4),
+            ),
             coarse_radii=(2 * R,),
-            rules=(rule.named("similarity"), rule("linear", 1, 2)), **seeds),
+            rules=(rule.named("similarity"), rule("linear", 1, 2)),
+            **seeds,
+        ),
     }
     data = {}
     for name, spec in specs.items():
@@ -57,15 +67,18 @@ def test_report_judges_the_claims_from_stored_runs(tmp_path):
         data[name] = (spec, outcomes)
     path = write_report("tiny", data, tmp_path / "out")
     text = path.read_text()
-    for claim in ("softens the bulk response", "Linear stiffness converges",
-                  "Quadratic adhesion", "About 9x less compute"):
+    for claim in (
+        "softens the bulk response",
+        "Linear stiffness converges",
+        "Quadratic adhesion",
+        "About 9x less compute",
+    ):
         line = next(li for li in text.splitlines() if claim in li)
         assert "runs missing" not in line
     eepa = next(li for li in text.splitlines() if li.startswith("- (c) R = 5 mm"))
     assert "(e) similarity **" in eepa and "(f) linear stiffness fails: **" in eepa
     assert "EEPA n = 1.5, chi = 1.5, K1 = 500000 N/m^1.5" in text
-    assert text.count("**agrees**") + text.count("**differs**") + text.count(
-        "**undecided**") >= 7
+    assert text.count("**agrees**") + text.count("**differs**") + text.count("**undecided**") >= 7
     assert (tmp_path / "out" / "figures" / "tiny_b_cohesive" / "error_vs_runtime.png").exists()
 
 
@@ -104,8 +117,16 @@ def test_batch_starts_jobs_as_cores_free_and_kills_at_the_deadline(tmp_path):
         return [sys.executable, "-c", f"import time; time.sleep({naps[job.key]})"]
 
     jobs = [parse_job(t) for t in ("x:a:2", "x:b:1", "x:c:1", "x:d:1")]
-    run_batch(jobs, cores=3, deadline=5.0, scale="quick", store=tmp_path, logs=tmp_path,
-              poll=0.05, argv_of=argv)
+    run_batch(
+        jobs,
+        cores=3,
+        deadline=5.0,
+        scale="quick",
+        store=tmp_path,
+        logs=tmp_path,
+        poll=0.05,
+        argv_of=argv,
+    )
     by = {j.key: j for j in jobs}
     assert [by[k].state for k in "abcd"] == ["done"] * 3 + ["killed at the deadline"]
     assert by["a"].start == by["b"].start < 0.01  # 2 + 1 threads fill the 3 cores at once

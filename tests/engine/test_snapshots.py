@@ -22,8 +22,7 @@ INTERVAL = 0.05  # s of simulated time between snapshots during the stages
 def run(tmp_path_factory):
     """A tiny run streamed to a writer every INTERVAL, then its stage ends saved."""
     d = tmp_path_factory.mktemp("snapshots")
-    test = engine.UniaxialTest(cell=(0.015, 0.015, 0.015), output_interval=1e-3,
-                               platen_speed=0.02)
+    test = engine.UniaxialTest(cell=(0.015, 0.015, 0.015), output_interval=1e-3, platen_speed=0.02)
     streamed = []
 
     def keep(snap):
@@ -39,8 +38,11 @@ def run(tmp_path_factory):
 def _step(f, k: int, group: str, name: str, offsets: str, count):
     """Rows of ``/VTKHDF/<group>/<name>`` of time step k (a part per step)."""
     start = int(f[f"VTKHDF/Steps/{offsets}"][k])
-    return f[f"VTKHDF/{group}/{name}"][start:start + count] if group else \
-        f[f"VTKHDF/{name}"][start:start + count]
+    return (
+        f[f"VTKHDF/{group}/{name}"][start : start + count]
+        if group
+        else f[f"VTKHDF/{name}"][start : start + count]
+    )
 
 
 def test_every_stage_end_keeps_a_consistent_snapshot(run):
@@ -76,8 +78,7 @@ def test_particle_pressure_is_the_love_weber_trace(run):
     n = len(s.radii)
     trace = np.zeros(n)
     force_sum, count = np.zeros(n), np.zeros(n)
-    for (i, j), fn, b in zip(s.pairs, s.normal_forces.astype(float),
-                             s.branches.astype(float)):
+    for (i, j), fn, b in zip(s.pairs, s.normal_forces.astype(float), s.branches.astype(float)):
         d = np.linalg.norm(b)
         nrm = b / d  # from j to i
         delta = s.radii[i] + s.radii[j] - d
@@ -100,8 +101,11 @@ def test_particle_pressure_is_the_love_weber_trace(run):
 def test_stage_files_read_back_with_h5py(run):
     res, _, _, d, paths = run
     snaps = [st.snapshot for st in res.stages.values()]
-    assert {p.name for p in paths} == {"particles.vtkhdf", "contacts.vtkhdf",
-                                      *(f"{s}.png" for s in STAGES)}
+    assert {p.name for p in paths} == {
+        "particles.vtkhdf",
+        "contacts.vtkhdf",
+        *(f"{s}.png" for s in STAGES),
+    }
     with h5py.File(d / "stages" / "particles.vtkhdf", "r") as f:
         root = f["VTKHDF"]
         assert root.attrs["Type"] == b"PolyData"
@@ -113,12 +117,14 @@ def test_stage_files_read_back_with_h5py(run):
         for k, s in enumerate(snaps):
             n = len(s.radii)
             assert root["NumberOfPoints"][k] == n
-            np.testing.assert_array_equal(_step(f, k, "", "Points", "PointOffsets", n),
-                                          s.positions)
-            for name, want in (("radius", s.radii), ("velocity", s.velocities),
-                               ("angular_velocity", s.angular_velocities),
-                               ("contact_count", s.contact_counts),
-                               ("pressure", particle_fields(s)["pressure"])):
+            np.testing.assert_array_equal(_step(f, k, "", "Points", "PointOffsets", n), s.positions)
+            for name, want in (
+                ("radius", s.radii),
+                ("velocity", s.velocities),
+                ("angular_velocity", s.angular_velocities),
+                ("contact_count", s.contact_counts),
+                ("pressure", particle_fields(s)["pressure"]),
+            ):
                 got = _step(f, k, "PointData", name, f"PointDataOffsets/{name}", n)
                 np.testing.assert_array_equal(got, want)
             assert root["Vertices/NumberOfCells"][k] == n
@@ -130,11 +136,10 @@ def test_stage_files_read_back_with_h5py(run):
             assert root["Lines/NumberOfCells"][k] == m
             pts = _step(f, k, "", "Points", "PointOffsets", 2 * m)
             c0 = int(root["Steps/ConnectivityIdOffsets"][k, 1])
-            conn = root["Lines/Connectivity"][c0:c0 + 2 * m].reshape(m, 2)
+            conn = root["Lines/Connectivity"][c0 : c0 + 2 * m].reshape(m, 2)
             # each line runs from the first particle's centre along minus the branch vector
             np.testing.assert_array_equal(pts[conn[:, 0]], s.positions[s.pairs[:, 0]])
-            np.testing.assert_allclose(pts[conn[:, 1]] - pts[conn[:, 0]], -s.branches,
-                                       atol=1e-9)
+            np.testing.assert_allclose(pts[conn[:, 1]] - pts[conn[:, 0]], -s.branches, atol=1e-9)
             fn = _step(f, k, "CellData", "normal_force", "CellDataOffsets/normal_force", m)
             np.testing.assert_array_equal(fn, s.normal_forces)
             pj = _step(f, k, "CellData", "particle_j", "CellDataOffsets/particle_j", m)
@@ -157,7 +162,8 @@ def test_interval_snapshots_stream_in_time_order(run):
         last = streamed[-1]
         n = len(last.radii)
         np.testing.assert_array_equal(
-            _step(f, len(unique) - 1, "", "Points", "PointOffsets", n), last.positions)
+            _step(f, len(unique) - 1, "", "Points", "PointOffsets", n), last.positions
+        )
 
 
 def test_pngs_are_images(run):

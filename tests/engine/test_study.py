@@ -26,8 +26,9 @@ def test_rules_scale_the_parameters_they_promise():
     assert coarse.pair_law.f0 == pytest.approx(4 * COHESIVE.f0)
     assert coarse.pair_law.mu_s == COHESIVE.mu_s and coarse.pair_law.restitution == 0.4
     assert coarse.dt == 1e-5 and coarse.wall_law == ref.wall_law
-    cubic = engine.ScalingRule.named("cubic_adhesion", dt="scaled").apply(ref, 1.5 * ref.radius,
-                                                                         1e-5)
+    cubic = engine.ScalingRule.named("cubic_adhesion", dt="scaled").apply(
+        ref, 1.5 * ref.radius, 1e-5
+    )
     assert cubic.pair_law.f0 == pytest.approx(1.5**3 * COHESIVE.f0)
     assert cubic.dt == pytest.approx(1.5e-5)
     uns = engine.ScalingRule.named("unscaled").apply(ref, 2 * ref.radius, 1e-5)
@@ -57,15 +58,20 @@ def test_spec_validation_names_fields():
     with pytest.raises(engine.ParameterError, match=r"UniaxialTest.dt .*stable limit"):
         tiny(dt=1e-3)
     with pytest.raises(engine.ParameterError, match=r"coarse_radii\[0\].*pair_law.f0"):
-        engine.StudySpec(reference=engine.preset("quick", pair_law=engine.BilinearAdhesive(
-            k1=5e3, k2=2.5e4, f0=-4.0)), coarse_radii=(1e-2,),
-            rules=(engine.ScalingRule.named("cubic_adhesion"),))
+        engine.StudySpec(
+            reference=engine.preset(
+                "quick", pair_law=engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-4.0)
+            ),
+            coarse_radii=(1e-2,),
+            rules=(engine.ScalingRule.named("cubic_adhesion"),),
+        )
     with pytest.raises(engine.ParameterError, match="pour_fraction"):
         engine.preset("quick", solid_fraction=0.3, pour_fraction=0.32)
     one = engine.StudySpec(reference=tiny(seed=7), coarse_radii=(3.1e-3,))
     assert one.seeds == (7,) and one.reference_seeds == (7,)
-    two = engine.StudySpec(reference=tiny(), coarse_radii=(3.1e-3,), seeds=(1,),
-                           reference_seeds=(1, 2, 3))
+    two = engine.StudySpec(
+        reference=tiny(), coarse_radii=(3.1e-3,), seeds=(1,), reference_seeds=(1, 2, 3)
+    )
     assert [p.key for p in two.planned_runs()][:3] == ["ref-s1", "ref-s2", "ref-s3"]
     # one interior window for the study: two diameters of its largest particle
     assert two.reference.interior_margin == pytest.approx(4 * 3.1e-3)
@@ -89,29 +95,54 @@ def test_spec_validation_names_fields():
     spec = engine.default_study()
     again = engine.StudySpec.from_dict(spec.to_dict())
     assert again == spec
-    short = engine.StudySpec.from_dict({"reference": {"preset": "quick", "radius": 2e-3},
-                                        "coarse_radii": [4e-3], "rules": ["paper"]})
+    short = engine.StudySpec.from_dict(
+        {
+            "reference": {"preset": "quick", "radius": 2e-3},
+            "coarse_radii": [4e-3],
+            "rules": ["paper"],
+        }
+    )
     assert short.reference.radius == 2e-3 and short.rules[0].adhesion_exponent == 2.0
     assert spec.estimated_particle_steps() > 0
     assert spec.max_particles() == spec.reference.n_particles
 
 
 def test_advisor_picks_coarsest_equivalent_and_fits_exponent():
-    spec = engine.StudySpec(reference=engine.preset("quick"), coarse_radii=(3e-3, 3.5e-3),
-                            rules=(engine.ScalingRule("b1", 1, 1), engine.ScalingRule("b2", 1, 2),
-                                   engine.ScalingRule("b3", 1, 3)))
+    spec = engine.StudySpec(
+        reference=engine.preset("quick"),
+        coarse_radii=(3e-3, 3.5e-3),
+        rules=(
+            engine.ScalingRule("b1", 1, 1),
+            engine.ScalingRule("b2", 1, 2),
+            engine.ScalingRule("b3", 1, 3),
+        ),
+    )
     groups, verdicts = [], []
     for r in spec.coarse_radii:
         for rule in spec.rules:
             b = rule.adhesion_exponent
             strength = 1000.0 * (r / 2.5e-3) ** (b - 2.0)  # exact exponent b* = 2
             err = abs(strength - 1000.0) / 1000.0
-            groups.append({"radius": r, "rule": rule.name, "stiffness_exponent": 1.0,
-                           "adhesion_exponent": b, "dt": "fixed", "err_strength": err,
-                           "unconfined_strength": strength, "speedup": 2.0,
-                           "thickness_diameters": 12.0})
-            verdicts.append({"radius": r, "rule": rule.name,
-                             "verdict": "equivalent" if err < 0.2 else "differs"})
+            groups.append(
+                {
+                    "radius": r,
+                    "rule": rule.name,
+                    "stiffness_exponent": 1.0,
+                    "adhesion_exponent": b,
+                    "dt": "fixed",
+                    "err_strength": err,
+                    "unconfined_strength": strength,
+                    "speedup": 2.0,
+                    "thickness_diameters": 12.0,
+                }
+            )
+            verdicts.append(
+                {
+                    "radius": r,
+                    "rule": rule.name,
+                    "verdict": "equivalent" if err < 0.2 else "differs",
+                }
+            )
     adv = advise(spec, groups, verdicts, reference_strength=1000.0)
     assert adv["rules"]["b2"]["coarsest_radius"] == 3.5e-3
     assert adv["rules"]["b1"]["coarsest_radius"] == 3e-3  # 3.5 mm: 30 % off
@@ -123,18 +154,24 @@ def test_advisor_picks_coarsest_equivalent_and_fits_exponent():
 
 
 def _tiny_spec(**kw):
-    return engine.StudySpec(reference=tiny(pair_law=COHESIVE), coarse_radii=(3.1e-3,),
-                            rules=(engine.ScalingRule.named("paper"),
-                                   engine.ScalingRule.named("unscaled", dt="scaled")),
-                            reference_seeds=(1, 2), seeds=(1,), **kw)
+    return engine.StudySpec(
+        reference=tiny(pair_law=COHESIVE),
+        coarse_radii=(3.1e-3,),
+        rules=(
+            engine.ScalingRule.named("paper"),
+            engine.ScalingRule.named("unscaled", dt="scaled"),
+        ),
+        reference_seeds=(1, 2),
+        seeds=(1,),
+        **kw,
+    )
 
 
 @pytest.fixture(scope="module")
 def tiny_study():
     spec = _tiny_spec()
     seen, stored = [], {}
-    res = engine.run_study(spec, progress=seen.append,
-                           on_run=lambda k, r: stored.setdefault(k, r))
+    res = engine.run_study(spec, progress=seen.append, on_run=lambda k, r: stored.setdefault(k, r))
     return spec, res, seen, stored
 
 
@@ -159,7 +196,9 @@ def test_tiny_study_end_to_end(tiny_study, tmp_path):
     adv = res.advisor
     assert set(adv["rules"]) == {"paper", "unscaled"}
     assert {(v["radius"], v["rule"]) for v in adv["verdicts"]} == {
-        (3.1e-3, "paper"), (3.1e-3, "unscaled")}
+        (3.1e-3, "paper"),
+        (3.1e-3, "unscaled"),
+    }
     for v in adv["verdicts"]:
         assert v["verdict"] in engine.advisor.VERDICTS and v["reason"]
         assert {m["metric"] for m in v["metrics"]} == set(engine.METRICS)
@@ -188,8 +227,10 @@ def test_process_pool_gives_the_same_table_and_resumes(tiny_study):
         # a study that decides: a round's added runs go to the pool side by side
         pooled_d = engine.run_study(deciding, executor=pool, completed=dict(stored))
     strip = ("wall_time", "speedup")
+
     def table(r):
         return [{k: v for k, v in row.items() if k not in strip} for row in r.table]
+
     assert table(pooled) == table(res)
     for k, r in pooled.runs.items():
         for stage, st in r.result.stages.items():
@@ -225,8 +266,9 @@ def test_a_failed_coarse_run_leaves_the_rest():
 
 
 def test_callback_can_stop_a_study():
-    spec = engine.StudySpec(reference=tiny(), coarse_radii=(3.1e-3,),
-                            rules=(engine.ScalingRule.named("paper"),))
+    spec = engine.StudySpec(
+        reference=tiny(), coarse_radii=(3.1e-3,), rules=(engine.ScalingRule.named("paper"),)
+    )
     with pytest.raises(engine.StopRequested):
         engine.run_study(spec, progress=lambda p: p.run_index == 0)
 
@@ -234,9 +276,17 @@ def test_callback_can_stop_a_study():
 def test_a_deciding_study_resumes_with_the_runs_it_added():
     # a study that adds seeds, interrupted after its first added run: the resumed study
     # finds the same added runs (replayed from the stored ones) and runs only the rest
-    spec = engine.StudySpec(reference=tiny(), coarse_radii=(3.1e-3,), seeds=(1, 2),
-                            reference_seeds=(1,), rules=(engine.ScalingRule.named("paper"),),
-                            decide=True, rounds=1, max_seeds=3, max_reference_seeds=3)
+    spec = engine.StudySpec(
+        reference=tiny(),
+        coarse_radii=(3.1e-3,),
+        seeds=(1, 2),
+        reference_seeds=(1,),
+        rules=(engine.ScalingRule.named("paper"),),
+        decide=True,
+        rounds=1,
+        max_seeds=3,
+        max_reference_seeds=3,
+    )
     stored: dict = {}
     full = engine.run_study(spec, on_run=stored.__setitem__)
     added = [a["run"] for a in full.advisor["adaptive"]["added_runs"]]
@@ -250,4 +300,5 @@ def test_a_deciding_study_resumes_with_the_runs_it_added():
     assert [r["run"] for r in again.table] == [r["run"] for r in full.table]
     # the runs are deterministic: the resumed study's verdicts are the uninterrupted one's
     assert [v["verdict"] for v in again.advisor["verdicts"]] == [
-        v["verdict"] for v in full.advisor["verdicts"]]
+        v["verdict"] for v in full.advisor["verdicts"]
+    ]

@@ -98,8 +98,12 @@ def test_a_team_whose_threads_do_not_all_start_runs_alone():
 
 
 def test_small_scenes_run_on_one_thread_unless_told():
-    scene = engine.Scene([[0.01, 0.01, 0.01], [0.02, 0.01, 0.01]], R, 2000.0,
-                         pair_law=engine.BilinearAdhesive(k1=5e3, k2=2.5e4))
+    scene = engine.Scene(
+        [[0.01, 0.01, 0.01], [0.02, 0.01, 0.01]],
+        R,
+        2000.0,
+        pair_law=engine.BilinearAdhesive(k1=5e3, k2=2.5e4),
+    )
     assert engine.Simulation(scene, dt=1e-5).threads == 1
     assert engine.Simulation(scene, dt=1e-5, threads=2).threads == min(2, numba.get_num_threads())
     with pytest.raises(engine.ParameterError, match="Simulation.threads"):

@@ -28,15 +28,28 @@ class LinearSpring:
         return {}
 
     def pair_values(self) -> dict[str, float]:
-        return {"k1": self.k, "k2": self.k, "f0": 0.0, "kadh": 0.0, "kt": 0.0, "zeta": 0.0,
-                "mu_s": 0.0, "mu_r": 0.0, "n": 1.0, "chi": 1.0}
+        return {
+            "k1": self.k,
+            "k2": self.k,
+            "f0": 0.0,
+            "kadh": 0.0,
+            "kt": 0.0,
+            "zeta": 0.0,
+            "mu_s": 0.0,
+            "mu_r": 0.0,
+            "n": 1.0,
+            "chi": 1.0,
+        }
 
     def adhesion_overlap(self, rmin: float, fraction: float) -> None:
         return None
 
     def pair_time_steps(self, m_eff, r_eff, r_min, rho_min, v) -> list[TimeStepCandidate]:
-        return [TimeStepCandidate("pair", f"toy spring k = {self.k:g} N/m",
-                                  oscillator_limit(self.k, m_eff, 0.0), True)]
+        return [
+            TimeStepCandidate(
+                "pair", f"toy spring k = {self.k:g} N/m", oscillator_limit(self.k, m_eff, 0.0), True
+            )
+        ]
 
 
 @pytest.fixture

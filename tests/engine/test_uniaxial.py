@@ -12,8 +12,7 @@ import engine
 from engine.uniaxial import STAGES
 
 R = 2.5e-3
-COHESIVE = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001,
-                                   restitution=0.4)
+COHESIVE = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001, restitution=0.4)
 
 
 def tiny(**kw) -> engine.UniaxialTest:
@@ -63,12 +62,12 @@ def _brute_contacts(pos, rad, lengths, periodic):
     n = len(pos)
     counts = np.zeros(n, dtype=int)
     for i in range(n):
-        d = pos[i] - pos[i + 1:]
+        d = pos[i] - pos[i + 1 :]
         for a in range(3):
             if periodic[a]:
                 d[:, a] -= lengths[a] * np.round(d[:, a] / lengths[a])
         dist = np.linalg.norm(d, axis=1)
-        js = i + 1 + np.flatnonzero(dist < rad[i] + rad[i + 1:])
+        js = i + 1 + np.flatnonzero(dist < rad[i] + rad[i + 1 :])
         counts[i] += len(js)
         counts[js] += 1
     return counts
@@ -97,7 +96,8 @@ def test_porosity_and_coordination_match_positions(cohesionless, stage):
     m = max(0.0, min(res.test.margin, gap / 2 - st.radii.max()))
     solid_in = _slab_solid(z, st.radii, m, gap - m)
     assert st.curves["porosity_interior"][-1] == pytest.approx(
-        1 - solid_in / (lx * ly * (gap - 2 * m)), rel=1e-5)
+        1 - solid_in / (lx * ly * (gap - 2 * m)), rel=1e-5
+    )
     inside = (z >= m) & (z <= gap - m)
     assert st.curves["coordination_interior"][-1] == pytest.approx(counts[inside].mean())
 
@@ -126,8 +126,13 @@ def test_callback_can_stop_a_run():
 
 def test_unreachable_stress_ends_with_stage_error():
     # a slow platen travels 0.5 mm in max_stage_time: far too little for 1 GPa
-    test = tiny(pre_stress=1e9, consolidation_stress=2e9, platen_speed=1e-3,
-                max_stage_time=0.5, unconfined=False)
+    test = tiny(
+        pre_stress=1e9,
+        consolidation_stress=2e9,
+        platen_speed=1e-3,
+        max_stage_time=0.5,
+        unconfined=False,
+    )
     with pytest.raises(engine.StageError, match="pre-compression stress 1e.09 Pa") as e:
         engine.run_uniaxial(test)
     assert e.value.stage == "pre_compression"
@@ -136,10 +141,16 @@ def test_unreachable_stress_ends_with_stage_error():
 
 @pytest.mark.parametrize(
     ("field", "value", "match"),
-    [("radius", -1.0, "radius"), ("consolidation_stress", 1e3, "consolidation_stress"),
-     ("cell", (0.005, 0.05, 0.1), "cell"), ("pour_fraction", 0.5, "pour_fraction"),
-     ("solid_fraction", 0.8, "solid_fraction"), ("interior_margin", -1e-3, "interior_margin"),
-     ("platen_speed", 0.0, "platen_speed"), ("seed", -3, "seed")],
+    [
+        ("radius", -1.0, "radius"),
+        ("consolidation_stress", 1e3, "consolidation_stress"),
+        ("cell", (0.005, 0.05, 0.1), "cell"),
+        ("pour_fraction", 0.5, "pour_fraction"),
+        ("solid_fraction", 0.8, "solid_fraction"),
+        ("interior_margin", -1e-3, "interior_margin"),
+        ("platen_speed", 0.0, "platen_speed"),
+        ("seed", -3, "seed"),
+    ],
 )
 def test_bad_parameters_name_the_field(field, value, match):
     with pytest.raises(engine.ParameterError, match=match):

@@ -19,8 +19,15 @@ from engine.uniaxial import (
 from tests.engine.test_uniaxial import tiny
 
 
-def fake_result(density_scale=1.0, strain_scale=1.0, coordination_shift=0.0, strength=1000.0,
-                loading_stiffness=1e6, unloading_stiffness=5e6, test=None):
+def fake_result(
+    density_scale=1.0,
+    strain_scale=1.0,
+    coordination_shift=0.0,
+    strength=1000.0,
+    loading_stiffness=1e6,
+    unloading_stiffness=5e6,
+    test=None,
+):
     """A UniaxialResult with analytic confined curves (for the metrics, not the engine)."""
     s_load = np.linspace(5e3, 2e4, 60)
     s_unl = np.linspace(2e4, 100.0, 40)
@@ -28,18 +35,28 @@ def fake_result(density_scale=1.0, strain_scale=1.0, coordination_shift=0.0, str
     def curves(stress, strain):
         phi = density_scale * (0.55 + 2.0 * strain)  # solid fraction rises with strain
         z = 4.0 + stress / 1e4 + coordination_shift
-        return {"stress_top": stress, "strain": strain_scale * strain, "porosity": 1 - phi,
-                "porosity_interior": 1 - phi, "coordination": z - 0.3,
-                "coordination_interior": z}
+        return {
+            "stress_top": stress,
+            "strain": strain_scale * strain,
+            "porosity": 1 - phi,
+            "porosity_interior": 1 - phi,
+            "coordination": z - 0.3,
+            "coordination_interior": z,
+        }
 
     stages = {
-        "consolidation": engine.StageResult("consolidation", curves(s_load, s_load / 1e6),
-                                            None, None, 0),
-        "unloading": engine.StageResult("unloading", curves(s_unl, 0.01 + s_unl / 4e6),
-                                        None, None, 0),
+        "consolidation": engine.StageResult(
+            "consolidation", curves(s_load, s_load / 1e6), None, None, 0
+        ),
+        "unloading": engine.StageResult(
+            "unloading", curves(s_unl, 0.01 + s_unl / 4e6), None, None, 0
+        ),
     }
-    scalars = {"unconfined_strength": strength, "loading_stiffness": loading_stiffness,
-               "unloading_stiffness": unloading_stiffness}
+    scalars = {
+        "unconfined_strength": strength,
+        "loading_stiffness": loading_stiffness,
+        "unloading_stiffness": unloading_stiffness,
+    }
     return engine.UniaxialResult(test or tiny(), stages, scalars)
 
 
@@ -47,9 +64,11 @@ def test_known_density_offset_gives_the_known_error():
     ref = metrics.metric_values(fake_result())
     off = metrics.metric_values(fake_result(density_scale=1.02))
     assert metrics.relative_error("density", off["density"], ref["density"], 2e4) == (
-        pytest.approx(0.02, rel=1e-9))
+        pytest.approx(0.02, rel=1e-9)
+    )
     assert metrics.signed_error("density", off["density"], ref["density"], 2e4) == (
-        pytest.approx(0.02, rel=1e-9))
+        pytest.approx(0.02, rel=1e-9)
+    )
     same = metrics.metric_values(fake_result())
     for n in ("density", "coordination", "loading_stiffness", "strength"):
         assert metrics.relative_error(n, same[n], ref[n], 2e4) == 0.0
@@ -57,19 +76,24 @@ def test_known_density_offset_gives_the_known_error():
 
 def test_stiffness_coordination_and_strength_errors():
     ref = metrics.metric_values(fake_result())
-    run = metrics.metric_values(fake_result(loading_stiffness=0.8e6, coordination_shift=0.5,
-                                            strength=1300.0))
-    assert metrics.relative_error("loading_stiffness", run["loading_stiffness"],
-                                  ref["loading_stiffness"], 2e4) == pytest.approx(0.2)
-    assert metrics.signed_error("loading_stiffness", run["loading_stiffness"],
-                                ref["loading_stiffness"], 2e4) == pytest.approx(-0.2)
+    run = metrics.metric_values(
+        fake_result(loading_stiffness=0.8e6, coordination_shift=0.5, strength=1300.0)
+    )
+    assert metrics.relative_error(
+        "loading_stiffness", run["loading_stiffness"], ref["loading_stiffness"], 2e4
+    ) == pytest.approx(0.2)
+    assert metrics.signed_error(
+        "loading_stiffness", run["loading_stiffness"], ref["loading_stiffness"], 2e4
+    ) == pytest.approx(-0.2)
     # coordination read at the same stress levels: shift / z at each level, RMS
     z = ref["coordination"]
     expect = math.sqrt(np.mean((0.5 / z) ** 2))
     assert metrics.relative_error("coordination", run["coordination"], z, 2e4) == (
-        pytest.approx(expect, rel=1e-9))
+        pytest.approx(expect, rel=1e-9)
+    )
     assert metrics.relative_error("strength", run["strength"], ref["strength"], 2e4) == (
-        pytest.approx(0.3))
+        pytest.approx(0.3)
+    )
     # a cohesionless reference: the strength error is relative to 5 % of 20 kPa
     assert metrics.relative_error("strength", [300.0], [0.0], 2e4) == pytest.approx(0.3)
 
@@ -151,8 +175,7 @@ def test_one_seed_of_a_variant_is_undecided_and_says_why():
 
 def test_one_reference_seed_is_undecided_and_says_why():
     floor = advisor.noise_floor([{"density": np.array([0.6])}], ["density"], 2e4)
-    m = advisor.judge_metric("density", [{"density": np.array([0.9])}], floor["density"], 0.03,
-                             2e4)
+    m = advisor.judge_metric("density", [{"density": np.array([0.9])}], floor["density"], 0.03, 2e4)
     overall, reason = advisor.verdict([m])
     assert overall == "undecided" and "one reference seed" in reason
 
@@ -166,12 +189,33 @@ def test_error_rates_split_over_metrics_and_looks():
 
 
 def test_any_metric_that_differs_decides():
-    ok = {"metric": "density", "error": 0.01, "signed_error": 0.01, "tolerance": 0.03,
-          "interval": [0.0, 0.02], "level": None, "level_error": 0.01, "df": 2,
-          "differs_interval": [0.0, 0.02], "differs_error": 0.01, "alpha_equivalent": 0.05,
-          "alpha_differs": 0.01, "verdict": "equivalent", "reference_seeds": 3, "seeds": 3}
-    bad = dict(ok, metric="strength", error=0.5, signed_error=-0.5, tolerance=0.15,
-               differs_error=-0.5, differs_interval=[-0.6, -0.4], verdict="differs")
+    ok = {
+        "metric": "density",
+        "error": 0.01,
+        "signed_error": 0.01,
+        "tolerance": 0.03,
+        "interval": [0.0, 0.02],
+        "level": None,
+        "level_error": 0.01,
+        "df": 2,
+        "differs_interval": [0.0, 0.02],
+        "differs_error": 0.01,
+        "alpha_equivalent": 0.05,
+        "alpha_differs": 0.01,
+        "verdict": "equivalent",
+        "reference_seeds": 3,
+        "seeds": 3,
+    }
+    bad = dict(
+        ok,
+        metric="strength",
+        error=0.5,
+        signed_error=-0.5,
+        tolerance=0.15,
+        differs_error=-0.5,
+        differs_interval=[-0.6, -0.4],
+        verdict="differs",
+    )
     unsure = dict(ok, metric="coordination", verdict="undecided")
     assert advisor.verdict([ok, ok])[0] == "equivalent"
     assert advisor.verdict([ok, unsure])[0] == "undecided"
@@ -187,9 +231,13 @@ def test_noise_floor_is_the_reference_spread():
 
 
 def test_finite_size_warnings_cite_the_measured_effect():
-    w = advisor.finite_size_warnings([{"radius": 5e-3, "thickness_diameters": 4.0},
-                                      {"radius": 3e-3, "thickness_diameters": 8.0},
-                                      {"radius": 2e-3, "thickness_diameters": 12.0}])
+    w = advisor.finite_size_warnings(
+        [
+            {"radius": 5e-3, "thickness_diameters": 4.0},
+            {"radius": 3e-3, "thickness_diameters": 8.0},
+            {"radius": 2e-3, "thickness_diameters": 12.0},
+        ]
+    )
     assert len(w) == 2 and "R = 5 mm" in w[0] and "4.0" in w[0] and "under the 5" in w[0]
     assert "R = 3 mm" in w[1] and "-17%" in w[1] and "finite-size control" in w[1]
 
@@ -200,8 +248,11 @@ def test_the_cited_finite_size_effect_is_the_stored_controls():
     from engine import metrics as m
 
     controls = [r for r in finite_size.stored().values() if not isinstance(r, str)]
-    refs = [r for r in finite_size._b_runs("ref", finite_size.B_STORE).values()
-            if not isinstance(r, str)]
+    refs = [
+        r
+        for r in finite_size._b_runs("ref", finite_size.B_STORE).values()
+        if not isinstance(r, str)
+    ]
     cons = refs[0].test.consolidation_stress
     vc = [m.metric_values(r) for r in controls]
     vr = [m.metric_values(r) for r in refs]
@@ -297,8 +348,12 @@ def test_driver_detects_failure_on_a_cohesive_tiny_sample():
     assert u["stress_top"][-1] < 0.8 * u["stress_top"][k]
     assert u["strain"][-1] - u["strain"][k] >= res.test.failure_strain
     assert u["strain"][-1] < res.test.max_unconfined_strain
-    for key in ("thickness_diameters", "height_diameters", "interior_margin",
-                "consolidated_porosity_interior"):
+    for key in (
+        "thickness_diameters",
+        "height_diameters",
+        "interior_margin",
+        "consolidated_porosity_interior",
+    ):
         assert math.isfinite(res.scalars[key])
 
 
@@ -308,18 +363,24 @@ def _curve(peak_at, soften, end=0.1, noise=0.015, seed=0):
     with raw samples scattered by ``noise`` of the peak (as the stored runs: 1-3 %)."""
     rng = np.random.default_rng(seed)
     e = np.linspace(0.0, end, 3000)
-    s = np.where(e <= peak_at, 1e4 * e / peak_at,
-                 1e4 * (1 - soften * (e - peak_at) / max(end - peak_at, 1e-12)))
+    s = np.where(
+        e <= peak_at,
+        1e4 * e / peak_at,
+        1e4 * (1 - soften * (e - peak_at) / max(end - peak_at, 1e-12)),
+    )
     return e, s + rng.normal(0.0, noise * 1e4, len(e))
 
 
-@pytest.mark.parametrize(("peak_at", "soften", "failed"), [
-    (0.05, 0.25, True),    # a clear peak and a long softening
-    (0.07, 0.04, True),    # a small but sustained softening after the peak
-    (0.1, 0.0, False),     # hardening to the strain limit
-    (0.097, 0.3, False),   # the maximum in the last two windows: not yet a failure
-    (0.05, 0.01, False),   # a plateau within the curve's noise
-])
+@pytest.mark.parametrize(
+    ("peak_at", "soften", "failed"),
+    [
+        (0.05, 0.25, True),  # a clear peak and a long softening
+        (0.07, 0.04, True),  # a small but sustained softening after the peak
+        (0.1, 0.0, False),  # hardening to the strain limit
+        (0.097, 0.3, False),  # the maximum in the last two windows: not yet a failure
+        (0.05, 0.01, False),  # a plateau within the curve's noise
+    ],
+)
 def test_failure_criterion_on_synthetic_curves(peak_at, soften, failed):
     from engine.uniaxial import failed_by_curve
 
@@ -335,8 +396,13 @@ def test_failure_criterion_on_the_stored_paper_curves():
     from engine.uniaxial import failed_by_curve
 
     root = metrics.__file__.rsplit("/engine/", 1)[0] + "/benchmarks/results"
-    paper = ["b_cohesive/r5mm-b1-s1", "b_cohesive/r5mm-b1-s2", "d_eepa_cohesive/ref-s2",
-             "d_eepa_cohesive/r5mm-linear-s2", "d_eepa_cohesive/r5mm-similarity-s2"]
+    paper = [
+        "b_cohesive/r5mm-b1-s1",
+        "b_cohesive/r5mm-b1-s2",
+        "d_eepa_cohesive/ref-s2",
+        "d_eepa_cohesive/r5mm-linear-s2",
+        "d_eepa_cohesive/r5mm-similarity-s2",
+    ]
     for k in paper:
         r = load_run(f"{root}/paper/{k}.h5")
         u = r.stages["unconfined"].curves

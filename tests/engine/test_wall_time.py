@@ -16,14 +16,18 @@ from .test_uniaxial import COHESIVE, tiny
 
 
 def spec() -> engine.StudySpec:
-    return engine.StudySpec(reference=tiny(unconfined=False), coarse_radii=(3.1e-3,),
-                            rules=(engine.ScalingRule.named("paper"),))
+    return engine.StudySpec(
+        reference=tiny(unconfined=False),
+        coarse_radii=(3.1e-3,),
+        rules=(engine.ScalingRule.named("paper"),),
+    )
 
 
 def test_a_run_past_its_wall_time_stops_with_the_setting_named():
     with pytest.raises(engine.WallTimeExceeded, match="MY_LIMIT = 1e-09 s") as e:
-        engine.run_uniaxial(tiny(unconfined=False), max_wall_time=1e-9,
-                            wall_time_setting="MY_LIMIT")
+        engine.run_uniaxial(
+            tiny(unconfined=False), max_wall_time=1e-9, wall_time_setting="MY_LIMIT"
+        )
     err = pickle.loads(pickle.dumps(e.value))  # crosses process boundaries whole
     assert (err.limit, err.setting) == (1e-9, "MY_LIMIT") and err.elapsed > 1e-9
 
@@ -39,12 +43,14 @@ def test_the_limit_is_checked(bad):
 @pytest.mark.timeout(300)
 @pytest.mark.parametrize("where", ["here", "process pool"])
 def test_run_study_applies_the_limit_on_any_executor(where):
-    pool = (cf.ProcessPoolExecutor(1, mp_context=mp.get_context("spawn"))
-            if where != "here" else None)
+    pool = (
+        cf.ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) if where != "here" else None
+    )
     try:
         with pytest.raises(RunFailed, match="WallTimeExceeded.*LIMIT_X = 1e-06 s"):
-            engine.run_study(spec(), executor=pool, max_run_wall_time=1e-6,
-                             wall_time_setting="LIMIT_X")
+            engine.run_study(
+                spec(), executor=pool, max_run_wall_time=1e-6, wall_time_setting="LIMIT_X"
+            )
     finally:
         if pool is not None:
             pool.shutdown()
@@ -68,6 +74,10 @@ def test_a_resumed_run_counts_the_wall_time_of_its_earlier_attempts(tmp_path):
     before = stored.wall_time()
     assert before > 0
     with pytest.raises(engine.WallTimeExceeded) as e:
-        engine.run_uniaxial(test, progress=seen.append, checkpoint=engine.Checkpoint(ck.path),
-                            max_wall_time=0.9 * before)
+        engine.run_uniaxial(
+            test,
+            progress=seen.append,
+            checkpoint=engine.Checkpoint(ck.path),
+            max_wall_time=0.9 * before,
+        )
     assert e.value.elapsed >= 0.99 * before and seen == []  # refused at its first report

@@ -66,8 +66,13 @@ BAD = [
         ["tolerances"],
         "metric",
     ),
-    ("k2 below k1", ("reference", "pair_law", "k2"), 1e3,
-     ["reference", "pair_law", "BilinearAdhesive", "k2"], "k1"),
+    (
+        "k2 below k1",
+        ("reference", "pair_law", "k2"),
+        1e3,
+        ["reference", "pair_law", "BilinearAdhesive", "k2"],
+        "k1",
+    ),
     (
         "positive adhesion",
         ("reference", "pair_law", "f0"),

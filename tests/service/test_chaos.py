@@ -144,8 +144,10 @@ def test_studies_survive_sigkills_of_worker_and_api(settings, workers, tmp_path)
             time.sleep(0.2)
         final = statuses(settings)
         assert {s for s, _ in final.values()} == {Status.succeeded}, (final, workers.logs())
-        print(f"{kills} worker kills during a run, {API_KILLS} API kills; attempts per "
-              f"study: {sorted(a for _, a in final.values())}; {time.monotonic() - t0:.0f} s")
+        print(
+            f"{kills} worker kills during a run, {API_KILLS} API kills; attempts per "
+            f"study: {sorted(a for _, a in final.values())}; {time.monotonic() - t0:.0f} s"
+        )
 
         # the API (restarted) serves every result, and no temporary file is left anywhere
         with httpx.Client(base_url=api.url, headers=AUTH, timeout=30) as c:
@@ -154,9 +156,7 @@ def test_studies_survive_sigkills_of_worker_and_api(settings, workers, tmp_path)
         for sid in ids:
             with h5py.File(settings.results_path(sid), "r") as f:
                 assert f.attrs["study_id"] == sid and len(f["runs"]) == 2
-        leftovers = [
-            p for p in settings.data_dir.rglob("*") if p.is_file() and p.suffix == ".tmp"
-        ]
+        leftovers = [p for p in settings.data_dir.rglob("*") if p.is_file() and p.suffix == ".tmp"]
         assert leftovers == []
     finally:
         api.kill()

@@ -31,9 +31,18 @@ def test_an_eepa_study_is_stored_with_its_law_and_resolved_exponents(tmp_path):
     import json
 
     spec = {k: v for k, v in TINIEST.items() if k != "name"}
-    spec["reference"] = {**spec["reference"], "pair_law": {
-        "type": "EEPA", "k1": 5e5, "k2": 2.5e6, "f0": -0.05, "n": 1.5, "chi": 1.25,
-        "kadh": 100.0}}
+    spec["reference"] = {
+        **spec["reference"],
+        "pair_law": {
+            "type": "EEPA",
+            "k1": 5e5,
+            "k2": 2.5e6,
+            "f0": -0.05,
+            "n": 1.5,
+            "chi": 1.25,
+            "kadh": 100.0,
+        },
+    }
     spec["rules"] = ["similarity"]
     res = engine.run_study(engine.StudySpec.from_dict(spec))
     path = tmp_path / "results.h5"

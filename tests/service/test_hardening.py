@@ -30,10 +30,14 @@ NON_FINITE = [
     ('{"reference": {"density": -Infinity}}', ["body", "reference", "density"]),
     ('{"coarse_radii": [NaN]}', ["body", "coarse_radii", 0]),
     ('{"tolerances": {"density": NaN}}', ["body", "tolerances", "density"]),
-    ('{"reference": {"pair_law": {"k1": Infinity}}}',
-     ["body", "reference", "pair_law", "BilinearAdhesive", "k1"]),
-    ('{"rules": [{"name": "x", "adhesion_exponent": NaN}]}',
-     ["body", "rules", 0, "adhesion_exponent"]),
+    (
+        '{"reference": {"pair_law": {"k1": Infinity}}}',
+        ["body", "reference", "pair_law", "BilinearAdhesive", "k1"],
+    ),
+    (
+        '{"rules": [{"name": "x", "adhesion_exponent": NaN}]}',
+        ["body", "rules", 0, "adhesion_exponent"],
+    ),
     ('{"reference": NaN}', ["body", "reference"]),
     ('{"seeds": [NaN]}', ["body", "seeds", 0]),
     ("NaN", ["body"]),
@@ -64,18 +68,32 @@ def test_a_non_finite_number_anywhere_is_named_even_beside_other_errors(client):
 # --- login -----------------------------------------------------------------------------
 
 TRICKS = [
-    "//evil.example/", "/\\evil.example", "/%09/evil.example", "/%2F/evil.example",
-    "http://evil.example/", "https:evil.example", "/\t/evil.example", "/ /evil.example",
-    "/a\r\nSet-Cookie: x=1", "/a\nb", "/\x00", "javascript:alert(1)", "/%5Cevil.example",
-    "/studies/x/page?next=//evil", "\\\\evil.example", "/é", "/" + "a" * 600,
+    "//evil.example/",
+    "/\\evil.example",
+    "/%09/evil.example",
+    "/%2F/evil.example",
+    "http://evil.example/",
+    "https:evil.example",
+    "/\t/evil.example",
+    "/ /evil.example",
+    "/a\r\nSet-Cookie: x=1",
+    "/a\nb",
+    "/\x00",
+    "javascript:alert(1)",
+    "/%5Cevil.example",
+    "/studies/x/page?next=//evil",
+    "\\\\evil.example",
+    "/é",
+    "/" + "a" * 600,
 ]
 
 
 @pytest.fixture
 def browser(settings):
     """A TestClient without the token header, not following redirects (a browser)."""
-    with TestClient(create_app(settings), follow_redirects=False,
-                    raise_server_exceptions=False) as c:
+    with TestClient(
+        create_app(settings), follow_redirects=False, raise_server_exceptions=False
+    ) as c:
         yield c
 
 
@@ -120,13 +138,16 @@ def test_login_by_post_only_and_only_for_an_accepted_token(browser):
 
 
 @pytest.mark.timeout(60)
-@pytest.mark.parametrize("headers", [
-    {"origin": "http://evil.example"},
-    {"origin": "null"},
-    {"origin": "http://testserver.evil.example"},
-    {"sec-fetch-site": "cross-site"},
-    {"sec-fetch-site": "same-site", "origin": "http://testserver"},
-])
+@pytest.mark.parametrize(
+    "headers",
+    [
+        {"origin": "http://evil.example"},
+        {"origin": "null"},
+        {"origin": "http://testserver.evil.example"},
+        {"sec-fetch-site": "cross-site"},
+        {"sec-fetch-site": "same-site", "origin": "http://testserver"},
+    ],
+)
 def test_login_and_logout_from_another_site_are_refused(browser, headers):
     r = browser.post("/login", data={"token": TOKEN}, headers=headers)
     assert r.status_code == 403 and "set-cookie" not in r.headers
@@ -145,8 +166,12 @@ def test_login_from_its_own_page_is_accepted(browser):
     proxied = {"origin": "https://demscale.example.org", "sec-fetch-site": "same-origin"}
     assert browser.post("/login", data={"token": TOKEN}, headers=proxied).status_code == 303
     # an older browser without Sec-Fetch-Site: its Origin must name this host
-    assert browser.post("/login", data={"token": TOKEN},
-                        headers={"origin": "https://testserver"}).status_code == 303
+    assert (
+        browser.post(
+            "/login", data={"token": TOKEN}, headers={"origin": "https://testserver"}
+        ).status_code
+        == 303
+    )
 
 
 def test_no_command_prints_a_login_url_with_the_token():
@@ -182,8 +207,9 @@ def test_pages_have_no_inline_script_or_style_and_load_nothing_from_elsewhere(cl
         html = client.get(path).text
         assert "<script>" not in html and "<style" not in html and " style=" not in html, path
         assert re.search(r"\son[a-z]+=", html) is None, path  # no inline event handler
-        assert "//" not in "".join(
-            a for a in html.split('src="')[1:] for a in [a.split('"')[0]]), path
+        assert "//" not in "".join(a for a in html.split('src="')[1:] for a in [a.split('"')[0]]), (
+            path
+        )
         assert "cdn" not in html.lower(), path
     for asset in ("/static/demscale.css", "/static/studies.js", "/static/study.js"):
         r = client.get(asset)

@@ -43,8 +43,7 @@ LONG_SAMPLES["name"] = "long-samples"
 HELD = [
     ("a sample of 1e9 steps", {"output_interval": 1e4}, ["output_interval"]),
     # settle_ke's bound is in the schema: pydantic names it first
-    ("a fill that never settles", {"max_stage_time": 1e12, "settle_ke": 1e-300},
-     ["settle_ke"]),
+    ("a fill that never settles", {"max_stage_time": 1e12, "settle_ke": 1e-300}, ["settle_ke"]),
     ("a stage bound of 1e12 s", {"max_stage_time": 1e12}, ["max_stage_time"]),
     ("a sample every step", {"output_interval": 1e-12}, ["output_interval"]),
 ]
@@ -52,8 +51,7 @@ HELD = [
 
 @pytest.mark.timeout(60)
 @pytest.mark.parametrize("what,reference,fields", HELD, ids=[h[0] for h in HELD])
-def test_bodies_that_held_a_worker_are_refused_naming_the_field(client, what, reference,
-                                                                fields):
+def test_bodies_that_held_a_worker_are_refused_naming_the_field(client, what, reference, fields):
     r = client.post("/studies", json=tiny(**reference))
     assert r.status_code == 422, r.text
     locs = [e["loc"] for e in r.json()["detail"]]
@@ -86,8 +84,11 @@ MANY_RUNS = {
     "reference_seeds": list(range(1, 11)),
     "seeds": list(range(11, 21)),
     "coarse_radii": [3e-3 + 5e-4 * i for i in range(8)],
-    "rules": ["paper", "unscaled", *({"name": f"r{i}", "adhesion_exponent": 1 + i / 10}
-                                     for i in range(6))],
+    "rules": [
+        "paper",
+        "unscaled",
+        *({"name": f"r{i}", "adhesion_exponent": 1 + i / 10} for i in range(6)),
+    ],
 }
 
 
@@ -95,8 +96,11 @@ MANY_RUNS = {
 def test_the_650_run_body_is_refused_before_any_packing(client, monkeypatch):
     assert client.post("/studies", json=TINY).status_code == 202  # warm: the first request
     placed = []
-    monkeypatch.setattr(engine.uniaxial_spec, "_packing",
-                        lambda *a: placed.append(a) or pytest.fail("a packing was placed"))
+    monkeypatch.setattr(
+        engine.uniaxial_spec,
+        "_packing",
+        lambda *a: placed.append(a) or pytest.fail("a packing was placed"),
+    )
     t0 = time.perf_counter()
     r = client.post("/studies", json=MANY_RUNS)
     took = time.perf_counter() - t0
@@ -110,11 +114,18 @@ def test_the_650_run_body_is_refused_before_any_packing(client, monkeypatch):
 
 @pytest.mark.timeout(60)
 def test_a_costly_body_within_the_run_count_is_refused_before_any_packing(
-        client, settings, monkeypatch):
-    monkeypatch.setattr(engine.uniaxial_spec, "_packing",
-                        lambda *a: pytest.fail("a packing was placed"))
-    body = {**MANY_RUNS, "reference_seeds": [1, 2, 3, 4], "seeds": [5, 6, 7, 8],
-            "coarse_radii": [3e-3, 4e-3], "rules": ["paper", "unscaled", "similarity"]}
+    client, settings, monkeypatch
+):
+    monkeypatch.setattr(
+        engine.uniaxial_spec, "_packing", lambda *a: pytest.fail("a packing was placed")
+    )
+    body = {
+        **MANY_RUNS,
+        "reference_seeds": [1, 2, 3, 4],
+        "seeds": [5, 6, 7, 8],
+        "coarse_radii": [3e-3, 4e-3],
+        "rules": ["paper", "unscaled", "similarity"],
+    }
     body = {**body, "reference": {"preset": "quick"}}
     settings.max_runs = 64
     t0 = time.perf_counter()
@@ -128,7 +139,8 @@ def test_the_caps_count_the_worst_case_the_bounds_allow(client, settings):
     costs = cost.worst_case(TINY)
     worst = sum(c.particle_steps for c in costs)
     typical = engine.StudySpec.from_dict(
-        {k: v for k, v in TINY.items() if k != "name"}).estimated_particle_steps()
+        {k: v for k, v in TINY.items() if k != "name"}
+    ).estimated_particle_steps()
     assert worst > 3 * typical  # max_stage_time for the fill, the platen travel, ...
     settings.max_particle_steps = (worst + typical) / 2  # the typical estimate would pass
     r = client.post("/studies", json=TINY)
@@ -211,8 +223,7 @@ def test_concurrent_submissions_cannot_both_slip_under_the_quota(settings):
     from .conftest import free_port
 
     port = free_port()
-    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port,
-                                           log_level="warning"))
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning"))
     thread = threading.Thread(target=server.run, daemon=True)
     thread.start()
     try:
@@ -221,8 +232,7 @@ def test_concurrent_submissions_cannot_both_slip_under_the_quota(settings):
         start = threading.Barrier(8)
 
         def post(_):
-            with httpx.Client(base_url=f"http://127.0.0.1:{port}", headers=AUTH,
-                              timeout=30) as c:
+            with httpx.Client(base_url=f"http://127.0.0.1:{port}", headers=AUTH, timeout=30) as c:
                 start.wait()
                 return c.post("/studies", json=TINY).status_code
 
@@ -338,9 +348,13 @@ def _in_a_long_sample(client, settings, workers) -> str:
     assert r.status_code == 202, r.text
     sid = r.json()["id"]
     workers.start()
-    wait_for(study_getter(client, sid),
-             lambda s: s["status"] == "running" and s["current_stage"] == "fill",
-             RUN_TIMEOUT, "the fill to start", workers)
+    wait_for(
+        study_getter(client, sid),
+        lambda s: s["status"] == "running" and s["current_stage"] == "fill",
+        RUN_TIMEOUT,
+        "the fill to start",
+        workers,
+    )
     time.sleep(1.0)  # well inside the first curve sample (seconds long)
     return sid
 
@@ -350,8 +364,9 @@ def test_a_study_of_long_curve_samples_is_cancelled_within_2_s(client, settings,
     sid = _in_a_long_sample(client, settings, workers)
     t0 = time.perf_counter()
     assert client.post(f"/studies/{sid}/cancel").status_code == 202
-    wait_for(study_getter(client, sid), lambda s: s["status"] == "cancelled", 30,
-             "the cancel", workers)
+    wait_for(
+        study_getter(client, sid), lambda s: s["status"] == "cancelled", 30, "the cancel", workers
+    )
     took = time.perf_counter() - t0
     print(f"cancelled {took:.2f} s after the request")
     assert took < 2.0, workers.logs()
@@ -376,8 +391,7 @@ def test_sigterm_during_a_long_curve_sample_drains_at_once(client, settings, wor
 
 @pytest.mark.timeout(RUN_TIMEOUT + 60)
 @pytest.mark.parametrize("where", ["worker", "process pool"])
-def test_a_run_past_the_wall_time_limit_fails_with_that_reason(client, settings, workers,
-                                                               where):
+def test_a_run_past_the_wall_time_limit_fails_with_that_reason(client, settings, workers, where):
     settings.max_run_wall_time = 1.0
     settings.max_particle_steps = 1e11
     if where == "process pool":  # the limit holds where the worker cannot see the run
@@ -385,9 +399,13 @@ def test_a_run_past_the_wall_time_limit_fails_with_that_reason(client, settings,
     r = client.post("/studies", json=LONG_SAMPLES)
     sid = r.json()["id"]
     workers.start()
-    done = wait_for(study_getter(client, sid),
-                    lambda s: s["status"] in ("failed", "succeeded", "cancelled"),
-                    RUN_TIMEOUT, "the study to end", workers)
+    done = wait_for(
+        study_getter(client, sid),
+        lambda s: s["status"] in ("failed", "succeeded", "cancelled"),
+        RUN_TIMEOUT,
+        "the study to end",
+        workers,
+    )
     # the reference ran past the limit, so nothing can be compared: the study fails with it
     assert done["status"] == "failed"
     assert "DEMSCALE_MAX_RUN_WALL_TIME" in done["error"], done["error"]

@@ -20,14 +20,14 @@ from service.models import utcnow
 from .conftest import TINY, study_getter, wait_for
 
 #: One reference of a few seconds (a small time step), so that it can be killed mid-run.
-LONG = {**TINY, "name": "long", "reference": {**TINY["reference"], "unconfined": False,
-                                              "dt": 1e-6}}
+LONG = {**TINY, "name": "long", "reference": {**TINY["reference"], "unconfined": False, "dt": 1e-6}}
 KILLS = 3
 
 
 @pytest.mark.timeout(300)
-def test_a_run_killed_again_and_again_resumes_and_is_stored_bit_identically(client, workers,
-                                                                             settings):
+def test_a_run_killed_again_and_again_resumes_and_is_stored_bit_identically(
+    client, workers, settings
+):
     settings.checkpoint_interval = 0.3
     settings.max_attempts = 2  # fewer than the kills: each attempt moved its checkpoint on
     r = client.post("/studies", json=LONG)
@@ -51,8 +51,13 @@ def test_a_run_killed_again_and_again_resumes_and_is_stored_bit_identically(clie
         assert status["status"] == "running", status  # killed mid-run, not after it
         assert status["runs"][0]["status"] == "running"
     workers.start()
-    done = wait_for(study_getter(client, sid), lambda s: s["status"] in ("succeeded", "failed"),
-                    120, "the study to finish after the kills", workers)
+    done = wait_for(
+        study_getter(client, sid),
+        lambda s: s["status"] in ("succeeded", "failed"),
+        120,
+        "the study to finish after the kills",
+        workers,
+    )
     assert done["status"] == "succeeded", done["error"]
     logs = workers.logs(None)
     assert logs.count("resuming run ref-s1 from its checkpoint") >= KILLS, logs[-3000:]
@@ -68,7 +73,8 @@ def test_a_run_killed_again_and_again_resumes_and_is_stored_bit_identically(clie
     assert stored.scalars["steps"] == clean.scalars["steps"]
     # checkpoints go once the runs are stored
     assert not settings.checkpoints_dir(sid).exists() or not any(
-        settings.checkpoints_dir(sid).iterdir())
+        settings.checkpoints_dir(sid).iterdir()
+    )
 
 
 def test_advanced_since_reads_checkpoint_times(tmp_path):

@@ -173,8 +173,9 @@ def test_interruptions_that_finish_runs_are_not_failures_a_poison_run_is(session
     # the second attempt dies on run1 without finishing it: with max_attempts 1, run1 is a
     # poison run and the study is failed with that reason
     transitions.run_started(session, study.id, "run1")
-    transitions.heartbeat(session, study.id, "w2", progress=0.6, run_index=1,
-                          current_run="run1", current_stage="fill")
+    transitions.heartbeat(
+        session, study.id, "w2", progress=0.6, run_index=1, current_run="run1", current_stage="fill"
+    )
     assert transitions.recover_stale(session, utcnow() + later, 1) == [(study.id, Status.failed)]
     session.expire_all()
     row = session.get(Study, study.id)
@@ -211,17 +212,27 @@ def test_only_attempts_without_progress_count_towards_the_poison_rule(session):
         assert transitions.claim_next(session, f"w{attempt}").attempts == 1
         transitions.run_started(session, study.id, "run0")
         assert transitions.recover_stale(session, utcnow() + later, 2, advanced) == [
-            (study.id, Status.queued)]
+            (study.id, Status.queued)
+        ]
     assert seen and all(sid == study.id for sid, _ in seen)
     moved["value"] = False  # now it dies at the same point every time
     assert transitions.claim_next(session, "w5").attempts == 1
     assert transitions.recover_stale(session, utcnow() + later, 2, advanced) == [
-        (study.id, Status.queued)]
+        (study.id, Status.queued)
+    ]
     assert transitions.claim_next(session, "w6").attempts == 2
-    transitions.heartbeat(session, study.id, "w6", progress=0.3, run_index=0,
-                          current_run="run0", current_stage="consolidation")
+    transitions.heartbeat(
+        session,
+        study.id,
+        "w6",
+        progress=0.3,
+        run_index=0,
+        current_run="run0",
+        current_stage="consolidation",
+    )
     assert transitions.recover_stale(session, utcnow() + later, 2, advanced) == [
-        (study.id, Status.failed)]
+        (study.id, Status.failed)
+    ]
     session.expire_all()
     row = session.get(Study, study.id)
     assert "advanced no checkpoint" in row.error

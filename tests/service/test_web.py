@@ -32,8 +32,13 @@ def submit(client, body) -> str:
 
 
 def finished(client, sid, workers) -> dict:
-    done = wait_for(study_getter(client, sid), lambda s: s["status"] in ("succeeded", "failed"),
-                    RUN_TIMEOUT, "the study to finish", workers)
+    done = wait_for(
+        study_getter(client, sid),
+        lambda s: s["status"] in ("succeeded", "failed"),
+        RUN_TIMEOUT,
+        "the study to finish",
+        workers,
+    )
     assert done["status"] == "succeeded", done["error"]
     return done
 
@@ -47,8 +52,10 @@ def test_queued_study_page_and_unknown_ids(client):
     assert "ref-s1" in html and "r3.1mm-paper-s1" in html  # the planned runs
     # live progress: the script (a file, no inline script) polls the study of data-id
     assert f'data-id="{sid}"' in html and 'src="/static/study.js"' in html
-    assert 'fetch("/studies/" + encodeURIComponent(box.dataset.id)' in client.get(
-        "/static/study.js").text
+    assert (
+        'fetch("/studies/" + encodeURIComponent(box.dataset.id)'
+        in client.get("/static/study.js").text
+    )
     listing = client.get("/").text
     assert f"/studies/{sid}/page" in listing and "status-queued" in listing
     assert client.get("/studies/not-a-uuid/page").status_code == 422  # as the API answers
@@ -117,10 +124,23 @@ def screenshot(url: str, path: Path, width: int = 1400, height: int = 1000) -> l
     """Render ``url`` in headless Chromium into the PNG ``path``; returns the page's console
     messages (errors, warnings and logs alike, failed loads included)."""
     proc = subprocess.run(
-        [chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
-         "--enable-logging=stderr", "--v=0", "--virtual-time-budget=8000",
-         f"--window-size={width},{height}", f"--screenshot={path}", url],
-        capture_output=True, text=True, timeout=120)
+        [
+            chromium(),
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--hide-scrollbars",
+            "--enable-logging=stderr",
+            "--v=0",
+            "--virtual-time-budget=8000",
+            f"--window-size={width},{height}",
+            f"--screenshot={path}",
+            url,
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert path.is_file() and path.read_bytes().startswith(PNG), proc.stderr[-2000:]
     return [line for line in proc.stderr.splitlines() if ":CONSOLE" in line]
 
@@ -135,15 +155,21 @@ def test_pages_in_headless_chromium(live_server, workers, tmp_path):
         workers.start()
         finished(c, done, workers)
         running = submit(c, SLOW)
-        wait_for(study_getter(c, running),
-                 lambda s: s["status"] == "running" and s["progress"] > 0.05,
-                 RUN_TIMEOUT, "the second study to run", workers)
+        wait_for(
+            study_getter(c, running),
+            lambda s: s["status"] == "running" and s["progress"] > 0.05,
+            RUN_TIMEOUT,
+            "the second study to run",
+            workers,
+        )
         # a token never travels in a URL, so Chromium (which cannot send a header or post
         # a form from the command line) sees the pages anyone may see: the login form and
         # the API description. A console message would name a Content-Security-Policy
         # violation (an inline script or style, an asset from elsewhere).
-        shots = {"login": (f"{live_server}/login?next=/studies/{done}/page", 1400, 700),
-                 "docs": (f"{live_server}/docs", 1400, 2600)}
+        shots = {
+            "login": (f"{live_server}/login?next=/studies/{done}/page", 1400, 700),
+            "docs": (f"{live_server}/docs", 1400, 2600),
+        }
         for name, (url, w, h) in shots.items():
             path = tmp_path / f"web_{name}.png"
             console = screenshot(url, path, w, h)

@@ -102,7 +102,9 @@ def test_study_runs_end_to_end(client, workers, settings):
             assert r.content[:8] == b"\x89HDF\r\n\x1a\n"
     assert client.get(f"/studies/{sid}/runs/ref-s1/snapshots/other.png").status_code == 404
     assert client.get(f"/studies/{sid}/runs/ref-s1/snapshots/..%2Fresults.h5").status_code in (
-        404, 422)
+        404,
+        422,
+    )
 
     curves = client.get(
         f"/studies/{sid}/curves", params={"run": "ref-s1", "kind": "consolidation"}
@@ -326,13 +328,17 @@ def test_runs_as_tasks_on_a_pool_or_a_dask_cluster(client, workers, settings, wh
     assert [r["status"] for r in done["runs"]] == ["succeeded"] * 3
     assert all(r["wall_time"] > 0 and r["steps"] > 0 for r in done["runs"])
     assert sorted(p.stem for p in settings.runs_dir(sid).glob("*.h5")) == [
-        "r3.1mm-paper-s1", "ref-s1", "ref-s2"]
+        "r3.1mm-paper-s1",
+        "ref-s1",
+        "ref-s2",
+    ]
 
 
 @pytest.mark.timeout(RUN_TIMEOUT + 90)
 @pytest.mark.parametrize("where", ["process pool", "dask"])
-def test_progress_within_runs_and_cancel_on_a_pool_or_a_dask_cluster(client, workers, settings,
-                                                                      where):
+def test_progress_within_runs_and_cancel_on_a_pool_or_a_dask_cluster(
+    client, workers, settings, where
+):
     """Runs on other processes report progress while they run (engine.FileChannel in the
     study's folder), and a cancel stops the running tasks, not only the pending ones."""
     with runs_elsewhere(settings, where):
@@ -351,7 +357,10 @@ def test_progress_within_runs_and_cancel_on_a_pool_or_a_dask_cluster(client, wor
         t0 = time.monotonic()
         assert client.post(f"/studies/{sid}/cancel").status_code == 202
         done = wait_for(
-            study_getter(client, sid), lambda s: s["status"] != "running", 30, "the cancel",
+            study_getter(client, sid),
+            lambda s: s["status"] != "running",
+            30,
+            "the cancel",
             workers,
         )
         assert done["status"] == "cancelled"
@@ -388,8 +397,13 @@ def test_pool_processes_exit_when_their_worker_is_killed(client, workers, settin
     settings.run_workers = 2
     sid = submit(client, {**SLOW, "reference_seeds": [1, 2], "seeds": [1]})
     worker = workers.start()
-    wait_for(study_getter(client, sid), lambda s: s["status"] == "running" and s["progress"] > 0.02,
-             RUN_TIMEOUT, "the pool to run", workers)
+    wait_for(
+        study_getter(client, sid),
+        lambda s: s["status"] == "running" and s["progress"] > 0.02,
+        RUN_TIMEOUT,
+        "the pool to run",
+        workers,
+    )
     pool = _children(worker.pid)
     assert len(pool) >= 2
     worker.send_signal(signal.SIGKILL)
@@ -404,13 +418,23 @@ def test_pool_processes_exit_when_their_worker_is_killed(client, workers, settin
 def test_a_study_that_decides_adds_runs_with_rows_and_shows_them(client, workers, settings):
     from .conftest import TINIEST
 
-    body = {**TINIEST, "name": "decide", "decide": True, "rounds": 1, "max_seeds": 3,
-            "max_reference_seeds": 3}
+    body = {
+        **TINIEST,
+        "name": "decide",
+        "decide": True,
+        "rounds": 1,
+        "max_seeds": 3,
+        "max_reference_seeds": 3,
+    }
     sid = submit(client, body)
     workers.start()
-    done = wait_for(study_getter(client, sid),
-                    lambda s: s["status"] in ("succeeded", "failed"), RUN_TIMEOUT,
-                    "the study to finish", workers)
+    done = wait_for(
+        study_getter(client, sid),
+        lambda s: s["status"] in ("succeeded", "failed"),
+        RUN_TIMEOUT,
+        "the study to finish",
+        workers,
+    )
     assert done["status"] == "succeeded", done["error"]
     summary = client.get(f"/studies/{sid}/summary").json()
     adaptive = summary["advisor"]["adaptive"]

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .backend import check_backend, resolve_backend
-from .checkpoint import Checkpoint
-from .errors import ParameterError, StopRequested, WallTimeExceeded
+from .checkpoint import Checkpoint, check_interval
+from .errors import StopRequested, WallTimeExceeded
 from .packing import sphere_volume
 from .simulation import Simulation
 from .snapshots import Snapshot, capture
@@ -701,15 +701,8 @@ def run_uniaxial(
             raise ValueError("snapshot_interval needs on_snapshot to receive the snapshots")
         if not (math.isfinite(snapshot_interval) and snapshot_interval > 0):
             raise ValueError(f"snapshot_interval must be a time > 0 s, not {snapshot_interval}")
-    if max_wall_time is not None and not (
-        isinstance(max_wall_time, (int, float))
-        and not isinstance(max_wall_time, bool)
-        and math.isfinite(max_wall_time)
-        and max_wall_time > 0
-    ):
-        raise ParameterError(
-            "run_uniaxial.max_wall_time", max_wall_time, "a wall time > 0 s, or None"
-        )
+    if max_wall_time is not None:
+        check_interval(max_wall_time, "run_uniaxial.max_wall_time")
     backend = check_backend(backend, "run_uniaxial.backend")
     if checkpoint is not None and not isinstance(checkpoint, Checkpoint):
         checkpoint = Checkpoint(checkpoint)

@@ -5,14 +5,14 @@
     python -m benchmarks.engine_speed --profile  # also a profile of the hot loop per pass
     python -m benchmarks.engine_speed --backend cuda  # the GPU targets (benchmarks/gpu_speed.py)
 
-Scene (issue 2): R = 2.5 mm spheres, density 2000, periodic x and y, bottom platen and a top
-platen moving down at 10 mm/s, dt = 1e-5 s; law K1 = 5e3, K2 = 2.5e4 N/m, f0 = -0.4 N,
-mu_s = 0.5, mu_r = 0.001, restitution 0.4. Beds of about 2,000 and 16,000 particles are built
-with engine.packing and settled once (cached under benchmarks/.cache). Every configuration
-starts from the same settled state; each figure is the median of ``--repeats`` timed runs.
-If ``liggghts`` is on the PATH, its hooke/hysteresis model runs the same packings (the
-2,025-particle anchor bed of benchmarks/liggghts and the settled 16k bed, written as a LAMMPS
-data file) with the LIGGGHTS 3.8 deck in the same session, as the baseline of the targets.
+Scene (issue 2): R = 2.5 mm spheres, density 2000, periodic x and y, bottom platen and a top platen
+moving down at 10 mm/s, dt = 1e-5 s; law K1 = 5e3, K2 = 2.5e4 N/m, f0 = -0.4 N, mu_s = 0.5, mu_r =
+0.001, restitution 0.4. Beds of about 2,000 and 16,000 particles are built with
+engine.simulation.packing and settled once (cached under benchmarks/.cache). Every configuration
+starts from the same settled state; each figure is the median of ``--repeats`` timed runs. If
+``liggghts`` is on the PATH, its hooke/hysteresis model runs the same packings (the 2,025-particle
+anchor bed of benchmarks/liggghts and the settled 16k bed, written as a LAMMPS data file) with the
+LIGGGHTS 3.8 deck in the same session, as the baseline of the targets.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ import numpy as np
 
 import engine
 from benchmarks.checks import report
-from engine import packing
+from engine.simulation import packing
 
 HERE = Path(__file__).resolve().parent
 CACHE = HERE / ".cache"

@@ -18,14 +18,13 @@ K1 = 5e3, K2 = 2.5e4 N/m, f0 = -0.8 N, platen friction 0.3, a 50 x 50 x 100 mm s
 - ``wide_tall``: a 50 x 150 x 200 mm sample, that cross-section and twice the quick height.
 
 How a run is judged was fixed before any was looked at: it *fails* when the driver's failure
-detector (engine.uniaxial.FailureDetector: the stress falls ``failure_drop`` = 20 % below its
-peak, the peak past ``failure_strain`` = 0.5 %) fires within the 10 % strain limit; otherwise
-it *hardens*, and its strength is the documented fallback (the largest stress up to the
-limit; ``strain_25`` was added after the first five, to look past the 10 % limit, and
-``wide`` after the paper-scale references (10 x 30 x 60 diameters) were seen to fail, to
-tell whether their width or their height makes the difference, and ``wide_tall`` after
-``wide`` hardened, with the same judgement). Runs are
-stored in ``benchmarks/results/quick/failure_sweep/<variant>.h5``; the report
+detector (engine.uniaxial.measures.FailureDetector: the stress falls ``failure_drop`` = 20 % below
+its peak, the peak past ``failure_strain`` = 0.5 %) fires within the 10 % strain limit; otherwise it
+*hardens*, and its strength is the documented fallback (the largest stress up to the limit;
+``strain_25`` was added after the first five, to look past the 10 % limit, and ``wide`` after the
+paper-scale references (10 x 30 x 60 diameters) were seen to fail, to tell whether their width or
+their height makes the difference, and ``wide_tall`` after ``wide`` hardened, with the same
+judgement). Runs are stored in ``benchmarks/results/quick/failure_sweep/<variant>.h5``; the report
 (docs/FAILURE.md and docs/figures/failure_sweep.png) is recomputed from them.
 """
 
@@ -39,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 import engine
-from engine.runstore import load_run, save_run
+from engine.io.store import load_run, save_run
 
 ROOT = Path(__file__).resolve().parent.parent
 STORE = ROOT / "benchmarks" / "results" / "quick" / "failure_sweep"

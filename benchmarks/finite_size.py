@@ -53,11 +53,11 @@ from pathlib import Path
 
 import numpy as np
 
-from engine.advisor import error_rates, judge_metric, noise_floor
-from engine.metrics import METRICS, metric_names, metric_values
-from engine.runstore import load_run, save_run
-from engine.uniaxial import run_uniaxial
-from engine.uniaxial_spec import GRAVITY, UniaxialTest
+from engine.io.store import load_run, save_run
+from engine.study.advisor import error_rates, judge_metric, noise_floor
+from engine.study.metrics import METRICS, metric_names, metric_values
+from engine.uniaxial.driver import run_uniaxial
+from engine.uniaxial.spec import GRAVITY, UniaxialTest
 
 ROOT = Path(__file__).resolve().parent.parent
 STORE = ROOT / "benchmarks" / "results" / "paper" / "e_finite_size"
@@ -362,7 +362,7 @@ def control_report(
     lines += [
         "Signed errors are (mean of the first - mean of the second) / mean of the second "
         "(per level, then averaged, for density and coordination); intervals from "
-        "engine.advisor.judge_metric (Fieller, min(n) - 1 dof, TOST).",
+        "engine.study.advisor.judge_metric (Fieller, min(n) - 1 dof, TOST).",
         "",
     ]
     return "\n".join(lines)

@@ -168,9 +168,9 @@ def run_reference(cap_s: float):
 def curve_check(res) -> list[tuple[str, bool | None]]:
     """Each verdict metric of the GPU reference against the stored CPU run of the same test,
     relative to the noise floor of the stored reference seeds."""
-    from engine.advisor import noise_floor
-    from engine.metrics import metric_names, metric_values, relative_error
-    from engine.runstore import load_run
+    from engine.io.store import load_run
+    from engine.study.advisor import noise_floor
+    from engine.study.metrics import metric_names, metric_values, relative_error
 
     paths = [STORED_REF / f"ref-s{s}.h5" for s in (1, 2, 3)]
     if not all(p.exists() for p in paths):
@@ -207,7 +207,7 @@ def run_batch(workers: int, store: Path) -> tuple[float, dict]:
     import multiprocessing as mp
 
     from benchmarks.reproduce import experiments
-    from engine.runstore import save_run
+    from engine.io.store import save_run
 
     spec = experiments("paper")["b_cohesive"]
     spec = replace(spec, decide=False)  # the 15 planned runs, no added seeds
@@ -246,7 +246,7 @@ def main(argv=None) -> int:
     )
     args = ap.parse_args(argv)
     t_start = time.perf_counter()
-    from engine.backend import cuda_status
+    from engine.simulation.backend import cuda_status
 
     ok, device = cuda_status()
     print(

@@ -136,7 +136,7 @@ def matched_restitution(restitution: float, n: float, d: float) -> float:
     """LIGGGHTS restitution whose constant damping 2 zeta_L sqrt(m K1) equals demscale's
     2 zeta sqrt(m n K1 d^(n-1)) at the overlap d [m] (K1 taken as N/m, as LIGGGHTS does):
     zeta_L = zeta sqrt(n d^(n-1)), e = exp(-pi zeta_L / sqrt(1 - zeta_L^2))."""
-    z = engine.materials.damping_ratio(restitution) * math.sqrt(n * d ** (n - 1.0))
+    z = engine.contact.limits.damping_ratio(restitution) * math.sqrt(n * d ** (n - 1.0))
     return math.exp(-math.pi * z / math.sqrt(1.0 - z * z))
 
 

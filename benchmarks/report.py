@@ -44,7 +44,8 @@ import numba
 import numpy as np
 
 import engine
-from engine.study import _adaptive_summary, assemble, plan_runs
+from engine.study.plan import adaptive_summary, plan_runs
+from engine.study.results import assemble
 
 ROOT = Path(__file__).resolve().parent.parent
 _COLS = (
@@ -441,7 +442,7 @@ def write_report(
     scale: str, data: dict, out_dir: Path | None = None, machines: dict | None = None
 ) -> Path:
     """``data``: experiment name -> (spec, stored outcomes); ``machines``: experiment name
-    -> run key -> the stored run's machine (engine.runstore.stored_machine). Writes
+    -> run key -> the stored run's machine (engine.io.store.stored_machine). Writes
     VALIDATION.md and its figures into ``out_dir`` (default: docs/ for the paper scale,
     else benchmarks/.cache/<scale>/) and returns the report's path."""
     machines = machines or {}
@@ -462,7 +463,7 @@ def write_report(
             results[name] = str(e)
             continue
         if spec.decide:
-            results[name].advisor["adaptive"] = _adaptive_summary(spec, planned, added, stopped)
+            results[name].advisor["adaptive"] = adaptive_summary(spec, planned, added, stopped)
         results[name].save_plots(fig_root / f"{scale}_{name}")
     machine = (
         f"{platform.machine()}, {os.cpu_count()} cores, numba {numba.__version__}, "
@@ -512,7 +513,7 @@ def write_report(
         "",
         "## How a coarse run is judged",
         "",
-        "Verdict metrics (docs/PHYSICS.md, engine/metrics.py), each a relative error against "
+        "Verdict metrics (docs/PHYSICS.md, engine/study/metrics.py), each a relative error against "
         "the mean of the reference seeds, with tolerances fixed before any run was judged:",
         "",
         "| metric | tolerance | reason |",
@@ -527,7 +528,7 @@ def write_report(
         "(which hold whatever the two spreads): `equivalent` when the interval lies inside "
         "± tolerance at every level, `differs` when the interval of the values summed over "
         "the levels lies wholly outside it (its rate split over the metrics and the two "
-        "ends), `undecided` otherwise (docs/PHYSICS.md section 7, engine/advisor.py). Table "
+        "ends), `undecided` otherwise (docs/PHYSICS.md section 7, engine/study/advisor.py). Table "
         "cells: relative error [interval] in per cent, at the worst level of a curve, or the "
         "interval that lies outside the tolerance for `differs` (metric verdict).",
         "",

@@ -25,7 +25,7 @@ cell as thick, 5 diameters, but 3 times as wide and tall), so two seeds per vari
 n = 1.5 step costs 1.34x a bilinear one (benchmarks/eepa_cost.py), a cohesive paper-scale
 reference about 1e10 particle-steps, and a 3.75 mm coarse run 3e9.
 Every finished run is stored at once as ``benchmarks/results/<scale>/<experiment>/<run>.h5``
-(:mod:`engine.runstore`); a rerun resumes with the runs not yet stored, and ``--report``
+(:mod:`engine.io.store`); a rerun resumes with the runs not yet stored, and ``--report``
 recomputes every metric, verdict and figure from the stored curves. ``--scale paper`` writes
 docs/VALIDATION.md and docs/figures/; ``--scale quick`` writes docs/VALIDATION_quick.md (the
 smoke-test scale).
@@ -41,8 +41,8 @@ from dataclasses import replace
 from pathlib import Path
 
 import engine
-from engine.runstore import completed_runs, save_run, stored_machine
-from engine.study import plan_runs
+from engine.io.store import completed_runs, save_run, stored_machine
+from engine.study.plan import plan_runs
 
 ROOT = Path(__file__).resolve().parent.parent
 R = 2.5e-3

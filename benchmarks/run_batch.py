@@ -11,7 +11,7 @@ twice). Every job is its own process, ``python -m benchmarks.reproduce --runs KE
 ``<store>/<scale>/<experiment>/<key>.h5`` exactly as the reproduction does (the engine's
 results do not depend on the thread count). At the deadline [s after the start] every job
 still running is killed, and its run is simply not stored (a stored run is written atomically,
-see engine.runstore). ``--tar`` packs the store and the logs into one file at the end.
+see engine.io.store). ``--tar`` packs the store and the logs into one file at the end.
 
 A run's numbers depend on the machine's floating-point code only through the compiler's
 choice of instructions (numba compiles for the CPU it runs on), so a run stored on another

@@ -59,7 +59,7 @@ def pool_speedup(workers: int = 2) -> list[tuple[str, bool]]:
         " ratio |\n|---|---:|---:|"
     )
     print(
-        f"| in process (engine threads: one per {engine.config.PARTICLES_PER_THREAD:,} "
+        f"| in process (engine threads: one per {engine.core.config.PARTICLES_PER_THREAD:,} "
         f"particles) | {t_seq:.1f} | baseline |"
     )
     print(f"| process pool, {workers} workers x 1 thread | {t_par:.1f} | {t_seq / t_par:.2f}x |")

@@ -19,8 +19,8 @@ import time
 import numba
 
 from benchmarks.reproduce import ROOT, experiments
-from engine.runstore import load_run, save_run, stored_machine
-from engine.uniaxial import run_uniaxial
+from engine.io.store import load_run, save_run, stored_machine
+from engine.uniaxial.driver import run_uniaxial
 
 STORE = ROOT / "benchmarks" / "results" / "paper" / "d_timing"
 #: The sitting, in order: the reference between the two coarse runs, so that a drift of

@@ -129,7 +129,7 @@ class StudyBars:
             TimeRemainingColumn,
         )
 
-        from engine.study_spec import estimated_steps
+        from engine.study.plan import estimated_steps
 
         self.planned = planned
         self.console = console
@@ -215,8 +215,8 @@ def study(args) -> int:
     from rich.console import Console
 
     import engine
-    from engine.runstore import save_study
-    from engine.snapshots import save as save_snapshots
+    from engine.io.store import save_study
+    from engine.io.vtkhdf import save as save_snapshots
 
     console = Console(stderr=True)
     spec_path = Path(args.spec)
@@ -330,8 +330,9 @@ def run(args) -> int:
     from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
 
     import engine
-    from engine.snapshots import SnapshotWriter, section_figure
-    from engine.uniaxial import SCALAR_UNITS
+    from engine.io.figures import section_figure
+    from engine.io.vtkhdf import SnapshotWriter
+    from engine.uniaxial.results import SCALAR_UNITS
 
     console = Console(stderr=True)
     path = Path(args.test)

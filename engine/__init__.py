@@ -18,44 +18,30 @@ Public API (stable names)::
     ParameterError, StabilityError, InstabilityError
 """
 
-from .channel import FileChannel
-from .checkpoint import Checkpoint
-from .errors import (
+from .contact.materials import EEPA, BilinearAdhesive, HertzMindlin, WallMaterial
+from .core.errors import (
     InstabilityError,
     ParameterError,
     StabilityError,
     StopRequested,
     WallTimeExceeded,
 )
-from .kernels import FEATURES
-from .materials import EEPA, BilinearAdhesive, HertzMindlin, WallMaterial
-from .metrics import DEFAULT_TOLERANCES, METRICS
-from .scene import Plane, Scene
-from .simulation import Contacts, Simulation, StabilityWarning
-from .snapshots import Snapshot, SnapshotWriter
-from .stability import TimeStepLimit, critical_time_step
-from .study import (
-    NAMED_RULES,
-    PlannedRun,
-    RunFailed,
-    RunResult,
-    ScalingRule,
-    StudyProgress,
-    StudyResult,
-    StudySpec,
-    default_study,
-    run_study,
-)
-from .uniaxial import (
-    RESUMED,
-    Progress,
-    StageError,
-    StageResult,
-    UniaxialResult,
-    UniaxialTest,
-    preset,
-    run_uniaxial,
-)
+from .io.vtkhdf import SnapshotWriter
+from .kernel.specialise import FEATURES
+from .simulation.scene import Plane, Scene
+from .simulation.simulation import Contacts, Simulation, StabilityWarning
+from .simulation.snapshot import Snapshot
+from .simulation.timestep import TimeStepLimit, critical_time_step
+from .study.channel import FileChannel
+from .study.metrics import DEFAULT_TOLERANCES, METRICS
+from .study.plan import PlannedRun
+from .study.results import RunFailed, RunResult, StudyResult
+from .study.run import StudyProgress, run_study
+from .study.spec import NAMED_RULES, ScalingRule, StudySpec, default_study
+from .uniaxial.checkpoint import Checkpoint
+from .uniaxial.driver import StageError, run_uniaxial
+from .uniaxial.results import RESUMED, Progress, StageResult, UniaxialResult
+from .uniaxial.spec import UniaxialTest, preset
 
 __version__ = "0.1.0"
 

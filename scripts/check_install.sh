@@ -54,7 +54,7 @@ echo "   demscale --help works; demscale study asks for demscale[cli]"
 
 echo "== with the cli extra: pip install \"demscale[cli]\""
 "$work/engine/bin/python" -m pip install --quiet "$wheel[cli]"
-(cd "$work" && "$work/engine/bin/python" -c "import h5py, matplotlib, rich, engine.snapshots, demscale.cli")
+(cd "$work" && "$work/engine/bin/python" -c "import h5py, matplotlib, rich, engine.io.vtkhdf, demscale.cli")
 echo "   rich, h5py, matplotlib import"
 
 if [ "${1:-}" = "--service" ]; then

@@ -10,7 +10,7 @@ Modules:
     spec         the study spec: pydantic models derived from the engine's parameter records
     errors       the error model and the OpenAPI answers of each status
     admission    cross-field checks by the engine, size caps, 422 errors
-    h5store      the study's HDF5 file (written by engine.runstore.save_study): read back
+    h5store      the study's HDF5 file (written by engine.io.store.save_study): read back
     plots        PNG rendering from stored results
     routes/      the REST endpoints
     app          the FastAPI application (optionally with an embedded worker)

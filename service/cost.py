@@ -25,8 +25,8 @@ import math
 from dataclasses import dataclass
 
 import engine
-from engine.materials import LAWS, WallMaterial
-from engine.uniaxial_spec import GRAVITY, PRESETS
+from engine.contact.materials import LAWS, WallMaterial
+from engine.uniaxial.spec import GRAVITY, PRESETS
 
 #: Bounds on the knobs that set work, as the admission enforces them (docs/SERVICE.md).
 BOUNDS = {
@@ -119,7 +119,7 @@ def _decide_caps(data: dict) -> tuple[int, int] | None:
     decided (``decide``), else None; the engine's defaults where the body leaves them."""
     if not data.get("decide"):
         return None
-    info = {i.name: i for i in engine.params.describe(engine.StudySpec)}
+    info = {i.name: i for i in engine.core.records.describe(engine.StudySpec)}
     return (
         int(data.get("max_reference_seeds") or info["max_reference_seeds"].default),
         int(data.get("max_seeds") or info["max_seeds"].default),
@@ -241,7 +241,7 @@ def _added_worst_case(
     seed caps, or, with a ``budget`` of (estimated) particle-steps, that budget times the
     largest ratio of worst-case to estimated particle-steps (and of curve samples to
     estimated particle-steps) of the runs they copy, whichever is less."""
-    from engine.study_spec import estimated_steps
+    from engine.study.plan import estimated_steps
 
     particle_steps = sum(c.particle_steps for c in extra)
     samples = sum(c.samples for c in extra)

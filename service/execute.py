@@ -17,9 +17,9 @@ import uuid
 from sqlmodel import Session
 
 import engine
-from engine.runstore import completed_runs
-from engine.runstore import save_run as store_run
-from engine.study import plan_runs
+from engine.io.store import completed_runs
+from engine.io.store import save_run as store_run
+from engine.study.plan import plan_runs
 
 from . import checkpoints, transitions
 from .db import engine_for
@@ -102,7 +102,7 @@ class StudyExecution:
 
     def ensure_row(self, key: str) -> None:
         """Give a run a ``decide`` study added a row, with the others of its round: the
-        study's runs are replayed from the stored ones (engine.study.plan_runs)."""
+        study's runs are replayed from the stored ones (engine.study.plan.plan_runs)."""
         if key in self.known_runs:
             return
         spec = self.spec
@@ -147,7 +147,7 @@ class StudyExecution:
     def store_snapshots(self, key: str, result) -> None:
         """ParaView files and PNG sections of the run's stage ends, under
         ``<study>/snapshots/<key>/`` (written into a temporary folder, then renamed)."""
-        from engine.snapshots import save as save_snapshots
+        from engine.io.vtkhdf import save as save_snapshots
 
         final = self.settings.snapshots_dir(self.study_id) / key
         tmp = final.with_name(f".{key}.{self.worker_id.replace(':', '-')}.tmp")

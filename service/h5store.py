@@ -1,5 +1,5 @@
 """The study's HDF5 file as the service reads it: written by the engine
-(:func:`engine.runstore.save_study`, the one layout of a run and a study; schema version 2,
+(:func:`engine.io.store.save_study`, the one layout of a run and a study; schema version 2,
 see docs/SERVICE.md), read back here for the summary, the curves and the plots."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from pathlib import Path
 
 import h5py
 
-from engine.runstore import SCHEMA, SCHEMA_VERSION, StoreRefused, save_study, stage_names
+from engine.io.store import SCHEMA, SCHEMA_VERSION, StoreRefused, save_study, stage_names
 
 __all__ = [
     "SCHEMA",
@@ -28,7 +28,7 @@ NotOurs = StoreRefused
 
 def write_results(path: Path, study_id: object, result, still_ours=lambda: True) -> Path:
     """Write the :class:`engine.StudyResult` ``result`` to ``path`` atomically
-    (:func:`engine.runstore.save_study`); ``still_ours()`` is asked just before the rename,
+    (:func:`engine.io.store.save_study`); ``still_ours()`` is asked just before the rename,
     False raises :class:`NotOurs` and leaves ``path`` alone."""
     return save_study(path, study_id, result, before_rename=still_ours)
 
@@ -88,7 +88,7 @@ def read_runs(
 
 
 def read_plot_data(path: Path) -> tuple[dict, list[dict], dict | None]:
-    """``(runs, table, advisor)`` as :func:`engine.plots.figure` takes them, from the stored
+    """``(runs, table, advisor)`` as :func:`engine.io.figures.figure` takes them, from the stored
     file."""
     summary = read_summary(path)
     return read_runs(path), summary["table"], summary.get("advisor")

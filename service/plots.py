@@ -1,5 +1,5 @@
 """PNG plots of a finished study, drawn from its HDF5 file with matplotlib's object API
-(``engine.plots.figure`` on an Agg canvas; pyplot is never imported) and cached next to it.
+(``engine.io.figures.figure`` on an Agg canvas; pyplot is never imported) and cached next to it.
 """
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import io
 import os
 from pathlib import Path
 
-from engine import plots as engine_plots
+from engine.io import figures as engine_plots
 
 from .h5store import read_plot_data
 

@@ -3,14 +3,14 @@ model family), derived from the engine's parameter records.
 
 Every field of :class:`engine.StudySpec`, :class:`engine.UniaxialTest` (the reference),
 :class:`engine.ScalingRule` and the contact-law records is declared once, in the engine,
-with :func:`engine.params.param` (unit, bounds, kind, default, description);
-:func:`record_model` turns each record's :func:`engine.params.describe` into a pydantic
+with :func:`engine.core.records.param` (unit, bounds, kind, default, description);
+:func:`record_model` turns each record's :func:`engine.core.records.describe` into a pydantic
 model, so that a new engine field appears in the API (and its OpenAPI document) without an
 edit here. The engine stays the judge of what spans fields (``k2 >= k1``, a coarse radius
 the cell can hold, ...): :mod:`service.admission` turns its ``ParameterError`` into a 422.
 
 What the API adds to the records: the study's ``name`` (a label), the reference's
-``preset`` (``engine.preset``), rules given by name (``engine.study_spec.NAMED_RULES``), the
+``preset`` (``engine.preset``), rules given by name (``engine.study.spec.NAMED_RULES``), the
 ``type`` tag of contact laws, and the constraints in :data:`SERVICE_LIMITS` that the engine
 checks in code but does not declare. Numbers, booleans and strings are strict: ``"1e-3"``
 is not a number.
@@ -34,9 +34,9 @@ from pydantic import (
 )
 
 import engine
-from engine.params import ParamInfo, describe
-from engine.study_spec import NAMED_RULES
-from engine.uniaxial_spec import PRESETS
+from engine.core.records import ParamInfo, describe
+from engine.study.spec import NAMED_RULES
+from engine.uniaxial.spec import PRESETS
 
 from .cost import MIN_SETTLE_KE
 from .models import NAME_MAX_LENGTH
@@ -47,7 +47,7 @@ SERVICE_LIMITS: dict[tuple[str, str], dict[str, Any]] = {
     # engine.ScalingRule.__post_init__: 1-40 letters, digits, '_', '-', '.'
     ("ScalingRule", "name"): {"pattern": r"^[A-Za-z0-9_.\-]{1,40}$"},
     # engine.StudySpec.__post_init__: the scaling rules act on the adhesive laws' K1, K2, f0
-    ("UniaxialTest", "pair_law"): {"record": engine.materials.adhesive_laws()},
+    ("UniaxialTest", "pair_law"): {"record": engine.contact.materials.adhesive_laws()},
     # service.cost: below this a fill never settles and runs to max_stage_time (the
     # bounds relative to dt and the stages, on output_interval and max_stage_time, are
     # checked at admission: a schema cannot state them)
@@ -128,7 +128,7 @@ def _item_kind(item_hint: Any) -> str:
 
 
 def _named_rule(value: Any) -> Any:
-    """A rule given by name becomes that rule of ``engine.study_spec.NAMED_RULES``."""
+    """A rule given by name becomes that rule of ``engine.study.spec.NAMED_RULES``."""
     if not isinstance(value, str):
         return value
     if value not in NAMED_RULES:

@@ -20,7 +20,7 @@ from fastapi.responses import HTMLResponse
 from fastapi.templating import Jinja2Templates
 from sqlmodel import select
 
-from engine.plots import KINDS
+from engine.io.figures import KINDS
 
 from . import h5store
 from .deps import OwnerDep, SessionDep, SettingsDep, StudyDep

@@ -58,7 +58,7 @@ def _without_optional(code: str) -> subprocess.CompletedProcess:
 
 def test_engine_imports_with_numpy_and_numba_only():
     proc = _without_optional("""
-import engine, engine.snapshots, demscale.cli
+import engine, engine.io.vtkhdf, demscale.cli
 assert all(sys.modules[m] is None for m in OPTIONAL)
 print(engine.UniaxialTest(cell=(0.015, 0.015, 0.015)).n_particles)
 """)

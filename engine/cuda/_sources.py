@@ -3,8 +3,8 @@
 
 The names they call and read that are not defined here (``_pair_one``, ``_particle_one``, the
 scene's flags, the block sizes) are bound per scene: the per-particle bodies are the device
-versions of the specialised CPU step module's (:mod:`engine._step_template`), the neighbour
-search's those of :mod:`engine.neighbour`. What is here is only the CUDA-side arrangement:
+versions of the specialised CPU step module's (:mod:`engine.kernel.step_template`), the neighbour
+search's those of :mod:`engine.kernel.neighbour`. What is here is only the CUDA-side arrangement:
 one thread per particle (or entry, or cell), reductions in a fixed order, the control array
 that stops the queued kernels of a call when a step asks for a rebuild or fails.
 
@@ -301,7 +301,7 @@ def bounds_kernel(pos, bounds):
 
 
 def grid_kernel(bounds, lo, length, periodic, cut, max_cells, grid, ncell):
-    """The cell grid of :func:`engine.neighbour.cell_grid` (one thread): cells at least
+    """The cell grid of :func:`engine.kernel.neighbour.cell_grid` (one thread): cells at least
     ``cut`` wide [m], periodic axes tiling the period, at most ``max_cells`` cells. ``grid``:
     origin (row 0) and cell size (row 1) [m]."""
     if cuda.grid(1) != 0:
@@ -348,7 +348,7 @@ def cell_fill_kernel(key, cell_start, fill, cell_list):
 
 
 def count_kernel(pos, rad, skin, cell3, ncell, cell_start, cell_list, periodic, length, cnt, none):
-    """Neighbours j > i of each particle within the skin (``_scan`` of engine.neighbour,
+    """Neighbours j > i of each particle within the skin (``_scan`` of engine.kernel.neighbour,
     counting only: ``none`` has length 0)."""
     i = cuda.grid(1)
     if i < pos.shape[0]:
@@ -376,7 +376,7 @@ def list_kernel(
     n_hist,
 ):
     """The new half list of particle i (sorted), with the history of every pair also in the
-    old list carried over (merge of two sorted segments, as engine.neighbour does)."""
+    old list carried over (merge of two sorted segments, as engine.kernel.neighbour does)."""
     i = cuda.grid(1)
     if i >= pos.shape[0]:
         return

@@ -1,15 +1,15 @@
 """One source, two targets: CUDA device functions and kernels built from the plain Python
 functions behind the engine's ``@njit`` kernels.
 
-A numba CPU dispatcher keeps the Python function it compiles (``dispatcher.py_func``). The
-same function is compiled here with ``numba.cuda.jit(device=True)``, after rebinding the names
-it calls: every global name of its code that refers to another ``@njit`` dispatcher is bound
-to that callee's device version (built the same way, recursively), every other global (the
-scene's compile-time flags and slot constants of a specialised step module, ``math``, the
-named tuples of :mod:`engine.laws`) keeps its value. The contact laws, the composition
-:func:`engine.laws.contact` and the integration of :mod:`engine._step_template` are thus
-written once and compiled for both targets, and a scene's CUDA kernels carry exactly the
-features its CPU kernel carries.
+A numba CPU dispatcher keeps the Python function it compiles (``dispatcher.py_func``). The same
+function is compiled here with ``numba.cuda.jit(device=True)``, after rebinding the names it calls:
+every global name of its code that refers to another ``@njit`` dispatcher is bound to that callee's
+device version (built the same way, recursively), every other global (the scene's compile-time flags
+and slot constants of a specialised step module, ``math``, the named tuples of
+:mod:`engine.contact.compose`) keeps its value. The contact laws, their composition
+(:func:`engine.contact.compose.composition`) and the integration of
+:mod:`engine.kernel.step_template` are thus written once and compiled for both targets, and a
+scene's CUDA kernels carry exactly the features its CPU kernel carries.
 
 Only :mod:`numba.cuda` (numba-cuda) is imported here, when this module is: the CPU engine
 never imports it.

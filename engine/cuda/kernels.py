@@ -1,8 +1,8 @@
 """The CUDA kernels of a scene, compiled from :mod:`engine.cuda._sources` with the device
-versions of the scene's specialised CPU step module (:func:`engine.kernels.load_kernel`) and
-of :mod:`engine.neighbour` bound in (:mod:`engine.cuda.device`).
+versions of the scene's specialised CPU step module (:func:`engine.kernel.specialise.load_kernel`)
+and of :mod:`engine.kernel.neighbour` bound in (:mod:`engine.cuda.device`).
 
-The per-chunk reductions run over the CPU's chunks (``engine.config.CHUNK`` particles) in
+The per-chunk reductions run over the CPU's chunks (``engine.core.config.CHUNK`` particles) in
 the CPU's order; block sizes are launch parameters that change no result (per-element
 work, integer work, order-free min/max, or sums in a fixed tree of ``RED_T``).
 """
@@ -14,8 +14,9 @@ from types import SimpleNamespace
 
 from numba.cuda import types as cuda_types
 
-from .. import kernels as cpu_kernels
-from .. import neighbour, step_common
+from ..kernel import neighbour
+from ..kernel import specialise as cpu_kernels
+from ..kernel import state as step_common
 from . import _sources
 from .device import SIMULATOR, device_function, kernel, plain_device_function
 
@@ -71,7 +72,7 @@ def _constants() -> dict:
 
 
 def step_kernels(features: dict[str, bool]) -> SimpleNamespace:
-    """The step kernels for ``features`` (those of :data:`engine.kernels.FEATURES`), with
+    """The step kernels for ``features`` (those of :data:`engine.kernel.specialise.FEATURES`), with
     the CPU module they are compiled from as ``.cpu`` (for its slot layout and modes)."""
     key = tuple(sorted(features.items()))
     with _lock:

@@ -25,8 +25,8 @@ from types import SimpleNamespace
 import numpy as np
 from numba import cuda
 
-from ..simulation import Simulation
-from ..step_common import OK, PAUSE, NeighbourList, Particles, StepParams, Walls
+from ..kernel.state import OK, PAUSE, NeighbourList, Particles, StepParams, Walls
+from ..simulation.simulation import Simulation
 from . import _sources as src
 from .device import SIMULATOR
 from .kernels import RED_T, SCAN_SEG, SCAN_T, THREADS, search_kernels, step_kernels

@@ -8,7 +8,7 @@ from typing import Annotated
 from fastapi import APIRouter, HTTPException, Path, Query, Response
 from fastapi.responses import FileResponse
 
-from engine.uniaxial import STAGES
+from engine.uniaxial.driver import STAGES
 
 from .. import h5store
 from ..deps import ResultsDep, SettingsDep, StudyDep
@@ -17,9 +17,9 @@ from ..plots import KINDS, plot_png
 
 router = APIRouter(prefix="/studies/{study_id}", tags=["results"], responses=answers(401, 404, 409))
 
-#: The plots the API draws (engine.plots.KINDS).
+#: The plots the API draws (engine.io.figures.KINDS).
 PlotKind = Enum("PlotKind", {k: k for k in KINDS}, type=str)
-#: A stage of the uniaxial test (engine.uniaxial.STAGES), or every stage.
+#: A stage of the uniaxial test (engine.uniaxial.driver.STAGES), or every stage.
 StageKind = Enum("StageKind", {s: s for s in (*STAGES, "all")}, type=str)
 #: Longest run key accepted [characters].
 RUN_KEY_MAX_LENGTH = 100

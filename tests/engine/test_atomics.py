@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from numba import njit, prange
 
-from engine.atomics import (
+from engine.kernel.atomics import (
     atomic_add,
     atomic_cas,
     atomic_load,
@@ -17,7 +17,7 @@ from engine.atomics import (
     futex_wake,
     sleep_us,
 )
-from engine.step_common import sync_length, team_barrier
+from engine.kernel.team import sync_length, team_barrier
 
 
 @njit

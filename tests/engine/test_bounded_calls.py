@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import engine
-import engine.simulation as simulation
+import engine.simulation.simulation as simulation
 from tests import naive
 
 R = 2.5e-3

@@ -10,8 +10,8 @@ import time
 import pytest
 
 import engine
-from engine.channel import task_progress
-from engine.uniaxial import Progress
+from engine.study.channel import task_progress
+from engine.uniaxial.results import Progress
 from tests.engine.test_uniaxial import tiny
 
 

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 import engine
-from engine.checkpoint import Checkpoint
-from engine.uniaxial import STAGES
+from engine.uniaxial.checkpoint import Checkpoint
+from engine.uniaxial.driver import STAGES
 
 from .test_uniaxial import COHESIVE, tiny
 

@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pytest
 
-from engine import advisor
+from engine.study import advisor
 
 N = 1200
 BOUND = 0.05 + 3 * math.sqrt(0.05 * 0.95 / N)
@@ -153,12 +153,12 @@ def test_curve_metric_rates():
 
 
 def _adaptive_rates(true_error, spread_ratio, n=N, seed=0, sd=0.1, peek_free=False):
-    """Adaptive studies of one variant (engine.adaptive.next_runs picks the runs, the
+    """Adaptive studies of one variant (engine.study.adaptive.next_runs picks the runs, the
     advisor judges each round): fractions finally called equivalent and differs.
     ``peek_free``: judge every look at the full rate (the rule without alpha spending)."""
     from types import SimpleNamespace
 
-    from engine.adaptive import next_runs
+    from engine.study.adaptive import next_runs
 
     name = "loading_stiffness"
     spec = SimpleNamespace(

@@ -106,7 +106,7 @@ def test_cuda_reports_the_instability_the_cpu_reports():
 
 def test_backend_names_are_checked():
     import engine
-    from engine.backend import check_backend, resolve_backend
+    from engine.simulation.backend import check_backend, resolve_backend
 
     assert resolve_backend("cpu") == "cpu"
     assert check_backend(" CUDA ") == "cuda"

@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 import engine
-from engine import kernels, laws
-from engine.config import DT_FRACTION
-from engine.stability import eepa_impact_overlap, oscillator_limit
+from engine.contact import compose as laws
+from engine.contact.limits import eepa_impact_overlap, oscillator_limit
+from engine.core.config import DT_FRACTION
+from engine.kernel import specialise as kernels
 from tests.engine.helpers import pair_scene, path_forces, run_until_separated
 from tests.engine.test_kernels import _bed
 
@@ -129,7 +130,7 @@ def test_time_step_from_the_tangent_stiffness_at_the_largest_expected_overlap():
     d = eepa_impact_overlap(m_eff, law, 2 * v)  # head-on: two particles each at v
     # the overlap balances the impact's energy and adhesion's work on the loading branch
     assert K1 * d ** (N + 1) / (N + 1) == pytest.approx(2 * m_eff * v * v - F0 * d, rel=1e-9)
-    zeta = engine.materials.damping_ratio(0.5)
+    zeta = engine.contact.limits.damping_ratio(0.5)
     normal = oscillator_limit(N * K2 * d ** (N - 1), m_eff, zeta * math.sqrt(K1 / K2))
     tangential = oscillator_limit(3.5 * law.kt * N * d ** (N - 1), m_eff, zeta * math.sqrt(3.5))
     assert lim.dt == pytest.approx(min(normal, tangential), rel=1e-12)

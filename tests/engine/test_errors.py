@@ -9,9 +9,9 @@ import pickle
 
 import pytest
 
-from engine.errors import InstabilityError, ParameterError, StabilityError, StopRequested
-from engine.study import RunFailed
-from engine.uniaxial import StageError
+from engine.core.errors import InstabilityError, ParameterError, StabilityError, StopRequested
+from engine.study.results import RunFailed
+from engine.uniaxial.driver import StageError
 
 
 def _errors():

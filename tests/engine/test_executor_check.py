@@ -10,7 +10,7 @@ import multiprocessing as mp
 import pytest
 
 import engine
-from engine.study import check_executor
+from engine.study.run import check_executor
 
 TINY = {
     "reference": {

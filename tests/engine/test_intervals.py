@@ -1,4 +1,4 @@
-"""Student's t, Welch and Fieller (engine.intervals) against closed forms and tables."""
+"""Student's t, Welch and Fieller (engine.study.intervals) against closed forms and tables."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from engine import intervals as iv
+from engine.study import intervals as iv
 
 
 @pytest.mark.parametrize(

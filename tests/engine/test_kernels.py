@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import engine
-import engine.simulation
-from engine import kernels
+import engine.simulation.simulation
+from engine.kernel import specialise as kernels
 from tests import naive
 
 R = 2.5e-3
@@ -56,7 +56,7 @@ def _all_features(scene, periodic=None):
 def _trajectory(scene, monkeypatch=None):
     """The simulation after 1,500 steps, and the contacts counted over five snapshots."""
     if monkeypatch is not None:
-        monkeypatch.setattr(engine.simulation, "scene_features", _all_features)
+        monkeypatch.setattr(engine.simulation.simulation, "scene_features", _all_features)
     sim = engine.Simulation(scene, dt=5e-6)
     contacts = 0
     for _ in range(5):

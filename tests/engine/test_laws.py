@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import engine
-from engine import laws
+from engine.contact import compose as laws
 from tests import naive
 from tests.engine.helpers import pair_scene, path_forces
 
@@ -229,9 +229,9 @@ def test_hertz_contact_friction_cap():
 
 
 def test_damping_coefficients():
-    assert engine.materials.damping_ratio(1.0) == 0.0
+    assert engine.contact.limits.damping_ratio(1.0) == 0.0
     e = 0.4
-    z = engine.materials.damping_ratio(e)
+    z = engine.contact.limits.damping_ratio(e)
     # inverse relation of the linear spring-dashpot: e = exp(-pi z / sqrt(1 - z^2))
     assert math.exp(-math.pi * z / math.sqrt(1 - z * z)) == pytest.approx(e, rel=1e-12)
     assert laws.viscous_damping_coefficient(z, 2.0, 8.0) == pytest.approx(2 * z * 4.0)
@@ -253,7 +253,7 @@ def test_step_kernel_damps_with_the_tested_coefficient(hertz):
     if hertz:
         e_star, _ = law.pair_moduli()
         f_el, s_n = laws.hertz_normal_force(d, e_star, r / 2)
-        zeta = math.sqrt(5 / 6) * engine.materials.damping_ratio(0.4)  # Tsuji, on S_n
+        zeta = math.sqrt(5 / 6) * engine.contact.limits.damping_ratio(0.4)  # Tsuji, on S_n
         c_n = laws.viscous_damping_coefficient(zeta, m_eff, s_n)
     else:
         f_el = F0 + K1 * d

@@ -115,7 +115,7 @@ def test_matched_restitution_gives_liggghts_the_damping_of_demscale_at_the_overl
     # n = 1: the tangent stiffness is K1 itself, nothing to match
     assert lig.matched_restitution(0.5, 1.0, 1e-4) == pytest.approx(0.5)
     e = lig.matched_restitution(0.5, 1.5, lig.D_REF)
-    zeta = engine.materials.damping_ratio
+    zeta = engine.contact.limits.damping_ratio
     m, k1 = 6.5e-5, 5e5
     c_liggghts = 2 * zeta(e) * (m * k1) ** 0.5
     c_demscale = 2 * zeta(0.5) * (m * 1.5 * k1 * lig.D_REF**0.5) ** 0.5

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import engine
-from engine.neighbour import build_neighbour_list
+from engine.kernel.neighbour import build_neighbour_list
 from tests import naive
 
 R = 2.5e-3

@@ -8,7 +8,7 @@ import pytest
 
 import engine
 from benchmarks.report import write_report
-from engine.runstore import load_run, save_run
+from engine.io.store import load_run, save_run
 from tests.engine.test_uniaxial import COHESIVE, tiny
 
 R = 2.5e-3
@@ -83,7 +83,7 @@ def test_report_judges_the_claims_from_stored_runs(tmp_path):
 
 
 def test_stored_run_records_threads_and_machine(tmp_path):
-    from engine.runstore import stored_machine, this_machine
+    from engine.io.store import stored_machine, this_machine
 
     res = engine.run_uniaxial(tiny())  # 30 particles: one engine thread
     assert res.scalars["threads"] == 1.0

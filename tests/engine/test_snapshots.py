@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 import engine
-from engine.snapshots import FIELD_UNITS, SnapshotWriter, particle_fields
-from engine.uniaxial import STAGES
+from engine.io.vtkhdf import FIELD_UNITS, SnapshotWriter
+from engine.simulation.snapshot import particle_fields
+from engine.uniaxial.driver import STAGES
 
 h5py = pytest.importorskip("h5py")
 

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import engine
-from engine import metrics
-from engine.advisor import adhesion_advice, advise
+from engine.study import metrics
+from engine.study.advisor import adhesion_advice, advise
 from tests.engine.test_uniaxial import COHESIVE, tiny
 
 
@@ -200,7 +200,7 @@ def test_tiny_study_end_to_end(tiny_study, tmp_path):
         (3.1e-3, "unscaled"),
     }
     for v in adv["verdicts"]:
-        assert v["verdict"] in engine.advisor.VERDICTS and v["reason"]
+        assert v["verdict"] in engine.study.advisor.VERDICTS and v["reason"]
         assert {m["metric"] for m in v["metrics"]} == set(engine.METRICS)
     assert set(adv["noise_floor"]) == set(engine.METRICS)
     assert all(x is not None and x >= 0 for x in adv["noise_floor"].values())
@@ -213,7 +213,7 @@ def test_tiny_study_end_to_end(tiny_study, tmp_path):
         data = p.read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
     # the verdicts recomputed from the stored runs are the same
-    again = engine.study.assemble(spec, spec.planned_runs(), stored)
+    again = engine.study.results.assemble(spec, spec.planned_runs(), stored)
     assert again.advisor["verdicts"] == adv["verdicts"]
 
 
@@ -255,14 +255,14 @@ def test_a_failed_coarse_run_leaves_the_rest():
     outcomes = {}
     good = engine.run_study(spec, on_run=outcomes.__setitem__)
     outcomes["r3.1mm-paper-s1"] = "InstabilityError: blew up at step 12"
-    res = engine.study.assemble(spec, spec.planned_runs(), outcomes)
+    res = engine.study.results.assemble(spec, spec.planned_runs(), outcomes)
     assert res.failed == {"r3.1mm-paper-s1": "InstabilityError: blew up at step 12"}
     v = next(v for v in res.advisor["verdicts"] if v["rule"] == "paper")
     assert v["verdict"] == "undecided" and "blew up" in v["reason"]
     assert "r3.1mm-unscaled-s1" in res.runs and len(good.runs) == 4
     outcomes["ref-s1"] = outcomes["ref-s2"] = "StageError: no"
     with pytest.raises(engine.RunFailed):
-        engine.study.assemble(spec, spec.planned_runs(), outcomes)
+        engine.study.results.assemble(spec, spec.planned_runs(), outcomes)
 
 
 def test_callback_can_stop_a_study():

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 import pytest
 
 import engine
-from engine.limits import TimeStepCandidate, oscillator_limit
-from engine.materials import LAWS
+from engine.contact.limits import TimeStepCandidate, oscillator_limit
+from engine.contact.materials import LAWS
 
 from .helpers import pair_scene
 

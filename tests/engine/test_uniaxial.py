@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import engine
-from engine.uniaxial import STAGES
+from engine.uniaxial.driver import STAGES
 
 R = 2.5e-3
 COHESIVE = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001, restitution=0.4)

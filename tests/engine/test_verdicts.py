@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import engine
-from engine import advisor, metrics
-from engine.uniaxial import (
+from engine.study import advisor, metrics
+from engine.uniaxial.measures import (
     FailureDetector,
     interior_measures,
     slab_volumes,
@@ -245,7 +245,7 @@ def test_finite_size_warnings_cite_the_measured_effect():
 def test_the_cited_finite_size_effect_is_the_stored_controls():
     # MEASURED_FINITE_SIZE is what benchmarks/finite_size.py computes from the stored runs
     from benchmarks import finite_size
-    from engine import metrics as m
+    from engine.study import metrics as m
 
     controls = [r for r in finite_size.stored().values() if not isinstance(r, str)]
     refs = [
@@ -382,7 +382,7 @@ def _curve(peak_at, soften, end=0.1, noise=0.015, seed=0):
     ],
 )
 def test_failure_criterion_on_synthetic_curves(peak_at, soften, failed):
-    from engine.uniaxial import failed_by_curve
+    from engine.uniaxial.measures import failed_by_curve
 
     e, s = _curve(peak_at, soften)
     assert failed_by_curve(e, s, 0.005) is failed
@@ -392,8 +392,8 @@ def test_failure_criterion_on_the_stored_paper_curves():
     # the five paper runs that peak and then soften by 8-28 % before the strain limit
     # without the in-run detector's 20 % drop (issue 19) are failures; every quick-scale
     # cohesive run hardens to the strain limit
-    from engine.runstore import load_run
-    from engine.uniaxial import failed_by_curve
+    from engine.io.store import load_run
+    from engine.uniaxial.measures import failed_by_curve
 
     root = metrics.__file__.rsplit("/engine/", 1)[0] + "/benchmarks/results"
     paper = [

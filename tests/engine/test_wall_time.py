@@ -10,7 +10,7 @@ import pickle
 import pytest
 
 import engine
-from engine.study import RunFailed
+from engine.study.results import RunFailed
 
 from .test_uniaxial import COHESIVE, tiny
 

@@ -97,7 +97,7 @@ def test_the_650_run_body_is_refused_before_any_packing(client, monkeypatch):
     assert client.post("/studies", json=TINY).status_code == 202  # warm: the first request
     placed = []
     monkeypatch.setattr(
-        engine.uniaxial_spec,
+        engine.uniaxial.spec,
         "_packing",
         lambda *a: placed.append(a) or pytest.fail("a packing was placed"),
     )
@@ -117,7 +117,7 @@ def test_a_costly_body_within_the_run_count_is_refused_before_any_packing(
     client, settings, monkeypatch
 ):
     monkeypatch.setattr(
-        engine.uniaxial_spec, "_packing", lambda *a: pytest.fail("a packing was placed")
+        engine.uniaxial.spec, "_packing", lambda *a: pytest.fail("a packing was placed")
     )
     body = {
         **MANY_RUNS,

@@ -13,7 +13,7 @@ from datetime import timedelta
 import pytest
 
 import engine
-from engine.runstore import load_run
+from engine.io.store import load_run
 from service import checkpoints
 from service.models import utcnow
 

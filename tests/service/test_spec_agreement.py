@@ -1,7 +1,7 @@
 """The API's request schema and the engine's parameter records agree: for every record a
 study reaches (StudySpec, UniaxialTest, ScalingRule, the contact laws, the wall material),
 the OpenAPI document has exactly the record's fields, with their units, bounds, choices,
-defaults, nullability and required-ness as ``engine.params.describe`` declares them; named
+defaults, nullability and required-ness as ``engine.core.records.describe`` declares them; named
 rules are the engine's; the engine's own default study is a valid body."""
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import pytest
 from fastapi.testclient import TestClient
 
 import engine
-from engine.params import describe
-from engine.study_spec import NAMED_RULES
+from engine.core.records import describe
+from engine.study.spec import NAMED_RULES
 from service.app import create_app
 from service.spec import SERVICE_LIMITS, TAGGED, StudyCreate, jsonable
 

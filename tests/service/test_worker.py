@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import engine
-from engine.runstore import read_run_group, stage_names
+from engine.io.store import read_run_group, stage_names
 from service.plots import KINDS
 
 from .conftest import SLOW, TINY, study_getter, wait_for
@@ -136,7 +136,7 @@ def test_study_runs_end_to_end(client, workers, settings):
         assert list(f["runs"]) == ["ref-s1", "r3.1mm-paper-s1"]
         ref = f["runs/ref-s1"]
         assert ref.attrs["reference"] and ref.attrs["radius_units"] == "m"
-        # the run in the one layout of a run (engine.runstore), as in its own file
+        # the run in the one layout of a run (engine.io.store), as in its own file
         assert ref["scalars"].attrs["unconfined_strength_units"] == "Pa"
         assert engine.UniaxialTest.from_dict(json.loads(ref.attrs["test"])).seed == 1
         assert stage_names(ref) == [

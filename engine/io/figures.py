@@ -1,0 +1,415 @@
+"""Figures of a scaling study, drawn with matplotlib's object API (no pyplot, no display).
+
+Every function works on plain data so that a live :class:`engine.StudyResult` and a study read
+back from its HDF5 file draw the same pictures:
+
+``runs``  key -> {"label": str, "reference": bool, "stages": {stage: {curve: 1-D array}}}
+``table`` one dict per run with the columns of :data:`engine.study.results.TABLE_UNITS`
+``advisor`` the study's advisor (tolerances, noise floor, verdicts), or None
+
+matplotlib is imported only when a figure is drawn (the engine does not depend on it).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..simulation.snapshot import Snapshot, particle_fields
+from ..study.metrics import METRIC_COLUMNS
+
+#: Plot kinds and their titles.
+KINDS = {
+    "stress_strain": "Confined compression and unloading: stress against strain",
+    "stress_porosity": "Confined compression and unloading: porosity against stress",
+    "coordination": "Confined compression and unloading: coordination number against stress",
+    "unconfined": "Unconfined compression to failure",
+    "error_vs_runtime": "Error against the reference and run time",
+}
+
+_CONFINED = ("consolidation", "unloading")
+#: Verdict metrics: table column (engine.study.metrics.METRIC_COLUMNS) and panel title.
+_TITLES = {
+    "density": "bulk density (interior)",
+    "loading_stiffness": "loading stiffness",
+    "unloading_stiffness": "unloading stiffness",
+    "coordination": "coordination (interior)",
+    "strength": "unconfined strength",
+}
+_METRIC_PANELS = {n: (METRIC_COLUMNS[n], t) for n, t in _TITLES.items()}
+_MARKERS = "osD^vP*X"
+
+
+def study_plot_data(result) -> tuple[dict, list[dict], dict]:
+    """``(runs, table, advisor)`` of a live :class:`engine.StudyResult`."""
+    runs = {
+        key: {
+            "label": key,
+            "reference": r.rule is None,
+            "stages": {name: st.curves for name, st in r.result.stages.items()},
+        }
+        for key, r in result.runs.items()
+    }
+    return runs, result.table, result.advisor
+
+
+def _style(i: int, ref: bool) -> dict:
+    if ref:
+        return {"color": "black", "lw": 2.2, "zorder": 5}
+    return {"color": f"C{i % 10}", "lw": 1.3, "alpha": 0.9}
+
+
+def _groups(runs: dict, table: list[dict]) -> dict[str, list[str]]:
+    """Run keys by group: the references, and each (radius, rule) variant, in table order;
+    runs not in the table form a group each."""
+    rows = {r["run"]: r for r in table}
+    out: dict[str, list[str]] = {}
+    for key, run in runs.items():
+        r = rows.get(key)
+        if run["reference"]:
+            label = "reference"
+        elif r is not None:
+            label = f"R = {r['radius'] * 1e3:g} mm, {r['rule']}"
+        else:
+            label = run["label"]
+        out.setdefault(label, []).append(key)
+    return out
+
+
+def _mean_band(
+    xs: list[np.ndarray], ys: list[np.ndarray], increasing: bool, n: int = 120
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Mean and sample standard deviation over seeds of curves y(x), each read along its
+    monotone part in x (running max, or min where x falls) on the x range all share."""
+    parts = []
+    for x, y in zip(xs, ys):
+        x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+        if len(x) < 2:
+            return None
+        env = np.maximum.accumulate(x) if increasing else np.minimum.accumulate(x)
+        keep = np.ones(len(x), dtype=bool)
+        keep[1:] = env[1:] != env[:-1]
+        order = np.argsort(x[keep])
+        parts.append((x[keep][order], y[keep][order]))
+    lo = max(p[0][0] for p in parts)
+    hi = min(p[0][-1] for p in parts)
+    if not hi > lo:
+        return None
+    grid = np.linspace(lo, hi, n)
+    a = np.array([np.interp(grid, px, py) for px, py in parts])
+    return grid, a.mean(axis=0), a.std(axis=0, ddof=1)
+
+
+def _plot_groups(
+    ax, runs: dict, table: list[dict], curve, stages, styles, along_y: bool = False
+) -> None:
+    """Every group of runs: one seed as its curve; two or more as the mean curve over the
+    seeds with a band of one standard deviation (many seeds stay readable). ``curve(c)``
+    gives (x, y) of a stage's curves; the mean is taken at common values of x (of y with
+    ``along_y``: the controlled quantity, e.g. the stress of a stress-strain curve);
+    ``stages`` pairs a stage with whether that quantity rises along it; ``styles`` a line
+    style per stage."""
+    for i, (label, keys) in enumerate(_groups(runs, table).items()):
+        st = _style(i, runs[keys[0]]["reference"])
+        n = len(keys)
+        for (stage, increasing), ls in zip(stages, styles):
+            cs = [runs[k]["stages"].get(stage) for k in keys]
+            cs = [c for c in cs if c is not None]
+            if not cs:
+                continue
+            name = (
+                (label if n == 1 else f"{label} (mean of {len(cs)} seeds ± 1 sd)")
+                if (stage == stages[0][0])
+                else None
+            )
+            if len(cs) == 1:
+                x, y = curve(cs[0])
+                ax.plot(x, y, ls=ls, label=name, **st)
+                continue
+            xs, ys = zip(*(curve(c) for c in cs))
+            band = _mean_band(ys, xs, increasing) if along_y else _mean_band(xs, ys, increasing)
+            if band is None:
+                continue
+            grid, mean, sd = band
+            if along_y:
+                ax.plot(mean, grid, ls=ls, label=name, **st)
+                ax.fill_betweenx(grid, mean - sd, mean + sd, color=st["color"], alpha=0.2, lw=0)
+            else:
+                ax.plot(grid, mean, ls=ls, label=name, **st)
+                ax.fill_between(grid, mean - sd, mean + sd, color=st["color"], alpha=0.2, lw=0)
+
+
+def _confined(
+    ax, runs: dict, table: list[dict], x: str | None, y: str | None, xscale=1.0, yscale=1.0
+) -> None:
+    """Consolidation (solid) and unloading (dashed) of every group; ``None`` means stress."""
+
+    def curve(c):
+        xs = np.asarray(c["stress_top"] if x is None else c[x]) * xscale
+        ys = np.asarray(c["stress_top"] if y is None else c[y]) * yscale
+        return xs, ys
+
+    # seeds are averaged at common stresses (the controlled quantity), which rise on
+    # loading and fall on unloading
+    _plot_groups(
+        ax,
+        runs,
+        table,
+        curve,
+        (("consolidation", True), ("unloading", False)),
+        ("-", "--"),
+        along_y=y is None,
+    )
+
+
+def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
+    """One panel per verdict metric: each coarse run's error [%] against its wall time, the
+    tolerance (dashed) and the reference's seed-to-seed noise floor (grey band)."""
+    from matplotlib.lines import Line2D
+    from matplotlib.ticker import NullFormatter
+
+    advisor = advisor or {}
+    tol = advisor.get("tolerances", {})
+    noise = advisor.get("noise_floor", {})
+    names = [n for n, (col, _) in _METRIC_PANELS.items() if any(col in r for r in table)]
+    rules = sorted({r["rule"] for r in table if r["rule"] != "reference"})
+    radii = sorted({r["radius"] for r in table if r["rule"] != "reference"})
+    axes = fig.subplots(1, max(1, len(names)), sharex=True, squeeze=False)[0]
+    ref_times = [r["wall_time"] for r in table if r["rule"] == "reference"]
+    for ax, name in zip(axes, names):
+        col, title = _METRIC_PANELS[name]
+        if noise.get(name) is not None:
+            ax.axhspan(0, 100 * noise[name], color="0.85", zorder=0, label="reference noise (1 sd)")
+        if name in tol:
+            ax.axhline(100 * tol[name], color="black", ls="--", lw=1, label="tolerance")
+        for t in ref_times:
+            ax.axvline(t, color="black", ls=":", lw=0.8)
+        for row in table:
+            if row["rule"] == "reference" or col not in row:
+                continue
+            ax.scatter(
+                row["wall_time"],
+                100 * row[col],
+                s=30,
+                zorder=3,
+                color=f"C{rules.index(row['rule']) % 10}",
+                marker=_MARKERS[radii.index(row["radius"]) % len(_MARKERS)],
+            )
+        ax.set_title(title, fontsize=9)
+        ax.set_xscale("log")
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.set_ylim(bottom=0)
+        ax.set_xlabel("run time [s]", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("error against the mean reference [%]", fontsize=8)
+    handles, labels = axes[0].get_legend_handles_labels()
+    for i, rule in enumerate(rules):
+        handles.append(Line2D([], [], ls="", marker="o", color=f"C{i % 10}"))
+        labels.append(f"rule {rule}")
+    for i, r in enumerate(radii):
+        handles.append(Line2D([], [], ls="", marker=_MARKERS[i % len(_MARKERS)], color="0.3"))
+        labels.append(f"R = {r * 1e3:g} mm")
+    handles.append(Line2D([], [], ls=":", color="black"))
+    labels.append("reference run time")
+    fig.legend(handles, labels, loc="outside lower center", ncol=min(6, len(labels)), fontsize=7)
+    fig.suptitle(KINDS["error_vs_runtime"], fontsize=10)
+
+
+def draw(ax, kind: str, runs: dict, table: list[dict]) -> None:
+    """Draw plot ``kind`` (one of :data:`KINDS`) on the matplotlib Axes ``ax``."""
+    if kind not in KINDS:
+        raise ValueError(f"plot kind {kind!r} is not one of {sorted(KINDS)}")
+    if kind == "stress_strain":
+        _confined(ax, runs, table, "strain", None, 100.0, 1e-3)
+        ax.set_xlabel("axial strain [%]")
+        ax.set_ylabel("top platen stress [kPa]")
+    elif kind == "stress_porosity":
+        _confined(ax, runs, table, None, "porosity", 1e-3, 1.0)
+        ax.set_xlabel("top platen stress [kPa]")
+        ax.set_ylabel("porosity [-]")
+    elif kind == "coordination":
+        _confined(ax, runs, table, None, "coordination", 1e-3, 1.0)
+        ax.set_xlabel("top platen stress [kPa]")
+        ax.set_ylabel("coordination number [-]")
+    elif kind == "unconfined":
+        _plot_groups(
+            ax,
+            runs,
+            table,
+            lambda c: (np.asarray(c["strain"]) * 100, np.asarray(c["stress_top"]) * 1e-3),
+            (("unconfined", True),),
+            ("-",),
+        )
+        ax.set_xlabel("axial strain since release [%]")
+        ax.set_ylabel("top platen stress [kPa]")
+    else:
+        raise ValueError("error_vs_runtime is drawn on a whole figure: use figure()")
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(
+            fontsize=8,
+            title="solid: loading, dashed: unloading" if kind != "unconfined" else None,
+            title_fontsize=7,
+        )
+    else:
+        ax.text(
+            0.5, 0.5, "no run of this study has this stage", ha="center", transform=ax.transAxes
+        )
+    ax.set_title(KINDS[kind], fontsize=10)
+    ax.grid(alpha=0.3)
+
+
+def figure(kind: str, runs: dict, table: list[dict], advisor: dict | None = None):
+    """A new matplotlib Figure (Agg canvas, no pyplot) with plot ``kind``."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    if kind == "error_vs_runtime":
+        fig = Figure(figsize=(12.0, 4.2), dpi=100, layout="constrained")
+        FigureCanvasAgg(fig)
+        _error_vs_runtime(fig, table, advisor)
+        return fig
+    fig = Figure(figsize=(7.0, 4.8), dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    draw(fig.add_subplot(), kind, runs, table)
+    return fig
+
+
+def save_all(directory, runs: dict, table: list[dict], advisor: dict | None = None) -> list[Path]:
+    """Write ``<kind>.png`` for every kind into ``directory``; returns the paths."""
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    out = []
+    for kind in KINDS:
+        path = d / f"{kind}.png"
+        figure(kind, runs, table, advisor).savefig(path, format="png")
+        out.append(path)
+    return out
+
+
+# ------------------------------------------------------------------ snapshot sections
+def _signed_ticks(bar, norm) -> None:
+    """Ticks on both sides of zero for a colour bar with a two-slope norm (matplotlib's
+    default ticks leave the shorter side bare)."""
+    from matplotlib.colors import TwoSlopeNorm
+
+    if isinstance(norm, TwoSlopeNorm):
+        ticks = np.unique(np.r_[np.linspace(norm.vmin, 0.0, 3), np.linspace(0.0, norm.vmax, 5)])
+        bar.set_ticks(ticks, labels=[f"{t:.2g}" for t in ticks])
+
+
+def section_figure(snap: Snapshot, title: str = ""):
+    """A matplotlib Figure (Agg canvas, no pyplot) of a vertical section through the middle
+    of the sample: left, the particles cut by the plane (true cross-section circles) coloured
+    by their pressure [kPa] (1st to 99th percentile; red compression, blue tension when both
+    occur); right, the force chains among the particles the plane cuts
+    (line width and colour by the normal force [N]). The plane is normal to the shorter
+    horizontal side of the cell, so the section shows the wider one."""
+    from matplotlib import colormaps
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.collections import LineCollection, PatchCollection
+    from matplotlib.colors import ListedColormap, Normalize, TwoSlopeNorm
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Circle
+
+    pos, rad = snap.positions, snap.radii
+    lo, hi = pos.min(axis=0) - rad.max(), pos.max(axis=0) + rad.max()
+    normal = 0 if hi[0] - lo[0] < hi[1] - lo[1] else 1  # cut across the shorter side
+    across = 1 - normal
+    mid = 0.5 * (lo[normal] + hi[normal])
+    depth = pos[:, normal] - mid
+    cut = np.abs(depth) < rad
+    section = np.sqrt(np.maximum(rad[cut] ** 2 - depth[cut] ** 2, 0.0))
+    pressure = particle_fields(snap)["pressure"]
+
+    width = hi[across] - lo[across]
+    height = max(hi[2], float(np.max(snap.platens))) - min(lo[2], float(np.min(snap.platens)))
+    panel_h = max(2.4, min(5.2, 6.0 * height / width))  # a slumped sample: low and wide
+    panel_w = float(np.clip(panel_h * width / height, 1.6, 6.0))
+    fig = Figure(figsize=(2 * panel_w + 2.6, panel_h + 0.9), dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    ax_p, ax_f = fig.subplots(1, 2, sharex=True, sharey=True)
+    mm = 1e3
+
+    kpa = pressure[cut] * 1e-3
+    p_lo = float(np.percentile(kpa, 1)) if kpa.size else 0.0
+    p_hi = float(np.percentile(kpa, 99)) if kpa.size else 1.0
+    if p_lo < 0 < p_hi:  # adhesion holds some particles in tension: diverging, as the chains
+        p_cmap, p_norm = "RdBu_r", TwoSlopeNorm(0.0, p_lo, p_hi)
+    else:
+        p_cmap, p_norm = "viridis", Normalize(min(p_lo, 0.0), max(p_hi, 1e-30))
+    discs = PatchCollection(
+        [
+            Circle((x * mm, z * mm), r * mm)
+            for x, z, r in zip(pos[cut, across], pos[cut, 2], section)
+        ],
+        cmap=p_cmap,
+        norm=p_norm,
+        edgecolor="0.25",
+        linewidth=0.3,
+    )
+    discs.set_array(kpa)
+    ax_p.add_collection(discs)
+    bar = fig.colorbar(discs, ax=ax_p, label="particle pressure (Love-Weber) [kPa]", shrink=0.8)
+    _signed_ticks(bar, p_norm)
+    ax_p.set_title(f"section through the middle: {int(cut.sum())} particles", fontsize=9)
+
+    # force chains: contacts whose two particles the plane cuts, drawn to the second
+    # particle's nearest image (a chain through a periodic side stays short)
+    i, j = snap.pairs[:, 0], snap.pairs[:, 1]
+    keep = cut[i] & cut[j] if len(i) else np.zeros(0, dtype=bool)
+    a = pos[i[keep]]
+    b = a - snap.branches[keep]
+    fn = snap.normal_forces[keep].astype(np.float64)
+    ax_f.add_collection(
+        PatchCollection(
+            [
+                Circle((x * mm, z * mm), r * mm)
+                for x, z, r in zip(pos[cut, across], pos[cut, 2], section)
+            ],
+            facecolor="0.93",
+            edgecolor="0.75",
+            linewidth=0.3,
+        )
+    )
+    if fn.size:
+        f_lo, f_hi = float(fn.min()), float(fn.max())
+        scale = max(abs(f_lo), abs(f_hi), 1e-30)
+        if f_lo < 0 < f_hi:  # adhesive contacts too: blue pulls, red pushes
+            cmap, norm = "RdBu_r", TwoSlopeNorm(0.0, f_lo, f_hi)
+        else:  # one sign: the lower end of "Reds" cut off, so weak chains show on grey
+            cmap = ListedColormap(colormaps["Reds"](np.linspace(0.3, 1.0, 256)))
+            norm = Normalize(min(f_lo, 0.0), max(f_hi, 1e-30))
+        chains = LineCollection(
+            np.stack([a[:, [across, 2]], b[:, [across, 2]]], axis=1) * mm,
+            cmap=cmap,
+            norm=norm,
+            linewidths=0.4 + 3.6 * np.abs(fn) / scale,
+        )
+        chains.set_array(fn)
+        ax_f.add_collection(chains)
+        bar = fig.colorbar(
+            chains, ax=ax_f, label="normal contact force [N] (> 0 compressive)", shrink=0.8
+        )
+        _signed_ticks(bar, norm)
+    ax_f.set_title(f"force chains: {int(keep.sum())} contacts in the section", fontsize=9)
+    axis_name = "xy"[across]
+    for ax in (ax_p, ax_f):
+        for z in snap.platens:
+            ax.axhline(z * mm, color="black", lw=2)
+        ax.set_xlim(lo[across] * mm, hi[across] * mm)
+        ax.set_ylim(
+            min(lo[2], float(np.min(snap.platens))) * mm - 1,
+            max(hi[2], float(np.max(snap.platens))) * mm + 1,
+        )
+        ax.set_aspect("equal")
+        ax.set_xlabel(f"{axis_name} [mm]")
+        ax.tick_params(labelsize=7)
+    ax_p.set_ylabel("z [mm]")
+    fig.suptitle(
+        f"{title + ': ' if title else ''}{snap.stage} end, t = {snap.time:.4g} s, "
+        f"section at {'xy'[normal]} = {mid * mm:.3g} mm",
+        fontsize=10,
+    )
+    return fig

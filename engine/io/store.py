@@ -1,0 +1,319 @@
+"""The one HDF5 layout of a run, in its own file (one per finished run, written atomically,
+read back as a :class:`engine.UniaxialResult`) and inside a study's file
+(:func:`save_study`: the study's runs in that same layout, plus its tables).
+
+Long runs are stored once and every metric, verdict and report is recomputed from the stored
+curves (``engine.study.results.assemble``); a study resumes with the runs not yet stored
+(``run_study(completed=...)``). A failed run is stored as a file holding only its error.
+h5py is imported only here, when a run is stored or read (the engine itself needs only numpy
+and numba).
+
+Layout of ``<key>.h5``: attrs ``test`` (JSON of :meth:`engine.UniaxialTest.to_dict`),
+``error`` (only for a failed run), ``versions``, ``machine`` (JSON: the processor and the
+number of logical CPUs of the machine that stored the run, which for a process pool or
+``benchmarks/run_batch.py`` is the one that ran it; absent in runs stored before it was
+recorded); group ``scalars`` (attrs, with
+``<name>_units``); one group ``stages/<name>`` per stage (attrs ``steps``, ``position``) with
+one dataset per curve (attr ``units``) and, when kept, a group ``particles`` (``positions``
+(N, 3), ``radii`` (N,) at the stage's end [m]).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import socket
+from pathlib import Path
+
+import numpy as np
+
+from ..uniaxial.measures import failed_by_curve
+from ..uniaxial.results import CURVE_UNITS, SCALAR_UNITS, StageResult, UniaxialResult
+from ..uniaxial.spec import UniaxialTest
+
+
+def this_machine() -> dict:
+    """The processor (model name from /proc/cpuinfo where there is one) and the number of
+    logical CPUs of this machine: where a stored run's wall time was measured."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            cpu = next(
+                (line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), cpu
+            )
+    except OSError:
+        pass
+    return {"cpu": cpu, "logical_cpus": os.cpu_count()}
+
+
+def stored_machine(path: Path) -> dict | None:
+    """The ``machine`` attribute of a stored run, or None where it was not recorded."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        text = f.attrs.get("machine")
+    return None if text is None else json.loads(text)
+
+
+def write_run_group(g, outcome, keep_particles: bool = True) -> None:
+    """Write ``outcome`` (a UniaxialResult or an error text) into the h5py group (or file)
+    ``g``: the one layout of a run, in its own file and inside a study's file alike."""
+    if isinstance(outcome, str):
+        g.attrs["error"] = outcome
+        return
+    g.attrs["test"] = json.dumps(outcome.test.to_dict())
+    sc = g.create_group("scalars")
+    for k, v in outcome.scalars.items():
+        sc.attrs[k] = float(v)
+        sc.attrs[f"{k}_units"] = SCALAR_UNITS.get(k, "")
+    for i, (name, st) in enumerate(outcome.stages.items()):
+        sg = g.create_group(f"stages/{name}")
+        sg.attrs.update({"steps": int(st.steps), "position": i})
+        for c, v in st.curves.items():
+            ds = sg.create_dataset(c, data=np.asarray(v), compression="gzip", shuffle=True)
+            ds.attrs["units"] = CURVE_UNITS.get(c, "")
+        if keep_particles and st.positions is not None:
+            p = sg.create_group("particles")
+            for pname, v in (("positions", st.positions), ("radii", st.radii)):
+                ds = p.create_dataset(pname, data=np.asarray(v), compression="gzip")
+                ds.attrs["units"] = "m"
+
+
+def stage_names(g) -> list[str]:
+    """The stages of a stored run (group ``g``) in the order they ran."""
+    return sorted(g["stages"], key=lambda n: int(g["stages"][n].attrs["position"]))
+
+
+def read_run_group(g):
+    """The outcome stored in the group (or file) ``g``: a :class:`engine.UniaxialResult` or
+    the error text."""
+    if "error" in g.attrs:
+        return str(g.attrs["error"])
+    test = UniaxialTest.from_dict(json.loads(g.attrs["test"]))
+    scalars = {k: float(v) for k, v in g["scalars"].attrs.items() if not k.endswith("_units")}
+    stages = {}
+    for name in stage_names(g):
+        sg = g["stages"][name]
+        p = sg.get("particles")
+        stages[name] = StageResult(
+            name,
+            {c: sg[c][()] for c in sg if c != "particles"},
+            None if p is None else p["positions"][()],
+            None if p is None else p["radii"][()],
+            int(sg.attrs["steps"]),
+        )
+    if "unconfined_failure" in scalars and "unconfined" in stages:
+        # one criterion for every run, stored before or after it was written: failure is
+        # derived from the stored curve (engine.uniaxial.measures.failed_by_curve)
+        u = stages["unconfined"].curves
+        failed = scalars["unconfined_failure"] == 1.0 or failed_by_curve(
+            u["strain"], u["stress_top"], test.failure_strain
+        )
+        scalars["unconfined_failure"] = 1.0 if failed else 0.0
+    return UniaxialResult(test, stages, scalars)
+
+
+def save_run(path: Path, outcome, keep_particles: bool = True) -> Path:
+    """Write ``outcome`` (a UniaxialResult or an error text) to ``path`` atomically; with
+    ``keep_particles`` also the particle positions and radii at each stage's end."""
+    import h5py
+    import numba
+
+    from .. import __version__
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{socket.gethostname()}.{os.getpid()}.tmp")
+    try:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["versions"] = json.dumps(
+                {"demscale": __version__, "numba": numba.__version__, "numpy": np.__version__}
+            )
+            f.attrs["machine"] = json.dumps(this_machine())
+            write_run_group(f, outcome, keep_particles)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+def load_run(path: Path):
+    """The stored outcome: a :class:`engine.UniaxialResult` or the error text."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        return read_run_group(f)
+
+
+# ---------------------------------------------------------------------- a study's file
+SCHEMA = "demscale-study"
+#: 2: each run is stored in the per-run layout (attrs test, group scalars, stages/<name>),
+#: the study's own attributes beside it; 1 (before 0.2.0): curves and scalars on the run group.
+SCHEMA_VERSION = 2
+
+
+class StoreRefused(RuntimeError):
+    """``before_rename`` said no: the study's file was not put in place."""
+
+
+def versions() -> dict[str, str]:
+    """Versions of the packages that produced a result."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    from .. import __version__
+
+    out = {}
+    for name in ("demscale", "numpy", "numba", "h5py"):
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            out[name] = __version__ if name == "demscale" else "unknown"
+    return out
+
+
+def strict_json(obj) -> str:
+    """JSON text with NaN and infinities as null (strict JSON, as the API serves it)."""
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return "null"
+    if isinstance(obj, dict):
+        return (
+            "{" + ", ".join(f"{json.dumps(str(k))}: {strict_json(v)}" for k, v in obj.items()) + "}"
+        )
+    if isinstance(obj, (list, tuple)):
+        return "[" + ", ".join(strict_json(v) for v in obj) + "]"
+    return json.dumps(obj.item() if isinstance(obj, np.generic) else obj)
+
+
+def _column(values: list, text) -> np.ndarray:
+    if all(isinstance(v, str) for v in values):
+        return np.array(values, dtype=text)
+    if all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in values):
+        return np.array(values, dtype=np.int64)
+    return np.array(values, dtype=np.float64)
+
+
+def save_study(path: Path, study_id: object, result, before_rename=lambda: True) -> Path:
+    """Write the :class:`engine.StudyResult` ``result`` to ``path`` atomically (a temporary
+    file in the same folder, fsynced, renamed over ``path``, the folder fsynced).
+
+    Layout (``schema`` "demscale-study", ``schema_version`` :data:`SCHEMA_VERSION`)::
+
+        /                 attrs: schema, schema_version, study_id, created, spec, summary,
+                          advisor (JSON), versions (JSON), version_<package>
+        /runs/<key>       a run in the per-run layout (:func:`write_run_group`: attrs test,
+                          group scalars, stages/<stage>/<curve>, stages/<stage>/particles),
+                          plus attrs label, reference, position, radius (+ radius_units),
+                          rule, seed, the rule's stiffness_exponent, adhesion_exponent,
+                          adhesive_exponent and dt_rule, and each error err_* (+ _units)
+        /summary          attrs: columns; one 1-D dataset per table column with units
+
+    ``before_rename()`` is asked right before the rename: False raises
+    :class:`StoreRefused` and leaves ``path`` alone (no temporary file is left either)."""
+    import uuid
+    from datetime import datetime, timezone
+
+    import h5py
+
+    from ..study.results import TABLE_UNITS
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    # unique even for two containerised workers that are both PID 1 on a shared volume
+    tmp = path.with_name(f"{path.stem}.{uuid.uuid4().hex}.h5.tmp")
+    text = h5py.string_dtype("utf-8")
+    try:
+        with h5py.File(tmp, "w", track_order=True) as f:
+            vs = versions()
+            f.attrs.update(
+                {
+                    "schema": SCHEMA,
+                    "schema_version": SCHEMA_VERSION,
+                    "study_id": str(study_id),
+                    "created": datetime.now(timezone.utc).isoformat(),
+                    "spec": json.dumps(result.spec.to_dict()),
+                    "summary": strict_json(result.to_summary()),
+                    "advisor": strict_json(result.advisor),
+                    "versions": json.dumps(vs),
+                    **{f"version_{k}": v for k, v in vs.items()},
+                }
+            )
+            runs = f.create_group("runs", track_order=True)
+            for i, (key, run) in enumerate(result.runs.items()):
+                g = runs.create_group(key, track_order=True)
+                write_run_group(g, run.result)
+                g.attrs.update(
+                    {
+                        "label": run.key,
+                        "reference": run.rule is None,
+                        "position": i,
+                        "radius": run.radius,
+                        "radius_units": "m",
+                        "seed": run.seed,
+                        "rule": "reference" if run.rule is None else run.rule.name,
+                    }
+                )
+                if run.rule is not None:
+                    a, b, c = run.rule.exponents(run.result.test.pair_law)
+                    g.attrs.update(
+                        {
+                            "stiffness_exponent": a,
+                            "adhesion_exponent": b,
+                            "adhesive_exponent": c,
+                            "dt_rule": run.rule.dt,
+                        }
+                    )
+                for name, value in run.errors.items():
+                    g.attrs[name] = float(value)
+                    g.attrs[f"{name}_units"] = "1"
+            summary = f.create_group("summary", track_order=True)
+            columns = [c for c in TABLE_UNITS if c in result.table[0]]
+            columns += [c for c in result.table[0] if c not in columns]
+            summary.attrs["columns"] = columns
+            for c in columns:
+                ds = summary.create_dataset(c, data=_column([row[c] for row in result.table], text))
+                ds.attrs["units"] = TABLE_UNITS.get(c, "")
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        if not before_rename():
+            raise StoreRefused(f"study {study_id}: its file was not stored")
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    dir_fd = os.open(path.parent, os.O_RDONLY)
+    try:
+        os.fsync(dir_fd)
+    finally:
+        os.close(dir_fd)
+    return path
+
+
+def completed_runs(spec, directory: Path) -> tuple[dict, list[str]]:
+    """The runs of the :class:`engine.StudySpec` ``spec`` stored in ``directory`` whose test is
+    exactly the planned one (what ``run_study(completed=...)`` resumes from), and the keys of
+    stored runs made with other parameters (to be run again). With ``spec.decide`` the runs
+    its rounds added are found too, round by round (:func:`engine.study.plan.plan_runs`)."""
+    from ..study.plan import plan_runs
+
+    done, stale, seen = {}, [], set()
+    while True:
+        planned = {p.key: p.test for p in plan_runs(spec, done)[0]}
+        fresh = [k for k in planned if k not in seen]
+        if not fresh:
+            return done, stale
+        seen.update(fresh)
+        for key, outcome in load_all(directory, fresh).items():
+            if isinstance(outcome, str) or outcome.test == planned[key]:
+                done[key] = outcome
+            else:
+                stale.append(key)
+
+
+def load_all(directory: Path, keys) -> dict:
+    """Stored outcomes of the given run keys found in ``directory``."""
+    out = {}
+    for k in keys:
+        p = Path(directory) / f"{k}.h5"
+        if p.exists():
+            out[k] = load_run(p)
+    return out

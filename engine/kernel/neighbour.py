@@ -1,0 +1,270 @@
+"""Cell list and Verlet neighbour list with per-contact history transfer.
+
+Layout (jax-md style: sized in Python, filled in compiled code at fixed capacity):
+
+- half list, CSR: the neighbours of particle i are ``nbr_j[nbr_start[i]:nbr_start[i+1]]``, all
+  ``j > i`` and sorted, so every pair appears once;
+- ``entry[k, :]``: per-entry slots, the first ``n_hist`` of which are the contact history
+  (largest overlap, tangential spring); the rest hold the force and torque on j written by the
+  force pass;
+- reverse list, CSR: ``rev_k[rev_start[j]:rev_start[j+1]]`` are the entries whose second
+  particle is j, in increasing order of the first particle, for the deterministic gather.
+
+The build is serial: it runs every few hundred steps and a serial build keeps the compile
+short; its cost is part of the measured particle-steps per second.
+
+A pair enters the list when its surface gap (minimum image on periodic axes) is below the skin.
+Compiled code here and in the step uses plain loops and ``math`` rather than numpy methods:
+each numpy function used in compiled code costs its own compile, and the first compile of a
+scene is a user-visible wait.
+The list stays valid until some particle has moved more than half the skin. A rebuild copies
+the history of every pair present in both lists (a merge of two sorted segments per particle);
+a pair that is in contact is always in the new list, so no history is ever dropped. When the
+new list does not fit, the build returns minus the number of entries it needs and leaves the
+old list untouched: the caller grows the buffers and builds again.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..core.config import NJIT, NJIT_INLINE
+
+
+@njit(**NJIT)
+def wrap_positions(pos, lo, length, periodic, images):
+    """Wrap positions into [lo, lo + L) on periodic axes, counting the wraps in ``images``
+    (so that ``pos + images * L`` is the unwrapped position) [m]."""
+    for i in range(pos.shape[0]):
+        wrap_one(i, pos, lo, length, periodic, images)
+
+
+@njit(**NJIT_INLINE)
+def wrap_one(i, pos, lo, length, periodic, images):
+    """:func:`wrap_positions` for particle i (also the CUDA backend's, engine.cuda) [m]."""
+    for a in range(3):
+        if periodic[a]:
+            s = math.floor((pos[i, a] - lo[a]) / length[a])
+            if s != 0.0:
+                pos[i, a] -= s * length[a]
+                images[i, a] += np.int64(s)
+
+
+@njit(**NJIT)
+def cell_grid(pos, lo, length, periodic, cut, max_cells):
+    """Cell origin [m], cell size [m] and cell counts of a grid whose cells are at least
+    ``cut`` wide. Periodic axes tile the period; open axes span the particles. At most
+    ``max_cells`` cells (larger cells when the particles are spread far apart)."""
+    origin = np.empty(3)
+    size = np.empty(3)
+    ext = np.empty(3)
+    ncell = np.empty(3, dtype=np.int64)
+    for a in range(3):
+        if periodic[a]:
+            origin[a] = lo[a]
+            ext[a] = length[a]
+        else:
+            mn = pos[0, a]
+            mx = pos[0, a]
+            for i in range(1, pos.shape[0]):
+                mn = min(mn, pos[i, a])
+                mx = max(mx, pos[i, a])
+            origin[a] = mn
+            ext[a] = mx - mn
+        ncell[a] = max(1, int(ext[a] / cut))
+    while ncell[0] * ncell[1] * ncell[2] > max_cells:
+        a = 0
+        for b in range(1, 3):
+            if ncell[b] > ncell[a]:
+                a = b
+        ncell[a] = max(1, ncell[a] // 2)
+    for a in range(3):
+        size[a] = max(ext[a] / ncell[a], cut) if not periodic[a] else ext[a] / ncell[a]
+    return origin, size, ncell
+
+
+@njit(**NJIT)
+def _neighbour_cell(c, o, n, periodic):
+    """Cell coordinate at offset o in {-1, 0, 1} from c on an axis of n cells, or -1 when it
+    does not exist or repeats another offset (periodic axes with fewer than 3 cells)."""
+    cc = c + o
+    if periodic:
+        if n == 1 and o != 0:
+            return -1
+        if n == 2 and o == 1:
+            return -1
+        return cc % n
+    if cc < 0 or cc >= n:
+        return -1
+    return cc
+
+
+@njit(**NJIT)
+def _scan(i, pos, rad, skin, cell3, ncell, cell_start, cell_list, periodic, length, out, offset):
+    """Count the neighbours j > i of i, storing them from ``out[offset]`` while they fit."""
+    cnt = 0
+    xi = pos[i, 0]
+    yi = pos[i, 1]
+    zi = pos[i, 2]
+    ri = rad[i] + skin
+    for ox in range(-1, 2):
+        cx = _neighbour_cell(cell3[i, 0], ox, ncell[0], periodic[0])
+        if cx < 0:
+            continue
+        for oy in range(-1, 2):
+            cy = _neighbour_cell(cell3[i, 1], oy, ncell[1], periodic[1])
+            if cy < 0:
+                continue
+            for oz in range(-1, 2):
+                cz = _neighbour_cell(cell3[i, 2], oz, ncell[2], periodic[2])
+                if cz < 0:
+                    continue
+                c = (cx * ncell[1] + cy) * ncell[2] + cz
+                for p in range(cell_start[c], cell_start[c + 1]):
+                    j = cell_list[p]
+                    if j <= i:
+                        continue
+                    dx = xi - pos[j, 0]
+                    dy = yi - pos[j, 1]
+                    dz = zi - pos[j, 2]
+                    if periodic[0]:
+                        dx -= length[0] * math.floor(dx / length[0] + 0.5)
+                    if periodic[1]:
+                        dy -= length[1] * math.floor(dy / length[1] + 0.5)
+                    if periodic[2]:
+                        dz -= length[2] * math.floor(dz / length[2] + 0.5)
+                    rc = ri + rad[j]
+                    if dx * dx + dy * dy + dz * dz < rc * rc:
+                        if offset + cnt < out.shape[0]:
+                            out[offset + cnt] = j
+                        cnt += 1
+    return cnt
+
+
+@njit(**NJIT)
+def build_neighbour_list(
+    pos,
+    rad,
+    lo,
+    length,
+    periodic,
+    skin,
+    images,
+    nbr_start,
+    nbr_j,
+    entry,
+    n_hist,
+    rev_start,
+    rev_k,
+    pos_build,
+):
+    """Rebuild the half neighbour list and transfer the contact history.
+
+    Args: positions [m] (wrapped in place on periodic axes), radii [m], box lower corner and
+    lengths [m], periodic flags, skin [m], image counters; the list arrays (see module doc),
+    the number of history slots, and the positions at the last build (updated on success).
+    Returns: the number of entries (>= 0), or minus the number needed when it exceeds the
+    capacity ``nbr_j.shape[0]`` (then nothing but the wrapping has changed).
+    """
+    n = pos.shape[0]
+    wrap_positions(pos, lo, length, periodic, images)
+    rmax = 0.0
+    for i in range(n):
+        rmax = max(rmax, rad[i])
+    origin, size, ncell = cell_grid(pos, lo, length, periodic, 2.0 * rmax + skin, 4 * n + 64)
+    ncells = ncell[0] * ncell[1] * ncell[2]
+
+    # counting sort of particles into cells (each cell lists its particles in increasing id)
+    cell3 = np.empty((n, 3), dtype=np.int64)
+    cell_start = np.zeros(ncells + 1, dtype=np.int64)
+    for i in range(n):
+        for a in range(3):
+            c = int((pos[i, a] - origin[a]) / size[a])
+            cell3[i, a] = min(max(c, 0), ncell[a] - 1)
+        c = (cell3[i, 0] * ncell[1] + cell3[i, 1]) * ncell[2] + cell3[i, 2]
+        cell_start[c + 1] += 1
+    for c in range(ncells):
+        cell_start[c + 1] += cell_start[c]
+    fill = np.empty(ncells, dtype=np.int64)
+    for c in range(ncells):
+        fill[c] = cell_start[c]
+    cell_list = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        c = (cell3[i, 0] * ncell[1] + cell3[i, 1]) * ncell[2] + cell3[i, 2]
+        cell_list[fill[c]] = i
+        fill[c] += 1
+
+    # one pass: scan every particle into a buffer of the list's capacity, counting all
+    cap = nbr_j.shape[0]
+    new_j = np.empty(cap, dtype=nbr_j.dtype)
+    new_start = np.empty(n + 1, dtype=np.int64)
+    new_start[0] = 0
+    for i in range(n):
+        new_start[i + 1] = new_start[i] + _scan(
+            i,
+            pos,
+            rad,
+            skin,
+            cell3,
+            ncell,
+            cell_start,
+            cell_list,
+            periodic,
+            length,
+            new_j,
+            new_start[i],
+        )
+    total = new_start[n]
+    if total > cap:
+        return -total
+
+    new_entry = np.zeros((total, entry.shape[1]))
+    for i in range(n):
+        s = new_start[i]
+        e = new_start[i + 1]
+        for a in range(s + 1, e):  # insertion sort: segments are short
+            v = new_j[a]
+            b = a - 1
+            while b >= s and new_j[b] > v:
+                new_j[b + 1] = new_j[b]
+                b -= 1
+            new_j[b + 1] = v
+        # merge with the old sorted segment to carry the history over
+        o = nbr_start[i]
+        oe = nbr_start[i + 1]
+        for k in range(s, e):
+            j = new_j[k]
+            while o < oe and nbr_j[o] < j:
+                o += 1
+            if o < oe and nbr_j[o] == j:
+                for h in range(n_hist):
+                    new_entry[k, h] = entry[o, h]
+
+    for k in range(total):
+        nbr_j[k] = new_j[k]
+        for h in range(entry.shape[1]):
+            entry[k, h] = new_entry[k, h]
+    for i in range(n + 1):
+        nbr_start[i] = new_start[i]
+
+    for j in range(n + 1):
+        rev_start[j] = 0
+    for k in range(total):
+        rev_start[nbr_j[k] + 1] += 1
+    for j in range(n):
+        rev_start[j + 1] += rev_start[j]
+    rfill = np.empty(n, dtype=np.int64)
+    for j in range(n):
+        rfill[j] = rev_start[j]
+    for i in range(n):
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[k]
+            rev_k[rfill[j]] = k
+            rfill[j] += 1
+    for i in range(n):
+        for a in range(3):
+            pos_build[i, a] = pos[i, a]
+    return total

@@ -1,0 +1,760 @@
+"""The :class:`Simulation`: state arrays, the compiled step, and the Python-side guards."""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from ..contact.materials import pack_params
+from ..core.config import (
+    MAX_OVERLAP_FRACTION,
+    MAX_STEP_FRACTION,
+    PARTICLES_PER_THREAD,
+    SKIN_FRACTION,
+)
+from ..core.errors import InstabilityError, ParameterError, StabilityError
+from ..kernel.neighbour import build_neighbour_list, wrap_positions
+from ..kernel.specialise import load_kernel, pair_slots, scene_features, wall_slots
+from ..kernel.state import NAN as _STATUS_NAN
+from ..kernel.state import OK as _STATUS_OK
+from ..kernel.state import OVERLAP as _STATUS_OVERLAP
+from ..kernel.state import PAUSE as _STATUS_PAUSE
+from ..kernel.state import REBUILD as _STATUS_REBUILD
+from ..kernel.state import NeighbourList, Particles, Scratch, StepParams, Walls
+from ..kernel.team import sync_length
+from .backend import resolve_backend
+from .scene import Scene
+from .timestep import TimeStepLimit, adhesion_overlap, critical_time_step
+
+
+class StabilityWarning(UserWarning):
+    """A time step below the stable limit but above an accuracy limit (Rayleigh time or Hertz
+    contact duration)."""
+
+
+@dataclass(frozen=True)
+class Contacts:
+    """Contacts at the last force evaluation (for analysis).
+
+    Attributes:
+        pairs: (M, 2) particle ids (i < j).
+        overlaps: (M,) overlaps [m].
+        forces: (M, 3) contact force on the first particle of each pair [N].
+        normals: (M, 3) unit vectors from the second particle to the first.
+        max_overlaps: (M,) largest overlap of each contact so far [m] (bilinear law; the
+            current overlap for the Hertz law).
+        tangential_springs: (M, 3) stored tangential spring of each contact [m] (zeros
+            without friction).
+        wall_particles: (K,) ids of particles touching a wall.
+        wall_ids: (K,) index of the wall each touches.
+        wall_overlaps: (K,) overlaps with the wall [m].
+    """
+
+    pairs: np.ndarray
+    overlaps: np.ndarray
+    forces: np.ndarray
+    normals: np.ndarray
+    max_overlaps: np.ndarray
+    tangential_springs: np.ndarray
+    wall_particles: np.ndarray
+    wall_ids: np.ndarray
+    wall_overlaps: np.ndarray
+
+
+def _concat(parts: list, dtype) -> np.ndarray:
+    return np.concatenate(parts) if parts else np.zeros(0, dtype)
+
+
+def cell_order(
+    pos: np.ndarray, rad: np.ndarray, lo: np.ndarray, length: np.ndarray, periodic
+) -> np.ndarray:
+    """Particle ids sorted by the cell (one particle diameter wide, z fastest) they lie in:
+    neighbours get nearby ids, so the step's loops over neighbours stay in cache, and the
+    fixed chunks of consecutive ids are compact in space. The grid does not depend on the
+    Verlet skin, so neither does the order (nor, then, the trajectory). [m]"""
+    n = len(pos)
+    cut = 2.0 * float(rad.max())
+    origin = np.empty(3)
+    ext = np.empty(3)
+    p = pos.copy()
+    for a in range(3):
+        if periodic[a]:
+            p[:, a] = lo[a] + np.mod(p[:, a] - lo[a], length[a])
+            origin[a], ext[a] = lo[a], length[a]
+        else:
+            origin[a], ext[a] = p[:, a].min(), np.ptp(p[:, a])
+    ncell = np.maximum(1, (ext / cut).astype(np.int64))
+    while int(np.prod(ncell)) > 4 * n + 64:
+        a = int(np.argmax(ncell))
+        ncell[a] = max(1, ncell[a] // 2)
+    size = np.where(ext > 0, ext / ncell, 1.0)
+    c = np.clip(((p - origin) / size).astype(np.int64), 0, ncell - 1)
+    key = (c[:, 0] * ncell[1] + c[:, 1]) * ncell[2] + c[:, 2]
+    return np.argsort(key, kind="stable")
+
+
+#: Wall time a kernel call of :meth:`Simulation.run` aims at [s]: the longest wait for a
+#: progress report, a stop request or a signal handler.
+CALL_SECONDS = 0.2
+#: Steps of the first kernel call (then adapted to its wall time).
+_FIRST_CALL_STEPS = 16
+_UNBOUNDED = 2**62
+
+
+class Simulation:
+    """A DEM simulation of a :class:`Scene`.
+
+    Args:
+        scene: the scene (copied; later changes to it have no effect).
+        dt: time step [s]; None chooses ``DT_FRACTION`` of the smallest limit of
+            :func:`engine.critical_time_step`. A step above the stable limit raises
+            :class:`engine.StabilityError` naming both numbers.
+        skin: Verlet skin [m]; default ``SKIN_FRACTION`` x the largest radius.
+        max_speed: impact speed assumed by the Hertz time-step limits [m/s].
+        max_overlap_fraction: an overlap beyond this fraction of the (smaller) radius stops
+            the run with :class:`engine.InstabilityError`.
+        max_step_fraction: a particle moving more than this fraction of its radius in one step
+            stops the run with :class:`engine.InstabilityError`.
+        threads: threads of the parallel passes, at most numba's thread count; None takes one
+            thread per ``engine.core.config.PARTICLES_PER_THREAD`` (1,000) particles (small scenes
+            run on one thread: a second gains little and loses when other processes share
+            the cores). Results do not depend on it.
+
+        backend: ``"cpu"``, ``"cuda"`` (an NVIDIA GPU with numba-cuda, the ``gpu`` extra:
+            a :class:`engine.cuda.CudaSimulation` is made) or ``"auto"`` (the GPU when one is
+            usable); None: ``DEMSCALE_BACKEND``, else ``"cpu"`` (see engine.simulation.backend). The
+            one taken is :attr:`backend`.
+
+    Only the features the scene uses are compiled in (see :attr:`features`).
+    """
+
+    #: the engine that runs it: "cpu" or "cuda"
+    backend = "cpu"
+
+    def __new__(cls, *args, backend: str | None = None, **kwargs):
+        if cls is Simulation and resolve_backend(backend) == "cuda":
+            from ..cuda import CudaSimulation  # numba-cuda: imported only for the GPU
+
+            return super().__new__(CudaSimulation)
+        return super().__new__(cls)
+
+    def __init__(
+        self,
+        scene: Scene,
+        dt: float | None = None,
+        *,
+        skin: float | None = None,
+        max_speed: float | None = None,
+        max_overlap_fraction: float = MAX_OVERLAP_FRACTION,
+        max_step_fraction: float = MAX_STEP_FRACTION,
+        threads: int | None = None,
+        backend: str | None = None,
+    ) -> None:
+        if not isinstance(scene, Scene):
+            raise ParameterError("Simulation.scene", scene, "an engine.Scene")
+        self.scene = scene
+        for name, v in (
+            ("max_overlap_fraction", max_overlap_fraction),
+            ("max_step_fraction", max_step_fraction),
+        ):
+            if not (isinstance(v, (int, float)) and 0 < v < 1):
+                raise ParameterError(f"Simulation.{name}", v, "in (0, 1)")
+        if threads is not None and (
+            isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1
+        ):
+            raise ParameterError("Simulation.threads", threads, "an integer >= 1 or None")
+        self._threads = None if threads is None else int(threads)
+        self.limit: TimeStepLimit = critical_time_step(scene, max_speed)
+        self._dt = self._choose_dt(dt)
+        self._check_adhesion(max_overlap_fraction)
+
+        rmax = float(scene.radii.max())
+        if skin is None:
+            skin = SKIN_FRACTION * rmax
+        if not (isinstance(skin, (int, float)) and math.isfinite(skin) and skin > 0):
+            raise ParameterError("Simulation.skin", skin, "> 0 m")
+        self.skin = float(skin)
+        self._periodic = np.array(scene.periodic, dtype=np.bool_)
+        self._check_box()
+
+        n = scene.n
+        nw = len(scene.walls)
+        self._lo = scene.box[:, 0].copy()
+        self._images = np.zeros((n, 3), dtype=np.int64)
+        self._load(scene_features(scene))
+        k = self._k
+        # internal id k is particle order[k] of the scene; every accessor maps back
+        self._order = cell_order(
+            scene.positions, scene.radii, self._lo, scene.box_lengths, self._periodic
+        )
+        self._rank = np.empty(n, dtype=np.int64)
+        self._rank[self._order] = np.arange(n)
+        o = self._order
+        pos = scene.positions[o].copy()
+        self._particles = Particles(
+            pos=pos,
+            vel=scene.velocities[o].copy(),
+            omg=scene.angular_velocities[o].copy(),
+            frc=np.zeros((n, 3)),
+            trq=np.zeros((n, 3)),
+            roll=np.zeros(n if self._features["rolling"] else 0),
+            rad=scene.radii[o].copy(),
+            mass=scene.masses[o].copy(),
+            inv_mass=1.0 / scene.masses[o],
+            inv_inertia=1.0 / scene.inertia[o],
+            pos_build=pos.copy(),
+        )
+        nchunk = -(-n // k.CHUNK)
+        self._walls = Walls(
+            point=np.array([w.point for w in scene.walls], dtype=np.float64).reshape(nw, 3),
+            normal=np.array([w.normal for w in scene.walls], dtype=np.float64).reshape(nw, 3),
+            vel=np.array([w.velocity for w in scene.walls], dtype=np.float64).reshape(nw, 3),
+            hist=np.zeros((n * nw, k.N_WALL_HIST)),
+            force=np.zeros((nw, 3)),
+            acc=np.zeros((nchunk, nw, 3)),
+        )
+        self._params = StepParams(
+            pair=self._pair_params(),
+            wall=self._wall_params(),
+            gravity=np.array(scene.gravity, dtype=np.float64),
+            length=scene.box_lengths.copy(),
+            dt=self._dt,
+            skin=self.skin,
+            max_overlap=float(max_overlap_fraction),
+            max_step=float(max_step_fraction),
+        )
+        self._scratch = Scratch(
+            chunk_stat=np.zeros((nchunk, 4)),
+            chunk_disp=np.zeros(nchunk),
+            info=np.zeros(3),
+            sync=np.zeros(sync_length(numba.config.NUMBA_NUM_THREADS), dtype=np.int64),
+        )
+        self._list = NeighbourList(
+            start=np.zeros(n + 1, dtype=np.int64),
+            j=np.zeros(0, dtype=np.int32),
+            entry=np.zeros((0, k.N_SLOT)),
+            rev_start=np.zeros(n + 1, dtype=np.int64),
+            rev_k=np.zeros(0, dtype=np.int32),
+        )
+        self._n_rebuilds = 0
+        self._n_entries = 0
+        self._steps = 0
+        self._failed: InstabilityError | None = None
+        #: called with no argument between two bounded kernel calls of :meth:`run`, at
+        #: least every ``CALL_SECONDS`` of wall time while it runs (see :meth:`run`)
+        self.between_calls: Callable[[], object] | None = None
+        self._pause = _UNBOUNDED  # steps one kernel call may take (adapted in run)
+        self._call_steps = _FIRST_CALL_STEPS
+        self._phase = 0  # 1: the next step is opened (a bounded call, or an exception after it)
+        self._rebuild()
+        self._compute_forces()
+
+    # ------------------------------------------------------------------ set-up and checks
+    def _choose_dt(self, dt: float | None) -> float:
+        lim = self.limit
+        if dt is None:
+            if not math.isfinite(lim.recommended):
+                raise ParameterError(
+                    "Simulation.dt",
+                    None,
+                    "given explicitly",
+                    "no contact law limits the time step of this scene",
+                )
+            return lim.recommended
+        if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
+            raise ParameterError("Simulation.dt", dt, "> 0 s and finite")
+        dt = float(dt)
+        if dt > lim.dt:
+            raise StabilityError(
+                f"dt = {dt:.4g} s is above the stable limit {lim.dt:.4g} s set by {lim.reason}; "
+                f"use dt <= {lim.dt:.4g} s (recommended {lim.recommended:.4g} s) or dt=None",
+                dt=dt,
+                limit=lim.dt,
+            )
+        soft = [c for c in lim.candidates if not c.hard and dt > c.value]
+        if soft:
+            c = min(soft, key=lambda c: c.value)
+            warnings.warn(
+                f"dt = {dt:.4g} s exceeds the {c.name} ({c.value:.4g} s): contacts "
+                f"are poorly resolved (recommended {lim.recommended:.4g} s)",
+                StabilityWarning,
+                stacklevel=3,
+            )
+        return dt
+
+    def _check_adhesion(self, ovl: float) -> None:
+        law = self.scene.pair_law
+        rmin = float(self.scene.radii.min())
+        d_eq = adhesion_overlap(law, rmin, ovl)
+        if d_eq is not None:
+            what = "|f0|/k1" if law.n == 1.0 else "(|f0|/k1)^(1/n)"
+            raise StabilityError(
+                f"adhesion f0 = {law.f0:g} N pulls contacts to the overlap {what} = "
+                f"{d_eq:.4g} m, beyond max_overlap_fraction {ovl:g} x the smallest radius "
+                f"{rmin:g} m: raise k1 or reduce |f0|"
+            )
+
+    def _check_box(self) -> None:
+        cut = 2.0 * float(self.scene.radii.max()) + self.skin
+        for a, axis in enumerate("xyz"):
+            if self._periodic[a] and self.scene.box_lengths[a] < 2.0 * cut:
+                raise ParameterError(
+                    "Scene.box",
+                    f"{self.scene.box_lengths[a]:g} m along {axis}",
+                    f">= {2 * cut:.4g} m on a periodic axis (twice the neighbour cut-off "
+                    f"2 Rmax + skin, for the minimum image)",
+                )
+
+    def _pair_params(self) -> np.ndarray:
+        """The pair law's kernel parameters in the slots the specialised kernel names."""
+        return pack_params(self.scene.pair_law.pair_values(), pair_slots(self._features))
+
+    def _wall_params(self) -> np.ndarray:
+        """The wall law's kernel parameters in the slots the specialised kernel names."""
+        slots = wall_slots(self._features)
+        if not self.scene.walls:
+            return np.full(len(slots) + 1, math.nan)
+        return pack_params(self.scene.wall_law.wall_values(self.scene.wall_material), slots)
+
+    def _load(self, features: dict[str, bool]) -> None:
+        self._features = features
+        self._k = load_kernel(features)
+
+    # ------------------------------------------------------------------ neighbour list
+    def _grow(self, needed: int) -> None:
+        cap = int(needed * 1.25) + 16
+        old = self._list
+        m = self._n_entries
+        nbr_j = np.zeros(cap, dtype=np.int32)
+        entry = np.zeros((cap, self._k.N_SLOT))
+        nbr_j[:m] = old.j[:m]
+        entry[:m] = old.entry[:m]
+        self._list = old._replace(j=nbr_j, entry=entry, rev_k=np.zeros(cap, dtype=np.int32))
+
+    @property
+    def threads(self) -> int:
+        """Threads the parallel passes use now (see the ``threads`` argument)."""
+        avail = numba.get_num_threads()
+        if self._threads is not None:
+            return min(self._threads, avail)
+        return max(1, min(avail, self.n // PARTICLES_PER_THREAD))
+
+    def _call(self, nsteps: int, phase: int = 0) -> tuple[int, int]:
+        prev = numba.get_num_threads()
+        k = self.threads
+        if k != prev:
+            numba.set_num_threads(k)
+        # numba's default split (chunk size 0): the kernel's one parallel loop runs one
+        # iteration per thread, each a member of the step's thread team
+        prev_chunk = numba.set_parallel_chunksize(0)
+        try:
+            return self._call_kernel(nsteps, phase, k)
+        finally:
+            numba.set_parallel_chunksize(prev_chunk)
+            if k != prev:
+                numba.set_num_threads(prev)
+
+    def _call_kernel(self, nsteps: int, phase: int, team: int) -> tuple[int, int]:
+        return self._k.run_steps(
+            nsteps,
+            self._pause,
+            phase,
+            team,
+            self._particles,
+            self._list,
+            self._walls,
+            self._params,
+            self._scratch,
+        )
+
+    def _rebuild(self) -> None:
+        p = self._particles
+        while True:
+            lst = self._list
+            total = build_neighbour_list(
+                p.pos,
+                p.rad,
+                self._lo,
+                self._params.length,
+                self._periodic,
+                self.skin,
+                self._images,
+                lst.start,
+                lst.j,
+                lst.entry,
+                self._k.N_HIST,
+                lst.rev_start,
+                lst.rev_k,
+                p.pos_build,
+            )
+            self._n_rebuilds += 1
+            if total >= 0:
+                self._n_entries = int(total)
+                return
+            self._grow(-int(total))
+
+    def _compute_forces(self) -> None:
+        status = self._call(0)[1]
+        if status != _STATUS_OK:
+            self._fail(status, self._steps)
+
+    # ------------------------------------------------------------------ running
+    def run(self, steps: int) -> None:
+        """Advance ``steps`` time steps (``steps * dt`` seconds).
+
+        However many steps are asked for, no kernel call takes much more than
+        ``CALL_SECONDS`` of wall time: a call stops at a step boundary where a
+        neighbour-list rebuild would, and the next one resumes there, so the trajectory is
+        bit-identical to that of one call. Between two calls ``between_calls`` (if set) is
+        called, and Python's signal handlers run: a progress report, a stop request or a
+        SIGTERM is heard within a fraction of a second. An exception from ``between_calls``
+        leaves the simulation between two calls; a later ``run`` goes on from there."""
+        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 0:
+            raise ParameterError("Simulation.run.steps", steps, "an integer >= 0")
+        if self._failed is not None:
+            raise RuntimeError(
+                f"this simulation stopped with an instability and cannot go on: {self._failed}"
+            )
+        remaining = int(steps)
+        heard = time.perf_counter()  # when between_calls last ran (or the run began)
+        while remaining > 0:
+            self._pause = self._call_steps
+            t0 = time.perf_counter()
+            done, status = self._call(remaining, self._phase)
+            self._adapt(done, time.perf_counter() - t0)
+            self._steps += done
+            remaining -= done
+            if status == _STATUS_OK:
+                self._phase = 0
+                break
+            if status != _STATUS_PAUSE:
+                if status != _STATUS_REBUILD:
+                    self._fail(status, self._steps + 1)
+                self._rebuild()
+            self._phase = 1  # the next step is opened: resume as after a rebuild
+            now = time.perf_counter()
+            if self.between_calls is not None and now - heard >= CALL_SECONDS:
+                heard = now
+                self.between_calls()
+
+    def _adapt(self, done: int, seconds: float) -> None:
+        """Steps of the next kernel call: what takes about ``CALL_SECONDS`` at the rate of
+        the last one (wall time decides only where calls end, never the result)."""
+        if done <= 0:
+            return
+        if seconds <= 0:
+            self._call_steps = min(2 * self._call_steps, _UNBOUNDED)
+            return
+        want = int(done * CALL_SECONDS / seconds)
+        # grow at most 4x a call, so that a slow stretch after a fast one stays short
+        self._call_steps = max(1, min(want, 4 * self._call_steps, _UNBOUNDED))
+
+    def _fail(self, status: int, step: int) -> None:
+        info = self._scratch.info
+        i, j, value = int(info[0]), int(info[1]), float(info[2])
+        i = int(self._order[i])  # scene ids
+        if j >= 0:
+            j = int(self._order[j])
+        t = step * self.dt
+        where = f"step {step} (t = {t:.6g} s)"
+        hint = f"; dt = {self.dt:.4g} s, stable limit {self.limit.dt:.4g} s ({self.limit.reason})"
+        if status == _STATUS_NAN:
+            msg, reason, ids = (
+                f"{where}: non-finite force, velocity or position of particle {i}",
+                "nan",
+                (i,),
+            )
+        elif status == _STATUS_OVERLAP:
+            other = f"particle {j}" if j >= 0 else f"wall {-1 - j}"
+            msg = (
+                f"{where}: overlap between particle {i} and {other} is {value:.3g} x the "
+                f"radius, beyond max_overlap_fraction = {self._params.max_overlap:g}"
+            )
+            reason, ids = "overlap", (i, j) if j >= 0 else (i,)
+        else:
+            msg = (
+                f"{where}: particle {i} moved {value:.3g} x its radius in one step, beyond "
+                f"max_step_fraction = {self._params.max_step:g} (runaway kinetic energy)"
+            )
+            reason, ids = "speed", (i,)
+        err = InstabilityError(msg + hint, step=step, time=t, particles=ids, reason=reason)
+        self._failed = err
+        raise err
+
+    # ------------------------------------------------------------------ changes between runs
+    def set_wall_velocity(self, index: int, velocity) -> None:
+        """Set the velocity [m/s] of wall ``index`` for the following runs."""
+        self._check_wall(index)
+        v = np.asarray(velocity, dtype=np.float64)
+        if v.shape != (3,) or not np.all(np.isfinite(v)):
+            raise ParameterError(
+                "Simulation.set_wall_velocity.velocity", velocity, "3 finite numbers [m/s]"
+            )
+        self._walls.vel[index] = v
+
+    def set_wall_position(self, index: int, point) -> None:
+        """Move wall ``index`` so that it passes through ``point`` [m]; forces are updated."""
+        self._check_wall(index)
+        p = np.asarray(point, dtype=np.float64)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise ParameterError(
+                "Simulation.set_wall_position.point", point, "3 finite numbers [m]"
+            )
+        self._walls.point[index] = p
+        self._compute_forces()
+
+    def set_velocities(self, velocities=None, angular_velocities=None) -> None:
+        """Replace particle velocities [m/s] and/or angular velocities [rad/s] (e.g. zero
+        them to quench a packing); forces are updated."""
+        n = self.n
+        for name, value, target in (
+            ("velocities", velocities, self._particles.vel),
+            ("angular_velocities", angular_velocities, self._particles.omg),
+        ):
+            if value is None:
+                continue
+            a = np.broadcast_to(np.asarray(value, dtype=np.float64), (n, 3))
+            if not np.all(np.isfinite(a)):
+                raise ParameterError(f"Simulation.set_velocities.{name}", "non-finite", "finite")
+            target[:] = a[self._order]
+        self._compute_forces()
+
+    def rebuild_neighbour_list(self) -> None:
+        """Rebuild the neighbour list now (it is rebuilt automatically when needed); the
+        contact history is carried over unchanged."""
+        self._rebuild()
+
+    def set_positions(self, positions) -> None:
+        """Replace particle positions [m] (N, 3). The neighbour list is rebuilt (contact
+        history of pairs still in range is kept) and forces are updated; the contact
+        histories advance exactly as in one force evaluation."""
+        p = np.asarray(positions, dtype=np.float64)
+        if p.shape != (self.n, 3) or not np.all(np.isfinite(p)):
+            raise ParameterError(
+                "Simulation.set_positions.positions",
+                f"shape {p.shape}",
+                f"finite, shape ({self.n}, 3)",
+            )
+        self._particles.pos[:] = p[self._order]
+        self._images[:] = 0
+        self._rebuild()
+        self._compute_forces()
+
+    def set_periodic(self, periodic) -> None:
+        """Change which axes are periodic (e.g. remove the lateral confinement of a sample).
+        Contacts across a face that stops being periodic disappear with their history; the
+        step kernel is re-specialised."""
+        per = np.array([bool(p) for p in periodic], dtype=np.bool_)
+        if per.shape != (3,):
+            raise ParameterError("Simulation.set_periodic.periodic", periodic, "three booleans")
+        if np.any(per & ~self._periodic):
+            raise ParameterError(
+                "Simulation.set_periodic.periodic",
+                tuple(per.tolist()),
+                "a subset of the current periodic axes",
+                "periodicity can be removed, not added",
+            )
+        # the sample is cut at the box faces: wrap once more, then forget the wraps there
+        wrap_positions(
+            self._particles.pos, self._lo, self._params.length, self._periodic, self._images
+        )
+        self._images[:, ~per] = 0
+        self._periodic = per
+        self._load(scene_features(self.scene, periodic=tuple(per.tolist())))
+        self._rebuild()
+        self._compute_forces()
+
+    def _check_wall(self, index: int) -> None:
+        if not (isinstance(index, (int, np.integer)) and 0 <= index < len(self._walls.point)):
+            raise ParameterError("wall index", index, f"in [0, {len(self._walls.point)})")
+
+    # ------------------------------------------------------------------ checkpoints
+    def __getstate__(self) -> dict:
+        """The full state for a checkpoint (pickle): particles, neighbour list with the
+        contact history, walls, parameters, step count and the phase of the next kernel call.
+        The compiled kernel and ``between_calls`` are left out; unpickling loads the kernel
+        for the same features again, so the resumed trajectory is bit-identical to the one
+        that was not interrupted (tests/engine/test_checkpoint.py)."""
+        state = self.__dict__.copy()
+        del state["_k"]
+        state["between_calls"] = None
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._k = load_kernel(self._features)
+        # the thread team's counters are cleared by every kernel call; sized for this process
+        self._scratch = self._scratch._replace(
+            sync=np.zeros(sync_length(numba.config.NUMBA_NUM_THREADS), dtype=np.int64)
+        )
+
+    # ------------------------------------------------------------------ state
+    @property
+    def n(self) -> int:
+        """Number of particles."""
+        return self._particles.pos.shape[0]
+
+    @property
+    def dt(self) -> float:
+        """Time step [s] (fixed for the life of the simulation)."""
+        return self._dt
+
+    @property
+    def time(self) -> float:
+        """Simulated time since the start [s]."""
+        return self._steps * self.dt
+
+    @property
+    def steps(self) -> int:
+        """Steps since the start."""
+        return self._steps
+
+    @property
+    def features(self) -> dict[str, bool]:
+        """The compile-time features of the step kernel in use (see
+        engine.kernel.specialise.FEATURES)."""
+        return dict(self._features)
+
+    @property
+    def periodic(self) -> tuple[bool, bool, bool]:
+        """Periodic flags in use."""
+        return tuple(bool(p) for p in self._periodic)
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(N, 3) positions [m], wrapped into the box on periodic axes."""
+        return self._particles.pos[self._rank]
+
+    @property
+    def unwrapped_positions(self) -> np.ndarray:
+        """(N, 3) positions [m] with the periodic wraps undone."""
+        return (self._particles.pos + self._images * self._params.length)[self._rank]
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """(N, 3) velocities [m/s]."""
+        return self._particles.vel[self._rank]
+
+    @property
+    def angular_velocities(self) -> np.ndarray:
+        """(N, 3) angular velocities [rad/s]."""
+        return self._particles.omg[self._rank]
+
+    @property
+    def radii(self) -> np.ndarray:
+        """(N,) radii [m]."""
+        return self._particles.rad[self._rank]
+
+    @property
+    def masses(self) -> np.ndarray:
+        """(N,) masses [kg]."""
+        return self._particles.mass[self._rank]
+
+    @property
+    def forces(self) -> np.ndarray:
+        """(N, 3) total force on each particle at the last evaluation [N] (gravity included)."""
+        return self._particles.frc[self._rank]
+
+    @property
+    def wall_forces(self) -> np.ndarray:
+        """(n_walls, 3) force exerted by the particles on each wall [N]."""
+        return self._walls.force.copy()
+
+    @property
+    def wall_positions(self) -> np.ndarray:
+        """(n_walls, 3) current point of each wall [m]."""
+        return self._walls.point.copy()
+
+    @property
+    def wall_velocities(self) -> np.ndarray:
+        """(n_walls, 3) wall velocities [m/s]."""
+        return self._walls.vel.copy()
+
+    @property
+    def n_rebuilds(self) -> int:
+        """Neighbour-list builds so far."""
+        return self._n_rebuilds
+
+    @property
+    def n_neighbour_entries(self) -> int:
+        """Pairs in the neighbour list."""
+        return self._n_entries
+
+    def kinetic_energy(self) -> float:
+        """Translational plus rotational kinetic energy [J]. Velocities are those of the last
+        whole step."""
+        p = self._particles
+        trans = 0.5 * float(np.sum(p.mass * np.sum(p.vel**2, axis=1)))
+        rot = 0.5 * float(np.sum(np.sum(p.omg**2, axis=1) / p.inv_inertia))
+        return trans + rot
+
+    def memory_bytes(self) -> int:
+        """Bytes held by the engine's state arrays (list buffers at their capacity)."""
+        arrays = [v for v in vars(self).values() if isinstance(v, np.ndarray)]
+        for rec in (self._particles, self._list, self._walls, self._params, self._scratch):
+            arrays += [v for v in rec if isinstance(v, np.ndarray)]
+        return sum(a.nbytes for a in arrays)
+
+    def n_contacts(self) -> int:
+        """Number of particle-particle contacts at the last force evaluation (the count of
+        :meth:`contacts`, without building its arrays)."""
+        return int(np.count_nonzero(self._list.entry[: self._n_entries, 0]))
+
+    def contact_counts(self) -> np.ndarray:
+        """Particle-particle contacts of every particle at the last force evaluation, (N,)
+        integers (the per-particle coordination number; wall contacts not counted)."""
+        m = self._n_entries
+        active = np.nonzero(self._list.entry[:m, 0] != 0.0)[0]
+        owner = np.searchsorted(self._list.start, active, side="right") - 1
+        j = self._list.j[active].astype(np.int64)
+        counts = np.bincount(owner, minlength=self.n) + np.bincount(j, minlength=self.n)
+        return counts[self._rank]
+
+    def contacts(self) -> Contacts:
+        """Particle-particle and particle-wall contacts at the last force evaluation."""
+        m = self._n_entries
+        owner = np.repeat(np.arange(self.n), np.diff(self._list.start))
+        active = np.nonzero(self._list.entry[:m, 0] != 0.0)[0]
+        i = owner[active]
+        j = self._list.j[active].astype(np.int64)
+        pos, rad, length = self._particles.pos, self._particles.rad, self._params.length
+        dx = pos[i] - pos[j]
+        for a in range(3):
+            if self._periodic[a]:
+                dx[:, a] -= length[a] * np.floor(dx[:, a] / length[a] + 0.5)
+        dist = np.sqrt(np.sum(dx**2, axis=1))
+        f = self._k.F_SLOT
+        forces = -self._list.entry[active, f : f + 3]
+        wp, wi, wo = [], [], []
+        for w in range(len(self._walls.point)):
+            d = rad - (pos - self._walls.point[w]) @ self._walls.normal[w]
+            idx = np.nonzero(d > 0)[0]
+            wp.append(idx)
+            wi.append(np.full(idx.size, w))
+            wo.append(d[idx])
+        entry = self._list.entry
+        springs = entry[active, 1:4] if self._k.N_HIST == 4 else np.zeros((active.size, 3))
+        # scene ids, the smaller first (seen from it: force, normal and spring flip), sorted
+        oi, oj = self._order[i], self._order[j]
+        sign = np.where(oi < oj, 1.0, -1.0)[:, None]
+        pairs = np.stack([np.minimum(oi, oj), np.maximum(oi, oj)], axis=1)
+        srt = np.lexsort((pairs[:, 1], pairs[:, 0]))
+        wparts = self._order[_concat(wp, np.int64)]
+        wsrt = np.lexsort((_concat(wi, np.int64), wparts))
+        return Contacts(
+            pairs[srt],
+            (rad[i] + rad[j] - dist)[srt],
+            (sign * forces)[srt],
+            (sign * dx / dist[:, None])[srt],
+            entry[active, 0][srt],
+            (sign * springs)[srt],
+            wparts[wsrt],
+            _concat(wi, np.int64)[wsrt],
+            _concat(wo, np.float64)[wsrt],
+        )

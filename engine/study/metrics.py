@@ -1,0 +1,251 @@
+r"""What a coarse run is judged by: the bulk quantities a calibration uses, and curve shapes
+(docs/PHYSICS.md section 7).
+
+**Verdict metrics** (:data:`METRICS`), each a relative error with a default tolerance fixed
+for a stated physical reason before any study was run:
+
+- ``density``: bulk solid fraction of the sample interior at common stress levels on the
+  loading and unloading branches;
+- ``loading_stiffness`` / ``unloading_stiffness``: the confined (constrained) tangent modulus
+  of the loading and unloading branches, d(stress)/d(strain) averaged by least squares over
+  the upper half of each branch's stress range [Pa];
+- ``coordination``: coordination number of the sample interior at the same stress levels;
+- ``strength``: unconfined strength [Pa] (the peak when the sample fails; the largest stress
+  up to the strain limit when it does not, see
+  :func:`engine.uniaxial.measures.unconfined_strength`).
+
+A metric's *values* are a vector (one entry per stress level) or a single number; the error
+of values :math:`x` against reference values :math:`r` is the relative RMS difference
+
+.. math:: e = \sqrt{\langle ((x - r) / r)^2 \rangle}
+
+so a density 2 % above the reference at every level is an error of exactly 0.02. The strength
+is divided by max(r, 5 % of the consolidation stress) instead, so that a cohesionless
+reference (strength near 0) does not divide by almost nothing.
+
+**Shape measures** (:data:`SHAPE_NAMES`, reported, not used in verdicts): normalised RMS
+differences of the strain, whole-sample porosity and coordination number against stress,
+divided by the range the reference curve covers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Metric:
+    """A verdict metric: ``name``, the ``unit`` of its values, its default ``tolerance``
+    (largest accepted relative error) [-] and the physical ``reason`` for that tolerance."""
+
+    name: str
+    unit: str
+    tolerance: float
+    reason: str
+
+
+METRICS = {
+    m.name: m
+    for m in (
+        Metric(
+            "density",
+            "1",
+            0.03,
+            "bulk density sets the mass a hopper or die holds and a calibration matches it "
+            "first; laboratory bulk densities of one powder differ by a few per cent "
+            "between fill methods, so 3 % is as close as a calibration target is known",
+        ),
+        Metric(
+            "loading_stiffness",
+            "Pa",
+            0.15,
+            "confined compressibility of powders repeats to 10-20 % between samples in "
+            "the laboratory; 15 % is the usual calibration tolerance for compressibility",
+        ),
+        Metric(
+            "unloading_stiffness",
+            "Pa",
+            0.15,
+            "the elastic recovery on unloading is measured with the same test and "
+            "repeatability as the loading modulus",
+        ),
+        Metric(
+            "coordination",
+            "1",
+            0.10,
+            "the contact count carries cohesion and conduction through the bed; "
+            "0.1 relative is about 0.4 contacts per particle in a consolidated bed",
+        ),
+        Metric(
+            "strength",
+            "Pa",
+            0.15,
+            "unconfined and shear-cell strengths of cohesive powders repeat to 10-20 % "
+            "between laboratory samples; 15 % is the usual flowability tolerance",
+        ),
+    )
+}
+
+#: Column of each verdict metric's per-run error in a study table.
+METRIC_COLUMNS = {
+    "density": "err_density",
+    "loading_stiffness": "err_loading_stiffness",
+    "unloading_stiffness": "err_unloading_stiffness",
+    "coordination": "err_coordination_interior",
+    "strength": "err_strength",
+}
+
+#: Default tolerance per verdict metric [-].
+DEFAULT_TOLERANCES = {k: m.tolerance for k, m in METRICS.items()}
+
+#: Shape measures (normalised curve RMS), in table order.
+SHAPE_NAMES = ("err_stress_strain", "err_stress_porosity", "err_coordination")
+
+#: Stress levels per branch at which density and coordination are compared.
+LEVELS = 16
+
+#: Floor of the strength error's denominator, as a fraction of the consolidation stress.
+STRENGTH_FLOOR = 0.05
+
+
+def metric_names(unconfined: bool) -> tuple[str, ...]:
+    """The verdict metrics a study of tests with (or without) the unconfined stage has."""
+    return tuple(k for k in METRICS if unconfined or k != "strength")
+
+
+def stress_levels(test) -> tuple[np.ndarray, np.ndarray]:
+    """The stress levels [Pa] at which runs are compared: on the loading branch from 10 %
+    of the way between the pre-compression and consolidation stresses to 95 % of the latter;
+    on the unloading branch from 90 % down to 20 % of the consolidation stress. Fixed by
+    the test, so every run of a study is read at the same levels."""
+    pre, cons = test.pre_stress, test.consolidation_stress
+    loading = np.linspace(pre + 0.1 * (cons - pre), 0.95 * cons, LEVELS)
+    unloading = np.linspace(0.9 * cons, 0.2 * cons, LEVELS)
+    return loading, unloading
+
+
+def _monotone(stress: np.ndarray, loading: bool) -> np.ndarray:
+    """Indices where the running max (loading) or min (unloading) of the stress is reached
+    for the first time: a strictly monotone stress sequence to interpolate along."""
+    env = np.maximum.accumulate(stress) if loading else np.minimum.accumulate(stress)
+    keep = np.ones(len(stress), dtype=bool)
+    keep[1:] = env[1:] != env[:-1]
+    return np.flatnonzero(keep)
+
+
+def branch_on_levels(
+    curves: dict, levels: np.ndarray, loading: bool, names=("strain", "porosity", "coordination")
+) -> dict[str, np.ndarray]:
+    """``names`` of one branch's curves interpolated at the stress ``levels`` [Pa] (held at
+    the end values outside the branch's stress range)."""
+    stress = np.asarray(curves["stress_top"], dtype=float)
+    idx = _monotone(stress, loading)
+    s = stress[idx]
+    order = np.argsort(s)
+    return {
+        n: np.interp(levels, s[order], np.asarray(curves[n], dtype=float)[idx][order])
+        for n in names
+    }
+
+
+def metric_values(result) -> dict[str, np.ndarray]:
+    """Values of every verdict metric of one :class:`engine.UniaxialResult` (see the module
+    docstring), plus ``density_whole`` and ``coordination_whole`` (whole-sample values at the
+    same levels, reported next to the interior ones)."""
+    test = result.test
+    names = ("porosity_interior", "coordination_interior", "porosity", "coordination")
+    parts: dict[str, list] = {n: [] for n in names}
+    for stage, levels, loading in (
+        ("consolidation", stress_levels(test)[0], True),
+        ("unloading", stress_levels(test)[1], False),
+    ):
+        b = branch_on_levels(result.stages[stage].curves, levels, loading, names)
+        for n in names:
+            parts[n].append(b[n])
+    s = result.scalars
+    out = {
+        "density": 1.0 - np.concatenate(parts["porosity_interior"]),
+        "loading_stiffness": np.array([s["loading_stiffness"]]),
+        "unloading_stiffness": np.array([s["unloading_stiffness"]]),
+        "coordination": np.concatenate(parts["coordination_interior"]),
+        "density_whole": 1.0 - np.concatenate(parts["porosity"]),
+        "coordination_whole": np.concatenate(parts["coordination"]),
+    }
+    if "unconfined_strength" in s:
+        out["strength"] = np.array([s["unconfined_strength"]])
+    return out
+
+
+def reference_scale(name: str, ref: np.ndarray, consolidation_stress: float) -> np.ndarray:
+    """What a metric's difference is divided by: the reference values, or for the strength
+    max(reference, 5 % of the consolidation stress)."""
+    ref = np.abs(np.asarray(ref, dtype=float))
+    if name == "strength":
+        return np.maximum(ref, STRENGTH_FLOOR * consolidation_stress)
+    return np.where(ref > 0, ref, 1.0)
+
+
+def relative_error(name: str, values, ref, consolidation_stress: float) -> float:
+    """Relative RMS error of ``values`` against ``ref`` [-] (module docstring)."""
+    values = np.asarray(values, dtype=float)
+    ref = np.asarray(ref, dtype=float)
+    if values.shape != ref.shape or values.size == 0:
+        raise ValueError(f"{name}: values and reference differ in shape")
+    rel = (values - ref) / reference_scale(name, ref, consolidation_stress)
+    return float(np.sqrt(np.mean(rel**2)))
+
+
+def signed_error(name: str, values, ref, consolidation_stress: float) -> float:
+    """Mean relative difference (values - ref) / scale [-]: > 0 over-, < 0 under-predicts."""
+    ref = np.asarray(ref, dtype=float)
+    rel = (np.asarray(values, dtype=float) - ref) / reference_scale(name, ref, consolidation_stress)
+    return float(np.mean(rel))
+
+
+def nrmse(x: np.ndarray, ref: np.ndarray) -> float:
+    """Normalised RMS difference sqrt(mean((x - ref)^2)) / (max ref - min ref) [-]; a flat
+    reference is judged against max|ref| instead."""
+    x = np.asarray(x, dtype=float)
+    ref = np.asarray(ref, dtype=float)
+    if x.shape != ref.shape or x.size == 0:
+        raise ValueError("nrmse needs two curves of equal, non-zero length")
+    scale = float(np.ptp(ref)) or float(np.max(np.abs(ref)))
+    if not scale > 0:
+        raise ValueError("nrmse needs a reference curve that is not identically zero")
+    return float(np.sqrt(np.mean((x - ref) ** 2)) / scale)
+
+
+def _common_levels(a: np.ndarray, b: np.ndarray, loading: bool, n: int = 40) -> np.ndarray:
+    ia, ib = _monotone(a, loading), _monotone(b, loading)
+    lo = max(a[ia].min(), b[ib].min())
+    hi = min(a[ia].max(), b[ib].max())
+    if not hi > lo:
+        raise ValueError(
+            f"the {'loading' if loading else 'unloading'} branches share no "
+            f"stress range ({lo:g} to {hi:g} Pa)"
+        )
+    return np.linspace(lo, hi, n)
+
+
+def shape_errors(run, ref) -> dict[str, float]:
+    """Shape measures of ``run`` against ``ref`` (both :class:`engine.UniaxialResult`): the
+    normalised RMS of strain, porosity and coordination on the common stress range of each
+    branch, divided by the reference curve's range."""
+    parts_run: dict[str, list] = {"strain": [], "porosity": [], "coordination": []}
+    parts_ref: dict[str, list] = {"strain": [], "porosity": [], "coordination": []}
+    for stage, loading in (("consolidation", True), ("unloading", False)):
+        c_run, c_ref = run.stages[stage].curves, ref.stages[stage].curves
+        levels = _common_levels(
+            np.asarray(c_run["stress_top"]), np.asarray(c_ref["stress_top"]), loading
+        )
+        a = branch_on_levels(c_run, levels, loading)
+        b = branch_on_levels(c_ref, levels, loading)
+        for n in parts_run:
+            parts_run[n].append(a[n])
+            parts_ref[n].append(b[n])
+    return {
+        name: nrmse(np.concatenate(parts_run[c]), np.concatenate(parts_ref[c]))
+        for name, c in zip(SHAPE_NAMES, ("strain", "porosity", "coordination"))
+    }

@@ -1,0 +1,315 @@
+"""What a scaling study gives back, assembled from its runs' outcomes: errors against the
+reference, the table and groups, noise floor, verdicts and advice (docs/PHYSICS.md sections 5
+and 7). Recomputable at any time from stored runs (:func:`assemble`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..uniaxial.results import UniaxialResult
+from .advisor import advise, judge_groups
+from .metrics import (
+    METRIC_COLUMNS,
+    SHAPE_NAMES,
+    metric_names,
+    metric_values,
+    relative_error,
+    shape_errors,
+)
+from .plan import PlannedRun
+from .spec import ScalingRule, StudySpec
+
+#: Units of the columns of :attr:`StudyResult.table`.
+TABLE_UNITS = {
+    "run": "",
+    "radius": "m",
+    "rule": "",
+    "seed": "",
+    "scale": "1",
+    "particles": "1",
+    "steps": "1",
+    "dt": "s",
+    "wall_time": "s",
+    "particle_steps": "1",
+    "speedup": "1",
+    "thickness_diameters": "1",
+    "height_diameters": "1",
+    "unconfined_failure": "1",
+    "unconfined_strength": "Pa",
+    **dict.fromkeys(METRIC_COLUMNS.values(), "1"),
+    **dict.fromkeys(SHAPE_NAMES, "1"),
+}
+
+
+@dataclass
+class RunResult:
+    """One finished run: its key, radius [m], rule (None for a reference), seed, the
+    :class:`UniaxialResult`, its errors (verdict metrics against the mean reference, shape
+    measures against the reference of its seed; zeros for references), its speed-up over
+    the mean reference wall time and its scale s = R / R_ref."""
+
+    key: str
+    radius: float
+    rule: ScalingRule | None
+    seed: int
+    result: UniaxialResult
+    errors: dict[str, float]
+    speedup: float = 1.0
+    scale: float = 1.0
+
+    def row(self) -> dict:
+        """The run's row of the study table."""
+        s = self.result.scalars
+        row = {
+            "run": self.key,
+            "radius": self.radius,
+            "rule": "reference" if self.rule is None else self.rule.name,
+            "seed": self.seed,
+            "scale": self.scale,
+            "particles": int(s["particles"]),
+            "steps": int(s["steps"]),
+            "dt": s["dt"],
+            "wall_time": s["wall_time"],
+            "particle_steps": s["particle_steps"],
+            "speedup": self.speedup,
+            "thickness_diameters": s["thickness_diameters"],
+            "height_diameters": s["height_diameters"],
+        }
+        if "unconfined_strength" in s:
+            row["unconfined_failure"] = s["unconfined_failure"]
+            row["unconfined_strength"] = s["unconfined_strength"]
+        row.update(self.errors)
+        return row
+
+
+@dataclass
+class StudyResult:
+    """Result of :func:`run_study`: ``runs`` (key -> :class:`RunResult`, references
+    first), ``table`` (one row per run, units in :data:`TABLE_UNITS`), ``groups`` (mean and
+    spread over seeds per radius and rule), ``advisor`` (verdicts, noise floor, warnings,
+    adhesion exponent; see :func:`engine.study.advisor.advise`) and ``failed`` (key -> error text
+    of the runs that failed)."""
+
+    spec: StudySpec
+    runs: dict[str, RunResult]
+    table: list[dict]
+    groups: list[dict]
+    advisor: dict
+    failed: dict[str, str] = field(default_factory=dict)
+
+    def to_summary(self) -> dict:
+        """JSON-friendly summary: table, groups, advisor, failed runs and units."""
+        return {
+            "table": self.table,
+            "groups": self.groups,
+            "advisor": self.advisor,
+            "failed": self.failed,
+            "units": TABLE_UNITS,
+        }
+
+    def figure(self, kind: str):
+        """A matplotlib Figure (no pyplot) of ``kind`` in :data:`engine.io.figures.KINDS`."""
+        from ..io.figures import figure, study_plot_data
+
+        return figure(kind, *study_plot_data(self))
+
+    def save_plots(self, directory) -> list:
+        """Write every plot kind as PNG into ``directory``; returns the paths."""
+        from ..io.figures import save_all, study_plot_data
+
+        return save_all(directory, *study_plot_data(self))
+
+
+class RunFailed(RuntimeError):
+    """A run of a study failed (its stage did not end, or it went unstable); ``run_key``
+    names it and ``__cause__`` holds the engine's error. A study raises it only when no
+    reference run succeeded; failed coarse runs are listed in ``StudyResult.failed``."""
+
+    def __init__(self, run_key: str, error: Exception | str):
+        self.run_key = run_key
+        self.text = error if isinstance(error, str) else f"{type(error).__name__}: {error}"
+        super().__init__(f"run {run_key} failed: {self.text}")
+
+    def __reduce__(self):  # pickles with its fields (see engine.core.errors)
+        return type(self), (self.run_key, self.text)
+
+
+def assemble(spec: StudySpec, planned: list[PlannedRun], outcomes: dict) -> StudyResult:
+    """Errors, groups, noise floor, verdicts and advisor from the runs' outcomes (key ->
+    :class:`UniaxialResult` or error text). Recomputable at any time from stored runs."""
+    failed = {p.key: outcomes[p.key] for p in planned if isinstance(outcomes.get(p.key), str)}
+    missing = [p.key for p in planned if p.key not in outcomes]
+    for k in missing:
+        failed[k] = "not run"
+    refs = {
+        p.seed: outcomes[p.key]
+        for p in planned
+        if p.is_reference and p.key in outcomes and not isinstance(outcomes[p.key], str)
+    }
+    if not refs:
+        key = next(p.key for p in planned if p.is_reference)
+        raise RunFailed(key, failed.get(key, "no reference run succeeded"))
+    names = metric_names(spec.reference.unconfined)
+    ref_values = [metric_values(r) for r in refs.values()]
+    ref_wall = float(np.mean([r.scalars["wall_time"] for r in refs.values()]))
+    cons = spec.reference.consolidation_stress
+    floor_mean = {n: np.mean([v[n] for v in ref_values], axis=0) for n in names}
+    first_ref = next(iter(refs.values()))
+    runs: dict[str, RunResult] = {}
+    variants: dict[tuple, list[dict]] = {}
+    for p in planned:
+        res = outcomes.get(p.key)
+        if res is None or isinstance(res, str):
+            continue
+        values = metric_values(res)
+        errors = {
+            METRIC_COLUMNS[n]: (
+                0.0 if p.is_reference else relative_error(n, values[n], floor_mean[n], cons)
+            )
+            for n in names
+        }
+        if p.is_reference:
+            errors.update(dict.fromkeys(SHAPE_NAMES, 0.0))
+            runs[p.key] = RunResult(p.key, p.radius, None, p.seed, res, errors, 1.0, 1.0)
+            continue
+        try:
+            errors.update(shape_errors(res, refs.get(p.seed, first_ref)))
+        except ValueError as e:
+            failed[p.key] = f"not comparable: {e}"
+            continue
+        runs[p.key] = RunResult(
+            p.key,
+            p.radius,
+            p.rule,
+            p.seed,
+            res,
+            errors,
+            ref_wall / res.scalars["wall_time"],
+            p.radius / spec.reference.radius,
+        )
+        variants.setdefault((p.radius, p.rule.name), []).append(values)
+    table = [r.row() for r in runs.values()]
+    groups = _groups(spec, runs, names)
+    noise, verdicts = judge_groups(spec, ref_values, variants, names, looks=spec.looks)
+    keys_of: dict[tuple, list[str]] = {}
+    for p in planned:
+        if not p.is_reference:
+            keys_of.setdefault((p.radius, p.rule.name), []).append(p.key)
+    for v in verdicts:
+        g = next(g for g in groups if g["radius"] == v["radius"] and g["rule"] == v["rule"])
+        v.update(
+            speedup=g["speedup"],
+            thickness_diameters=g["thickness_diameters"],
+            height_diameters=g["height_diameters"],
+        )
+    if spec.reference.unconfined:
+        _note_failure_kinds(refs, runs, verdicts)
+    judged = {(v["radius"], v["rule"]) for v in verdicts}
+    for variant, keys in keys_of.items():
+        lost = {k: failed[k] for k in keys if k in failed}
+        if variant not in judged:
+            verdicts.append(
+                {
+                    "radius": variant[0],
+                    "rule": variant[1],
+                    "verdict": "undecided",
+                    "reason": "no run of this variant finished",
+                    "seeds": 0,
+                    "metrics": [],
+                }
+            )
+        if lost:
+            v = next(v for v in verdicts if (v["radius"], v["rule"]) == variant)
+            v["missing_runs"] = lost
+            v["reason"] += "; missing: " + "; ".join(f"{k} ({t})" for k, t in lost.items())
+    ref_strength = None
+    if spec.reference.unconfined:
+        ref_strength = float(np.mean([r.scalars["unconfined_strength"] for r in refs.values()]))
+    advisor = advise(spec, groups, verdicts, ref_strength)
+    advisor["noise_floor"] = noise
+    advisor["reference"] = _reference_summary(refs, names, ref_values)
+    return StudyResult(spec, runs, table, groups, advisor, failed)
+
+
+def _note_failure_kinds(refs: dict, runs: dict[str, RunResult], verdicts: list[dict]) -> None:
+    """Name the kinds of strength a verdict compares whenever they are mixed: how many of the
+    references and of the variant's runs failed at a peak (engine.uniaxial.measures.failed_by_curve)
+    and how many hardened (their strength is the largest stress up to the strain limit)."""
+    ref_flags = [r.scalars["unconfined_failure"] == 1.0 for r in refs.values()]
+    for v in verdicts:
+        flags = [
+            r.result.scalars["unconfined_failure"] == 1.0
+            for r in runs.values()
+            if r.rule is not None and r.rule.name == v["rule"] and r.radius == v["radius"]
+        ]
+        v["failed_runs"] = sum(flags)
+        v["reference_failed_runs"] = sum(ref_flags)
+        if flags and len(set(flags + ref_flags)) > 1:
+            v["reason"] += (
+                f"; strength compares mixed kinds: {sum(ref_flags)} of "
+                f"{len(ref_flags)} references and {sum(flags)} of {len(flags)} "
+                "runs of this variant failed at a peak, the others hardened to "
+                "the strain limit (their strength is the largest stress reached)"
+            )
+
+
+def _reference_summary(refs: dict, names, ref_values: list[dict]) -> dict:
+    """Mean and spread over reference seeds of the scalars a user quotes."""
+    out = {"seeds": sorted(refs)}
+    for k in (
+        "unconfined_strength",
+        "unconfined_failure",
+        "loading_stiffness",
+        "unloading_stiffness",
+        "consolidated_porosity",
+        "consolidated_porosity_interior",
+        "wall_time",
+        "particles",
+    ):
+        v = [r.scalars[k] for r in refs.values() if k in r.scalars]
+        if v:
+            out[k] = float(np.mean(v))
+            out[k + "_std"] = float(np.std(v, ddof=1)) if len(v) > 1 else 0.0
+    return out
+
+
+def _groups(spec: StudySpec, runs: dict[str, RunResult], names) -> list[dict]:
+    """Mean and spread (sample standard deviation; 0 with one seed) over seeds of the
+    errors, wall time and speed-up of every (radius, rule) with at least one run."""
+    out = []
+    cols_err = [METRIC_COLUMNS[n] for n in names] + list(SHAPE_NAMES)
+    for r in spec.coarse_radii:
+        for rule in spec.rules:
+            members = [x for x in runs.values() if x.rule == rule and x.radius == r]
+            if not members:
+                continue
+            a, b, c = rule.exponents(spec.reference.pair_law)
+            g = {
+                "radius": r,
+                "rule": rule.name,
+                "scale": r / spec.reference.radius,
+                "stiffness_exponent": a,
+                "adhesion_exponent": b,
+                "adhesive_exponent": c,
+                "dt": rule.dt,
+                "seeds": len(members),
+                "thickness_diameters": members[0].result.scalars["thickness_diameters"],
+            }
+            cols = {n: [m.errors[n] for m in members] for n in cols_err}
+            for k in ("wall_time", "height_diameters"):
+                cols[k] = [m.result.scalars[k] for m in members]
+            cols["speedup"] = [m.speedup for m in members]
+            if spec.reference.unconfined:
+                cols["unconfined_strength"] = [
+                    m.result.scalars["unconfined_strength"] for m in members
+                ]
+                g["failed_runs"] = int(
+                    sum(m.result.scalars["unconfined_failure"] == 1.0 for m in members)
+                )
+            for n, v in cols.items():
+                g[n] = float(np.mean(v))
+                g[n + "_std"] = float(np.std(v, ddof=1)) if len(v) > 1 else 0.0
+            out.append(g)
+    return out

@@ -1,0 +1,381 @@
+"""Running a scaling study: every run of a :class:`StudySpec`, in this process or as tasks on
+any :class:`concurrent.futures.Executor`, then errors, noise floor and verdicts
+(docs/PHYSICS.md sections 5 and 7).
+
+The spec and its runs are in :mod:`engine.study.spec`, the metrics in :mod:`engine.study.metrics`,
+the verdict logic in :mod:`engine.study.advisor`. Runs are independent: a coarse run's time step is
+known before its reference runs, so all runs can go side by side; the comparison is made
+when they are all done. A failed coarse run is recorded with its error while the others go
+on; ``on_run`` hears of every finished run at once (to store it), and ``completed`` hands
+back stored runs so that a resumed study runs only what is missing.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import os
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from ..core.errors import StopRequested
+from ..simulation.backend import check_backend
+from ..uniaxial.checkpoint import CHECKPOINT_INTERVAL, Checkpoint, check_interval
+from ..uniaxial.driver import run_uniaxial
+from ..uniaxial.results import Progress, UniaxialResult
+from .channel import task_progress
+from .plan import PlannedRun, adaptive_summary, cost_weights, plan_runs
+from .results import RunFailed, StudyResult, assemble
+from .spec import StudySpec
+
+
+@dataclass(frozen=True)
+class StudyProgress:
+    """What a study progress callback receives: overall ``fraction`` in [0, 1], the run
+    (``run_index`` of ``n_runs``, ``run_key``), its ``stage`` and simulated ``time`` [s]."""
+
+    fraction: float
+    run_index: int
+    n_runs: int
+    run_key: str
+    stage: str
+    time: float
+    message: str = ""
+
+
+StudyCallback = Callable[[StudyProgress], object]
+RunCallback = Callable[[str, "UniaxialResult | str"], object]
+
+
+def _execute(
+    test,
+    threads: int | None = None,
+    key: str = "",
+    channel=None,
+    checkpoint: Checkpoint | None = None,
+    limit: tuple | None = None,
+    backend: str | None = None,
+) -> UniaxialResult:
+    """One run as a task (a picklable top-level function for process and cluster pools);
+    with a ``channel`` (:mod:`engine.study.channel`) it reports its progress there and stops with
+    :class:`engine.StopRequested` when the study asks it to."""
+    if threads is not None:
+        import numba
+
+        numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+    if channel is not None and channel.stop_requested():
+        raise StopRequested(f"run {key} not started: the study was stopped")
+    return run_uniaxial(
+        test,
+        progress=None if channel is None else task_progress(channel, key),
+        checkpoint=checkpoint,
+        backend=backend,
+        **_limit_args(limit),
+    )
+
+
+def _limit_args(limit: tuple | None) -> dict:
+    """run_uniaxial's arguments for a (max_wall_time, setting name) pair."""
+    if limit is None or limit[0] is None:
+        return {}
+    return {"max_wall_time": limit[0], "wall_time_setting": limit[1]}
+
+
+def run_study(
+    spec: StudySpec,
+    progress: StudyCallback | None = None,
+    executor: cf.Executor | None = None,
+    *,
+    completed: dict | None = None,
+    on_run: RunCallback | None = None,
+    task_threads: int | None = 1,
+    channel=None,
+    poll_interval: float = 1.0,
+    checkpoints: str | os.PathLike | None = None,
+    checkpoint_interval: float = CHECKPOINT_INTERVAL,
+    max_run_wall_time: float | None = None,
+    wall_time_setting: str = "max_run_wall_time",
+    backend: str | None = None,
+) -> StudyResult:
+    """Run every run of ``spec`` that is not in ``completed``, then judge the study.
+
+    Args:
+        spec: the study.
+        progress: receives :class:`StudyProgress` (in this process, within each run; with
+            an executor, as runs finish, and with a ``channel`` also every
+            ``poll_interval`` seconds from the running tasks, the fraction summed over the
+            runs); returning ``False`` stops the study with :class:`engine.StopRequested`
+            (with an executor, runs not yet started are cancelled; running ones stop at
+            their next report through the ``channel``, or are left to finish without one).
+        executor: None runs the runs one after another here; any
+            :class:`concurrent.futures.Executor` (a ``ProcessPoolExecutor`` with the
+            "spawn" or "forkserver" context, ``distributed.Client(...).get_executor()``)
+            runs them as tasks. Results are bit-identical either way.
+        completed: key -> :class:`UniaxialResult` (or an error text for a failed run) of
+            runs already done, e.g. read back from storage when a study resumes.
+        on_run: called with (key, UniaxialResult or error text) as soon as a run ends.
+        task_threads: engine threads per task on an executor (1: one core per task).
+        channel: with an executor, how tasks in other processes or hosts report progress
+            and hear a stop request (:class:`engine.FileChannel`); reset when the study
+            starts.
+        poll_interval: seconds between two reads of the ``channel`` [s].
+        checkpoints: a folder (shared with the executor's processes or hosts) where each
+            run in flight keeps its :class:`engine.Checkpoint` ``<key>.ckpt``, written every
+            ``checkpoint_interval`` seconds of wall time [s]; a run started again (the study
+            resumed after a crash) goes on from its checkpoint, bit-identically. A run's
+            checkpoint is removed once ``on_run`` has returned (its outcome is stored).
+        max_run_wall_time: a run that goes on longer than this [s] of wall time fails with
+            :class:`engine.WallTimeExceeded` (in this process and on any executor; the study
+            goes on with the others); ``wall_time_setting`` names the limit in the message.
+        backend: where each run runs, ``"cpu"``, ``"cuda"`` or ``"auto"`` (see
+            :class:`engine.Simulation`; on an executor, decided where the task runs); None:
+            ``DEMSCALE_BACKEND`` there, else the CPU.
+
+    Raises: :class:`RunFailed` as soon as every reference run has failed; ``ValueError``
+    at once, before any run starts, for a ``ProcessPoolExecutor`` that forks
+    (:func:`check_executor`).
+    """
+    check_executor(executor)
+    if max_run_wall_time is not None:
+        check_interval(max_run_wall_time, "run_study.max_run_wall_time")
+    limit = (max_run_wall_time, wall_time_setting)
+    backend = check_backend(backend, "run_study.backend")
+    planned = spec.planned_runs()
+    weights = cost_weights(planned)
+    outcomes: dict[str, UniaxialResult | str] = dict(completed or {})
+    progress = _monotone_progress(progress)
+
+    refs = [q.key for q in planned if q.is_reference]
+
+    if checkpoints is not None:
+        check_interval(checkpoint_interval, "run_study.checkpoint_interval")
+
+    def checkpoint(p: PlannedRun) -> Checkpoint | None:
+        if checkpoints is None:
+            return None
+        return Checkpoint(Path(checkpoints) / f"{p.key}.ckpt", checkpoint_interval)
+
+    def record(p: PlannedRun, outcome) -> None:
+        outcomes[p.key] = outcome
+        if on_run is not None:
+            on_run(p.key, outcome)
+        if checkpoints is not None:  # stored: the run is never resumed again
+            checkpoint(p).remove()
+        if p.is_reference and all(isinstance(outcomes.get(k), str) for k in refs):
+            # every reference failed: nothing can be compared, stop at once
+            raise RunFailed(refs[0], outcomes[refs[0]])
+
+    if executor is not None and channel is not None:
+        channel.reset()
+
+    def run(todo: list[int]) -> None:
+        if executor is None:
+            _run_here(
+                planned, todo, weights, outcomes, progress, record, checkpoint, limit, backend
+            )
+        else:
+            _run_on(
+                executor,
+                planned,
+                todo,
+                weights,
+                outcomes,
+                progress,
+                record,
+                task_threads,
+                channel,
+                poll_interval,
+                checkpoint,
+                limit,
+                backend,
+            )
+
+    while True:
+        planned, added, stopped = plan_runs(spec, outcomes)
+        weights = cost_weights(planned)
+        todo = [i for i, p in enumerate(planned) if p.key not in outcomes]
+        if not todo:
+            break
+        run(todo)
+    planned, added, stopped = plan_runs(spec, outcomes)
+    result = assemble(spec, planned, outcomes)
+    if spec.decide:
+        result.advisor["adaptive"] = adaptive_summary(spec, planned, added, stopped)
+    return result
+
+
+def _monotone_progress(progress: StudyCallback | None) -> StudyCallback | None:
+    """The callback with a fraction that never goes backwards (runs of other processes
+    report out of order, and an adaptive study's added runs enlarge the whole)."""
+    if progress is None:
+        return None
+    last = [0.0]
+
+    def call(report: StudyProgress):
+        last[0] = max(last[0], report.fraction)
+        if report.fraction < last[0]:
+            report = replace(report, fraction=last[0])
+        return progress(report)
+
+    return call
+
+
+def check_executor(executor: cf.Executor | None) -> None:
+    """Refuse an executor that cannot run engine tasks: a ``ProcessPoolExecutor`` whose
+    processes are forked (Python's default context on Linux before 3.14). A process that has
+    run the engine holds GNU OpenMP threads, and its forked children die at their first run
+    ("fork() called from a process already using GNU OpenMP, this is unsafe"), which breaks
+    the pool (``BrokenProcessPool``) mid-study. Raises ``ValueError`` naming the fix."""
+    if not isinstance(executor, cf.ProcessPoolExecutor):
+        return
+    context = getattr(executor, "_mp_context", None)
+    method = context.get_start_method() if context is not None else None
+    if method == "fork":
+        raise ValueError(
+            "run_study: this ProcessPoolExecutor forks its processes, and a forked engine "
+            "process dies (GNU OpenMP is not fork-safe), breaking the pool: create it with "
+            "the spawn or forkserver context, e.g. ProcessPoolExecutor(n, mp_context="
+            "multiprocessing.get_context('spawn'))"
+        )
+
+
+def _done_weight(planned, weights, outcomes) -> float:
+    """The share of the study's estimated cost already done (runs with an outcome)."""
+    return float(sum(w for p, w in zip(planned, weights) if p.key in outcomes))
+
+
+def _run_here(
+    planned, todo, weights, outcomes, progress, record, checkpoint, limit, backend=None
+) -> None:
+    done_weight = _done_weight(planned, weights, outcomes)
+    for i in todo:
+        p = planned[i]
+
+        def report(pr: Progress, i=i, p=p, base=done_weight):
+            if progress is None:
+                return None
+            frac = base + weights[i] * pr.fraction
+            return progress(
+                StudyProgress(
+                    float(min(frac, 1.0)), i, len(planned), p.key, pr.stage, pr.time, pr.message
+                )
+            )
+
+        # a first report names the run before its packing and kernels are built, so a run
+        # that fails there is not blamed on the previous one
+        if report(Progress(0.0, "setup", 0.0, 0.0, 0, "building the packing")) is False:
+            raise StopRequested(f"stopped by the progress callback before run {p.key}")
+        try:
+            outcome = run_uniaxial(
+                p.test,
+                progress=report,
+                checkpoint=checkpoint(p),
+                backend=backend,
+                **_limit_args(limit),
+            )
+        except StopRequested:
+            raise
+        except Exception as e:
+            outcome = f"{type(e).__name__}: {e}"
+        record(p, outcome)
+        done_weight += weights[i]
+
+
+def _run_on(
+    executor,
+    planned,
+    todo,
+    weights,
+    outcomes,
+    progress,
+    record,
+    threads,
+    channel,
+    poll_interval,
+    checkpoint,
+    limit,
+    backend=None,
+) -> None:
+    # in planned order: the references first (the longest runs, needed by every comparison)
+    futures = {
+        executor.submit(
+            _execute,
+            planned[i].test,
+            threads,
+            planned[i].key,
+            channel,
+            checkpoint(planned[i]),
+            limit,
+            backend,
+        ): i
+        for i in todo
+    }
+    done_weight = _done_weight(planned, weights, outcomes)
+    pending = set(futures)
+
+    def ask(report: StudyProgress) -> None:
+        if progress is not None and progress(report) is False:
+            if channel is not None:
+                channel.request_stop()  # running tasks stop at their next report
+            raise StopRequested(f"stopped by the progress callback during run {report.run_key}")
+
+    try:
+        while pending:
+            done, pending = cf.wait(
+                pending, timeout=poll_interval if channel else None, return_when=cf.FIRST_COMPLETED
+            )
+            for fut in done:
+                i = futures[fut]
+                p = planned[i]
+                try:
+                    outcome = fut.result()
+                except (cf.CancelledError, StopRequested):
+                    continue  # stopped, not failed: a resume runs it again
+                except cf.BrokenExecutor:
+                    # the pool itself died (a worker process killed): an interruption, not a
+                    # failure of the run; finished runs were reported, a resume runs the rest
+                    raise
+                except Exception as e:
+                    outcome = f"{type(e).__name__}: {e}"
+                record(p, outcome)
+                done_weight += weights[i]
+                ask(
+                    StudyProgress(
+                        float(min(done_weight, 1.0)),
+                        i,
+                        len(planned),
+                        p.key,
+                        "done",
+                        0.0,
+                        "run finished" if not isinstance(outcome, str) else outcome,
+                    )
+                )
+            if channel is not None and pending and not done:
+                _report_running(
+                    channel, planned, weights, [futures[f] for f in pending], done_weight, ask
+                )
+    finally:
+        for fut in futures:
+            fut.cancel()
+
+
+def _report_running(channel, planned, weights, pending, done_weight, ask) -> None:
+    """One progress report from the channel of the ``pending`` runs (their planned indices):
+    the study's fraction summed over the runs, named after the least advanced running run."""
+    seen = channel.read()
+    running = [(i, seen[planned[i].key]) for i in pending if planned[i].key in seen]
+    if not running:
+        return
+    frac = done_weight + sum(weights[i] * min(max(r["fraction"], 0.0), 1.0) for i, r in running)
+    i, r = min(running, key=lambda ir: ir[1]["fraction"])
+    ask(
+        StudyProgress(
+            float(min(frac, 1.0)),
+            i,
+            len(planned),
+            planned[i].key,
+            r["stage"],
+            float(r["time"]),
+            f"{len(running)} runs in progress",
+        )
+    )

@@ -1,0 +1,176 @@
+"""Checkpoints of a uniaxial run in flight: its full state, written atomically every few
+minutes of wall time, so that a run whose process was killed resumes where it was.
+
+A checkpoint is a pickle of the stage driver between two curve samples: the
+:class:`engine.Simulation` (particles, neighbour list with the contact history, walls, step
+count and the phase of the next kernel call), the finished stages with their snapshots, the
+current stage's rows, step count, start height and time, the failure detector, the progress
+fraction and the snapshot clock. Nothing is random after the packing is placed (the packing's
+generator is used once, before the first step), so a resumed run is bit-identical to one that
+was never interrupted (tests/engine/test_checkpoint.py kills a run mid-stage and compares the
+stored curves byte for byte).
+
+A checkpoint is only used for the very test it was written for, by the very engine code:
+the file carries the test's parameters and a digest of the engine's source and the numba
+version, and one that does not match is ignored (and replaced). Pickles run code when they
+are read: a checkpoint file is trusted like the program itself, and lives in a folder only
+its owner can write (the service keeps it beside the study's runs, mode 0600).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import pickle
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numba
+
+from ..core.errors import ParameterError
+
+__all__ = ["CHECKPOINT_INTERVAL", "Checkpoint", "check_interval", "code_digest"]
+
+#: Default wall time between two checkpoints of a run [s]: a killed run loses at most this
+#: much work; one write of a paper-scale run's state (about 20 MB) takes a fraction of a second.
+CHECKPOINT_INTERVAL = 60.0
+_FORMAT = "demscale-checkpoint/1"
+_ENGINE = Path(__file__).resolve().parents[1]
+_digest: str | None = None
+
+
+def code_digest() -> str:
+    """Digest of the engine's Python sources and the numba and Python versions: a checkpoint
+    written by other code is not resumed (its trajectory could differ)."""
+    global _digest
+    if _digest is None:
+        h = hashlib.sha256(f"{numba.__version__} {sys.version_info[:2]}".encode())
+        for f in sorted(_ENGINE.rglob("*.py")):
+            h.update(f.relative_to(_ENGINE).as_posix().encode())
+            h.update(f.read_bytes())
+        _digest = h.hexdigest()[:20]
+    return _digest
+
+
+def check_interval(interval: float, field: str) -> None:
+    """Raise :class:`engine.ParameterError` naming ``field`` unless ``interval`` is a finite
+    wall time > 0 s."""
+    if not (
+        isinstance(interval, (int, float))
+        and not isinstance(interval, bool)
+        and math.isfinite(interval)
+        and interval > 0
+    ):
+        raise ParameterError(field, interval, "a wall time > 0 s")
+
+
+class Checkpoint:
+    """Where a run's checkpoint lives and how often it is written.
+
+    Args:
+        path: the checkpoint file (its folder is created on the first write).
+        interval: wall time between two writes [s] (> 0); the first write comes ``interval``
+            after the run (or its resumption) starts, at the next curve sample.
+
+    :func:`engine.run_uniaxial` resumes from ``path`` when it holds a checkpoint of the same
+    test and engine, writes it while it runs, and leaves it in place: the caller removes it
+    (:meth:`remove`) once the run's result is stored, so a crash between the end of the run
+    and the store loses nothing. Attributes: ``writes`` (checkpoints written by this object),
+    ``resumed_steps`` (the step the run resumed from, or None).
+    """
+
+    def __init__(self, path, interval: float = CHECKPOINT_INTERVAL) -> None:
+        check_interval(interval, "Checkpoint.interval")
+        self.path = Path(path)
+        self.interval = float(interval)
+        self.writes = 0
+        self.resumed_steps: int | None = None
+        self._last = time.monotonic()
+
+    # ------------------------------------------------------------------ reading
+    def load(self, test):
+        """The driver state stored for ``test``, or None (no file, another test, other code,
+        or an unreadable file: each is warned about and ignored)."""
+        try:
+            with open(self.path, "rb") as fh:
+                stored = pickle.load(fh)
+        except FileNotFoundError:
+            return None
+        except Exception as e:  # a torn or foreign file is not fatal
+            warnings.warn(
+                f"checkpoint {self.path} is unreadable ({type(e).__name__}: {e}); "
+                "the run starts from the beginning",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+            return None
+        why = None
+        if not isinstance(stored, dict) or stored.get("format") != _FORMAT:
+            why = "not a demscale checkpoint of this format"
+        elif stored.get("code") != code_digest():
+            why = "written by other engine code"
+        elif stored.get("test") != test.to_dict():
+            why = "written for another test"
+        if why:
+            warnings.warn(
+                f"checkpoint {self.path} is {why}; the run starts from the beginning",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+            return None
+        driver = stored["driver"]
+        self.resumed_steps = int(driver.sim.steps)
+        self._last = time.monotonic()
+        return driver
+
+    # ------------------------------------------------------------------ writing
+    def start(self) -> None:
+        """Start the interval's clock (the run begins or resumes here)."""
+        self._last = time.monotonic()
+
+    def due(self, driver) -> bool:
+        """Write the checkpoint if ``interval`` has passed since the last one."""
+        if time.monotonic() - self._last < self.interval:
+            return False
+        self.save(driver)
+        return True
+
+    def save(self, driver) -> None:
+        """Write the driver's state atomically (a temporary file in the same folder, flushed
+        to disk, then renamed over the old one): a kill at any moment leaves either the old
+        checkpoint or the new one, never a torn file."""
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        blob = pickle.dumps(
+            {
+                "format": _FORMAT,
+                "code": code_digest(),
+                "test": driver.test.to_dict(),
+                "driver": driver,
+            },
+            protocol=pickle.HIGHEST_PROTOCOL,
+        )
+        tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(blob)
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, self.path)
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
+        self.writes += 1
+        self._last = time.monotonic()
+
+    def remove(self) -> None:
+        """Delete the checkpoint (and a temporary file a killed writer left)."""
+        self.path.unlink(missing_ok=True)
+        for tmp in self.path.parent.glob(f".{self.path.name}.*.tmp"):
+            tmp.unlink(missing_ok=True)
+
+    def __repr__(self) -> str:
+        return f"Checkpoint({str(self.path)!r}, interval={self.interval:g})"

@@ -1,0 +1,501 @@
+"""The uniaxial test's stage driver: fill, pre-compression, confined consolidation and
+unloading, release of the periodic confinement, unconfined compression to failure
+(docs/PHYSICS.md section 4).
+
+The parameters and presets are in :mod:`engine.uniaxial.spec`; :func:`run_uniaxial` runs the
+stages in order. Every stage ends on a physical criterion and has a bound on its steps that
+fails the run with :class:`StageError` rather than hanging. Curves are sampled every
+``output_interval`` seconds of simulated time.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+import warnings
+from collections.abc import Callable
+
+import numpy as np
+
+from ..core.errors import StopRequested, WallTimeExceeded
+from ..simulation.backend import check_backend, resolve_backend
+from ..simulation.packing import sphere_volume
+from ..simulation.simulation import Simulation
+from ..simulation.snapshot import capture
+from .checkpoint import Checkpoint, check_interval
+from .measures import (
+    FailureDetector,
+    failed_by_curve,
+    interior_margin,
+    interior_measures,
+    secant_slope,
+    unconfined_strength,
+)
+from .results import (
+    CURVE_UNITS,
+    RESUMED,
+    Progress,
+    ProgressCallback,
+    SnapshotCallback,
+    StageResult,
+    UniaxialResult,
+)
+from .spec import GRAVITY, UniaxialTest
+
+STAGES = ("fill", "pre_compression", "consolidation", "unloading", "release", "unconfined")
+
+
+#: Stage weights of the overall progress fraction.
+_WEIGHTS = {
+    "fill": 0.3,
+    "pre_compression": 0.05,
+    "consolidation": 0.25,
+    "unloading": 0.1,
+    "release": 0.1,
+    "unconfined": 0.2,
+}
+
+
+class StageError(RuntimeError):
+    """A stage did not reach its end criterion within its bound on steps.
+
+    Attributes: ``stage`` (name), ``steps`` (steps spent in the stage).
+    """
+
+    def __init__(self, message: str, stage: str, steps: int):
+        self.stage = stage
+        self.steps = steps
+        super().__init__(message)
+
+    def __reduce__(self):  # pickles with its fields (see engine.core.errors)
+        return type(self), (self.args[0], self.stage, self.steps)
+
+
+class _Recorder:
+    """Samples the curves of one stage, and holds what a checkpoint needs to re-enter the
+    stage's loop: its start height ``h0`` [m] and simulated time ``t0`` [s], the rows so far,
+    the steps run in it, and the unconfined stage's failure detector."""
+
+    def __init__(self, driver: _Driver, stage: str, h0: float):
+        self.d = driver
+        self.stage = stage
+        self.h0 = h0
+        self.t0 = driver.sim.time
+        self.rows: list[tuple] = []
+        self.steps0 = driver.sim.steps
+        self.steps = 0
+        self.failure: FailureDetector | None = None
+
+    def sample(self) -> tuple:
+        d = self.d
+        sim = d.sim
+        f = sim.wall_forces
+        area = d.area
+        gap = d.gap()
+        s_top = float(f[1, 2]) / area if d.n_walls > 1 else 0.0
+        s_bot = -float(f[0, 2]) / area
+        porosity = 1.0 - d.solid_volume / (area * gap)
+        counts = sim.contact_counts()
+        coordination = float(counts.sum()) / sim.n
+        bottom = float(sim.wall_positions[0, 2])
+        por_in, coord_in = interior_measures(
+            sim.positions[:, 2] - bottom, sim.radii, counts, gap, d.test.margin, area
+        )
+        ke = sim.kinetic_energy()
+        speed = abs(float(sim.wall_velocities[1, 2])) if d.n_walls > 1 else 0.0
+        # inertial number with the pressure floored at the weight of one particle layer
+        p = max(abs(s_top), abs(s_bot), d.layer_stress)
+        inertial = speed / gap * 2.0 * d.test.radius * math.sqrt(d.test.density / p)
+        row = (
+            sim.time,
+            (self.h0 - gap) / self.h0,
+            s_top,
+            s_bot,
+            porosity,
+            coordination,
+            ke,
+            inertial,
+            gap,
+            por_in,
+            coord_in,
+        )
+        self.rows.append(row)
+        return row
+
+    def result(self) -> StageResult:
+        a = np.array(self.rows, dtype=float).reshape(-1, len(CURVE_UNITS))
+        curves = {k: a[:, i].copy() for i, k in enumerate(CURVE_UNITS)}
+        for k, v in curves.items():
+            if not np.all(np.isfinite(v)):
+                raise FloatingPointError(f"stage {self.stage}: non-finite values in the {k} curve")
+        snap = capture(self.d.sim, self.stage)
+        if self.d.on_snapshot is not None:
+            self.d.on_snapshot(snap)
+        return StageResult(
+            self.stage, curves, snap.positions, snap.radii, self.d.sim.steps - self.steps0, snap
+        )
+
+
+class _Driver:
+    """Runs the stages on one :class:`Simulation`.
+
+    A stage is begun (its platen and periodicity set-up, then its first curve sample), looped
+    (run ``output_interval``, sample, report) until its criterion holds, and ended (its
+    result kept, then its closing platen move). Everything the loop needs lives on the driver
+    and its current :class:`_Recorder`, so a checkpoint taken between two samples (a pickle of
+    the driver, see :class:`engine.uniaxial.checkpoint.Checkpoint`) re-enters the loop where it
+    was."""
+
+    def __init__(
+        self,
+        test: UniaxialTest,
+        progress: ProgressCallback | None,
+        on_snapshot: SnapshotCallback | None = None,
+        snapshot_interval: float | None = None,
+        backend: str | None = None,
+    ):
+        self.test = test
+        self.progress = progress
+        self.on_snapshot = on_snapshot
+        self.snapshot_interval = snapshot_interval
+        self.next_snapshot = snapshot_interval
+        self.area = test.cell[0] * test.cell[1]
+        self.stages: dict[str, StageResult] = {}
+        self.current: _Recorder | None = None
+        self.last_fraction = 0.0
+        self.scalars: dict[str, float] = {}
+        self.t_wall = time.perf_counter()
+        pos, radii = test.initial_packing()
+        self.solid_volume = float(sphere_volume(radii).sum())
+        g = GRAVITY
+        self.layer_stress = test.density * g * 2 * test.radius
+        m = float(test.density * sphere_volume(test.radius))
+        self.settle_energy = test.settle_ke * len(radii) * m * g * test.radius
+        self.unconfined_failed = False
+        self.n_walls = 2  # bottom platen at z = 0; the top one starts above the cell
+        scene = test.scene(pos, radii)
+        # kernels are compiled (or loaded from the disk cache) when a Simulation is built and
+        # when its periodicity changes: that time is kept out of the run's wall time
+        t0 = time.perf_counter()
+        self.sim = Simulation(scene, dt=test.dt, backend=backend)
+        self.setup_time = time.perf_counter() - t0
+        self.sample_steps = max(1, round(test.output_interval / self.sim.dt))
+        self.max_steps = max(1, round(test.max_stage_time / self.sim.dt))
+        self.h_consolidation = math.nan
+        self.checkpoint = None
+        self.max_wall_time: float | None = None
+        self.wall_time_setting = "max_wall_time"
+        # within a long curve sample, a progress report (and so a stop request) at least
+        # every engine.simulation.simulation.CALL_SECONDS of wall time
+        self.stage_now, self.stage_fraction = "fill", 0.0
+        self.sim.between_calls = self._between_calls
+
+    # ------------------------------------------------------------------ checkpoints
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        for k in ("progress", "on_snapshot", "checkpoint"):
+            state[k] = None
+        # wall time so far instead of the start of a clock that does not survive the process
+        state["t_wall"] = time.perf_counter() - self.t_wall
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self.t_wall = time.perf_counter() - state["t_wall"]
+        self.sim.between_calls = self._between_calls
+
+    # ------------------------------------------------------------------ helpers
+    def gap(self) -> float:
+        """Distance between the platens [m]."""
+        return float(self.sim.wall_positions[1, 2] - self.sim.wall_positions[0, 2])
+
+    def bed_top(self) -> float:
+        """Highest particle surface [m]."""
+        return float(np.max(self.sim.positions[:, 2] + self.sim.radii))
+
+    def wall_time(self) -> float:
+        """Wall time of the run so far, set-up left out [s]."""
+        return time.perf_counter() - self.t_wall - self.setup_time
+
+    def report(self, stage: str, stage_fraction: float, message: str = "") -> None:
+        if self.max_wall_time is not None:
+            elapsed = self.wall_time()
+            if elapsed > self.max_wall_time:
+                raise WallTimeExceeded(self.max_wall_time, elapsed, self.wall_time_setting)
+        if self.progress is None:
+            return
+        done = 0.0
+        for s in STAGES:
+            if s == stage:
+                break
+            done += _WEIGHTS[s]
+        total = sum(
+            _WEIGHTS[s]
+            for s in STAGES
+            if self.test.unconfined or s not in ("release", "unconfined")
+        )
+        frac = min(1.0, (done + _WEIGHTS[stage] * min(max(stage_fraction, 0.0), 1.0)) / total)
+        # stress fluctuates: never report less progress than before
+        frac = self.last_fraction = max(frac, self.last_fraction)
+        answer = self.progress(
+            Progress(frac, stage, stage_fraction, self.sim.time, self.sim.steps, message)
+        )
+        if answer is False:
+            raise StopRequested(f"stopped by the progress callback during {stage}")
+
+    def _between_calls(self) -> None:
+        """A report between two kernel calls of a curve sample: the stage's progress as of
+        its last sample (so the fraction never goes back), the stop request heard."""
+        self.report(self.stage_now, self.stage_fraction, "running")
+
+    def settled(self, row, t_min: float, t0: float) -> bool:
+        return row[0] - t0 >= t_min and row[6] <= self.settle_energy
+
+    def move_top(self, speed: float) -> None:
+        self.sim.set_wall_velocity(1, (0.0, 0.0, speed))
+
+    # ------------------------------------------------------------------ the stage machine
+    def run(self) -> UniaxialResult:
+        """Run (or, resumed from a checkpoint, go on with) the stages, then the scalars."""
+        for stage in STAGES:
+            if stage in ("release", "unconfined") and not self.test.unconfined:
+                break
+            if stage in self.stages:
+                continue
+            if self.current is None or self.current.stage != stage:
+                self.begin(stage)
+            self.loop()
+            self.end(stage)
+        return self.finish()
+
+    def begin(self, stage: str) -> None:
+        """The stage's set-up (platens, periodicity), then its first curve sample."""
+        t = self.test
+        h0 = None
+        if stage == "pre_compression":
+            top = self.bed_top() + 0.05 * t.radius
+            self.sim.set_wall_position(1, (0.0, 0.0, top))
+            self.move_top(-t.platen_speed)
+        elif stage == "consolidation":
+            self.h_consolidation = self.gap()
+        elif stage == "unloading":
+            self.move_top(+t.platen_speed)
+            h0 = self.h_consolidation
+        elif stage == "release":
+            t_setup = time.perf_counter()
+            self.sim.set_periodic((False, False, False))
+            self.setup_time += time.perf_counter() - t_setup
+        elif stage == "unconfined":
+            # the platen starts where unloading left it, on top of the consolidated sample,
+            # and strain is measured against that height: a sample that collapsed on release
+            # is never reached within max_unconfined_strain and has exactly zero strength
+            self.move_top(-t.platen_speed)
+        rec = _Recorder(self, stage, self.gap() if h0 is None else h0)
+        if stage == "unconfined":
+            rec.failure = FailureDetector(t.failure_drop, t.failure_strain)
+        self.current = rec
+        self.stage_now, self.stage_fraction = stage, 0.0
+        rec.sample()
+
+    def criterion(self, rec: _Recorder) -> tuple[Callable, Callable, str]:
+        """The stage's end criterion, its progress fraction and what it waits for."""
+        t, t0 = self.test, rec.t0
+        stage = rec.stage
+        if stage == "fill":
+            t_fall = math.sqrt(2 * t.cell[2] / GRAVITY)
+            return (
+                lambda r: self.settled(r, t_fall, t0),
+                lambda r: min(1.0, (r[0] - t0) / (2 * t_fall)),
+                "settle (kinetic energy below settle_ke x N m g R)",
+            )
+        if stage in ("pre_compression", "consolidation"):
+            target = t.pre_stress if stage == "pre_compression" else t.consolidation_stress
+            return (
+                lambda r: r[2] >= target,
+                lambda r: r[2] / target,
+                f"reach the {stage.replace('_', '-')} stress {target:g} Pa",
+            )
+        if stage == "unloading":
+            target = t.consolidation_stress
+            low = t.unloaded_stress * target
+            return (
+                lambda r: r[2] <= low,
+                lambda r: 1.0 - r[2] / target,
+                f"relax the stress below {low:g} Pa",
+            )
+        if stage == "release":
+            t_min = 5 * math.sqrt(2 * t.radius / GRAVITY)  # a few particle fall times
+            t_max = max(t_min, t.release_time)
+            return (
+                lambda r: self.settled(r, t_min, t0) or r[0] - t0 >= t_max,
+                lambda r: min(1.0, (r[0] - t0) / t_max),
+                "settle after the release (kinetic energy below settle_ke x N m g R)",
+            )
+
+        def failed(r) -> bool:
+            if rec.failure.update(r[1], r[2]):
+                self.unconfined_failed = True
+                return True
+            return r[1] >= t.max_unconfined_strain
+
+        return (
+            failed,
+            lambda r: r[1] / t.max_unconfined_strain,
+            "fail (post-peak drop) or reach max_unconfined_strain",
+        )
+
+    def loop(self) -> None:
+        """Run the current stage from its last sample until its criterion holds."""
+        rec = self.current
+        stage = rec.stage
+        done, fraction, what = self.criterion(rec)
+        row = rec.rows[-1]
+        while not done(row):
+            # the stage goes on (its end makes its own snapshot)
+            if self.next_snapshot is not None and rec.steps and self.sim.time >= self.next_snapshot:
+                self.on_snapshot(capture(self.sim, stage))
+                while self.next_snapshot <= self.sim.time:
+                    self.next_snapshot += self.snapshot_interval
+            if rec.steps >= self.max_steps:
+                raise StageError(
+                    f"stage {stage} did not {what} within {rec.steps} steps "
+                    f"({rec.steps * self.sim.dt:.3g} s, max_stage_time); now: top stress "
+                    f"{row[2]:.4g} Pa, platen gap {row[8]:.4g} m, kinetic energy "
+                    f"{row[6]:.3g} J",
+                    stage,
+                    rec.steps,
+                )
+            self.sim.run(self.sample_steps)
+            rec.steps += self.sample_steps
+            row = rec.sample()
+            self.stage_fraction = fraction(row)
+            self.report(stage, self.stage_fraction)
+            if self.checkpoint is not None:
+                # between two samples, before the criterion sees the new row: a resumed run
+                # re-enters here and asks the criterion about that same row
+                self.checkpoint.due(self)
+
+    def end(self, stage: str) -> None:
+        self.stages[stage] = self.current.result()
+        self.current = None
+        self.report(stage, 1.0, "done")
+        if stage in ("unloading", "unconfined"):
+            self.move_top(0.0)
+
+    # ------------------------------------------------------------------ scalars
+    def finish(self) -> UniaxialResult:
+        s = self.scalars
+        cons, unl = self.stages["consolidation"].curves, self.stages["unloading"].curves
+        s["loading_stiffness"] = secant_slope(cons["strain"], cons["stress_top"], 0.5, 1.0)
+        s["unloading_stiffness"] = secant_slope(
+            unl["strain"][::-1], unl["stress_top"][::-1], 0.5, 1.0
+        )
+        s["consolidated_porosity"] = float(cons["porosity"][-1])
+        s["consolidated_porosity_interior"] = float(cons["porosity_interior"][-1])
+        dmax = 2 * self.test.radius * (1 + self.test.polydispersity)
+        s["thickness_diameters"] = self.test.thickness_diameters
+        gap = float(cons["platen_gap"][-1])
+        s["height_diameters"] = gap / dmax
+        s["interior_margin"] = interior_margin(self.test.margin, gap, dmax / 2)
+        if "unconfined" in self.stages:
+            u = self.stages["unconfined"].curves
+            failed = self.unconfined_failed or failed_by_curve(
+                u["strain"], u["stress_top"], self.test.failure_strain
+            )
+            strength, strain, failed = unconfined_strength(u["strain"], u["stress_top"], failed)
+            s["unconfined_strength"] = strength
+            s["strain_at_peak"] = strain
+            s["unconfined_failure"] = 1.0 if failed else 0.0
+        s["particles"] = float(self.sim.n)
+        s["steps"] = float(self.sim.steps)
+        s["dt"] = self.sim.dt
+        s["setup_time"] = self.setup_time
+        s["wall_time"] = self.wall_time()
+        s["particle_steps"] = float(self.sim.n) * self.sim.steps
+        s["threads"] = float(self.sim.threads)  # wall time is per this many engine threads
+        s["max_inertial_number"] = max(
+            float(np.max(self.stages[k].curves["inertial_number"]))
+            for k in ("pre_compression", "consolidation", "unloading", "unconfined")
+            if k in self.stages
+        )
+        bad = [k for k, v in s.items() if not math.isfinite(v)]
+        if bad:
+            raise FloatingPointError(f"non-finite scalars {bad}: the run is not usable")
+        return UniaxialResult(self.test, self.stages, s)
+
+
+def run_uniaxial(
+    test: UniaxialTest,
+    progress: ProgressCallback | None = None,
+    *,
+    on_snapshot: SnapshotCallback | None = None,
+    snapshot_interval: float | None = None,
+    checkpoint: Checkpoint | str | os.PathLike | None = None,
+    max_wall_time: float | None = None,
+    wall_time_setting: str = "max_wall_time",
+    backend: str | None = None,
+) -> UniaxialResult:
+    """Run the uniaxial test: fill, pre-compression, consolidation, unloading and (with
+    ``test.unconfined``) release and unconfined compression.
+
+    Args:
+        test: the parameters.
+        progress: called after every curve sample with a :class:`Progress`; returning
+            ``False`` stops the run with :class:`engine.StopRequested`.
+        on_snapshot: called with every :class:`engine.simulation.snapshot.Snapshot` as it is
+            taken: at each stage's end (also kept in :attr:`StageResult.snapshot`) and, with
+            ``snapshot_interval``, during the stages (not kept: e.g. pass
+            ``engine.io.vtkhdf.SnapshotWriter(dir).add`` to write them as they come).
+        snapshot_interval: simulated time between snapshots during the stages [s], at the
+            first curve sample past each multiple (None: stage ends only).
+        checkpoint: a :class:`engine.Checkpoint` (or its path, written every
+            ``CHECKPOINT_INTERVAL`` s): the run resumes from it when it holds this test's
+            state, and writes it between curve samples as it goes; the result is
+            bit-identical to that of an uninterrupted run. The file is left for the caller to
+            remove once the result is stored (:meth:`engine.Checkpoint.remove`).
+        max_wall_time: stop the run with :class:`engine.WallTimeExceeded` once it has run
+            this long [s] (set-up left out; checked after every curve sample and between
+            kernel calls, at least every 0.2 s); ``wall_time_setting`` names the limit in
+            the message.
+        backend: ``"cpu"``, ``"cuda"`` or ``"auto"`` (see :class:`engine.Simulation`);
+            None: ``DEMSCALE_BACKEND``, else the CPU.
+    Raises: :class:`StageError` when a stage misses its criterion within its bound,
+        :class:`engine.InstabilityError` when the integration blows up.
+    """
+    if snapshot_interval is not None:
+        if on_snapshot is None:
+            raise ValueError("snapshot_interval needs on_snapshot to receive the snapshots")
+        if not (math.isfinite(snapshot_interval) and snapshot_interval > 0):
+            raise ValueError(f"snapshot_interval must be a time > 0 s, not {snapshot_interval}")
+    if max_wall_time is not None:
+        check_interval(max_wall_time, "run_uniaxial.max_wall_time")
+    backend = check_backend(backend, "run_uniaxial.backend")
+    if checkpoint is not None and not isinstance(checkpoint, Checkpoint):
+        checkpoint = Checkpoint(checkpoint)
+    d = None
+    if checkpoint is not None:
+        t0 = time.perf_counter()
+        d = checkpoint.load(test)
+        if d is not None and d.sim.backend != resolve_backend(backend, "run_uniaxial.backend"):
+            warnings.warn(
+                f"checkpoint {checkpoint.path} was written on the {d.sim.backend} "
+                "backend, not the one asked for; the run starts from the beginning",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+            d = None
+        if d is not None:  # loading its kernel is set-up time, as for a new Simulation
+            load = time.perf_counter() - t0
+            d.setup_time += load
+            d.t_wall -= load  # wall_time = now - t_wall - setup_time
+            d.progress, d.on_snapshot = progress, on_snapshot
+    if d is None:
+        d = _Driver(test, progress, on_snapshot, snapshot_interval, backend)
+    d.checkpoint = checkpoint
+    d.max_wall_time, d.wall_time_setting = max_wall_time, wall_time_setting
+    if checkpoint is not None:
+        checkpoint.start()
+        if checkpoint.resumed_steps is not None:
+            d.report(d.stage_now, d.stage_fraction, f"{RESUMED} at step {checkpoint.resumed_steps}")
+    return d.run()

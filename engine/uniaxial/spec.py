@@ -1,0 +1,400 @@
+"""Parameters of the uniaxial test and its presets (docs/PHYSICS.md section 4).
+
+:class:`UniaxialTest` holds every parameter of one test, declared with its unit and bounds
+(:mod:`engine.core.records`) and validated once on construction; :func:`preset` gives the named
+tests. The stage driver is :mod:`engine.uniaxial`.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import asdict, dataclass, fields, replace
+
+import numpy as np
+
+from ..contact.materials import (
+    EEPA,
+    LAWS,
+    BilinearAdhesive,
+    HertzMindlin,
+    WallMaterial,
+    law_names,
+    pair_laws,
+    wall_laws,
+)
+from ..core.config import MAX_OVERLAP_FRACTION
+from ..core.errors import ParameterError
+from ..core.records import check_fields, param
+from ..simulation.packing import draw_radii, loose_packing, sphere_volume
+from ..simulation.scene import Plane, Scene
+from ..simulation.timestep import adhesion_overlap, critical_time_step
+
+GRAVITY = 9.81  # [m/s^2]
+
+#: Thinnest side of the cell, in diameters of the largest particle, below which a bed is too
+#: thin to be a bulk sample (the seed's criterion: "more than 5 diameters").
+MIN_THICKNESS_DIAMETERS = 5.0
+
+
+def _cohesionless_law() -> BilinearAdhesive:
+    return BilinearAdhesive(k1=5e3, k2=2.5e4, f0=0.0, mu_s=0.5, mu_r=0.001, restitution=0.4)
+
+
+def _platen_law() -> HertzMindlin:
+    return HertzMindlin(E=1e8, nu=0.25, restitution=0.4, mu=0.3)
+
+
+@dataclass(frozen=True)
+class UniaxialTest:
+    """Parameters of one uniaxial test (SI units).
+
+    The sample fills the cuboid ``cell`` = (Lx, Ly, H): the amount of material is what fills
+    it at the solid fraction ``solid_fraction`` (N = solid_fraction Lx Ly H / particle
+    volume). It is poured as a loose cloud of solid fraction ``pour_fraction`` from a column
+    H solid_fraction / pour_fraction tall, settles under gravity on the bottom platen and is
+    compressed by the top platen; x and y are periodic until the release.
+
+    Attributes:
+        cell: (Lx, Ly, H) [m]: periodic cross-section and the height the settled sample fills.
+        radius: particle radius [m].
+        polydispersity: radii uniform in [R (1 - p), R (1 + p)] [-].
+        density: particle density [kg/m^3].
+        solid_fraction: solid fraction the settled sample is assumed to have when the
+            particles are counted [-].
+        pour_fraction: solid fraction of the poured cloud [-] (random addition jams near 0.38).
+        pair_law: particle-particle law (:class:`BilinearAdhesive`, :class:`EEPA` or
+            :class:`HertzMindlin`).
+        wall_law: platen law (:class:`HertzMindlin`; its E, nu are the particles').
+        wall_material: platen material.
+        pre_stress: pre-compression stress [Pa].
+        consolidation_stress: consolidation stress [Pa], > pre_stress.
+        platen_speed: top platen speed [m/s].
+        unloaded_stress: unloading ends when the top stress is below this fraction of the
+            consolidation stress [-].
+        unconfined: run the release and unconfined compression stages.
+        failure_drop: the sample has failed when its stress has fallen this fraction below
+            its peak [-] ...
+        failure_strain: ... and has stayed there for this much further axial strain [-].
+        max_unconfined_strain: unconfined compression also ends at this strain [-] (samples
+            without a peak); their strength is the documented fallback (see
+            :mod:`engine.uniaxial`).
+        settle_ke: a settling stage ends when the kinetic energy is below this fraction of
+            N m g R (the energy of lifting every particle by one radius) [-].
+        release_time: the release stage also ends after this much simulated time [s].
+        interior_margin: thickness of the layer next to each platen left out of the interior
+            porosity and coordination number [m]; None: two diameters of the largest particle.
+            In a sample too short for it the layer shrinks to leave one largest diameter
+            (the scalar ``interior_margin`` of a result is the one used at consolidation).
+        seed: random seed of the packing.
+        output_interval: simulated time between curve samples [s].
+        dt: time step [s]; None lets the engine choose from its stability limits.
+        max_stage_time: bound on the simulated time of any single stage [s].
+    """
+
+    cell: tuple[float, float, float] = param(
+        (0.05, 0.05, 0.1),
+        unit="m",
+        kind="list",
+        max_items=3,
+        doc="(Lx, Ly, H): periodic cross-section and height the settled sample fills",
+    )
+    radius: float = param(2.5e-3, unit="m", doc="particle radius", gt=0, le=0.05)
+    polydispersity: float = param(
+        0.0, unit="1", doc="radii uniform in [R(1-p), R(1+p)]", ge=0, lt=0.5
+    )
+    density: float = param(2000.0, unit="kg/m^3", doc="particle density", gt=0)
+    solid_fraction: float = param(
+        0.6, unit="1", gt=0, le=0.74, doc="solid fraction assumed for the settled sample"
+    )
+    pour_fraction: float = param(
+        0.3, unit="1", gt=0, le=0.32, doc="solid fraction of the poured cloud"
+    )
+    pair_law: BilinearAdhesive | EEPA | HertzMindlin = param(
+        unit="",
+        kind="record",
+        default_factory=_cohesionless_law,
+        doc="particle-particle contact law",
+    )
+    wall_law: HertzMindlin = param(
+        unit="",
+        kind="record",
+        default_factory=_platen_law,
+        doc="platen contact law (Hertz-Mindlin)",
+    )
+    wall_material: WallMaterial = param(
+        unit="", kind="record", default_factory=WallMaterial, doc="platen material"
+    )
+    pre_stress: float = param(5e3, unit="Pa", doc="pre-compression stress", gt=0)
+    consolidation_stress: float = param(
+        20e3, unit="Pa", gt=0, doc="consolidation stress (> pre_stress)"
+    )
+    platen_speed: float = param(0.01, unit="m/s", doc="top platen speed", gt=0)
+    unloaded_stress: float = param(
+        0.01,
+        unit="1",
+        gt=0,
+        lt=1,
+        doc="unloading ends below this fraction of the consolidation stress",
+    )
+    unconfined: bool = param(
+        True, unit="", kind="bool", doc="run the release and unconfined compression stages"
+    )
+    failure_drop: float = param(
+        0.2, unit="1", gt=0, lt=1, doc="post-peak stress drop that marks failure"
+    )
+    failure_strain: float = param(
+        0.005, unit="1", ge=0, lt=0.5, doc="strain the drop must persist for"
+    )
+    max_unconfined_strain: float = param(
+        0.1, unit="1", gt=0, lt=0.8, doc="unconfined compression ends here at the latest"
+    )
+    settle_ke: float = param(
+        1e-4, unit="1", gt=0, doc="settled below this kinetic energy / (N m g R)"
+    )
+    release_time: float = param(0.2, unit="s", gt=0, doc="longest release stage")
+    interior_margin: float | None = param(
+        None,
+        unit="m",
+        ge=0,
+        nullable=True,
+        doc="layer at each platen left out of interior measurements (None: 2 diameters)",
+    )
+    seed: int = param(1, unit="", kind="int", ge=0, lt=2**31, doc="packing seed")
+    output_interval: float = param(1e-3, unit="s", gt=0, doc="time between curve samples")
+    dt: float | None = param(
+        1e-5, unit="s", gt=0, nullable=True, doc="time step (None: chosen from the stability limit)"
+    )
+    max_stage_time: float = param(5.0, unit="s", gt=0, doc="bound on any stage's time")
+
+    def __post_init__(self) -> None:
+        o = "UniaxialTest"
+        try:
+            cell = tuple(float(c) for c in self.cell)
+        except (TypeError, ValueError):
+            cell = ()
+        if len(cell) != 3 or not all(math.isfinite(c) and c > 0 for c in cell):
+            raise ParameterError(f"{o}.cell", self.cell, "three lengths > 0 m")
+        object.__setattr__(self, "cell", cell)
+        check_fields(self, o)
+        if self.consolidation_stress <= self.pre_stress:
+            raise ParameterError(
+                f"{o}.consolidation_stress",
+                self.consolidation_stress,
+                f"> pre_stress = {self.pre_stress:g} Pa",
+            )
+        if self.pour_fraction > self.solid_fraction:
+            raise ParameterError(
+                f"{o}.pour_fraction",
+                self.pour_fraction,
+                f"<= solid_fraction = {self.solid_fraction:g}",
+                "the poured cloud cannot be denser than the settled bed",
+            )
+        if not isinstance(self.pair_law, pair_laws()):
+            raise ParameterError(f"{o}.pair_law", self.pair_law, f"an {law_names(pair_laws())}")
+        if not isinstance(self.wall_law, wall_laws()):
+            raise ParameterError(f"{o}.wall_law", self.wall_law, f"an {law_names(wall_laws())}")
+        if not isinstance(self.wall_material, WallMaterial):
+            raise ParameterError(f"{o}.wall_material", self.wall_material, "an engine.WallMaterial")
+        rmax = self.radius * (1 + self.polydispersity)
+        for a, name in ((0, "x"), (1, "y")):
+            if cell[a] < 2.4 * 2 * rmax:
+                raise ParameterError(
+                    f"{o}.cell",
+                    f"{cell[a]:g} m along {name}",
+                    f">= {4.8 * rmax:.4g} m (2.4 largest diameters) for the periodic minimum image",
+                )
+        if cell[2] < 4 * rmax:
+            raise ParameterError(
+                f"{o}.cell", f"{cell[2]:g} m along z", f">= {4 * rmax:.4g} m (2 largest diameters)"
+            )
+        self._check_runnable()
+
+    def _check_runnable(self) -> None:
+        """Refuse, before anything runs, what the engine would refuse in the middle of a run:
+        a fill the packer cannot place, an adhesion that pulls contacts too deep, a time step
+        above the stable limit."""
+        o = "UniaxialTest"
+        rmin = self.radius * (1 - self.polydispersity)
+        law = self.pair_law
+        d_eq = adhesion_overlap(law, rmin, MAX_OVERLAP_FRACTION)
+        if d_eq is not None:
+            raise ParameterError(
+                f"{o}.pair_law.f0",
+                law.f0,
+                f">= {-MAX_OVERLAP_FRACTION * rmin * law.k1:.4g} N",
+                f"|f0|/k1 = {d_eq:.3g} m would pull contacts beyond "
+                f"{MAX_OVERLAP_FRACTION:g} x the smallest radius",
+            )
+        if self.dt is not None:
+            lim = self.time_step_limit()
+            if self.dt > lim.dt:
+                raise ParameterError(
+                    f"{o}.dt",
+                    self.dt,
+                    f"<= {lim.dt:.4g} s, the stable limit "
+                    f"set by {lim.reason} (recommended {lim.recommended:.4g} s)",
+                )
+        # the packer is deterministic for a seed: place the fill now, exactly as the run will
+        try:
+            self.initial_packing()
+        except ParameterError as e:
+            raise ParameterError(
+                f"{o}.pour_fraction",
+                self.pour_fraction,
+                "low enough for the fill to be placed without overlap",
+                f"{e}; lower pour_fraction",
+            ) from None
+
+    @property
+    def margin(self) -> float:
+        """The interior margin [m]: ``interior_margin`` or two largest diameters."""
+        if self.interior_margin is not None:
+            return self.interior_margin
+        return 4.0 * self.radius * (1 + self.polydispersity)
+
+    @property
+    def pour_height(self) -> float:
+        """Height of the column the loose cloud is poured from [m]."""
+        return self.cell[2] * self.solid_fraction / self.pour_fraction
+
+    @property
+    def pour_region(self) -> tuple[float, float, float]:
+        """(Lx, Ly, pour height) [m]: the box the loose cloud is placed in."""
+        return (self.cell[0], self.cell[1], self.pour_height)
+
+    def time_step_limit(self):
+        """:func:`engine.critical_time_step` of this test's laws for its lightest particles
+        and the free fall over its pour column (a two-particle stand-in for the packing)."""
+        rmin = self.radius * (1 - self.polydispersity)
+        lx, ly, lz = self.pour_region
+        pos = np.array([(lx / 2, ly / 2, rmin), (lx / 2, ly / 2, lz - rmin)])
+        return critical_time_step(self.scene(pos, np.full(2, rmin)))
+
+    def scene(self, positions: np.ndarray, radii: np.ndarray) -> Scene:
+        """The test's scene for particles at ``positions`` [m] with ``radii`` [m]: periodic
+        x and y, gravity, the bottom platen at z = 0 and the top one above the pour column."""
+        lx, ly, lz = self.pour_region
+        walls = [Plane((0, 0, 0), (0, 0, 1)), Plane((0, 0, lz + 4 * self.radius), (0, 0, -1))]
+        return Scene(
+            positions,
+            radii,
+            self.density,
+            box=[(0, lx), (0, ly), (0, lz)],
+            periodic=(True, True, False),
+            walls=walls,
+            gravity=(0, 0, -GRAVITY),
+            pair_law=self.pair_law,
+            wall_law=self.wall_law,
+            wall_material=self.wall_material,
+        )
+
+    def initial_packing(self) -> tuple[np.ndarray, np.ndarray]:
+        """Positions [m] and radii [m] of the poured fill: ``n_particles`` overlap-free
+        spheres in the pour column (periodic x and y), from ``seed``."""
+        pos, radii = _packing(
+            self.n_particles, self.radius, self.polydispersity, self.seed, self.pour_region
+        )
+        return pos.copy(), radii.copy()
+
+    def resolved_dt(self) -> float:
+        """The time step a run of this test takes [s]: ``dt``, or the recommended one."""
+        return self.dt if self.dt is not None else self.time_step_limit().recommended
+
+    @property
+    def n_particles(self) -> int:
+        """Number of particles: solid_fraction x cell volume / mean particle volume."""
+        mean_vol = sphere_volume(self.radius) * (1 + self.polydispersity**2)  # E[r^3] / R^3
+        return max(2, round(self.solid_fraction * np.prod(self.cell) / mean_vol))
+
+    @property
+    def thickness_diameters(self) -> float:
+        """Thinnest side of the cell in diameters of the largest particle [-]."""
+        return min(self.cell[:2]) / (2 * self.radius * (1 + self.polydispersity))
+
+    def to_dict(self) -> dict:
+        """JSON-friendly parameters (laws as nested dicts with a ``type``)."""
+        d = asdict(self)
+        d["cell"] = list(self.cell)
+        d["pair_law"] = {"type": type(self.pair_law).__name__, **asdict(self.pair_law)}
+        d["wall_law"] = {"type": "HertzMindlin", **asdict(self.wall_law)}
+        d["wall_material"] = asdict(self.wall_material)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> UniaxialTest:
+        """Inverse of :meth:`to_dict`; unknown keys raise :class:`ParameterError`."""
+        d = dict(d)
+        known = {f.name for f in fields(cls)}
+        unknown = set(d) - known
+        if unknown:
+            raise ParameterError("UniaxialTest", sorted(unknown), f"fields among {sorted(known)}")
+        if isinstance(d.get("pair_law"), dict):
+            pl = dict(d["pair_law"])
+            kind = pl.pop("type", "BilinearAdhesive")
+            law_cls = LAWS.get(kind)
+            if law_cls is None or not law_cls.pair:
+                raise ParameterError(
+                    "UniaxialTest.pair_law.type",
+                    kind,
+                    law_names(pair_laws()).replace("engine.", ""),
+                )
+            d["pair_law"] = law_cls(**pl)
+        if isinstance(d.get("wall_law"), dict):
+            wl = dict(d["wall_law"])
+            kind = wl.pop("type", "HertzMindlin")
+            law_cls = LAWS.get(kind)
+            if law_cls is None or not law_cls.wall:
+                raise ParameterError(
+                    "UniaxialTest.wall_law.type",
+                    kind,
+                    law_names(wall_laws()).replace("engine.", ""),
+                )
+            d["wall_law"] = law_cls(**wl)
+        if isinstance(d.get("wall_material"), dict):
+            d["wall_material"] = WallMaterial(**d["wall_material"])
+        if "cell" in d:
+            if not isinstance(d["cell"], (list, tuple)):
+                raise ParameterError("UniaxialTest.cell", d["cell"], "three lengths > 0 m")
+            d["cell"] = tuple(d["cell"])
+        return cls(**d)
+
+
+@functools.lru_cache(maxsize=16)
+def _packing(
+    n: int, radius: float, polydispersity: float, seed: int, region: tuple[float, float, float]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The poured fill, computed once: admission (every UniaxialTest places its fill when it
+    is built) and the run use the same one."""
+    radii = draw_radii(n, radius, polydispersity, seed)
+    lx, ly, lz = region
+    return loose_packing(radii, [(0, lx), (0, ly), (0, lz)], seed=seed), radii
+
+
+#: Named tests: their cells and what each stands for.
+PRESETS = ("paper", "quick")
+
+
+def preset(name: str, **overrides) -> UniaxialTest:
+    """A named test; keyword overrides replace fields.
+
+    ``"paper"``: the set-up of Thakur et al. (2013) as written: a 50 x 150 x 300 mm cuboid
+    (periodic in x and y) filled with R = 2.5 mm spheres of density 2000 kg/m^3, platen at
+    10 mm/s, dt = 1e-5 s, K1 = 5e3 N/m, K2 = 2.5e4 N/m, Kt = 2/7 K1, mu_s = 0.5,
+    mu_r = 0.001, Hertz-Mindlin platens with friction 0.3. Assumed where the paper is
+    silent: the cuboid is "filled" at solid fraction 0.6 (about 20,600 particles; the poured
+    cloud at 0.3 starts twice as tall and settles to about the cuboid's height), restitution
+    0.4 (the value of Thakur et al. 2014), particle E = 1e8 Pa and nu = 0.25, steel platens,
+    pre-compression to 5 kPa and consolidation to 20 kPa. About 1.2e10 particle-steps: half
+    an hour per reference run on 2 cores.
+
+    ``"quick"``: the same law, speed and time step in a 50 x 50 x 100 mm cuboid (about
+    2,300 particles at R = 2.5 mm), the smoke-test scale: a few minutes per study.
+    """
+    if name == "paper":
+        base = UniaxialTest(cell=(0.05, 0.15, 0.30))
+    elif name == "quick":
+        base = UniaxialTest(cell=(0.05, 0.05, 0.1))
+    else:
+        raise ParameterError("preset", name, "one of " + ", ".join(repr(p) for p in PRESETS))
+    return replace(base, **overrides) if overrides else base

@@ -18,7 +18,10 @@ Public API (stable names)::
     ParameterError, StabilityError, InstabilityError
 """
 
-from .contact.materials import EEPA, BilinearAdhesive, HertzMindlin, WallMaterial
+from .contact.bilinear import BilinearAdhesive
+from .contact.eepa import EEPA
+from .contact.hertz import HertzMindlin
+from .contact.wall import WallMaterial
 from .core.errors import (
     InstabilityError,
     ParameterError,

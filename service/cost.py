@@ -25,7 +25,8 @@ import math
 from dataclasses import dataclass
 
 import engine
-from engine.contact.materials import LAWS, WallMaterial
+from engine.contact.registry import LAWS
+from engine.contact.wall import WallMaterial
 from engine.uniaxial.spec import GRAVITY, PRESETS
 
 #: Bounds on the knobs that set work, as the admission enforces them (docs/SERVICE.md).

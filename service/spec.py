@@ -47,7 +47,7 @@ SERVICE_LIMITS: dict[tuple[str, str], dict[str, Any]] = {
     # engine.ScalingRule.__post_init__: 1-40 letters, digits, '_', '-', '.'
     ("ScalingRule", "name"): {"pattern": r"^[A-Za-z0-9_.\-]{1,40}$"},
     # engine.StudySpec.__post_init__: the scaling rules act on the adhesive laws' K1, K2, f0
-    ("UniaxialTest", "pair_law"): {"record": engine.contact.materials.adhesive_laws()},
+    ("UniaxialTest", "pair_law"): {"record": engine.contact.registry.adhesive_laws()},
     # service.cost: below this a fill never settles and runs to max_stage_time (the
     # bounds relative to dt and the stages, on output_interval and max_stage_time, are
     # checked at admission: a schema cannot state them)

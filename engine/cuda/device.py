@@ -3,10 +3,10 @@ functions behind the engine's ``@njit`` kernels.
 
 A numba CPU dispatcher keeps the Python function it compiles (``dispatcher.py_func``). The same
 function is compiled here with ``numba.cuda.jit(device=True)``, after rebinding the names it calls:
-every global name of its code that refers to another ``@njit`` dispatcher is bound to that callee's
-device version (built the same way, recursively), every other global (the scene's compile-time flags
-and slot constants of a specialised step module, ``math``, the named tuples of
-:mod:`engine.contact.compose`) keeps its value. The contact laws, their composition
+every global name of its code (and every closure cell) that refers to another ``@njit`` dispatcher
+is bound to that callee's device version (built the same way, recursively), every other global (the
+scene's compile-time flags and slot constants of a specialised step module, ``math``, the law
+families' parameter and switch tuples) keeps its value. The contact laws, their composition
 (:func:`engine.contact.compose.composition`) and the integration of
 :mod:`engine.kernel.step_template` are thus written once and compiled for both targets, and a
 scene's CUDA kernels carry exactly the features its CPU kernel carries.
@@ -38,16 +38,32 @@ def _global_names(code: types.CodeType):
             yield from _global_names(const)
 
 
+def _contents(cell):
+    try:
+        return cell.cell_contents
+    except ValueError:  # an empty cell
+        return None
+
+
 def rebind(fn: types.FunctionType, bindings: dict, memo: dict) -> types.FunctionType:
     """A copy of ``fn`` whose globals are its module's, with ``bindings`` on top and every
-    name that refers to a CPU dispatcher bound to that dispatcher's device version."""
+    name (global or closure cell) that refers to a CPU dispatcher bound to that dispatcher's
+    device version."""
     g = dict(fn.__globals__)
     g.update(bindings)
     for name in set(_global_names(fn.__code__)):
         obj = g.get(name)
         if isinstance(obj, Dispatcher):
             g[name] = device_function(obj, memo)
-    new = types.FunctionType(fn.__code__, g, fn.__name__, fn.__defaults__, fn.__closure__)
+    closure = fn.__closure__
+    if closure:  # a law family's composition holds its kernels in closure cells
+        closure = tuple(
+            types.CellType(device_function(c.cell_contents, memo))
+            if isinstance(_contents(c), Dispatcher)
+            else c
+            for c in closure
+        )
+    new = types.FunctionType(fn.__code__, g, fn.__name__, fn.__defaults__, closure)
     new.__kwdefaults__ = fn.__kwdefaults__
     new.__qualname__ = fn.__qualname__
     new.__module__ = fn.__module__

@@ -1,13 +1,20 @@
 """Scene-specialised step kernels.
 
-:func:`scene_features` says which features a scene uses; :func:`load_kernel` returns a module
-compiled for exactly those, with :func:`pair_slots` and :func:`wall_slots` naming the
-parameter slots it reads (generated from the same flags). The module is the step template with
-its feature block rewritten, written once to ``<cache_dir>/kernels/step_<hash>.py`` and imported
-from there, so numba caches its machine code on disk like any module's. The hash covers the
-flags and the source of every file the kernels are compiled from (and the numba version):
-editing a law can never reuse a stale binary, which numba's own cache (keyed on the caller's
-file only) would do.
+:func:`scene_features` says what a scene uses: the kernel family of its pair law and of its
+wall law (``pair_kernel``, ``wall_kernel``) and the compile-time switches, those of each side
+(the composition's and the family's own; the wall side's prefixed ``wall_``) and the scene's
+(periodic axes, walls, gravity). :func:`load_kernel` returns a module compiled for exactly
+those, with :func:`pair_slots` and :func:`wall_slots` naming the parameter slots it reads.
+
+The module is the step template with its feature block generated: the two families imported
+from their law modules, every switch as a constant, and the readers of the two parameter
+tuples (a switched-off parameter takes its neutral value, a constant the compiler folds). It
+is written once to ``<cache_dir>/kernels/step_<hash>.py`` and imported from there, so numba
+caches its machine code on disk like any module's. The hash covers the features and the
+source of every file the kernels are compiled from, the law modules included (and the numba
+version): editing a law can never reuse a stale binary, which numba's own cache (keyed on the
+caller's file only) would do. Nothing here knows a particular law: each family
+(:class:`engine.contact.kernel.LawKernel`) says what it needs.
 """
 
 from __future__ import annotations
@@ -24,121 +31,181 @@ from types import ModuleType
 
 import numba
 
+from ..contact.kernel import COMPOSITION_SWITCHES, LawKernel
+from ..contact.registry import LAWS, kernel_named, wall_laws
 from ..core.config import cache_dir
 
-#: The compile-time switches, in template order, with what each one adds.
-FEATURES: dict[str, str] = {
-    "pair_hertz": "Hertz-Mindlin pair law instead of the bilinear law",
-    "adhesion": "adhesive force f0 of the bilinear law",
-    "adhesive_branch": "adhesive branch slope kadh of the bilinear law",
-    "plastic": "plastic unloading branch (k2 > k1) of the bilinear law",
-    "friction": "pair tangential spring, friction cap and tangential history",
-    "rolling": "pair rolling resistance",
-    "damping": "pair viscous damping",
-    "eepa": "non-linear EEPA branches d^n, d^chi (engine.EEPA)",
-    "normal_cap": "friction cap on the total normal force (EEPA friction_cap='normal')",
+#: The scene's own switches.
+SCENE_SWITCHES: dict[str, str] = {
     "periodic_x": "minimum image along x",
     "periodic_y": "minimum image along y",
     "periodic_z": "minimum image along z",
     "walls": "planar walls",
-    "wall_friction": "wall tangential spring and friction",
-    "wall_rolling": "wall rolling resistance",
-    "wall_damping": "wall damping",
     "gravity": "gravity",
 }
 
-#: Every named parameter slot of the pair laws, with the feature that needs it (None: always
-#: read). Bilinear and EEPA: k1, k2, kadh, kt [N/m, EEPA N/m^n and N/m^chi], f0 [N], zeta,
-#: mu_s, mu_r [-], EEPA exponents n, chi [-]; Hertz-Mindlin:
-#: e_star, g_star [Pa], zeta, mu_s, mu_r [-] (see the records' ``kernel_params``).
-PAIR_SLOTS: dict[str, tuple[tuple[str, str | None], ...]] = {
-    "bilinear": (
-        ("k1", None),
-        ("k2", "plastic"),
-        ("f0", "adhesion"),
-        ("kadh", "adhesive_branch"),
-        ("kt", "friction"),
-        ("zeta", "damping"),
-        ("mu_s", "friction"),
-        ("mu_r", "rolling"),
-        ("n", "eepa"),
-        ("chi", "eepa"),
-    ),
-    "hertz": (
-        ("e_star", None),
-        ("g_star", "friction"),
-        ("zeta", "damping"),
-        ("mu_s", "friction"),
-        ("mu_r", "rolling"),
-    ),
+#: The two kernel-family features: which family a side's law belongs to.
+FAMILY_FEATURES: dict[str, str] = {
+    "pair_kernel": "kernel family of the pair law (its LawKernel's name)",
+    "wall_kernel": "kernel family of the wall law",
 }
-#: The wall law's (Hertz-Mindlin) slots, with the feature that needs each.
-WALL_SLOTS: tuple[tuple[str, str | None], ...] = (
-    ("e_star", None),
-    ("g_star", "wall_friction"),
-    ("zeta", "wall_damping"),
-    ("mu_s", "wall_friction"),
-    ("mu_r", "wall_rolling"),
-)
-#: The slot constants the template reads: PAIR_<NAME> for both pair laws, WALL_<NAME>.
-_PAIR_NAMES = (
-    "k1",
-    "k2",
-    "f0",
-    "kadh",
-    "kt",
-    "e_star",
-    "g_star",
-    "zeta",
-    "mu_s",
-    "mu_r",
-    "n",
-    "chi",
-)
+
+
+def side_switches(kernel: LawKernel, side: str) -> dict[str, str]:
+    """The switches of one side of a scene with a law of family ``kernel``, name -> what it
+    adds: the composition's, then the family's own; the wall side's prefixed ``wall_``."""
+    prefix = "" if side == "pair" else "wall_"
+    out = {f"{prefix}{k}": f"{side} {v}" for k, v in COMPOSITION_SWITCHES.items()}
+    out.update({f"{prefix}{k}": f"{side} {v}" for k, v in kernel.switches.items()})
+    clash = set(out) & set(SCENE_SWITCHES)
+    if clash:
+        raise ValueError(f"kernel {kernel.name}: switches {sorted(clash)} clash with the scene's")
+    return out
+
+
+def feature_names(pair_kernel: LawKernel, wall_kernel: LawKernel) -> tuple[str, ...]:
+    """Every feature of a scene whose laws have these families, in the template's order."""
+    return (
+        *FAMILY_FEATURES,
+        *side_switches(pair_kernel, "pair"),
+        *side_switches(wall_kernel, "wall"),
+        *SCENE_SWITCHES,
+    )
+
+
+def _catalogue() -> dict[str, str]:
+    out = dict(FAMILY_FEATURES)
+    for law in LAWS.values():
+        if law.pair:
+            out.update(side_switches(law.kernel, "pair"))
+    for law in LAWS.values():
+        if law.wall:
+            out.update(side_switches(law.kernel, "wall"))
+    out.update(SCENE_SWITCHES)
+    return out
+
+
+#: Every feature of the registered laws' kernels, with what it adds (a scene's features are
+#: those of its two families: :func:`feature_names`).
+FEATURES: dict[str, str] = _catalogue()
 
 _ENGINE = Path(__file__).resolve().parents[1]
 _TEMPLATE = _ENGINE / "kernel" / "step_template.py"
 #: What a specialised module is compiled from: the template, the kernel's own modules, the
-#: contact laws (their scalar kernels and composition) and the configuration.
+#: contact composition and laws, and the configuration (plus the modules of the two families,
+#: wherever they are defined).
 _DEPENDENCIES = ("core", "contact", "kernel")
 _BLOCK = re.compile(r"# >>> features.*?# <<< features", re.S)
 _loaded: dict[tuple, ModuleType] = {}
 _lock = threading.Lock()
 
 
-def scene_features(scene, periodic: tuple[bool, bool, bool] | None = None) -> dict[str, bool]:
+def _side(prefix: str, kernel: LawKernel, law=None) -> dict[str, bool]:
+    """One side's switches: every switch of its family present, False unless ``law`` turns
+    it on (all False without a law: the side is never called)."""
+    names = kernel.switch_names
+    states = law.switches() if law is not None else {}
+    unknown = set(states) - set(names)
+    if unknown:
+        raise ValueError(
+            f"{type(law).__name__}.switches() names {sorted(unknown)}, not switches of its "
+            f"kernel {kernel.name} ({list(names)})"
+        )
+    return {f"{prefix}{k}": bool(states.get(k, False)) for k in names}
+
+
+def scene_features(scene, periodic: tuple[bool, bool, bool] | None = None) -> dict:
     """The features ``scene`` uses (``periodic`` overrides the scene's periodic flags)."""
     per = scene.periodic if periodic is None else tuple(bool(p) for p in periodic)
-    f = dict.fromkeys(FEATURES, False)
-    f.update(scene.pair_law.pair_features())  # each law says what it switches on
+    pair = scene.pair_law.kernel
+    # without walls the wall side is never called: the scene's wall law, or any wall law's
+    # family, fills it
+    wall = (scene.wall_law or wall_laws()[0]).kernel
+    f: dict = {"pair_kernel": pair.name, "wall_kernel": wall.name}
+    f.update(_side("", pair, scene.pair_law))  # each law says what it switches on
+    f.update(_side("wall_", wall, scene.wall_law if scene.walls else None))
     f.update(periodic_x=per[0], periodic_y=per[1], periodic_z=per[2])
-    if scene.walls:
-        f["walls"] = True
-        f.update(scene.wall_law.wall_features())
+    f["walls"] = bool(scene.walls)
     f["gravity"] = any(g != 0 for g in scene.gravity)
     return f
 
 
-def pair_slots(features: dict[str, bool]) -> tuple[str, ...]:
+def _kernels(features: dict) -> tuple[LawKernel, LawKernel]:
+    return kernel_named(features["pair_kernel"]), kernel_named(features["wall_kernel"])
+
+
+def _unprefixed(features: dict, kernel: LawKernel, prefix: str) -> dict[str, bool]:
+    return {k: features[f"{prefix}{k}"] for k in kernel.switch_names}
+
+
+def pair_slots(features: dict) -> tuple[str, ...]:
     """Names of the pair-law parameters the kernel for ``features`` reads, in slot order."""
-    family = "hertz" if features["pair_hertz"] else "bilinear"  # a law's ``kernel``
-    return tuple(name for name, need in PAIR_SLOTS[family] if need is None or features[need])
+    kernel = kernel_named(features["pair_kernel"])
+    return kernel.used_slots(_unprefixed(features, kernel, ""))
 
 
-def wall_slots(features: dict[str, bool]) -> tuple[str, ...]:
+def wall_slots(features: dict) -> tuple[str, ...]:
     """Names of the wall-law parameters the kernel for ``features`` reads, in slot order
     (none without walls)."""
     if not features["walls"]:
         return ()
-    return tuple(name for name, need in WALL_SLOTS if need is None or features[need])
+    kernel = kernel_named(features["wall_kernel"])
+    return kernel.used_slots(_unprefixed(features, kernel, "wall_"))
 
 
-def _slot_lines(prefix: str, names: tuple[str, ...], slots: tuple[str, ...]) -> str:
-    # a parameter without a slot points past the used ones, at the trailing NaN
-    return "".join(
-        f"{prefix}_{name.upper()} = {slots.index(name) if name in slots else len(slots)}\n"
-        for name in names
+def _reader(name: str, kernel: LawKernel, used: tuple[str, ...], side: str) -> str:
+    """Source of the reader of one side's parameter tuple: a used slot is read from its
+    place in the array, a switched-off one is its neutral value (a number, or the value of
+    the slot it stands for)."""
+    by_name = {s.name: s for s in kernel.slots}
+
+    def value(slot_name: str, depth: int = 0) -> str:
+        if slot_name in used:
+            return f"p[{used.index(slot_name)}]"
+        neutral = by_name[slot_name].neutral
+        if isinstance(neutral, str):
+            if depth > len(by_name):
+                raise ValueError(f"kernel {kernel.name}: neutral values of {slot_name} loop")
+            return value(neutral, depth + 1)
+        return repr(float(neutral))
+
+    args = ", ".join(value(s.name) for s in kernel.slots)
+    return (
+        f"\n\n@njit(**NJIT_INLINE)\ndef {name}(p):\n"
+        f'    """The {side} law\'s parameters from their slots (generated: a parameter this '
+        f'scene does\n    not use has no slot and takes its neutral value)."""\n'
+        f"    return {side.title()}Params({args})\n"
     )
+
+
+def _flags(name: str, kernel: LawKernel, prefix: str, side: str) -> str:
+    args = ", ".join(f"{prefix.upper()}{k.upper()}" for k in kernel.switch_names)
+    return (
+        f"\n\n@njit(**NJIT_INLINE)\ndef {name}():\n"
+        f'    """The {side} law\'s switches (compile-time constants)."""\n'
+        f"    return {side.title()}Switches({args})\n"
+    )
+
+
+def features_block(features: dict) -> str:
+    """The generated feature block of the step template for ``features``."""
+    pair, wall = _kernels(features)
+    names = feature_names(pair, wall)
+    if set(features) != set(names):
+        raise ValueError(f"features must be exactly {sorted(names)}, not {sorted(features)}")
+    block = "# >>> features (generated by engine.kernel.specialise)\n"
+    block += f"PAIR_KERNEL = importlib.import_module({pair.module!r}).{pair.attribute}\n"
+    block += f"WALL_KERNEL = importlib.import_module({wall.module!r}).{wall.attribute}\n\n"
+    block += "".join(f"{n.upper()} = {bool(features[n])}\n" for n in names[len(FAMILY_FEATURES) :])
+    block += f"PAIR_EFFECTIVE_RADIUS = {bool(pair.effective_radius)}\n"
+    block += "PairParams = PAIR_KERNEL.params\nPairSwitches = PAIR_KERNEL.switch_tuple\n"
+    block += "WallParams = WALL_KERNEL.params\nWallSwitches = WALL_KERNEL.switch_tuple\n"
+    block += _reader("_pair_law", pair, pair_slots(features), "pair")
+    block += _flags("_pair_flags", pair, "", "pair")
+    block += _reader("_wall_law", wall, wall_slots(features), "wall")
+    block += _flags("_wall_flags", wall, "wall_", "wall")
+    block += "# <<< features"
+    return block
 
 
 _CALL = re.compile(r"\n( *)# >>> _particle_one.*?# <<< _particle_one\n", re.S)
@@ -161,24 +228,27 @@ def _inline_particle_pass(src: str) -> str:
     return src[: call.start()] + "\n" + text + src[call.end() :]
 
 
-def _source(features: dict[str, bool]) -> str:
-    unknown = set(features) - set(FEATURES)
-    if unknown or set(FEATURES) - set(features):
-        raise ValueError(f"features must be exactly {sorted(FEATURES)}")
-    block = "# >>> features (generated by engine.kernel.specialise)\n"
-    block += "".join(f"{name.upper()} = {bool(features[name])}\n" for name in FEATURES)
-    block += _slot_lines("PAIR", _PAIR_NAMES, pair_slots(features))
-    block += _slot_lines("WALL", tuple(n for n, _ in WALL_SLOTS), wall_slots(features))
-    block += "# <<< features"
+def _source(features: dict) -> str:
+    block = features_block(features)
     return _inline_particle_pass(_BLOCK.sub(lambda _m: block, _TEMPLATE.read_text(), count=1))
 
 
-def kernel_digest(features: dict[str, bool]) -> str:
-    """Hash naming the specialised module: flags, kernel sources, numba and Python versions."""
+def _module_file(kernel: LawKernel) -> Path | None:
+    spec = importlib.util.find_spec(kernel.module)
+    return Path(spec.origin) if spec is not None and spec.origin else None
+
+
+def kernel_digest(features: dict) -> str:
+    """Hash naming the specialised module: features, kernel sources (the engine's and the two
+    families' modules), numba and Python versions."""
     h = hashlib.sha256(_source(features).encode())
     for package in _DEPENDENCIES:
         for f in sorted((_ENGINE / package).rglob("*.py")):
             h.update(f.relative_to(_ENGINE).as_posix().encode())
+            h.update(f.read_bytes())
+    for kernel in _kernels(features):
+        f = _module_file(kernel)
+        if f is not None and f.exists():
             h.update(f.read_bytes())
     h.update(f"{numba.__version__} {sys.version_info[:2]}".encode())
     return h.hexdigest()[:20]

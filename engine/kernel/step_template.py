@@ -30,12 +30,13 @@ No reduction depends on the thread count: every sum runs in a fixed order over f
 trajectories are bit-identical with any number of threads.
 """
 
+import importlib
 import math
 
 import numpy as np
 from numba import njit, prange
 
-from engine.contact.compose import ContactLaw, LawFlags, contact, rolling_torque
+from engine.contact.compose import composition, rolling_torque
 from engine.core.config import CHUNK, NJIT, NJIT_INLINE, NJIT_PARALLEL
 from engine.kernel.state import (
     NAN,
@@ -62,40 +63,58 @@ from engine.kernel.team import (
 )
 
 # >>> features (rewritten by engine.kernel.specialise)
-PAIR_HERTZ = False
-ADHESION = True
-ADHESIVE_BRANCH = True
-PLASTIC = True
+PAIR_KERNEL = importlib.import_module("engine.contact.bilinear").KERNEL
+WALL_KERNEL = importlib.import_module("engine.contact.hertz").KERNEL
+
 FRICTION = True
 ROLLING = True
 DAMPING = True
-EEPA = False
 NORMAL_CAP = False
+ADHESION = True
+ADHESIVE_BRANCH = True
+PLASTIC = True
+WALL_FRICTION = True
+WALL_ROLLING = True
+WALL_DAMPING = True
+WALL_NORMAL_CAP = False
 PERIODIC_X = True
 PERIODIC_Y = True
 PERIODIC_Z = True
 WALLS = True
-WALL_FRICTION = True
-WALL_ROLLING = True
-WALL_DAMPING = True
 GRAVITY = True
-PAIR_K1 = 0
-PAIR_K2 = 1
-PAIR_F0 = 2
-PAIR_KADH = 3
-PAIR_KT = 4
-PAIR_ZETA = 5
-PAIR_MU_S = 6
-PAIR_MU_R = 7
-PAIR_E_STAR = 8
-PAIR_G_STAR = 8
-PAIR_N = 8
-PAIR_CHI = 8
-WALL_E_STAR = 0
-WALL_G_STAR = 1
-WALL_ZETA = 2
-WALL_MU_S = 3
-WALL_MU_R = 4
+PAIR_EFFECTIVE_RADIUS = False
+PairParams = PAIR_KERNEL.params
+PairSwitches = PAIR_KERNEL.switch_tuple
+WallParams = WALL_KERNEL.params
+WallSwitches = WALL_KERNEL.switch_tuple
+
+
+@njit(**NJIT_INLINE)
+def _pair_law(p):
+    """The pair law's parameters from their slots (generated: a parameter this scene does
+    not use has no slot and takes its neutral value)."""
+    return PairParams(p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7])
+
+
+@njit(**NJIT_INLINE)
+def _pair_flags():
+    """The pair law's switches (compile-time constants)."""
+    return PairSwitches(FRICTION, ROLLING, DAMPING, NORMAL_CAP, ADHESION, ADHESIVE_BRANCH, PLASTIC)
+
+
+@njit(**NJIT_INLINE)
+def _wall_law(p):
+    """The wall law's parameters from their slots (generated: a parameter this scene does
+    not use has no slot and takes its neutral value)."""
+    return WallParams(p[0], p[1], p[2], p[3], p[4])
+
+
+@njit(**NJIT_INLINE)
+def _wall_flags():
+    """The wall law's switches (compile-time constants)."""
+    return WallSwitches(WALL_FRICTION, WALL_ROLLING, WALL_DAMPING, WALL_NORMAL_CAP)
+
+
 # <<< features
 
 ROTATION = FRICTION or ROLLING or (WALLS and (WALL_FRICTION or WALL_ROLLING))
@@ -118,49 +137,9 @@ STEP = 2  # forces, full kick (closing + next opening half kick), drift
 OPEN = 3  # opening half kick and drift with the stored forces
 
 
-@njit(**NJIT_INLINE)
-def _hertz_law(e_star, g_star, zeta, mu_s, mu_r):
-    """A Hertz-Mindlin law as the composition reads it: E*, G* [Pa], damping ratio, friction
-    coefficients; the bilinear-only parameters at their neutral values."""
-    return ContactLaw(e_star, 0.0, 0.0, 0.0, g_star, zeta, mu_s, mu_r, 1.0, 1.0)
-
-
-@njit(**NJIT_INLINE)
-def _pair_law(pp):
-    """The pair law's parameters from their named slots; a feature the scene does not use
-    gets its neutral value (no adhesion, k2 = k1, no friction, damping or rolling)."""
-    if PAIR_HERTZ:
-        return _hertz_law(
-            pp[PAIR_E_STAR],
-            pp[PAIR_G_STAR] if FRICTION else 0.0,
-            pp[PAIR_ZETA] if DAMPING else 0.0,
-            pp[PAIR_MU_S] if FRICTION else 0.0,
-            pp[PAIR_MU_R] if ROLLING else 0.0,
-        )
-    return ContactLaw(
-        pp[PAIR_K1],
-        pp[PAIR_K2] if PLASTIC else pp[PAIR_K1],
-        pp[PAIR_F0] if ADHESION else 0.0,
-        pp[PAIR_KADH] if ADHESIVE_BRANCH else 0.0,
-        pp[PAIR_KT] if FRICTION else 0.0,
-        pp[PAIR_ZETA] if DAMPING else 0.0,
-        pp[PAIR_MU_S] if FRICTION else 0.0,
-        pp[PAIR_MU_R] if ROLLING else 0.0,
-        pp[PAIR_N] if EEPA else 1.0,
-        pp[PAIR_CHI] if EEPA else 1.0,
-    )
-
-
-@njit(**NJIT_INLINE)
-def _wall_law(wp):
-    """The wall law's (Hertz-Mindlin) parameters from their named slots."""
-    return _hertz_law(
-        wp[WALL_E_STAR],
-        wp[WALL_G_STAR] if WALL_FRICTION else 0.0,
-        wp[WALL_ZETA] if WALL_DAMPING else 0.0,
-        wp[WALL_MU_S] if WALL_FRICTION else 0.0,
-        wp[WALL_MU_R] if WALL_ROLLING else 0.0,
-    )
+#: The contact of each side: the one composition with the side's law family bound in.
+pair_contact = composition(PAIR_KERNEL).contact
+wall_contact = composition(WALL_KERNEL).contact
 
 
 @njit(**NJIT)
@@ -203,7 +182,7 @@ def _pair_setup(prm):
     ly = prm.length[1]
     lz = prm.length[2]
     law = _pair_law(prm.pair)
-    flags = LawFlags(PAIR_HERTZ, PLASTIC, FRICTION, DAMPING, ROLLING, EEPA, NORMAL_CAP)
+    flags = _pair_flags()
     return law, flags, lx, ly, lz, 1.0 / lx, 1.0 / ly, 1.0 / lz
 
 
@@ -211,7 +190,7 @@ def _pair_setup(prm):
 def _wall_setup(prm):
     """The wall law and its switches (read once per chunk, or per CUDA thread)."""
     wlaw = _wall_law(prm.wall)
-    wflags = LawFlags(True, False, WALL_FRICTION, WALL_DAMPING, WALL_ROLLING, False, False)
+    wflags = _wall_flags()
     return wlaw, wflags
 
 
@@ -291,8 +270,8 @@ def _pair_one(i, c, P, L, prm, stat, law, flags, lx, ly, lz, ilx, ily, ilz):
             sz = ri * omg[i, 2] + rj * omg[j, 2]
         mj = mass[j]
         m_eff = mi * mj / (mi + mj) if DAMPING else 0.0
-        r_star = ri * rj / rs if PAIR_HERTZ else 0.0
-        fcx, fcy, fcz, tix, tiy, tiz, tjx, tjy, tjz, rm = contact(
+        r_star = ri * rj / rs if PAIR_EFFECTIVE_RADIUS else 0.0
+        fcx, fcy, fcz, tix, tiy, tiz, tjx, tjy, tjz, rm = pair_contact(
             entry,
             k,
             d,
@@ -517,7 +496,7 @@ def _particle_one(
                     sx = ri * omg[i, 0]
                     sy = ri * omg[i, 1]
                     sz = ri * omg[i, 2]
-                fcx, fcy, fcz, tix, tiy, tiz, _tjx, _tjy, _tjz, rm = contact(
+                fcx, fcy, fcz, tix, tiy, tiz, _tjx, _tjy, _tjz, rm = wall_contact(
                     whist,
                     row,
                     d,

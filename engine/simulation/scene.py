@@ -12,15 +12,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..contact.materials import (
-    EEPA,
-    BilinearAdhesive,
-    HertzMindlin,
-    WallMaterial,
-    law_names,
-    pair_laws,
-    wall_laws,
-)
+from ..contact.bilinear import BilinearAdhesive
+from ..contact.eepa import EEPA
+from ..contact.hertz import HertzMindlin
+from ..contact.registry import law_names, pair_laws, wall_laws
+from ..contact.wall import WallMaterial
 from ..core.config import MAX_RADIUS_RATIO
 from ..core.errors import ParameterError
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from ..contact.materials import pack_params
+from ..contact.kernel import pack_params
 from ..core.config import (
     MAX_OVERLAP_FRACTION,
     MAX_STEP_FRACTION,

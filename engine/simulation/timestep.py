@@ -21,9 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..contact.limits import (
-    TimeStepCandidate,
-)
+from ..contact.limits import TimeStepCandidate
 from ..core.config import DT_FRACTION
 from .scene import Scene
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from ..contact.materials import BilinearAdhesive
+from ..contact.bilinear import BilinearAdhesive
 from ..core.errors import ParameterError
 from ..core.records import check_fields, param
 from ..uniaxial.spec import UniaxialTest, preset

@@ -13,16 +13,11 @@ from dataclasses import asdict, dataclass, fields, replace
 
 import numpy as np
 
-from ..contact.materials import (
-    EEPA,
-    LAWS,
-    BilinearAdhesive,
-    HertzMindlin,
-    WallMaterial,
-    law_names,
-    pair_laws,
-    wall_laws,
-)
+from ..contact.bilinear import BilinearAdhesive
+from ..contact.eepa import EEPA
+from ..contact.hertz import HertzMindlin
+from ..contact.registry import LAWS, law_names, pair_laws, wall_laws
+from ..contact.wall import WallMaterial
 from ..core.config import MAX_OVERLAP_FRACTION
 from ..core.errors import ParameterError
 from ..core.records import check_fields, param

@@ -229,7 +229,7 @@ def case(name: str) -> dict:
         wall_contacts=cmp.wall_contacts,
         rebuilds=list(rb),
         steps=cpu.steps,
-        features=[k for k, v in gpu.features.items() if v],
+        features=[k if v is True else f"{k}={v}" for k, v in gpu.features.items() if v],
     )
     return out
 

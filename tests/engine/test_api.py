@@ -98,13 +98,17 @@ def test_simulation_argument_validation():
 def test_features_leave_out_what_the_scene_does_not_use():
     plain = engine.BilinearAdhesive(k1=5e3, k2=5e3, f0=0.0, mu_s=0.0, mu_r=0.0, restitution=1.0)
     sim = engine.Simulation(pair_scene(plain, gap=1e-3))
-    assert not any(sim.features.values())  # no gravity in pair_scene either
+    # no switch on (no gravity in pair_scene either); the kernel families name the laws
+    assert not any(v for k, v in sim.features.items() if not k.endswith("_kernel"))
+    assert sim.features["pair_kernel"] == "bilinear"
     assert sim._k.N_SLOT == 4  # marker + force on j: no tangential history, no torque
     full = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, kadh=1e3, mu_s=0.5, mu_r=0.001)
     f = engine.Simulation(pair_scene(full, gap=1e-3)).features
     assert f["adhesion"] and f["adhesive_branch"] and f["plastic"] and f["friction"]
     assert f["rolling"] and f["damping"] and not f["walls"] and not f["periodic_x"]
-    assert set(f) == set(engine.FEATURES)
+    assert set(f) <= set(engine.FEATURES)
+    # the scene's features are those of its two families: the EEPA's or Hertz's are not there
+    assert "plastic" in f and "wall_friction" in f and "wall_plastic" not in f
 
 
 def test_unused_features_are_absent_from_the_compiled_module():

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import engine
-from engine.contact.limits import hertz_contact_time, hertz_impact_overlap
+from engine.contact.hertz import hertz_contact_time, hertz_impact_overlap
 from tests.engine.helpers import pair_scene, run_until_separated, wall_scene
 
 R = 2.5e-3

@@ -60,9 +60,9 @@ DIFFERENTIAL = {
     # case: features it must have exercised
     "bilinear-walls": ("adhesion", "plastic", "friction", "rolling", "walls", "wall_friction"),
     "periodic-rebuilds": ("periodic_x", "periodic_y", "periodic_z"),
-    "eepa": ("eepa", "adhesion", "walls", "periodic_x"),
-    "eepa-normal-cap": ("eepa", "normal_cap", "walls"),
-    "hertz-open-box": ("pair_hertz", "friction", "rolling", "walls"),
+    "eepa": ("pair_kernel=eepa", "adhesion", "walls", "periodic_x"),
+    "eepa-normal-cap": ("pair_kernel=eepa", "normal_cap", "walls"),
+    "hertz-open-box": ("pair_kernel=hertz", "friction", "rolling", "walls"),
 }
 
 

@@ -11,7 +11,9 @@ import pytest
 
 import engine
 from engine.contact import compose as laws
-from engine.contact.limits import eepa_impact_overlap, oscillator_limit
+from engine.contact import eepa
+from engine.contact.eepa import eepa_impact_overlap
+from engine.contact.limits import oscillator_limit
 from engine.core.config import DT_FRACTION
 from engine.kernel import specialise as kernels
 from tests.engine.helpers import pair_scene, path_forces, run_until_separated
@@ -67,7 +69,7 @@ def test_force_reaches_f0_at_the_plastic_overlap_without_adhesive_branch():
 
 def test_kernel_function_returns_tangent_stiffness_and_adhesive_pull():
     d, dmax = 1.9e-4, 2e-4  # on the unloading branch
-    f, tangent, f_adh, dmax_out = laws.eepa_normal_force(d, dmax, K1, K2, F0, KADH, N, CHI)
+    f, tangent, f_adh, dmax_out = eepa.eepa_normal_force(d, dmax, K1, K2, F0, KADH, N, CHI)
     assert dmax_out == dmax
     assert K1 * tangent == pytest.approx(N * K1 * d ** (N - 1))
     assert f_adh == pytest.approx(KADH * d**CHI)
@@ -88,7 +90,7 @@ def test_n_and_chi_of_one_is_the_bilinear_law_to_the_last_bit(case):
     eepa = engine.EEPA(n=1.0, chi=1.0, **fields)
     a, contacts = _trajectory(_bed(bilinear, wall_law, gravity))
     b, _ = _trajectory(_bed(eepa, wall_law, gravity))
-    assert b.features["eepa"] and not a.features["eepa"]
+    assert b.features["pair_kernel"] == "eepa" and a.features["pair_kernel"] == "bilinear"
     assert a.n > 150 and contacts > 25
     assert a.dt == b.dt
     for name in ("positions", "velocities", "angular_velocities", "wall_forces"):
@@ -178,11 +180,11 @@ def test_huge_adhesion_is_refused_naming_the_eepa_equilibrium_overlap():
 
 
 def _contact(flags, f_el_case):
-    """One sliding contact through laws.contact_force: (normal force, |F_t|)."""
+    """One sliding contact through the EEPA composition's force: (normal force, |F_t|)."""
     d = 1e-5
     dmax = 2e-4 if f_el_case == "plateau" else d
-    law = laws.ContactLaw(K1, K2, F0, 0.0, 2 / 7 * K1, 0.0, 0.5, 0.0, N, 1.0)
-    fn, _, ftx, fty, ftz, *_ = laws.contact_force(
+    law = eepa.EEPAParams(K1, K2, F0, 0.0, 2 / 7 * K1, 0.0, 0.5, 0.0, N, 1.0)
+    fn, _, ftx, fty, ftz, *_ = laws.composition(eepa.KERNEL).force(
         d,
         1.0,
         0.0,
@@ -209,8 +211,16 @@ def _contact(flags, f_el_case):
 def test_friction_cap_conventions():
     """On the adhesive plateau (f_hys = f0, kadh = 0) the EEPA cap allows no friction; the
     LIGGGHTS cap mu |F_n| allows mu |f0|."""
-    plain = laws.LawFlags(False, True, True, False, False, True, False)
-    total = laws.LawFlags(False, True, True, False, False, True, True)
+    plain = eepa.EEPASwitches(
+        friction=True,
+        rolling=False,
+        damping=False,
+        normal_cap=False,
+        adhesion=True,
+        adhesive_branch=False,
+        plastic=True,
+    )
+    total = plain._replace(normal_cap=True)
     fn, ft = _contact(plain, "plateau")
     assert fn == pytest.approx(F0) and ft == 0.0
     fn, ft = _contact(total, "plateau")
@@ -224,10 +234,10 @@ def test_friction_cap_conventions():
 def test_features_and_slots():
     scene = pair_scene(_law(friction_cap="normal"))
     f = kernels.scene_features(scene)
-    assert f["eepa"] and f["normal_cap"]
+    assert f["pair_kernel"] == "eepa" and f["normal_cap"]
     assert kernels.pair_slots(f)[-2:] == ("n", "chi")
     linear = kernels.scene_features(pair_scene(engine.BilinearAdhesive(k1=5e3, k2=2.5e4)))
-    assert not linear["eepa"] and not linear["normal_cap"]  # a linear scene pays nothing
+    assert linear["pair_kernel"] == "bilinear" and not linear["normal_cap"]  # pays nothing
     assert "n" not in kernels.pair_slots(linear)
     arr = _law().to_array(kernels.pair_slots(f))
     assert arr[-3] == N and arr[-2] == CHI and np.isnan(arr[-1])
@@ -269,16 +279,16 @@ def test_similarity_scaling_keeps_every_branch_stress_similar(s):
     big = np.empty(path.size)
     dmax = dmax_s = 0.0
     for i, d in enumerate(path):
-        ref[i], _, _, dmax = laws.eepa_normal_force(
+        ref[i], _, _, dmax = eepa.eepa_normal_force(
             d, dmax, law.k1, law.k2, law.f0, law.kadh, N, CHI
         )
-        big[i], _, _, dmax_s = laws.eepa_normal_force(
+        big[i], _, _, dmax_s = eepa.eepa_normal_force(
             s * d, dmax_s, scaled.k1, scaled.k2, scaled.f0, scaled.kadh, N, CHI
         )
     np.testing.assert_allclose(big, s * s * ref, rtol=1e-12)
     # the seed's linear rule does not: K ~ s gives s^(1+n) on the loading branch
     lin = law.scaled(s, 1.0, 2.0)
-    f_lin, *_ = laws.eepa_normal_force(s * 1e-4, 0.0, lin.k1, lin.k2, 0.0, 0.0, N, CHI)
+    f_lin, *_ = eepa.eepa_normal_force(s * 1e-4, 0.0, lin.k1, lin.k2, 0.0, 0.0, N, CHI)
     assert f_lin == pytest.approx(s ** (1 + N) * K1 * 1e-4**N)
 
 

@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 
 import engine
+from engine.contact import bilinear
 from engine.contact import compose as laws
+from engine.contact import hertz as hertz_law
 from tests import naive
 from tests.engine.helpers import pair_scene, path_forces
 
@@ -77,15 +79,24 @@ def test_scalar_kernel_matches_naive_on_random_paths(kadh):
     d_path = np.abs(np.cumsum(rng.normal(0, 2e-5, 400))) + 1e-7
     dmax_k = dmax_n = 0.0
     for d in d_path:
-        fk, dmax_k = laws.bilinear_normal_force(d, dmax_k, K1, K2, F0, kadh)
+        fk, dmax_k = bilinear.bilinear_normal_force(d, dmax_k, K1, K2, F0, kadh)
         fn, dmax_n = naive.bilinear_force(d, dmax_n, K1, K2, F0, kadh)
         assert fk == pytest.approx(fn, rel=1e-12, abs=1e-15)
         assert dmax_k == dmax_n
 
 
-BILINEAR_FLAGS = laws.LawFlags(
-    hertz=False, plastic=True, friction=True, damping=False, rolling=False
+BILINEAR_FLAGS = bilinear.BilinearSwitches(
+    friction=True,
+    rolling=False,
+    damping=False,
+    normal_cap=False,
+    adhesion=True,
+    adhesive_branch=True,
+    plastic=True,
 )
+HERTZ_FLAGS = hertz_law.HertzSwitches(friction=True, rolling=False, damping=False, normal_cap=False)
+BILINEAR_FORCE = laws.composition(bilinear.KERNEL).force
+HERTZ_FORCE = laws.composition(hertz_law.KERNEL).force
 
 
 def _bilinear_contact(
@@ -101,11 +112,11 @@ def _bilinear_contact(
     m_eff=1e-4,
     dt=1e-5,
 ):
-    law = laws.ContactLaw(
-        k_n=K1, k_unload=k2, f0=F0, kadh=kadh, k_t=2 / 7 * K1, zeta=zeta, mu_s=0.5, mu_r=0.0
+    law = bilinear.BilinearParams(
+        k1=K1, k2=k2, f0=F0, kadh=kadh, kt=2 / 7 * K1, zeta=zeta, mu_s=0.5, mu_r=0.0
     )
     flags = BILINEAR_FLAGS._replace(plastic=k2 > K1, damping=zeta > 0)
-    return laws.contact_force(d, *n, *v, *spin, dmax, *xi, 0.0, m_eff, law, flags, dt)
+    return BILINEAR_FORCE(d, *n, *v, *spin, dmax, *xi, 0.0, m_eff, law, flags, dt)
 
 
 def test_friction_cap_zero_on_plateau_and_adhesion_aware():
@@ -154,11 +165,8 @@ def test_tangential_force_stays_in_the_tangent_plane(hertz):
         xi = np.cross(n, rng.normal(0, 1e-5, 3))  # a spring already in the tangent plane
         d = 1e-4
         if hertz:
-            law = laws.ContactLaw(
-                k_n=5e7, k_unload=0.0, f0=0.0, kadh=0.0, k_t=2e7, zeta=0.0, mu_s=0.3, mu_r=0.0
-            )
-            flags = laws.LawFlags(True, False, True, False, False)
-            out = laws.contact_force(d, *n, *v, *spin, 0.0, *xi, 1.25e-3, 1e-4, law, flags, 1e-6)
+            law = hertz_law.HertzParams(e_star=5e7, g_star=2e7, zeta=0.0, mu_s=0.3, mu_r=0.0)
+            out = HERTZ_FORCE(d, *n, *v, *spin, 0.0, *xi, 1.25e-3, 1e-4, law, HERTZ_FLAGS, 1e-6)
             f_el = naive.hertz_force(d, 5e7, 1.25e-3)
         else:
             d = 1.4e-4  # unloading branch above the plastic overlap: f_el > f0
@@ -204,24 +212,21 @@ def test_rolling_torque_opposes_spin_with_the_closed_form_magnitude():
 
 def test_hertz_normal_force_and_stiffness():
     for d in (1e-7, 1e-5, 3e-4):
-        f, s = laws.hertz_normal_force(d, 5e7, 1.25e-3)
+        f, s = hertz_law.hertz_normal_force(d, 5e7, 1.25e-3)
         assert f == pytest.approx(naive.hertz_force(d, 5e7, 1.25e-3), rel=1e-12)
         # S_n is dF/dd
         h = d * 1e-6
         df = (
-            laws.hertz_normal_force(d + h, 5e7, 1.25e-3)[0]
-            - laws.hertz_normal_force(d - h, 5e7, 1.25e-3)[0]
+            hertz_law.hertz_normal_force(d + h, 5e7, 1.25e-3)[0]
+            - hertz_law.hertz_normal_force(d - h, 5e7, 1.25e-3)[0]
         ) / (2 * h)
         assert s == pytest.approx(df, rel=1e-6)
 
 
 def test_hertz_contact_friction_cap():
-    law = laws.ContactLaw(
-        k_n=5e7, k_unload=0.0, f0=0.0, kadh=0.0, k_t=2e7, zeta=0.0, mu_s=0.3, mu_r=0.0
-    )
-    flags = laws.LawFlags(hertz=True, plastic=False, friction=True, damping=False, rolling=False)
-    out = laws.contact_force(
-        1e-5, 0, 0, 1, 0.5, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2.5e-3, 1e-4, law, flags, 1e-5
+    law = hertz_law.HertzParams(e_star=5e7, g_star=2e7, zeta=0.0, mu_s=0.3, mu_r=0.0)
+    out = HERTZ_FORCE(
+        1e-5, 0, 0, 1, 0.5, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2.5e-3, 1e-4, law, HERTZ_FLAGS, 1e-5
     )
     f_el = out[1]
     assert f_el == pytest.approx(naive.hertz_force(1e-5, 5e7, 2.5e-3), rel=1e-12)
@@ -252,7 +257,7 @@ def test_step_kernel_damps_with_the_tested_coefficient(hertz):
     d = float(c.overlaps[0])
     if hertz:
         e_star, _ = law.pair_moduli()
-        f_el, s_n = laws.hertz_normal_force(d, e_star, r / 2)
+        f_el, s_n = hertz_law.hertz_normal_force(d, e_star, r / 2)
         zeta = math.sqrt(5 / 6) * engine.contact.limits.damping_ratio(0.4)  # Tsuji, on S_n
         c_n = laws.viscous_damping_coefficient(zeta, m_eff, s_n)
     else:

@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 import engine
-from engine.contact.limits import hertz_contact_time
+from engine.contact.hertz import hertz_contact_time
 from tests import naive
 
 R = 2.5e-3

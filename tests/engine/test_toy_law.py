@@ -1,17 +1,22 @@
-"""A contact law is one unit: a toy law, written in this test and registered, runs in a scene
-without any other module knowing it (it reuses the bilinear kernel family's slots)."""
+"""A contact law is one unit: a toy law of its own force shape (tests/engine/toy_law.py: its
+record, scalar kernels and kernel family), registered here, runs in a scene and meets its
+closed forms without any other module knowing it; and a law may also stand on an existing
+kernel family (a linear spring on the bilinear one)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import pytest
 
 import engine
+from engine.contact import bilinear
 from engine.contact.limits import TimeStepCandidate, oscillator_limit
-from engine.contact.materials import LAWS
+from engine.contact.registry import LAWS
 
-from .helpers import pair_scene
+from . import toy_law
+from .helpers import pair_scene, run_until_separated
 
 
 @dataclass(frozen=True)
@@ -19,12 +24,12 @@ class LinearSpring:
     """A frictionless, undamped linear spring of stiffness ``k`` [N/m]."""
 
     k: float
-    kernel = "bilinear"
+    kernel = bilinear.KERNEL
     adhesive = False
     pair = True
     wall = False
 
-    def pair_features(self) -> dict[str, bool]:
+    def switches(self) -> dict[str, bool]:
         return {}
 
     def pair_values(self) -> dict[str, float]:
@@ -75,3 +80,40 @@ def test_a_toy_law_runs_and_matches_the_bilinear_law_it_stands_for(registered):
 def test_an_unregistered_law_is_refused_naming_the_registered_ones():
     with pytest.raises(engine.ParameterError, match="Scene.pair_law.*HertzMindlin"):
         engine.Simulation(pair_scene(LinearSpring(k=5e3)), dt=1e-6)
+
+
+@pytest.fixture
+def power_spring(monkeypatch):
+    # the registration: the one change a new law needs outside its module
+    monkeypatch.setitem(LAWS, "PowerSpring", toy_law.PowerSpring)
+    return toy_law.PowerSpring
+
+
+@pytest.mark.parametrize("p", [1.0, 3.0])
+def test_a_law_of_a_new_force_shape_meets_its_impact_closed_forms(power_spring, p):
+    """Two particles meet head-on at 2 v0 under F = k d^p: largest overlap, contact duration
+    and rebound speed of the closed forms (energy conservation; restitution 1)."""
+    law = power_spring(k=5e3 if p == 1.0 else 5e11, p=p)
+    v0, r, rho = 0.1, 2.5e-3, 2000.0
+    scene = pair_scene(law, gap=1e-5, v0=v0, radius=r, density=rho)
+    limit = engine.critical_time_step(scene)
+    assert "power spring" in limit.reason
+    # a step fine enough that sampling the peak costs < 1e-3 of it: (w dt)^2 / 8
+    sim = engine.Simulation(scene, dt=limit.dt / 50)
+    assert sim.features["pair_kernel"] == "power_spring"
+    m_star = 0.5 * rho * 4 / 3 * math.pi * r**3
+    d_max, _, duration = run_until_separated(sim, 100_000)
+    assert d_max == pytest.approx(toy_law.impact_overlap(law.k, p, m_star, 2 * v0), rel=2e-3)
+    assert duration == pytest.approx(
+        toy_law.impact_duration(law.k, p, m_star, 2 * v0), rel=3 * sim.dt / duration + 1e-3
+    )
+    # elastic: rebounds at v0, to velocity Verlet's O((w dt)^2) = (2/50)^2
+    assert sim.velocities[1, 0] == pytest.approx(v0, rel=(2 / 50) ** 2)
+    # a scene's kernel is built for the law's family alone: nothing of another law is in it
+    assert set(sim.features) >= {"pair_kernel", "friction", "rolling", "damping"}
+    assert "plastic" not in sim.features and "adhesion" not in sim.features
+
+
+def test_an_unregistered_law_of_a_new_family_is_refused():
+    with pytest.raises(engine.ParameterError, match="Scene.pair_law"):
+        engine.Simulation(pair_scene(toy_law.PowerSpring(k=5e3)))

@@ -1,0 +1,133 @@
+"""This engine against another version of it, on the same machine in the same sitting.
+
+    python -m benchmarks.engine_ab                      # against BASELINE (about 6 minutes)
+    python -m benchmarks.engine_ab --baseline REV --rounds 7
+
+The baseline engine (git revision ``--baseline``, default the last commit before the issue-20
+redesign) is checked out into a temporary git worktree. Each round runs one process of each
+engine, in alternating order, on the 2,025-particle anchor bed of benchmarks/engine_speed.py
+under a platen at 10 mm/s with one engine thread, and takes the CPU time of the process per
+particle-step (the cost of a step whatever else runs) for three laws: the seed's bilinear law
+with adhesion, friction, rolling and damping (``full``), the cohesionless frictionless one
+(``plain``: the smallest kernel, where overhead shows most) and EEPA n = 1.5. Rounds
+interleave the two engines so that a slow spell of a shared machine falls on both; the
+figure is the median over rounds of each round's ratio. The target: not slower than the
+baseline by more than the measurement's own spread (3 %: repeated measurements of one build
+scatter that much, benchmarks/README.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from benchmarks.checks import report
+
+ROOT = Path(__file__).resolve().parent.parent
+#: The last commit before the issue-20 redesign (subpackages, a law per module).
+BASELINE = "b777942"
+TOLERANCE = 0.03
+
+_CHILD = """
+import json, sys
+import numba
+numba.set_num_threads(1)
+import engine
+from benchmarks.engine_speed import FULL, PLAIN, anchor_bed, time_run
+fields = {k: getattr(FULL, k) for k in ("f0", "kadh", "kt_ratio", "mu_s", "mu_r", "restitution")}
+laws = {
+    "full": FULL,
+    "plain": PLAIN,
+    "eepa": engine.EEPA(k1=5e5, k2=2.5e6, n=1.5, chi=1.5, **fields),
+}
+pos, rad, lengths = anchor_bed()
+for law in laws.values():  # compile (or load) every kernel before timing any
+    time_run(pos, rad, lengths, law, 1, 10, 1)
+steps, repeats = int(sys.argv[1]), int(sys.argv[2])
+print(json.dumps({n: time_run(pos, rad, lengths, law, 1, steps, repeats)[1]
+                  for n, law in laws.items()}))
+"""
+
+
+def _measure(tree: Path, cache: Path, steps: int, repeats: int) -> dict[str, float]:
+    env = {**os.environ, "DEMSCALE_CACHE_DIR": str(cache), "PYTHONPATH": str(tree)}
+    env["NUMBA_NUM_THREADS"] = "1"
+    out = subprocess.run(
+        [sys.executable, "-c", _CHILD, str(steps), str(repeats)],
+        cwd=tree,
+        env=env,
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--baseline", default=BASELINE, help="git revision of the baseline engine")
+    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--steps", type=int, default=3000)
+    ap.add_argument("--repeats", type=int, default=2, help="timed runs per process (median)")
+    args = ap.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        base_tree = Path(tmp) / "baseline"
+        subprocess.run(
+            ["git", "-C", str(ROOT), "worktree", "add", "--detach", str(base_tree), args.baseline],
+            check=True,
+            capture_output=True,
+        )
+        try:
+            trees = {
+                "this": (ROOT, Path(tmp) / "cache-this"),
+                "baseline": (base_tree, Path(tmp) / "cache-base"),
+            }
+            rows: dict[str, list[dict[str, float]]] = {"this": [], "baseline": []}
+            for r in range(args.rounds):
+                order = ("this", "baseline") if r % 2 == 0 else ("baseline", "this")
+                for who in order:
+                    tree, cache = trees[who]
+                    rows[who].append(_measure(tree, cache, args.steps, args.repeats))
+                print(
+                    f"round {r + 1}: "
+                    + "; ".join(
+                        f"{n} {rows['this'][-1][n]:.0f} / {rows['baseline'][-1][n]:.0f} ns"
+                        for n in rows["this"][-1]
+                    ),
+                    flush=True,
+                )
+        finally:
+            subprocess.run(
+                ["git", "-C", str(ROOT), "worktree", "remove", "--force", str(base_tree)],
+                check=False,
+                capture_output=True,
+            )
+    print(
+        f"\nanchor bed, 1 thread, {args.steps} steps x {args.repeats} per process, "
+        f"{args.rounds} rounds; CPU ns per particle-step (median over rounds)"
+    )
+    print("| law | this engine | baseline " + args.baseline + " | ratio (median of rounds) |")
+    print("|---|---:|---:|---:|")
+    checks = []
+    for n in rows["this"][0]:
+        this = statistics.median(x[n] for x in rows["this"])
+        base = statistics.median(x[n] for x in rows["baseline"])
+        ratio = statistics.median(a[n] / b[n] for a, b in zip(rows["this"], rows["baseline"]))
+        print(f"| {n} | {this:.1f} | {base:.1f} | {ratio:.3f} |")
+        checks.append(
+            (
+                f"{n} law: this engine / baseline = {ratio:.3f} <= {1 + TOLERANCE:.2f}",
+                ratio <= 1 + TOLERANCE,
+            )
+        )
+    return report(checks)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -56,6 +56,7 @@ import numpy as np
 from engine.io.store import load_run, save_run
 from engine.study.advisor import error_rates, judge_metric, noise_floor
 from engine.study.metrics import METRICS, metric_names, metric_values
+from engine.study.plan import reference_test as study_reference
 from engine.uniaxial.driver import run_uniaxial
 from engine.uniaxial.spec import GRAVITY, UniaxialTest
 
@@ -75,7 +76,7 @@ def reference_test() -> UniaxialTest:
     (interior margin set by the study: two diameters of its largest, 5 mm, particles)."""
     from benchmarks.reproduce import experiments
 
-    return experiments("paper")["b_cohesive"].reference
+    return study_reference(experiments("paper")["b_cohesive"])
 
 
 def control_test(

@@ -148,7 +148,7 @@ def reference_test():
     from benchmarks.reproduce import experiments
 
     spec = experiments("paper")["b_cohesive"]
-    return next(p.test for p in spec.planned_runs() if p.key == "ref-s1")
+    return next(p.test for p in engine.plan(spec).runs if p.key == "ref-s1")
 
 
 def run_reference(cap_s: float):

@@ -53,7 +53,7 @@ def pool_speedup(workers: int = 2) -> list[tuple[str, bool]]:
     same = [
         {k: v for k, v in r.items() if k not in ("wall_time", "speedup")} for r in seq.table
     ] == [{k: v for k, v in r.items() if k not in ("wall_time", "speedup")} for r in par.table]
-    n = len(spec.planned_runs())
+    n = len(engine.plan(spec).runs)
     print(
         f"\n| study ({n} runs, {ref.n_particles} particles per reference) | wall time [s] |"
         " ratio |\n|---|---:|---:|"

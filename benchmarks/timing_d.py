@@ -18,6 +18,7 @@ import time
 
 import numba
 
+import engine
 from benchmarks.reproduce import ROOT, experiments
 from engine.io.store import load_run, save_run, stored_machine
 from engine.uniaxial.driver import run_uniaxial
@@ -30,7 +31,7 @@ ORDER = ("r3.75mm-b2-s1", "ref-s1", "r5mm-b2-s1")
 
 def planned() -> dict:
     spec = experiments("paper")["b_cohesive"]
-    return {p.key: p.test for p in spec.planned_runs() if p.key in ORDER}
+    return {p.key: p.test for p in engine.plan(spec).runs if p.key in ORDER}
 
 
 def run(threads: int) -> None:

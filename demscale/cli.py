@@ -226,7 +226,7 @@ def study(args) -> int:
             body["decide"] = True
         if args.budget is not None and isinstance(body, dict):
             body["budget"] = args.budget
-        spec = engine.StudySpec.from_dict(body)
+        study = engine.plan(engine.StudySpec.from_dict(body))  # planned once
     except (OSError, json.JSONDecodeError) as e:
         console.print(f"[red]cannot read the spec {spec_path}:[/red] {e}")
         return 2
@@ -238,11 +238,11 @@ def study(args) -> int:
         return 2
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    planned = spec.planned_runs()
+    spec, planned = study.spec, study.runs
     console.print(
         f"{spec_path.name}: {len(planned)} runs, "
         f"{sum(p.test.n_particles for p in planned)} particles in all, about "
-        f"{spec.estimated_particle_steps():.3g} particle-steps; writing to {out}"
+        f"{study.estimated_particle_steps():.3g} particle-steps; writing to {out}"
     )
     snapshot_paths: dict[str, list[Path]] = {}
 
@@ -258,7 +258,7 @@ def study(args) -> int:
                 ctx = mp.get_context("spawn")
                 with cf.ProcessPoolExecutor(args.workers, mp_context=ctx) as pool:
                     result = engine.run_study(
-                        spec,
+                        study,
                         progress=bars.update,
                         executor=pool,
                         on_run=on_run,
@@ -266,7 +266,7 @@ def study(args) -> int:
                     )
             else:
                 result = engine.run_study(
-                    spec, progress=bars.update, on_run=on_run, backend=args.backend
+                    study, progress=bars.update, on_run=on_run, backend=args.backend
                 )
         except engine.RunFailed as e:
             console.print(f"[red]{e}[/red]: no reference run finished, nothing to compare")

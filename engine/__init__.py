@@ -11,6 +11,7 @@ Public API (stable names)::
     UniaxialTest, preset, run_uniaxial              the uniaxial test and its stages
     Checkpoint                                      resume a killed run where it was
     ScalingRule, StudySpec, run_study               scaling studies, errors and costs
+    plan, StudyPlan                                 a study's runs, planned once
     FileChannel                                     progress and stop of runs on other hosts
     NAMED_RULES, METRICS, DEFAULT_TOLERANCES        named rules, verdict metrics
     default_study                                   the study of the main job
@@ -37,7 +38,7 @@ from .simulation.snapshot import Snapshot
 from .simulation.timestep import TimeStepLimit, critical_time_step
 from .study.channel import FileChannel
 from .study.metrics import DEFAULT_TOLERANCES, METRICS
-from .study.plan import PlannedRun
+from .study.plan import PlannedRun, StudyPlan, plan
 from .study.results import RunFailed, RunResult, StudyResult
 from .study.run import StudyProgress, run_study
 from .study.spec import NAMED_RULES, ScalingRule, StudySpec, default_study
@@ -77,6 +78,7 @@ __all__ = [
     "StageError",
     "StageResult",
     "StopRequested",
+    "StudyPlan",
     "StudyProgress",
     "StudyResult",
     "StudySpec",
@@ -87,6 +89,7 @@ __all__ = [
     "WallTimeExceeded",
     "critical_time_step",
     "default_study",
+    "plan",
     "preset",
     "run_study",
     "run_uniaxial",

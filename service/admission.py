@@ -3,10 +3,11 @@
 Pydantic has checked each field's range. Then, from the raw fields and before anything is
 built (:mod:`service.cost`, microseconds): the number of runs, the particles of every run,
 the bounds on the knobs that set work, and the worst-case particle-steps and curve samples
-of the study against their caps. Only then does the engine build the spec (placing a packing
-per run) and check what spans fields (e.g. the cell must hold the coarsest particle); its
-errors are turned into the same field-level 422 answers; the caps are checked once more on
-the built spec.
+of the study against their caps. Only then does the engine build the spec and plan it, once
+(:func:`engine.plan`: every run's test, checked runnable, e.g. the cell must hold the coarsest
+particle; no packing is placed: the run that needs one places it); its errors are turned into
+the same field-level 422 answers; the caps are checked once more on the plan, which is
+stored with the job for the worker to run.
 """
 
 from __future__ import annotations
@@ -197,13 +198,13 @@ def _check_size_first(data: dict, settings: Settings) -> None:
     check_costs(costs, settings)
 
 
-def admit(body: StudyCreate, settings: Settings) -> engine.StudySpec:
-    """The engine spec of ``body`` if the engine accepts it and it is within the caps;
-    raises :class:`SpecRejected` otherwise."""
+def admit(body: StudyCreate, settings: Settings) -> engine.StudyPlan:
+    """The engine's plan of ``body`` (:func:`engine.plan`, once) if the engine accepts it and
+    it is within the caps; raises :class:`SpecRejected` otherwise."""
     data = body.engine_dict()
     try:
         _check_size_first(data, settings)
-        spec = engine.StudySpec.from_dict(data)
+        study = engine.plan(engine.StudySpec.from_dict(data))
     except SpecRejected:
         raise
     except engine.ParameterError as e:
@@ -215,7 +216,7 @@ def admit(body: StudyCreate, settings: Settings) -> engine.StudySpec:
         raise SpecRejected(
             [_error((), f"the engine cannot build this study: {type(e).__name__}: {e}", None)]
         ) from e
-    runs = spec.planned_runs()
+    spec, runs = study.spec, study.runs
     if len(runs) > settings.max_runs:
         raise _too_many_runs(len(runs), settings)
     biggest = max(runs, key=lambda p: p.test.n_particles)
@@ -229,7 +230,7 @@ def admit(body: StudyCreate, settings: Settings) -> engine.StudySpec:
         raise _too_many_particles(loc, biggest.key, n, settings)
     _check_bounds(spec.reference.to_dict())
     check_costs(worst_case(spec), settings)
-    return spec
+    return study
 
 
 def worst_case(spec: engine.StudySpec) -> list[cost.RunCost]:

@@ -49,6 +49,7 @@ def get_engine(url: str) -> Engine:
     except OperationalError:  # another process created the tables at the same moment
         SQLModel.metadata.create_all(engine)
     _add_owner_column(engine)
+    _add_plan_column(engine)
     return engine
 
 
@@ -61,6 +62,18 @@ def _add_owner_column(engine: Engine) -> None:
         with engine.begin() as conn:
             conn.execute(text("ALTER TABLE study ADD COLUMN owner VARCHAR(16) NOT NULL DEFAULT ''"))
             conn.execute(text("CREATE INDEX IF NOT EXISTS ix_study_owner ON study (owner)"))
+    except OperationalError:  # another process added it at the same moment
+        pass
+
+
+def _add_plan_column(engine: Engine) -> None:
+    """A store made before studies kept their plan gets the column (NULL: such a study's
+    worker plans it from its spec)."""
+    if "plan" in {c["name"] for c in inspect(engine).get_columns("study")}:
+        return
+    try:
+        with engine.begin() as conn:
+            conn.execute(text("ALTER TABLE study ADD COLUMN plan JSON"))
     except OperationalError:  # another process added it at the same moment
         pass
 

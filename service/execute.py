@@ -39,6 +39,7 @@ class StudyExecution:
         self.worker_id = worker_id
         self.study_id: uuid.UUID = study.id
         self.spec_dict = study.spec
+        self.plan_dict = study.plan
         self.shutdown = shutdown
         self.db = engine_for(settings)
         self.latest: engine.StudyProgress | None = None
@@ -47,7 +48,7 @@ class StudyExecution:
         self.lost = False
         self.done = threading.Event()
         self.known_runs: set[str] = set()  # run keys with a row (added runs get one)
-        self.spec: engine.StudySpec | None = None
+        self.plan: engine.StudyPlan | None = None
 
     # ------------------------------------------------------------------- heartbeat thread
     def beat(self) -> None:
@@ -105,9 +106,8 @@ class StudyExecution:
         study's runs are replayed from the stored ones (engine.study.plan.plan_runs)."""
         if key in self.known_runs:
             return
-        spec = self.spec
-        done, _ = completed_runs(spec, self.settings.runs_dir(self.study_id))
-        planned = plan_runs(spec, done)[0]
+        done, _ = completed_runs(self.plan, self.settings.runs_dir(self.study_id))
+        planned = plan_runs(self.plan, done)[0]
         rows = [
             {
                 "key": p.key,
@@ -160,17 +160,24 @@ class StudyExecution:
         shutil.rmtree(final, ignore_errors=True)
         os.replace(tmp, final)
 
-    def stored_runs(self, spec: engine.StudySpec) -> dict:
+    def stored_runs(self, plan: engine.StudyPlan) -> dict:
         """Runs of this study stored by earlier attempts whose test is the planned one."""
-        out, _ = completed_runs(spec, self.settings.runs_dir(self.study_id))
+        out, _ = completed_runs(plan, self.settings.runs_dir(self.study_id))
         if out:
             log.info(
                 "study %s: resuming with %d of %d runs stored",
                 self.study_id,
                 len(out),
-                len(spec.planned_runs()),
+                len(plan.runs),
             )
         return out
+
+    def load_plan(self) -> engine.StudyPlan:
+        """The plan stored with the study at submission (read back, not planned again); a
+        study stored before plans were is planned from its spec."""
+        if self.plan_dict is not None:
+            return engine.StudyPlan.from_dict(self.plan_dict)
+        return engine.plan(engine.StudySpec.from_dict(self.spec_dict))
 
     def remove_leftovers(self) -> None:
         """Delete the temporary results files of earlier attempts at this study (a worker
@@ -191,8 +198,8 @@ class StudyExecution:
         beats = threading.Thread(target=self._beat_loop, name="heartbeat", daemon=True)
         beats.start()
         try:
-            spec = self.spec = engine.StudySpec.from_dict(self.spec_dict)
-            self.known_runs.update(p.key for p in spec.planned_runs())
+            plan = self.plan = self.load_plan()
+            self.known_runs.update(p.key for p in plan.runs)
             with run_executor(self.settings) as pool:
                 # runs in other processes or hosts report and hear a cancel through files in
                 # the study's folder (engine.FileChannel)
@@ -203,10 +210,10 @@ class StudyExecution:
                 )
                 # a run in flight keeps a checkpoint: after a crash it resumes where it was
                 result = engine.run_study(
-                    spec,
+                    plan,
                     progress=self.progress,
                     executor=pool,
-                    completed=self.stored_runs(spec),
+                    completed=self.stored_runs(plan),
                     on_run=self.on_run,
                     channel=channel,
                     checkpoints=self.settings.checkpoints_dir(self.study_id),

@@ -63,6 +63,9 @@ class Study(StudyBase, table=True):
         description="Fingerprint of the token that submitted it (service.settings.fingerprint).",
     )
     spec: dict = Field(sa_column=Column(JSON, nullable=False))
+    #: The engine's plan of the spec (engine.StudyPlan.to_dict), made once at submission: the
+    #: worker runs it as stored. None for a study stored before plans were (planned then).
+    plan: dict | None = Field(default=None, sa_column=Column(JSON, nullable=True))
     status: Status = Field(default=Status.queued, index=True)
     progress: float = 0.0
     n_runs: int = 0

@@ -1,6 +1,7 @@
 """The import contract of the layers (ARCHITECTURE.md): the engine needs only numpy and
-numba to import and never reaches up into the service or the command; the service never
-imports the command."""
+numba to import and never reaches up into the service or the command; within the engine, a
+module imports at module level only from its own layer or the layers below it; the service
+never imports the command."""
 
 from __future__ import annotations
 
@@ -73,6 +74,55 @@ def test_engine_modules_import_only_numpy_numba_and_the_standard_library(path):
         assert name not in ABOVE, f"{path.name} imports {name}: the engine is below it"
         assert name in allowed, (
             f"{path.name} imports {name} {'at module level' if top else 'in a function'}"
+        )
+
+
+#: The engine's layers, lowest first (ARCHITECTURE.md): a module's path names its layer.
+LAYERS = ("core", "contact", "kernel", "simulation", "cuda", "uniaxial", "study", "io")
+
+
+def engine_imports(path: Path) -> list[tuple[str, bool]]:
+    """(imported engine module, at module level?) of every import of an engine file."""
+    rel = path.relative_to(ROOT).with_suffix("")
+    package = rel.parts[:-1]
+    tree = ast.parse(path.read_text())
+    top = {id(n) for n in tree.body}
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = list(package[: len(package) - (node.level - 1)])
+                module = ".".join(base + ([node.module] if node.module else []))
+            else:
+                module = node.module or ""
+            names = [f"{module}.{a.name}" for a in node.names] if node.module is None else [module]
+        elif isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        else:
+            continue
+        out += [(n, id(node) in top) for n in names if n.split(".")[0] == "engine"]
+    return out
+
+
+def test_every_engine_module_is_in_a_layer():
+    for path in files("engine"):
+        parts = path.relative_to(ROOT / "engine").parts
+        assert (len(parts) == 1 and parts[0] == "__init__.py") or parts[0] in LAYERS, path
+
+
+@pytest.mark.parametrize("path", files("engine"), ids=lambda p: str(p.relative_to(ROOT)))
+def test_engine_modules_import_only_their_own_layer_or_those_below(path):
+    parts = path.relative_to(ROOT / "engine").parts
+    if len(parts) == 1:
+        return  # engine/__init__.py: the public API gathers every layer
+    own = LAYERS.index(parts[0])
+    for module, top in engine_imports(path):
+        layer = module.split(".")[1] if "." in module else None
+        if layer not in LAYERS or not top:
+            continue  # the package itself (its version), or a function's import on request
+        assert LAYERS.index(layer) <= own, (
+            f"{path.relative_to(ROOT)} imports {module} at module level: "
+            f"{layer} is above {parts[0]}"
         )
 
 

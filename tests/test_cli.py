@@ -74,7 +74,7 @@ def test_help_explains_every_command(argv, capsys):
 
 def test_example_spec_is_a_valid_small_study():
     spec = engine.StudySpec.from_dict(json.loads((ROOT / "examples/quick_study.json").read_text()))
-    runs = spec.planned_runs()
+    runs = engine.plan(spec).runs
     assert len(runs) == 4 and len(spec.reference_seeds) == 2  # a noise floor exists
     assert max(p.test.n_particles for p in runs) < 400
 
@@ -93,7 +93,7 @@ def test_run_bars_follow_each_run():
     from rich.console import Console
 
     spec = engine.StudySpec.from_dict(TINY)
-    planned = spec.planned_runs()
+    planned = engine.plan(spec).runs
     bars = StudyBars(planned, Console(file=open(os.devnull, "w")), enabled=False)
     assert sum(bars.weights) == pytest.approx(1.0)
     for i, p in enumerate(planned):
@@ -153,7 +153,7 @@ def test_study_end_to_end(tmp_path):
     assert "ref-s1 done" in proc.stderr and "verdicts" in proc.stderr
 
     summary = _strict((out / "summary.json").read_text())
-    keys = [p.key for p in engine.StudySpec.from_dict(TINY).planned_runs()]
+    keys = [p.key for p in engine.plan(engine.StudySpec.from_dict(TINY)).runs]
     assert [row["run"] for row in summary["table"]] == keys
     assert summary["advisor"]["verdicts"][0]["rule"] == "paper"
     assert engine.StudySpec.from_dict(summary["spec"]).to_dict() == summary["spec"]
@@ -204,7 +204,7 @@ def test_study_decide_adds_seeds_and_reports_them(tmp_path):
     assert proc.returncode in (0, 1), proc.stderr
     summary = _strict((out / "summary.json").read_text())
     adaptive = summary["advisor"]["adaptive"]
-    planned = [p.key for p in engine.StudySpec.from_dict(TINY).planned_runs()]
+    planned = [p.key for p in engine.plan(engine.StudySpec.from_dict(TINY)).runs]
     added = [a["run"] for a in adaptive["added_runs"]]
     assert adaptive["planned_runs"] == len(planned) and adaptive["looks"] == 2
     assert added and all(a["reason"].startswith("round 1:") for a in adaptive["added_runs"])

@@ -6,13 +6,18 @@ unit, its bounds and a one-line description travel in the dataclass field's meta
 :func:`check_fields` validates a record against them (raising :class:`ParameterError` that
 names the field and the limit), and :func:`describe` lists them for other layers (the job
 service builds its request schema from it), so the engine and the API cannot drift apart.
-Checks that relate two fields (``k2 >= k1``) stay in the record's ``__post_init__``.
+Checks that relate two fields (``k2 >= k1``) stay in the record's ``__post_init__``. A
+record's JSON form is derived from the same declarations (:func:`to_dict`, :func:`from_dict`,
+the :class:`Record` mixin), so that no record writes its own.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
+import typing
+from collections.abc import Callable
 from dataclasses import MISSING, dataclass, field
 from typing import Any
 
@@ -29,7 +34,10 @@ class ParamInfo:
     ``doc``; the bounds ``gt``/``ge``/``lt``/``le`` (None: unbounded); ``kind`` (``"float"``,
     ``"int"``, ``"bool"``, ``"str"``, ``"record"`` or ``"list"``); ``choices`` (allowed
     values of a string); ``nullable`` (None is allowed); ``default``; ``required`` (no default);
-    ``max_items`` (longest list).
+    ``max_items`` (longest list); ``types`` (a record field that takes one of several record
+    classes, e.g. a contact law: a callable giving them, and the JSON form carries a
+    ``"type"`` tag); ``parse`` (a callable reading the field's JSON value where the generic
+    reading does not, e.g. a preset with overrides, a rule given by name).
     """
 
     name: str
@@ -45,6 +53,8 @@ class ParamInfo:
     default: Any = None
     required: bool = False
     max_items: int | None = None
+    types: Callable[[], tuple[type, ...]] | None = None
+    parse: Callable[[Any], Any] | None = None
 
     def limit_text(self) -> str:
         """The allowed range in words, e.g. ``"in (0, 0.5)"`` or ``"> 0 N/m"``."""
@@ -103,6 +113,8 @@ def param(
     nullable: bool = False,
     default_factory: Any = MISSING,
     max_items: int | None = None,
+    types: Callable[[], tuple[type, ...]] | None = None,
+    parse: Callable[[Any], Any] | None = None,
 ) -> Any:
     """A dataclass field carrying its unit, bounds and description (see :class:`ParamInfo`)."""
     md = {
@@ -117,6 +129,8 @@ def param(
             choices=choices,
             nullable=nullable,
             max_items=max_items,
+            types=types,
+            parse=parse,
         )
     }
     if default_factory is not MISSING:
@@ -172,3 +186,101 @@ def check_fields(obj, owner: str | None = None) -> None:
             if not info.accepts(v):
                 raise ParameterError(name, v, info.limit_text())
             object.__setattr__(obj, info.name, v)
+
+
+# ------------------------------------------------------------------ JSON form
+def to_dict(obj) -> dict:
+    """The JSON form of a declared record, derived from its fields: every declared field in
+    order; a nested record as an object (one whose field declares ``types``, a tagged union
+    such as a contact law, with its ``"type"`` first); tuples as lists. Inverse:
+    :func:`from_dict`."""
+    return {info.name: _to_json(getattr(obj, info.name), info) for info in describe(type(obj))}
+
+
+def _to_json(value: Any, info: ParamInfo | None = None) -> Any:
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        out = to_dict(value)
+        if info is not None and info.types is not None:
+            return {"type": type(value).__name__, **out}
+        return out
+    if isinstance(value, (list, tuple)):
+        return [_to_json(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _to_json(v) for k, v in value.items()}
+    return value
+
+
+def from_dict(cls, data: Any, owner: str | None = None):
+    """The record ``cls`` built from its JSON form (:func:`to_dict`), derived from its
+    declared fields: unknown keys, a nested record of an unknown ``type``, a list or an object
+    where none belongs are refused with :class:`ParameterError` naming the field; a field
+    with a ``parse`` hook (a preset, a rule given by name) is read by it; the record's own
+    checks then run as on any construction."""
+    owner = owner or cls.__name__
+    if not isinstance(data, dict):
+        raise ParameterError(owner, data, "an object of its fields")
+    infos = {info.name: info for info in describe(cls)}
+    unknown = set(data) - set(infos)
+    if unknown:
+        raise ParameterError(owner, sorted(unknown), f"fields among {sorted(infos)}")
+    hints = _hints(cls)
+    kwargs = {name: _from_json(raw, infos[name], hints[name], cls) for name, raw in data.items()}
+    return cls(**kwargs)
+
+
+def _record_class(hint: Any) -> type | None:
+    """The one record class a type hint names (``X`` or ``X | None``), else None."""
+    args = typing.get_args(hint) if typing.get_args(hint) else (hint,)
+    records = [a for a in args if dataclasses.is_dataclass(a)]
+    return records[0] if len(records) == 1 else None
+
+
+def _from_json(raw: Any, info: ParamInfo, hint: Any, cls: type) -> Any:
+    path = f"{cls.__name__}.{info.name}"
+    if info.parse is not None:
+        return info.parse(raw)
+    if raw is None:
+        return None
+    if info.kind == "record":
+        if not isinstance(raw, dict):
+            return raw  # a record already (check_fields or __post_init__ judges it)
+        if info.types is not None:
+            classes = {c.__name__: c for c in info.types()}
+            raw = dict(raw)
+            # no tag: the class of the field's default
+            kind = raw.pop("type", type(info.default).__name__)
+            if kind not in classes:
+                raise ParameterError(f"{path}.type", kind, "one of " + ", ".join(classes))
+            return from_dict(classes[kind], raw)
+        record = _record_class(hint)
+        return raw if record is None else from_dict(record, raw)
+    if info.kind == "list":
+        if not isinstance(raw, (list, tuple)):
+            raise ParameterError(path, raw, "a list")
+        item = typing.get_args(hint)[0] if typing.get_args(hint) else None
+        record = _record_class(item) if item is not None else None
+        return tuple(
+            from_dict(record, v) if record is not None and isinstance(v, dict) else v for v in raw
+        )
+    if info.kind == "dict" and not isinstance(raw, dict):
+        raise ParameterError(path, raw, "an object")
+    return raw
+
+
+@functools.cache
+def _hints(cls) -> dict[str, Any]:
+    return typing.get_type_hints(cls)
+
+
+class Record:
+    """Mixin of the declared records: their JSON form, derived from the declared fields."""
+
+    def to_dict(self) -> dict:
+        """JSON-friendly form (:func:`engine.core.records.to_dict`; inverse :meth:`from_dict`)."""
+        return to_dict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict):
+        """The record from its JSON form (:func:`engine.core.records.from_dict`): unknown keys
+        and values of the wrong shape raise :class:`engine.ParameterError` naming the field."""
+        return from_dict(cls, data)

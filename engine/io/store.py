@@ -288,16 +288,18 @@ def save_study(path: Path, study_id: object, result, before_rename=lambda: True)
     return path
 
 
-def completed_runs(spec, directory: Path) -> tuple[dict, list[str]]:
-    """The runs of the :class:`engine.StudySpec` ``spec`` stored in ``directory`` whose test is
-    exactly the planned one (what ``run_study(completed=...)`` resumes from), and the keys of
-    stored runs made with other parameters (to be run again). With ``spec.decide`` the runs
-    its rounds added are found too, round by round (:func:`engine.study.plan.plan_runs`)."""
-    from ..study.plan import plan_runs
+def completed_runs(study, directory: Path) -> tuple[dict, list[str]]:
+    """The runs of ``study`` (an :class:`engine.StudyPlan`, or a spec planned here) stored in
+    ``directory`` whose test is exactly the planned one (what ``run_study(completed=...)``
+    resumes from), and the keys of stored runs made with other parameters (to be run again).
+    With ``decide`` the runs its rounds added are found too, round by round
+    (:func:`engine.study.plan.plan_runs`)."""
+    from ..study.plan import StudyPlan, plan, plan_runs
 
+    study = study if isinstance(study, StudyPlan) else plan(study)
     done, stale, seen = {}, [], set()
     while True:
-        planned = {p.key: p.test for p in plan_runs(spec, done)[0]}
+        planned = {p.key: p.test for p in plan_runs(study, done)[0]}
         fresh = [k for k in planned if k not in seen]
         if not fresh:
             return done, stale

@@ -1,7 +1,12 @@
-"""The runs of a scaling study: the planned ones (references per reference seed, then every
-coarse radius x rule per seed) and, with ``decide``, those each round adds, replayed from the
-outcomes so far (deterministic: a resumed study, or a report from stored runs, finds the same
-runs)."""
+"""The runs of a scaling study.
+
+:func:`plan` turns a :class:`~engine.study.spec.StudySpec` into its :class:`StudyPlan` once:
+the references (one per reference seed), then every coarse radius x rule per seed, each test
+complete (its time step known before any run starts) and checked runnable; nothing is placed
+or run. A plan has a JSON form (:meth:`StudyPlan.to_dict`): the job service stores it with the
+job and its worker runs the stored plan. With ``decide``, :func:`plan_runs` adds the runs of
+each round, replayed from the outcomes so far (deterministic: a resumed study, or a report
+from stored runs, finds the same runs)."""
 
 from __future__ import annotations
 
@@ -10,6 +15,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..core.errors import ParameterError
 from ..uniaxial.spec import GRAVITY, UniaxialTest
 from .adaptive import Addition, next_runs
 from .advisor import judge_groups
@@ -51,18 +57,134 @@ def estimated_steps(test: UniaxialTest) -> float:
     return t / dt
 
 
+def reference_test(spec: StudySpec) -> UniaxialTest:
+    """The study's reference test: the spec's reference with the study's interior window, a
+    layer of ``interior_diameters`` diameters of the study's largest particle at each platen,
+    the same for every run."""
+    ref = spec.reference
+    margin = spec.interior_diameters * 2 * max((*spec.coarse_radii, ref.radius))
+    return replace(ref, interior_margin=margin * (1 + ref.polydispersity))
+
+
+@dataclass(frozen=True)
+class StudyPlan:
+    """The planned runs of a study (:func:`plan`): ``spec`` and ``runs`` (references first)."""
+
+    spec: StudySpec
+    runs: tuple[PlannedRun, ...]
+
+    def max_particles(self) -> int:
+        """The largest particle count of any run."""
+        return max(p.test.n_particles for p in self.runs)
+
+    def estimated_particle_steps(self) -> float:
+        """Estimate of the study's total particle-steps (for admission limits): the planned
+        runs, and with ``decide`` the most its added runs may cost (the ``budget``, or every
+        variant and the reference filled to their seed caps, whichever is less)."""
+        spec = self.spec
+        cost = {}
+        for p in self.runs:
+            cost.setdefault(
+                (p.radius, None if p.rule is None else p.rule.name),
+                estimated_steps(p.test) * p.test.n_particles,
+            )
+        total = float(sum(estimated_steps(p.test) * p.test.n_particles for p in self.runs))
+        if not spec.decide:
+            return total
+        worst = sum(
+            c * (spec.max_reference_seeds - len(spec.reference_seeds))
+            if k[1] is None
+            else c * (spec.max_seeds - len(spec.seeds))
+            for k, c in cost.items()
+        )
+        return total + float(worst if spec.budget is None else min(worst, spec.budget))
+
+    def to_dict(self) -> dict:
+        """JSON form: the spec and every run with its complete test (inverse
+        :meth:`from_dict`)."""
+        return {
+            "spec": self.spec.to_dict(),
+            "runs": [
+                {
+                    "key": p.key,
+                    "radius": p.radius,
+                    "rule": None if p.rule is None else p.rule.name,
+                    "seed": p.seed,
+                    "test": p.test.to_dict(),
+                }
+                for p in self.runs
+            ],
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> StudyPlan:
+        """The plan of :meth:`to_dict`, read back without planning again (the records are
+        validated, nothing is placed)."""
+        spec = StudySpec.from_dict(d["spec"])
+        rules = {r.name: r for r in spec.rules}
+        runs = tuple(
+            PlannedRun(
+                r["key"],
+                float(r["radius"]),
+                None if r["rule"] is None else rules[r["rule"]],
+                int(r["seed"]),
+                UniaxialTest.from_dict(r["test"]),
+            )
+            for r in d["runs"]
+        )
+        return cls(spec, runs)
+
+
+def plan(spec: StudySpec) -> StudyPlan:
+    """Every run of ``spec``: the references first (one per reference seed), then every
+    coarse variant for every seed. Each test is complete: a coarse run with ``dt="fixed"``
+    takes the reference's time step, which is known before the reference runs; each must be
+    runnable (the cell holds the coarse radius, the scaled adhesion and the time step are
+    within the engine's limits), else :class:`engine.ParameterError` names the coarse radius.
+    Pure: nothing is placed or run, and the spec is not changed."""
+    ref = reference_test(spec)
+    dt_ref = ref.resolved_dt()
+    coarse = {}
+    for i, r in enumerate(spec.coarse_radii):
+        for rule in spec.rules:
+            try:
+                coarse[r, rule.name] = rule.apply(ref, r, dt_ref)
+            except ParameterError as e:
+                raise ParameterError(
+                    f"StudySpec.coarse_radii[{i}]",
+                    r,
+                    "a radius the reference's cell and laws can run",
+                    f"with rule {rule.name!r}: {e}",
+                ) from None
+    out = [
+        PlannedRun(run_key(ref.radius, None, seed), ref.radius, None, seed, replace(ref, seed=seed))
+        for seed in spec.reference_seeds
+    ]
+    for seed in spec.seeds:
+        for r in spec.coarse_radii:
+            for rule in spec.rules:
+                test = replace(coarse[r, rule.name], seed=seed)
+                out.append(PlannedRun(run_key(r, rule, seed), r, rule, seed, test))
+    return StudyPlan(spec, tuple(out))
+
+
 def cost_weights(planned: list[PlannedRun]) -> np.ndarray:
     cost = np.array([estimated_steps(p.test) * p.test.n_particles for p in planned])
     return cost / cost.sum()
 
 
-def plan_runs(spec: StudySpec, outcomes: dict) -> tuple[list[PlannedRun], list[dict], str | None]:
-    """Every run of ``spec`` given the ``outcomes`` so far: the planned runs, then, with
-    ``decide``, the runs each round adds (engine.study.adaptive), replayed from the outcomes round
-    by round (deterministic: a resumed study, or a report from stored runs, finds the same
-    runs). Returns (runs, the added runs as {run, round, kind, reason}, why the study stopped
-    adding: None while some run of the last round is still to run)."""
-    planned = spec.planned_runs()
+def plan_runs(
+    study: StudyPlan | StudySpec, outcomes: dict
+) -> tuple[list[PlannedRun], list[dict], str | None]:
+    """Every run of the ``study`` (a :class:`StudyPlan`, or a spec planned here) given the
+    ``outcomes`` so far: the planned runs, then, with ``decide``, the runs each round adds
+    (engine.study.adaptive), replayed from the outcomes round by round (deterministic: a
+    resumed study, or a report from stored runs, finds the same runs). Returns (runs, the
+    added runs as {run, round, kind, reason}, why the study stopped adding: None while some
+    run of the last round is still to run)."""
+    study = study if isinstance(study, StudyPlan) else plan(study)
+    spec = study.spec
+    planned = list(study.runs)
     added: list[dict] = []
     if not spec.decide:
         return planned, added, None
@@ -158,7 +280,8 @@ def _added_runs(
         k = "reference" if p.is_reference else (p.radius, p.rule.name)
         attempted[k] = attempted.get(k, 0) + 1
     adds = next_runs(spec, ref_values, variants, verdicts, cost, round_no, budget_left, attempted)
-    dt_ref = spec.reference.resolved_dt()
+    reference = reference_test(spec)
+    dt_ref = reference.resolved_dt()
     used: dict = {}
     for p in planned:
         used.setdefault(None if p.is_reference else (p.radius, p.rule.name), set()).add(p.seed)
@@ -168,7 +291,7 @@ def _added_runs(
         seeds = used.setdefault(a.variant, set())
         seed = max(seeds | used.get(None, set())) + 1
         seeds.add(seed)
-        ref = replace(spec.reference, seed=seed)
+        ref = replace(reference, seed=seed)
         if a.kind == "reference":
             out.append(
                 (PlannedRun(run_key(ref.radius, None, seed), ref.radius, None, seed, ref), a)

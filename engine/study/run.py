@@ -24,7 +24,7 @@ from ..uniaxial.checkpoint import CHECKPOINT_INTERVAL, Checkpoint, check_interva
 from ..uniaxial.driver import run_uniaxial
 from ..uniaxial.results import Progress, UniaxialResult
 from .channel import task_progress
-from .plan import PlannedRun, adaptive_summary, cost_weights, plan_runs
+from .plan import PlannedRun, StudyPlan, adaptive_summary, cost_weights, plan, plan_runs
 from .results import RunFailed, StudyResult, assemble
 from .spec import StudySpec
 
@@ -82,7 +82,7 @@ def _limit_args(limit: tuple | None) -> dict:
 
 
 def run_study(
-    spec: StudySpec,
+    study: StudySpec | StudyPlan,
     progress: StudyCallback | None = None,
     executor: cf.Executor | None = None,
     *,
@@ -97,10 +97,10 @@ def run_study(
     wall_time_setting: str = "max_run_wall_time",
     backend: str | None = None,
 ) -> StudyResult:
-    """Run every run of ``spec`` that is not in ``completed``, then judge the study.
+    """Run every run of ``study`` that is not in ``completed``, then judge the study.
 
     Args:
-        spec: the study.
+        study: the study: its spec (planned here, once: :func:`engine.plan`) or its plan.
         progress: receives :class:`StudyProgress` (in this process, within each run; with
             an executor, as runs finish, and with a ``channel`` also every
             ``poll_interval`` seconds from the running tasks, the fraction summed over the
@@ -140,7 +140,9 @@ def run_study(
         check_interval(max_run_wall_time, "run_study.max_run_wall_time")
     limit = (max_run_wall_time, wall_time_setting)
     backend = check_backend(backend, "run_study.backend")
-    planned = spec.planned_runs()
+    study = study if isinstance(study, StudyPlan) else plan(study)  # planned once
+    spec = study.spec
+    planned = list(study.runs)
     weights = cost_weights(planned)
     outcomes: dict[str, UniaxialResult | str] = dict(completed or {})
     progress = _monotone_progress(progress)
@@ -191,13 +193,13 @@ def run_study(
             )
 
     while True:
-        planned, added, stopped = plan_runs(spec, outcomes)
+        planned, added, stopped = plan_runs(study, outcomes)
         weights = cost_weights(planned)
         todo = [i for i, p in enumerate(planned) if p.key not in outcomes]
         if not todo:
             break
         run(todo)
-    planned, added, stopped = plan_runs(spec, outcomes)
+    planned, added, stopped = plan_runs(study, outcomes)
     result = assemble(spec, planned, outcomes)
     if spec.decide:
         result.advisor["adaptive"] = adaptive_summary(spec, planned, added, stopped)

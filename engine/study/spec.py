@@ -11,8 +11,9 @@ import math
 from dataclasses import dataclass, replace
 
 from ..contact.bilinear import BilinearAdhesive
+from ..contact.registry import adhesive_laws, law_names
 from ..core.errors import ParameterError
-from ..core.records import check_fields, param
+from ..core.records import Record, check_fields, from_dict, param
 from ..uniaxial.spec import UniaxialTest, preset
 from .metrics import DEFAULT_TOLERANCES, METRICS
 
@@ -32,7 +33,7 @@ NAMED_RULES = {
 
 
 @dataclass(frozen=True)
-class ScalingRule:
+class ScalingRule(Record):
     """How the pair-law parameters follow the radius, with s = R / R_ref.
 
     Attributes:
@@ -112,15 +113,6 @@ class ScalingRule:
             c = self.adhesive_exponent
         return a, self.adhesion_exponent, c
 
-    def to_dict(self) -> dict:
-        return {
-            "name": self.name,
-            "stiffness_exponent": self.stiffness_exponent,
-            "adhesion_exponent": self.adhesion_exponent,
-            "dt": self.dt,
-            "adhesive_exponent": self.adhesive_exponent,
-        }
-
 
 def _seed_list(owner: str, seeds) -> tuple[int, ...]:
     seeds = tuple(seeds)
@@ -133,8 +125,34 @@ def _seed_list(owner: str, seeds) -> tuple[int, ...]:
     return seeds
 
 
+def _reference_from_json(raw):
+    """A reference given as JSON: a test's fields, or ``"preset": "quick"`` (or ``"paper"``)
+    with overrides of some of them."""
+    if not isinstance(raw, dict):
+        return raw
+    raw = dict(raw)
+    name = raw.pop("preset", None)
+    if name is not None:
+        raw = {**preset(name).to_dict(), **raw}
+    return from_dict(UniaxialTest, raw)
+
+
+def _rules_from_json(raw):
+    """Rules given as JSON: each a rule's fields, or the name of one of :data:`NAMED_RULES`."""
+    if not isinstance(raw, (list, tuple)):
+        raise ParameterError("StudySpec.rules", raw, "a list")
+    return tuple(
+        ScalingRule.named(r)
+        if isinstance(r, str)
+        else from_dict(ScalingRule, r, f"StudySpec.rules[{i}]")
+        if isinstance(r, dict)
+        else r
+        for i, r in enumerate(raw)
+    )
+
+
 @dataclass(frozen=True)
-class StudySpec:
+class StudySpec(Record):
     """A scaling study.
 
     Attributes:
@@ -166,6 +184,7 @@ class StudySpec:
         unit="",
         kind="record",
         default_factory=lambda: preset("quick"),
+        parse=_reference_from_json,
         doc="the fine reference test",
     )
     coarse_radii: tuple[float, ...] = param(
@@ -176,6 +195,7 @@ class StudySpec:
         kind="list",
         max_items=8,
         default_factory=lambda: (ScalingRule.named("paper"), ScalingRule.named("unscaled")),
+        parse=_rules_from_json,
         doc="scaling rules applied to every coarse radius (or names of NAMED_RULES)",
     )
     seeds: tuple[int, ...] | None = param(
@@ -241,7 +261,7 @@ class StudySpec:
             raise ParameterError(
                 f"{o}.reference.pair_law",
                 type(self.reference.pair_law).__name__,
-                "a BilinearAdhesive or EEPA law (the scaling rules act on K1, K2, f0, kadh)",
+                f"an {law_names(adhesive_laws())} law (the scaling rules act on K1, K2, f0, kadh)",
             )
         check_fields(self, o)
         radii = tuple(self.coarse_radii)
@@ -295,172 +315,15 @@ class StudySpec:
                 self.max_reference_seeds,
                 f">= the {len(ref_seeds)} planned reference seeds",
             )
-        # one interior window for every run: a layer of interior_diameters largest diameters
-        margin = (
-            self.interior_diameters * 2 * max((*radii, r_ref)) * (1 + self.reference.polydispersity)
-        )
-        ref = replace(self.reference, interior_margin=margin)
-        object.__setattr__(self, "reference", ref)
-        # every coarse test must itself be runnable: the cell holds the coarse radius, the
-        # scaled adhesion and the (fixed or scaled) time step are within the engine's limits
-        dt_ref = self.reference.resolved_dt()
-        for i, r in enumerate(self.coarse_radii):
-            for rule in self.rules:
-                try:
-                    rule.apply(self.reference, r, dt_ref)
-                except ParameterError as e:
-                    raise ParameterError(
-                        f"{o}.coarse_radii[{i}]",
-                        r,
-                        "a radius the reference's cell and laws can run",
-                        f"with rule {rule.name!r}: {e}",
-                    ) from None
-
-    def planned_runs(self) -> list:
-        """Every run: the references first (one per reference seed), then every coarse
-        variant for every seed. Each test is complete: a coarse run with ``dt="fixed"``
-        takes the reference's time step, which is known before the reference runs.
-
-        Planned once per spec (the record is frozen, so is its plan): admission, the cost
-        estimate, the worker and the study all read the same list."""
-        from .plan import PlannedRun, run_key
-
-        cached = self.__dict__.get("_plan")
-        if cached is not None:
-            return list(cached)
-        out = []
-        dt_ref = self.reference.resolved_dt()
-        for seed in self.reference_seeds:
-            ref = replace(self.reference, seed=seed)
-            out.append(PlannedRun(run_key(ref.radius, None, seed), ref.radius, None, seed, ref))
-        for seed in self.seeds:
-            ref = replace(self.reference, seed=seed)
-            for r in self.coarse_radii:
-                for rule in self.rules:
-                    test = rule.apply(ref, r, dt_ref)
-                    out.append(PlannedRun(run_key(r, rule, seed), r, rule, seed, test))
-        object.__setattr__(self, "_plan", tuple(out))
-        return list(out)
+        # the interior window is the study's (interior_diameters, engine.study.plan), not the
+        # reference's own: its JSON form leaves it out
+        if self.reference.interior_margin is not None:
+            object.__setattr__(self, "reference", replace(self.reference, interior_margin=None))
 
     @property
     def looks(self) -> int:
         """How many times the verdicts may be judged: 1, or rounds + 1 with ``decide``."""
         return self.rounds + 1 if self.decide else 1
-
-    def max_particles(self) -> int:
-        """The largest particle count of any run."""
-        return max(p.test.n_particles for p in self.planned_runs())
-
-    def estimated_particle_steps(self) -> float:
-        """Estimate of the study's total particle-steps (for admission limits): the planned
-        runs, and with ``decide`` the most its added runs may cost (the ``budget``, or every
-        variant and the reference filled to their seed caps, whichever is less)."""
-        from .plan import estimated_steps
-
-        planned = self.planned_runs()
-        cost = {}
-        for p in planned:
-            cost.setdefault(
-                (p.radius, None if p.rule is None else p.rule.name),
-                estimated_steps(p.test) * p.test.n_particles,
-            )
-        total = float(sum(estimated_steps(p.test) * p.test.n_particles for p in planned))
-        if not self.decide:
-            return total
-        worst = sum(
-            c * (self.max_reference_seeds - len(self.reference_seeds))
-            if k[1] is None
-            else c * (self.max_seeds - len(self.seeds))
-            for k, c in cost.items()
-        )
-        return total + float(worst if self.budget is None else min(worst, self.budget))
-
-    def to_dict(self) -> dict:
-        """JSON-friendly form (inverse: :meth:`from_dict`)."""
-        ref = self.reference.to_dict()
-        ref["interior_margin"] = None  # derived from interior_diameters again on load
-        return {
-            "reference": ref,
-            "coarse_radii": list(self.coarse_radii),
-            "rules": [r.to_dict() for r in self.rules],
-            "seeds": list(self.seeds),
-            "reference_seeds": list(self.reference_seeds),
-            "tolerances": dict(self.tolerances),
-            "interior_diameters": self.interior_diameters,
-            "confidence": self.confidence,
-            "decide": self.decide,
-            "max_seeds": self.max_seeds,
-            "max_reference_seeds": self.max_reference_seeds,
-            "rounds": self.rounds,
-            "budget": self.budget,
-        }
-
-    @classmethod
-    def from_dict(cls, d: dict) -> StudySpec:
-        """Build from :meth:`to_dict` output. ``reference`` may hold ``"preset": "quick"``
-        (or ``"paper"``) with overrides; rules may be given by name only."""
-        d = dict(d)
-        known = {
-            "reference",
-            "coarse_radii",
-            "rules",
-            "seeds",
-            "reference_seeds",
-            "tolerances",
-            "interior_diameters",
-            "confidence",
-            "decide",
-            "max_seeds",
-            "max_reference_seeds",
-            "rounds",
-            "budget",
-        }
-        if set(d) - known:
-            raise ParameterError(
-                "StudySpec", sorted(set(d) - known), f"fields among {sorted(known)}"
-            )
-        ref = d.get("reference", {"preset": "quick"})
-        if isinstance(ref, dict):
-            ref = dict(ref)
-            name = ref.pop("preset", None)
-            if name is not None:
-                base = preset(name).to_dict()
-                base.update(ref)
-                ref = base
-            d["reference"] = UniaxialTest.from_dict(ref)
-        for k in ("seeds", "reference_seeds", "tolerances"):
-            if k in d and d[k] is None:
-                del d[k]
-        for k in ("coarse_radii", "rules", "seeds", "reference_seeds"):
-            if k in d and not isinstance(d[k], (list, tuple)):
-                raise ParameterError(f"StudySpec.{k}", d[k], "a list")
-        if "tolerances" in d and not isinstance(d["tolerances"], dict):
-            raise ParameterError(
-                "StudySpec.tolerances", d["tolerances"], "an object of metric name -> tolerance"
-            )
-        if "rules" in d:
-            rules = []
-            for i, r in enumerate(d["rules"]):
-                if isinstance(r, str):
-                    rules.append(ScalingRule.named(r))
-                elif isinstance(r, dict):
-                    try:
-                        rules.append(ScalingRule(**r))
-                    except TypeError as e:
-                        raise ParameterError(
-                            f"StudySpec.rules[{i}]",
-                            r,
-                            "fields name, "
-                            "stiffness_exponent, adhesion_exponent, dt, "
-                            "adhesive_exponent",
-                        ) from e
-                else:
-                    rules.append(r)
-            d["rules"] = tuple(rules)
-        for k in ("coarse_radii", "seeds", "reference_seeds"):
-            if k in d:
-                d[k] = tuple(d[k])
-        return cls(**d)
 
 
 def default_study() -> StudySpec:

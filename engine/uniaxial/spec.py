@@ -9,18 +9,18 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..contact.bilinear import BilinearAdhesive
 from ..contact.eepa import EEPA
 from ..contact.hertz import HertzMindlin
-from ..contact.registry import LAWS, law_names, pair_laws, wall_laws
+from ..contact.registry import law_names, pair_laws, wall_laws
 from ..contact.wall import WallMaterial
 from ..core.config import MAX_OVERLAP_FRACTION
 from ..core.errors import ParameterError
-from ..core.records import check_fields, param
+from ..core.records import Record, check_fields, param
 from ..simulation.packing import draw_radii, loose_packing, sphere_volume
 from ..simulation.scene import Plane, Scene
 from ..simulation.timestep import adhesion_overlap, critical_time_step
@@ -41,7 +41,7 @@ def _platen_law() -> HertzMindlin:
 
 
 @dataclass(frozen=True)
-class UniaxialTest:
+class UniaxialTest(Record):
     """Parameters of one uniaxial test (SI units).
 
     The sample fills the cuboid ``cell`` = (Lx, Ly, H): the amount of material is what fills
@@ -108,12 +108,14 @@ class UniaxialTest:
     pair_law: BilinearAdhesive | EEPA | HertzMindlin = param(
         unit="",
         kind="record",
+        types=pair_laws,
         default_factory=_cohesionless_law,
         doc="particle-particle contact law",
     )
     wall_law: HertzMindlin = param(
         unit="",
         kind="record",
+        types=wall_laws,
         default_factory=_platen_law,
         doc="platen contact law (Hertz-Mindlin)",
     )
@@ -207,8 +209,8 @@ class UniaxialTest:
 
     def _check_runnable(self) -> None:
         """Refuse, before anything runs, what the engine would refuse in the middle of a run:
-        a fill the packer cannot place, an adhesion that pulls contacts too deep, a time step
-        above the stable limit."""
+        an adhesion that pulls contacts too deep, a time step above the stable limit. (The fill
+        is placed by the run that needs it, :meth:`initial_packing`: a record does no work.)"""
         o = "UniaxialTest"
         rmin = self.radius * (1 - self.polydispersity)
         law = self.pair_law
@@ -230,16 +232,6 @@ class UniaxialTest:
                     f"<= {lim.dt:.4g} s, the stable limit "
                     f"set by {lim.reason} (recommended {lim.recommended:.4g} s)",
                 )
-        # the packer is deterministic for a seed: place the fill now, exactly as the run will
-        try:
-            self.initial_packing()
-        except ParameterError as e:
-            raise ParameterError(
-                f"{o}.pour_fraction",
-                self.pour_fraction,
-                "low enough for the fill to be placed without overlap",
-                f"{e}; lower pour_fraction",
-            ) from None
 
     @property
     def margin(self) -> float:
@@ -287,9 +279,17 @@ class UniaxialTest:
     def initial_packing(self) -> tuple[np.ndarray, np.ndarray]:
         """Positions [m] and radii [m] of the poured fill: ``n_particles`` overlap-free
         spheres in the pour column (periodic x and y), from ``seed``."""
-        pos, radii = _packing(
-            self.n_particles, self.radius, self.polydispersity, self.seed, self.pour_region
-        )
+        try:
+            pos, radii = _packing(
+                self.n_particles, self.radius, self.polydispersity, self.seed, self.pour_region
+            )
+        except ParameterError as e:
+            raise ParameterError(
+                "UniaxialTest.pour_fraction",
+                self.pour_fraction,
+                "low enough for the fill to be placed without overlap",
+                f"{e}; lower pour_fraction",
+            ) from None
         return pos.copy(), radii.copy()
 
     def resolved_dt(self) -> float:
@@ -307,60 +307,13 @@ class UniaxialTest:
         """Thinnest side of the cell in diameters of the largest particle [-]."""
         return min(self.cell[:2]) / (2 * self.radius * (1 + self.polydispersity))
 
-    def to_dict(self) -> dict:
-        """JSON-friendly parameters (laws as nested dicts with a ``type``)."""
-        d = asdict(self)
-        d["cell"] = list(self.cell)
-        d["pair_law"] = {"type": type(self.pair_law).__name__, **asdict(self.pair_law)}
-        d["wall_law"] = {"type": "HertzMindlin", **asdict(self.wall_law)}
-        d["wall_material"] = asdict(self.wall_material)
-        return d
-
-    @classmethod
-    def from_dict(cls, d: dict) -> UniaxialTest:
-        """Inverse of :meth:`to_dict`; unknown keys raise :class:`ParameterError`."""
-        d = dict(d)
-        known = {f.name for f in fields(cls)}
-        unknown = set(d) - known
-        if unknown:
-            raise ParameterError("UniaxialTest", sorted(unknown), f"fields among {sorted(known)}")
-        if isinstance(d.get("pair_law"), dict):
-            pl = dict(d["pair_law"])
-            kind = pl.pop("type", "BilinearAdhesive")
-            law_cls = LAWS.get(kind)
-            if law_cls is None or not law_cls.pair:
-                raise ParameterError(
-                    "UniaxialTest.pair_law.type",
-                    kind,
-                    law_names(pair_laws()).replace("engine.", ""),
-                )
-            d["pair_law"] = law_cls(**pl)
-        if isinstance(d.get("wall_law"), dict):
-            wl = dict(d["wall_law"])
-            kind = wl.pop("type", "HertzMindlin")
-            law_cls = LAWS.get(kind)
-            if law_cls is None or not law_cls.wall:
-                raise ParameterError(
-                    "UniaxialTest.wall_law.type",
-                    kind,
-                    law_names(wall_laws()).replace("engine.", ""),
-                )
-            d["wall_law"] = law_cls(**wl)
-        if isinstance(d.get("wall_material"), dict):
-            d["wall_material"] = WallMaterial(**d["wall_material"])
-        if "cell" in d:
-            if not isinstance(d["cell"], (list, tuple)):
-                raise ParameterError("UniaxialTest.cell", d["cell"], "three lengths > 0 m")
-            d["cell"] = tuple(d["cell"])
-        return cls(**d)
-
 
 @functools.lru_cache(maxsize=16)
 def _packing(
     n: int, radius: float, polydispersity: float, seed: int, region: tuple[float, float, float]
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The poured fill, computed once: admission (every UniaxialTest places its fill when it
-    is built) and the run use the same one."""
+    """The poured fill, placed once per process for its parameters (a run's driver and, in
+    tests, a second look at the same test share it)."""
     radii = draw_radii(n, radius, polydispersity, seed)
     lx, ly, lz = region
     return loose_packing(radii, [(0, lx), (0, ly), (0, lz)], seed=seed), radii

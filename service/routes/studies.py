@@ -110,17 +110,18 @@ def submit_study(
     429 (with Retry-After) when too many studies are queued or running, or the token submits
     too fast; 507 when the token's studies would take more than its storage quota."""
     try:
-        spec = admit(body, settings)
+        plan = admit(body, settings)  # the study's one planning
     except SpecRejected as e:
         raise RequestValidationError(e.errors) from e
+    spec, planned = plan.spec, plan.runs
     costs = worst_case(spec)
-    planned = spec.planned_runs()
     study = Study(
         owner=owner,
         name=body.name,
         spec=spec.to_dict(),
+        plan=plan.to_dict(),  # what the worker runs
         n_runs=len(planned),
-        max_particles=max(p.test.n_particles for p in planned),
+        max_particles=plan.max_particles(),
         # the worst case its bounds allow, as admitted
         estimated_particle_steps=sum(c.particle_steps for c in costs),
     )

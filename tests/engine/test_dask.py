@@ -87,4 +87,4 @@ def test_a_dask_worker_killed_mid_run_costs_a_retry_not_the_study(cluster):
     t.join(500)
     assert not t.is_alive()
     study = result["study"]
-    assert not study.failed and sorted(seen) == sorted(p.key for p in spec.planned_runs())
+    assert not study.failed and sorted(seen) == sorted(p.key for p in engine.plan(spec).runs)

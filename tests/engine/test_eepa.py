@@ -302,7 +302,7 @@ def test_study_test_and_result_files_accept_the_law(tmp_path):
         rules=(engine.ScalingRule.named("similarity"), engine.ScalingRule.named("paper")),
     )
     assert engine.StudySpec.from_dict(json.loads(json.dumps(spec.to_dict()))) == spec
-    runs = {p.key: p for p in spec.planned_runs()}
+    runs = {p.key: p for p in engine.plan(spec).runs}
     s = 1.5
     scaled = runs["r3.75mm-similarity-s1"].test.pair_law
     assert scaled.k1 == pytest.approx(K1 * s ** (2 - N)) and scaled.f0 == pytest.approx(-0.4 * s**2)

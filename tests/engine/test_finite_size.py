@@ -8,14 +8,15 @@ import pytest
 
 from benchmarks.finite_size import COARSE_RADIUS, control_test, reference_test
 from benchmarks.reproduce import experiments
+from engine.study.plan import reference_test as study_reference
 
 
 @pytest.fixture(scope="module")
 def tests_():
     spec = experiments("paper")["b_cohesive"]
-    ref = spec.reference
+    ref = study_reference(spec)  # as the study's plan runs it, with the study's margin
     b2 = next(r for r in spec.rules if r.name == "b2")
-    coarse = b2.apply(ref, COARSE_RADIUS, ref.resolved_dt())  # as planned_runs builds it
+    coarse = b2.apply(ref, COARSE_RADIUS, ref.resolved_dt())  # as engine.plan builds it
     return ref, control_test(2, reference_test()), coarse
 
 

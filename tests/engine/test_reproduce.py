@@ -97,7 +97,7 @@ def test_runs_selection_runs_only_the_named_runs_not_stored():
     from benchmarks.reproduce import SKIPPED, experiments, select
 
     spec = experiments("paper")["c_eepa_cohesionless"]
-    keys = [p.key for p in spec.planned_runs()]
+    keys = [p.key for p in engine.plan(spec).runs]
     assert keys[:3] == ["ref-s1", "ref-s2", "ref-s3"] and len(keys) == 7
     done, todo = select(spec, {"ref-s1": "stored"}, None)
     assert todo == keys[1:] and done == {"ref-s1": "stored"}

@@ -51,19 +51,23 @@ def test_spec_validation_names_fields():
     ref = tiny()
     with pytest.raises(engine.ParameterError, match=r"coarse_radii\[0\]"):
         engine.StudySpec(reference=ref, coarse_radii=(ref.radius,))
+    # what spans records is checked when the study is planned (the spec is a plain record)
+    too_big = engine.StudySpec(reference=ref, coarse_radii=(3e-3, 8e-3))  # cell too small
     with pytest.raises(engine.ParameterError, match=r"coarse_radii\[1\]"):
-        engine.StudySpec(reference=ref, coarse_radii=(3e-3, 8e-3))  # cell too small
+        engine.plan(too_big)
     # refused before running: a time step above the stable limit, adhesion pulling contacts
     # too deep at the coarse radius, a fill the packer cannot place
     with pytest.raises(engine.ParameterError, match=r"UniaxialTest.dt .*stable limit"):
         tiny(dt=1e-3)
     with pytest.raises(engine.ParameterError, match=r"coarse_radii\[0\].*pair_law.f0"):
-        engine.StudySpec(
-            reference=engine.preset(
-                "quick", pair_law=engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-4.0)
-            ),
-            coarse_radii=(1e-2,),
-            rules=(engine.ScalingRule.named("cubic_adhesion"),),
+        engine.plan(
+            engine.StudySpec(
+                reference=engine.preset(
+                    "quick", pair_law=engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-4.0)
+                ),
+                coarse_radii=(1e-2,),
+                rules=(engine.ScalingRule.named("cubic_adhesion"),),
+            )
         )
     with pytest.raises(engine.ParameterError, match="pour_fraction"):
         engine.preset("quick", solid_fraction=0.3, pour_fraction=0.32)
@@ -72,9 +76,11 @@ def test_spec_validation_names_fields():
     two = engine.StudySpec(
         reference=tiny(), coarse_radii=(3.1e-3,), seeds=(1,), reference_seeds=(1, 2, 3)
     )
-    assert [p.key for p in two.planned_runs()][:3] == ["ref-s1", "ref-s2", "ref-s3"]
-    # one interior window for the study: two diameters of its largest particle
-    assert two.reference.interior_margin == pytest.approx(4 * 3.1e-3)
+    runs = engine.plan(two).runs
+    assert [p.key for p in runs][:3] == ["ref-s1", "ref-s2", "ref-s3"]
+    # one interior window for the study: two diameters of its largest particle, every run
+    assert [p.test.interior_margin for p in runs] == pytest.approx([4 * 3.1e-3] * len(runs))
+    assert two.reference.interior_margin is None  # the study's, not the reference's own
     assert two.tolerances == engine.DEFAULT_TOLERANCES
     with pytest.raises(engine.ParameterError, match="rules"):
         engine.StudySpec(reference=ref, rules=(engine.ScalingRule("x"), engine.ScalingRule("x")))
@@ -103,8 +109,8 @@ def test_spec_validation_names_fields():
         }
     )
     assert short.reference.radius == 2e-3 and short.rules[0].adhesion_exponent == 2.0
-    assert spec.estimated_particle_steps() > 0
-    assert spec.max_particles() == spec.reference.n_particles
+    assert engine.plan(spec).estimated_particle_steps() > 0
+    assert engine.plan(spec).max_particles() == spec.reference.n_particles
 
 
 def test_advisor_picks_coarsest_equivalent_and_fits_exponent():
@@ -213,7 +219,7 @@ def test_tiny_study_end_to_end(tiny_study, tmp_path):
         data = p.read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
     # the verdicts recomputed from the stored runs are the same
-    again = engine.study.results.assemble(spec, spec.planned_runs(), stored)
+    again = engine.study.results.assemble(spec, engine.plan(spec).runs, stored)
     assert again.advisor["verdicts"] == adv["verdicts"]
 
 
@@ -255,14 +261,14 @@ def test_a_failed_coarse_run_leaves_the_rest():
     outcomes = {}
     good = engine.run_study(spec, on_run=outcomes.__setitem__)
     outcomes["r3.1mm-paper-s1"] = "InstabilityError: blew up at step 12"
-    res = engine.study.results.assemble(spec, spec.planned_runs(), outcomes)
+    res = engine.study.results.assemble(spec, engine.plan(spec).runs, outcomes)
     assert res.failed == {"r3.1mm-paper-s1": "InstabilityError: blew up at step 12"}
     v = next(v for v in res.advisor["verdicts"] if v["rule"] == "paper")
     assert v["verdict"] == "undecided" and "blew up" in v["reason"]
     assert "r3.1mm-unscaled-s1" in res.runs and len(good.runs) == 4
     outcomes["ref-s1"] = outcomes["ref-s2"] = "StageError: no"
     with pytest.raises(engine.RunFailed):
-        engine.study.results.assemble(spec, spec.planned_runs(), outcomes)
+        engine.study.results.assemble(spec, engine.plan(spec).runs, outcomes)
 
 
 def test_callback_can_stop_a_study():
@@ -291,7 +297,7 @@ def test_a_deciding_study_resumes_with_the_runs_it_added():
     full = engine.run_study(spec, on_run=stored.__setitem__)
     added = [a["run"] for a in full.advisor["adaptive"]["added_runs"]]
     assert added and added[0] == "ref-s2"  # one reference seed: its spread first
-    planned = [p.key for p in spec.planned_runs()]
+    planned = [p.key for p in engine.plan(spec).runs]
     partial = {k: v for k, v in stored.items() if k in planned + added[:1]}
     ran: list = []
     again = engine.run_study(spec, completed=partial, on_run=lambda k, o: ran.append(k))

@@ -150,7 +150,7 @@ def test_too_many_particle_steps_is_refused(client, settings):
         "seeds": [1, 2, 3, 4, 5],
     }
     spec = engine.StudySpec.from_dict(body)
-    assert spec.max_particles() <= settings.max_particles_per_run
+    assert engine.plan(spec).max_particles() <= settings.max_particles_per_run
     # the cap is on the worst case the bounds allow (service.cost): between one seed's and
     # five seeds'
     one = sum(c.particle_steps for c in worst_case({**body, "seeds": [1]}))

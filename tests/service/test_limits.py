@@ -138,8 +138,8 @@ def test_a_costly_body_within_the_run_count_is_refused_before_any_packing(
 def test_the_caps_count_the_worst_case_the_bounds_allow(client, settings):
     costs = cost.worst_case(TINY)
     worst = sum(c.particle_steps for c in costs)
-    typical = engine.StudySpec.from_dict(
-        {k: v for k, v in TINY.items() if k != "name"}
+    typical = engine.plan(
+        engine.StudySpec.from_dict({k: v for k, v in TINY.items() if k != "name"})
     ).estimated_particle_steps()
     assert worst > 3 * typical  # max_stage_time for the fill, the platen travel, ...
     settings.max_particle_steps = (worst + typical) / 2  # the typical estimate would pass

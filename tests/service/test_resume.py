@@ -63,7 +63,7 @@ def test_a_run_killed_again_and_again_resumes_and_is_stored_bit_identically(
     assert logs.count("resuming run ref-s1 from its checkpoint") >= KILLS, logs[-3000:]
     # the stored run is the uninterrupted one, byte for byte
     spec = engine.StudySpec.from_dict({k: v for k, v in LONG.items() if k != "name"})
-    ref = next(p for p in spec.planned_runs() if p.key == "ref-s1")
+    ref = next(p for p in engine.plan(spec).runs if p.key == "ref-s1")
     clean = engine.run_uniaxial(ref.test)
     stored = load_run(settings.runs_dir(sid) / "ref-s1.h5")
     assert list(stored.stages) == list(clean.stages)

@@ -140,6 +140,13 @@ def param(
 
 def describe(cls) -> list[ParamInfo]:
     """The declared parameters of a record class, in field order."""
+    return list(_describe(cls))
+
+
+@functools.cache
+def _describe(cls) -> tuple[ParamInfo, ...]:
+    # once per class: every record checks its fields on construction (defaults are frozen
+    # records or immutable values, so the one ParamInfo per field may be shared)
     out = []
     for f in dataclasses.fields(cls):
         md = f.metadata.get(_KEY)
@@ -151,14 +158,14 @@ def describe(cls) -> list[ParamInfo]:
         elif default is MISSING:
             default, required = None, True
         out.append(ParamInfo(name=f.name, default=default, required=required, **md))
-    return out
+    return tuple(out)
 
 
 def check_fields(obj, owner: str | None = None) -> None:
     """Validate (and normalise: numbers become ``float`` or ``int``) every declared field of
     the frozen dataclass ``obj``; raise :class:`ParameterError` naming ``owner.field``."""
     owner = owner or type(obj).__name__
-    for info in describe(type(obj)):
+    for info in _describe(type(obj)):
         v = getattr(obj, info.name)
         name = f"{owner}.{info.name}"
         if v is None:
@@ -194,7 +201,7 @@ def to_dict(obj) -> dict:
     order; a nested record as an object (one whose field declares ``types``, a tagged union
     such as a contact law, with its ``"type"`` first); tuples as lists. Inverse:
     :func:`from_dict`."""
-    return {info.name: _to_json(getattr(obj, info.name), info) for info in describe(type(obj))}
+    return {info.name: _to_json(getattr(obj, info.name), info) for info in _describe(type(obj))}
 
 
 def _to_json(value: Any, info: ParamInfo | None = None) -> Any:
@@ -219,7 +226,7 @@ def from_dict(cls, data: Any, owner: str | None = None):
     owner = owner or cls.__name__
     if not isinstance(data, dict):
         raise ParameterError(owner, data, "an object of its fields")
-    infos = {info.name: info for info in describe(cls)}
+    infos = {info.name: info for info in _describe(cls)}
     unknown = set(data) - set(infos)
     if unknown:
         raise ParameterError(owner, sorted(unknown), f"fields among {sorted(infos)}")

@@ -36,6 +36,7 @@ import numpy as np
 import engine
 from benchmarks.checks import report
 from engine.simulation import packing
+from engine.simulation.simulation import run_team
 
 HERE = Path(__file__).resolve().parent
 CACHE = HERE / ".cache"
@@ -248,7 +249,7 @@ def liggghts(ranks: int, steps: int, bed=None) -> float | None:
 
 def profile(name: str, pos, rad, lengths, threads: int, steps: int) -> None:
     """Where a step's time goes (full law, ``threads`` threads): a force evaluation (both
-    passes by the thread team, with its barriers and the start of its one parallel region)
+    passes by the thread team, with its barriers and the start of its threads)
     and the neighbour-list builds, each timed alone over many calls [us per step], against
     the whole step measured by a run; and the pair pass and the particle pass (gather,
     walls) on one thread. Wall-clock and the process's CPU time (robust to other load on
@@ -296,17 +297,14 @@ def profile(name: str, pos, rad, lengths, threads: int, steps: int) -> None:
         k.serial_pass(np.int64(1), np.int64(k.FORCES), *a)
 
     def forces(a):
-        k.run_steps(np.int64(0), np.int64(0), np.int64(threads), *a)
+        a[-1].sync[:] = 0
+        run_team(k.run_member, threads, (threads, 0, 0, 0, *a))
 
     numba.set_num_threads(threads)
-    chunk = numba.set_parallel_chunksize(0)  # as in a run
-    try:
-        call = per_call(pair, targs)  # the Python call itself, on a 2-particle scene
-        t_pair = [a - b for a, b in zip(per_call(pair, args), call)]
-        t_part = [a - b for a, b in zip(per_call(particle, args), call)]
-        t_forces = [a - b for a, b in zip(per_call(forces, args), per_call(forces, targs))]
-    finally:
-        numba.set_parallel_chunksize(chunk)
+    call = per_call(pair, targs)  # the Python call itself, on a 2-particle scene
+    t_pair = [a - b for a, b in zip(per_call(pair, args), call)]
+    t_part = [a - b for a, b in zip(per_call(particle, args), call)]
+    t_forces = [a - b for a, b in zip(per_call(forces, args), per_call(forces, targs))]
     t = time.perf_counter()
     for _ in range(5):
         sim.rebuild_neighbour_list()
@@ -317,7 +315,7 @@ def profile(name: str, pos, rad, lengths, threads: int, steps: int) -> None:
     print(
         f"  profile {name:10s} {threads} thread(s): step {step * us:7.1f} us (CPU "
         f"{step_cpu * us:7.1f}) = force evaluation {t_forces[0] * us:7.1f} (CPU "
-        f"{t_forces[1] * us:7.1f}; both passes on {threads} thread(s), one parallel region) "
+        f"{t_forces[1] * us:7.1f}; both passes on {threads} thread(s), one team) "
         f"+ list builds {build * us:5.1f} ({builds} x {t_build * 1e3:.2f} ms) + rest "
         f"{rest * us:6.1f}; one thread: pair pass {t_pair[0] * us:7.1f}, particle pass "
         f"{t_part[0] * us:6.1f}; {step / sim.n * 1e9:.0f} ns per particle-step",
@@ -495,7 +493,7 @@ def main(argv=None) -> int:
             None,
         ),
     ]
-    print(f"\nthreading layer {numba.threading_layer()}")
+    print("\nthread team: the calling thread and the engine's pool (no numba parallel region)")
     for what, ok in checks:
         if ok is None:
             print(f"----  {what}")

@@ -12,23 +12,14 @@ from pathlib import Path
 
 import numba
 
-# Thread pool: OpenMP first. numba otherwise prefers TBB whenever a libtbb is installed (other
-# packages pull one in), and on this engine's short parallel passes TBB measured 25x slower
-# than OpenMP on 2 cores (4.3e5 vs 1.05e7 particle-steps/s) and can hang at interpreter exit.
-# Results do not depend on the layer. NUMBA_THREADING_LAYER, when set, wins.
+# The engine's thread budget is numba's thread count (``numba.get_num_threads()``, per calling
+# thread: ``numba.set_num_threads`` limits it), and reading it starts numba's threading layer.
+# OpenMP first: numba otherwise prefers TBB whenever a libtbb is installed (other packages
+# pull one in), which can hang at interpreter exit. The step kernel itself runs its thread
+# team on threads of its own (engine.simulation.simulation.run_team), not in numba's parallel
+# regions. NUMBA_THREADING_LAYER, when set, wins.
 if "NUMBA_THREADING_LAYER" not in os.environ and "NUMBA_THREADING_LAYER_PRIORITY" not in os.environ:
     numba.config.THREADING_LAYER_PRIORITY = ["omp", "workqueue", "tbb"]
-
-# OpenMP threads sleep instead of spinning between parallel regions (one per call of the step
-# kernel; inside a call the kernel's own team waits, see TEAM_* below). When every step was
-# two regions, OpenMP spinning gained a few per cent on an idle machine, but as soon as two
-# engine processes shared the cores (a service worker beside a benchmark, two test workers)
-# every pass waited for a descheduled spinner: a 340-particle run measured 9 s alone and over
-# 9 minutes with a second engine process on 2 cores, against 12 s with passive waiting. Set
-# before libgomp loads (at the first parallel call); an explicit OMP_WAIT_POLICY or
-# GOMP_SPINCOUNT (a bounded spin before sleeping) wins.
-if "GOMP_SPINCOUNT" not in os.environ:
-    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 #: Options of every serial kernel. ``error_model="numpy"`` makes a division by zero give inf
 #: (caught by the instability checks) instead of raising inside compiled code, and removes
@@ -41,37 +32,20 @@ NJIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 #: the scene's compile-time flags fold its unused branches away.
 NJIT_INLINE = {**NJIT, "inline": "always"}
 
-#: Options of kernels with ``prange`` loops.
-#: Only ``prange`` is transformed (no array-expression fusion and the like, which the kernels
-#: do not use): this cuts the compile time of a scene's step kernel by about a third.
-NJIT_PARALLEL = {
-    **NJIT,
-    "parallel": {
-        "prange": True,
-        "comprehension": False,
-        "setitem": False,
-        "reduction": False,
-        "numpy": False,
-        "stencil": False,
-        "fusion": False,
-        "inplace_binop": False,
-    },
-}
-
 #: Particles per parallel work item. Fixed (not derived from the thread count) so that every
 #: reduction is summed over the same chunks in the same order whatever the thread count:
 #: results are bit-identical with 1 and with N threads.
 CHUNK = 64
 
-#: Waiting in the step kernel's thread team (one parallel region per call of the kernel;
-#: threads meet at a barrier between the passes of a step instead of forking and joining
-#: twice per step). A waiting thread spins for at most ``TEAM_SPIN_CYCLES`` time-stamp
-#: cycles (about 20 us at 2.5 GHz: longer than the usual wait of a balanced team, about one
-#: chunk, shorter than waking a sleeping thread, about 60 us on the 2-core VM of
-#: benchmarks/README.md), then sleeps on a futex until the last thread arrives, so that it
-#: never holds a core another process needs. The first thread of a call waits at most
-#: ``TEAM_JOIN_WAIT_US`` microseconds (polling every ``TEAM_POLL_US``) for the others to start
-#: and otherwise runs that call alone.
+#: Waiting in the step kernel's thread team (one team per call of the kernel; threads meet
+#: at a barrier between the passes of a step instead of forking and joining twice per step).
+#: A waiting thread spins for at most ``TEAM_SPIN_CYCLES`` time-stamp cycles (about 20 us at
+#: 2.5 GHz: longer than the usual wait of a balanced team, about one chunk, shorter than
+#: waking a sleeping thread, about 60 us on the 2-core VM of benchmarks/README.md), then
+#: sleeps on a futex until the last thread arrives, so that it never holds a core another
+#: process needs. The first thread of a call waits at most ``TEAM_JOIN_WAIT_US``
+#: microseconds (polling every ``TEAM_POLL_US``) for the others to start and otherwise runs
+#: that call alone.
 TEAM_SPIN_CYCLES = 50_000
 TEAM_POLL_US = 20
 TEAM_JOIN_WAIT_US = 5000

@@ -21,10 +21,11 @@ One step (velocity Verlet, LAMMPS ordering; forces see the half-step velocity):
    closing half kick of one step and the opening half kick of the next are fused into one
    full kick.
 
-Threads: one parallel region per call of ``run_steps``. Its threads form a team that takes the
-fixed chunks of each pass (each thread its own contiguous block first, then what is left of
-the others') and meets at a barrier after each pass (``engine.kernel.state``: atomic counters,
-a short spin, then yielding the core), instead of forking and joining twice per step.
+Threads: a call runs ``run_member`` once per member of a thread team (the calling thread and
+threads of the engine's pool). The team takes the fixed chunks of each pass (each thread its
+own contiguous block first, then what is left of the others') and meets at a barrier after
+each pass (``engine.kernel.team``: atomic counters, a short spin, then a futex sleep),
+instead of forking and joining twice per step.
 
 No reduction depends on the thread count: every sum runs in a fixed order over fixed chunks, so
 trajectories are bit-identical with any number of threads.
@@ -34,10 +35,10 @@ import importlib
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from engine.contact.compose import composition, rolling_torque
-from engine.core.config import CHUNK, NJIT, NJIT_INLINE, NJIT_PARALLEL
+from engine.core.config import CHUNK, NJIT, NJIT_INLINE
 from engine.kernel.state import (
     NAN,
     OK,
@@ -583,49 +584,40 @@ def _particle_one(
     return e2
 
 
-@njit(**NJIT_PARALLEL)
-def run_steps(nsteps, pause, phase, team, P, L, W, prm, S):
-    """The one compiled entry point (so every kernel is compiled once, with one signature).
+@njit(**NJIT)
+def run_member(t, team, nsteps, pause, phase, P, L, W, prm, S):
+    """The one compiled entry point (so every kernel is compiled once, with one signature):
+    member ``t`` of a call's thread team of ``team`` threads. The caller
+    (:class:`engine.Simulation`) zeroes ``S.sync`` and runs member 0 in its own thread and
+    members 1 to team - 1 on threads of the engine's pool, all at once (the function holds no
+    GIL); the result is in ``S.sync[SYNC_STEPS]`` (steps completed) and ``S.sync[SYNC_STATUS]``.
 
-    Args: ``nsteps``, ``pause``, ``phase``, ``team`` (threads: numba's thread count, set by
-    the caller),
-    then the state records of :mod:`engine.kernel.state`:
-    particles ``P``, neighbour list ``L``, walls ``W``, step parameters ``prm`` (time step
-    ``prm.dt`` [s]) and scratch ``S``.
+    Args: ``t``, ``team``, ``nsteps``, ``pause``, ``phase`` (int64), then the state records of
+    :mod:`engine.kernel.state`: particles ``P``, neighbour list ``L``, walls ``W``, step
+    parameters ``prm`` (time step ``prm.dt`` [s]) and scratch ``S``.
 
     ``nsteps > 0``: advance up to that many steps. ``phase`` 0: the state is at a whole step
     with valid forces; ``phase`` 1: resuming after a neighbour-list rebuild, the opening kick
     and drift of the first step are done. ``nsteps == 0``: evaluate forces and torques at the
     current state, no integration.
 
-    Returns (steps completed, status). ``REBUILD``: some particle has moved more than half the
-    skin; the caller rebuilds the list (engine.kernel.neighbour, compiled once for every scene) and
-    resumes with phase 1. ``PAUSE``: ``pause`` steps are done and more remain; the call
-    returns exactly where a rebuild would (the next step opened), so that the caller, who
-    resumes with phase 1 and no rebuild, gets the same bits as one uninterrupted call (a
-    bounded call returns to Python, which can then report progress and hear a stop). On an
-    instability ``S.info`` holds the particle ids and the value.
+    Status: ``REBUILD``: some particle has moved more than half the skin; the caller rebuilds
+    the list (engine.kernel.neighbour, compiled once for every scene) and resumes with phase
+    1. ``PAUSE``: ``pause`` steps are done and more remain; the call returns exactly where a
+    rebuild would (the next step opened), so that the caller, who resumes with phase 1 and no
+    rebuild, gets the same bits as one uninterrupted call (a bounded call returns to Python,
+    which can then report progress and hear a stop). On an instability ``S.info`` holds the
+    particle ids and the value.
 
-    One parallel region per call: ``team`` threads (numba's thread count, with the parallel
-    chunk size 0 so that each takes one iteration) form a team (:func:`_member`) that meets at
-    barriers between the passes, instead of forking and joining twice per step. Should fewer
-    threads run the region, the team falls back to one thread (see
-    :func:`engine.kernel.team.team_join`): slower, never stuck, same result.
+    The members meet at barriers between the passes, instead of forking and joining twice
+    per step. Every member takes chunks of each pass, then waits at the barrier; after the
+    particle pass all read the same chunk flags and displacements and so take the same
+    decision (go on, rebuild, stop); rank 0 alone writes the shared scalars (wall forces and
+    positions, the result, the chunk counters). Should a member not start in time, the team
+    falls back to one thread (:func:`engine.kernel.team.team_join`): slower, never stuck,
+    same result. (No ``prange`` region: one cost a scene's kernel about a third more compile
+    time, and the threads of the engine's pool do the same work.)
     """
-    sync = S.sync
-    for k in range(sync.shape[0]):
-        sync[k] = 0
-    for t in prange(team):
-        _member(np.int64(t), team, nsteps, pause, phase, P, L, W, prm, S)
-    return sync[SYNC_STEPS], sync[SYNC_STATUS]
-
-
-@njit(**NJIT)
-def _member(t, team, nsteps, pause, phase, P, L, W, prm, S):
-    """One thread of :func:`run_steps`' team. Every thread takes chunks of each pass, then
-    waits at the barrier; after the particle pass all read the same chunk flags and
-    displacements and so take the same decision (go on, rebuild, stop); rank 0 alone writes
-    the shared scalars (wall forces and positions, the result, the chunk counters)."""
     sync = S.sync
     rank, size = team_join(sync, team)
     if rank < 0:

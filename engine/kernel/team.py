@@ -1,6 +1,7 @@
-"""The thread team of a step kernel call: one parallel region whose threads take the fixed
-chunks of each pass and meet at barriers (atomic counters, a short spin, then a futex sleep),
-instead of forking and joining twice per step. Compiled once for every scene.
+"""The thread team of a step kernel call: its threads (the caller's and the engine's pool's,
+engine.simulation.simulation.run_team) take the fixed chunks of each pass and meet at
+barriers (atomic counters, a short spin, then a futex sleep), instead of forking and joining
+twice per step. Compiled once for every scene.
 
 The counters live in ``Scratch.sync`` (:mod:`engine.kernel.state`), int64, at the ``SYNC_*``
 slots below, each on its own 64-byte cache line.
@@ -67,9 +68,9 @@ def team_join(sync, team):
     a thread that is not needed.
 
     The team forms only if all ``team`` threads arrive; the first waits at most
-    ``TEAM_JOIN_WAIT_US`` for the others and otherwise works alone (``SOLO``). A thread pool
-    that runs the team's iterations one after the other (nested parallelism, a thread limit)
-    therefore cannot deadlock at a barrier, and a teammate the OS keeps off the cores only
+    ``TEAM_JOIN_WAIT_US`` for the others and otherwise works alone (``SOLO``). A pool that
+    runs the team's members one after the other (its threads busy elsewhere) therefore
+    cannot deadlock at a barrier, and a teammate the OS keeps off the cores only
     costs this call its parallelism. Results do not depend on the outcome.
     """
     k = atomic_add(sync, SYNC_ARRIVE, 1)

@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import math
+import os
+import threading
 import time
 import warnings
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numba
@@ -27,10 +30,52 @@ from ..kernel.state import OVERLAP as _STATUS_OVERLAP
 from ..kernel.state import PAUSE as _STATUS_PAUSE
 from ..kernel.state import REBUILD as _STATUS_REBUILD
 from ..kernel.state import NeighbourList, Particles, Scratch, StepParams, Walls
-from ..kernel.team import sync_length
+from ..kernel.team import SYNC_STATUS, SYNC_STEPS, sync_length
 from .backend import resolve_backend
 from .scene import Scene
 from .timestep import TimeStepLimit, adhesion_overlap, critical_time_step
+
+_pool: ThreadPoolExecutor | None = None
+_pool_lock = threading.Lock()
+
+
+def _team_pool(helpers: int) -> ThreadPoolExecutor:
+    """The engine's pool of team threads, with room for at least ``helpers`` at once (made
+    on first use, grown when a larger team asks)."""
+    global _pool
+    with _pool_lock:
+        if _pool is None or _pool._max_workers < helpers:
+            old = _pool
+            size = max(helpers, numba.config.NUMBA_NUM_THREADS - 1)
+            _pool = ThreadPoolExecutor(max_workers=size, thread_name_prefix="engine-team")
+            if old is not None:
+                old.shutdown(wait=False)
+        return _pool
+
+
+def _forget_pool() -> None:
+    """In a forked child the parent's pool threads do not exist: start a new pool there."""
+    global _pool
+    _pool = None
+
+
+os.register_at_fork(after_in_child=_forget_pool)
+
+
+def run_team(member, team: int, args: tuple) -> None:
+    """Run the step kernel's ``member`` (a specialised module's ``run_member``) as a team of
+    ``team`` threads: member 0 in the calling thread, members 1 to team - 1 on the engine's
+    pool, all at once (compiled without the GIL), then wait for all. ``args`` follow the
+    member's rank: (team, nsteps, pause, phase, P, L, W, prm, S)."""
+    if team == 1:
+        member(0, *args)
+        return
+    helpers = [_team_pool(team - 1).submit(member, t, *args) for t in range(1, team)]
+    try:
+        member(0, *args)
+    finally:
+        for h in helpers:
+            h.result()
 
 
 class StabilityWarning(UserWarning):
@@ -346,32 +391,28 @@ class Simulation:
         return max(1, min(avail, self.n // PARTICLES_PER_THREAD))
 
     def _call(self, nsteps: int, phase: int = 0) -> tuple[int, int]:
-        prev = numba.get_num_threads()
-        k = self.threads
-        if k != prev:
-            numba.set_num_threads(k)
-        # numba's default split (chunk size 0): the kernel's one parallel loop runs one
-        # iteration per thread, each a member of the step's thread team
-        prev_chunk = numba.set_parallel_chunksize(0)
-        try:
-            return self._call_kernel(nsteps, phase, k)
-        finally:
-            numba.set_parallel_chunksize(prev_chunk)
-            if k != prev:
-                numba.set_num_threads(prev)
+        return self._call_kernel(nsteps, phase, self.threads)
 
     def _call_kernel(self, nsteps: int, phase: int, team: int) -> tuple[int, int]:
-        return self._k.run_steps(
+        """One call of the step kernel by a team of ``team`` threads; (steps, status)."""
+        sync = self._scratch.sync
+        sync[:] = 0
+        args = (
+            team,
             nsteps,
             self._pause,
             phase,
-            team,
             self._particles,
             self._list,
             self._walls,
             self._params,
             self._scratch,
         )
+        self._run_team(team, args)
+        return int(sync[SYNC_STEPS]), int(sync[SYNC_STATUS])
+
+    def _run_team(self, team: int, args: tuple) -> None:
+        run_team(self._k.run_member, team, args)
 
     def _rebuild(self) -> None:
         p = self._particles

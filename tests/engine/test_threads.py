@@ -78,22 +78,21 @@ def test_many_short_calls_form_the_team_again_each_time():
 
 
 class _TeamOfTwoOnOneThread(engine.Simulation):
-    """Asks the kernel for a team of two while numba runs the region on one thread."""
+    """Asks the kernel for a team of two, whose members run one after the other on one
+    thread (as when the pool's thread is held up)."""
 
     def _call_kernel(self, nsteps, phase, team):
-        old = numba.get_num_threads()
-        numba.set_num_threads(1)
-        try:
-            return super()._call_kernel(nsteps, phase, 2)
-        finally:
-            numba.set_num_threads(old)
+        return super()._call_kernel(nsteps, phase, 2)
+
+    def _run_team(self, team, args):
+        for t in range(team):
+            self._k.run_member(t, *args)
 
 
 @pytest.mark.timeout(300)
 def test_a_team_whose_threads_do_not_all_start_runs_alone():
-    """Only one thread runs the region, so the team's second member only starts after the
-    first has finished: the first must give up waiting and do all the work alone (the same
-    result, no deadlock)."""
+    """The team's second member only starts after the first has finished: the first must
+    give up waiting and do all the work alone (the same result, no deadlock)."""
     _assert_same(_run(1, calls=10), _run(2, calls=10, sim_class=_TeamOfTwoOnOneThread))
 
 

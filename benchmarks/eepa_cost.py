@@ -28,10 +28,9 @@ import tempfile
 from pathlib import Path
 
 import engine
-from benchmarks.checks import report
+from benchmarks.checks import report, worktree
 from benchmarks.engine_speed import FULL, anchor_bed, time_run
 
-ROOT = Path(__file__).resolve().parent.parent
 #: The last commit before engine.EEPA (its parent: "Review mends ...").
 BASELINE = "d2d75c5"
 LINEAR_TOLERANCE = 0.03
@@ -47,34 +46,21 @@ print(json.dumps(cpu))
 
 def baseline_cost(rev: str, steps: int, repeats: int) -> float:
     """CPU ns per particle-step of the bilinear law on the engine at git revision ``rev``."""
-    with tempfile.TemporaryDirectory() as tmp:
-        tree = Path(tmp) / "baseline"
-        subprocess.run(
-            ["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree), rev],
+    with worktree(rev) as tree, tempfile.TemporaryDirectory() as tmp:
+        env = {
+            **os.environ,
+            "DEMSCALE_CACHE_DIR": str(Path(tmp) / "cache"),
+            "PYTHONPATH": str(tree),
+        }
+        out = subprocess.run(
+            [sys.executable, "-c", _CHILD, str(steps), str(repeats)],
+            cwd=tree,
+            env=env,
             check=True,
             capture_output=True,
+            text=True,
         )
-        try:
-            env = {
-                **os.environ,
-                "DEMSCALE_CACHE_DIR": str(Path(tmp) / "cache"),
-                "PYTHONPATH": str(tree),
-            }
-            out = subprocess.run(
-                [sys.executable, "-c", _CHILD, str(steps), str(repeats)],
-                cwd=tree,
-                env=env,
-                check=True,
-                capture_output=True,
-                text=True,
-            )
-            return float(json.loads(out.stdout.strip().splitlines()[-1]))
-        finally:
-            subprocess.run(
-                ["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tree)],
-                check=False,
-                capture_output=True,
-            )
+        return float(json.loads(out.stdout.strip().splitlines()[-1]))
 
 
 def main(argv=None) -> int:

@@ -27,9 +27,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from benchmarks.checks import report
+from benchmarks.checks import ROOT, report, worktree
 
-ROOT = Path(__file__).resolve().parent.parent
 #: The last commit before the issue-20 redesign (subpackages, a law per module).
 BASELINE = "b777942"
 TOLERANCE = 0.03
@@ -76,37 +75,24 @@ def main(argv=None) -> int:
     ap.add_argument("--steps", type=int, default=3000)
     ap.add_argument("--repeats", type=int, default=2, help="timed runs per process (median)")
     args = ap.parse_args(argv)
-    with tempfile.TemporaryDirectory() as tmp:
-        base_tree = Path(tmp) / "baseline"
-        subprocess.run(
-            ["git", "-C", str(ROOT), "worktree", "add", "--detach", str(base_tree), args.baseline],
-            check=True,
-            capture_output=True,
-        )
-        try:
-            trees = {
-                "this": (ROOT, Path(tmp) / "cache-this"),
-                "baseline": (base_tree, Path(tmp) / "cache-base"),
-            }
-            rows: dict[str, list[dict[str, float]]] = {"this": [], "baseline": []}
-            for r in range(args.rounds):
-                order = ("this", "baseline") if r % 2 == 0 else ("baseline", "this")
-                for who in order:
-                    tree, cache = trees[who]
-                    rows[who].append(_measure(tree, cache, args.steps, args.repeats))
-                print(
-                    f"round {r + 1}: "
-                    + "; ".join(
-                        f"{n} {rows['this'][-1][n]:.0f} / {rows['baseline'][-1][n]:.0f} ns"
-                        for n in rows["this"][-1]
-                    ),
-                    flush=True,
-                )
-        finally:
-            subprocess.run(
-                ["git", "-C", str(ROOT), "worktree", "remove", "--force", str(base_tree)],
-                check=False,
-                capture_output=True,
+    with worktree(args.baseline) as base_tree, tempfile.TemporaryDirectory() as tmp:
+        trees = {
+            "this": (ROOT, Path(tmp) / "cache-this"),
+            "baseline": (base_tree, Path(tmp) / "cache-base"),
+        }
+        rows: dict[str, list[dict[str, float]]] = {"this": [], "baseline": []}
+        for r in range(args.rounds):
+            order = ("this", "baseline") if r % 2 == 0 else ("baseline", "this")
+            for who in order:
+                tree, cache = trees[who]
+                rows[who].append(_measure(tree, cache, args.steps, args.repeats))
+            print(
+                f"round {r + 1}: "
+                + "; ".join(
+                    f"{n} {rows['this'][-1][n]:.0f} / {rows['baseline'][-1][n]:.0f} ns"
+                    for n in rows["this"][-1]
+                ),
+                flush=True,
             )
     print(
         f"\nanchor bed, 1 thread, {args.steps} steps x {args.repeats} per process, "

@@ -11,8 +11,28 @@ from dataclasses import replace
 import numpy as np
 
 from ..core.errors import ParameterError
-from .kernel import pack_params
+from .kernel import Slot, pack_params
 from .limits import TimeStepCandidate, damping_ratio, oscillator_limit
+
+#: The slots both adhesive families read, in order (the EEPA law adds its exponents): K2 is
+#: K1 without the plastic branch, the others 0 when their switch is off.
+ADHESIVE_SLOTS = (
+    Slot("k1"),
+    Slot("k2", "plastic", "k1"),
+    Slot("f0", "adhesion"),
+    Slot("kadh", "adhesive_branch"),
+    Slot("kt", "friction"),
+    Slot("zeta", "damping"),
+    Slot("mu_s", "friction"),
+    Slot("mu_r", "rolling"),
+)
+
+#: The adhesive families' own switches, with what each adds.
+ADHESIVE_SWITCHES = {
+    "adhesion": "adhesive force f0",
+    "adhesive_branch": "adhesive branch kadh",
+    "plastic": "plastic unloading branch (k2 > k1)",
+}
 
 
 def check_k2(law, owner: str, unit: str) -> None:

@@ -10,8 +10,8 @@ from numba import njit
 
 from ..core.config import NJIT_INLINE
 from ..core.records import check_fields, param
-from .adhesive import AdhesiveLaw, check_k2
-from .kernel import COMPOSITION_SWITCHES, LawKernel, Slot
+from .adhesive import ADHESIVE_SLOTS, ADHESIVE_SWITCHES, AdhesiveLaw, check_k2
+from .kernel import COMPOSITION_SWITCHES, LawKernel
 
 
 @njit(**NJIT_INLINE)
@@ -39,9 +39,7 @@ def bilinear_normal_force(d, dmax, k1, k2, f0, kadh):
 BilinearParams = namedtuple("BilinearParams", "k1 k2 f0 kadh kt zeta mu_s mu_r")
 #: Its switches: the composition's, then adhesion (f0), the adhesive branch (kadh) and the
 #: plastic unloading branch (k2 > k1).
-BilinearSwitches = namedtuple(
-    "BilinearSwitches", (*COMPOSITION_SWITCHES, "adhesion", "adhesive_branch", "plastic")
-)
+BilinearSwitches = namedtuple("BilinearSwitches", (*COMPOSITION_SWITCHES, *ADHESIVE_SWITCHES))
 
 
 @njit(**NJIT_INLINE)
@@ -71,21 +69,8 @@ KERNEL = LawKernel(
     attribute="KERNEL",
     params=BilinearParams,
     switch_tuple=BilinearSwitches,
-    slots=(
-        Slot("k1"),
-        Slot("k2", "plastic", "k1"),
-        Slot("f0", "adhesion"),
-        Slot("kadh", "adhesive_branch"),
-        Slot("kt", "friction"),
-        Slot("zeta", "damping"),
-        Slot("mu_s", "friction"),
-        Slot("mu_r", "rolling"),
-    ),
-    switches={
-        "adhesion": "adhesive force f0",
-        "adhesive_branch": "adhesive branch slope kadh",
-        "plastic": "plastic unloading branch (k2 > k1)",
-    },
+    slots=ADHESIVE_SLOTS,
+    switches=ADHESIVE_SWITCHES,
     normal_force=normal_force,
     tangential_stiffness=tangential_stiffness,
 )

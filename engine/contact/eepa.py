@@ -11,7 +11,7 @@ from numba import njit
 
 from ..core.config import NJIT_INLINE
 from ..core.records import check_fields, param
-from .adhesive import AdhesiveLaw, check_k2
+from .adhesive import ADHESIVE_SLOTS, ADHESIVE_SWITCHES, AdhesiveLaw, check_k2
 from .kernel import COMPOSITION_SWITCHES, LawKernel, Slot
 
 
@@ -61,9 +61,7 @@ def eepa_impact_overlap(m_eff: float, law, v0: float) -> float:
 EEPAParams = namedtuple("EEPAParams", "k1 k2 f0 kadh kt zeta mu_s mu_r n chi")
 #: Its switches: the composition's, then adhesion (f0), the adhesive branch (kadh) and the
 #: plastic unloading branch (k2 > k1; a K2 of K1 without it).
-EEPASwitches = namedtuple(
-    "EEPASwitches", (*COMPOSITION_SWITCHES, "adhesion", "adhesive_branch", "plastic")
-)
+EEPASwitches = namedtuple("EEPASwitches", (*COMPOSITION_SWITCHES, *ADHESIVE_SWITCHES))
 
 
 @njit(**NJIT_INLINE)
@@ -88,23 +86,8 @@ KERNEL = LawKernel(
     attribute="KERNEL",
     params=EEPAParams,
     switch_tuple=EEPASwitches,
-    slots=(
-        Slot("k1"),
-        Slot("k2", "plastic", "k1"),
-        Slot("f0", "adhesion"),
-        Slot("kadh", "adhesive_branch"),
-        Slot("kt", "friction"),
-        Slot("zeta", "damping"),
-        Slot("mu_s", "friction"),
-        Slot("mu_r", "rolling"),
-        Slot("n"),
-        Slot("chi"),
-    ),
-    switches={
-        "adhesion": "adhesive force f0",
-        "adhesive_branch": "adhesive branch kadh d^chi",
-        "plastic": "plastic unloading branch (k2 > k1)",
-    },
+    slots=(*ADHESIVE_SLOTS, Slot("n"), Slot("chi")),
+    switches=ADHESIVE_SWITCHES,
     normal_force=normal_force,
     tangential_stiffness=tangential_stiffness,
 )

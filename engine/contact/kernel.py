@@ -65,11 +65,11 @@ class LawKernel:
 
     Attributes:
         name: the family's name (a scene's ``pair_kernel`` / ``wall_kernel`` feature).
-        module: the module that defines it (the specialised step module imports it from
-            there: ``from <module> import <attribute>``).
+        module: the module that defines it (the specialised step module takes it from
+            there: ``importlib.import_module(module).<attribute>``).
         attribute: its name in ``module``.
         params: the family's parameter tuple, a ``namedtuple`` defined at module level in
-            ``module`` (compiled kernels pickle it by name), fields in slot order.
+            ``module`` (a type numba's on-disk cache can name), fields in slot order.
         switch_tuple: the family's switch tuple, a module-level ``namedtuple`` whose fields are
             :data:`COMPOSITION_SWITCHES` then the family's own ``switches``.
         slots: one :class:`Slot` per field of ``params``.

@@ -206,7 +206,7 @@ def reference_dt(fields: dict) -> float:
 
 def worst_case(data: dict) -> list[RunCost]:
     """:class:`RunCost` of every planned run, in plan order, from the raw fields (as
-    ``engine.StudySpec.planned_runs`` would plan them, nothing built)."""
+    ``engine.plan`` would plan them, nothing built)."""
     fields = reference_fields(data)
     ref_seeds, seeds = _seeds(data, fields)
     radii = data.get("coarse_radii") or [5e-3]

@@ -41,13 +41,13 @@ StepParams = namedtuple("StepParams", "pair wall gravity length dt skin max_over
 Scratch = namedtuple("Scratch", "chunk_stat chunk_disp info sync")
 
 
-# status codes returned by the step kernel's run_steps
+# status codes of a step kernel call (engine.kernel.step_template.run_member)
 OK = 0
 REBUILD = 1
 NAN = 2
 OVERLAP = 3
 SPEED = 4
-PAUSE = 5  # the call's bound on steps reached (run_steps' pause), more steps remain
+PAUSE = 5  # the call's bound on steps reached (its pause), more steps remain
 
 
 @njit(**NJIT)

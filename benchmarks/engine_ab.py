@@ -2,6 +2,7 @@
 
     python -m benchmarks.engine_ab                      # against BASELINE (about 8 minutes)
     python -m benchmarks.engine_ab --baseline REV --rounds 7
+    python -m benchmarks.engine_ab --code               # the hot loop's machine code, compared
 
 The baseline engine (git revision ``--baseline``, default the last commit before the issue-20
 redesign) is checked out into a temporary git worktree. Each round runs one process of each
@@ -53,6 +54,65 @@ print(json.dumps({n: time_run(pos, rad, lengths, law, 1, steps, repeats)[1]
                   for n, law in laws.items()}))
 """
 
+_CODE = """
+import json, re, sys
+import numba
+numba.set_num_threads(1)
+import engine
+from benchmarks.engine_speed import DT, FULL, PLAIN, R, anchor_bed, scene_for
+fields = {k: getattr(FULL, k) for k in ("f0", "kadh", "kt_ratio", "mu_s", "mu_r", "restitution")}
+laws = {
+    "full": FULL,
+    "plain": PLAIN,
+    "eepa": engine.EEPA(k1=5e5, k2=2.5e6, n=1.5, chi=1.5, **fields),
+}
+pos, rad, lengths = anchor_bed()
+top = float((pos[:, 2] + rad).max()) + 0.1 * R
+out = {}
+for law_name, law in laws.items():
+    sim = engine.Simulation(scene_for(pos, rad, lengths, law, top), dt=DT, threads=1)
+    sim.run(2)
+    for name in ("_pair_chunk", "_particle_chunk", "_pass"):
+        d = getattr(sim._k, name)
+        lines = []
+        for line in d.inspect_asm(d.signatures[0]).splitlines():
+            line = line.split("#")[0].rstrip()
+            if not line.strip() or line.strip().startswith("."):
+                continue
+            line = re.sub(r"_ZN[\\w$.]+|__numba_\\w+", "SYM", line)
+            lines.append(re.sub(r"\\.L(BB|CPI)\\d+_\\d+", r".L\\1", line))
+        out[f"{law_name} {name}"] = lines
+print(json.dumps(out))
+"""
+
+
+def _code(tree: Path, tmp: Path) -> dict[str, list[str]]:
+    env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_NUM_THREADS": "1"}
+    env["DEMSCALE_CACHE_DIR"] = str(tmp / "kernels")  # compiled afresh: every callee's code
+    env["NUMBA_CACHE_DIR"] = str(tmp / "numba")
+    out = subprocess.run(
+        [sys.executable, "-c", _CODE], cwd=tree, env=env, check=True, capture_output=True, text=True
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def compare_code(baseline: str) -> int:
+    """The ``--code`` comparison: PASS per function whose instructions are identical."""
+    with worktree(baseline) as base_tree, tempfile.TemporaryDirectory() as tmp:
+        this = _code(ROOT, Path(tmp) / "this")
+        base = _code(base_tree, Path(tmp) / "base")
+    checks = []
+    for key, lines in this.items():
+        same = lines == base.get(key)
+        changed = sum(a != b for a, b in zip(lines, base.get(key, []))) + abs(
+            len(lines) - len(base.get(key, []))
+        )
+        print(
+            f"  {key:28s} {len(lines):5d} lines: " + ("identical" if same else f"{changed} differ")
+        )
+        checks.append((f"{key}: the machine code of {baseline}'s", same))
+    return report(checks)
+
 
 def _measure(tree: Path, cache: Path, steps: int, repeats: int) -> dict[str, float]:
     env = {**os.environ, "DEMSCALE_CACHE_DIR": str(cache), "PYTHONPATH": str(tree)}
@@ -74,7 +134,12 @@ def main(argv=None) -> int:
     ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--steps", type=int, default=3000)
     ap.add_argument("--repeats", type=int, default=2, help="timed runs per process (median)")
+    ap.add_argument(
+        "--code", action="store_true", help="compare the hot loop's machine code instead"
+    )
     args = ap.parse_args(argv)
+    if args.code:
+        return compare_code(args.baseline)
     with worktree(args.baseline) as base_tree, tempfile.TemporaryDirectory() as tmp:
         trees = {
             "this": (ROOT, Path(tmp) / "cache-this"),

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import contextlib
+import json
+import os
 import subprocess
+import sys
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -38,3 +41,18 @@ def report(checks: list[tuple[str, bool]]) -> int:
     for what, ok in checks:
         print(f"{'PASS' if ok else 'FAIL'}  {what}")
     return 0 if all(ok for _, ok in checks) else 1
+
+
+def run_child(tree: Path, code: str, args=(), **env) -> object:
+    """Run ``code`` with the engine of ``tree`` in a fresh Python process (``env`` added to
+    the environment, e.g. its own ``DEMSCALE_CACHE_DIR``) and return the JSON value its last
+    line prints."""
+    out = subprocess.run(
+        [sys.executable, "-c", code, *map(str, args)],
+        cwd=tree,
+        env={**os.environ, "PYTHONPATH": str(tree), **{k: str(v) for k, v in env.items()}},
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])

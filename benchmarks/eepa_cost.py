@@ -20,15 +20,11 @@ benchmarks/engine_speed.py), one engine thread, CPU time of the process per part
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
 import engine
-from benchmarks.checks import report, worktree
+from benchmarks.checks import report, run_child, worktree
 from benchmarks.engine_speed import FULL, anchor_bed, time_run
 
 #: The last commit before engine.EEPA (its parent: "Review mends ...").
@@ -47,20 +43,8 @@ print(json.dumps(cpu))
 def baseline_cost(rev: str, steps: int, repeats: int) -> float:
     """CPU ns per particle-step of the bilinear law on the engine at git revision ``rev``."""
     with worktree(rev) as tree, tempfile.TemporaryDirectory() as tmp:
-        env = {
-            **os.environ,
-            "DEMSCALE_CACHE_DIR": str(Path(tmp) / "cache"),
-            "PYTHONPATH": str(tree),
-        }
-        out = subprocess.run(
-            [sys.executable, "-c", _CHILD, str(steps), str(repeats)],
-            cwd=tree,
-            env=env,
-            check=True,
-            capture_output=True,
-            text=True,
-        )
-        return float(json.loads(out.stdout.strip().splitlines()[-1]))
+        cache = Path(tmp) / "cache"
+        return float(run_child(tree, _CHILD, (steps, repeats), DEMSCALE_CACHE_DIR=cache))
 
 
 def main(argv=None) -> int:

@@ -20,26 +20,24 @@ scatter that much, benchmarks/README.md).
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import statistics
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
-from benchmarks.checks import ROOT, report, worktree
+from benchmarks.checks import ROOT, report, run_child, worktree
 
 #: The last commit before the issue-20 redesign (subpackages, a law per module).
 BASELINE = "b777942"
 TOLERANCE = 0.03
 
-_CHILD = """
-import json, sys
+#: What both children set up: the engine of their tree, the three laws, the anchor bed.
+_SETUP = """
+import json, re, sys
 import numba
 numba.set_num_threads(1)
 import engine
-from benchmarks.engine_speed import FULL, PLAIN, anchor_bed, time_run
+from benchmarks.engine_speed import DT, FULL, PLAIN, R, anchor_bed, scene_for, time_run
 fields = {k: getattr(FULL, k) for k in ("f0", "kadh", "kt_ratio", "mu_s", "mu_r", "restitution")}
 laws = {
     "full": FULL,
@@ -47,26 +45,22 @@ laws = {
     "eepa": engine.EEPA(k1=5e5, k2=2.5e6, n=1.5, chi=1.5, **fields),
 }
 pos, rad, lengths = anchor_bed()
+"""
+
+_CHILD = (
+    _SETUP
+    + """
 for law in laws.values():  # compile (or load) every kernel before timing any
     time_run(pos, rad, lengths, law, 1, 10, 1)
 steps, repeats = int(sys.argv[1]), int(sys.argv[2])
 print(json.dumps({n: time_run(pos, rad, lengths, law, 1, steps, repeats)[1]
                   for n, law in laws.items()}))
 """
+)
 
-_CODE = """
-import json, re, sys
-import numba
-numba.set_num_threads(1)
-import engine
-from benchmarks.engine_speed import DT, FULL, PLAIN, R, anchor_bed, scene_for
-fields = {k: getattr(FULL, k) for k in ("f0", "kadh", "kt_ratio", "mu_s", "mu_r", "restitution")}
-laws = {
-    "full": FULL,
-    "plain": PLAIN,
-    "eepa": engine.EEPA(k1=5e5, k2=2.5e6, n=1.5, chi=1.5, **fields),
-}
-pos, rad, lengths = anchor_bed()
+_CODE = (
+    _SETUP
+    + """
 top = float((pos[:, 2] + rad).max()) + 0.1 * R
 out = {}
 for law_name, law in laws.items():
@@ -84,16 +78,18 @@ for law_name, law in laws.items():
         out[f"{law_name} {name}"] = lines
 print(json.dumps(out))
 """
+)
 
 
 def _code(tree: Path, tmp: Path) -> dict[str, list[str]]:
-    env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_NUM_THREADS": "1"}
-    env["DEMSCALE_CACHE_DIR"] = str(tmp / "kernels")  # compiled afresh: every callee's code
-    env["NUMBA_CACHE_DIR"] = str(tmp / "numba")
-    out = subprocess.run(
-        [sys.executable, "-c", _CODE], cwd=tree, env=env, check=True, capture_output=True, text=True
+    # compiled afresh (empty caches): every callee's code is made in this process
+    return run_child(
+        tree,
+        _CODE,
+        NUMBA_NUM_THREADS=1,
+        DEMSCALE_CACHE_DIR=tmp / "kernels",
+        NUMBA_CACHE_DIR=tmp / "numba",
     )
-    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def compare_code(baseline: str) -> int:
@@ -115,17 +111,7 @@ def compare_code(baseline: str) -> int:
 
 
 def _measure(tree: Path, cache: Path, steps: int, repeats: int) -> dict[str, float]:
-    env = {**os.environ, "DEMSCALE_CACHE_DIR": str(cache), "PYTHONPATH": str(tree)}
-    env["NUMBA_NUM_THREADS"] = "1"
-    out = subprocess.run(
-        [sys.executable, "-c", _CHILD, str(steps), str(repeats)],
-        cwd=tree,
-        env=env,
-        check=True,
-        capture_output=True,
-        text=True,
-    )
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return run_child(tree, _CHILD, (steps, repeats), NUMBA_NUM_THREADS=1, DEMSCALE_CACHE_DIR=cache)
 
 
 def main(argv=None) -> int:

@@ -10,8 +10,9 @@ benchmarks/engine_speed.py), one engine thread, CPU time of the process per part
 - the bilinear law (K1 = 5e3, K2 = 2.5e4 N/m, f0 = -0.4 N, friction, rolling, damping) on
   this engine and on the baseline engine ``--baseline`` (default: the last commit before the
   EEPA law), checked out into a temporary git worktree and run in its own process in the same
-  session: the target is that the linear scene costs the same (within 3 %, the spread of
-  repeated CPU-time measurements of one build);
+  session: the target is that the linear scene pays nothing for the EEPA law, i.e. costs
+  at most 3 % more (the spread of repeated CPU-time measurements of one build); a cheaper
+  run is no failure of that target;
 - the same law as ``EEPA(n=1, chi=1)``: the EEPA branches with their powers, same trajectory;
 - ``EEPA(n=1.5)`` with K1 = 5e5, K2 = 2.5e6 N/m^1.5 (the same force as the linear law at an
   overlap of 0.04 R) and f0 = -0.4 N.
@@ -84,9 +85,9 @@ def main(argv=None) -> int:
     return report(
         [
             (
-                f"a linear scene costs what it did before the EEPA law (ratio {lin:.3f}, "
-                f"within {LINEAR_TOLERANCE:.0%})",
-                abs(lin - 1) <= LINEAR_TOLERANCE,
+                f"a linear scene costs no more than before the EEPA law (ratio {lin:.3f}, "
+                f"at most 1 + {LINEAR_TOLERANCE:.0%})",
+                lin <= 1 + LINEAR_TOLERANCE,
             )
         ]
     )

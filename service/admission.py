@@ -19,6 +19,7 @@ import re
 import numpy as np
 
 import engine
+from engine.uniaxial.spec import particle_count
 
 from . import cost
 from .settings import Settings
@@ -78,15 +79,19 @@ def engine_loc(field: str) -> tuple:
 
 def particles_before_packing(fields: dict, radius: float) -> float:
     """Particles of the test ``fields`` with particles of ``radius``, by the engine's own
-    count (``UniaxialTest.n_particles``) but without building the test: building it places
-    the packing, which for a request with millions of particles would take the server's
-    memory and time before any cap could refuse it. inf when the count overflows."""
-    probe = object.__new__(engine.UniaxialTest)  # no __post_init__: nothing is placed
-    for name, value in {**fields, "radius": radius}.items():
-        object.__setattr__(probe, name, tuple(value) if isinstance(value, list) else value)
+    count (:func:`engine.uniaxial.spec.particle_count`, what ``UniaxialTest.n_particles``
+    returns) from the raw fields, before any record is built: a request with millions of
+    particles is refused by the cap in microseconds. inf when the count overflows."""
     try:
         with np.errstate(all="ignore"):  # a zero radius counts as inf, not as a warning
-            return float(probe.n_particles)
+            return float(
+                particle_count(
+                    tuple(fields["cell"]),
+                    radius,
+                    fields["solid_fraction"],
+                    fields["polydispersity"],
+                )
+            )
     except (OverflowError, ValueError, ZeroDivisionError):
         return math.inf
 

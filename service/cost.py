@@ -79,8 +79,10 @@ def _law(value, default: str):
 
 def probe(fields: dict, **changes) -> engine.UniaxialTest:
     """A :class:`engine.UniaxialTest` with ``fields`` (and ``changes``) set but not
-    validated and nothing placed: for its derived quantities (``n_particles``,
-    ``pour_height``, ``time_step_limit()``). The laws are built (and check themselves)."""
+    validated: for its derived quantities (``n_particles``, ``pour_height``,
+    ``time_step_limit()``) on a request whose worst case is refused before the engine's
+    checks run (a field the engine would refuse is named by the engine afterwards). The laws
+    are built (and check themselves)."""
     values = {**fields, **changes}
     values["pair_law"] = _law(values.get("pair_law"), "BilinearAdhesive")
     values["wall_law"] = _law(values.get("wall_law"), "HertzMindlin")

@@ -299,13 +299,22 @@ class UniaxialTest(Record):
     @property
     def n_particles(self) -> int:
         """Number of particles: solid_fraction x cell volume / mean particle volume."""
-        mean_vol = sphere_volume(self.radius) * (1 + self.polydispersity**2)  # E[r^3] / R^3
-        return max(2, round(self.solid_fraction * np.prod(self.cell) / mean_vol))
+        return particle_count(self.cell, self.radius, self.solid_fraction, self.polydispersity)
 
     @property
     def thickness_diameters(self) -> float:
         """Thinnest side of the cell in diameters of the largest particle [-]."""
         return min(self.cell[:2]) / (2 * self.radius * (1 + self.polydispersity))
+
+
+def particle_count(cell, radius: float, solid_fraction: float, polydispersity: float) -> int:
+    """Particles of a test with ``cell`` (Lx, Ly, Lz) [m], mean ``radius`` [m] uniform within
+    +-``polydispersity`` [-] and ``solid_fraction`` [-]: solid_fraction x cell volume / mean
+    particle volume, at least 2. A pure function of the fields (the service counts a request's
+    particles with it before any record is built); raises OverflowError when the count is
+    infinite (a zero radius, or 1e-300 m) and ValueError when it is NaN."""
+    mean_vol = sphere_volume(radius) * (1 + polydispersity**2)  # E[r^3] / R^3
+    return max(2, round(solid_fraction * float(np.prod(cell)) / mean_vol))
 
 
 @functools.lru_cache(maxsize=16)

@@ -112,6 +112,28 @@ def test_the_650_run_body_is_refused_before_any_packing(client, monkeypatch):
     assert took < 1.0  # the issue asks for < 100 ms; measured ~5 ms (a generous margin here)
 
 
+def test_the_particle_cap_counts_the_raw_fields_as_the_engine_does(client, settings, monkeypatch):
+    """The pre-check counts a request's particles from its raw fields
+    (engine.uniaxial.spec.particle_count), before the study is planned; the count is the
+    engine's n_particles of the record the plan builds, so the cap refuses at exactly one
+    particle over it."""
+    body = {k: v for k, v in copy.deepcopy(TINY).items() if k != "name"}
+    plan = engine.plan(engine.StudySpec.from_dict(body))
+    n = plan.runs[0].test.n_particles
+    assert plan.runs[0].rule is None and n == max(r.test.n_particles for r in plan.runs)
+    settings.max_particles_per_run = n - 1
+    planned, plan_study = [], engine.plan
+    with monkeypatch.context() as m:
+        m.setattr(engine, "plan", lambda *a: planned.append(a) or plan_study(*a))
+        r = client.post("/studies", json=TINY)
+    assert r.status_code == 422, r.text
+    assert planned == [], "the particle cap was left to the planned study"
+    (err,) = r.json()["detail"]
+    assert err["loc"][-1] == "reference" and err["input"] == n, err
+    settings.max_particles_per_run = n
+    assert client.post("/studies", json=TINY).status_code == 202
+
+
 @pytest.mark.timeout(60)
 def test_a_costly_body_within_the_run_count_is_refused_before_any_packing(
     client, settings, monkeypatch

@@ -11,7 +11,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..core.errors import ParameterError
-from .kernel import Slot, pack_params
+from .kernel import Slot, law_array
 from .limits import TimeStepCandidate, damping_ratio, oscillator_limit
 
 #: The slots both adhesive families read, in order (the EEPA law adds its exponents): K2 is
@@ -174,6 +174,4 @@ class AdhesiveLaw:
     def to_array(self, slots: tuple[str, ...] | None = None) -> np.ndarray:
         """Kernel parameter array: the values of ``slots`` (default: every slot of the
         law's kernel) in order, then a trailing NaN (where a kernel's absent slots point)."""
-        if slots is None:
-            slots = tuple(s.name for s in self.kernel.slots)
-        return pack_params(self.pair_values(), slots)
+        return law_array(self.pair_values(), self.kernel, slots)

@@ -30,6 +30,7 @@ bit-identical results to the feature switched off (tests/engine/test_kernels.py)
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import namedtuple
 
@@ -133,9 +134,7 @@ def rolling_torque(wx, wy, wz, mu_r, fn_abs, radius):
     return s * wx, s * wy, s * wz
 
 
-_made: dict[int, tuple] = {}
-
-
+@functools.cache  # once per family (a LawKernel hashes by identity)
 def composition(kernel) -> Composition:
     """The contact composition of the law family ``kernel``
     (:class:`engine.contact.kernel.LawKernel`), made once per family: its ``normal_force`` and
@@ -157,9 +156,6 @@ def composition(kernel) -> Composition:
     on i (3) [N m], torque on j (3) [N m], rolling moment ``mu_r |f_el|`` [N], 0 without
     rolling).
     """
-    made = _made.get(id(kernel))
-    if made is not None and made[0] is kernel:
-        return made[1]
     normal_force = kernel.normal_force
     tangential_stiffness = kernel.tangential_stiffness
 
@@ -251,6 +247,4 @@ def composition(kernel) -> Composition:
             roll,
         )
 
-    made = Composition(force, contact)
-    _made[id(kernel)] = (kernel, made)
-    return made
+    return Composition(force, contact)

@@ -12,7 +12,7 @@ from numba import njit
 
 from ..core.config import NJIT_INLINE
 from ..core.records import check_fields, param
-from .kernel import COMPOSITION_SWITCHES, LawKernel, Slot, pack_params
+from .kernel import COMPOSITION_SWITCHES, LawKernel, Slot, law_array
 from .limits import TimeStepCandidate, damping_ratio, oscillator_limit
 from .wall import WallMaterial
 
@@ -69,13 +69,13 @@ def hertz_candidates(
     """The Hertz oscillator limit (stiffness at the overlap of an impact at ``v`` [m/s]) and
     the contact duration, for the (m* [kg], R* [m]) pairs given, E* [Pa]."""
     # c = 2 sqrt(5/6) zeta sqrt(S m): a damping ratio of sqrt(5/6) zeta against stiffness S
-    zeta = math.sqrt(5.0 / 6.0) * damping_ratio(restitution)
+    zeta = 0.5 * hertz_damping_factor(restitution)
     out = []
     osc = math.inf
     tc = math.inf
     for m, r in zip(m_star, r_star):
         dmax = hertz_impact_overlap(m, r, e_star, v)
-        s_n = 2.0 * e_star * math.sqrt(r * dmax)
+        s_n = 2.0 * e_star * math.sqrt(r * dmax)  # hertz_normal_force's S_n (plain Python here)
         osc = min(osc, oscillator_limit(s_n, m, zeta))
         tc = min(tc, hertz_contact_time(m, r, e_star, v))
     out.append(
@@ -187,18 +187,7 @@ class HertzMindlin:
         [m/s], and the Rayleigh time of the smallest particle (``r_min`` [m], ``rho_min``
         [kg/m^3])."""
         e_star, _ = self.pair_moduli()
-        out = hertz_candidates(
-            "pair", np.array([m_eff]), np.array([r_eff]), e_star, self.restitution, v
-        )
-        out.append(
-            TimeStepCandidate(
-                "pair",
-                "pair Rayleigh time of the smallest particle",
-                rayleigh_time(r_min, rho_min, self.G, self.nu),
-                False,
-            )
-        )
-        return out
+        return self._time_steps("pair", e_star, [m_eff], [r_eff], r_min, rho_min, v)
 
     def wall_time_steps(
         self, wall: WallMaterial, m, r, r_min: float, rho_min: float, v: float
@@ -206,16 +195,16 @@ class HertzMindlin:
         """The Hertz limits of particles of masses ``m`` [kg] and radii ``r`` [m] on
         ``wall`` at ``v`` [m/s], and the Rayleigh time of the smallest particle."""
         e_star, _ = self.wall_moduli(wall)
-        out = hertz_candidates("wall", m, r, e_star, self.restitution, v)
-        out.append(
+        return self._time_steps("wall", e_star, m, r, r_min, rho_min, v)
+
+    def _time_steps(self, kind, e_star, m, r, r_min, rho_min, v) -> list[TimeStepCandidate]:
+        rayleigh = rayleigh_time(r_min, rho_min, self.G, self.nu)
+        return [
+            *hertz_candidates(kind, m, r, e_star, self.restitution, v),
             TimeStepCandidate(
-                "wall",
-                "wall Rayleigh time of the smallest particle",
-                rayleigh_time(r_min, rho_min, self.G, self.nu),
-                False,
-            )
-        )
-        return out
+                kind, f"{kind} Rayleigh time of the smallest particle", rayleigh, False
+            ),
+        ]
 
     @property
     def G(self) -> float:
@@ -248,11 +237,8 @@ class HertzMindlin:
             "mu_r": self.mu_r,
         }
 
-    def to_array(
-        self,
-        e_star: float,
-        g_star: float,
-        slots: tuple[str, ...] = ("e_star", "g_star", "zeta", "mu_s", "mu_r"),
-    ) -> np.ndarray:
-        """Kernel parameter array: the values of ``slots`` in order, then a trailing NaN."""
-        return pack_params(self.slot_values(e_star, g_star), slots)
+    def to_array(self, slots: tuple[str, ...] | None = None) -> np.ndarray:
+        """Kernel parameter array of a pair of particles of this material
+        (:meth:`pair_values`): the values of ``slots`` (default: every slot of the law's
+        kernel) in order, then a trailing NaN (where a kernel's absent slots point)."""
+        return law_array(self.pair_values(), self.kernel, slots)

@@ -130,3 +130,9 @@ def pack_params(values: dict[str, float], slots: tuple[str, ...]) -> np.ndarray:
     reader takes the neutral value), so a slip that reads past the used ones reads the NaN
     and poisons the run instead of reading a neighbour."""
     return np.array([values[name] for name in slots] + [math.nan], dtype=np.float64)
+
+
+def law_array(values: dict[str, float], kernel: LawKernel, slots=None) -> np.ndarray:
+    """:func:`pack_params` of a law's slot ``values`` over ``slots`` (default: every slot of
+    its ``kernel``): what a law's ``to_array`` returns."""
+    return pack_params(values, tuple(s.name for s in kernel.slots) if slots is None else slots)

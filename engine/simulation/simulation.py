@@ -36,18 +36,19 @@ from .scene import Scene
 from .timestep import TimeStepLimit, adhesion_overlap, critical_time_step
 
 _pool: ThreadPoolExecutor | None = None
+_pool_size = 0
 _pool_lock = threading.Lock()
 
 
 def _team_pool(helpers: int) -> ThreadPoolExecutor:
     """The engine's pool of team threads, with room for at least ``helpers`` at once (made
     on first use, grown when a larger team asks)."""
-    global _pool
+    global _pool, _pool_size
     with _pool_lock:
-        if _pool is None or _pool._max_workers < helpers:
+        if _pool is None or _pool_size < helpers:
             old = _pool
-            size = max(helpers, numba.config.NUMBA_NUM_THREADS - 1)
-            _pool = ThreadPoolExecutor(max_workers=size, thread_name_prefix="engine-team")
+            _pool_size = max(helpers, numba.config.NUMBA_NUM_THREADS - 1)
+            _pool = ThreadPoolExecutor(max_workers=_pool_size, thread_name_prefix="engine-team")
             if old is not None:
                 old.shutdown(wait=False)
         return _pool
@@ -55,8 +56,8 @@ def _team_pool(helpers: int) -> ThreadPoolExecutor:
 
 def _forget_pool() -> None:
     """In a forked child the parent's pool threads do not exist: start a new pool there."""
-    global _pool
-    _pool = None
+    global _pool, _pool_size
+    _pool, _pool_size = None, 0
 
 
 os.register_at_fork(after_in_child=_forget_pool)

@@ -129,13 +129,11 @@ class StudyBars:
             TimeRemainingColumn,
         )
 
-        from engine.study.plan import estimated_steps
+        from engine.study.plan import cost_weights
 
         self.planned = planned
         self.console = console
-        cost = [estimated_steps(p.test) * p.test.n_particles for p in planned]
-        total = sum(cost)
-        self.weights = [c / total for c in cost]
+        self.weights = [float(w) for w in cost_weights(planned)]
         self.bases = [sum(self.weights[:i]) for i in range(len(planned))]
         self.progress = Progress(
             TextColumn("{task.description}"),

@@ -6,8 +6,8 @@ the bounds on the knobs that set work, and the worst-case particle-steps and cur
 of the study against their caps. Only then does the engine build the spec and plan it, once
 (:func:`engine.plan`: every run's test, checked runnable, e.g. the cell must hold the coarsest
 particle; no packing is placed: the run that needs one places it); its errors are turned into
-the same field-level 422 answers; the caps are checked once more on the plan, which is
-stored with the job for the worker to run.
+the same field-level 422 answers; the caps are checked once more on the built spec, and the
+plan is stored with the job for the worker to run.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from __future__ import annotations
 import logging
 import math
 import re
+from typing import NamedTuple
 
 import numpy as np
 
@@ -77,7 +78,7 @@ def engine_loc(field: str) -> tuple:
     return (*prefix, *rest)
 
 
-def particles_before_packing(fields: dict, radius: float) -> float:
+def particles_from_fields(fields: dict, radius: float) -> float:
     """Particles of the test ``fields`` with particles of ``radius``, by the engine's own
     count (:func:`engine.uniaxial.spec.particle_count`, what ``UniaxialTest.n_particles``
     returns) from the raw fields, before any record is built: a request with millions of
@@ -175,9 +176,9 @@ def _check_bounds(fields: dict) -> None:
 
 
 def _check_size_first(data: dict, settings: Settings) -> None:
-    """Refuse, before the engine places any packing, a study with too many runs, a run over
-    the particle cap, a knob out of its work bounds, or a worst case over the caps (the
-    engine's own checks, and the caps once more, follow on the built spec)."""
+    """Refuse, from the raw fields before the engine builds anything, a study with too many
+    runs, a run over the particle cap, a knob out of its work bounds, or a worst case over
+    the caps (the engine's own checks, and the caps once more, follow on the built spec)."""
     n_runs = cost.plan_counts(data)
     if n_runs > settings.max_runs:
         raise _too_many_runs(n_runs, settings)
@@ -190,7 +191,7 @@ def _check_size_first(data: dict, settings: Settings) -> None:
         for i, r in enumerate(data.get("coarse_radii", ()))
     ]
     for key, loc, radius in radii:
-        n = particles_before_packing(fields, radius)
+        n = particles_from_fields(fields, radius)
         if n > settings.max_particles_per_run:
             raise _too_many_particles(loc, key, n, settings)
     try:  # a field the engine will refuse may make the arithmetic fail: the engine names it
@@ -203,9 +204,19 @@ def _check_size_first(data: dict, settings: Settings) -> None:
     check_costs(costs, settings)
 
 
-def admit(body: StudyCreate, settings: Settings) -> engine.StudyPlan:
-    """The engine's plan of ``body`` (:func:`engine.plan`, once) if the engine accepts it and
-    it is within the caps; raises :class:`SpecRejected` otherwise."""
+class Admitted(NamedTuple):
+    """An admitted study: the engine's ``plan`` and the worst-case ``costs`` of its runs
+    (:func:`service.cost.worst_case` of the built spec, as checked against the caps)."""
+
+    plan: engine.StudyPlan
+    costs: list[cost.RunCost]
+
+
+def admit(body: StudyCreate, settings: Settings) -> Admitted:
+    """The engine's plan of ``body`` (:func:`engine.plan`, once) and its worst-case costs if
+    the engine accepts it and it is within the caps; raises :class:`SpecRejected`
+    otherwise. (The checks on the built spec repeat those on the raw fields, which give up
+    where a field the engine will refuse makes their arithmetic fail.)"""
     data = body.engine_dict()
     try:
         _check_size_first(data, settings)
@@ -234,10 +245,6 @@ def admit(body: StudyCreate, settings: Settings) -> engine.StudyPlan:
         )
         raise _too_many_particles(loc, biggest.key, n, settings)
     _check_bounds(spec.reference.to_dict())
-    check_costs(worst_case(spec), settings)
-    return study
-
-
-def worst_case(spec: engine.StudySpec) -> list[cost.RunCost]:
-    """:func:`service.cost.worst_case` of a built spec."""
-    return cost.worst_case(spec.to_dict())
+    costs = cost.worst_case(spec.to_dict())
+    check_costs(costs, settings)
+    return Admitted(study, costs)

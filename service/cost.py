@@ -1,10 +1,9 @@
 """What a study can cost at worst, from its raw fields, before anything is built.
 
-Building an :class:`engine.UniaxialTest` places its packing, and a study builds one for every
-planned run: for a body of hundreds of runs that took minutes of the API's CPU before any
-cap could refuse it. Everything here works on the request's fields and on *probes*
-(records whose fields are set without ``__post_init__``, so nothing is placed), in
-microseconds per run:
+The admission refuses an oversized body from its fields, before the engine builds and checks
+the study's records (which for hundreds of runs costs far more than these checks, in
+microseconds per run). Everything here works on the request's fields and on *probes*
+(records whose fields are set without their checks):
 
 - :func:`plan_counts`: the number of runs (seeds x (1 + radii x rules));
 - :func:`work_bounds`: the bounds on the knobs that set a run's work or output, relative

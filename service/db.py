@@ -48,32 +48,30 @@ def get_engine(url: str) -> Engine:
         SQLModel.metadata.create_all(engine)
     except OperationalError:  # another process created the tables at the same moment
         SQLModel.metadata.create_all(engine)
-    _add_owner_column(engine)
-    _add_plan_column(engine)
+    # a store made before studies had owners: its old studies belong to no token (owner ''),
+    # so no token can read them through the API
+    _add_column(
+        engine,
+        "owner",
+        "ALTER TABLE study ADD COLUMN owner VARCHAR(16) NOT NULL DEFAULT ''",
+        "CREATE INDEX IF NOT EXISTS ix_study_owner ON study (owner)",
+    )
+    # a store made before studies kept their plan: NULL, such a study's worker plans it
+    # from its spec
+    _add_column(engine, "plan", "ALTER TABLE study ADD COLUMN plan JSON")
     return engine
 
 
-def _add_owner_column(engine: Engine) -> None:
-    """A store made before studies had owners gets the column; its old studies belong to
-    no token (owner ''), so no token can read them through the API."""
-    if "owner" in {c["name"] for c in inspect(engine).get_columns("study")}:
+def _add_column(engine: Engine, name: str, *ddl: str) -> None:
+    """Add column ``name`` to the study table of a store made before it existed (``ddl``:
+    the statements that add it); nothing if it is there. Two processes starting on one
+    store may both try: the second one's error is the column already being there."""
+    if name in {c["name"] for c in inspect(engine).get_columns("study")}:
         return
     try:
         with engine.begin() as conn:
-            conn.execute(text("ALTER TABLE study ADD COLUMN owner VARCHAR(16) NOT NULL DEFAULT ''"))
-            conn.execute(text("CREATE INDEX IF NOT EXISTS ix_study_owner ON study (owner)"))
-    except OperationalError:  # another process added it at the same moment
-        pass
-
-
-def _add_plan_column(engine: Engine) -> None:
-    """A store made before studies kept their plan gets the column (NULL: such a study's
-    worker plans it from its spec)."""
-    if "plan" in {c["name"] for c in inspect(engine).get_columns("study")}:
-        return
-    try:
-        with engine.begin() as conn:
-            conn.execute(text("ALTER TABLE study ADD COLUMN plan JSON"))
+            for statement in ddl:
+                conn.execute(text(statement))
     except OperationalError:  # another process added it at the same moment
         pass
 

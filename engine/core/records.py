@@ -32,7 +32,7 @@ class ParamInfo:
 
     Attributes: ``name``; ``unit`` (SI, ``"1"`` for dimensionless, ``""`` for none);
     ``doc``; the bounds ``gt``/``ge``/``lt``/``le`` (None: unbounded); ``kind`` (``"float"``,
-    ``"int"``, ``"bool"``, ``"str"``, ``"record"`` or ``"list"``); ``choices`` (allowed
+    ``"int"``, ``"bool"``, ``"str"``, ``"record"``, ``"list"`` or ``"dict"``); ``choices`` (allowed
     values of a string); ``nullable`` (None is allowed); ``default``; ``required`` (no default);
     ``max_items`` (longest list); ``types`` (a record field that takes one of several record
     classes, e.g. a contact law: a callable giving them, and the JSON form carries a

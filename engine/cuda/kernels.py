@@ -14,9 +14,8 @@ from types import SimpleNamespace
 
 from numba.cuda import types as cuda_types
 
-from ..kernel import neighbour
+from ..kernel import neighbour, state
 from ..kernel import specialise as cpu_kernels
-from ..kernel import state as step_common
 from . import _sources
 from .device import SIMULATOR, device_function, kernel, plain_device_function
 
@@ -66,8 +65,8 @@ def _constants() -> dict:
         "RED_T": RED_T,
         "SCAN_T": SCAN_T,
         "SCAN_SEG": SCAN_SEG,
-        "OK": step_common.OK,
-        "REBUILD": step_common.REBUILD,
+        "OK": state.OK,
+        "REBUILD": state.REBUILD,
     }
 
 
@@ -91,7 +90,7 @@ def step_kernels(features: dict[str, bool]) -> SimpleNamespace:
         )
         for name in ("_pair_setup", "_pair_one", "_wall_setup", "_particle_one"):
             b[name] = device_function(getattr(mod, name), memo)
-        b["_advance_walls"] = device_function(step_common._advance_walls, memo)
+        b["_advance_walls"] = device_function(state._advance_walls, memo)
         for name in _STEP_HELPERS:
             b[name] = plain_device_function(getattr(_sources, name), b, memo)
         ns = SimpleNamespace(cpu=mod, **{n: kernel(getattr(_sources, n), b, memo) for n in _STEP})

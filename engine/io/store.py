@@ -294,9 +294,9 @@ def completed_runs(study, directory: Path) -> tuple[dict, list[str]]:
     resumes from), and the keys of stored runs made with other parameters (to be run again).
     With ``decide`` the runs its rounds added are found too, round by round
     (:func:`engine.study.plan.plan_runs`)."""
-    from ..study.plan import StudyPlan, plan, plan_runs
+    from ..study.plan import as_plan, plan_runs
 
-    study = study if isinstance(study, StudyPlan) else plan(study)
+    study = as_plan(study)
     done, stale, seen = {}, [], set()
     while True:
         planned = {p.key: p.test for p in plan_runs(study, done)[0]}

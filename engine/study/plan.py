@@ -38,6 +38,26 @@ class PlannedRun:
     def is_reference(self) -> bool:
         return self.rule is None
 
+    @property
+    def variant(self) -> tuple[float, str] | None:
+        """(radius [m], rule name) of a coarse run; None for a reference."""
+        return None if self.rule is None else (self.radius, self.rule.name)
+
+    def with_seed(self, seed: int) -> PlannedRun:
+        """The same run with packing seed ``seed`` (its key says so)."""
+        return PlannedRun(
+            run_key(self.radius, self.rule, seed),
+            self.radius,
+            self.rule,
+            seed,
+            replace(self.test, seed=seed),
+        )
+
+    @property
+    def particle_steps(self) -> float:
+        """Estimated particle-steps of the run (:func:`estimated_steps` x particles)."""
+        return estimated_steps(self.test) * self.test.n_particles
+
 
 def run_key(radius: float, rule: ScalingRule | None, seed: int) -> str:
     """Key of a run, e.g. ``ref-s1`` or ``r5mm-paper-s1``."""
@@ -84,16 +104,13 @@ class StudyPlan:
         spec = self.spec
         cost = {}
         for p in self.runs:
-            cost.setdefault(
-                (p.radius, None if p.rule is None else p.rule.name),
-                estimated_steps(p.test) * p.test.n_particles,
-            )
-        total = float(sum(estimated_steps(p.test) * p.test.n_particles for p in self.runs))
+            cost.setdefault(p.variant, p.particle_steps)
+        total = float(sum(p.particle_steps for p in self.runs))
         if not spec.decide:
             return total
         worst = sum(
             c * (spec.max_reference_seeds - len(spec.reference_seeds))
-            if k[1] is None
+            if k is None
             else c * (spec.max_seeds - len(spec.seeds))
             for k, c in cost.items()
         )
@@ -168,8 +185,14 @@ def plan(spec: StudySpec) -> StudyPlan:
     return StudyPlan(spec, tuple(out))
 
 
+def as_plan(study: StudyPlan | StudySpec) -> StudyPlan:
+    """``study`` if it is a plan, else its :func:`plan`."""
+    return study if isinstance(study, StudyPlan) else plan(study)
+
+
 def cost_weights(planned: list[PlannedRun]) -> np.ndarray:
-    cost = np.array([estimated_steps(p.test) * p.test.n_particles for p in planned])
+    """Each run's share of the runs' estimated particle-steps [-]."""
+    cost = np.array([p.particle_steps for p in planned])
     return cost / cost.sum()
 
 
@@ -182,7 +205,7 @@ def plan_runs(
     resumed study, or a report from stored runs, finds the same runs). Returns (runs, the
     added runs as {run, round, kind, reason}, why the study stopped adding: None while some
     run of the last round is still to run)."""
-    study = study if isinstance(study, StudyPlan) else plan(study)
+    study = as_plan(study)
     spec = study.spec
     planned = list(study.runs)
     added: list[dict] = []
@@ -207,7 +230,7 @@ def plan_runs(
             )
         for p, a in new:
             planned.append(p)
-            spent += estimated_steps(p.test) * p.test.n_particles
+            spent += p.particle_steps
             added.append({"run": p.key, "round": a.round, "kind": a.kind, "reason": a.reason})
     if any(p.key not in outcomes for p in planned):
         return planned, added, None
@@ -236,9 +259,7 @@ def adaptive_summary(
         "looks": spec.looks,
         "stopped": stopped,
         "budget": spec.budget,
-        "added_particle_steps": float(
-            sum(estimated_steps(p.test) * p.test.n_particles for p in planned if p.key in keys)
-        ),
+        "added_particle_steps": float(sum(p.particle_steps for p in planned if p.key in keys)),
     }
 
 
@@ -265,49 +286,30 @@ def _judged_values(spec: StudySpec, planned: list[PlannedRun], outcomes: dict):
 def _added_runs(
     spec: StudySpec, planned: list[PlannedRun], outcomes: dict, round_no: int, spent: float
 ) -> list[tuple[PlannedRun, Addition]]:
-    """The runs round ``round_no`` adds (engine.study.adaptive), as planned runs with new seeds."""
+    """The runs round ``round_no`` adds (engine.study.adaptive): planned runs of the study
+    (``planned``, the stored plan's first) with new seeds, nothing planned again."""
     names, ref_values, variants = _judged_values(spec, planned, outcomes)
     if not ref_values:
         return []
     _, verdicts = judge_groups(spec, ref_values, variants, names, looks=spec.looks)
-    cost = {}
-    for p in planned:
-        k = "reference" if p.is_reference else (p.radius, p.rule.name)
-        cost.setdefault(k, estimated_steps(p.test) * p.test.n_particles)
-    budget_left = None if spec.budget is None else spec.budget - spent
+    cost: dict = {}
     attempted: dict = {}
-    for p in planned:
-        k = "reference" if p.is_reference else (p.radius, p.rule.name)
-        attempted[k] = attempted.get(k, 0) + 1
-    adds = next_runs(spec, ref_values, variants, verdicts, cost, round_no, budget_left, attempted)
-    reference = reference_test(spec)
-    dt_ref = reference.resolved_dt()
+    template: dict = {}  # the first planned run of each variant (None: the reference)
     used: dict = {}
     for p in planned:
-        used.setdefault(None if p.is_reference else (p.radius, p.rule.name), set()).add(p.seed)
-    rules = {r.name: r for r in spec.rules}
+        k = "reference" if p.is_reference else p.variant
+        cost.setdefault(k, p.particle_steps)
+        attempted[k] = attempted.get(k, 0) + 1
+        template.setdefault(p.variant, p)
+        used.setdefault(p.variant, set()).add(p.seed)
+    budget_left = None if spec.budget is None else spec.budget - spent
+    adds = next_runs(spec, ref_values, variants, verdicts, cost, round_no, budget_left, attempted)
     out = []
     for a in adds:
         seeds = used.setdefault(a.variant, set())
         seed = max(seeds | used.get(None, set())) + 1
         seeds.add(seed)
-        ref = replace(reference, seed=seed)
-        if a.kind == "reference":
-            out.append(
-                (PlannedRun(run_key(ref.radius, None, seed), ref.radius, None, seed, ref), a)
-            )
-        else:
-            radius, rule = a.variant[0], rules[a.variant[1]]
-            out.append(
-                (
-                    PlannedRun(
-                        run_key(radius, rule, seed),
-                        radius,
-                        rule,
-                        seed,
-                        rule.apply(ref, radius, dt_ref),
-                    ),
-                    a,
-                )
-            )
+        # the planned run with a new seed: the same test (a coarse test's time step is the
+        # reference's, whatever its seed), so an added run is what the stored plan holds
+        out.append((template[None if a.kind == "reference" else a.variant].with_seed(seed), a))
     return out

@@ -2,13 +2,13 @@
 any :class:`concurrent.futures.Executor`, then errors, noise floor and verdicts
 (docs/PHYSICS.md sections 5 and 7).
 
-The spec and its runs are in :mod:`engine.study.spec`, the metrics in :mod:`engine.study.metrics`,
-the verdict logic in :mod:`engine.study.advisor`. Runs are independent: a coarse run's time step is
-known before its reference runs, so all runs can go side by side; the comparison is made
-when they are all done. A failed coarse run is recorded with its error while the others go
-on; ``on_run`` hears of every finished run at once (to store it), and ``completed`` hands
-back stored runs so that a resumed study runs only what is missing.
-"""
+The spec is in :mod:`engine.study.spec`, its runs in :mod:`engine.study.plan`, the metrics in
+:mod:`engine.study.metrics`, the verdict logic in :mod:`engine.study.advisor`. Runs are
+independent: a coarse run's time step is known before its reference runs, so all runs can go
+side by side; the comparison is made when they are all done. A failed coarse run is recorded
+with its error while the others go on; ``on_run`` hears of every finished run at once (to
+store it), and ``completed`` hands back stored runs so that a resumed study runs only what is
+missing."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ from ..uniaxial.checkpoint import CHECKPOINT_INTERVAL, Checkpoint, check_interva
 from ..uniaxial.driver import run_uniaxial
 from ..uniaxial.results import Progress, UniaxialResult
 from .channel import task_progress
-from .plan import PlannedRun, StudyPlan, adaptive_summary, cost_weights, plan, plan_runs
+from .plan import PlannedRun, StudyPlan, adaptive_summary, as_plan, cost_weights, plan_runs
 from .results import RunFailed, StudyResult, assemble
 from .spec import StudySpec
 
@@ -140,14 +140,12 @@ def run_study(
         check_interval(max_run_wall_time, "run_study.max_run_wall_time")
     limit = (max_run_wall_time, wall_time_setting)
     backend = check_backend(backend, "run_study.backend")
-    study = study if isinstance(study, StudyPlan) else plan(study)  # planned once
+    study = as_plan(study)  # planned once
     spec = study.spec
-    planned = list(study.runs)
-    weights = cost_weights(planned)
     outcomes: dict[str, UniaxialResult | str] = dict(completed or {})
     progress = _monotone_progress(progress)
 
-    refs = [q.key for q in planned if q.is_reference]
+    refs = [q.key for q in study.runs if q.is_reference]
 
     if checkpoints is not None:
         check_interval(checkpoint_interval, "run_study.checkpoint_interval")
@@ -192,14 +190,13 @@ def run_study(
                 backend,
             )
 
-    while True:
+    while True:  # with decide, each pass may add the runs of the next round
         planned, added, stopped = plan_runs(study, outcomes)
         weights = cost_weights(planned)
         todo = [i for i, p in enumerate(planned) if p.key not in outcomes]
         if not todo:
             break
         run(todo)
-    planned, added, stopped = plan_runs(study, outcomes)
     result = assemble(spec, planned, outcomes)
     if spec.decide:
         result.advisor["adaptive"] = adaptive_summary(spec, planned, added, stopped)

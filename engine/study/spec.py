@@ -1,5 +1,5 @@
-"""What a scaling study runs: :class:`ScalingRule`, :class:`StudySpec` and the planned runs
-(docs/PHYSICS.md section 5).
+"""What a scaling study runs: :class:`ScalingRule` and :class:`StudySpec` (its runs:
+:mod:`engine.study.plan`; docs/PHYSICS.md section 5).
 
 Every field is declared with its unit and bounds (:mod:`engine.core.records`); the job service
 builds its request schema from these declarations, and the named rules exist once, here.

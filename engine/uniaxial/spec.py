@@ -2,7 +2,7 @@
 
 :class:`UniaxialTest` holds every parameter of one test, declared with its unit and bounds
 (:mod:`engine.core.records`) and validated once on construction; :func:`preset` gives the named
-tests. The stage driver is :mod:`engine.uniaxial`.
+tests. The stage driver is :mod:`engine.uniaxial.driver`.
 """
 
 from __future__ import annotations
@@ -73,7 +73,7 @@ class UniaxialTest(Record):
         failure_strain: ... and has stayed there for this much further axial strain [-].
         max_unconfined_strain: unconfined compression also ends at this strain [-] (samples
             without a peak); their strength is the documented fallback (see
-            :mod:`engine.uniaxial`).
+            :func:`engine.uniaxial.measures.unconfined_strength`).
         settle_ke: a settling stage ends when the kinetic energy is below this fraction of
             N m g R (the energy of lifting every particle by one radius) [-].
         release_time: the release stage also ends after this much simulated time [s].
@@ -209,8 +209,9 @@ class UniaxialTest(Record):
 
     def _check_runnable(self) -> None:
         """Refuse, before anything runs, what the engine would refuse in the middle of a run:
-        an adhesion that pulls contacts too deep, a time step above the stable limit. (The fill
-        is placed by the run that needs it, :meth:`initial_packing`: a record does no work.)"""
+        an adhesion that pulls contacts too deep, a time step above the stable limit (checked
+        on a two-particle stand-in scene). The fill is placed by the run that needs it
+        (:meth:`initial_packing`), not here."""
         o = "UniaxialTest"
         rmin = self.radius * (1 - self.polydispersity)
         law = self.pair_law

@@ -10,7 +10,7 @@ from fastapi.exceptions import RequestValidationError
 from sqlmodel import func, select
 
 from .. import transitions
-from ..admission import SpecRejected, admit, worst_case
+from ..admission import SpecRejected, admit
 from ..cost import output_bytes, stored_bytes
 from ..cost import worst_case as cost_of
 from ..deps import OwnerDep, SessionDep, SettingsDep, StudyDep
@@ -110,11 +110,10 @@ def submit_study(
     429 (with Retry-After) when too many studies are queued or running, or the token submits
     too fast; 507 when the token's studies would take more than its storage quota."""
     try:
-        plan = admit(body, settings)  # the study's one planning
+        plan, costs = admit(body, settings)  # the study's one planning
     except SpecRejected as e:
         raise RequestValidationError(e.errors) from e
     spec, planned = plan.spec, plan.runs
-    costs = worst_case(spec)
     study = Study(
         owner=owner,
         name=body.name,

@@ -44,7 +44,7 @@ import numba
 import numpy as np
 
 import engine
-from engine.study.plan import adaptive_summary, plan_runs
+from engine.study.plan import adaptive_summary, final_look, plan_runs
 from engine.study.results import assemble
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -458,7 +458,7 @@ def write_report(
             results[name] = "no reference run stored yet"
             continue
         try:
-            results[name] = assemble(spec, planned, outcomes)
+            results[name] = assemble(spec, planned, outcomes, final_look(spec, added))
         except engine.RunFailed as e:
             results[name] = str(e)
             continue

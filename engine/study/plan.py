@@ -224,6 +224,7 @@ def plan_runs(
                     spec,
                     planned,
                     outcomes,
+                    added,
                     "no undecided verdict can be decided within the seed "
                     "caps and budget (each reason says how many seeds it would need)",
                 ),
@@ -234,19 +235,33 @@ def plan_runs(
             added.append({"run": p.key, "round": a.round, "kind": a.kind, "reason": a.reason})
     if any(p.key not in outcomes for p in planned):
         return planned, added, None
-    return planned, added, _stop_reason(spec, planned, outcomes, f"all {spec.rounds} rounds run")
+    return (
+        planned,
+        added,
+        _stop_reason(spec, planned, outcomes, added, f"all {spec.rounds} rounds run"),
+    )
 
 
-def _stop_reason(spec, planned, outcomes, otherwise: str) -> str:
+def _stop_reason(spec, planned, outcomes, added, otherwise: str) -> str:
     names, ref_values, variants = _judged_values(spec, planned, outcomes)
     if not ref_values:
         return "no reference run finished"
-    _, verdicts = judge_groups(spec, ref_values, variants, names, looks=spec.looks)
+    look = final_look(spec, added)
+    _, verdicts = judge_groups(spec, ref_values, variants, names, look=look, looks=spec.looks)
     return (
         otherwise
         if any(v["verdict"] == "undecided" for v in verdicts)
         else ("every verdict decided")
     )
+
+
+def final_look(spec: StudySpec, added: list[dict]) -> int:
+    """The look at which a study's verdicts are judged (engine.study.advisor.look_alpha): 1
+    for a study without ``decide``; else 1 (the pilot: the planned runs) plus one per round
+    that added runs (``added``: as :func:`plan_runs` returns them)."""
+    if not spec.decide:
+        return 1
+    return 1 + len({a["round"] for a in added})
 
 
 def adaptive_summary(
@@ -257,6 +272,7 @@ def adaptive_summary(
         "planned_runs": len(planned) - len(added),
         "added_runs": added,
         "looks": spec.looks,
+        "look": final_look(spec, added),
         "stopped": stopped,
         "budget": spec.budget,
         "added_particle_steps": float(sum(p.particle_steps for p in planned if p.key in keys)),
@@ -291,7 +307,7 @@ def _added_runs(
     names, ref_values, variants = _judged_values(spec, planned, outcomes)
     if not ref_values:
         return []
-    _, verdicts = judge_groups(spec, ref_values, variants, names, looks=spec.looks)
+    _, verdicts = judge_groups(spec, ref_values, variants, names, look=round_no, looks=spec.looks)
     cost: dict = {}
     attempted: dict = {}
     template: dict = {}  # the first planned run of each variant (None: the reference)

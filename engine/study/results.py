@@ -136,9 +136,12 @@ class RunFailed(RuntimeError):
         return type(self), (self.run_key, self.text)
 
 
-def assemble(spec: StudySpec, planned: list[PlannedRun], outcomes: dict) -> StudyResult:
+def assemble(
+    spec: StudySpec, planned: list[PlannedRun], outcomes: dict, look: int = 1
+) -> StudyResult:
     """Errors, groups, noise floor, verdicts and advisor from the runs' outcomes (key ->
-    :class:`UniaxialResult` or error text). Recomputable at any time from stored runs."""
+    :class:`UniaxialResult` or error text), the verdicts judged at ``look`` of ``spec.looks``
+    (engine.study.plan.final_look). Recomputable at any time from stored runs."""
     failed = {p.key: outcomes[p.key] for p in planned if isinstance(outcomes.get(p.key), str)}
     missing = [p.key for p in planned if p.key not in outcomes]
     for k in missing:
@@ -192,7 +195,7 @@ def assemble(spec: StudySpec, planned: list[PlannedRun], outcomes: dict) -> Stud
         variants.setdefault((p.radius, p.rule.name), []).append(values)
     table = [r.row() for r in runs.values()]
     groups = _groups(spec, runs, names)
-    noise, verdicts = judge_groups(spec, ref_values, variants, names, looks=spec.looks)
+    noise, verdicts = judge_groups(spec, ref_values, variants, names, look=look, looks=spec.looks)
     keys_of: dict[tuple, list[str]] = {}
     for p in planned:
         if not p.is_reference:

@@ -24,7 +24,15 @@ from ..uniaxial.checkpoint import CHECKPOINT_INTERVAL, Checkpoint, check_interva
 from ..uniaxial.driver import run_uniaxial
 from ..uniaxial.results import Progress, UniaxialResult
 from .channel import task_progress
-from .plan import PlannedRun, StudyPlan, adaptive_summary, as_plan, cost_weights, plan_runs
+from .plan import (
+    PlannedRun,
+    StudyPlan,
+    adaptive_summary,
+    as_plan,
+    cost_weights,
+    final_look,
+    plan_runs,
+)
 from .results import RunFailed, StudyResult, assemble
 from .spec import StudySpec
 
@@ -197,7 +205,7 @@ def run_study(
         if not todo:
             break
         run(todo)
-    result = assemble(spec, planned, outcomes)
+    result = assemble(spec, planned, outcomes, final_look(spec, added))
     if spec.decide:
         result.advisor["adaptive"] = adaptive_summary(spec, planned, added, stopped)
     return result

@@ -170,12 +170,14 @@ class StudySpec(Record):
             and coordination of every run, in diameters of the study's largest particle [-].
         confidence: of every verdict: a wrong ``equivalent`` or a wrong ``differs`` is said
             in at most 1 - confidence of studies [-] (engine.study.advisor).
-        decide: after the planned runs, add seeds where a verdict is undecided, in up to
-            ``rounds`` rounds, until every verdict is decided, a cap or the budget is hit.
+        decide: a two-stage design: the planned runs are a pilot, after which every variant
+            not told apart gets the seeds its spreads say it needs (engine.study.adaptive),
+            in up to ``rounds`` rounds, within the caps and the budget.
         max_seeds: with ``decide``, most seeds of one coarse variant (planned ones included).
         max_reference_seeds: with ``decide``, most reference seeds (planned ones included).
-        rounds: with ``decide``, most rounds of added runs; the verdicts spend their error
-            rate over rounds + 1 looks, so adding seeds keeps the stated confidence.
+        rounds: with ``decide``, most rounds of added runs (1: pilot and one second stage);
+            ``differs`` spends its error rate over the rounds + 1 looks and ``equivalent``
+            is claimed at the last, so adding seeds keeps the stated confidence.
         budget: with ``decide``, most particle-steps of the added runs (estimated before each
             is started); None: the caps alone bound them.
     """
@@ -243,7 +245,7 @@ class StudySpec(Record):
         5, unit="1", kind="int", ge=2, le=30, doc="with decide: most reference seeds"
     )
     rounds: int = param(
-        3, unit="1", kind="int", ge=1, le=10, doc="with decide: most rounds of added runs"
+        1, unit="1", kind="int", ge=1, le=10, doc="with decide: most rounds of added runs"
     )
     budget: float | None = param(
         None,
@@ -329,11 +331,12 @@ class StudySpec(Record):
 def default_study() -> StudySpec:
     """The study the main job runs: the ``quick`` cohesive reference (R = 2.5 mm,
     f0 = -0.4 N) against R = 3.75 and 5 mm with the paper's rule and with unscaled
-    parameters, two seeds each: two reference seeds give the noise floor, and two seeds per
-    variant measure the variant's own spread (a coarse bed of fewer particles scatters more
-    than the reference, so one seed would understate it). Where a verdict stays undecided it
-    adds seeds in one round (up to four per variant and three reference seeds, within 1.5e9
-    particle-steps: half the planned runs' cost)."""
+    parameters. A two-stage design (docs/PHYSICS.md section 7.2): a pilot of three reference
+    seeds and three seeds per variant (three on each side let the intervals take
+    Welch-Satterthwaite-type degrees of freedom; a coarse bed of fewer particles scatters
+    more than the reference, so its own spread is measured), then one round of the seeds the
+    pilot's spreads say each variant not told apart needs (up to eight per variant and four
+    reference seeds, within 1.5e9 particle-steps: about the planned runs' cost)."""
     ref = preset(
         "quick",
         pair_law=BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001, restitution=0.4),
@@ -342,11 +345,11 @@ def default_study() -> StudySpec:
         reference=ref,
         coarse_radii=(3.75e-3, 5e-3),
         rules=(ScalingRule.named("paper"), ScalingRule.named("unscaled")),
-        seeds=(1, 2),
-        reference_seeds=(1, 2),
+        seeds=(1, 2, 3),
+        reference_seeds=(1, 2, 3),
         decide=True,
         rounds=1,
-        max_seeds=4,
-        max_reference_seeds=3,
+        max_seeds=8,
+        max_reference_seeds=4,
         budget=1.5e9,
     )

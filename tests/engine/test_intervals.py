@@ -1,4 +1,5 @@
-"""Student's t, Welch and Fieller (engine.study.intervals) against closed forms and tables."""
+"""Student's t, Welch and the log-ratio interval (engine.study.intervals) against closed
+forms and tables."""
 
 from __future__ import annotations
 
@@ -54,14 +55,34 @@ def test_welch_degrees_of_freedom():
     assert df == pytest.approx((vc + vr) ** 2 / (vc**2 / 2 + vr**2 / 3))
 
 
-def test_fieller_without_noise_is_the_ratio_and_widens_with_it():
-    rho, lo, hi, df = iv.fieller([2.0, 2.0], [1.0, 1.0], 0.05)
-    assert rho == lo == hi == 2.0 and df == 1
-    rho, lo, hi, _ = iv.fieller([2.0, 2.2, 1.8], [1.0, 1.1, 0.9], 0.05)
-    assert lo < rho < hi and rho == pytest.approx(2.0)
-    # a reference mean not told apart from zero gives no bounds
-    _, lo, hi, _ = iv.fieller([1.0, 1.2], [0.1, -0.1], 0.05)
-    assert lo == -math.inf and hi == math.inf
+def test_log_ratio_without_noise_is_the_ratio_and_widens_with_it():
+    rho, lo, hi, df = iv.log_ratio_interval([2.0, 2.0], [1.0, 1.0], 0.05)
+    assert rho == lo == hi == pytest.approx(2.0) and df == 1
+    rho, lo, hi, _ = iv.log_ratio_interval([2.0, 2.2, 1.8], [1.0, 1.1, 0.9], 0.05)
+    assert lo < rho < hi
+    # geometric means: 2 x the reference exactly when each value is doubled
+    assert iv.log_ratio_interval([2.0, 2.4, 1.6], [1.0, 1.2, 0.8], 0.05)[0] == pytest.approx(2.0)
+    with pytest.raises(ValueError, match="positive"):
+        iv.log_ratio_interval([1.0, -1.0], [1.0, 2.0], 0.05)
+
+
+def test_interval_degrees_of_freedom_lie_between_hsu_and_welch():
+    rng = np.random.default_rng(0)
+    for nc, nr in [(3, 3), (3, 12), (12, 3), (7, 4)]:
+        vc, vr = rng.random(50) + 1e-3, rng.random(50) + 1e-3
+        df = iv.interval_df(nc, nr, vc, vr)
+        ws = (vc + vr) ** 2 / (vc**2 / (nc - 1) + vr**2 / (nr - 1))
+        assert np.all(df >= min(nc, nr) - 1 - 1e-12) and np.all(df <= ws + 1e-9)
+    # one side carrying all the variance: its own n - 1
+    assert iv.interval_df(5, 9, 1.0, 0.0) == pytest.approx(4.0)
+    assert iv.interval_df(2, 9, 1.0, 1.0) == 1.0  # two seeds: Hsu
+    assert iv.interval_df(4, 4, 0.0, 0.0) == math.inf
+
+
+def test_vector_quantiles_are_the_scalar_ones():
+    df = np.array([1.0, 2.5, 7.0, math.inf])
+    q = iv.t_upper_quantiles(0.025, df)
+    assert q == pytest.approx([iv.t_quantile(0.975, d) for d in df], rel=1e-12)
 
 
 def test_hsu_degrees_of_freedom():

@@ -10,6 +10,7 @@ import pytest
 
 import engine
 from engine.study import advisor, metrics
+from engine.study.intervals import log_ratio_interval, t_quantile
 from engine.uniaxial.measures import (
     FailureDetector,
     interior_measures,
@@ -123,12 +124,12 @@ def _ref(name, values):
 @pytest.mark.parametrize(
     ("coarse", "expect"),
     [
-        # error 1 %, interval about ± 1.3 % (t(0.95, 1 dof) = 6.3, spreads 0.1 and 0.3 %)
-        ([1.008, 1.012], "equivalent"),
+        # error 1 %: a 2 % interval (t(0.975, 1 dof) = 12.7 on log spreads 0.1 and 0.3 %)
+        ([1.009, 1.011, 1.010], "equivalent"),
         # error 10 %: beyond 3 % by far more than the noise
-        ([1.098, 1.102], "differs"),
+        ([1.098, 1.102, 1.100], "differs"),
         # error 2.8 %: within the tolerance, but not beyond the noise
-        ([1.026, 1.030], "undecided"),
+        ([1.022, 1.034, 1.028], "undecided"),
     ],
 )
 def test_verdict_from_error_tolerance_and_noise(coarse, expect):
@@ -137,23 +138,55 @@ def test_verdict_from_error_tolerance_and_noise(coarse, expect):
     assert m["verdict"] == expect
     assert m["error"] == pytest.approx(abs(np.mean(coarse) - 1.0))
     lo, hi = m["interval"]
-    assert lo < m["level_error"] < hi and m["df"] == 1
+    assert lo < m["level_error"] < hi and m["scale"] == "log"
 
 
-def test_the_interval_is_fieller_with_a_student_t_quantile():
-    # equal spreads, ratio 1.1: the interval's ends solve the Fieller quadratic with
-    # t(0.95, 2) = 2.919986 (min(3, 3) - 1 degrees of freedom)
-    ref = _ref("loading_stiffness", [0.9, 1.0, 1.1])
-    c = [1.0, 1.1, 1.2]
+def test_the_interval_is_a_t_interval_on_the_difference_of_mean_logs():
+    # the ratio of geometric means and its interval, by hand: mean logs, their variances,
+    # the degrees of freedom min((n_i - 1) / c_i) and the Student-t quantile at 1 - alpha / 2
+    r = np.array([0.9, 1.0, 1.1])
+    c = np.array([1.0, 1.1, 1.25, 1.15])
+    ref = _ref("loading_stiffness", r)
     m = advisor.judge_metric("loading_stiffness", _seeds("loading_stiffness", c), ref, 0.15, 2e4)
-    t = 2.919985580355516
-    v = 0.01 / 3  # s^2 / n on either side
-    # (1.1 - rho)^2 = t^2 (v + rho^2 v): roots of (1 - t^2 v) rho^2 - 2.2 rho + 1.21 - t^2 v
-    a, b, cc = 1 - t * t * v, -2.2, 1.21 - t * t * v
-    root = math.sqrt(b * b - 4 * a * cc)
-    assert m["interval"][0] == pytest.approx((-b - root) / (2 * a) - 1, rel=1e-9)
-    assert m["interval"][1] == pytest.approx((-b + root) / (2 * a) - 1, rel=1e-9)
+    lc, lr = np.log(c), np.log(r)
+    vc, vr = lc.var(ddof=1) / 4, lr.var(ddof=1) / 3
+    df = min(3 * (vc + vr) / vc, 2 * (vc + vr) / vr)
+    assert m["df"] == pytest.approx(df, rel=1e-12)
+    ws = (vc + vr) ** 2 / (vc**2 / 3 + vr**2 / 2)
+    assert 2 <= m["df"] <= ws  # between Hsu's and Welch-Satterthwaite's
+    t = t_quantile(0.975, df)
+    d = lc.mean() - lr.mean()
+    u = math.sqrt(vc + vr)
+    assert m["level_error"] == pytest.approx(math.expm1(d), rel=1e-12)
+    assert m["interval"][0] == pytest.approx(math.expm1(d - t * u), rel=1e-9)
+    assert m["interval"][1] == pytest.approx(math.expm1(d + t * u), rel=1e-9)
+    rho, lo, hi, df2 = log_ratio_interval(c, r, 0.025)
+    assert (rho - 1, lo - 1, hi - 1, df2) == pytest.approx(
+        (m["level_error"], *m["interval"], m["df"]), rel=1e-12
+    )
     assert m["verdict"] == "undecided"
+
+
+def test_two_seeds_on_a_side_take_hsus_degrees_of_freedom():
+    ref = _ref("loading_stiffness", [0.9, 1.0, 1.1, 1.05])
+    m = advisor.judge_metric(
+        "loading_stiffness", _seeds("loading_stiffness", [1.0, 1.1]), ref, 0.15, 2e4
+    )
+    assert m["df"] == 1.0
+
+
+def test_a_ratio_is_bounded_where_fieller_was_not():
+    # a reference mean close to its own noise gave Fieller's [-inf, inf]; the ratio of
+    # geometric means has a finite interval from any positive values
+    ref = _ref("strength", [2e3, 9e3, 1.6e4])
+    m = advisor.judge_metric("strength", _seeds("strength", [4e3, 1.5e4, 8e3]), ref, 0.15, 2e4)
+    assert all(math.isfinite(x) for x in m["interval"])
+
+
+def test_a_strength_under_the_floor_is_compared_as_a_difference():
+    ref = _ref("strength", [100.0, 200.0, 150.0])  # under 5 % of 20 kPa: cohesionless
+    m = advisor.judge_metric("strength", _seeds("strength", [120.0, 180.0, 200.0]), ref, 0.15, 2e4)
+    assert m["scale"] == "difference" and m["verdict"] == "equivalent"
 
 
 def test_noise_too_large_to_tell():
@@ -180,12 +213,19 @@ def test_one_reference_seed_is_undecided_and_says_why():
     assert overall == "undecided" and "one reference seed" in reason
 
 
-def test_error_rates_split_over_metrics_and_looks():
-    # differs: either end may clear its bound, so alpha / (2 looks metrics) per end
-    assert advisor.error_rates(0.95, 5) == pytest.approx((0.05, 0.005))
-    assert advisor.error_rates(0.9, 4, looks=2) == pytest.approx((0.05, 0.00625))
+def test_error_rates_split_over_metrics_ends_and_looks():
+    # equivalence: alpha / 2 per end at any look (claimed at the final look only);
+    # differs: its look's share over the metrics and the two ends
+    assert advisor.error_rates(0.95, 5) == pytest.approx((0.025, 0.005))
+    assert advisor.error_rates(0.9, 4, look=1, looks=2) == pytest.approx((0.05, 0.0025))
+    assert advisor.error_rates(0.9, 4, look=2, looks=2) == pytest.approx((0.05, 0.01))
+    assert advisor.error_rates(0.9, 4, look=3, looks=3) == pytest.approx((0.05, 0.005))
+    # the looks spend alpha once between them
+    assert sum(advisor.look_alpha(0.95, k, 4) for k in range(1, 5)) == pytest.approx(0.05)
     with pytest.raises(ValueError):
         advisor.error_rates(1.0, 1)
+    with pytest.raises(ValueError):
+        advisor.error_rates(0.95, 1, look=3, looks=2)
 
 
 def test_any_metric_that_differs_decides():

@@ -32,9 +32,36 @@ def summary_text(summary: dict) -> str:
         "side in particle diameters"
     )
     advisor = summary.get("advisor", {})
+    conf = advisor.get("confidence")
+    if conf is not None:
+        lines.append(f"\nverdicts at {conf:.0%} confidence (docs/PHYSICS.md section 7):")
     for v in advisor.get("verdicts", []):
         lines.append(
             f"R = {v['radius'] * 1e3:g} mm, {v['rule']}: {v['verdict'].upper()}: {v['reason']}"
         )
+        if v.get("to_decide"):
+            lines.append(f"  to decide it: {v['to_decide']}")
+    for name, a in advisor.get("rules", {}).items():
+        if a.get("coarsest_radius") is not None:
+            lines.append(
+                f"{name}: equivalent up to R = {a['coarsest_radius'] * 1e3:g} mm "
+                f"({a['speedup']:.1f}x faster than the reference)"
+            )
+        else:
+            lines.append(f"{name}: no coarse radius shown equivalent")
+    adaptive = advisor.get("adaptive")
+    if adaptive:
+        added = adaptive.get("added_runs", [])
+        kinds = {}
+        for a in added:
+            kinds[a["kind"]] = kinds.get(a["kind"], 0) + 1
+        what = ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())) or "none"
+        lines.append(
+            f"seeds until decided: {adaptive['planned_runs']} planned runs (the pilot), "
+            f"{len(added)} added ({what}); verdicts at look {adaptive.get('look', '?')} of "
+            f"{adaptive.get('looks', '?')}; stopped: {adaptive.get('stopped') or 'still adding'}"
+        )
+        for a in added:
+            lines.append(f"  + {a['run']}: {a['reason']}")
     lines += [f"warning: {w}" for w in advisor.get("warnings", [])]
     return "\n".join(lines)

@@ -390,6 +390,40 @@ def _describe(m: dict) -> str:
     return text
 
 
+def what_decides(metrics: list[dict]) -> str | None:
+    """One line on what would decide an undecided (radius, rule), from its undecided
+    metrics' ``needs`` (as if their means and spreads stayed as observed); None when no
+    metric is undecided or some metric differs."""
+    if any(m["verdict"] == "differs" for m in metrics):
+        return None
+    open_ = [m for m in metrics if m["verdict"] == "undecided"]
+    if not open_:
+        return None
+    if open_[0]["reference_seeds"] < 2 or open_[0]["seeds"] < 2:
+        return "two or more seeds on each side (three give the intervals more degrees of freedom)"
+    needs = [m.get("needs") or {} for m in open_]
+    if any(n.get("coarse") is None and n.get("coarse_and_reference") is None for n in needs):
+        hopeless = [
+            m["metric"]
+            for m, n in zip(open_, needs)
+            if n.get("coarse") is None and n.get("coarse_and_reference") is None
+        ]
+        return (
+            f"no seed count within {MAX_SEEDS_NEEDED} more: {', '.join(hopeless)} "
+            "sits at its tolerance (as observed); a looser tolerance, or a finer radius"
+        )
+    if all(n.get("coarse") is not None for n in needs):
+        k = max(n["coarse"] for n in needs)
+        return f"about {k} more coarse seeds, if the means and spreads stayed as observed"
+    k = max(
+        n["coarse"] if n.get("coarse") is not None else n["coarse_and_reference"] for n in needs
+    )
+    return (
+        f"about {k} more coarse and reference seeds each, if the means and spreads "
+        "stayed as observed"
+    )
+
+
 def verdict(metrics: list[dict]) -> tuple[str, str]:
     """Overall verdict and its reason from the per-metric judgements."""
     if metrics and metrics[0]["reference_seeds"] < 2:
@@ -623,6 +657,7 @@ def judge_groups(
                 "rule": rule,
                 "verdict": v,
                 "reason": reason,
+                "to_decide": what_decides(per_metric) if v == "undecided" else None,
                 "seeds": len(values),
                 "metrics": per_metric,
             }
@@ -648,4 +683,5 @@ __all__ = [
     "seeds_needed",
     "two_sample_intervals",
     "verdict",
+    "what_decides",
 ]

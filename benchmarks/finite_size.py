@@ -363,7 +363,8 @@ def control_report(
     lines += [
         "Signed errors are (mean of the first - mean of the second) / mean of the second "
         "(per level, then averaged, for density and coordination); intervals from "
-        "engine.study.advisor.judge_metric (Fieller, min(n) - 1 dof, TOST).",
+        "engine.study.advisor.judge_metric (ratio of geometric means, t interval on mean "
+        "logs, two one-sided tests).",
         "",
     ]
     return "\n".join(lines)

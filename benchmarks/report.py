@@ -44,7 +44,7 @@ import numba
 import numpy as np
 
 import engine
-from engine.study.plan import adaptive_summary, final_look, plan_runs
+from engine.study.plan import adaptive_summary, final_look, plan_runs, stored_plan_runs
 from engine.study.results import assemble
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -345,7 +345,8 @@ def claim_eepa(res) -> list[str]:
 
 
 def adaptive_lines(res) -> list[str]:
-    """What a study that adds seeds until decided added, and why it stopped."""
+    """What a study that adds seeds until decided added, what its rule would still run, and
+    why it stopped."""
     a = res.advisor.get("adaptive")
     if not a:
         return []
@@ -354,18 +355,27 @@ def adaptive_lines(res) -> list[str]:
         if a["budget"]
         else "Seeds until decided (no particle-step budget"
     )
+    beyond, pending = a.get("beyond", []), a.get("pending", [])
     out = [
         f"{head}, {res.spec.rounds} rounds, at most {res.spec.max_seeds} seeds per variant "
-        f"and {res.spec.max_reference_seeds} reference seeds; verdicts over {a['looks']} "
-        f"looks): {a['planned_runs']} planned runs, {len(a['added_runs'])} added "
+        f"and {res.spec.max_reference_seeds} reference seeds; verdicts at look "
+        f"{a.get('look', a['looks'])} of {a['looks']}): {a['planned_runs']} planned runs, "
+        f"{len(a['added_runs'])} added by the two-stage design of docs/PHYSICS.md section 7.2 "
         f"({a['added_particle_steps']:.3g} particle-steps); "
         + (
             f"stopped: {a['stopped']}."
             if a["stopped"]
-            else "**still adding**: the runs of the last round are not all stored."
+            else f"**still to run** for its second stage: {', '.join(pending)}."
         ),
         "",
     ]
+    if beyond:
+        out += [
+            f"Stored beyond that design and judged with the rest: {', '.join(beyond)} (added "
+            "by the rule before issue 28, which sized a round from the observed means; the "
+            "verdicts treat them as the study's last look).",
+            "",
+        ]
     out += [f"- added {x['run']} ({x['kind']}): {x['reason']}" for x in a["added_runs"]]
     return out + ([""] if a["added_runs"] else [])
 
@@ -452,18 +462,28 @@ def write_report(
     fig_root = out_dir / "figures"
     results, counts = {}, {}
     for name, (spec, outcomes) in data.items():
+        # the study as its adaptive rule plays it now, from what is stored
         planned, added, stopped = plan_runs(spec, outcomes)
-        counts[name] = (sum(1 for p in planned if p.key in outcomes), len(planned))
-        if not any(p.is_reference and p.key in outcomes for p in planned):
+        pending = [p.key for p in planned if p.key not in outcomes]
+        # what is judged: every stored run of the study (runs beyond that play, added by
+        # the rule of their time, are data too), at the last look they make up
+        runs = stored_plan_runs(spec, [k for k in outcomes if k not in {p.key for p in planned}])
+        runs += [p for p in planned[len(engine.plan(spec).runs) :] if p.key in outcomes]
+        beyond = [p.key for p in runs if p.key not in {q.key for q in planned}]
+        look = spec.looks if beyond else final_look(spec, added) if not pending else 1
+        counts[name] = (sum(1 for p in runs if p.key in outcomes), len(runs) + len(pending))
+        if not any(p.is_reference and p.key in outcomes for p in runs):
             results[name] = "no reference run stored yet"
             continue
         try:
-            results[name] = assemble(spec, planned, outcomes, final_look(spec, added))
+            results[name] = assemble(spec, [p for p in runs if p.key in outcomes], outcomes, look)
         except engine.RunFailed as e:
             results[name] = str(e)
             continue
         if spec.decide:
-            results[name].advisor["adaptive"] = adaptive_summary(spec, planned, added, stopped)
+            a = adaptive_summary(spec, planned, added, stopped)
+            a.update(look=look, pending=pending, beyond=beyond)
+            results[name].advisor["adaptive"] = a
         results[name].save_plots(fig_root / f"{scale}_{name}")
     machine = (
         f"{platform.machine()}, {os.cpu_count()} cores, numba {numba.__version__}, "
@@ -523,14 +543,16 @@ def write_report(
         "Density and coordination are measured in the sample interior (a layer of two "
         "diameters of the study's largest particle left out at each platen) at 16 stress "
         "levels on the loading and 16 on the unloading branch. A verdict holds at "
-        f"{confidence_line(data)}: two one-sided tests on Fieller's interval of the ratio of "
-        "the variant's mean to the reference's, with min(seeds) - 1 degrees of freedom "
-        "(which hold whatever the two spreads): `equivalent` when the interval lies inside "
-        "± tolerance at every level, `differs` when the interval of the values summed over "
-        "the levels lies wholly outside it (its rate split over the metrics and the two "
-        "ends), `undecided` otherwise (docs/PHYSICS.md section 7, engine/study/advisor.py). Table "
-        "cells: relative error [interval] in per cent, at the worst level of a curve, or the "
-        "interval that lies outside the tolerance for `differs` (metric verdict).",
+        f"{confidence_line(data)}: the ratio of the variant's geometric mean to the "
+        "reference's with the t interval of the difference of mean logarithms (degrees of "
+        "freedom min((n_i - 1) / c_i), a lower bound of Welch-Satterthwaite's, with three or "
+        "more seeds a side; Hsu's min(seeds) - 1 with two): `equivalent` when the two-sided "
+        "interval lies inside ± tolerance at every level, `differs` when the interval of "
+        "the per-seed level means lies wholly outside it (its rate split over the metrics, "
+        "the two ends and the looks), `undecided` otherwise (docs/PHYSICS.md section 7, "
+        "engine/study/advisor.py). Table cells: relative error [interval] in per cent, at "
+        "the worst level of a curve, or the interval that lies outside the tolerance for "
+        "`differs` (metric verdict).",
         "",
     ]
 

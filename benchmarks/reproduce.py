@@ -41,8 +41,8 @@ from dataclasses import replace
 from pathlib import Path
 
 import engine
-from engine.io.store import completed_runs, save_run, stored_machine
-from engine.study.plan import plan_runs
+from engine.io.store import completed_runs, load_all, save_run, stored_machine
+from engine.study.plan import plan_runs, stored_plan_runs
 
 ROOT = Path(__file__).resolve().parent.parent
 R = 2.5e-3
@@ -124,6 +124,20 @@ def stored_runs(spec: engine.StudySpec, directory: Path) -> dict:
     done, stale = completed_runs(spec, directory)
     for k in stale:
         print(f"  {k}: stored with other parameters, will run again", flush=True)
+    return done
+
+
+def all_stored_runs(spec: engine.StudySpec, directory: Path) -> dict:
+    """Every stored run of the study's variants and reference whose test is exactly the
+    planned one with its seed: the planned runs and any added ones, whichever rule added
+    them (the report judges the stored runs as they are, engine.study.plan.stored_plan_runs)."""
+    done = stored_runs(spec, directory)
+    for p in stored_plan_runs(spec, [k.stem for k in sorted(Path(directory).glob("*.h5"))]):
+        if p.key in done:
+            continue
+        outcome = load_all(directory, [p.key]).get(p.key)
+        if outcome is not None and (isinstance(outcome, str) or outcome.test == p.test):
+            done[p.key] = outcome
     return done
 
 
@@ -254,7 +268,7 @@ def main(argv=None) -> int:
     path = write_report(
         args.scale,
         {
-            name: (spec, stored_runs(spec, store_dir(args.scale, name)))
+            name: (spec, all_stored_runs(spec, store_dir(args.scale, name)))
             for name, spec in specs.items()
         },
         machines={name: machines_of(store_dir(args.scale, name)) for name in specs},

@@ -37,7 +37,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .advisor import _decides, _Space, _stack, error_rates
+from .advisor import (
+    PLANNED_POWER,
+    _decides,
+    _projected,
+    _Space,
+    _stack,
+    error_rates,
+    variant_decided,
+)
 from .intervals import WELCH_MIN_SEEDS
 
 
@@ -97,15 +105,19 @@ def next_runs(
         key = (v["radius"], v["rule"])
         if v["verdict"] == "differs" or key not in variants or not v["metrics"]:
             continue
-        ms = [m["metric"] for m in v["metrics"]]
+        ms = [m["metric"] for m in v["metrics"] if m["verdict"] == "undecided"]
         if len(variants[key]) < 2:
             comps = {}
         else:
             comps = {
-                n: _Space(
-                    n, _stack(variants[key], n), _stack(ref_values, n), spec.tolerances[n], cons
+                m["metric"]: _Space(
+                    m["metric"],
+                    _stack(variants[key], m["metric"]),
+                    _stack(ref_values, m["metric"]),
+                    spec.tolerances[m["metric"]],
+                    cons,
                 )
-                for n in ms
+                for m in v["metrics"]
             }
         undecided[key] = (ms, comps)
     if not undecided:
@@ -114,20 +126,23 @@ def next_runs(
     tried_c = {k: max(attempted.get(k, n_c[k]), n_c[k]) for k in undecided}
     n_r = n_ref0
 
-    def decided(k, nc=None, nr=None, planned=True) -> bool:
+    def decided(k) -> bool:
+        """Whether variant ``k`` has the seeds its spreads say it needs (planned)."""
         comps = undecided[k][1]
-        nc = n_c[k] if nc is None else nc
-        nr = n_r if nr is None else nr
         if not comps:  # one seed: its spread first
-            return nc >= WELCH_MIN_SEEDS
-        return all(_decides(sp, nc, nr, alpha_e, alpha_d, planned) for sp in comps.values())
+            return n_c[k] >= WELCH_MIN_SEEDS
+        return all(_decides(sp, n_c[k], n_r, alpha_e, alpha_d, True) for sp in comps.values())
 
     # futility: a variant that the caps could not decide if its means and spreads stayed as
-    # observed takes no run (stopping without a verdict never makes a wrong one)
+    # observed (no metric would differ, not every one would be equivalent) takes no run:
+    # stopping without a verdict never makes a wrong one
     for k in list(undecided):
         most_c = n_c[k] + spec.max_seeds - tried_c[k]
         most_r = n_r + spec.max_reference_seeds - tried_r
-        if undecided[k][1] and not decided(k, most_c, most_r, planned=False):
+        comps = undecided[k][1]
+        if comps and not variant_decided(
+            _projected(sp, most_c, most_r, alpha_e, alpha_d) for sp in comps.values()
+        ):
             del undecided[k]
     if not undecided:
         return []
@@ -173,9 +188,10 @@ def next_runs(
                     "coarse",
                     k,
                     round_no,
-                    f"round {round_no}: {', '.join(ms)} undecided for R = "
-                    f"{k[0] * 1e3:g} mm, {k[1]}; a coarse seed shrinks its "
-                    "intervals most per particle-step",
+                    f"round {round_no}: R = {k[0] * 1e3:g} mm, {k[1]} not decided "
+                    f"({', '.join(ms) or 'equivalent so far'}); its pilot's spreads call "
+                    f"for more seeds ({PLANNED_POWER:.0%} power for equivalent at error 0); "
+                    "a coarse seed narrows its intervals most per particle-step",
                 )
             )
             n_c[k] += 1

@@ -296,14 +296,22 @@ def judge_metric(
     return out
 
 
+def _projected(sp: _Space, n: int, m: int, alpha_e: float, alpha_d: float) -> str | None:
+    """The verdict a metric (in its comparison space ``sp``) would get with ``n`` coarse and
+    ``m`` reference seeds if its means and spreads stayed as observed: the verdict's own
+    intervals at the projected counts and their degrees of freedom; None: undecided."""
+    if sp.differs(alpha_d, n, m):
+        return "differs"
+    return "equivalent" if sp.equivalent(alpha_e, n, m) else None
+
+
 def _decides(
     sp: _Space, n: int, m: int, alpha_e: float, alpha_d: float, planned: bool = False
 ) -> bool:
-    """Whether a metric (in its comparison space ``sp``) would be decided with ``n`` coarse
-    and ``m`` reference seeds if its spreads stayed as observed and
+    """Whether a metric would be decided with ``n`` coarse and ``m`` reference seeds if its
+    spreads stayed as observed and
 
-    - (``planned`` False) its means too: the verdict's own intervals at the projected counts
-      and their degrees of freedom;
+    - (``planned`` False) its means too (:func:`_projected`);
     - (``planned`` True) its true error were 0: the chance of ``equivalent`` would be at
       least :data:`PLANNED_POWER` at every level, computed for a normal difference of
       standard error u with the nearer tolerance bound m on both sides (half-width h at the
@@ -313,7 +321,14 @@ def _decides(
         _, lo, hi, _, u = sp.interval(sp.stats, alpha_e, n, m)
         z = t_quantile(0.5 + 0.5 * PLANNED_POWER, math.inf)
         return bool(np.all(0.5 * (hi - lo) + z * u <= min(sp.hi, -sp.lo)))
-    return sp.equivalent(alpha_e, n, m) or sp.differs(alpha_d, n, m)
+    return _projected(sp, n, m, alpha_e, alpha_d) is not None
+
+
+def variant_decided(projections) -> bool:
+    """A (radius, rule) is decided when any metric differs or every metric is equivalent:
+    ``projections`` holds each metric's verdict (None: undecided)."""
+    projections = list(projections)
+    return any(p == "differs" for p in projections) or all(p == "equivalent" for p in projections)
 
 
 def seeds_needed(
@@ -329,7 +344,8 @@ def seeds_needed(
     as observed: ``coarse`` (more coarse seeds, reference seeds as they are), or
     ``coarse_and_reference`` (the same number more of each) where coarse seeds alone cannot,
     each None when more than :data:`MAX_SEEDS_NEEDED` would be needed (an error that sits
-    at the tolerance is decided by no seed count)."""
+    at the tolerance is decided by no seed count); ``verdict``: the one those seeds would
+    give."""
     sp = _Space(name, c, r, tolerance, consolidation_stress)
     n0, m0 = len(c), len(r)
 
@@ -351,7 +367,12 @@ def seeds_needed(
         if coarse is not None
         else first(lambda k: _decides(sp, n0 + k, m0 + k, alpha_e, alpha_d))
     )
-    return {"coarse": coarse, "coarse_and_reference": both}
+    verdict = None
+    if coarse is not None:
+        verdict = _projected(sp, n0 + coarse, m0, alpha_e, alpha_d)
+    elif both is not None:
+        verdict = _projected(sp, n0 + both, m0 + both, alpha_e, alpha_d)
+    return {"coarse": coarse, "coarse_and_reference": both, "verdict": verdict}
 
 
 def _pct(x: float) -> str:
@@ -391,9 +412,10 @@ def _describe(m: dict) -> str:
 
 
 def what_decides(metrics: list[dict]) -> str | None:
-    """One line on what would decide an undecided (radius, rule), from its undecided
-    metrics' ``needs`` (as if their means and spreads stayed as observed); None when no
-    metric is undecided or some metric differs."""
+    """One line on what would decide an undecided (radius, rule), from its metrics'
+    ``needs`` (as if their means and spreads stayed as observed): the fewest seeds with
+    which some metric would differ, or with which every metric would be equivalent; None
+    when it is decided."""
     if any(m["verdict"] == "differs" for m in metrics):
         return None
     open_ = [m for m in metrics if m["verdict"] == "undecided"]
@@ -401,27 +423,37 @@ def what_decides(metrics: list[dict]) -> str | None:
         return None
     if open_[0]["reference_seeds"] < 2 or open_[0]["seeds"] < 2:
         return "two or more seeds on each side (three give the intervals more degrees of freedom)"
-    needs = [m.get("needs") or {} for m in open_]
-    if any(n.get("coarse") is None and n.get("coarse_and_reference") is None for n in needs):
-        hopeless = [
-            m["metric"]
-            for m, n in zip(open_, needs)
-            if n.get("coarse") is None and n.get("coarse_and_reference") is None
-        ]
+
+    def cost(n: dict) -> tuple[int, str] | None:
+        if n.get("coarse") is not None:
+            return n["coarse"], "coarse"
+        if n.get("coarse_and_reference") is not None:
+            return n["coarse_and_reference"], "coarse and reference"
+        return None
+
+    def words(k: int, kind: str) -> str:
+        return f"about {k} more {kind} seeds" + (" each" if kind != "coarse" else "")
+
+    needs = {m["metric"]: m.get("needs") or {} for m in open_}
+    to_differ = [
+        (cost(n), name) for name, n in needs.items() if n.get("verdict") == "differs" and cost(n)
+    ]
+    if to_differ:
+        (k, kind), name = min(to_differ, key=lambda x: (x[0][1] != "coarse", x[0][0]))
         return (
-            f"no seed count within {MAX_SEEDS_NEEDED} more: {', '.join(hopeless)} "
-            "sits at its tolerance (as observed); a looser tolerance, or a finer radius"
+            f"{words(k, kind)} would show it differs in {name}, if the means and spreads "
+            "stayed as observed"
         )
-    if all(n.get("coarse") is not None for n in needs):
-        k = max(n["coarse"] for n in needs)
-        return f"about {k} more coarse seeds, if the means and spreads stayed as observed"
-    k = max(
-        n["coarse"] if n.get("coarse") is not None else n["coarse_and_reference"] for n in needs
-    )
-    return (
-        f"about {k} more coarse and reference seeds each, if the means and spreads "
-        "stayed as observed"
-    )
+    costs = {name: cost(n) for name, n in needs.items()}
+    hopeless = [name for name, c in costs.items() if c is None]
+    if hopeless:
+        return (
+            f"no seed count within {MAX_SEEDS_NEEDED} more: {', '.join(hopeless)} sits at "
+            "its tolerance (as observed); a looser tolerance, or a finer radius"
+        )
+    kind = "coarse" if all(c[1] == "coarse" for c in costs.values()) else "coarse and reference"
+    k = max(c[0] for c in costs.values())
+    return f"{words(k, kind)} would decide it, if the means and spreads stayed as observed"
 
 
 def verdict(metrics: list[dict]) -> tuple[str, str]:
@@ -682,6 +714,7 @@ __all__ = [
     "noise_floor",
     "seeds_needed",
     "two_sample_intervals",
+    "variant_decided",
     "verdict",
     "what_decides",
 ]

@@ -255,6 +255,29 @@ def _stop_reason(spec, planned, outcomes, added, otherwise: str) -> str:
     )
 
 
+def stored_plan_runs(study: StudyPlan | StudySpec, keys) -> list[PlannedRun]:
+    """The plan's runs, then each run named in ``keys`` that is a planned run of the study
+    (its reference or one of its variants) with another seed, in the order of ``keys``:
+    what a report judges when a study's stored runs go beyond what its adaptive rule asks
+    for now (runs added by an earlier rule, or by hand). Keys of no run of the study are
+    left out."""
+    study = as_plan(study)
+    runs = list(study.runs)
+    have = {p.key for p in runs}
+    prefixes: dict[str, PlannedRun] = {}
+    for p in runs:
+        prefixes.setdefault(p.key.rpartition("-s")[0], p)
+    for k in keys:
+        prefix, _, seed = k.rpartition("-s")
+        if k in have or not seed.isdigit() or prefix not in prefixes:
+            continue
+        run = prefixes[prefix].with_seed(int(seed))
+        if run.key == k:
+            runs.append(run)
+            have.add(k)
+    return runs
+
+
 def final_look(spec: StudySpec, added: list[dict]) -> int:
     """The look at which a study's verdicts are judged (engine.study.advisor.look_alpha): 1
     for a study without ``decide``; else 1 (the pilot: the planned runs) plus one per round

@@ -308,3 +308,20 @@ def test_a_deciding_study_resumes_with_the_runs_it_added():
     assert [v["verdict"] for v in again.advisor["verdicts"]] == [
         v["verdict"] for v in full.advisor["verdicts"]
     ]
+
+
+def test_stored_runs_beyond_the_plan_are_judged_with_it():
+    # a report judges every stored run of the study: a run of one of its variants (or its
+    # reference) with another seed joins the plan; keys of no run of the study do not
+    from engine.study.plan import stored_plan_runs
+
+    spec = engine.default_study()
+    plan = engine.plan(spec)
+    runs = stored_plan_runs(
+        spec, ["r5mm-paper-s7", "ref-s9", "r6mm-paper-s4", "r5mm-other-s4", "ref-sx"]
+    )
+    assert [p.key for p in runs[: len(plan.runs)]] == [p.key for p in plan.runs]
+    extra = runs[len(plan.runs) :]
+    assert [p.key for p in extra] == ["r5mm-paper-s7", "ref-s9"]
+    assert extra[0].seed == 7 and extra[0].test.seed == 7 and extra[0].radius == 5e-3
+    assert extra[1].is_reference and extra[1].test.radius == spec.reference.radius

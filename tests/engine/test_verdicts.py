@@ -451,3 +451,57 @@ def test_failure_criterion_on_the_stored_paper_curves():
     for k in ("ref-s1", "r5mm-b2-s1", "r3.75mm-b3-s2"):
         r = load_run(f"{root}/quick/b_cohesive/{k}.h5")
         assert r.scalars["unconfined_failure"] == 0.0, k
+
+
+def _verdict(radius, verdict, rule="paper"):
+    return {"radius": radius, "rule": rule, "verdict": verdict, "metrics": []}
+
+
+def test_the_coarsest_radius_is_tested_fine_to_coarse():
+    # 3 and 4 mm equivalent, 5 mm undecided, 6 mm equivalent: the fixed sequence stops at
+    # 5 mm, so 4 mm is reported and 6 mm is listed but not acted on
+    from types import SimpleNamespace
+
+    spec = SimpleNamespace(
+        rules=[SimpleNamespace(name="paper")],
+        tolerances={},
+        confidence=0.95,
+        reference=SimpleNamespace(unconfined=False),
+        coarse_radii=(3e-3, 4e-3, 5e-3, 6e-3),
+    )
+    verdicts = [
+        _verdict(6e-3, "equivalent"),
+        _verdict(3e-3, "equivalent"),
+        _verdict(5e-3, "undecided"),
+        _verdict(4e-3, "equivalent"),
+    ]
+    groups = [
+        {"radius": r, "rule": "paper", "speedup": r * 1e3, "thickness_diameters": 10.0}
+        for r in (3e-3, 4e-3, 5e-3, 6e-3)
+    ]
+    a = advisor.advise(spec, groups, verdicts, None)
+    rule = a["rules"]["paper"]
+    assert rule["coarsest_radius"] == 4e-3 and rule["speedup"] == pytest.approx(4.0)
+    assert rule["radii_equivalent"] == [3e-3, 4e-3, 6e-3]
+    assert rule["sequence_stopped_at"] == {"radius": 5e-3, "verdict": "undecided"}
+    assert "6 mm equivalent but not reported" in a["message"]
+    # the finest radius not equivalent: nothing to report
+    verdicts[1] = _verdict(3e-3, "differs")
+    assert advisor.advise(spec, groups, verdicts, None)["rules"]["paper"]["coarsest_radius"] is None
+
+
+def test_what_decides_an_undecided_verdict():
+    ref = _ref("strength", [1.6e4, 2e4, 2.4e4])
+    m = advisor.judge_metric("strength", _seeds("strength", [2.0e4, 2.2e4, 1.9e4]), ref, 0.15, 2e4)
+    assert m["verdict"] == "undecided"
+    text = advisor.what_decides([m])
+    assert text.startswith("about ") and "seeds" in text
+    # at the tolerance no seed count decides it
+    ref_tight = _ref("strength", [2e4, 2.002e4, 1.998e4])
+    at = advisor.judge_metric(
+        "strength", _seeds("strength", [2.28e4, 2.32e4, 2.3e4]), ref_tight, 0.15, 2e4
+    )
+    assert at["verdict"] == "undecided"
+    assert "sits at its tolerance" in advisor.what_decides([at])
+    ok = dict(m, verdict="equivalent")
+    assert advisor.what_decides([ok]) is None

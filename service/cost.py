@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import engine
 from engine.contact.registry import LAWS
 from engine.contact.wall import WallMaterial
-from engine.uniaxial.spec import GRAVITY, PRESETS
+from engine.uniaxial.spec import PRESETS
 
 #: Bounds on the knobs that set work, as the admission enforces them (docs/SERVICE.md).
 BOUNDS = {
@@ -159,7 +159,7 @@ def worst_stage_times(test: engine.UniaxialTest) -> dict[str, float]:
         "unloading": min(cap, travel),
     }
     if test.unconfined:
-        t_min = 5 * math.sqrt(2 * test.radius / GRAVITY)
+        t_min = 5 * math.sqrt(2 * test.radius / test.gravity)
         out["release"] = min(cap, max(t_min, test.release_time))
         out["unconfined"] = min(cap, test.max_unconfined_strain * travel)
     return out
@@ -289,7 +289,7 @@ def work_bounds(fields: dict, dt: float) -> list[tuple[str, float, str]]:
                 "platen_speed: one curve sample per 1 % of axial strain at least)",
             )
         )
-    fall = 2 * math.sqrt(2 * test.pour_height / GRAVITY)
+    fall = 2 * math.sqrt(2 * test.pour_height / test.gravity)
     scale = max(fall, test.pour_height / test.platen_speed)
     cap = STAGE_TIME_FACTOR * scale
     if fields["max_stage_time"] > cap:

@@ -79,12 +79,18 @@ class StudyExecution:
     # --------------------------------------------------------------------- engine thread
     def progress(self, p: engine.StudyProgress) -> bool:
         """The engine's progress callback: returns False to stop the study. The fraction
-        shown never goes back (pool runs report as they come, out of step)."""
-        if self.latest is not None and p.fraction < self.latest.fraction:
-            p = dataclasses.replace(p, fraction=self.latest.fraction)
+        shown never goes back (pool runs report as they come, out of step) except when a
+        ``decide`` study has added runs: then it is the share of the larger whole."""
+        latest = self.latest
+        if latest is not None and p.fraction < latest.fraction and p.n_runs <= latest.n_runs:
+            p = dataclasses.replace(p, fraction=latest.fraction)
         self.latest = p
         if p.run_key != self.current_run:
             self.current_run = p.run_key
+            try:  # an added run gets its row (and the study its run count) before it starts
+                self.ensure_row(p.run_key)
+            except Exception:  # bookkeeping only: on_run tries again
+                log.exception("study %s: could not add a row for %s", self.study_id, p.run_key)
             try:
                 with Session(self.db) as s:
                     transitions.run_started(s, self.study_id, p.run_key)

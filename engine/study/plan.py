@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..core.errors import ParameterError
-from ..uniaxial.spec import GRAVITY, UniaxialTest
+from ..uniaxial.spec import UniaxialTest
 from .adaptive import Addition, next_runs
 from .advisor import judge_groups
 from .metrics import metric_names, metric_values, shape_errors
@@ -71,7 +71,7 @@ def estimated_steps(test: UniaxialTest) -> float:
     compression of the sample by 10 % there and back, release, unconfined strain."""
     dt = test.resolved_dt()
     height = test.cell[2]
-    t = 2 * math.sqrt(2 * test.pour_height / GRAVITY) + 0.2 * height / test.platen_speed
+    t = 2 * math.sqrt(2 * test.pour_height / test.gravity) + 0.2 * height / test.platen_speed
     if test.unconfined:
         t += test.release_time + test.max_unconfined_strain * height / test.platen_speed
     return t / dt

@@ -212,13 +212,17 @@ def run_study(
 
 
 def _monotone_progress(progress: StudyCallback | None) -> StudyCallback | None:
-    """The callback with a fraction that never goes backwards (runs of other processes
-    report out of order, and an adaptive study's added runs enlarge the whole)."""
+    """The callback with a fraction that never goes backwards while the study's runs stay
+    the same (runs of other processes report out of order); when an adaptive study adds
+    runs the fraction is the share of the larger whole, so it may drop once (a bar held at
+    100 % while the added runs run would say nothing)."""
     if progress is None:
         return None
-    last = [0.0]
+    last = [0.0, 0]
 
     def call(report: StudyProgress):
+        if report.n_runs > last[1]:
+            last[:] = [report.fraction, report.n_runs]
         last[0] = max(last[0], report.fraction)
         if report.fraction < last[0]:
             report = replace(report, fraction=last[0])

@@ -41,7 +41,7 @@ from .results import (
     StageResult,
     UniaxialResult,
 )
-from .spec import GRAVITY, UniaxialTest
+from .spec import UniaxialTest
 
 STAGES = ("fill", "pre_compression", "consolidation", "unloading", "release", "unconfined")
 
@@ -168,7 +168,7 @@ class _Driver:
         self.t_wall = time.perf_counter()
         pos, radii = test.initial_packing()
         self.solid_volume = float(sphere_volume(radii).sum())
-        g = GRAVITY
+        g = test.gravity
         self.layer_stress = test.density * g * 2 * test.radius
         m = float(test.density * sphere_volume(test.radius))
         self.settle_energy = test.settle_ke * len(radii) * m * g * test.radius
@@ -303,7 +303,7 @@ class _Driver:
         t, t0 = self.test, rec.t0
         stage = rec.stage
         if stage == "fill":
-            t_fall = math.sqrt(2 * t.cell[2] / GRAVITY)
+            t_fall = math.sqrt(2 * t.cell[2] / t.gravity)
             return (
                 lambda r: self.settled(r, t_fall, t0),
                 lambda r: min(1.0, (r[0] - t0) / (2 * t_fall)),
@@ -325,7 +325,7 @@ class _Driver:
                 f"relax the stress below {low:g} Pa",
             )
         if stage == "release":
-            t_min = 5 * math.sqrt(2 * t.radius / GRAVITY)  # a few particle fall times
+            t_min = 5 * math.sqrt(2 * t.radius / t.gravity)  # a few particle fall times
             t_max = max(t_min, t.release_time)
             return (
                 lambda r: self.settled(r, t_min, t0) or r[0] - t0 >= t_max,

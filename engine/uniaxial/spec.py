@@ -55,6 +55,9 @@ class UniaxialTest(Record):
         radius: particle radius [m].
         polydispersity: radii uniform in [R (1 - p), R (1 + p)] [-].
         density: particle density [kg/m^3].
+        gravity: acceleration of gravity, along -z [m/s^2] (a resolution control of a study
+            runs the reference law in a cell scaled by s at g / s, so that its overburden
+            rho g H is the coarse run's).
         solid_fraction: solid fraction the settled sample is assumed to have when the
             particles are counted [-].
         pour_fraction: solid fraction of the poured cloud [-] (random addition jams near 0.38).
@@ -99,6 +102,9 @@ class UniaxialTest(Record):
         0.0, unit="1", doc="radii uniform in [R(1-p), R(1+p)]", ge=0, lt=0.5
     )
     density: float = param(2000.0, unit="kg/m^3", doc="particle density", gt=0)
+    gravity: float = param(
+        GRAVITY, unit="m/s^2", gt=0, le=1e4, doc="acceleration of gravity, along -z"
+    )
     solid_fraction: float = param(
         0.6, unit="1", gt=0, le=0.74, doc="solid fraction assumed for the settled sample"
     )
@@ -271,7 +277,7 @@ class UniaxialTest(Record):
             box=[(0, lx), (0, ly), (0, lz)],
             periodic=(True, True, False),
             walls=walls,
-            gravity=(0, 0, -GRAVITY),
+            gravity=(0, 0, -self.gravity),
             pair_law=self.pair_law,
             wall_law=self.wall_law,
             wall_material=self.wall_material,

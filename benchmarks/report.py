@@ -380,6 +380,39 @@ def adaptive_lines(res) -> list[str]:
     return out + ([""] if a["added_runs"] else [])
 
 
+def undecided_note(results: dict) -> list[str]:
+    """Why the undecided verdicts are undecided, from the verdicts themselves: how many rest
+    on variants of two seeds (Hsu's 1 degree of freedom), and the runs the two-stage design
+    would still make."""
+    judged = [r for r in results.values() if isinstance(r, engine.StudyResult)]
+    open_ = [(r, v) for r in judged for v in r.advisor["verdicts"] if v["verdict"] == "undecided"]
+    if not open_:
+        return ["Every verdict of the stored runs is decided."]
+    two = sum(1 for _, v in open_ if v.get("seeds") == 2)
+    pending = sorted(
+        {k for r in judged for k in (r.advisor.get("adaptive") or {}).get("pending", [])}
+    )
+    text = (
+        f"Verdicts judged from the stored runs by the rule of docs/PHYSICS.md section 7 "
+        f"(issue 28). {len(open_)} variants are undecided"
+        + (
+            f"; {two} of them have two coarse seeds, whose intervals take Hsu's 1 degree of "
+            "freedom (t = 12.7 at 97.5 %), so two seeds decide only gross errors: a third "
+            "seed brings the rule's other degrees of freedom"
+            if two
+            else ""
+        )
+        + "."
+    )
+    if pending:
+        text += (
+            f" The two-stage design would still run {len(pending)} runs sized from the "
+            f"stored spreads ({', '.join(pending)}); each reason says how many more seeds "
+            "would decide it if its means and spreads stayed as observed."
+        )
+    return [text]
+
+
 def control_report_lines(text: str) -> list[str]:
     """The finite-size control's section (benchmarks/finite_size.py), with its reading."""
     return [
@@ -470,7 +503,8 @@ def write_report(
         runs = stored_plan_runs(spec, [k for k in outcomes if k not in {p.key for p in planned}])
         runs += [p for p in planned[len(engine.plan(spec).runs) :] if p.key in outcomes]
         beyond = [p.key for p in runs if p.key not in {q.key for q in planned}]
-        look = spec.looks if beyond else final_look(spec, added) if not pending else 1
+        stored_added = [a for a in added if a["run"] in outcomes]
+        look = spec.looks if beyond else final_look(spec, stored_added)
         counts[name] = (sum(1 for p in runs if p.key in outcomes), len(runs) + len(pending))
         if not any(p.is_reference and p.key in outcomes for p in runs):
             results[name] = "no reference run stored yet"
@@ -617,7 +651,7 @@ def write_report(
             if k != "unconfined" or res.spec.reference.unconfined
         ]
         lines.append("")
-    lines += ["## The seed's claims", ""]
+    lines += ["## The seed's claims", "", *undecided_note(results), ""]
     a, b = results.get("a_cohesionless"), results.get("b_cohesive")
     if isinstance(a, engine.StudyResult):
         lines += [

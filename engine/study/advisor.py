@@ -75,12 +75,11 @@ PLANNED_POWER = 0.8
 #: alpha = 1 - confidence: one half, so that ``equivalent`` means the two-sided
 #: 1 - alpha interval lies inside the tolerance (the conservative form of the two one-sided
 #: tests; the plain form, alpha per end, is the two-sided 1 - 2 alpha interval). Two things
-#: make the plain form cover less than it states here (docs/PHYSICS.md section 7.1): a
-#: Welch-Satterthwaite interval on logarithms of skewed values with three seeds on one side
-#: and many on the other (simulated, alpha = 5 %: 6.6 % wrong ``equivalent`` for normal
-#: values with 3 against 12 seeds and equal spreads, 6.8 % with one seed in ten from a
-#: second mode 30 % away), and an adaptive second stage sized from the pilot's spreads
-#: (stopping when a pilot's spread happens to be small: 6.8 %). At alpha / 2 per end the
+#: make the plain form cover less than it states here (docs/PHYSICS.md section 7.1,
+#: ``python -m benchmarks.verdict_rates``): skewed values with three seeds on one side and
+#: many on the other (simulated, alpha = 5 %: up to 7.3 % wrong ``equivalent`` for normal
+#: values and 8.5 % with one seed in ten from a second mode 30 % away), and an adaptive
+#: second stage sized from the pilot's spreads (up to 7.8 %). At alpha / 2 per end the
 #: simulated rates stay under 5 % (tests/engine/test_coverage.py).
 EQUIVALENCE_LEVEL = 0.5
 

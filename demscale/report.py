@@ -49,6 +49,7 @@ def summary_text(summary: dict) -> str:
             )
         else:
             lines.append(f"{name}: no coarse radius shown equivalent")
+    lines += advisor.get("control_lines", [])
     adaptive = advisor.get("adaptive")
     if adaptive:
         added = adaptive.get("added_runs", [])

@@ -240,7 +240,7 @@ def admit(body: StudyCreate, settings: Settings) -> Admitted:
     if n > settings.max_particles_per_run:
         loc = (
             ("reference",)
-            if biggest.rule is None
+            if biggest.is_reference
             else ("coarse_radii", spec.coarse_radii.index(biggest.radius))
         )
         raise _too_many_particles(loc, biggest.key, n, settings)

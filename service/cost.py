@@ -129,16 +129,22 @@ def _decide_caps(data: dict) -> tuple[int, int] | None:
 
 
 def plan_counts(data: dict) -> int:
-    """Runs of the study (reference seeds + seeds x radii x rules), from the raw fields;
-    with ``decide`` the most it may run (every variant and the reference at its seed cap)."""
+    """Runs of the study (reference seeds + seeds x radii x rules, + seeds x radii resolution
+    controls), from the raw fields; with ``decide`` the most it may run (every variant and
+    the reference at its seed cap; controls take no added seeds)."""
     fields = reference_fields(data)
     ref_seeds, seeds = _seeds(data, fields)
     radii = data.get("coarse_radii") or [5e-3]
     n_rules = len(data["rules"]) if data.get("rules") is not None else len(_rules(data))
+    n_controls = len(seeds) * len(radii) if data.get("controls", True) else 0
     caps = _decide_caps(data)
     if caps is not None:
-        return max(caps[0], len(ref_seeds)) + max(caps[1], len(seeds)) * len(radii) * n_rules
-    return len(ref_seeds) + len(seeds) * len(radii) * n_rules
+        return (
+            max(caps[0], len(ref_seeds))
+            + max(caps[1], len(seeds)) * len(radii) * n_rules
+            + n_controls
+        )
+    return len(ref_seeds) + len(seeds) * len(radii) * n_rules + n_controls
 
 
 def worst_stage_times(test: engine.UniaxialTest) -> dict[str, float]:
@@ -221,11 +227,24 @@ def worst_case(data: dict) -> list[RunCost]:
         for rule in rules:
             dt = dt_ref * (r / ref.radius if rule.dt == "scaled" else 1.0)
             coarse[r, rule.name] = run_cost(f"r{r * 1e3:g}mm-{rule.name}", test, dt)
+    controls = {}
+    if data.get("controls", True):
+        for r in radii:  # engine.study.plan.control_test: the reference's cell scaled by s
+            s = ref.radius / r
+            test = probe(
+                fields,
+                cell=tuple(c * s for c in ref.cell),
+                platen_speed=ref.platen_speed * s,
+                gravity=ref.gravity / s,
+            )
+            controls[r] = run_cost(f"ctl-r{r * 1e3:g}mm", test, dt_ref)
     for s in seeds:
         for r in radii:
             for rule in rules:
                 c = coarse[r, rule.name]
                 out.append(dataclasses.replace(c, key=f"{c.key}-s{s}"))
+            if r in controls:
+                out.append(dataclasses.replace(controls[r], key=f"{controls[r].key}-s{s}"))
     caps = _decide_caps(data)
     if caps is not None:
         extra = [out[0]] * max(0, caps[0] - len(ref_seeds)) + [

@@ -119,7 +119,7 @@ class StudyExecution:
                 "key": p.key,
                 "radius": p.radius,
                 "seed": p.seed,
-                "rule": "reference" if p.rule is None else p.rule.name,
+                "rule": p.label,
                 "particles": p.test.n_particles,
             }
             for p in planned

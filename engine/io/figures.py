@@ -46,7 +46,7 @@ def study_plot_data(result) -> tuple[dict, list[dict], dict]:
     runs = {
         key: {
             "label": key,
-            "reference": r.rule is None,
+            "reference": r.is_reference,
             "stages": {name: st.curves for name, st in r.result.stages.items()},
         }
         for key, r in result.runs.items()

@@ -245,12 +245,13 @@ def save_study(path: Path, study_id: object, result, before_rename=lambda: True)
                 g.attrs.update(
                     {
                         "label": run.key,
-                        "reference": run.rule is None,
+                        "reference": run.is_reference,
+                        "control": run.control,
                         "position": i,
                         "radius": run.radius,
                         "radius_units": "m",
                         "seed": run.seed,
-                        "rule": "reference" if run.rule is None else run.rule.name,
+                        "rule": run.label,
                     }
                 )
                 if run.rule is not None:

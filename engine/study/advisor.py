@@ -484,33 +484,11 @@ def verdict(metrics: list[dict]) -> tuple[str, str]:
     )
 
 
-#: The finite-size effect measured by the control of docs/VALIDATION.md (experiment (b) at
-#: the paper scale, benchmarks/finite_size.py): the 2.5 mm reference law in a bed 5
-#: diameters thick against 10, 3 seeds each: relative change of the geometric means [-] and
-#: its two-sided 95 % interval (tests/engine/test_verdicts.py recomputes them from the
-#: stored runs).
-MEASURED_FINITE_SIZE = {
-    "thickness_diameters": 5.0,
-    "against_diameters": 10.0,
-    "strength": (-0.172, -0.224, -0.116),
-    "loading_stiffness": (-0.166, -0.260, -0.059),
-}
-
-
-def finite_size_warnings(groups: list[dict]) -> list[str]:
-    """Warnings for radii whose cell is under 10 particle diameters thick, citing the
-    finite-size effect measured at 5 diameters (:data:`MEASURED_FINITE_SIZE`), and under
-    :data:`MIN_THICKNESS_DIAMETERS`, below the measured range."""
-    m = MEASURED_FINITE_SIZE
-    s, k = m["strength"], m["loading_stiffness"]
-    measured = (
-        f"a bed {m['thickness_diameters']:g} diameters thick of the 2.5 mm reference "
-        f"law measured {s[0]:+.0%} in unconfined strength (95 % interval "
-        f"{s[1]:+.0%} to {s[2]:+.0%}) and {k[0]:+.0%} in loading stiffness "
-        f"({k[1]:+.0%} to {k[2]:+.0%}) against {m['against_diameters']:g} "
-        "diameters, density, unloading stiffness and coordination within tolerance "
-        "(finite-size control, docs/VALIDATION.md)"
-    )
+def finite_size_warnings(groups: list[dict], controlled: bool = False) -> list[str]:
+    """Warnings for radii whose cell is under :data:`MIN_THICKNESS_DIAMETERS` diameters
+    thick and, in a study without resolution controls (``controlled`` False), for radii
+    under 10: there part of the error may be the sample's size in diameters, which only a
+    control tells apart from the rule's."""
     out, seen = [], set()
     for g in groups:
         if g["radius"] in seen:
@@ -521,21 +499,73 @@ def finite_size_warnings(groups: list[dict]) -> list[str]:
             out.append(
                 f"R = {g['radius'] * 1e3:g} mm: the cell is {t:.1f} particle "
                 f"diameters thick, under the {MIN_THICKNESS_DIAMETERS:g} a bulk sample "
-                "needs (Thakur et al. 2013) and thinner than any bed whose finite-size "
-                f"effect was measured ({measured}): wall and periodic-image effects "
-                "may dominate"
+                "needs (Thakur et al. 2013): wall and periodic-image effects may dominate"
             )
-        elif t < m["against_diameters"]:
+        elif t < 10 and not controlled:
             out.append(
-                f"R = {g['radius'] * 1e3:g} mm: the cell is {t:.1f} particle "
-                f"diameters thick; {measured}: part of this radius's error may be "
-                "the bed's size, not the scaling rule"
+                f"R = {g['radius'] * 1e3:g} mm: the cell is {t:.1f} particle diameters "
+                "thick and the study has no resolution control (StudySpec.controls): part of "
+                "this radius's error may be the sample's size in diameters, not the rule"
             )
     return out
 
 
+def _interval_words(m: dict) -> str:
+    lo, hi = m["interval"] if m["interval"] is not None else (None, None)
+    if lo is None:
+        return f"{m['metric']} {_pct(m['signed_error'])}"
+    return f"{m['metric']} {_pct(m['level_error'])} [{_pct(lo)}, {_pct(hi)}]"
+
+
+def resolution_lines(resolution: list[dict], rule_errors: list[dict], spec) -> list[str]:
+    """The advisor's lines on the controls: per rule and radius whether the rule holds
+    against its control (its own error), and per radius what a sample that many diameters
+    across loses against the reference."""
+    lines = []
+    exact = (
+        {
+            rule.name
+            for rule in spec.rules
+            if tuple(rule.exponents(spec.reference.pair_law)) == (1.0, 2.0, 1.0)
+            and type(spec.reference.pair_law).__name__ == "BilinearAdhesive"
+        }
+        if rule_errors
+        else set()
+    )
+    for v in rule_errors:
+        says = {"equivalent": "holds", "differs": "differs", "undecided": "is undecided"}
+        text = (
+            f"{v['rule']} at R = {v['radius'] * 1e3:g} mm: the rule {says[v['verdict']]} "
+            "against its resolution control (the rule's own error)"
+        )
+        if v["rule"] in exact:
+            text += (
+                "; for this law the rule is an exact similarity, so this error measures "
+                "only the clock: the inertial number at the same strain rate and the time "
+                "step against the contact time"
+            )
+        lines.append(text)
+    for v in resolution:
+        d = v.get("diameters_across")
+        across = f"{d:.1f} diameters across" if d else "the coarse cell's size in diameters"
+        parts = "; ".join(_interval_words(m) for m in v["metrics"])
+        lines.append(
+            f"resolution at R = {v['radius'] * 1e3:g} mm: the reference law in a sample "
+            f"{across} against the reference: {v['verdict']} ({parts}); resolution is a "
+            "property of diameters across, not of the test cell: a process loses it too "
+            "wherever a feature (a shear band, an outlet, a wall layer) is only a few "
+            "coarse diameters wide"
+        )
+    return lines
+
+
 def advise(
-    spec, groups: list[dict], verdicts: list[dict], reference_strength: float | None
+    spec,
+    groups: list[dict],
+    verdicts: list[dict],
+    reference_strength: float | None,
+    resolution: list[dict] | None = None,
+    rule_errors: list[dict] | None = None,
 ) -> dict:
     """The advisor: per rule the coarsest radius judged ``equivalent`` in a fixed sequence;
     the verdicts; the finite-size warnings; the best-fitting adhesion exponent per radius.
@@ -594,7 +624,10 @@ def advise(
                 f"not reported as the coarsest: R = {stop['radius'] * 1e3:g} mm, finer, is "
                 f"{stop['verdict']} (radii are tested fine to coarse)"
             )
-    warnings = finite_size_warnings(groups)
+    resolution, rule_errors = resolution or [], rule_errors or []
+    warnings = finite_size_warnings(groups, controlled=bool(resolution))
+    control_lines = resolution_lines(resolution, rule_errors, spec)
+    lines += control_lines
     adhesion = adhesion_advice(spec, groups, reference_strength)
     if adhesion:
         for r, v in adhesion["by_radius"].items():
@@ -608,6 +641,9 @@ def advise(
         "rules": rules,
         "verdicts": verdicts,
         "warnings": warnings,
+        "resolution": resolution,
+        "rule_errors": rule_errors,
+        "control_lines": control_lines,
         "adhesion_exponent": adhesion,
         "message": "; ".join(lines + warnings),
     }
@@ -699,7 +735,6 @@ def judge_groups(
 
 __all__ = [
     "CONFIDENCE",
-    "MEASURED_FINITE_SIZE",
     "METRICS",
     "VERDICTS",
     "adhesion_advice",
@@ -711,6 +746,7 @@ __all__ = [
     "judge_samples",
     "look_alpha",
     "noise_floor",
+    "resolution_lines",
     "seeds_needed",
     "two_sample_intervals",
     "variant_decided",

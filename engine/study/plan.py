@@ -22,35 +22,52 @@ from .advisor import judge_groups
 from .metrics import metric_names, metric_values, shape_errors
 from .spec import ScalingRule, StudySpec
 
+#: The variant name of a study's resolution controls (a rule may not take it).
+CONTROL = "control"
+
 
 @dataclass(frozen=True)
 class PlannedRun:
-    """One run of a study: ``key``, ``radius`` [m], ``rule`` (None for a reference), ``seed``
-    and its ``test`` (complete: a coarse run's time step is known before any run starts)."""
+    """One run of a study: ``key``, ``radius`` [m] (a control's: the coarse radius it stands
+    for), ``rule`` (None for a reference or a control), ``seed``, its ``test`` (complete: a
+    coarse run's time step is known before any run starts) and whether it is a resolution
+    ``control`` (:func:`control_test`)."""
 
     key: str
     radius: float
     rule: ScalingRule | None
     seed: int
     test: UniaxialTest
+    control: bool = False
 
     @property
     def is_reference(self) -> bool:
-        return self.rule is None
+        return self.rule is None and not self.control
 
     @property
     def variant(self) -> tuple[float, str] | None:
-        """(radius [m], rule name) of a coarse run; None for a reference."""
+        """(radius [m], rule name, or :data:`CONTROL`) of a coarse run or a control; None for
+        a reference."""
+        if self.control:
+            return (self.radius, CONTROL)
         return None if self.rule is None else (self.radius, self.rule.name)
+
+    @property
+    def label(self) -> str:
+        """``"reference"``, ``"control"`` or the rule's name."""
+        if self.control:
+            return CONTROL
+        return "reference" if self.rule is None else self.rule.name
 
     def with_seed(self, seed: int) -> PlannedRun:
         """The same run with packing seed ``seed`` (its key says so)."""
         return PlannedRun(
-            run_key(self.radius, self.rule, seed),
+            run_key(self.radius, self.rule, seed, self.control),
             self.radius,
             self.rule,
             seed,
             replace(self.test, seed=seed),
+            self.control,
         )
 
     @property
@@ -59,8 +76,10 @@ class PlannedRun:
         return estimated_steps(self.test) * self.test.n_particles
 
 
-def run_key(radius: float, rule: ScalingRule | None, seed: int) -> str:
-    """Key of a run, e.g. ``ref-s1`` or ``r5mm-paper-s1``."""
+def run_key(radius: float, rule: ScalingRule | None, seed: int, control: bool = False) -> str:
+    """Key of a run, e.g. ``ref-s1``, ``r5mm-paper-s1`` or (a control) ``ctl-r5mm-s1``."""
+    if control:
+        return f"ctl-r{radius * 1e3:g}mm-s{seed}"
     if rule is None:
         return f"ref-s{seed}"
     return f"r{radius * 1e3:g}mm-{rule.name}-s{seed}"
@@ -86,6 +105,28 @@ def reference_test(spec: StudySpec) -> UniaxialTest:
     return replace(ref, interior_margin=margin * (1 + ref.polydispersity))
 
 
+def control_test(reference: UniaxialTest, radius: float, reference_dt: float) -> UniaxialTest:
+    """The resolution control of coarse radius ``radius`` [m]: the ``reference`` law unscaled
+    in the reference test scaled by s = R_ref / radius (docs/PHYSICS.md section 7.4): the
+    cell, and so the pour column, and the interior margin times s (the control is as many of
+    its diameters across as a coarse run is of its own), the platen speed times s (the strain
+    rate kept) and gravity over s (the overburden rho g H kept); the law, the time step
+    (``reference_dt`` [s]) and the stage times kept. For the linear law under K ~ R,
+    f0 ~ R^2 with Hertz platens a coarse run is this test scaled up by 1/s in length and
+    1/s^2 in force, all but its clock; so a coarse run against its control measures what
+    the rule changes (and the clock), the control against the reference what the sample's
+    size in diameters changes."""
+    s = reference.radius / radius
+    return replace(
+        reference,
+        cell=tuple(c * s for c in reference.cell),
+        platen_speed=reference.platen_speed * s,
+        gravity=reference.gravity / s,
+        interior_margin=reference.margin * s,
+        dt=reference_dt,
+    )
+
+
 @dataclass(frozen=True)
 class StudyPlan:
     """The planned runs of a study (:func:`plan`): ``spec`` and ``runs`` (references first)."""
@@ -104,7 +145,8 @@ class StudyPlan:
         spec = self.spec
         cost = {}
         for p in self.runs:
-            cost.setdefault(p.variant, p.particle_steps)
+            if not p.control:  # controls take no added seeds
+                cost.setdefault(p.variant, p.particle_steps)
         total = float(sum(p.particle_steps for p in self.runs))
         if not spec.decide:
             return total
@@ -128,6 +170,7 @@ class StudyPlan:
                     "rule": None if p.rule is None else p.rule.name,
                     "seed": p.seed,
                     "test": p.test.to_dict(),
+                    **({"control": True} if p.control else {}),
                 }
                 for p in self.runs
             ],
@@ -146,6 +189,7 @@ class StudyPlan:
                 None if r["rule"] is None else rules[r["rule"]],
                 int(r["seed"]),
                 UniaxialTest.from_dict(r["test"]),
+                bool(r.get("control", False)),
             )
             for r in d["runs"]
         )
@@ -153,8 +197,9 @@ class StudyPlan:
 
 
 def plan(spec: StudySpec) -> StudyPlan:
-    """Every run of ``spec``: the references first (one per reference seed), then every
-    coarse variant for every seed. Each test is complete: a coarse run with ``dt="fixed"``
+    """Every run of ``spec``: the references first (one per reference seed), then for every
+    seed every coarse variant and, with ``controls``, each radius's resolution control
+    (:func:`control_test`). Each test is complete: a coarse run with ``dt="fixed"``
     takes the reference's time step, which is known before the reference runs; each must be
     runnable (the cell holds the coarse radius, the scaled adhesion and the time step are
     within the engine's limits), else :class:`engine.ParameterError` names the coarse radius.
@@ -173,6 +218,18 @@ def plan(spec: StudySpec) -> StudyPlan:
                     "a radius the reference's cell and laws can run",
                     f"with rule {rule.name!r}: {e}",
                 ) from None
+    controls = {}
+    if spec.controls:
+        for i, r in enumerate(spec.coarse_radii):
+            try:
+                controls[r] = control_test(ref, r, dt_ref)
+            except ParameterError as e:
+                raise ParameterError(
+                    f"StudySpec.coarse_radii[{i}]",
+                    r,
+                    "a radius whose resolution control the reference's cell can hold",
+                    f"(or controls=False): {e}",
+                ) from None
     out = [
         PlannedRun(run_key(ref.radius, None, seed), ref.radius, None, seed, replace(ref, seed=seed))
         for seed in spec.reference_seeds
@@ -182,6 +239,9 @@ def plan(spec: StudySpec) -> StudyPlan:
             for rule in spec.rules:
                 test = replace(coarse[r, rule.name], seed=seed)
                 out.append(PlannedRun(run_key(r, rule, seed), r, rule, seed, test))
+            if r in controls:
+                test = replace(controls[r], seed=seed)
+                out.append(PlannedRun(run_key(r, None, seed, True), r, None, seed, test, True))
     return StudyPlan(spec, tuple(out))
 
 
@@ -311,7 +371,7 @@ def _judged_values(spec: StudySpec, planned: list[PlannedRun], outcomes: dict):
     ref_values = [metric_values(r) for r in refs.values()]
     variants: dict[tuple, list[dict]] = {}
     for p in ok:
-        if p.is_reference:
+        if p.is_reference or p.control:  # controls take no added seeds
             continue
         res = outcomes[p.key]
         try:

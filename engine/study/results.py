@@ -45,10 +45,11 @@ TABLE_UNITS = {
 
 @dataclass
 class RunResult:
-    """One finished run: its key, radius [m], rule (None for a reference), seed, the
-    :class:`UniaxialResult`, its errors (verdict metrics against the mean reference, shape
+    """One finished run: its key, radius [m], rule (None for a reference or a control), seed,
+    the :class:`UniaxialResult`, its errors (verdict metrics against the mean reference, shape
     measures against the reference of its seed; zeros for references), its speed-up over
-    the mean reference wall time and its scale s = R / R_ref."""
+    the mean reference wall time, its scale s = R / R_ref (a control: that of the coarse
+    radius it stands for) and whether it is a resolution ``control``."""
 
     key: str
     radius: float
@@ -58,6 +59,18 @@ class RunResult:
     errors: dict[str, float]
     speedup: float = 1.0
     scale: float = 1.0
+    control: bool = False
+
+    @property
+    def is_reference(self) -> bool:
+        return self.rule is None and not self.control
+
+    @property
+    def label(self) -> str:
+        """``"reference"``, ``"control"`` or the rule's name."""
+        if self.control:
+            return "control"
+        return "reference" if self.rule is None else self.rule.name
 
     def row(self) -> dict:
         """The run's row of the study table."""
@@ -65,7 +78,7 @@ class RunResult:
         row = {
             "run": self.key,
             "radius": self.radius,
-            "rule": "reference" if self.rule is None else self.rule.name,
+            "rule": self.label,
             "seed": self.seed,
             "scale": self.scale,
             "particles": int(s["particles"]),
@@ -162,6 +175,8 @@ def assemble(
     first_ref = next(iter(refs.values()))
     runs: dict[str, RunResult] = {}
     variants: dict[tuple, list[dict]] = {}
+    seeds_of: dict[tuple, list[int]] = {}
+    controls: dict[float, dict[int, dict]] = {}
     for p in planned:
         res = outcomes.get(p.key)
         if res is None or isinstance(res, str):
@@ -191,14 +206,19 @@ def assemble(
             errors,
             ref_wall / res.scalars["wall_time"],
             p.radius / spec.reference.radius,
+            p.control,
         )
-        variants.setdefault((p.radius, p.rule.name), []).append(values)
+        if p.control:
+            controls.setdefault(p.radius, {})[p.seed] = values
+        else:
+            variants.setdefault((p.radius, p.rule.name), []).append(values)
+            seeds_of.setdefault((p.radius, p.rule.name), []).append(p.seed)
     table = [r.row() for r in runs.values()]
     groups = _groups(spec, runs, names)
     noise, verdicts = judge_groups(spec, ref_values, variants, names, look=look, looks=spec.looks)
     keys_of: dict[tuple, list[str]] = {}
     for p in planned:
-        if not p.is_reference:
+        if not p.is_reference and not p.control:
             keys_of.setdefault((p.radius, p.rule.name), []).append(p.key)
     for v in verdicts:
         g = next(g for g in groups if g["radius"] == v["radius"] and g["rule"] == v["rule"])
@@ -230,10 +250,52 @@ def assemble(
     ref_strength = None
     if spec.reference.unconfined:
         ref_strength = float(np.mean([r.scalars["unconfined_strength"] for r in refs.values()]))
-    advisor = advise(spec, groups, verdicts, ref_strength)
+    resolution, rule_errors = judge_controls(
+        spec, ref_values, variants, controls, names, look, runs
+    )
+    advisor = advise(spec, groups, verdicts, ref_strength, resolution, rule_errors)
     advisor["noise_floor"] = noise
     advisor["reference"] = _reference_summary(refs, names, ref_values)
     return StudyResult(spec, runs, table, groups, advisor, failed)
+
+
+def judge_controls(
+    spec: StudySpec,
+    ref_values: list[dict],
+    variants: dict[tuple, list[dict]],
+    controls: dict[float, dict[int, dict]],
+    names,
+    look: int,
+    runs: dict[str, RunResult],
+) -> tuple[list[dict], list[dict]]:
+    """The two errors the resolution controls separate (docs/PHYSICS.md section 7.4): per
+    radius with controls, the controls against the reference (the resolution error: what a
+    sample that many diameters across loses; judged once, at the study's confidence), and
+    per coarse variant at that radius, the variant against the controls (the rule's own
+    error, at the variant's look). Both are unpaired intervals: a control and a coarse run
+    of one seed start from the same scaled cloud, so their errors may be positively
+    correlated, which makes an unpaired interval wider than needed, never narrower."""
+    if not controls:
+        return [], []
+    control_lists = {r: list(c.values()) for r, c in controls.items()}
+    _, resolution = judge_groups(
+        spec, ref_values, {(r, "control"): v for r, v in control_lists.items()}, names
+    )
+    for v in resolution:
+        ctl = [x for x in runs.values() if x.control and x.radius == v["radius"]]
+        v["diameters_across"] = ctl[0].result.scalars["thickness_diameters"] if ctl else None
+        v["what"] = "resolution"
+    rule_errors = []
+    for r, ctl_values in control_lists.items():
+        mine = {k: vals for k, vals in variants.items() if k[0] == r}
+        if not mine:
+            continue
+        _, judged = judge_groups(spec, ctl_values, mine, names, look=look, looks=spec.looks)
+        for v in judged:
+            v["what"] = "rule"
+            v["control_seeds"] = len(ctl_values)
+        rule_errors += judged
+    return resolution, rule_errors
 
 
 def _note_failure_kinds(refs: dict, runs: dict[str, RunResult], verdicts: list[dict]) -> None:

@@ -170,6 +170,11 @@ class StudySpec(Record):
             and coordination of every run, in diameters of the study's largest particle [-].
         confidence: of every verdict: a wrong ``equivalent`` or a wrong ``differs`` is said
             in at most 1 - confidence of studies [-] (engine.study.advisor).
+        controls: per coarse radius and seed, a resolution control
+            (:func:`engine.study.plan.control_test`): the reference law unscaled in the
+            reference test scaled to that radius's cell. Against the reference it measures
+            what a sample that many diameters across loses (the resolution error); a coarse
+            variant against it measures the rule's own error (docs/PHYSICS.md section 7.4).
         decide: a two-stage design: the planned runs are a pilot, after which every variant
             not told apart gets the seeds its spreads say it needs (engine.study.adaptive),
             in up to ``rounds`` rounds, within the caps and the budget.
@@ -232,6 +237,12 @@ class StudySpec(Record):
         lt=1.0,
         doc="confidence of every verdict (1 - its largest error rate)",
     )
+    controls: bool = param(
+        True,
+        unit="",
+        kind="bool",
+        doc="per coarse radius a resolution control: the reference law in its cell scaled",
+    )
     decide: bool = param(
         False,
         unit="",
@@ -289,6 +300,11 @@ class StudySpec(Record):
             raise ParameterError(f"{o}.rules", rules, "1 to 8 engine.ScalingRule")
         if len({r.name for r in rules}) != len(rules):
             raise ParameterError(f"{o}.rules", [r.name for r in rules], "rules with unique names")
+        for i, r in enumerate(rules):
+            if r.name in ("reference", "control"):
+                raise ParameterError(
+                    f"{o}.rules[{i}].name", r.name, "a name other than 'reference' and 'control'"
+                )
         object.__setattr__(self, "rules", rules)
         seeds = None if self.seeds is None else _seed_list(f"{o}.seeds", self.seeds)
         ref_seeds = (

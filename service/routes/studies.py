@@ -131,7 +131,7 @@ def submit_study(
             position=i,
             radius=p.radius,
             seed=p.seed,
-            rule="reference" if p.rule is None else p.rule.name,
+            rule=p.label,
             particles=p.test.n_particles,
         )
         for i, p in enumerate(planned)

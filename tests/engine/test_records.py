@@ -127,9 +127,9 @@ def test_records_do_no_work_and_a_study_is_planned_by_one_pure_function(monkeypa
     assert placed == []  # neither the records nor the plan place a packing
     assert spec.to_dict() == before  # the spec is not changed by planning
     assert engine.plan(spec) == plan  # and planning is deterministic
-    assert len(plan.runs) == 3 + 2 * 2 * 2
+    assert len(plan.runs) == 3 + 2 * 2 * 2 + 2 * 2  # references, variants, controls
     again = engine.StudyPlan.from_dict(json.loads(json.dumps(plan.to_dict())))
-    assert again == plan
+    assert again == plan and sum(p.control for p in again.runs) == 4
     # the coarse tests carry the scaled law and the reference's time step
     coarse = next(p for p in plan.runs if p.key == "r3mm-paper-s2")
     assert coarse.test.seed == 2 and coarse.test.dt == spec.reference.dt

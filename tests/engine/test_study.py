@@ -79,7 +79,10 @@ def test_spec_validation_names_fields():
     runs = engine.plan(two).runs
     assert [p.key for p in runs][:3] == ["ref-s1", "ref-s2", "ref-s3"]
     # one interior window for the study: two diameters of its largest particle, every run
-    assert [p.test.interior_margin for p in runs] == pytest.approx([4 * 3.1e-3] * len(runs))
+    # (a resolution control: scaled with its cell by R_ref / R_c)
+    assert [p.test.interior_margin for p in runs] == pytest.approx(
+        [4 * 3.1e-3 * (2.5 / 3.1 if p.control else 1.0) for p in runs]
+    )
     assert two.reference.interior_margin is None  # the study's, not the reference's own
     assert two.tolerances == engine.DEFAULT_TOLERANCES
     with pytest.raises(engine.ParameterError, match="rules"):
@@ -183,7 +186,7 @@ def tiny_study():
 
 def test_tiny_study_end_to_end(tiny_study, tmp_path):
     spec, res, seen, stored = tiny_study
-    keys = ["ref-s1", "ref-s2", "r3.1mm-paper-s1", "r3.1mm-unscaled-s1"]
+    keys = ["ref-s1", "ref-s2", "r3.1mm-paper-s1", "r3.1mm-unscaled-s1", "ctl-r3.1mm-s1"]
     assert list(res.runs) == keys and list(stored) == keys and not res.failed
     assert next(p.run_key for p in seen) == "ref-s1" and seen[-1].fraction == pytest.approx(1.0)
     for k in ("ref-s1", "ref-s2"):
@@ -265,7 +268,7 @@ def test_a_failed_coarse_run_leaves_the_rest():
     assert res.failed == {"r3.1mm-paper-s1": "InstabilityError: blew up at step 12"}
     v = next(v for v in res.advisor["verdicts"] if v["rule"] == "paper")
     assert v["verdict"] == "undecided" and "blew up" in v["reason"]
-    assert "r3.1mm-unscaled-s1" in res.runs and len(good.runs) == 4
+    assert "r3.1mm-unscaled-s1" in res.runs and len(good.runs) == 5
     outcomes["ref-s1"] = outcomes["ref-s2"] = "StageError: no"
     with pytest.raises(engine.RunFailed):
         engine.study.results.assemble(spec, engine.plan(spec).runs, outcomes)
@@ -325,3 +328,55 @@ def test_stored_runs_beyond_the_plan_are_judged_with_it():
     assert [p.key for p in extra] == ["r5mm-paper-s7", "ref-s9"]
     assert extra[0].seed == 7 and extra[0].test.seed == 7 and extra[0].radius == 5e-3
     assert extra[1].is_reference and extra[1].test.radius == spec.reference.radius
+
+
+def test_a_control_is_the_reference_law_in_the_coarse_cell_scaled():
+    # engine.study.plan.control_test: cell, interior margin and platen speed times
+    # s = R_ref / R_c, gravity over s; the law, time step and stage times kept
+    from engine.study.plan import control_test
+
+    ref = engine.preset("quick", interior_margin=0.02)
+    ctl = control_test(ref, 5e-3, 1e-5)
+    s = 0.5
+    assert ctl.cell == pytest.approx(tuple(c * s for c in ref.cell))
+    assert ctl.platen_speed == pytest.approx(ref.platen_speed * s)
+    assert ctl.gravity == pytest.approx(ref.gravity / s)
+    assert ctl.interior_margin == pytest.approx(0.02 * s)
+    assert ctl.pair_law == ref.pair_law and ctl.radius == ref.radius and ctl.dt == 1e-5
+    assert ctl.release_time == ref.release_time and ctl.max_stage_time == ref.max_stage_time
+    # as many of its diameters across as the coarse run of its own, the same particle count
+    coarse = engine.ScalingRule.named("paper").apply(ref, 5e-3, 1e-5)
+    assert ctl.thickness_diameters == pytest.approx(coarse.thickness_diameters)
+    assert ctl.n_particles == coarse.n_particles
+    # the overburden rho g H and the strain rate are the coarse run's
+    assert ctl.gravity * ctl.cell[2] == pytest.approx(coarse.gravity * coarse.cell[2])
+    assert ctl.platen_speed / ctl.cell[2] == pytest.approx(coarse.platen_speed / coarse.cell[2])
+
+
+def test_a_study_with_controls_gives_the_rule_error_and_the_resolution_error():
+    spec = engine.StudySpec(
+        reference=tiny(),
+        coarse_radii=(3.1e-3,),
+        rules=(engine.ScalingRule.named("paper"),),
+        seeds=(1, 2, 3),
+        reference_seeds=(1, 2, 3),
+    )
+    assert spec.controls  # on by default
+    keys = [p.key for p in engine.plan(spec).runs]
+    assert keys.count("ctl-r3.1mm-s1") == 1 and len(keys) == 9
+    res = engine.run_study(spec)
+    assert res.runs["ctl-r3.1mm-s2"].row()["rule"] == "control"
+    assert res.runs["ctl-r3.1mm-s2"].result.test.gravity == pytest.approx(9.81 * 3.1 / 2.5)
+    (resolution,) = res.advisor["resolution"]
+    assert resolution["radius"] == 3.1e-3 and resolution["seeds"] == 3
+    assert resolution["diameters_across"] == pytest.approx(12.1e-3 / 5e-3, rel=1e-2)
+    (rule,) = res.advisor["rule_errors"]
+    assert rule["rule"] == "paper" and rule["control_seeds"] == 3
+    assert rule["verdict"] in ("equivalent", "differs", "undecided")
+    lines = " ".join(res.advisor["control_lines"])
+    assert "against its resolution control" in lines and "diameters across" in lines
+    # the coarse variant's own verdict against the reference is judged as before
+    assert [(v["radius"], v["rule"]) for v in res.advisor["verdicts"]] == [(3.1e-3, "paper")]
+    # a study may leave them out
+    off = engine.StudySpec(reference=tiny(), coarse_radii=(3.1e-3,), controls=False)
+    assert not any(p.control for p in engine.plan(off).runs)

@@ -117,7 +117,8 @@ def _too_many_runs(n: int, settings: Settings) -> SpecRejected:
         [
             _error(
                 (),
-                f"the study has {n} runs (seeds x (1 + radii x rules)); "
+                f"the study has {n} runs (seeds x (1 + radii x rules), + seeds x radii "
+                "resolution controls); "
                 f"the limit is {settings.max_runs} (DEMSCALE_MAX_RUNS)",
                 n,
             )

@@ -5,7 +5,8 @@ the study's records (which for hundreds of runs costs far more than these checks
 microseconds per run). Everything here works on the request's fields and on *probes*
 (records whose fields are set without their checks):
 
-- :func:`plan_counts`: the number of runs (seeds x (1 + radii x rules));
+- :func:`plan_counts`: the number of runs (seeds x (1 + radii x rules), + seeds x radii
+  resolution controls);
 - :func:`work_bounds`: the bounds on the knobs that set a run's work or output, relative
   to its time step and to its stages' physics (:data:`BOUNDS`);
 - :func:`worst_stage_times`: the longest simulated time each stage can take, as the engine

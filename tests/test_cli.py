@@ -75,7 +75,8 @@ def test_help_explains_every_command(argv, capsys):
 def test_example_spec_is_a_valid_small_study():
     spec = engine.StudySpec.from_dict(json.loads((ROOT / "examples/quick_study.json").read_text()))
     runs = engine.plan(spec).runs
-    assert len(runs) == 4 and len(spec.reference_seeds) == 2  # a noise floor exists
+    assert len(runs) == 5 and len(spec.reference_seeds) == 2  # a noise floor exists
+    assert [p.key for p in runs if p.control] == ["ctl-r3.75mm-s1"]  # its resolution control
     assert max(p.test.n_particles for p in runs) < 400
 
 

@@ -98,7 +98,9 @@ def test_runs_selection_runs_only_the_named_runs_not_stored():
 
     spec = experiments("paper")["c_eepa_cohesionless"]
     keys = [p.key for p in engine.plan(spec).runs]
-    assert keys[:3] == ["ref-s1", "ref-s2", "ref-s3"] and len(keys) == 7
+    # 3 references, 2 rules x 2 seeds, and the resolution control of each seed
+    assert keys[:3] == ["ref-s1", "ref-s2", "ref-s3"] and len(keys) == 9
+    assert [k for k in keys if k.startswith("ctl-")] == ["ctl-r5mm-s1", "ctl-r5mm-s2"]
     done, todo = select(spec, {"ref-s1": "stored"}, None)
     assert todo == keys[1:] and done == {"ref-s1": "stored"}
     done, todo = select(spec, {"ref-s1": "stored"}, ["ref-s1", "r5mm-linear-s2"])

@@ -39,7 +39,11 @@ TINY = {
     },
     "coarse_radii": [3.1e-3],
     "rules": ["paper"],
+    "controls": False,
 }
+
+#: TINY with its resolution control (engine.study.plan.control_test): three runs.
+TINY_CONTROLLED = {**TINY, "name": "tiny-controlled", "controls": True}
 
 #: TINY with a smaller time step: long enough (seconds) to be interrupted mid-study.
 SLOW = {**TINY, "name": "slow", "reference": {**TINY["reference"], "dt": 4e-6}}
@@ -50,6 +54,7 @@ TINIEST = {
     "reference": {**TINY["reference"], "unconfined": False, "dt": 3e-5, "output_interval": 2e-3},
     "coarse_radii": [3.1e-3],
     "rules": ["paper"],
+    "controls": False,
 }
 
 

@@ -17,7 +17,7 @@ import engine
 from engine.io.store import read_run_group, stage_names
 from service.plots import KINDS
 
-from .conftest import SLOW, TINY, study_getter, wait_for
+from .conftest import SLOW, TINY, TINY_CONTROLLED, study_getter, wait_for
 
 PNG = b"\x89PNG\r\n\x1a\n"
 #: Generous: includes a first compilation of the engine's kernels on a cold cache.
@@ -61,7 +61,7 @@ def running_mid_study(client, sid, workers) -> dict:
 
 @pytest.mark.timeout(RUN_TIMEOUT + 60)
 def test_study_runs_end_to_end(client, workers, settings):
-    sid = submit(client, TINY)
+    sid = submit(client, TINY_CONTROLLED)
     workers.start()
     seen = []
     done = wait_for(
@@ -78,18 +78,28 @@ def test_study_runs_end_to_end(client, workers, settings):
     assert [(r["key"], r["status"]) for r in done["runs"]] == [
         ("ref-s1", "succeeded"),
         ("r3.1mm-paper-s1", "succeeded"),
+        ("ctl-r3.1mm-s1", "succeeded"),
     ]
     assert all(r["steps"] > 0 and r["wall_time"] > 0 for r in done["runs"])
+    assert [r["rule"] for r in done["runs"]] == ["reference", "paper", "control"]
 
     summary = client.get(f"/studies/{sid}/summary").json()
     table = {row["run"]: row for row in summary["table"]}
-    assert set(table) == {"ref-s1", "r3.1mm-paper-s1"}
+    assert set(table) == {"ref-s1", "r3.1mm-paper-s1", "ctl-r3.1mm-s1"}
+    # the resolution control: the rule's own error and the resolution error, on the page too
+    # (one seed each: their spreads are unknown, so both are undecided and say why)
+    assert table["ctl-r3.1mm-s1"]["rule"] == "control"
+    (res,) = summary["advisor"]["resolution"]
+    (own,) = summary["advisor"]["rule_errors"]
+    assert res["radius"] == own["radius"] == 3.1e-3 and own["rule"] == "paper"
+    page = client.get(f"/studies/{sid}/page").text
+    assert "Rule error and resolution error" in page and "against its resolution control" in page
     assert table["ref-s1"]["err_stress_strain"] == 0.0
     assert table["r3.1mm-paper-s1"]["particles"] < table["ref-s1"]["particles"]
     assert table["r3.1mm-paper-s1"]["speedup"] > 0 and summary["units"]["wall_time"] == "s"
     assert "paper" in summary["advisor"]["rules"]
     # snapshots of every run: ParaView files and a PNG section per stage, listed and served
-    assert set(summary["snapshots"]) == {"ref-s1", "r3.1mm-paper-s1"}
+    assert set(summary["snapshots"]) == {"ref-s1", "r3.1mm-paper-s1", "ctl-r3.1mm-s1"}
     urls = summary["snapshots"]["ref-s1"]
     assert any(u.endswith("/particles.vtkhdf") for u in urls)
     assert any(u.endswith("/unconfined.png") for u in urls)
@@ -133,9 +143,12 @@ def test_study_runs_end_to_end(client, workers, settings):
         assert '"coarse_radii": [0.0031]' in f.attrs["spec"]
         for pkg in ("demscale", "numpy", "numba", "h5py"):
             assert f.attrs[f"version_{pkg}"]
-        assert list(f["runs"]) == ["ref-s1", "r3.1mm-paper-s1"]
+        assert list(f["runs"]) == ["ref-s1", "r3.1mm-paper-s1", "ctl-r3.1mm-s1"]
         ref = f["runs/ref-s1"]
         assert ref.attrs["reference"] and ref.attrs["radius_units"] == "m"
+        ctl = f["runs/ctl-r3.1mm-s1"]
+        assert ctl.attrs["control"] and not ctl.attrs["reference"]
+        assert ctl.attrs["rule"] == "control"
         # the run in the one layout of a run (engine.io.store), as in its own file
         assert ref["scalars"].attrs["unconfined_strength_units"] == "Pa"
         assert engine.UniaxialTest.from_dict(json.loads(ref.attrs["test"])).seed == 1
@@ -155,7 +168,7 @@ def test_study_runs_end_to_end(client, workers, settings):
         stored = read_run_group(ref)  # reads back as a run
         assert stored.stages["consolidation"].curves["stress_top"].tobytes() == stress[()].tobytes()
         assert f["summary/wall_time"].attrs["units"] == "s"
-        assert [x.decode() for x in f["summary/run"][()]] == ["ref-s1", "r3.1mm-paper-s1"]
+        assert [x.decode() for x in f["summary/run"][()]] == list(f["runs"])
     assert not list(settings.study_dir(sid).glob("*.tmp"))
 
     assert client.delete(f"/studies/{sid}").status_code == 204

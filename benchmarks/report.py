@@ -365,7 +365,16 @@ def adaptive_lines(res) -> list[str]:
         + (
             f"stopped: {a['stopped']}."
             if a["stopped"]
-            else f"**still to run** for its second stage: {', '.join(pending)}."
+            else "**still to run**: "
+            + "; ".join(
+                f"{what} {', '.join(keys)}"
+                for what, keys in (
+                    ("its resolution controls", [k for k in pending if k.startswith("ctl-")]),
+                    ("its second stage", [k for k in pending if not k.startswith("ctl-")]),
+                )
+                if keys
+            )
+            + "."
         ),
         "",
     ]
@@ -389,9 +398,9 @@ def undecided_note(results: dict) -> list[str]:
     if not open_:
         return ["Every verdict of the stored runs is decided."]
     two = sum(1 for _, v in open_ if v.get("seeds") == 2)
-    pending = sorted(
-        {k for r in judged for k in (r.advisor.get("adaptive") or {}).get("pending", [])}
-    )
+    pending = [
+        k for r in judged for k in sorted((r.advisor.get("adaptive") or {}).get("pending", []))
+    ]
     text = (
         f"Verdicts judged from the stored runs by the rule of docs/PHYSICS.md section 7 "
         f"(issue 28). {len(open_)} variants are undecided"
@@ -404,11 +413,18 @@ def undecided_note(results: dict) -> list[str]:
         )
         + "."
     )
-    if pending:
+    controls = [k for k in pending if k.startswith("ctl-")]
+    stage = [k for k in pending if not k.startswith("ctl-")]
+    if controls:
         text += (
-            f" The two-stage design would still run {len(pending)} runs sized from the "
-            f"stored spreads ({', '.join(pending)}); each reason says how many more seeds "
-            "would decide it if its means and spreads stayed as observed."
+            f" The studies' resolution controls (docs/PHYSICS.md section 7.4) have not run "
+            f"yet ({len(controls)} runs), so their rule and resolution errors are not judged here."
+        )
+    if stage:
+        text += (
+            f" The two-stage design would still run {len(stage)} runs sized from the stored "
+            f"spreads ({', '.join(stage)}); each reason says how many more seeds would decide "
+            "it if its means and spreads stayed as observed."
         )
     return [text]
 
@@ -505,7 +521,10 @@ def write_report(
         beyond = [p.key for p in runs if p.key not in {q.key for q in planned}]
         stored_added = [a for a in added if a["run"] in outcomes]
         look = spec.looks if beyond else final_look(spec, stored_added)
-        counts[name] = (sum(1 for p in runs if p.key in outcomes), len(runs) + len(pending))
+        counts[name] = (
+            sum(1 for p in runs if p.key in outcomes),
+            len({p.key for p in runs} | set(pending)),
+        )
         if not any(p.is_reference and p.key in outcomes for p in runs):
             results[name] = "no reference run stored yet"
             continue

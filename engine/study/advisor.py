@@ -504,8 +504,8 @@ def finite_size_warnings(groups: list[dict], controlled: bool = False) -> list[s
         elif t < 10 and not controlled:
             out.append(
                 f"R = {g['radius'] * 1e3:g} mm: the cell is {t:.1f} particle diameters "
-                "thick and the study has no resolution control (StudySpec.controls): part of "
-                "this radius's error may be the sample's size in diameters, not the rule"
+                "thick and no resolution control of it has run (StudySpec.controls): part "
+                "of this radius's error may be the sample's size in diameters, not the rule"
             )
     return out
 

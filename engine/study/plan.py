@@ -273,7 +273,9 @@ def plan_runs(
         return planned, added, None
     spent = 0.0
     for round_no in range(1, spec.rounds + 1):
-        if any(p.key not in outcomes for p in planned):
+        # a round is planned from the finished references and variants (the controls take
+        # no part in it, so a round need not wait for them)
+        if any(p.key not in outcomes for p in planned if not p.control):
             return planned, added, None
         new = _added_runs(spec, planned, outcomes, round_no, spent)
         if not new:

@@ -389,6 +389,31 @@ def adaptive_lines(res) -> list[str]:
     return out + ([""] if a["added_runs"] else [])
 
 
+def code_lines(res, codes: dict | None) -> list[str]:
+    """Which code made which run: the engine digest and git commit each stored run records
+    (engine.io.store.this_code), grouped; runs stored before that was recorded are named."""
+    if codes is None:
+        return []
+    groups: dict[str, list[str]] = {}
+    for key in res.runs:
+        c = codes.get(key)
+        if c is None:
+            label = "not recorded (stored before runs recorded their code)"
+        else:
+            commit = (c.get("git_commit") or "no git checkout")[:10]
+            mod = ", engine modified" if c.get("engine_modified") else ""
+            label = f"engine {c['engine_digest'][:10]} (commit {commit}{mod})"
+        groups.setdefault(label, []).append(key)
+    return [
+        "Code of the runs: "
+        + "; ".join(f"{label}: {', '.join(keys)}" for label, keys in groups.items())
+        + ". New runs judged beside stored ones come from other code: rerun today, a stored "
+        "run may differ in its steps and scalars (r5mm-b2-s1 and -s2 came out within 0.1 % "
+        "in every scalar with 0.2 % more steps), as a new packing seed would.",
+        "",
+    ]
+
+
 def undecided_note(results: dict) -> list[str]:
     """Why the undecided verdicts are undecided, from the verdicts themselves: how many rest
     on variants of two seeds (Hsu's 1 degree of freedom), and the runs the two-stage design
@@ -498,13 +523,18 @@ def porosity_note(res) -> str:
 
 
 def write_report(
-    scale: str, data: dict, out_dir: Path | None = None, machines: dict | None = None
+    scale: str,
+    data: dict,
+    out_dir: Path | None = None,
+    machines: dict | None = None,
+    codes: dict | None = None,
 ) -> Path:
     """``data``: experiment name -> (spec, stored outcomes); ``machines``: experiment name
     -> run key -> the stored run's machine (engine.io.store.stored_machine). Writes
     VALIDATION.md and its figures into ``out_dir`` (default: docs/ for the paper scale,
     else benchmarks/.cache/<scale>/) and returns the report's path."""
     machines = machines or {}
+    codes = codes or {}
     if out_dir is None:
         out_dir = ROOT / "docs"
     report_name = "VALIDATION.md" if scale == "paper" else f"VALIDATION_{scale}.md"
@@ -649,6 +679,7 @@ def write_report(
             run_table(res, machines.get(name)),
             "",
         ]
+        lines += code_lines(res, codes.get(name))
         if not comparable_wall_times(res, machines.get(name)):
             lines += [
                 "Wall times here were measured with different engine threads, "

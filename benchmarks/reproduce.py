@@ -41,7 +41,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import engine
-from engine.io.store import completed_runs, load_all, save_run, stored_machine
+from engine.io.store import completed_runs, load_all, save_run, stored_code, stored_machine
 from engine.study.plan import plan_runs, stored_plan_runs
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -171,6 +171,12 @@ def select(spec: engine.StudySpec, stored: dict, runs: list[str] | None) -> tupl
     return done, [p.key for p in plan_runs(spec, done)[0] if p.key not in done]
 
 
+def codes_of(directory: Path) -> dict:
+    """Run key -> the code that stored it (engine.io.store.stored_code; None where not
+    recorded)."""
+    return {p.stem: stored_code(p) for p in sorted(directory.glob("*.h5"))}
+
+
 def machines_of(directory: Path) -> dict:
     """Run key -> the machine that stored it (None where not recorded)."""
     return {p.stem: stored_machine(p) for p in sorted(directory.glob("*.h5"))}
@@ -272,6 +278,7 @@ def main(argv=None) -> int:
             for name, spec in specs.items()
         },
         machines={name: machines_of(store_dir(args.scale, name)) for name in specs},
+        codes={name: codes_of(store_dir(args.scale, name)) for name in specs},
     )
     print(f"wrote {path} ({time.perf_counter() - t0:.0f} s)")
     return 0

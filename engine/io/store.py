@@ -24,6 +24,7 @@ import json
 import os
 import platform
 import socket
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -53,6 +54,42 @@ def stored_machine(path: Path) -> dict | None:
 
     with h5py.File(path, "r") as f:
         text = f.attrs.get("machine")
+    return None if text is None else json.loads(text)
+
+
+def this_code() -> dict:
+    """The code that makes a run: the engine's source digest (the one a checkpoint carries,
+    engine.uniaxial.checkpoint.code_digest) and, where the engine is a git checkout, its
+    commit and whether the work tree differed from it (None where not a checkout)."""
+    from ..uniaxial.checkpoint import code_digest
+
+    root = Path(__file__).resolve().parents[2]
+    commit, dirty = None, None
+    try:
+        out = subprocess.run(
+            ["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True, timeout=5
+        )
+        if out.returncode == 0:
+            commit = out.stdout.strip()
+            st = subprocess.run(
+                ["git", "-C", str(root), "status", "--porcelain", "--", "engine"],
+                capture_output=True,
+                text=True,
+                timeout=5,
+            )
+            dirty = bool(st.stdout.strip()) if st.returncode == 0 else None
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return {"engine_digest": code_digest(), "git_commit": commit, "engine_modified": dirty}
+
+
+def stored_code(path: Path) -> dict | None:
+    """The ``code`` attribute of a stored run (:func:`this_code`), or None where it was not
+    recorded (runs stored before it was)."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        text = f.attrs.get("code")
     return None if text is None else json.loads(text)
 
 
@@ -131,11 +168,22 @@ def save_run(path: Path, outcome, keep_particles: bool = True) -> Path:
                 {"demscale": __version__, "numba": numba.__version__, "numpy": np.__version__}
             )
             f.attrs["machine"] = json.dumps(this_machine())
+            f.attrs["code"] = json.dumps(_code())
             write_run_group(f, outcome, keep_particles)
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
     return path
+
+
+_CODE: dict | None = None
+
+
+def _code() -> dict:
+    global _CODE
+    if _CODE is None:  # once per process: the source and the checkout do not change under it
+        _CODE = this_code()
+    return _CODE
 
 
 def load_run(path: Path):

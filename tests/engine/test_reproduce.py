@@ -91,6 +91,17 @@ def test_stored_run_records_threads_and_machine(tmp_path):
     assert stored_machine(path) == this_machine()
     assert this_machine()["logical_cpus"] >= 1 and this_machine()["cpu"]
     assert load_run(path).scalars["threads"] == 1.0
+    # and the code that made it: the engine digest a checkpoint carries, the git commit
+    from engine.io.store import stored_code
+    from engine.uniaxial.checkpoint import code_digest
+
+    code = stored_code(path)
+    assert code["engine_digest"] == code_digest() and set(code) == {
+        "engine_digest",
+        "git_commit",
+        "engine_modified",
+    }
+    assert code["git_commit"] is None or len(code["git_commit"]) == 40
 
 
 def test_runs_selection_runs_only_the_named_runs_not_stored():

@@ -670,6 +670,14 @@ def write_report(
             for v in res.advisor["verdicts"]
         ]
         lines += [f"- warning: {w}" for w in res.advisor["warnings"]]
+        if res.advisor.get("control_lines"):
+            lines += [
+                "",
+                "Against the resolution controls (docs/PHYSICS.md section 7.4; the rule's own "
+                "error and what a sample that many diameters across loses):",
+                "",
+                *[f"- {c}" for c in res.advisor["control_lines"]],
+            ]
         lines += [
             "",
             porosity_note(res),

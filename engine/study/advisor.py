@@ -534,9 +534,10 @@ def resolution_lines(resolution: list[dict], rule_errors: list[dict], spec) -> l
     )
     for v in rule_errors:
         says = {"equivalent": "holds", "differs": "differs", "undecided": "is undecided"}
+        parts = "; ".join(_interval_words(m) for m in v["metrics"])
         text = (
             f"{v['rule']} at R = {v['radius'] * 1e3:g} mm: the rule {says[v['verdict']]} "
-            "against its resolution control (the rule's own error)"
+            f"against its resolution control (the rule's own error: {parts})"
         )
         if v["rule"] in exact:
             text += (

@@ -207,7 +207,7 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
     handles, labels = axes[0].get_legend_handles_labels()
     for i, rule in enumerate(rules):
         handles.append(Line2D([], [], ls="", marker="o", color=f"C{i % 10}"))
-        labels.append(f"rule {rule}")
+        labels.append("resolution control" if rule == "control" else f"rule {rule}")
     for i, r in enumerate(radii):
         handles.append(Line2D([], [], ls="", marker=_MARKERS[i % len(_MARKERS)], color="0.3"))
         labels.append(f"R = {r * 1e3:g} mm")

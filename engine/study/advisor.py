@@ -613,11 +613,8 @@ def advise(
                 f"{name}: equivalent up to R = {a['coarsest_radius'] * 1e3:g} mm "
                 f"({a['speedup']:.1f}x faster)"
             )
-        beyond = [
-            r
-            for r in a["radii_equivalent"]
-            if a["coarsest_radius"] in (None,) or r > a["coarsest_radius"]
-        ]
+        last = a["coarsest_radius"]
+        beyond = [r for r in a["radii_equivalent"] if last is None or r > last]
         stop = a["sequence_stopped_at"]
         if beyond and stop is not None:
             lines.append(

@@ -244,6 +244,45 @@ CASES = (
     "instability",
 )
 
+
+def _shared_arrays_once_per_block() -> None:
+    """Mend a race in numba-cuda's simulator (0.x, ``FakeCUDAShared.array``): it looks a
+    shared array up by call site and creates it when absent, without a lock, so two of a
+    block's threads arriving together may each get an array of their own. A reduction in
+    shared memory then reads only its own thread's part: the largest displacement of a step
+    came out too small now and then, and one of two identical runs rebuilt its list once
+    more (CI, stop 31: rebuilds [4, 5] with bit-identical states). On a device the block has
+    one shared array; here the first thread's array is made the block's, under a lock."""
+    import threading
+    import traceback
+
+    from numba.core import types
+    from numba.cuda.simulator import kernelapi
+    from numba.np import numpy_support
+
+    cls = kernelapi.FakeCUDAShared
+    if getattr(cls, "_demscale_locked", False):
+        return
+    unlocked = cls.array
+    lock = threading.Lock()
+
+    def array(self, shape, dtype, alignment=None):
+        if shape == 0 or alignment is not None:  # dynamic shared memory; refusals
+            return unlocked(self, shape, dtype, alignment)
+        if isinstance(dtype, types.Type):
+            dtype = numpy_support.as_dtype(dtype)
+        caller = traceback.extract_stack(sys._getframe())[-2][0:2]  # the kernel's line
+        with lock:
+            res = self._allocations.get(caller)
+            if res is None:
+                res = self._allocations[caller] = np.empty(shape, dtype)
+        return res
+
+    cls.array = array
+    cls._demscale_locked = True
+
+
 if __name__ == "__main__":
     sys.setswitchinterval(5e-5)  # the simulator's threads hand the GIL over faster
+    _shared_arrays_once_per_block()
     print(json.dumps(case(sys.argv[1])))

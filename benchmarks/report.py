@@ -391,7 +391,7 @@ def adaptive_lines(res) -> list[str]:
 
 def code_lines(res, codes: dict | None) -> list[str]:
     """Which code made which run: the engine digest and git commit each stored run records
-    (engine.io.store.this_code), grouped; runs stored before that was recorded are named."""
+    (engine.uniaxial.checkpoint.this_code), grouped; runs stored before that are named."""
     if codes is None:
         return []
     groups: dict[str, list[str]] = {}

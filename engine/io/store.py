@@ -24,11 +24,11 @@ import json
 import os
 import platform
 import socket
-import subprocess
 from pathlib import Path
 
 import numpy as np
 
+from ..uniaxial.checkpoint import this_code
 from ..uniaxial.measures import failed_by_curve
 from ..uniaxial.results import CURVE_UNITS, SCALAR_UNITS, StageResult, UniaxialResult
 from ..uniaxial.spec import UniaxialTest
@@ -55,32 +55,6 @@ def stored_machine(path: Path) -> dict | None:
     with h5py.File(path, "r") as f:
         text = f.attrs.get("machine")
     return None if text is None else json.loads(text)
-
-
-def this_code() -> dict:
-    """The code that makes a run: the engine's source digest (the one a checkpoint carries,
-    engine.uniaxial.checkpoint.code_digest) and, where the engine is a git checkout, its
-    commit and whether the work tree differed from it (None where not a checkout)."""
-    from ..uniaxial.checkpoint import code_digest
-
-    root = Path(__file__).resolve().parents[2]
-    commit, dirty = None, None
-    try:
-        out = subprocess.run(
-            ["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True, timeout=5
-        )
-        if out.returncode == 0:
-            commit = out.stdout.strip()
-            st = subprocess.run(
-                ["git", "-C", str(root), "status", "--porcelain", "--", "engine"],
-                capture_output=True,
-                text=True,
-                timeout=5,
-            )
-            dirty = bool(st.stdout.strip()) if st.returncode == 0 else None
-    except (OSError, subprocess.SubprocessError):
-        pass
-    return {"engine_digest": code_digest(), "git_commit": commit, "engine_modified": dirty}
 
 
 def stored_code(path: Path) -> dict | None:
@@ -168,22 +142,12 @@ def save_run(path: Path, outcome, keep_particles: bool = True) -> Path:
                 {"demscale": __version__, "numba": numba.__version__, "numpy": np.__version__}
             )
             f.attrs["machine"] = json.dumps(this_machine())
-            f.attrs["code"] = json.dumps(_code())
+            f.attrs["code"] = json.dumps(this_code())
             write_run_group(f, outcome, keep_particles)
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
     return path
-
-
-_CODE: dict | None = None
-
-
-def _code() -> dict:
-    global _CODE
-    if _CODE is None:  # once per process: the source and the checkout do not change under it
-        _CODE = this_code()
-    return _CODE
 
 
 def load_run(path: Path):

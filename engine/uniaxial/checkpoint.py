@@ -23,6 +23,7 @@ import hashlib
 import math
 import os
 import pickle
+import subprocess
 import sys
 import time
 import warnings
@@ -53,6 +54,42 @@ def code_digest() -> str:
             h.update(f.read_bytes())
         _digest = h.hexdigest()[:20]
     return _digest
+
+
+_code: dict | None = None
+
+
+def this_code() -> dict:
+    """The code that makes this process's runs: the engine's source digest
+    (:func:`code_digest`) and, where the engine is a git checkout, its commit and whether the
+    work tree's engine/ differed from it (None where not a checkout). Taken once per process,
+    at the first run's start (:func:`engine.run_uniaxial` asks for it), so that a source file
+    edited while a long run goes on does not relabel the run: the process runs the code it
+    imported."""
+    global _code
+    if _code is None:
+        root = _ENGINE.parent
+        commit, dirty = None, None
+        try:
+            out = subprocess.run(
+                ["git", "-C", str(root), "rev-parse", "HEAD"],
+                capture_output=True,
+                text=True,
+                timeout=5,
+            )
+            if out.returncode == 0:
+                commit = out.stdout.strip()
+                st = subprocess.run(
+                    ["git", "-C", str(root), "status", "--porcelain", "--", "engine"],
+                    capture_output=True,
+                    text=True,
+                    timeout=5,
+                )
+                dirty = bool(st.stdout.strip()) if st.returncode == 0 else None
+        except (OSError, subprocess.SubprocessError):
+            pass
+        _code = {"engine_digest": code_digest(), "git_commit": commit, "engine_modified": dirty}
+    return _code
 
 
 def check_interval(interval: float, field: str) -> None:

@@ -23,7 +23,7 @@ from ..simulation.backend import check_backend, resolve_backend
 from ..simulation.packing import sphere_volume
 from ..simulation.simulation import Simulation
 from ..simulation.snapshot import capture
-from .checkpoint import Checkpoint, check_interval
+from .checkpoint import Checkpoint, check_interval, this_code
 from .measures import (
     FailureDetector,
     failed_by_curve,
@@ -463,6 +463,7 @@ def run_uniaxial(
     Raises: :class:`StageError` when a stage misses its criterion within its bound,
         :class:`engine.InstabilityError` when the integration blows up.
     """
+    this_code()  # the code this run is made by, taken before it runs (engine.io.store)
     if snapshot_interval is not None:
         if on_snapshot is None:
             raise ValueError("snapshot_interval needs on_snapshot to receive the snapshots")

@@ -83,6 +83,40 @@ PLANNED_POWER = 0.8
 #: simulated rates stay under 5 % (tests/engine/test_coverage.py).
 EQUIVALENCE_LEVEL = 0.5
 
+#: Variance of the per-seed difference of a coarse run and its resolution control (both
+#: started from the same scaled cloud), relative to the sum of their variances, per metric:
+#: var(log c - log k) / (var log c + var log k) = 1 - rho for equal spreads, rho their
+#: correlation. Measured by ``python -m benchmarks.pairing`` on the stored runs of the four
+#: experiments (2026-12-03, quick and paper scale, pooled within variants: 44 degrees of
+#: freedom, 30 for strength): density and coordination keep the cloud's imprint
+#: (rho = 0.64 and 0.51); the stiffnesses and the strength forget it (rho -0.12, -0.06,
+#: -0.05, none distinguishable from 0 at 1 / sqrt(44) = 0.15): a packing is chaotic and
+#: bit-level differences in the clock grow. Fixed here, so that whether a metric is paired
+#: depends on seed counts only, never on the values judged (:func:`pairing_pays`).
+PAIRING_VARIANCE_RATIO = {
+    "density": 0.37,
+    "loading_stiffness": 1.12,
+    "unloading_stiffness": 1.06,
+    "coordination": 0.51,
+    "strength": 1.05,
+}
+
+
+def pairing_pays(name: str, pairs: int, nc: int, nr: int, alpha: float) -> bool:
+    """Whether the rule's own error of metric ``name`` is judged paired by seed (the t
+    interval of the ``pairs`` per-seed differences, pairs - 1 degrees of freedom) rather
+    than unpaired (all ``nc`` coarse and ``nr`` control seeds, :func:`two_sample_intervals`):
+    paired when its expected half-width at one-sided rate ``alpha``, with equal spreads and
+    the measured :data:`PAIRING_VARIANCE_RATIO`, is the smaller. Depends on the counts and
+    the fixed ratio alone, so either interval keeps its own coverage."""
+    ratio = PAIRING_VARIANCE_RATIO.get(name, 1.0)
+    if pairs < 2 or ratio >= 1.0:
+        return False
+    df_unpaired = float(interval_df(nc, nr, 1.0 / nc, 1.0 / nr))
+    unpaired = t_quantile(1.0 - alpha, df_unpaired) * math.sqrt(1.0 / nc + 1.0 / nr)
+    paired = t_quantile(1.0 - alpha, pairs - 1) * math.sqrt(2.0 * ratio / pairs)
+    return paired < unpaired
+
 
 def look_alpha(confidence: float, look: int = 1, looks: int = 1) -> float:
     """The ``differs`` error rate spent at look ``look`` of ``looks`` (1 for a study judged
@@ -163,16 +197,24 @@ def _bounds(tolerance: float) -> tuple[float, float]:
     return (math.log(1.0 - tolerance) if tolerance < 1 else -math.inf), math.log1p(tolerance)
 
 
-def judge_samples(c, r, tolerance: float, alpha_e: float, alpha_d: float) -> np.ndarray:
+def judge_samples(
+    c, r, tolerance: float, alpha_e: float, alpha_d: float, paired: bool = False
+) -> np.ndarray:
     """The verdicts of many studies of one positive scalar metric at once: ``c`` (studies x
-    coarse seeds) and ``r`` (studies x reference seeds), the same tests as
-    :func:`judge_metric` (which judges one study, and curves). Returns an array of
-    ``"equivalent"``, ``"differs"`` or ``"undecided"``; tests/engine/test_coverage.py
-    simulates the rule's rates with it and checks that it agrees with :func:`judge_metric`."""
+    coarse seeds) and ``r`` (studies x reference seeds; ``paired``: as many, matched column
+    by column), the same tests as :func:`judge_metric` (which judges one study, and curves).
+    Returns an array of ``"equivalent"``, ``"differs"`` or ``"undecided"``;
+    tests/engine/test_coverage.py simulates the rule's rates with it and checks that it
+    agrees with :func:`judge_metric`."""
     lc, lr = np.log(np.asarray(c, dtype=float)), np.log(np.asarray(r, dtype=float))
     nc, nr = lc.shape[1], lr.shape[1]
     lo_b, hi_b = _bounds(tolerance)
-    stats = (lc.mean(1), lr.mean(1), lc.var(1, ddof=1), lr.var(1, ddof=1))
+    if paired:
+        dd = lc - lr
+        zero = np.zeros(len(dd))
+        stats = (dd.mean(1), zero, dd.var(1, ddof=1), zero)
+    else:
+        stats = (lc.mean(1), lr.mean(1), lc.var(1, ddof=1), lr.var(1, ddof=1))
     _, lo, hi, _, _ = two_sample_intervals(*stats, nc, nr, alpha_e)
     equivalent = (lo >= lo_b) & (hi <= hi_b)
     _, lo, hi, _, _ = two_sample_intervals(*stats, nc, nr, alpha_d)
@@ -190,9 +232,18 @@ class _Space:
     the transformed values (seeds x levels), ``stats``, and those of each seed's mean over
     levels (of logs: a geometric mean over levels), ``summed``, whose difference is the mean
     of the level differences, so that it lies beyond a tolerance bound only if some level
-    does."""
+    does. ``paired``: the rows of the two samples are matched by seed (a coarse run and its
+    resolution control), and the intervals are those of the per-seed differences."""
 
-    def __init__(self, name: str, a: np.ndarray, r: np.ndarray, tolerance: float, cons: float):
+    def __init__(
+        self,
+        name: str,
+        a: np.ndarray,
+        r: np.ndarray,
+        tolerance: float,
+        cons: float,
+        paired: bool = False,
+    ):
         floor = _floored(name, float(r.mean(axis=0)[0]), cons) if a.shape[1] == 1 else None
         if floor is None and np.all(a > 0) and np.all(r > 0):
             self.kind = "log"
@@ -204,6 +255,16 @@ class _Space:
             c, r = a / scale, r / scale
             self.lo, self.hi = -tolerance, tolerance
         self.nc, self.nr = len(c), len(r)
+        self.paired = paired
+        if paired:  # rows matched by seed: the one-sample t of the per-seed differences
+            # (two_sample_intervals with a second sample of zero spread and as many values:
+            # interval_df gives n - 1 and the standard error is s_D / sqrt(n))
+            dd = c - r
+            z = np.zeros(dd.shape[1])
+            self.stats = (dd.mean(0), z, dd.var(0, ddof=1), z)
+            ds = dd.mean(axis=1)
+            self.summed = (ds.mean(), 0.0, ds.var(ddof=1), 0.0)
+            return
         self.stats = (c.mean(0), r.mean(0), c.var(0, ddof=1), r.var(0, ddof=1))
         cs, rs = c.mean(axis=1), r.mean(axis=1)
         self.summed = (cs.mean(), rs.mean(), cs.var(ddof=1), rs.var(ddof=1))
@@ -238,10 +299,15 @@ def judge_metric(
     consolidation_stress: float,
     alpha_equivalent: float = EQUIVALENCE_LEVEL * (1 - CONFIDENCE),
     alpha_differs: float = (1 - CONFIDENCE) / 2,
+    paired: bool = False,
+    against: str = "reference",
 ) -> dict:
     """Error, interval and verdict of one metric of one (radius, rule) (module docstring).
     ``values``: the variant's metric values per seed; ``ref``: this metric's entry of
-    :func:`noise_floor`; the two one-sided error rates as from :func:`error_rates`."""
+    :func:`noise_floor`; the two one-sided error rates as from :func:`error_rates`.
+    ``paired``: ``values`` and the values in ``ref`` are matched by seed, row by row (a rule
+    against its resolution controls, :func:`judge_rule_error`); ``against`` names the other
+    side in the reason ("reference" or "control")."""
     a = _stack(values, name)
     mean = a.mean(axis=0)
     err = relative_error(name, mean, ref["mean"], consolidation_stress)
@@ -262,21 +328,26 @@ def judge_metric(
         "df": None,
         "uncertainty": None,
         "needs": None,
+        "paired": paired,
+        "against": against,
     }
     if ref["seeds"] < 2 or len(a) < 2:
         out.update(verdict="undecided")
         return out
     r = ref["values"]
     levels = a.shape[1]
-    sp = _Space(name, a, r, tolerance, consolidation_stress)
-    d, lo, hi, df, _ = sp.interval(sp.stats, alpha_equivalent)
+    sp = _Space(name, a, r, tolerance, consolidation_stress, paired)
+    d, lo, hi, df, u = sp.interval(sp.stats, alpha_equivalent)
     excess = np.maximum(hi - sp.hi, sp.lo - lo)
     k = int(np.argmax(excess))
     equivalent = bool(excess[k] <= 0)
     dd = sp.interval(sp.summed, alpha_differs)
     differs = bool(dd[1] > sp.hi or dd[2] < sp.lo)
-    sc = reference_scale(name, ref["mean"], consolidation_stress)
-    u2 = (a.var(axis=0, ddof=1) / len(a) + r.var(axis=0, ddof=1) / len(r)) / sc**2
+    if paired:  # the per-seed differences' standard error, relative (logs) or scaled
+        u2 = np.asarray(u) ** 2
+    else:
+        sc = reference_scale(name, ref["mean"], consolidation_stress)
+        u2 = (a.var(axis=0, ddof=1) / len(a) + r.var(axis=0, ddof=1) / len(r)) / sc**2
     out.update(
         interval=[sp.rel(lo[k]), sp.rel(hi[k])],
         level=None if levels == 1 else k,
@@ -290,7 +361,7 @@ def judge_metric(
     )
     if out["verdict"] == "undecided":
         out["needs"] = seeds_needed(
-            name, a, r, tolerance, consolidation_stress, alpha_equivalent, alpha_differs
+            name, a, r, tolerance, consolidation_stress, alpha_equivalent, alpha_differs, paired
         )
     return out
 
@@ -338,14 +409,15 @@ def seeds_needed(
     consolidation_stress: float,
     alpha_e: float,
     alpha_d: float,
+    paired: bool = False,
 ) -> dict:
     """How many more seeds would decide an undecided metric if its means and spreads stayed
     as observed: ``coarse`` (more coarse seeds, reference seeds as they are), or
-    ``coarse_and_reference`` (the same number more of each) where coarse seeds alone cannot,
-    each None when more than :data:`MAX_SEEDS_NEEDED` would be needed (an error that sits
-    at the tolerance is decided by no seed count); ``verdict``: the one those seeds would
-    give."""
-    sp = _Space(name, c, r, tolerance, consolidation_stress)
+    ``coarse_and_reference`` (the same number more of each) where coarse seeds alone cannot
+    (``paired``: more pairs, always both), each None when more than
+    :data:`MAX_SEEDS_NEEDED` would be needed (an error that sits at the tolerance is decided
+    by no seed count); ``verdict``: the one those seeds would give."""
+    sp = _Space(name, c, r, tolerance, consolidation_stress, paired)
     n0, m0 = len(c), len(r)
 
     def first(pred):
@@ -360,7 +432,7 @@ def seeds_needed(
                 lo = mid + 1
         return lo
 
-    coarse = first(lambda k: _decides(sp, n0 + k, m0, alpha_e, alpha_d))
+    coarse = None if paired else first(lambda k: _decides(sp, n0 + k, m0, alpha_e, alpha_d))
     both = (
         None
         if coarse is not None
@@ -392,9 +464,10 @@ def _describe(m: dict) -> str:
         )
     lo, hi = m["interval"]
     at = "" if m["level"] is None else f" at its worst level {m['level'] + 1}"
+    pairs = ", paired by seed" if m.get("paired") else ""
     text = (
         f"{m['metric']} {_pct(m['level_error'])}{at} in [{_pct(lo)}, {_pct(hi)}] "
-        f"({conf:.1%} one-sided per end, {m['df']:.1f} dof) against {tol}"
+        f"({conf:.1%} one-sided per end, {m['df']:.1f} dof{pairs}) against {tol}"
     )
     need = m.get("needs")
     if need is not None:
@@ -402,8 +475,8 @@ def _describe(m: dict) -> str:
             text += f"; about {need['coarse']} more coarse seeds would decide it"
         elif need["coarse_and_reference"] is not None:
             text += (
-                f"; about {need['coarse_and_reference']} more coarse and reference "
-                "seeds each would decide it"
+                f"; about {need['coarse_and_reference']} more coarse and "
+                f"{m.get('against', 'reference')} seeds each would decide it"
             )
         else:
             text += f"; more than {MAX_SEEDS_NEEDED} more seeds would be needed"
@@ -422,12 +495,13 @@ def what_decides(metrics: list[dict]) -> str | None:
         return None
     if open_[0]["reference_seeds"] < 2 or open_[0]["seeds"] < 2:
         return "two or more seeds on each side (three give the intervals more degrees of freedom)"
+    other = open_[0].get("against", "reference")
 
     def cost(n: dict) -> tuple[int, str] | None:
         if n.get("coarse") is not None:
             return n["coarse"], "coarse"
         if n.get("coarse_and_reference") is not None:
-            return n["coarse_and_reference"], "coarse and reference"
+            return n["coarse_and_reference"], f"coarse and {other}"
         return None
 
     def words(k: int, kind: str) -> str:
@@ -450,7 +524,7 @@ def what_decides(metrics: list[dict]) -> str | None:
             f"no seed count within {MAX_SEEDS_NEEDED} more: {', '.join(hopeless)} sits at "
             "its tolerance (as observed); a looser tolerance, or a finer radius"
         )
-    kind = "coarse" if all(c[1] == "coarse" for c in costs.values()) else "coarse and reference"
+    kind = "coarse" if all(c[1] == "coarse" for c in costs.values()) else f"coarse and {other}"
     k = max(c[0] for c in costs.values())
     return f"{words(k, kind)} would decide it, if the means and spreads stayed as observed"
 
@@ -514,7 +588,8 @@ def _interval_words(m: dict) -> str:
     lo, hi = m["interval"] if m["interval"] is not None else (None, None)
     if lo is None:
         return f"{m['metric']} {_pct(m['signed_error'])}"
-    return f"{m['metric']} {_pct(m['level_error'])} [{_pct(lo)}, {_pct(hi)}]"
+    pairs = ", paired" if m.get("paired") else ""
+    return f"{m['metric']} {_pct(m['level_error'])} [{_pct(lo)}, {_pct(hi)}{pairs}]"
 
 
 def resolution_lines(resolution: list[dict], rule_errors: list[dict], spec) -> list[str]:
@@ -715,20 +790,70 @@ def judge_groups(
             judge_metric(n, values, floor[n], spec.tolerances[n], cons, alpha_e, alpha_d)
             for n in names
         ]
-        v, reason = verdict(per_metric)
-        out.append(
-            {
-                "radius": radius,
-                "rule": rule,
-                "verdict": v,
-                "reason": reason,
-                "to_decide": what_decides(per_metric) if v == "undecided" else None,
-                "seeds": len(values),
-                "metrics": per_metric,
-            }
-        )
+        out.append(_judged(radius, rule, per_metric, len(values)))
     noise = {n: floor[n]["noise"] for n in names}
     return noise, out
+
+
+def _judged(radius: float, rule: str, per_metric: list[dict], seeds: int) -> dict:
+    v, reason = verdict(per_metric)
+    return {
+        "radius": radius,
+        "rule": rule,
+        "verdict": v,
+        "reason": reason,
+        "to_decide": what_decides(per_metric) if v == "undecided" else None,
+        "seeds": seeds,
+        "metrics": per_metric,
+    }
+
+
+def judge_rule_error(
+    spec,
+    radius: float,
+    rule: str,
+    values: dict[int, dict],
+    controls: dict[int, dict],
+    names,
+    look: int = 1,
+    looks: int = 1,
+) -> dict:
+    """A coarse variant against the resolution controls of its radius: the rule's own error
+    (docs/PHYSICS.md section 7.4). ``values`` and ``controls`` map packing seed to metric
+    values. A control and a coarse run of one seed start from the same scaled cloud, so a
+    metric is judged on the per-seed differences of the seeds both have where
+    :func:`pairing_pays` (their correlation, measured, narrows the interval more than the
+    lost degrees of freedom widen it), else unpaired on all seeds of each side (for the
+    metrics whose measured correlation is nil). The verdicts, rates and seed projections
+    are those of :func:`judge_groups`; each metric says whether it was paired."""
+    cons = spec.reference.consolidation_stress
+    alpha_e, alpha_d = error_rates(getattr(spec, "confidence", CONFIDENCE), len(names), look, looks)
+    both = sorted(set(values) & set(controls))
+    c_all, k_all = list(values.values()), list(controls.values())
+    floor_all = noise_floor(k_all, names, cons)
+    floor_paired = noise_floor([controls[s] for s in both], names, cons) if both else None
+    per_metric = []
+    for n in names:
+        tol = spec.tolerances[n]
+        if pairing_pays(n, len(both), len(c_all), len(k_all), alpha_e):
+            m = judge_metric(
+                n,
+                [values[s] for s in both],
+                floor_paired[n],
+                tol,
+                cons,
+                alpha_e,
+                alpha_d,
+                paired=True,
+                against="control",
+            )
+        else:
+            m = judge_metric(n, c_all, floor_all[n], tol, cons, alpha_e, alpha_d, against="control")
+        per_metric.append(m)
+    out = _judged(radius, rule, per_metric, len(c_all))
+    out["control_seeds"] = len(k_all)
+    out["paired_seeds"] = len(both)
+    return out
 
 
 __all__ = [
@@ -741,9 +866,11 @@ __all__ = [
     "finite_size_warnings",
     "judge_groups",
     "judge_metric",
+    "judge_rule_error",
     "judge_samples",
     "look_alpha",
     "noise_floor",
+    "pairing_pays",
     "resolution_lines",
     "seeds_needed",
     "two_sample_intervals",

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..uniaxial.results import UniaxialResult
-from .advisor import advise, judge_groups
+from .advisor import advise, judge_groups, judge_rule_error
 from .metrics import (
     METRIC_COLUMNS,
     SHAPE_NAMES,
@@ -251,7 +251,7 @@ def assemble(
     if spec.reference.unconfined:
         ref_strength = float(np.mean([r.scalars["unconfined_strength"] for r in refs.values()]))
     resolution, rule_errors = judge_controls(
-        spec, ref_values, variants, controls, names, look, runs
+        spec, ref_values, variants, controls, names, look, runs, seeds_of
     )
     advisor = advise(spec, groups, verdicts, ref_strength, resolution, rule_errors)
     advisor["noise_floor"] = noise
@@ -267,14 +267,15 @@ def judge_controls(
     names,
     look: int,
     runs: dict[str, RunResult],
+    seeds_of: dict[tuple, list[int]],
 ) -> tuple[list[dict], list[dict]]:
     """The two errors the resolution controls separate (docs/PHYSICS.md section 7.4): per
     radius with controls, the controls against the reference (the resolution error: what a
     sample that many diameters across loses; judged once, at the study's confidence), and
     per coarse variant at that radius, the variant against the controls (the rule's own
-    error, at the variant's look). Both are unpaired intervals: a control and a coarse run
-    of one seed start from the same scaled cloud, so their errors may be positively
-    correlated, which makes an unpaired interval wider than needed, never narrower."""
+    error, at the variant's look; ``seeds_of`` gives the packing seed of each of its values):
+    paired by seed where that pays (:func:`engine.study.advisor.judge_rule_error`), since a
+    control and a coarse run of one seed start from the same scaled cloud."""
     if not controls:
         return [], []
     control_lists = {r: list(c.values()) for r, c in controls.items()}
@@ -286,15 +287,13 @@ def judge_controls(
         v["diameters_across"] = ctl[0].result.scalars["thickness_diameters"] if ctl else None
         v["what"] = "resolution"
     rule_errors = []
-    for r, ctl_values in control_lists.items():
-        mine = {k: vals for k, vals in variants.items() if k[0] == r}
-        if not mine:
+    for (r, rule), vals in variants.items():
+        if r not in controls:
             continue
-        _, judged = judge_groups(spec, ctl_values, mine, names, look=look, looks=spec.looks)
-        for v in judged:
-            v["what"] = "rule"
-            v["control_seeds"] = len(ctl_values)
-        rule_errors += judged
+        mine = dict(zip(seeds_of[(r, rule)], vals))
+        v = judge_rule_error(spec, r, rule, mine, controls[r], names, look, spec.looks)
+        v["what"] = "rule"
+        rule_errors.append(v)
     return resolution, rule_errors
 
 

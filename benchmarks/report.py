@@ -705,8 +705,10 @@ def write_report(
                 "coordination",
                 "unconfined",
                 "error_vs_runtime",
+                "resolution",
             )
-            if k != "unconfined" or res.spec.reference.unconfined
+            if (k != "unconfined" or res.spec.reference.unconfined)
+            and (k != "resolution" or res.advisor.get("resolution_curve"))
         ]
         lines.append("")
     lines += ["## The seed's claims", "", *undecided_note(results), ""]

@@ -100,12 +100,19 @@ def study_page(
             "missing": missing,
             "headings": headings,
             "table": table,
-            # the unconfined plot only for a study with that stage
+            # the unconfined plot only for a study with that stage, the resolution curve
+            # only for one with resolution controls
             "plots": {
                 k: t
                 for k, t in KINDS.items()
-                if k != "unconfined"
-                or any("unconfined_strength" in row for row in (summary or {}).get("table", []))
+                if (
+                    k != "unconfined"
+                    or any("unconfined_strength" in row for row in (summary or {}).get("table", []))
+                )
+                and (
+                    k != "resolution"
+                    or bool(((summary or {}).get("advisor") or {}).get("resolution_curve"))
+                )
             },
             "terminal": TERMINAL,
             "fmt": cell,

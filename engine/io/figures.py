@@ -26,7 +26,11 @@ KINDS = {
     "coordination": "Confined compression and unloading: coordination number against stress",
     "unconfined": "Unconfined compression to failure",
     "error_vs_runtime": "Error against the reference and run time",
+    "resolution": "Resolution curve: each property against particle diameter / sample size",
 }
+
+#: Kinds drawn from the advisor on a whole figure (several panels), not from the curves.
+_WHOLE_FIGURE = ("error_vs_runtime", "resolution")
 
 _CONFINED = ("consolidation", "unloading")
 #: Verdict metrics: table column (engine.study.metrics.METRIC_COLUMNS) and panel title.
@@ -165,7 +169,10 @@ def _confined(
 
 def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
     """One panel per verdict metric: each coarse run's error [%] against its wall time, the
-    tolerance (dashed) and the reference's seed-to-seed noise floor (grey band)."""
+    tolerance (dashed) and the reference's seed-to-seed noise floor (grey band). With
+    resolution controls the error splits in two: the controls' points are the resolution
+    error (the reference law that many diameters across), and an open marker per variant is
+    the rule's own error (its mean against its controls' mean)."""
     from matplotlib.lines import Line2D
     from matplotlib.ticker import NullFormatter
 
@@ -196,6 +203,24 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
                 color=f"C{rules.index(row['rule']) % 10}",
                 marker=_MARKERS[radii.index(row["radius"]) % len(_MARKERS)],
             )
+        for v in advisor.get("rule_errors") or []:
+            m = next((m for m in v["metrics"] if m["metric"] == name), None)
+            times = [
+                r["wall_time"]
+                for r in table
+                if r["rule"] == v["rule"] and r["radius"] == v["radius"]
+            ]
+            if m is None or not times or v["rule"] not in rules:
+                continue
+            ax.scatter(
+                float(np.mean(times)),
+                100 * m["error"],
+                s=46,
+                zorder=4,
+                facecolors="none",
+                edgecolors=f"C{rules.index(v['rule']) % 10}",
+                marker=_MARKERS[radii.index(v["radius"]) % len(_MARKERS)],
+            )
         ax.set_title(title, fontsize=9)
         ax.set_xscale("log")
         ax.xaxis.set_minor_formatter(NullFormatter())
@@ -211,10 +236,101 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
     for i, r in enumerate(radii):
         handles.append(Line2D([], [], ls="", marker=_MARKERS[i % len(_MARKERS)], color="0.3"))
         labels.append(f"R = {r * 1e3:g} mm")
+    if advisor.get("rule_errors"):
+        handles.append(Line2D([], [], ls="", marker="o", mfc="none", color="0.3"))
+        labels.append("open: the rule's own error (mean, against its control)")
     handles.append(Line2D([], [], ls=":", color="black"))
     labels.append("reference run time")
     fig.legend(handles, labels, loc="outside lower center", ncol=min(6, len(labels)), fontsize=7)
     fig.suptitle(KINDS["error_vs_runtime"], fontsize=10)
+
+
+def _resolution(fig, advisor: dict | None) -> None:
+    """One panel per property with a resolution curve (engine.study.resolution): each sample
+    size's mean relative to the extrapolated bulk value against d / L, the fitted line, and
+    the bulk value's interval at d / L = 0."""
+    curves = ((advisor or {}).get("resolution_curve") or {}).get("metrics") or {}
+    names = [n for n in _TITLES if n in curves]
+    if not names:
+        ax = fig.add_subplot()
+        ax.text(
+            0.5,
+            0.5,
+            "this study has no resolution controls (StudySpec.controls)",
+            ha="center",
+            transform=ax.transAxes,
+        )
+        ax.set_axis_off()
+        fig.suptitle(KINDS["resolution"], fontsize=10)
+        return
+    axes = fig.subplots(1, len(names), squeeze=False)[0]
+    for ax, n in zip(axes, names):
+        c = curves[n]
+        bulk = c["bulk"]
+        xs = np.array([s["d_over_L"] for s in c["sizes"]])
+        grid = np.linspace(0.0, xs.max() * 1.05, 50)
+        ax.plot(
+            grid, 100 * np.expm1(c["slope"] * grid), color="C0", lw=1.2, label="linear in d / L"
+        )
+        lo, hi = c["bulk_interval"]
+        ax.errorbar(
+            [0.0],
+            [0.0],
+            yerr=[[100 * (1 - lo / bulk)], [100 * (hi / bulk - 1)]],
+            fmt="s",
+            color="C0",
+            capsize=3,
+            label="bulk (extrapolated)",
+        )
+        for s in c["sizes"]:
+            ax.scatter(
+                s["d_over_L"],
+                100 * (s["mean"] / bulk - 1),
+                s=34,
+                zorder=3,
+                color="black" if s["reference"] else "C3",
+            )
+            ax.annotate(
+                f"{s['diameters_across']:.1f} d",
+                (s["d_over_L"], 100 * (s["mean"] / bulk - 1)),
+                fontsize=6,
+                xytext=(3, 3),
+                textcoords="offset points",
+            )
+        ax.axhline(0.0, color="0.6", lw=0.8)
+        # the axis spans the size means and the line; a bulk interval wider than that runs
+        # off the panel and is written out instead
+        ys = [100 * (s["mean"] / bulk - 1) for s in c["sizes"]]
+        ys += [100 * (s["fitted"] / bulk - 1) for s in c["sizes"]] + [0.0]
+        pad = max(3.0, 0.5 * (max(ys) - min(ys)))
+        ax.set_ylim(min(ys) - pad, max(ys) + pad)
+        olo, ohi = c["reference_offset_interval"]
+        ax.text(
+            0.03,
+            0.03,
+            f"bulk: [{100 * (lo / bulk - 1):+.0f}, {100 * (hi / bulk - 1):+.0f}] %\n"
+            f"reference {100 * c['reference_offset']:+.1f} % [{100 * olo:+.0f}, "
+            f"{100 * ohi:+.0f}] from it",
+            transform=ax.transAxes,
+            fontsize=6,
+            va="bottom",
+        )
+        ax.set_title(_TITLES[n], fontsize=9)
+        ax.set_xlabel("d / L (particle diameter / sample thickness)", fontsize=7)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("mean relative to the bulk value [%]", fontsize=8)
+    from matplotlib.lines import Line2D
+
+    handles, labels = axes[0].get_legend_handles_labels()
+    handles += [
+        Line2D([], [], ls="", marker="o", color="black"),
+        Line2D([], [], ls="", marker="o", color="C3"),
+    ]
+    labels += ["references", "resolution controls"]
+    fig.legend(handles, labels, loc="outside lower center", ncol=4, fontsize=7)
+    conf = (advisor or {}).get("resolution_curve", {}).get("confidence", 0.95)
+    fig.suptitle(f"{KINDS['resolution']} (bulk interval {conf:.0%})", fontsize=10)
 
 
 def draw(ax, kind: str, runs: dict, table: list[dict]) -> None:
@@ -245,7 +361,7 @@ def draw(ax, kind: str, runs: dict, table: list[dict]) -> None:
         ax.set_xlabel("axial strain since release [%]")
         ax.set_ylabel("top platen stress [kPa]")
     else:
-        raise ValueError("error_vs_runtime is drawn on a whole figure: use figure()")
+        raise ValueError(f"{kind} is drawn on a whole figure: use figure()")
     if ax.get_legend_handles_labels()[0]:
         ax.legend(
             fontsize=8,
@@ -265,10 +381,13 @@ def figure(kind: str, runs: dict, table: list[dict], advisor: dict | None = None
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    if kind == "error_vs_runtime":
+    if kind in _WHOLE_FIGURE:
         fig = Figure(figsize=(12.0, 4.2), dpi=100, layout="constrained")
         FigureCanvasAgg(fig)
-        _error_vs_runtime(fig, table, advisor)
+        if kind == "error_vs_runtime":
+            _error_vs_runtime(fig, table, advisor)
+        else:
+            _resolution(fig, advisor)
         return fig
     fig = Figure(figsize=(7.0, 4.8), dpi=110, layout="constrained")
     FigureCanvasAgg(fig)

@@ -19,6 +19,7 @@ from .metrics import (
     shape_errors,
 )
 from .plan import PlannedRun
+from .resolution import curve_lines, resolution_curves
 from .spec import ScalingRule, StudySpec
 
 #: Units of the columns of :attr:`StudyResult.table`.
@@ -254,6 +255,23 @@ def assemble(
         spec, ref_values, variants, controls, names, look, runs, seeds_of
     )
     advisor = advise(spec, groups, verdicts, ref_strength, resolution, rule_errors)
+    advisor["resolution_curve"] = None
+    if controls:
+        ctl_runs: dict[float, list] = {}
+        for r in runs.values():
+            if r.control:
+                ctl_runs.setdefault(r.radius, []).append(
+                    (r.result.scalars["thickness_diameters"], metric_values(r.result))
+                )
+        ref_runs = [
+            (x.scalars["thickness_diameters"], v) for x, v in zip(refs.values(), ref_values)
+        ]
+        curve = resolution_curves(ref_runs, ctl_runs, names, getattr(spec, "confidence", 0.95))
+        advisor["resolution_curve"] = curve
+        lines = curve_lines(curve)
+        advisor["control_lines"] = advisor["control_lines"] + lines
+        if lines:
+            advisor["message"] = "; ".join([advisor["message"], *lines])
     advisor["noise_floor"] = noise
     advisor["reference"] = _reference_summary(refs, names, ref_values)
     return StudyResult(spec, runs, table, groups, advisor, failed)

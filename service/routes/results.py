@@ -127,8 +127,8 @@ def plot(
     study: StudyDep,
     results: ResultsDep,
 ) -> Response:
-    """A PNG plot: stress_strain, stress_porosity, coordination, unconfined or
-    error_vs_runtime."""
+    """A PNG plot: stress_strain, stress_porosity, coordination, unconfined,
+    error_vs_runtime or resolution (the resolution curve of a study with controls)."""
     return Response(plot_png(results, kind.value), media_type="image/png")
 
 

@@ -375,6 +375,17 @@ def test_a_study_with_controls_gives_the_rule_error_and_the_resolution_error():
     assert rule["verdict"] in ("equivalent", "differs", "undecided")
     lines = " ".join(res.advisor["control_lines"])
     assert "against its resolution control" in lines and "diameters across" in lines
+    # density paired by seed (its measured correlation), the stiffnesses not; coordination
+    # not at three a side, where the unpaired interval's 4 degrees of freedom outweigh
+    paired = {m["metric"]: m["paired"] for m in rule["metrics"]}
+    assert paired["density"] and not paired["coordination"] and not paired["loading_stiffness"]
+    assert rule["paired_seeds"] == 3
+    # the resolution curve through the references and the controls, and its figure
+    curve = res.advisor["resolution_curve"]["metrics"]
+    assert set(curve) >= {"density", "loading_stiffness"}
+    assert [s["reference"] for s in curve["density"]["sizes"]] == [True, False]
+    assert "resolution curve, density" in lines and "bulk value" in lines
+    assert res.figure("resolution").axes  # drawn from the advisor
     # the coarse variant's own verdict against the reference is judged as before
     assert [(v["radius"], v["rule"]) for v in res.advisor["verdicts"]] == [(3.1e-3, "paper")]
     # a study may leave them out

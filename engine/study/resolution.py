@@ -1,0 +1,159 @@
+r"""The resolution curve: each property against d / L, extrapolated to the bulk
+(docs/PHYSICS.md section 7.5).
+
+A study with resolution controls has the reference law at several sample sizes: the
+references, ``L / d`` diameters across (d the particle diameter, L the cell's thickness), and
+per coarse radius the controls, fewer diameters across. Per property, with
+:math:`x = d / L` and :math:`y` the logarithm of the property (the mean over stress levels
+for density and coordination), the line
+
+.. math:: y(x) = a + b\,x
+
+through the sizes' mean logs :math:`\bar y_g` (one point per size, ordinary least squares,
+so noisy weights do not enter) gives the bulk value :math:`e^a` at :math:`d / L = 0` and the
+reference's own distance from it, :math:`e^{b x_{ref}} - 1`. A wall layer or a shear band a
+few diameters wide is a fraction of the sample that goes as d / L, so linear in d / L is the
+leading term; with three or more sizes the report shows how far the means lie from the line
+(in their standard errors), the check of that assumption the data allow.
+
+Both :math:`a` and :math:`b x_{ref}` are linear combinations :math:`\sum_g \lambda_g \bar y_g`
+of independent size means, so their variance is :math:`\sum_g \lambda_g^2 s_g^2 / n_g` from the
+seeds' spreads, and their interval a Student-t one with the degrees of freedom of
+:func:`engine.study.intervals.interval_df` generalised to several groups: the smallest
+:math:`(n_g - 1) / c_g`, :math:`c_g` a size's share of the variance (a lower bound of
+Welch-Satterthwaite's), or :math:`\min_g n_g - 1` where a size has fewer than three seeds.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .intervals import WELCH_MIN_SEEDS, t_quantile
+
+
+def contrast_df(counts, shares) -> float:
+    """Degrees of freedom of a linear combination of independent group means, with ``counts``
+    values per group and ``shares`` of its variance (summing to 1): min (n_g - 1) / c_g over
+    the groups that carry variance, at least min n_g - 1; min n_g - 1 where a group has
+    fewer than :data:`WELCH_MIN_SEEDS` values. Infinite where no group carries variance."""
+    counts = np.asarray(counts, dtype=float)
+    shares = np.asarray(shares, dtype=float)
+    hsu = float(counts.min() - 1)
+    if counts.min() < WELCH_MIN_SEEDS:
+        return hsu
+    live = shares > 0
+    if not live.any():
+        return math.inf
+    return max(float(np.min((counts[live] - 1) / shares[live])), hsu)
+
+
+def _combination(lam: np.ndarray, means: np.ndarray, var_of_mean: np.ndarray, counts, q: float):
+    """Value, interval at two-sided level ``q`` and dof of sum(lam * means)."""
+    value = float(lam @ means)
+    parts = lam**2 * var_of_mean
+    v = float(parts.sum())
+    df = contrast_df(counts, parts / v if v > 0 else np.zeros_like(parts))
+    h = t_quantile(0.5 + 0.5 * q, df) * math.sqrt(v) if v > 0 else 0.0
+    return value, value - h, value + h, df
+
+
+def fit_curve(sizes: list[dict], confidence: float) -> dict | None:
+    """The line of log property against d / L through ``sizes`` (each: ``x`` = d / L,
+    ``logs`` the seeds' log values, ``reference`` True for the references' size), with the
+    bulk value and the reference's distance from it at two-sided level ``confidence``;
+    None with fewer than two sizes or a size of one seed."""
+    if len(sizes) < 2 or any(len(s["logs"]) < 2 for s in sizes):
+        return None
+    x = np.array([s["x"] for s in sizes])
+    means = np.array([np.mean(s["logs"]) for s in sizes])
+    counts = np.array([len(s["logs"]) for s in sizes])
+    var_of_mean = np.array([np.var(s["logs"], ddof=1) for s in sizes]) / counts
+    design = np.column_stack([np.ones_like(x), x])
+    lam = np.linalg.pinv(design)  # rows: intercept and slope as combinations of the means
+    a, a_lo, a_hi, a_df = _combination(lam[0], means, var_of_mean, counts, confidence)
+    b = float(lam[1] @ means)
+    ref = next(s for s in sizes if s["reference"])
+    xr = ref["x"]
+    off, off_lo, off_hi, off_df = _combination(xr * lam[1], means, var_of_mean, counts, confidence)
+    fitted = a + b * x
+    se = np.sqrt(var_of_mean)
+    lack = None
+    if len(sizes) > 2:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = np.where(se > 0, np.abs(means - fitted) / se, 0.0)
+        lack = float(z.max())
+    return {
+        "bulk": math.exp(a),
+        "bulk_interval": [math.exp(a_lo), math.exp(a_hi)],
+        "bulk_df": a_df,
+        "slope": b,
+        "reference_offset": math.expm1(off),
+        "reference_offset_interval": [math.expm1(off_lo), math.expm1(off_hi)],
+        "reference_offset_df": off_df,
+        "reference_diameters_across": 1.0 / xr,
+        "lack_of_fit": lack,
+        "sizes": [
+            {
+                "diameters_across": 1.0 / s["x"],
+                "d_over_L": s["x"],
+                "reference": s["reference"],
+                "seeds": int(n),
+                "mean": float(math.exp(m)),
+                "fitted": float(math.exp(f)),
+                "offset_from_bulk": math.expm1(float(f - a)),
+            }
+            for s, n, m, f in zip(sizes, counts, means, fitted)
+        ],
+    }
+
+
+def resolution_curves(
+    reference: list[tuple[float, dict]],
+    controls: dict[float, list[tuple[float, dict]]],
+    names,
+    confidence: float,
+) -> dict:
+    """Per metric in ``names`` the fitted resolution curve (:func:`fit_curve`) from the
+    reference runs and the controls of each coarse radius, each given as
+    (diameters across, metric values) per run; metrics with a non-positive value are left
+    out (no logarithm). Returns {"metrics": {name: curve}, "confidence": confidence}."""
+    groups = [(True, reference)] + [(False, runs) for _, runs in sorted(controls.items())]
+    out = {}
+    for n in names:
+        sizes = []
+        for is_ref, runs in groups:
+            vals = [float(np.mean(v[n])) for _, v in runs]
+            if not runs or min(vals) <= 0:
+                sizes = None
+                break
+            across = float(np.mean([d for d, _ in runs]))
+            sizes.append({"x": 1.0 / across, "logs": np.log(vals), "reference": is_ref})
+        curve = fit_curve(sizes, confidence) if sizes else None
+        if curve is not None:
+            out[n] = curve
+    return {"metrics": out, "confidence": confidence}
+
+
+def curve_lines(curves: dict) -> list[str]:
+    """The advisor's lines on the resolution curve: per property the bulk value's
+    extrapolation and how far the reference itself is from it."""
+    lines = []
+    conf = curves.get("confidence", 0.95)
+    for n, c in curves.get("metrics", {}).items():
+        lo, hi = c["reference_offset_interval"]
+        sizes = ", ".join(f"{s['diameters_across']:.1f}" for s in c["sizes"])
+        fit = ""
+        if c["lack_of_fit"] is not None:
+            fit = f"; the size means lie within {c['lack_of_fit']:.1f} standard errors of the line"
+        lines.append(
+            f"resolution curve, {n}: the reference ({c['reference_diameters_across']:.1f} "
+            f"diameters across) is {100 * c['reference_offset']:+.1f} % "
+            f"[{100 * lo:+.1f} %, {100 * hi:+.1f} %] ({conf:.0%}) from the bulk value "
+            f"extrapolated linearly in d / L to d / L = 0 (sizes {sizes} diameters across{fit})"
+        )
+    return lines
+
+
+__all__ = ["contrast_df", "curve_lines", "fit_curve", "resolution_curves"]

@@ -1,0 +1,82 @@
+"""The resolution curve (engine.study.resolution): the line through the sample sizes' mean
+logs against d / L, its bulk value at d / L = 0 and the reference's distance from it, with
+intervals that hold their level (simulated)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from engine.study.resolution import contrast_df, curve_lines, fit_curve, resolution_curves
+
+
+def _sizes(rng, across=(10.0, 6.67, 5.0), seeds=(3, 3, 3), bulk=10.0, slope=-1.5, sds=None):
+    """Log values of each size's seeds on the line, with spread ``sds`` per size."""
+    sds = sds or (0.05,) * len(across)
+    return [
+        {
+            "x": 1.0 / d,
+            "logs": math.log(bulk) + slope / d + rng.normal(0, sd, n),
+            "reference": i == 0,
+        }
+        for i, (d, n, sd) in enumerate(zip(across, seeds, sds))
+    ]
+
+
+def test_an_exact_line_gives_its_bulk_value_and_offset():
+    sizes = [
+        {"x": 1 / d, "logs": np.log(8.0) - 2.0 / d + np.array([-1e-9, 1e-9]), "reference": i == 0}
+        for i, d in enumerate((10.0, 5.0))
+    ]
+    c = fit_curve(sizes, 0.95)
+    assert c["bulk"] == pytest.approx(8.0, rel=1e-6)
+    assert c["reference_offset"] == pytest.approx(math.expm1(-0.2), rel=1e-6)
+    assert c["lack_of_fit"] is None  # two sizes: the line goes through both
+    assert [s["diameters_across"] for s in c["sizes"]] == pytest.approx([10.0, 5.0])
+
+
+def test_too_little_data_gives_no_curve():
+    rng = np.random.default_rng(0)
+    assert fit_curve(_sizes(rng, across=(10.0,), seeds=(3,)), 0.95) is None
+    assert fit_curve(_sizes(rng, seeds=(3, 1, 3)), 0.95) is None
+
+
+def test_degrees_of_freedom_are_bounded_like_the_verdicts():
+    assert contrast_df([2, 5, 5], [0.2, 0.4, 0.4]) == 1  # Hsu: a group of two
+    assert contrast_df([3, 3, 3], [1.0, 0.0, 0.0]) == 2
+    assert contrast_df([3, 3, 3], [1 / 3, 1 / 3, 1 / 3]) == pytest.approx(6.0)
+
+
+@pytest.mark.parametrize("seeds", [(3, 2, 2), (3, 3, 3), (5, 3, 8)])
+def test_the_bulk_and_offset_intervals_hold_their_level(seeds):
+    rng = np.random.default_rng(sum(seeds))
+    n, bulk, slope = 2000, 10.0, -1.5
+    hit_bulk = hit_off = 0
+    for _ in range(n):
+        # unequal spreads: the coarser sizes scatter more
+        sizes = _sizes(rng, seeds=seeds, bulk=bulk, slope=slope, sds=(0.03, 0.06, 0.09))
+        c = fit_curve(sizes, 0.95)
+        lo, hi = c["bulk_interval"]
+        hit_bulk += lo <= bulk <= hi
+        lo, hi = c["reference_offset_interval"]
+        hit_off += lo <= math.expm1(slope * 0.1) <= hi
+    floor = 0.95 - 3 * math.sqrt(0.05 * 0.95 / n)
+    assert hit_bulk / n >= floor and hit_off / n >= floor, (hit_bulk / n, hit_off / n)
+
+
+def test_curves_and_lines_from_run_values():
+    rng = np.random.default_rng(4)
+    ref = [(10.0, {"strength": np.array([v])}) for v in 1e4 * (0.86 + 0.02 * rng.normal(size=3))]
+    ctl = {
+        5e-3: [(5.0, {"strength": np.array([v])}) for v in 1e4 * (0.7 + 0.02 * rng.normal(size=3))]
+    }
+    curves = resolution_curves(ref, ctl, ["strength"], 0.95)
+    c = curves["metrics"]["strength"]
+    assert c["bulk"] > 1e4 * 0.86 and c["reference_offset"] < 0
+    (line,) = curve_lines(curves)
+    assert "strength" in line and "10.0 diameters across" in line and "bulk value" in line
+    # a non-positive value has no logarithm: that metric is left out
+    bad = {5e-3: [(5.0, {"strength": np.array([-1.0])}), (5.0, {"strength": np.array([2.0])})]}
+    assert resolution_curves(ref, bad, ["strength"], 0.95)["metrics"] == {}

@@ -58,7 +58,8 @@ from engine.study.advisor import error_rates, judge_metric, noise_floor
 from engine.study.metrics import METRICS, metric_names, metric_values
 from engine.study.plan import reference_test as study_reference
 from engine.uniaxial.driver import run_uniaxial
-from engine.uniaxial.spec import GRAVITY, UniaxialTest
+from engine.uniaxial.measures import overburden_ratio
+from engine.uniaxial.spec import UniaxialTest
 
 ROOT = Path(__file__).resolve().parent.parent
 STORE = ROOT / "benchmarks" / "results" / "paper" / "e_finite_size"
@@ -181,10 +182,8 @@ def _b_runs(prefix: str, directory: Path) -> dict:
 
 def _self_weight(r) -> float:
     """Weight per area of the consolidated sample, the stress its own weight adds at the
-    bottom platen [Pa]: rho_p (1 - porosity) g h."""
-    s, t = r.scalars, r.test
-    h = s["height_diameters"] * 2 * t.radius * (1 + t.polydispersity)
-    return t.density * (1 - s["consolidated_porosity"]) * GRAVITY * h
+    bottom platen [Pa] (engine.uniaxial.measures.overburden_ratio times sigma_c)."""
+    return overburden_ratio(r) * r.test.consolidation_stress
 
 
 def _pct(x: float) -> str:

@@ -46,6 +46,7 @@ import numpy as np
 import engine
 from engine.study.plan import adaptive_summary, final_look, plan_runs, stored_plan_runs
 from engine.study.results import assemble
+from engine.uniaxial.measures import overburden_ratio
 
 ROOT = Path(__file__).resolve().parent.parent
 _COLS = (
@@ -142,8 +143,9 @@ def run_table(res: engine.StudyResult, machines: dict | None = None) -> str:
     machines = machines or {}
     lines = [
         "| run | particles | steps | wall time [s] | ran on | thickness [d] | "
-        "height [d] | porosity whole / interior | K load [kPa] | UCS [kPa] | failed |",
-        "|" + "---|" * 11,
+        "height [d] | overburden / consolidation | porosity whole / interior | K load [kPa] | "
+        "UCS [kPa] | failed |",
+        "|" + "---|" * 12,
     ]
     for key, r in res.runs.items():
         s = r.result.scalars
@@ -156,12 +158,12 @@ def run_table(res: engine.StudyResult, machines: dict | None = None) -> str:
         lines.append(
             f"| {key} | {s['particles']:.0f} | {s['steps']:.0f} | {s['wall_time']:.0f} | "
             f"{_ran_on(s, machines.get(key))} | {s['thickness_diameters']:.1f} | "
-            f"{s['height_diameters']:.1f} | "
+            f"{s['height_diameters']:.1f} | {overburden_ratio(r.result):.3f} | "
             f"{s['consolidated_porosity']:.3f} / {s['consolidated_porosity_interior']:.3f} | "
             f"{s['loading_stiffness'] / 1e3:.0f} | {ucs} | {failed} |"
         )
     for key, err in res.failed.items():
-        lines.append(f"| {key} | - | - | - | - | - | - | - | - | - | {err} |")
+        lines.append(f"| {key} | - | - | - | - | - | - | - | - | - | - | {err} |")
     return "\n".join(lines)
 
 

@@ -38,6 +38,7 @@ RUN_COLUMNS = (
     ("particles", "particles", None, "{}"),
     ("wall_time", "run time [s]", 1.0, "{:.1f}"),
     ("speedup", "speed-up", 1.0, "{:.2f}x"),
+    ("overburden_ratio", "self-weight / consolidation", 1.0, "{:.3f}"),
     ("unconfined_strength", "strength [kPa]", 1e-3, "{:.3g}"),
     ("err_density", "density err", 100.0, "{:.1f} %"),
     ("err_loading_stiffness", "loading stiffness err", 100.0, "{:.1f} %"),

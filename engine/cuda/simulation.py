@@ -408,6 +408,9 @@ class CudaSimulation(Simulation):
     def set_velocities(self, velocities=None, angular_velocities=None) -> None:
         return self._host_edit(Simulation.set_velocities, velocities, angular_velocities)
 
+    def set_gravity(self, gravity) -> None:
+        return self._host_edit(Simulation.set_gravity, gravity)
+
     def set_positions(self, positions) -> None:
         return self._host_edit(Simulation.set_positions, positions)
 

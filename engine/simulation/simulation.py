@@ -540,6 +540,15 @@ class Simulation:
             )
         self._walls.vel[index] = v
 
+    def set_gravity(self, gravity) -> None:
+        """Set the acceleration of gravity [m/s^2] (3 numbers) for the following runs; forces
+        are updated."""
+        g = np.asarray(gravity, dtype=np.float64)
+        if g.shape != (3,) or not np.all(np.isfinite(g)):
+            raise ParameterError("Simulation.set_gravity.gravity", gravity, "3 finite numbers")
+        self._params.gravity[:] = g
+        self._compute_forces()
+
     def set_wall_position(self, index: int, point) -> None:
         """Move wall ``index`` so that it passes through ``point`` [m]; forces are updated."""
         self._check_wall(index)

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..uniaxial.measures import overburden_ratio
 from ..uniaxial.results import UniaxialResult
 from .advisor import advise, judge_groups, judge_rule_error
 from .metrics import (
@@ -37,6 +38,7 @@ TABLE_UNITS = {
     "speedup": "1",
     "thickness_diameters": "1",
     "height_diameters": "1",
+    "overburden_ratio": "1",
     "unconfined_failure": "1",
     "unconfined_strength": "Pa",
     **dict.fromkeys(METRIC_COLUMNS.values(), "1"),
@@ -90,6 +92,7 @@ class RunResult:
             "speedup": self.speedup,
             "thickness_diameters": s["thickness_diameters"],
             "height_diameters": s["height_diameters"],
+            "overburden_ratio": overburden_ratio(self.result),
         }
         if "unconfined_strength" in s:
             row["unconfined_failure"] = s["unconfined_failure"]

@@ -274,6 +274,8 @@ class _Driver:
         t = self.test
         h0 = None
         if stage == "pre_compression":
+            if t.gravity_off_after_fill:
+                self.sim.set_gravity((0.0, 0.0, 0.0))
             top = self.bed_top() + 0.05 * t.radius
             self.sim.set_wall_position(1, (0.0, 0.0, top))
             self.move_top(-t.platen_speed)

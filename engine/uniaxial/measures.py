@@ -130,6 +130,22 @@ def interior_measures(
     return porosity, coordination
 
 
+def overburden_ratio(result) -> float:
+    """The sample's own weight at the bottom platen over the consolidation stress [-]:
+    rho_p (1 - n_c) g H_c / sigma_c, with n_c the porosity and H_c the platen gap at the end
+    of consolidation and g the test's gravity (0 with ``gravity_off_after_fill``). The top
+    platen reads sigma_c, the base
+    sigma_c (1 + this ratio) less wall friction: consolidation is not uniform, and strength
+    is read at the top."""
+    t = result.test
+    if getattr(t, "gravity_off_after_fill", False):
+        return 0.0
+    cons = result.stages["consolidation"].curves
+    h = float(cons["platen_gap"][-1])
+    n = float(cons["porosity"][-1])
+    return t.density * (1.0 - n) * t.gravity * h / t.consolidation_stress
+
+
 def secant_slope(strain: np.ndarray, stress: np.ndarray, lo: float, hi: float) -> float:
     """Least-squares slope of stress against strain [Pa] over the samples whose stress lies
     between ``lo`` and ``hi`` times the largest stress of the curve."""

@@ -58,6 +58,9 @@ class UniaxialTest(Record):
         gravity: acceleration of gravity, along -z [m/s^2] (a resolution control of a study
             runs the reference law in a cell scaled by s at g / s, so that its overburden
             rho g H is the coarse run's).
+        gravity_off_after_fill: switch gravity off once the fill has settled, for every later
+            stage (a diagnostic: compression without the sample's own weight, so that the
+            consolidation is uniform; the sample still settles under gravity).
         solid_fraction: solid fraction the settled sample is assumed to have when the
             particles are counted [-].
         pour_fraction: solid fraction of the poured cloud [-] (random addition jams near 0.38).
@@ -104,6 +107,12 @@ class UniaxialTest(Record):
     density: float = param(2000.0, unit="kg/m^3", doc="particle density", gt=0)
     gravity: float = param(
         GRAVITY, unit="m/s^2", gt=0, le=1e4, doc="acceleration of gravity, along -z"
+    )
+    gravity_off_after_fill: bool = param(
+        False,
+        unit="",
+        kind="bool",
+        doc="switch gravity off once the fill has settled (a diagnostic: no overburden)",
     )
     solid_fraction: float = param(
         0.6, unit="1", gt=0, le=0.74, doc="solid fraction assumed for the settled sample"

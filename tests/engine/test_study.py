@@ -366,6 +366,12 @@ def test_a_study_with_controls_gives_the_rule_error_and_the_resolution_error():
     assert keys.count("ctl-r3.1mm-s1") == 1 and len(keys) == 9
     res = engine.run_study(spec)
     assert res.runs["ctl-r3.1mm-s2"].row()["rule"] == "control"
+    # each run's self-weight at the base over the consolidation stress, rho g H / sigma:
+    # the control's (g / s, H s) is the coarse run's and the reference's
+    burden = {k: r.row()["overburden_ratio"] for k, r in res.runs.items()}
+    assert 0 < burden["ref-s1"] < 1
+    assert burden["ctl-r3.1mm-s2"] == pytest.approx(burden["r3.1mm-paper-s2"], rel=0.05)
+    assert burden["ctl-r3.1mm-s2"] == pytest.approx(burden["ref-s2"], rel=0.05)
     assert res.runs["ctl-r3.1mm-s2"].result.test.gravity == pytest.approx(9.81 * 3.1 / 2.5)
     (resolution,) = res.advisor["resolution"]
     assert resolution["radius"] == 3.1e-3 and resolution["seeds"] == 3

@@ -169,3 +169,44 @@ def test_presets_and_round_trip():
     assert engine.UniaxialTest.from_dict(q.to_dict()) == q
     with pytest.raises(engine.ParameterError, match="preset"):
         engine.preset("huge")
+
+
+def test_gravity_switched_off_after_the_fill_takes_the_overburden_away(cohesionless):
+    # the diagnostic option: the sample settles under gravity, then is compressed without
+    # its own weight, so the base carries what the top platen does
+    from engine.uniaxial.measures import overburden_ratio
+
+    res_on, _ = cohesionless
+    res_off = engine.run_uniaxial(tiny(gravity_off_after_fill=True, unconfined=False))
+    t = res_on.test
+    assert overburden_ratio(res_off) == 0.0 and overburden_ratio(res_on) > 0
+    # the fill is the same (gravity goes off only after it)
+    fill_on, fill_off = res_on.stages["fill"].curves, res_off.stages["fill"].curves
+    assert np.array_equal(fill_on["stress_bottom"], fill_off["stress_bottom"])
+
+    def base_minus_top(res):
+        c = res.stages["unloading"].curves
+        return float(np.mean(c["stress_bottom"][-5:] - c["stress_top"][-5:]))
+
+    weight = overburden_ratio(res_on) * t.consolidation_stress
+    assert base_minus_top(res_on) == pytest.approx(weight, rel=0.3)
+    assert abs(base_minus_top(res_off)) < 0.1 * weight
+
+
+def test_set_gravity_changes_the_free_fall():
+    sc = engine.Scene(
+        np.array([[0.0, 0.0, 0.0]]),
+        np.array([R]),
+        2000.0,
+        gravity=(0.0, 0.0, -9.81),
+        pair_law=engine.BilinearAdhesive(k1=5e3, k2=5e3),
+    )
+    sim = engine.Simulation(sc, dt=1e-5)
+    sim.run(100)
+    v1 = sim.velocities[0, 2]
+    assert v1 == pytest.approx(-9.81 * 1e-3, rel=1e-6)
+    sim.set_gravity((0.0, 0.0, 0.0))
+    sim.run(100)
+    assert sim.velocities[0, 2] == pytest.approx(v1, rel=1e-12)
+    with pytest.raises(engine.ParameterError, match="set_gravity"):
+        sim.set_gravity((0.0, float("nan"), 0.0))

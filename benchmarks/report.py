@@ -258,11 +258,32 @@ def claim_c(res) -> list[str]:
         )
     adh = res.advisor.get("adhesion_exponent") or {}
     for r, v in (adh.get("by_radius") or {}).items():
-        fit = "" if v["fitted"] is None else f", fitted b = {v['fitted']:.2f}"
         out.append(
-            f"Adhesion exponent at R = {float(r) * 1e3:g} mm: closest b = {v['best']:g}{fit}."
+            f"Adhesion exponent at R = {float(r) * 1e3:g} mm: closest b = {v['best']:g}"
+            f"{exponent_text(v)}."
         )
     return out
+
+
+def exponent_text(v: dict) -> str:
+    """The fitted adhesion exponent of one radius (engine.study.advisor.adhesion_advice)
+    with its interval and what it was fitted against."""
+    if v.get("fitted") is None:
+        return ""
+    iv = v.get("interval")
+    text = f", fitted b = {v['fitted']:.2f}"
+    text += (
+        f" [{iv[0]:.2f}, {iv[1]:.2f}] (95 %)"
+        if iv is not None
+        else " (no bounded interval: the data do not fix it)"
+    )
+    text += f" against the {v.get('fitted_against') or 'reference'}s"
+    if v.get("fitted_against") == "control" and v.get("fitted_reference") is not None:
+        ir = v.get("fitted_reference_interval")
+        text += f"; against the references b = {v['fitted_reference']:.2f}" + (
+            f" [{ir[0]:.2f}, {ir[1]:.2f}]" if ir is not None else " (unbounded)"
+        )
+    return text
 
 
 def comparable_wall_times(res: engine.StudyResult, machines: dict | None) -> bool:

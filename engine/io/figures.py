@@ -396,11 +396,14 @@ def figure(kind: str, runs: dict, table: list[dict], advisor: dict | None = None
 
 
 def save_all(directory, runs: dict, table: list[dict], advisor: dict | None = None) -> list[Path]:
-    """Write ``<kind>.png`` for every kind into ``directory``; returns the paths."""
+    """Write ``<kind>.png`` for every kind into ``directory`` (``resolution`` only for a
+    study with resolution controls); returns the paths."""
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
     out = []
     for kind in KINDS:
+        if kind == "resolution" and not (advisor or {}).get("resolution_curve"):
+            continue  # a study without resolution controls has no resolution curve
         path = d / f"{kind}.png"
         figure(kind, runs, table, advisor).savefig(path, format="png")
         out.append(path)

@@ -642,6 +642,7 @@ def advise(
     reference_strength: float | None,
     resolution: list[dict] | None = None,
     rule_errors: list[dict] | None = None,
+    strengths: dict | None = None,
 ) -> dict:
     """The advisor: per rule the coarsest radius judged ``equivalent`` in a fixed sequence;
     the verdicts; the finite-size warnings; the best-fitting adhesion exponent per radius.
@@ -701,10 +702,20 @@ def advise(
     warnings = finite_size_warnings(groups, controlled=bool(resolution))
     control_lines = resolution_lines(resolution, rule_errors, spec)
     lines += control_lines
-    adhesion = adhesion_advice(spec, groups, reference_strength)
+    adhesion = adhesion_advice(spec, groups, reference_strength, strengths)
     if adhesion:
         for r, v in adhesion["by_radius"].items():
-            fit = f", fitted b = {v['fitted']:.2f}" if v.get("fitted") is not None else ""
+            fit = ""
+            if v.get("fitted") is not None:
+                fit = f", fitted b = {v['fitted']:.2f}"
+                if v.get("fitted_against") == "control" or strengths is not None:
+                    iv = v.get("interval")
+                    fit += (
+                        f" [{iv[0]:.2f}, {iv[1]:.2f}]"
+                        if iv is not None
+                        else " (no bounded interval: the data do not fix it)"
+                    )
+                    fit += f" against the {v['fitted_against']}s"
             lines.append(
                 f"adhesion exponent at R = {float(r) * 1e3:g} mm: closest b = {v['best']:g}{fit}"
             )
@@ -722,11 +733,64 @@ def advise(
     }
 
 
-def adhesion_advice(spec, groups: list[dict], reference_strength: float | None) -> dict | None:
+def fit_exponent(by_b: dict[float, list[float]], target: list[float], confidence: float):
+    r"""The adhesion exponent b at which the coarse strength meets ``target`` (strengths of
+    the runs it should match), with Fieller's interval: the least-squares line
+    :math:`\log \sigma_c = \alpha + \beta b` through the mean log strength of each exponent
+    in ``by_b`` (b -> the strengths of its seeds), solved for the target's mean log,
+    :math:`\hat b = (\bar y_T - \alpha) / \beta`. Numerator N and denominator D are linear
+    combinations of independent means, so :math:`(N - b D)^2 \le t^2 \mathrm{Var}(N - b D)`
+    gives the interval (Fieller 1954), at two-sided level ``confidence`` with
+    :func:`engine.study.resolution.contrast_df` degrees of freedom. Returns (b, [low, high])
+    with the interval None where the slope is not told apart from 0 (the interval is then
+    unbounded: the data do not fix b), or None without two exponents of two or more positive
+    strengths each and a target of two or more, or with a fitted slope of exactly 0."""
+    from .resolution import contrast_df
+
+    pts = sorted((b, np.log(v)) for b, v in by_b.items() if len(v) >= 2 and min(v) > 0)
+    if len(pts) < 2 or len(target) < 2 or min(target) <= 0:
+        return None
+    bs = np.array([b for b, _ in pts])
+    means = np.array([y.mean() for _, y in pts] + [np.log(target).mean()])
+    counts = np.array([len(y) for _, y in pts] + [len(target)])
+    var = np.array([y.var(ddof=1) for _, y in pts] + [np.log(target).var(ddof=1)]) / counts
+    k = len(bs)
+    sbb = float(np.sum((bs - bs.mean()) ** 2))
+    d = np.r_[(bs - bs.mean()) / sbb, 0.0]  # the slope
+    a = np.r_[1.0 / k - bs.mean() * d[:k], 0.0]  # the intercept
+    n = np.r_[-a[:k], 1.0]  # target mean less the intercept
+    num, den = float(n @ means), float(d @ means)
+    if den == 0:
+        return None
+    b_hat = num / den
+    vn, vd, cov = float(n**2 @ var), float(d**2 @ var), float((n * d) @ var)
+    parts = (n - b_hat * d) ** 2 * var
+    tot = float(parts.sum())
+    df = contrast_df(counts, parts / tot if tot > 0 else np.zeros_like(parts))
+    t2 = t_quantile(0.5 + 0.5 * confidence, df) ** 2
+    qa = den**2 - t2 * vd
+    qb = -2.0 * (num * den - t2 * cov)
+    qc = num**2 - t2 * vn
+    disc = qb * qb - 4 * qa * qc
+    if qa <= 0 or disc < 0:
+        return b_hat, None
+    root = math.sqrt(disc)
+    return b_hat, sorted([(-qb - root) / (2 * qa), (-qb + root) / (2 * qa)])
+
+
+def adhesion_advice(
+    spec, groups: list[dict], reference_strength: float | None, strengths: dict | None = None
+) -> dict | None:
     """When rules differ only in their adhesion exponent: per radius the exponent whose
     strength is closest to the reference's, and the fitted one, solving
-    log(strength(b)) = log(reference strength) on the least-squares line of log strength
-    against b (omitted with fewer than two positive strengths)."""
+    log(strength(b)) = log(target strength) on the least-squares line of log strength
+    against b (omitted with fewer than two positive strengths). With ``strengths``
+    (``variants``: (radius, rule) -> the seeds' strengths; ``reference``; ``controls``:
+    radius -> its controls' strengths) the fit is :func:`fit_exponent` with its interval,
+    against the radius's resolution controls where it has them (the exponent that makes the
+    coarse runs match the fine law in a sample as many diameters across: the rule's own
+    mismatch, free of the sample's resolution loss), else against the references
+    (``fitted_against`` says which; ``fitted_reference`` is always the latter)."""
     if not spec.reference.unconfined:
         return None
     families: dict[tuple, set] = {}
@@ -765,6 +829,24 @@ def adhesion_advice(spec, groups: list[dict], reference_strength: float | None) 
             slope, icept = np.polyfit(b, np.log(strength), 1)
             if slope > 0:
                 entry["fitted"] = float((math.log(reference_strength) - icept) / slope)
+        entry["fitted_against"] = "reference" if entry["fitted"] is not None else None
+        entry["fitted_reference"] = entry["fitted"]
+        entry["interval"] = None
+        if strengths is not None:
+            by_b = {
+                g["adhesion_exponent"]: strengths["variants"].get((r, g["rule"]), []) for g in gs
+            }
+            conf = getattr(spec, "confidence", CONFIDENCE)
+            ref_fit = fit_exponent(by_b, strengths.get("reference") or [], conf)
+            ctl = (strengths.get("controls") or {}).get(r) or []
+            fit = fit_exponent(by_b, ctl, conf) if len(ctl) >= 2 else None
+            if ref_fit is not None:
+                entry["fitted_reference"] = ref_fit[0]
+                entry["fitted_reference_interval"] = ref_fit[1]
+            if fit is not None:
+                entry.update(fitted=fit[0], interval=fit[1], fitted_against="control")
+            elif ref_fit is not None:
+                entry.update(fitted=ref_fit[0], interval=ref_fit[1], fitted_against="reference")
         by_radius[f"{r:g}"] = entry
     return {"stiffness_exponent": a, "dt": dt, "by_radius": by_radius} if by_radius else None
 
@@ -864,6 +946,7 @@ __all__ = [
     "advise",
     "error_rates",
     "finite_size_warnings",
+    "fit_exponent",
     "judge_groups",
     "judge_metric",
     "judge_rule_error",

@@ -257,7 +257,19 @@ def assemble(
     resolution, rule_errors = judge_controls(
         spec, ref_values, variants, controls, names, look, runs, seeds_of
     )
-    advisor = advise(spec, groups, verdicts, ref_strength, resolution, rule_errors)
+    strengths = None
+    if spec.reference.unconfined:
+        strengths = {"reference": [r.scalars["unconfined_strength"] for r in refs.values()]}
+        strengths["variants"], strengths["controls"] = {}, {}
+        for r in runs.values():
+            if r.is_reference:
+                continue
+            st = r.result.scalars["unconfined_strength"]
+            if r.control:
+                strengths["controls"].setdefault(r.radius, []).append(st)
+            else:
+                strengths["variants"].setdefault((r.radius, r.rule.name), []).append(st)
+    advisor = advise(spec, groups, verdicts, ref_strength, resolution, rule_errors, strengths)
     advisor["resolution_curve"] = None
     if controls:
         ctl_runs: dict[float, list] = {}

@@ -80,3 +80,26 @@ def test_curves_and_lines_from_run_values():
     # a non-positive value has no logarithm: that metric is left out
     bad = {5e-3: [(5.0, {"strength": np.array([-1.0])}), (5.0, {"strength": np.array([2.0])})]}
     assert resolution_curves(ref, bad, ["strength"], 0.95)["metrics"] == {}
+
+
+def test_the_adhesion_exponent_fit_and_its_fieller_interval():
+    from engine.study.advisor import fit_exponent
+
+    # strength ~ exp(0.4 b): the target made at b = 2 is met at b = 2
+    exact = {b: [math.exp(0.4 * b) * f for f in (0.999, 1.001)] for b in (1.0, 2.0, 3.0)}
+    b, (lo, hi) = fit_exponent(exact, [math.exp(0.8) * f for f in (0.999, 1.001)], 0.95)
+    assert b == pytest.approx(2.0, abs=1e-6) and lo < 2.0 < hi and hi - lo < 0.1
+    # strength that does not move with b: no bounded interval
+    flat = {1.0: [1.0, 1.1, 1.2], 2.0: [1.05, 0.95, 1.15], 3.0: [1.12, 1.0, 1.2]}
+    assert fit_exponent(flat, [1.0, 1.1, 1.2], 0.95)[1] is None
+    # too little: one seed of an exponent, or one exponent
+    assert fit_exponent({1.0: [1.0], 2.0: [2.0, 2.1]}, [1.5, 1.6], 0.95) is None
+    # coverage: 3 exponents x 3 seeds, target of 3 seeds made at b = 2.3, 10 % scatter
+    rng = np.random.default_rng(8)
+    n, hit = 1000, 0
+    for _ in range(n):
+        by_b = {b: list(np.exp(0.35 * b + rng.normal(0, 0.1, 3))) for b in (1.0, 2.0, 3.0)}
+        target = list(np.exp(0.35 * 2.3 + rng.normal(0, 0.1, 3)))
+        _, iv = fit_exponent(by_b, target, 0.95)
+        hit += iv is None or iv[0] <= 2.3 <= iv[1]
+    assert hit / n >= 0.95 - 3 * math.sqrt(0.05 * 0.95 / n), hit / n

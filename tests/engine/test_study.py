@@ -217,7 +217,7 @@ def test_tiny_study_end_to_end(tiny_study, tmp_path):
     assert any("R = 3.1 mm" in w for w in adv["warnings"])
     assert res.to_summary()["units"]["wall_time"] == "s"
     paths = res.save_plots(tmp_path)
-    assert len(paths) == 5
+    assert len(paths) == 6  # with the resolution curve: controls are on by default
     for p in paths:
         data = p.read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000

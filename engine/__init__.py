@@ -40,7 +40,7 @@ from .study.channel import FileChannel
 from .study.metrics import DEFAULT_TOLERANCES, METRICS
 from .study.plan import PlannedRun, StudyPlan, plan
 from .study.results import RunFailed, RunResult, StudyResult
-from .study.run import StudyProgress, run_study
+from .study.run import RunOptions, StudyProgress, run_study
 from .study.spec import NAMED_RULES, ScalingRule, StudySpec, default_study
 from .uniaxial.checkpoint import Checkpoint
 from .uniaxial.driver import StageError, run_uniaxial
@@ -67,6 +67,7 @@ __all__ = [
     "PlannedRun",
     "Progress",
     "RunFailed",
+    "RunOptions",
     "RunResult",
     "ScalingRule",
     "Scene",

@@ -218,16 +218,9 @@ class StudyExecution:
                 result = engine.run_study(
                     plan,
                     progress=self.progress,
-                    executor=pool,
                     completed=self.stored_runs(plan),
                     on_run=self.on_run,
-                    channel=channel,
-                    checkpoints=self.settings.checkpoints_dir(self.study_id),
-                    checkpoint_interval=self.settings.checkpoint_interval,
-                    # in this process, on a pool or on a cluster alike (engine.WallTimeExceeded)
-                    max_run_wall_time=self.settings.max_run_wall_time,
-                    wall_time_setting="DEMSCALE_MAX_RUN_WALL_TIME",
-                    backend=self.settings.backend,
+                    options=self.settings.run_options(self.study_id, pool, channel),
                 )
             write_results(
                 self.settings.results_path(self.study_id),

@@ -233,6 +233,23 @@ class Settings(BaseSettings):
         """Checkpoints of one study's runs in flight (``<key>.ckpt``), removed once stored."""
         return self.study_dir(study_id) / "checkpoints"
 
+    def run_options(self, study_id: object, executor=None, channel=None):
+        """How the worker runs one study's runs (engine.RunOptions): on ``executor`` with
+        ``channel``, checkpoints in :meth:`checkpoints_dir` every ``checkpoint_interval``,
+        the per-run wall-time limit (enforced in this process, on a pool or on a cluster
+        alike: engine.WallTimeExceeded names DEMSCALE_MAX_RUN_WALL_TIME) and the backend."""
+        import engine
+
+        return engine.RunOptions(
+            executor=executor,
+            channel=channel,
+            checkpoints=self.checkpoints_dir(study_id),
+            checkpoint_interval=self.checkpoint_interval,
+            max_run_wall_time=self.max_run_wall_time,
+            wall_time_setting="DEMSCALE_MAX_RUN_WALL_TIME",
+            backend=self.backend,
+        )
+
     def runs_dir(self, study_id: object) -> Path:
         """The per-run HDF5 files of one study, each stored as soon as its run ends."""
         return self.study_dir(study_id) / "runs"

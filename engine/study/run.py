@@ -89,6 +89,57 @@ def _limit_args(limit: tuple | None) -> dict:
     return {"max_wall_time": limit[0], "wall_time_setting": limit[1]}
 
 
+@dataclass(frozen=True)
+class RunOptions:
+    """How a study's runs are run, not what they are: one record that studies, the service
+    and any other loop over uniaxial runs share (:func:`run_study`'s ``options``).
+
+    Attributes:
+        executor: None runs the runs one after another here; any
+            :class:`concurrent.futures.Executor` (a ``ProcessPoolExecutor`` with the
+            "spawn" or "forkserver" context, ``distributed.Client(...).get_executor()``)
+            runs them as tasks. Results are bit-identical either way.
+        task_threads: engine threads per task on an executor (1: one core per task).
+        channel: with an executor, how tasks in other processes or hosts report progress
+            and hear a stop request (:class:`engine.FileChannel`); reset when the study
+            starts.
+        poll_interval: seconds between two reads of the ``channel`` [s].
+        checkpoints: a folder (shared with the executor's processes or hosts) where each
+            run in flight keeps its :class:`engine.Checkpoint` ``<key>.ckpt``, written every
+            ``checkpoint_interval`` seconds of wall time [s]; a run started again (the study
+            resumed after a crash) goes on from its checkpoint, bit-identically. A run's
+            checkpoint is removed once its outcome is stored (``on_run`` has returned).
+        max_run_wall_time: a run that goes on longer than this [s] of wall time fails with
+            :class:`engine.WallTimeExceeded` (in this process and on any executor; the study
+            goes on with the others); ``wall_time_setting`` names the limit in the message.
+        backend: where each run runs, ``"cpu"``, ``"cuda"`` or ``"auto"`` (see
+            :class:`engine.Simulation`; on an executor, decided where the task runs); None:
+            ``DEMSCALE_BACKEND`` there, else the CPU.
+
+    Checked when made: :class:`engine.ParameterError` naming the field for a wall time or
+    interval that is not > 0 s or an unknown backend; ``ValueError`` for a
+    ``ProcessPoolExecutor`` that forks (:func:`check_executor`)."""
+
+    executor: cf.Executor | None = None
+    task_threads: int | None = 1
+    channel: object = None
+    poll_interval: float = 1.0
+    checkpoints: str | os.PathLike | None = None
+    checkpoint_interval: float = CHECKPOINT_INTERVAL
+    max_run_wall_time: float | None = None
+    wall_time_setting: str = "max_run_wall_time"
+    backend: str | None = None
+
+    def __post_init__(self) -> None:
+        check_executor(self.executor)
+        if self.max_run_wall_time is not None:
+            check_interval(self.max_run_wall_time, "RunOptions.max_run_wall_time")
+        if self.checkpoints is not None:
+            check_interval(self.checkpoint_interval, "RunOptions.checkpoint_interval")
+        check_interval(self.poll_interval, "RunOptions.poll_interval")
+        object.__setattr__(self, "backend", check_backend(self.backend, "RunOptions.backend"))
+
+
 def run_study(
     study: StudySpec | StudyPlan,
     progress: StudyCallback | None = None,
@@ -96,14 +147,8 @@ def run_study(
     *,
     completed: dict | None = None,
     on_run: RunCallback | None = None,
-    task_threads: int | None = 1,
-    channel=None,
-    poll_interval: float = 1.0,
-    checkpoints: str | os.PathLike | None = None,
-    checkpoint_interval: float = CHECKPOINT_INTERVAL,
-    max_run_wall_time: float | None = None,
-    wall_time_setting: str = "max_run_wall_time",
-    backend: str | None = None,
+    options: RunOptions | None = None,
+    **how,
 ) -> StudyResult:
     """Run every run of ``study`` that is not in ``completed``, then judge the study.
 
@@ -115,48 +160,35 @@ def run_study(
             runs); returning ``False`` stops the study with :class:`engine.StopRequested`
             (with an executor, runs not yet started are cancelled; running ones stop at
             their next report through the ``channel``, or are left to finish without one).
-        executor: None runs the runs one after another here; any
-            :class:`concurrent.futures.Executor` (a ``ProcessPoolExecutor`` with the
-            "spawn" or "forkserver" context, ``distributed.Client(...).get_executor()``)
-            runs them as tasks. Results are bit-identical either way.
+        executor: shorthand for ``options.executor``.
         completed: key -> :class:`UniaxialResult` (or an error text for a failed run) of
             runs already done, e.g. read back from storage when a study resumes.
         on_run: called with (key, UniaxialResult or error text) as soon as a run ends.
-        task_threads: engine threads per task on an executor (1: one core per task).
-        channel: with an executor, how tasks in other processes or hosts report progress
-            and hear a stop request (:class:`engine.FileChannel`); reset when the study
-            starts.
-        poll_interval: seconds between two reads of the ``channel`` [s].
-        checkpoints: a folder (shared with the executor's processes or hosts) where each
-            run in flight keeps its :class:`engine.Checkpoint` ``<key>.ckpt``, written every
-            ``checkpoint_interval`` seconds of wall time [s]; a run started again (the study
-            resumed after a crash) goes on from its checkpoint, bit-identically. A run's
-            checkpoint is removed once ``on_run`` has returned (its outcome is stored).
-        max_run_wall_time: a run that goes on longer than this [s] of wall time fails with
-            :class:`engine.WallTimeExceeded` (in this process and on any executor; the study
-            goes on with the others); ``wall_time_setting`` names the limit in the message.
-        backend: where each run runs, ``"cpu"``, ``"cuda"`` or ``"auto"`` (see
-            :class:`engine.Simulation`; on an executor, decided where the task runs); None:
-            ``DEMSCALE_BACKEND`` there, else the CPU.
+        options: how the runs are run (:class:`RunOptions`); ``how``: any of its fields as
+            keywords, on top of ``options`` (``run_study(spec, checkpoints="ckpt")``).
 
-    Raises: :class:`RunFailed` as soon as every reference run has failed; ``ValueError``
-    at once, before any run starts, for a ``ProcessPoolExecutor`` that forks
-    (:func:`check_executor`).
+    Raises: :class:`RunFailed` as soon as every reference run has failed; what
+    :class:`RunOptions` raises, at once, before any run starts (a ``TypeError`` names a
+    keyword that is not one of its fields).
     """
-    check_executor(executor)
-    if max_run_wall_time is not None:
-        check_interval(max_run_wall_time, "run_study.max_run_wall_time")
-    limit = (max_run_wall_time, wall_time_setting)
-    backend = check_backend(backend, "run_study.backend")
+    options = options if options is not None else RunOptions()
+    unknown = sorted(set(how) - set(RunOptions.__dataclass_fields__))
+    if unknown:
+        raise TypeError(f"run_study() got unexpected keyword argument(s): {', '.join(unknown)}")
+    if executor is not None:
+        how["executor"] = executor
+    if how:
+        options = replace(options, **how)
+    executor, task_threads, channel = options.executor, options.task_threads, options.channel
+    poll_interval, checkpoints = options.poll_interval, options.checkpoints
+    checkpoint_interval, backend = options.checkpoint_interval, options.backend
+    limit = (options.max_run_wall_time, options.wall_time_setting)
     study = as_plan(study)  # planned once
     spec = study.spec
     outcomes: dict[str, UniaxialResult | str] = dict(completed or {})
     progress = _monotone_progress(progress)
 
     refs = [q.key for q in study.runs if q.is_reference]
-
-    if checkpoints is not None:
-        check_interval(checkpoint_interval, "run_study.checkpoint_interval")
 
     def checkpoint(p: PlannedRun) -> Checkpoint | None:
         if checkpoints is None:

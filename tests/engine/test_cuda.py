@@ -128,7 +128,7 @@ def test_backend_is_checked_where_it_is_given():
     with pytest.raises(engine.ParameterError, match="run_uniaxial.backend"):
         engine.run_uniaxial(test, backend="gpu")
     spec = engine.default_study()
-    with pytest.raises(engine.ParameterError, match="run_study.backend"):
+    with pytest.raises(engine.ParameterError, match="RunOptions.backend"):
         engine.run_study(spec, backend="tpu")  # refused before any run starts
     args = build_parser().parse_args(["study", "s.json", "--out", "o", "--backend", "cuda"])
     assert args.backend == "cuda"

@@ -36,7 +36,7 @@ def test_a_run_past_its_wall_time_stops_with_the_setting_named():
 def test_the_limit_is_checked(bad):
     with pytest.raises(engine.ParameterError, match="max_wall_time"):
         engine.run_uniaxial(tiny(), max_wall_time=bad)
-    with pytest.raises(engine.ParameterError, match="run_study.max_run_wall_time"):
+    with pytest.raises(engine.ParameterError, match="RunOptions.max_run_wall_time"):
         engine.run_study(spec(), max_run_wall_time=bad)
 
 
@@ -81,3 +81,18 @@ def test_a_resumed_run_counts_the_wall_time_of_its_earlier_attempts(tmp_path):
             max_wall_time=0.9 * before,
         )
     assert e.value.elapsed >= 0.99 * before and seen == []  # refused at its first report
+
+
+def test_how_to_run_is_one_record():
+    # engine.RunOptions: what run_study's keywords set, checked when made; a keyword on top
+    # of an options record wins; an unknown keyword is named
+    opts = engine.RunOptions(max_run_wall_time=30.0, checkpoints="ckpt")
+    assert opts.backend == "cpu" or opts.backend is None or isinstance(opts.backend, str)
+    with pytest.raises(engine.ParameterError, match="RunOptions.poll_interval"):
+        engine.RunOptions(poll_interval=0)
+    with pytest.raises(engine.ParameterError, match="RunOptions.checkpoint_interval"):
+        engine.RunOptions(checkpoints="ckpt", checkpoint_interval=-1)
+    with pytest.raises(TypeError, match="max_wall_tim"):
+        engine.run_study(spec(), options=opts, max_wall_tim=5)
+    with pytest.raises(engine.ParameterError, match="RunOptions.max_run_wall_time"):
+        engine.run_study(spec(), options=opts, max_run_wall_time=-1.0)

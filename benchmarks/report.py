@@ -183,16 +183,37 @@ def noise_line(res: engine.StudyResult) -> str:
     return text
 
 
-def _verdict_of(res, radius, rule, metric):
-    v = next(
+def _verdict_of(res, radius, rule, metric, where="verdicts"):
+    """A metric's judgement of (radius, rule): against the reference (``verdicts``) or
+    against the radius's resolution controls (``rule_errors``, the rule's own error)."""
+    v = _variant(res, radius, rule, where)
+    return None if v is None else _metric(v, metric)
+
+
+def _variant(res, radius, rule, where="verdicts"):
+    return next(
         (
             v
-            for v in res.advisor["verdicts"]
+            for v in res.advisor.get(where) or []
             if v["rule"] == rule and abs(v["radius"] - radius) < 1e-12
         ),
         None,
     )
-    return None if v is None else _metric(v, metric)
+
+
+def _adhesion_state(ms: dict) -> str:
+    """Claim (c) from the strength judgements of b1, b2, b3: agrees when b2 is equivalent
+    and b1 and b3 differ, below and above; differs when b2 differs or the order is wrong."""
+    under, over = ms["b1"]["signed_error"] < 0, ms["b3"]["signed_error"] > 0
+    if not under or not over or ms["b2"]["verdict"] == "differs":
+        return "differs"
+    if (
+        ms["b2"]["verdict"] == "equivalent"
+        and ms["b1"]["verdict"] == "differs"
+        and ms["b3"]["verdict"] == "differs"
+    ):
+        return "agrees"
+    return "undecided"
 
 
 def claim_a(res) -> str:
@@ -240,27 +261,52 @@ def claim_c(res) -> list[str]:
         if any(m is None for m in ms.values()):
             out.append(f"R = {r * 1e3:g} mm: *undecided*, runs missing.")
             continue
-        under, over = ms["b1"]["signed_error"] < 0, ms["b3"]["signed_error"] > 0
-        if not under or not over or ms["b2"]["verdict"] == "differs":
-            state = "differs"
-        elif (
-            ms["b2"]["verdict"] == "equivalent"
-            and ms["b1"]["verdict"] == "differs"
-            and ms["b3"]["verdict"] == "differs"
-        ):
-            state = "agrees"
-        else:
-            state = "undecided"
+        state = _adhesion_state(ms)
         out.append(
             f"R = {r * 1e3:g} mm: **{state}**. Strength against the reference: "
             + ", ".join(f"b = {b[1]}: {interval_text(m)} ({m['verdict']})" for b, m in ms.items())
             + "."
         )
+        own = {b: _verdict_of(res, r, b, "strength", "rule_errors") for b in ms}
+        if all(m is not None for m in own.values()):
+            text = (
+                f"R = {r * 1e3:g} mm, on the rule's own error (each b against the resolution "
+                f"controls, the 2.5 mm law in the coarse cell scaled): **{_adhesion_state(own)}**. "
+                + ", ".join(
+                    f"b = {b[1]}: {interval_text(m)} ({m['verdict']})" for b, m in own.items()
+                )
+                + "."
+            )
+            v = _variant(res, r, "b2", "rule_errors")
+            if own["b2"]["verdict"] == "undecided" and v and v.get("to_decide"):
+                text += f" To decide b = 2: {v['to_decide']}."
+            out.append(text)
+        loss = next(
+            (v for v in res.advisor.get("resolution") or [] if abs(v["radius"] - r) < 1e-12),
+            None,
+        )
+        m = None if loss is None else _metric(loss, "strength")
+        if m is not None:
+            out.append(
+                f"R = {r * 1e3:g} mm, resolution: the 2.5 mm law {loss['diameters_across']:.1f} "
+                f"diameters across against the reference: strength {interval_text(m)} "
+                f"({m['verdict']})."
+            )
     adh = res.advisor.get("adhesion_exponent") or {}
     for r, v in (adh.get("by_radius") or {}).items():
         out.append(
             f"Adhesion exponent at R = {float(r) * 1e3:g} mm: closest b = {v['best']:g}"
             f"{exponent_text(v)}."
+        )
+    curve = ((res.advisor.get("resolution_curve") or {}).get("metrics") or {}).get("strength")
+    if curve is not None:
+        lo, hi = curve["reference_offset_interval"]
+        out.append(
+            "Resolution curve of the strength (references and controls against d / L, "
+            f"docs/PHYSICS.md section 7.5): the {curve['reference_diameters_across']:.0f}-"
+            f"diameter reference is {100 * curve['reference_offset']:+.1f} "
+            f"[{100 * lo:+.1f}, {100 * hi:+.1f}] % from the bulk value extrapolated to "
+            "d / L = 0."
         )
     return out
 

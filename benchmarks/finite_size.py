@@ -75,7 +75,7 @@ CONFIDENCE = 0.95
 def reference_test() -> UniaxialTest:
     """The 2.5 mm reference test of experiment (b) at the paper scale, as its study runs it
     (interior margin set by the study: two diameters of its largest, 5 mm, particles)."""
-    from benchmarks.reproduce import experiments
+    from benchmarks.experiments import experiments
 
     return study_reference(experiments("paper")["b_cohesive"])
 

@@ -145,7 +145,7 @@ def profile_passes(sim, reps: int = 20) -> dict[str, float]:
 
 
 def reference_test():
-    from benchmarks.reproduce import experiments
+    from benchmarks.experiments import experiments
 
     spec = experiments("paper")["b_cohesive"]
     return next(p.test for p in engine.plan(spec).runs if p.key == "ref-s1")
@@ -206,7 +206,7 @@ def run_batch(workers: int, store: Path) -> tuple[float, dict]:
     import concurrent.futures as cf
     import multiprocessing as mp
 
-    from benchmarks.reproduce import experiments
+    from benchmarks.experiments import experiments
     from engine.io.store import save_run
 
     spec = experiments("paper")["b_cohesive"]
@@ -400,3 +400,7 @@ def main(argv=None) -> int:
     )
     print(f"\nelapsed {time.perf_counter() - t_start:.0f} s")
     return report([(w, bool(o)) for w, o in checks])
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -45,7 +45,7 @@ SPEEDS = {"half": 0.5, "double": 2.0}
 
 
 def study():
-    from benchmarks.reproduce import experiments
+    from benchmarks.experiments import experiments
 
     return experiments("quick")["b_cohesive"]
 

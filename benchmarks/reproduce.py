@@ -37,86 +37,24 @@ import argparse
 import concurrent.futures as cf
 import multiprocessing as mp
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import engine
+from benchmarks.experiments import (  # noqa: F401  (names of this module before the split)
+    COARSE_SEEDS,
+    DECIDE,
+    EEPA_COARSE_RADII,
+    EEPA_COARSE_SEEDS,
+    EXPERIMENTS,
+    REFERENCE_SEEDS,
+    ROOT,
+    STORE,
+    R,
+    experiments,
+    store_dir,
+)
 from engine.io.store import completed_runs, load_all, save_run, stored_code, stored_machine
 from engine.study.plan import plan_runs, stored_plan_runs
-
-ROOT = Path(__file__).resolve().parent.parent
-R = 2.5e-3
-REFERENCE_SEEDS = (1, 2, 3)
-COARSE_SEEDS = (1, 2)
-#: Coarse seeds of (c) and (d): six 286-particle beds at the quick scale, two at the paper
-#: scale, whose coarse beds hold 2,578 particles (as in (a) and (b)).
-EEPA_COARSE_SEEDS = {"quick": (1, 2, 3, 4, 5, 6), "paper": (1, 2)}
-#: Coarse radii of (d): at the paper scale 2 R_ref alone, where the two rules differ most
-#: (stiffness ratio 2^0.5 against 2); 1.5 R_ref would double the cost of (d) (see above).
-EEPA_COARSE_RADII = {"quick": (1.5 * R, 2 * R), "paper": (2 * R,)}
-
-
-#: At the paper scale the studies add seeds until their verdicts are decided (issue 19),
-#: within this budget, stated on 2026-12-01 before any added run was made: two rounds, up
-#: to 10 seeds per coarse variant and 5 reference seeds, at most 4e10 estimated
-#: particle-steps of added runs per experiment (about three paper-scale references).
-DECIDE = {"decide": True, "rounds": 2, "max_seeds": 10, "max_reference_seeds": 5, "budget": 4e10}
-
-
-def experiments(scale: str) -> dict[str, engine.StudySpec]:
-    """The experiments of the seed at ``scale`` ("paper" or "quick"); at the paper scale
-    each adds seeds until decided, within :data:`DECIDE`."""
-    plain = replace(engine.preset(scale), unconfined=False)  # f0 = 0: cohesionless
-    cohesive = engine.preset(
-        scale,
-        pair_law=engine.BilinearAdhesive(
-            k1=5e3, k2=2.5e4, f0=-0.8, mu_s=0.5, mu_r=0.001, restitution=0.4
-        ),
-    )
-    rule = engine.ScalingRule
-    common = {
-        "reference_seeds": REFERENCE_SEEDS,
-        "seeds": COARSE_SEEDS,
-        **(DECIDE if scale == "paper" else {}),
-    }
-    eepa = engine.EEPA(k1=5e5, k2=2.5e6, n=1.5, chi=1.5, mu_s=0.5, mu_r=0.001, restitution=0.4)
-    eepa_rules = (rule.named("similarity"), rule("linear", 1.0, 2.0))
-    eepa_common = {**common, "seeds": EEPA_COARSE_SEEDS[scale]}
-    eepa_radii = EEPA_COARSE_RADII[scale]
-    return {
-        "a_cohesionless": engine.StudySpec(
-            reference=plain,
-            coarse_radii=(2 * R,),
-            rules=(rule("unscaled", 0.0, 0.0), rule("linear", 1.0, 2.0)),
-            **common,
-        ),
-        "b_cohesive": engine.StudySpec(
-            reference=cohesive,
-            coarse_radii=(1.5 * R, 2 * R),
-            rules=(rule("b1", 1.0, 1.0), rule("b2", 1.0, 2.0), rule("b3", 1.0, 3.0)),
-            **common,
-        ),
-        "c_eepa_cohesionless": engine.StudySpec(
-            reference=engine.preset(scale, pair_law=eepa, unconfined=False),
-            coarse_radii=(2 * R,),
-            rules=eepa_rules,
-            **eepa_common,
-        ),
-        "d_eepa_cohesive": engine.StudySpec(
-            reference=engine.preset(scale, pair_law=replace(eepa, f0=-0.8)),
-            coarse_radii=eepa_radii,
-            rules=eepa_rules,
-            **eepa_common,
-        ),
-    }
-
-
-STORE = ROOT / "benchmarks" / "results"
-EXPERIMENTS = ("a_cohesionless", "b_cohesive", "c_eepa_cohesionless", "d_eepa_cohesive")
-
-
-def store_dir(scale: str, name: str) -> Path:
-    return STORE / scale / name
 
 
 def stored_runs(spec: engine.StudySpec, directory: Path) -> dict:

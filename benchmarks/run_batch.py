@@ -148,7 +148,7 @@ def main(argv=None) -> int:
     ap.add_argument("--tar", type=Path, default=None, help="pack store and logs into this file")
     args = ap.parse_args(argv)
     jobs = [parse_job(t) for t in args.jobs]
-    from benchmarks.reproduce import EXPERIMENTS
+    from benchmarks.experiments import EXPERIMENTS
 
     for job in jobs:
         if job.experiment not in EXPERIMENTS:

@@ -19,7 +19,7 @@ import time
 import numba
 
 import engine
-from benchmarks.reproduce import ROOT, experiments
+from benchmarks.experiments import ROOT, experiments
 from engine.io.store import load_run, save_run, stored_machine
 from engine.uniaxial.driver import run_uniaxial
 

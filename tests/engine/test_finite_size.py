@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import pytest
 
+from benchmarks.experiments import experiments
 from benchmarks.finite_size import COARSE_RADIUS, control_test, reference_test
-from benchmarks.reproduce import experiments
 from engine.study.plan import reference_test as study_reference
 
 

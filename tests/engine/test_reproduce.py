@@ -147,3 +147,30 @@ def test_batch_starts_jobs_as_cores_free_and_kills_at_the_deadline(tmp_path):
     assert 5.0 <= by["d"].end < 10.0
     with pytest.raises(SystemExit, match="threads"):
         parse_job("x:a:0")
+
+
+def test_the_benchmarks_import_no_circle():
+    # the experiments are defined once (benchmarks/experiments.py); the report reads stored
+    # runs; no benchmark module imports one that imports it back
+    import ast
+    from pathlib import Path
+
+    bench = Path(__file__).resolve().parents[2] / "benchmarks"
+    graph = {}
+    for path in bench.glob("*.py"):
+        deps = set()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module:
+                if node.module.startswith("benchmarks."):
+                    deps.add(node.module.split(".")[1])
+                elif node.module == "benchmarks":
+                    deps.update(a.name for a in node.names)
+        graph[path.stem] = deps
+
+    def reaches(a, b, seen=()):
+        return any(
+            d == b or (d not in seen and reaches(d, b, (*seen, d))) for d in graph.get(a, ())
+        )
+
+    circles = sorted(m for m in graph if reaches(m, m))
+    assert circles == [], circles

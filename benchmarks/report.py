@@ -124,7 +124,7 @@ def particle_steps_ratio(res: engine.StudyResult, rule: str, radius: float) -> f
         for x in res.runs.values()
         if x.rule is not None and x.rule.name == rule and abs(x.radius - radius) < 1e-12
     ]
-    ref = [x.result.scalars["particle_steps"] for x in res.runs.values() if x.rule is None]
+    ref = [x.result.scalars["particle_steps"] for x in res.runs.values() if x.is_reference]
     return float(np.mean(ref) / np.mean(ps)) if ps and ref else None
 
 

@@ -90,11 +90,28 @@ def test_claim_c(b1, b2, b3, word):
     assert _word(lines[0]) == word
 
 
-def _run(rule, radius, steps):
+def _run(rule, radius, steps, control=False):
+    name = rule
     rule = None if rule is None else SimpleNamespace(name=rule)
     return SimpleNamespace(
-        rule=rule, radius=radius, result=SimpleNamespace(scalars={"particle_steps": steps})
+        rule=rule,
+        radius=radius,
+        control=control,
+        is_reference=name is None and not control,
+        result=SimpleNamespace(scalars={"particle_steps": steps}),
     )
+
+
+def test_the_particle_steps_ratio_leaves_the_controls_out():
+    # a resolution control has no rule either, and costs what a coarse run does: counted
+    # as a reference it made the paper rule's particle-steps ratio 1.7x instead of 3.2x
+    runs = {
+        "ref-s1": _run(None, R, 1e10),
+        "ctl-r5mm-s1": _run(None, 2 * R, 1e9, control=True),
+        "r5mm-b2-s1": _run("b2", 2 * R, 1e9),
+    }
+    res = _res([], runs=runs)
+    assert report.particle_steps_ratio(res, "b2", 2 * R) == pytest.approx(10.0)
 
 
 @pytest.mark.parametrize(("k", "word"), [(3.5, "agrees"), (2.9, "differs"), (4.5, "differs")])

@@ -144,9 +144,8 @@ class StudyPlan:
         variant and the reference filled to their seed caps, whichever is less)."""
         spec = self.spec
         cost = {}
-        for p in self.runs:
-            if not p.control:  # controls take no added seeds
-                cost.setdefault(p.variant, p.particle_steps)
+        for p in self.runs:  # a control follows the added coarse seeds of its radius
+            cost.setdefault(p.variant, p.particle_steps)
         total = float(sum(p.particle_steps for p in self.runs))
         if not spec.decide:
             return total
@@ -373,7 +372,7 @@ def _judged_values(spec: StudySpec, planned: list[PlannedRun], outcomes: dict):
     ref_values = [metric_values(r) for r in refs.values()]
     variants: dict[tuple, list[dict]] = {}
     for p in ok:
-        if p.is_reference or p.control:  # controls take no added seeds
+        if p.is_reference or p.control:  # controls follow the coarse seeds (_added_runs)
             continue
         res = outcomes[p.key]
         try:
@@ -413,4 +412,24 @@ def _added_runs(
         # the planned run with a new seed: the same test (a coarse test's time step is the
         # reference's, whatever its seed), so an added run is what the stored plan holds
         out.append((template[None if a.kind == "reference" else a.variant].with_seed(seed), a))
+    if budget_left is not None:
+        budget_left -= sum(p.particle_steps for p, _ in out)
+    for p, a in list(out):
+        # a control follows each added coarse seed at its radius (one control per radius
+        # and seed serves every rule there), so that the rule's own error keeps its pairs
+        # (engine.study.advisor.judge_rule_error); within the budget
+        ck = (p.radius, CONTROL)
+        if a.kind != "coarse" or ck not in template or p.seed in used.get(ck, set()):
+            continue
+        ctl = template[ck].with_seed(p.seed)
+        if budget_left is not None and ctl.particle_steps > budget_left:
+            continue
+        used[ck].add(p.seed)
+        if budget_left is not None:
+            budget_left -= ctl.particle_steps
+        reason = (
+            f"round {a.round}: the resolution control of seed {p.seed} at "
+            f"R = {p.radius * 1e3:g} mm, which {p.key} is paired with for the rule's own error"
+        )
+        out.append((ctl, Addition("control", ck, a.round, reason)))
     return out

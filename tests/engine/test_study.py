@@ -313,6 +313,31 @@ def test_a_deciding_study_resumes_with_the_runs_it_added():
     ]
 
 
+def test_a_control_follows_every_added_coarse_seed():
+    # engine.study.plan._added_runs: one control per radius and seed, so that the rule's
+    # own error keeps its pairs (advisor.judge_rule_error); counted in the budget
+    spec = engine.StudySpec(
+        reference=tiny(),
+        coarse_radii=(3.1e-3,),
+        seeds=(1,),
+        reference_seeds=(1, 2, 3),
+        rules=(engine.ScalingRule.named("paper"),),
+        decide=True,
+        rounds=1,
+        max_seeds=3,
+        max_reference_seeds=3,
+    )
+    res = engine.run_study(spec)
+    added = {a["run"]: a for a in res.advisor["adaptive"]["added_runs"]}
+    coarse = [k for k in added if k.startswith("r3.1mm-paper-")]
+    assert coarse == ["r3.1mm-paper-s4", "r3.1mm-paper-s5"], list(added)
+    for k in coarse:
+        ctl = "ctl-r3.1mm-s" + k.rpartition("-s")[2]
+        assert added[ctl]["kind"] == "control" and k in added[ctl]["reason"]
+    (own,) = res.advisor["rule_errors"]
+    assert own["paired_seeds"] == 3 and own["control_seeds"] == 3
+
+
 def test_stored_runs_beyond_the_plan_are_judged_with_it():
     # a report judges every stored run of the study: a run of one of its variants (or its
     # reference) with another seed joins the plan; keys of no run of the study do not

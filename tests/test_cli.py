@@ -166,7 +166,10 @@ def test_study_end_to_end(tmp_path):
 
     from matplotlib.image import imread
 
-    assert len(summary["files"]["plots"]) == 5
+    # with the resolution curve: the study has its resolution controls (on by default)
+    assert (
+        len(summary["files"]["plots"]) == 6 and "plots/resolution.png" in summary["files"]["plots"]
+    )
     for p in summary["files"]["plots"]:
         assert imread(out / p).shape[0] > 100
     for key in keys:

@@ -278,6 +278,8 @@ def plan_runs(
             return planned, added, None
         new = _added_runs(spec, planned, outcomes, round_no, spent)
         if not new:
+            if any(p.key not in outcomes for p in planned):  # controls still to run
+                return planned, added, None
             return (
                 planned,
                 added,

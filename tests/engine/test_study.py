@@ -327,8 +327,14 @@ def test_a_control_follows_every_added_coarse_seed():
         max_seeds=3,
         max_reference_seeds=3,
     )
-    res = engine.run_study(spec)
+    stored: dict = {}
+    res = engine.run_study(spec, on_run=stored.__setitem__)
     added = {a["run"]: a for a in res.advisor["adaptive"]["added_runs"]}
+    # with a control still to run the study has not stopped, even when no round adds more
+    from engine.study.plan import plan_runs
+
+    assert plan_runs(spec, stored)[2] is not None
+    assert plan_runs(spec, {k: v for k, v in stored.items() if k != "ctl-r3.1mm-s5"})[2] is None
     coarse = [k for k in added if k.startswith("r3.1mm-paper-")]
     assert coarse == ["r3.1mm-paper-s4", "r3.1mm-paper-s5"], list(added)
     for k in coarse:

@@ -309,7 +309,7 @@ def work_bounds(fields: dict, dt: float) -> list[tuple[str, float, str]]:
                 "platen_speed: one curve sample per 1 % of axial strain at least)",
             )
         )
-    fall = 2 * math.sqrt(2 * test.pour_height / test.gravity)
+    fall = 2 * test.fall_time
     scale = max(fall, test.pour_height / test.platen_speed)
     cap = STAGE_TIME_FACTOR * scale
     if fields["max_stage_time"] > cap:
@@ -317,7 +317,7 @@ def work_bounds(fields: dict, dt: float) -> list[tuple[str, float, str]]:
             (
                 "max_stage_time",
                 fields["max_stage_time"],
-                f"<= {cap:.4g} s ({STAGE_TIME_FACTOR:g} x max(2 free-fall times of the "
+                f"<= {cap:.4g} s ({STAGE_TIME_FACTOR:g} x max(2 fall times of the "
                 f"pour column = {fall:.3g} s, pour column / platen_speed = "
                 f"{test.pour_height / test.platen_speed:.3g} s))",
             )

@@ -10,7 +10,6 @@ from stored runs, finds the same runs)."""
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -90,7 +89,7 @@ def estimated_steps(test: UniaxialTest) -> float:
     compression of the sample by 10 % there and back, release, unconfined strain."""
     dt = test.resolved_dt()
     height = test.cell[2]
-    t = 2 * math.sqrt(2 * test.pour_height / test.gravity) + 0.2 * height / test.platen_speed
+    t = 2 * test.fall_time + 0.2 * height / test.platen_speed
     if test.unconfined:
         t += test.release_time + test.max_unconfined_strain * height / test.platen_speed
     return t / dt

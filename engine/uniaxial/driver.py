@@ -252,6 +252,17 @@ class _Driver:
     def settled(self, row, t_min: float, t0: float) -> bool:
         return row[0] - t0 >= t_min and row[6] <= self.settle_energy
 
+    def cap_speed(self, cap: float) -> None:
+        """Scale down the velocity of every particle faster than ``cap`` [m/s] to ``cap``
+        (``UniaxialTest.pour_speed``, during the fill)."""
+        v = self.sim.velocities
+        speed = np.sqrt(np.einsum("ij,ij->i", v, v))
+        fast = speed > cap
+        if fast.any():
+            v = v.copy()
+            v[fast] *= (cap / speed[fast])[:, None]
+            self.sim.set_velocities(v)
+
     def move_top(self, speed: float) -> None:
         self.sim.set_wall_velocity(1, (0.0, 0.0, speed))
 
@@ -306,6 +317,8 @@ class _Driver:
         stage = rec.stage
         if stage == "fill":
             t_fall = math.sqrt(2 * t.cell[2] / t.gravity)
+            if t.pour_speed is not None:  # the capped cloud rains down no faster than this
+                t_fall = max(t_fall, t.pour_height / t.pour_speed)
             return (
                 lambda r: self.settled(r, t_fall, t0),
                 lambda r: min(1.0, (r[0] - t0) / (2 * t_fall)),
@@ -370,6 +383,8 @@ class _Driver:
                 )
             self.sim.run(self.sample_steps)
             rec.steps += self.sample_steps
+            if stage == "fill" and self.test.pour_speed is not None:
+                self.cap_speed(self.test.pour_speed)
             row = rec.sample()
             self.stage_fraction = fraction(row)
             self.report(stage, self.stage_fraction)

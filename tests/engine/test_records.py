@@ -19,7 +19,7 @@ from . import toy_law
 from .test_uniaxial import tiny
 
 #: Fields of UniaxialTest declared after runs were stored, with the value such a run had.
-FIELDS_SINCE = {"gravity": 9.81, "gravity_off_after_fill": False}
+FIELDS_SINCE = {"gravity": 9.81, "gravity_off_after_fill": False, "pour_speed": None}
 
 STORED = sorted((Path(__file__).resolve().parents[2] / "benchmarks" / "results").glob("*/*/*.h5"))
 

@@ -210,3 +210,22 @@ def test_set_gravity_changes_the_free_fall():
     assert sim.velocities[0, 2] == pytest.approx(v1, rel=1e-12)
     with pytest.raises(engine.ParameterError, match="set_gravity"):
         sim.set_gravity((0.0, float("nan"), 0.0))
+
+
+def test_a_capped_pour_never_falls_faster_than_its_speed():
+    # UniaxialTest.pour_speed: every particle faster than the cap is slowed to it between
+    # curve samples during the fill, so the kinetic energy at each fill sample is at most
+    # that of every particle moving at the cap; the free fall reaches more
+    from engine.simulation.packing import sphere_volume
+
+    cap = 0.15
+    res = engine.run_uniaxial(tiny(pour_speed=cap, unconfined=False))
+    t = res.test
+    m = t.density * sphere_volume(t.radius)
+    ke = res.stages["fill"].curves["kinetic_energy"]
+    assert ke.max() <= 0.5 * m * cap**2 * t.n_particles * (1 + 1e-9)
+    assert t.fall_time == pytest.approx(t.pour_height / cap)
+    free = engine.run_uniaxial(tiny(unconfined=False)).stages["fill"].curves["kinetic_energy"]
+    assert free.max() > 2 * ke.max()
+    with pytest.raises(engine.ParameterError, match="pour_speed"):
+        tiny(pour_speed=0.0)

@@ -50,6 +50,7 @@ import numpy as np
 import engine
 from benchmarks.checks import report
 from benchmarks.engine_speed import DT, PLATEN_SPEED, RHO, R, anchor_bed, write_lammps_data
+from engine.io.liggghts import matched_restitution
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -130,14 +131,6 @@ class Case:
         """Restitution of the platen contacts (LIGGGHTS: one coefficient for every type pair,
         walls of type 1 included)."""
         return self.restitution if self.lig_restitution is None else self.lig_restitution
-
-
-def matched_restitution(restitution: float, n: float, d: float) -> float:
-    """LIGGGHTS restitution whose constant damping 2 zeta_L sqrt(m K1) equals demscale's
-    2 zeta sqrt(m n K1 d^(n-1)) at the overlap d [m] (K1 taken as N/m, as LIGGGHTS does):
-    zeta_L = zeta sqrt(n d^(n-1)), e = exp(-pi zeta_L / sqrt(1 - zeta_L^2))."""
-    z = engine.contact.limits.damping_ratio(restitution) * math.sqrt(n * d ** (n - 1.0))
-    return math.exp(-math.pi * z / math.sqrt(1.0 - z * z))
 
 
 #: median pair overlap at the end of demscale's case 1 [m]: where case 1b matches the damping

@@ -462,6 +462,6 @@ for _name in ("positions", "unwrapped_positions", "velocities", "angular_velocit
 for _name in ("wall_forces", "wall_positions", "wall_velocities"):
     setattr(CudaSimulation, _name, _pulling_property(_name, "walls"))
 CudaSimulation.kinetic_energy = _pulling_method("kinetic_energy", "particles")
-for _name in ("n_contacts", "contact_counts", "contacts", "memory_bytes"):
+for _name in ("n_contacts", "contact_counts", "contacts", "pair_stress", "memory_bytes"):
     setattr(CudaSimulation, _name, _pulling_method(_name, *_GROUPS))
 del _name

@@ -767,6 +767,29 @@ class Simulation:
         counts = np.bincount(owner, minlength=self.n) + np.bincount(j, minlength=self.n)
         return counts[self._rank]
 
+    def pair_stress(self, volume: float) -> np.ndarray:
+        r"""The particle-particle contact part of the stress tensor in ``volume`` [m^3], at the
+        last force evaluation [Pa]: the virial (Love-Weber) sum over contacts,
+        :math:`\sigma_{ab} = \frac{1}{V} \sum_c f_a\, l_b`, with :math:`f` the force on one
+        particle of a contact and :math:`l` the branch vector from the other's centre to
+        its centre (nearest periodic image), so that compression is positive. Platen
+        contacts, whose branch vectors are normal to the platens, and the (quasi-static:
+        small) kinetic part are left out: in a periodic cell between two horizontal platens
+        the horizontal components are the whole lateral stress."""
+        m = self._n_entries
+        owner = np.repeat(np.arange(self.n), np.diff(self._list.start))
+        active = np.nonzero(self._list.entry[:m, 0] != 0.0)[0]
+        i = owner[active]
+        j = self._list.j[active].astype(np.int64)
+        pos, length = self._particles.pos, self._params.length
+        dx = pos[i] - pos[j]
+        for a in range(3):
+            if self._periodic[a]:
+                dx[:, a] -= length[a] * np.floor(dx[:, a] / length[a] + 0.5)
+        f = self._k.F_SLOT
+        forces = -self._list.entry[active, f : f + 3]  # on the list's owner i
+        return forces.T @ dx / float(volume)
+
     def contacts(self) -> Contacts:
         """Particle-particle and particle-wall contacts at the last force evaluation."""
         m = self._n_entries

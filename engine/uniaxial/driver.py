@@ -29,6 +29,7 @@ from .measures import (
     failed_by_curve,
     interior_margin,
     interior_measures,
+    lateral_ratio,
     secant_slope,
     unconfined_strength,
 )
@@ -102,6 +103,11 @@ class _Recorder:
         por_in, coord_in = interior_measures(
             sim.positions[:, 2] - bottom, sim.radii, counts, gap, d.test.margin, area
         )
+        # lateral and vertical stress from the contact virial of the sample's volume (a
+        # lambda tester's lateral sensor; K0 = lateral / vertical on loading)
+        sig = sim.pair_stress(area * gap)
+        s_lat = 0.5 * float(sig[0, 0] + sig[1, 1])
+        s_ver = float(sig[2, 2]) + d.platen_virial(f) / (area * gap)
         ke = sim.kinetic_energy()
         speed = abs(float(sim.wall_velocities[1, 2])) if d.n_walls > 1 else 0.0
         # inertial number with the pressure floored at the weight of one particle layer
@@ -119,6 +125,8 @@ class _Recorder:
             gap,
             por_in,
             coord_in,
+            s_lat,
+            s_ver,
         )
         self.rows.append(row)
         return row
@@ -251,6 +259,23 @@ class _Driver:
 
     def settled(self, row, t_min: float, t0: float) -> bool:
         return row[0] - t0 >= t_min and row[6] <= self.settle_energy
+
+    def platen_virial(self, wall_forces: np.ndarray) -> float:
+        """The platens' part of the vertical contact virial [N m]: per platen its normal
+        force times the mean lever (radius less overlap) of the particles touching it, whose
+        branch vectors run from the contact point to the centre along the platen's normal
+        (exact for equal radii and equal overlaps; the horizontal components get nothing)."""
+        sim = self.sim
+        pos, rad = sim.positions, sim.radii
+        out = 0.0
+        for w in range(self.n_walls):
+            point, normal = sim.wall_positions[w], (0.0, 0.0, 1.0 if w == 0 else -1.0)
+            overlap = rad - (pos[:, 2] - point[2]) * normal[2]
+            touch = overlap > 0
+            if touch.any():
+                lever = float(np.mean(rad[touch] - overlap[touch]))
+                out += abs(float(wall_forces[w, 2])) * lever
+        return out
 
     def cap_speed(self, cap: float) -> None:
         """Scale down the velocity of every particle faster than ``cap`` [m/s] to ``cap``
@@ -408,6 +433,7 @@ class _Driver:
         s["unloading_stiffness"] = secant_slope(
             unl["strain"][::-1], unl["stress_top"][::-1], 0.5, 1.0
         )
+        s["k0"] = lateral_ratio(cons["stress_top"], cons["stress_lateral"])
         s["consolidated_porosity"] = float(cons["porosity"][-1])
         s["consolidated_porosity_interior"] = float(cons["porosity_interior"][-1])
         dmax = 2 * self.test.radius * (1 + self.test.polydispersity)

@@ -146,6 +146,18 @@ def overburden_ratio(result) -> float:
     return t.density * (1.0 - n) * t.gravity * h / t.consolidation_stress
 
 
+def lateral_ratio(stress_top: np.ndarray, stress_lateral: np.ndarray) -> float:
+    """K0, the lateral stress ratio on confined loading [-]: the mean of lateral / vertical
+    stress over the samples of the loading branch whose top platen stress is in the upper
+    half of its range (normally consolidated, where the ratio settles), the lateral stress
+    from the contact virial (engine.Simulation.pair_stress). NaN without such a sample."""
+    top = np.asarray(stress_top, dtype=float)
+    lat = np.asarray(stress_lateral, dtype=float)
+    hi = top.max() if top.size else 0.0
+    sel = (top >= 0.5 * hi) & (top > 0)
+    return float(np.mean(lat[sel] / top[sel])) if sel.any() else math.nan
+
+
 def secant_slope(strain: np.ndarray, stress: np.ndarray, lo: float, hi: float) -> float:
     """Least-squares slope of stress against strain [Pa] over the samples whose stress lies
     between ``lo`` and ``hi`` times the largest stress of the curve."""

@@ -24,6 +24,8 @@ CURVE_UNITS = {
     "platen_gap": "m",
     "porosity_interior": "1",
     "coordination_interior": "1",
+    "stress_lateral": "Pa",
+    "stress_vertical": "Pa",
 }
 
 
@@ -108,4 +110,5 @@ SCALAR_UNITS = {
     "particle_steps": "1",
     "threads": "1",
     "max_inertial_number": "1",
+    "k0": "1",
 }

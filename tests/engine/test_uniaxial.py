@@ -229,3 +229,33 @@ def test_a_capped_pour_never_falls_faster_than_its_speed():
     assert free.max() > 2 * ke.max()
     with pytest.raises(engine.ParameterError, match="pour_speed"):
         tiny(pour_speed=0.0)
+
+
+def test_pair_stress_is_the_contact_virial():
+    # two spheres overlapping by d along x: sigma_xx = K1 d (2R - d) / V, compressive positive
+    d = 1e-5
+    law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, mu_s=0.0, mu_r=0.0)
+    sc = engine.Scene(
+        np.array([[0.0, 0.0, 0.0], [2 * R - d, 0.0, 0.0]]),
+        np.array([R, R]),
+        2000.0,
+        pair_law=law,
+        gravity=(0.0, 0.0, 0.0),
+    )
+    sig = engine.Simulation(sc, dt=1e-6).pair_stress(2.0)
+    expected = np.zeros((3, 3))
+    expected[0, 0] = 5e3 * d * (2 * R - d) / 2.0
+    np.testing.assert_allclose(sig, expected, rtol=1e-12, atol=1e-18)
+
+
+def test_the_virial_stress_agrees_with_the_platens_and_gives_k0(cohesionless):
+    # the curves stress_lateral and stress_vertical (contact virial over the sample, the
+    # platens' lever included) and the scalar k0: quasi-static, the vertical virial is the
+    # mean of the two platens' stresses (measured apart: forces on the walls), and the
+    # lateral stress ratio is that of a granular bed
+    res, _ = cohesionless
+    c = res.stages["consolidation"].curves
+    platens = 0.5 * (c["stress_top"][-1] + c["stress_bottom"][-1])
+    assert c["stress_vertical"][-1] == pytest.approx(platens, rel=0.02)
+    assert 0.1 < res.scalars["k0"] < 1.2
+    assert np.all(c["stress_lateral"] >= 0)

@@ -44,6 +44,7 @@ from .study.run import RunOptions, StudyProgress, run_study
 from .study.spec import NAMED_RULES, ScalingRule, StudySpec, default_study
 from .uniaxial.checkpoint import Checkpoint
 from .uniaxial.driver import StageError, run_uniaxial
+from .uniaxial.flow import FlowFunction, flow_function
 from .uniaxial.results import RESUMED, Progress, StageResult, UniaxialResult
 from .uniaxial.spec import UniaxialTest, preset
 
@@ -60,6 +61,7 @@ __all__ = [
     "Checkpoint",
     "Contacts",
     "FileChannel",
+    "FlowFunction",
     "HertzMindlin",
     "InstabilityError",
     "ParameterError",
@@ -90,6 +92,7 @@ __all__ = [
     "WallTimeExceeded",
     "critical_time_step",
     "default_study",
+    "flow_function",
     "plan",
     "preset",
     "run_study",

@@ -259,3 +259,29 @@ def test_the_virial_stress_agrees_with_the_platens_and_gives_k0(cohesionless):
     assert c["stress_vertical"][-1] == pytest.approx(platens, rel=0.02)
     assert 0.1 < res.scalars["k0"] < 1.2
     assert np.all(c["stress_lateral"] >= 0)
+
+
+def test_a_flow_function_branches_one_fill_bit_for_bit():
+    # engine.flow_function: the fill once, then each consolidation stress; each branch is
+    # the run run_uniaxial makes of the test at that stress, bit for bit
+    from dataclasses import replace
+
+    t = tiny(pair_law=COHESIVE)
+    ff = engine.flow_function(t, [2e4, 1e4])
+    assert ff.consolidation_stresses == (1e4, 2e4)
+    fresh = engine.run_uniaxial(replace(t, consolidation_stress=2e4))
+    branch = ff.results[1]
+    for stage, st in fresh.stages.items():
+        for k, v in st.curves.items():
+            assert np.array_equal(v, branch.stages[stage].curves[k]), (stage, k)
+    assert branch.scalars["unconfined_strength"] == fresh.scalars["unconfined_strength"]
+    # one fill for all
+    fills = [r.stages["fill"].curves["time"] for r in ff.results]
+    assert np.array_equal(fills[0], fills[1])
+    pts = ff.points()
+    assert [p["consolidation_stress"] for p in pts] == [1e4, 2e4]
+    assert all(p["ffc"] == pytest.approx(p["consolidation_stress"] / p["strength"]) for p in pts)
+    with pytest.raises(engine.ParameterError, match=r"consolidation_stresses\[0\]"):
+        engine.flow_function(t, [1e3])  # below the pre-compression stress
+    with pytest.raises(engine.ParameterError, match="unconfined"):
+        engine.flow_function(tiny(unconfined=False), [2e4])

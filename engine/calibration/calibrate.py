@@ -1,0 +1,448 @@
+r"""Calibration of a contact law to a powder's laboratory data (docs/CALIBRATION.md).
+
+:func:`calibrate` finds the law parameters whose uniaxial test reproduces
+:class:`~engine.calibration.targets.LabTargets`, with a posterior that says which parameters
+the data determine and which they leave free. The method, chosen for few runs (each is a
+DEM simulation of minutes to hours) and for long-term maintenance (numpy only, as the
+engine):
+
+1. **design**: a space-filling (maximin Latin hypercube) set of ``runs`` parameter sets in
+   the box ``parameters`` (log scale for a positive range wider than 4x, and for f0 by its
+   magnitude), each run (its fill once, then one branch per consolidation stress the targets
+   need: :func:`engine.flow_function`) and stored as it finishes;
+2. **emulators**: a Gaussian process per measured quantity, in logs, with a noise term for
+   the seed-to-seed scatter (:class:`~engine.calibration.gp.GP`);
+3. **waves** of ``wave_runs`` runs by history matching (Vernon, Goldstein and Bower 2010):
+   the implausibility :math:`I(x) = \max_j |E[y_j(x)] - z_j| / \sqrt{V_j(x) + \sigma_j^2 +
+   \nu_j}` (emulator, laboratory and seed variance) rules out parameter sets with
+   :math:`I > 3`; the next runs fill what is left, as far from each other as they can be;
+4. **posterior** by random-walk Metropolis on the emulators (Kennedy and O'Hagan 2001, the
+   emulator variance in the likelihood), uniform prior in the box; a parameter is
+   *determined* where its posterior spread is under half its prior spread (in the scaled
+   box), else *free*;
+5. **sensitivity**: first-order Sobol indices of each quantity's emulator mean over the box
+   (Saltelli 2010 estimator): which target moves with which parameter;
+6. **check**: the posterior median is run once more, and each target is *met* when the run is
+   within two standard deviations (laboratory and seed scatter together); a target not met
+   is named with how far off it is.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..core.errors import ParameterError
+from ..io.store import load_run, save_run
+from ..uniaxial.flow import flow_function
+from ..uniaxial.spec import UniaxialTest
+from .gp import GP
+from .targets import LabTargets
+
+#: Law parameters a calibration may set.
+CALIBRATED = ("k1", "k2", "f0", "kadh", "mu_s", "mu_r", "n", "chi", "restitution")
+#: Implausibility above which a parameter set is ruled out.
+IMPLAUSIBLE = 3.0
+#: Posterior spread / prior spread (scaled box) under which a parameter is determined.
+DETERMINED = 0.5
+
+
+@dataclass(frozen=True)
+class _Axis:
+    name: str
+    lo: float
+    hi: float
+
+    @property
+    def log(self) -> bool:
+        a, b = abs(self.lo), abs(self.hi)
+        return self.lo * self.hi > 0 and max(a, b) / min(a, b) >= 4.0
+
+    def value(self, u: float) -> float:
+        if self.log:
+            sign = 1.0 if self.lo > 0 else -1.0
+            a, b = math.log(abs(self.lo)), math.log(abs(self.hi))
+            return sign * math.exp(a + u * (b - a))
+        return self.lo + u * (self.hi - self.lo)
+
+
+def _axes(base_law, parameters: dict) -> list[_Axis]:
+    if not parameters:
+        raise ParameterError("calibrate.parameters", parameters, "at least one law parameter")
+    out = []
+    for name, box in parameters.items():
+        if name not in CALIBRATED or not hasattr(base_law, name):
+            have = [p for p in CALIBRATED if hasattr(base_law, p)]
+            raise ParameterError(f"calibrate.parameters.{name}", name, f"one of {have}")
+        try:
+            lo, hi = (float(v) for v in box)
+        except (TypeError, ValueError):
+            raise ParameterError(
+                f"calibrate.parameters.{name}", box, "a (low, high) pair of numbers"
+            ) from None
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise ParameterError(f"calibrate.parameters.{name}", box, "finite, low < high")
+        out.append(_Axis(name, lo, hi))
+    return out
+
+
+def _law(base_law, axes: list[_Axis], u: np.ndarray):
+    return replace(base_law, **{a.name: a.value(float(x)) for a, x in zip(axes, u)})
+
+
+def _feasible(base_law, axes, u) -> bool:
+    try:
+        _law(base_law, axes, u)
+    except (ParameterError, ValueError):
+        return False
+    return True
+
+
+def _maximin(rng, n: int, d: int, ok, tries: int = 40) -> np.ndarray:
+    """A maximin Latin hypercube of ``n`` feasible points in [0, 1]^d (infeasible points
+    of a hypercube are drawn again uniformly until ``ok``)."""
+    best, score = None, -1.0
+    for _ in range(tries):
+        x = (np.argsort(rng.random((d, n)), axis=1).T + rng.random((n, d))) / n
+        for i in range(n):
+            k = 0
+            while not ok(x[i]) and k < 1000:
+                x[i] = rng.random(d)
+                k += 1
+        dist = np.sqrt(((x[:, None, :] - x[None, :, :]) ** 2).sum(-1)) + np.eye(n) * 9
+        s = float(dist.min())
+        if s > score:
+            best, score = x, s
+    return best
+
+
+# ------------------------------------------------------------------ what a run measures
+def branch_stresses(base: UniaxialTest, targets: LabTargets) -> tuple[float, ...]:
+    """Consolidation stresses the runs need [Pa]: every strength target's, and the base
+    test's for the compression curve, stiffness and K0 targets."""
+    s = {p.consolidation_stress for p in targets.strength}
+    if set(targets.names()) - {"strength"}:
+        s.add(max([base.consolidation_stress, *[p.stress for p in targets.compression]]))
+    return tuple(sorted(s))
+
+
+def measure(results: dict, base: UniaxialTest, targets: LabTargets) -> list[dict]:
+    """Each target quantity of ``targets`` read from a run's ``results`` (consolidation
+    stress -> :class:`engine.UniaxialResult`): name, lab value, lab sd and the run's value."""
+    out = []
+    top = results[max(results)]
+    for p in targets.compression:
+        if p.branch == "loading":
+            parts = [top.stages[s].curves for s in ("pre_compression", "consolidation")]
+            sig = np.concatenate([c["stress_top"] for c in parts])
+            por = np.concatenate([c["porosity"] for c in parts])
+            sig = np.maximum.accumulate(sig)
+        else:
+            c = top.stages["unloading"].curves
+            sig, por = c["stress_top"][::-1], c["porosity"][::-1]
+            sig = np.maximum.accumulate(sig)
+        _, idx = np.unique(sig, return_index=True)
+        value = float(np.interp(p.stress, sig[idx], por[idx]))
+        out.append(
+            {
+                "name": f"porosity@{p.stress:g}Pa:{p.branch}",
+                "lab": p.porosity,
+                "sd": p.sd,
+                "value": value,
+            }
+        )
+    for name in ("loading_stiffness", "unloading_stiffness", "k0"):
+        lab = getattr(targets, name)
+        if lab is not None:
+            out.append(
+                {
+                    "name": name,
+                    "lab": lab,
+                    "sd": getattr(targets, f"{name}_sd"),
+                    "value": float(top.scalars[name]),
+                }
+            )
+    for p in targets.strength:
+        r = results[p.consolidation_stress]
+        out.append(
+            {
+                "name": f"strength@{p.consolidation_stress:g}Pa",
+                "lab": p.strength,
+                "sd": p.sd,
+                "value": float(r.scalars["unconfined_strength"]),
+            }
+        )
+    return out
+
+
+def _run_point(test: UniaxialTest, stresses: tuple[float, ...]) -> dict:
+    """One parameter set: its fill once, one branch per consolidation stress (a picklable
+    task for an executor)."""
+    ff = flow_function(test, stresses) if test.unconfined else None
+    if ff is not None:
+        return dict(zip(ff.consolidation_stresses, ff.results))
+    from ..uniaxial.driver import run_uniaxial
+
+    return {stresses[-1]: run_uniaxial(replace(test, consolidation_stress=stresses[-1]))}
+
+
+# ------------------------------------------------------------------ the result
+@dataclass
+class Calibration:
+    """What :func:`calibrate` gives back (module docstring).
+
+    Attributes: ``law`` (the posterior median's law), ``parameters`` (per parameter: median,
+    90 % credible interval, ``determined`` or ``free``, its posterior / prior spread),
+    ``targets_met`` (per target quantity: lab value and sd, the check run's value, its z and
+    whether it is met), ``sensitivity`` (per quantity, each parameter's first-order Sobol
+    index), ``runs`` (every run's parameters and measured quantities, by wave),
+    ``not_met`` (the targets missed, in words)."""
+
+    law: object
+    parameters: dict
+    targets_met: list[dict]
+    sensitivity: dict
+    runs: list[dict]
+    not_met: list[str] = field(default_factory=list)
+
+    def to_summary(self) -> dict:
+        """JSON-friendly form."""
+        from ..core.records import to_dict
+
+        return {
+            "law": {"type": type(self.law).__name__, **to_dict(self.law)},
+            "parameters": self.parameters,
+            "targets_met": self.targets_met,
+            "sensitivity": self.sensitivity,
+            "runs": self.runs,
+            "not_met": self.not_met,
+        }
+
+
+def _emulators(u: np.ndarray, ys: np.ndarray) -> list[GP]:
+    return [GP(u, ys[:, j], seed=j) for j in range(ys.shape[1])]
+
+
+def _predict(gps: list[GP], u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    mus, vs = zip(*(g.predict(u) for g in gps))
+    noise = np.array([g.noise for g in gps])
+    return np.column_stack(mus), np.column_stack(vs), noise
+
+
+def _log_lab(quantities: list[dict]) -> tuple[np.ndarray, np.ndarray]:
+    """Lab values and variances in logs (relative sd: sd / value; a 1 % floor)."""
+    z = np.array([math.log(q["lab"]) for q in quantities])
+    rel = np.array([max(q["sd"] / q["lab"], 0.01) for q in quantities])
+    return z, rel**2
+
+
+def _floor_log(values: np.ndarray, lab: np.ndarray) -> np.ndarray:
+    return np.log(np.maximum(values, 1e-3 * lab))
+
+
+def calibrate(
+    base_test: UniaxialTest,
+    targets: LabTargets,
+    parameters: dict,
+    *,
+    runs: int = 25,
+    waves: int = 2,
+    wave_runs: int = 15,
+    store: str | Path | None = None,
+    executor: cf.Executor | None = None,
+    seed: int = 0,
+    on_run=None,
+) -> Calibration:
+    """Calibrate ``base_test``'s pair law to ``targets`` over ``parameters`` ({name: (low,
+    high)} in the law's units) with ``runs`` design runs and ``waves`` waves of ``wave_runs``
+    (module docstring). ``store``: a folder where every run is stored as it finishes and
+    found again on a rerun (resumable); ``executor``: runs a wave's runs as tasks;
+    ``on_run(index, quantities)`` hears of each finished run. Raises
+    :class:`engine.ParameterError` naming a parameter it cannot set or a bad box."""
+    if not isinstance(targets, LabTargets):
+        raise ParameterError("calibrate.targets", type(targets).__name__, "an engine LabTargets")
+    law0 = base_test.pair_law
+    axes = _axes(law0, parameters)
+    if runs < len(axes) + 2:
+        raise ParameterError("calibrate.runs", runs, f">= {len(axes) + 2} (parameters + 2)")
+    stresses = branch_stresses(base_test, targets)
+    rng = np.random.default_rng(seed)
+    d = len(axes)
+    ok = lambda x: _feasible(law0, axes, x)  # noqa: E731
+    folder = None if store is None else Path(store)
+    if folder is not None:
+        folder.mkdir(parents=True, exist_ok=True)
+    done: list[tuple[np.ndarray, list[dict], int]] = []
+
+    def run_wave(us: np.ndarray, wave: int) -> None:
+        tests = [replace(base_test, pair_law=_law(law0, axes, x)) for x in us]
+        start = len(done)
+        keys = [f"cal-{start + i:03d}" for i in range(len(us))]
+        outcomes: dict[int, dict] = {}
+        todo = []
+        for i, (k, t) in enumerate(zip(keys, tests)):
+            stored = _load_point(folder, k, stresses, t)
+            if stored is not None:
+                outcomes[i] = stored
+            else:
+                todo.append(i)
+        if executor is None:
+            for i in todo:
+                outcomes[i] = _run_point(tests[i], stresses)
+                _save_point(folder, keys[i], outcomes[i])
+        else:
+            futs = {executor.submit(_run_point, tests[i], stresses): i for i in todo}
+            for f in cf.as_completed(futs):
+                i = futs[f]
+                outcomes[i] = f.result()
+                _save_point(folder, keys[i], outcomes[i])
+        for i in range(len(us)):
+            q = measure(outcomes[i], base_test, targets)
+            done.append((us[i], q, wave))
+            if on_run is not None:
+                on_run(start + i, q)
+
+    run_wave(_maximin(rng, runs, d, ok), 0)
+    quantities = done[0][1]
+    z, lab_var = _log_lab(quantities)
+    lab = np.array([q["lab"] for q in quantities])
+
+    def data():
+        u = np.array([x for x, _, _ in done])
+        y = np.array([[q["value"] for q in qs] for _, qs, _ in done])
+        return u, _floor_log(y, lab)
+
+    for wave in range(1, waves + 1):
+        u, y = data()
+        gps = _emulators(u, y)
+        cand = rng.random((20000, d))
+        mu, var, noise = _predict(gps, cand)
+        imp = np.max(np.abs(mu - z) / np.sqrt(var + lab_var + noise), axis=1)
+        keep = np.nonzero(imp < IMPLAUSIBLE)[0]
+        if keep.size < wave_runs:
+            keep = np.argsort(imp)[: max(wave_runs * 20, 200)]
+        chosen = [int(keep[np.argmin(imp[keep])])]
+        dmin = np.sqrt(((cand[keep] - cand[chosen[0]]) ** 2).sum(1))
+        dmin = np.minimum(dmin, np.sqrt(((cand[keep][:, None] - u[None]) ** 2).sum(-1)).min(1))
+        while len(chosen) < wave_runs:
+            k = int(np.argmax(dmin))
+            if not ok(cand[keep[k]]):
+                dmin[k] = -1.0
+                continue
+            chosen.append(int(keep[k]))
+            dmin = np.minimum(dmin, np.sqrt(((cand[keep] - cand[keep[k]]) ** 2).sum(1)))
+        run_wave(cand[chosen], wave)
+
+    u, y = data()
+    gps = _emulators(u, y)
+    samples = _metropolis(gps, z, lab_var, d, rng)
+    med = np.median(samples, axis=0)
+    law = _law(law0, axes, med)
+    params = {}
+    for i, a in enumerate(axes):
+        lo, hi = np.quantile(samples[:, i], [0.05, 0.95])
+        ratio = float(samples[:, i].std() / (1 / math.sqrt(12)))
+        params[a.name] = {
+            "median": a.value(float(med[i])),
+            "interval": [a.value(float(lo)), a.value(float(hi))],
+            "box": [a.lo, a.hi],
+            "spread_ratio": ratio,
+            "status": "determined" if ratio < DETERMINED else "free",
+        }
+    sens = _sobol(gps, quantities, axes, rng)
+    check = measure(_run_point(replace(base_test, pair_law=law), stresses), base_test, targets)
+    noise = np.array([g.noise for g in gps])
+    met, missed = [], []
+    for j, q in enumerate(check):
+        sd = math.sqrt(q["sd"] ** 2 + noise[j] * q["lab"] ** 2)  # seed noise (log) as relative
+        zscore = (q["value"] - q["lab"]) / sd if sd > 0 else math.inf
+        row = {**q, "seed_sd": math.sqrt(noise[j]) * q["lab"], "z": zscore, "met": abs(zscore) <= 2}
+        met.append(row)
+        if not row["met"]:
+            missed.append(
+                f"{q['name']}: {q['value']:.4g} against {q['lab']:.4g} +/- {sd:.2g} "
+                f"({100 * (q['value'] / q['lab'] - 1):+.1f} %, z = {zscore:+.1f})"
+            )
+    run_rows = [
+        {
+            "wave": w,
+            "parameters": {a.name: a.value(float(x)) for a, x in zip(axes, ux)},
+            "quantities": qs,
+        }
+        for ux, qs, w in done
+    ]
+    return Calibration(law, params, met, sens, run_rows, missed)
+
+
+def _metropolis(gps, z, lab_var, d: int, rng, chains: int = 8, steps: int = 4000) -> np.ndarray:
+    """Posterior samples in the unit cube (uniform prior), random-walk Metropolis with the
+    step tuned during burn-in towards a quarter of proposals accepted."""
+
+    def logp(x):
+        inside = np.all((x >= 0) & (x <= 1), axis=1)
+        mu, var, noise = _predict(gps, np.clip(x, 0, 1))
+        tot = var + lab_var + noise
+        lp = -0.5 * np.sum((mu - z) ** 2 / tot + np.log(tot), axis=1)
+        return np.where(inside, lp, -np.inf)
+
+    x = rng.random((chains, d))
+    lp = logp(x)
+    step = np.full(chains, 0.1)
+    kept = []
+    for s in range(steps):
+        prop = x + step[:, None] * rng.normal(size=(chains, d))
+        lq = logp(prop)
+        acc = np.log(rng.random(chains)) < lq - lp
+        x[acc], lp[acc] = prop[acc], lq[acc]
+        if s < steps // 2:
+            step *= np.where(acc, 1.05, 0.985)
+        elif s % 4 == 0:
+            kept.append(x.copy())
+    return np.concatenate(kept)
+
+
+def _sobol(gps, quantities, axes, rng, n: int = 2048) -> dict:
+    """First-order Sobol index of each parameter for each quantity's emulator mean (Saltelli
+    2010: S_i = mean(f(B) (f(A_B^i) - f(A))) / var)."""
+    d = len(axes)
+    a, b = rng.random((n, d)), rng.random((n, d))
+    fa, fb = (_predict(gps, m)[0] for m in (a, b))
+    var = np.var(np.vstack([fa, fb]), axis=0)
+    out = {q["name"]: {} for q in quantities}
+    for i, ax in enumerate(axes):
+        abi = a.copy()
+        abi[:, i] = b[:, i]
+        fab = _predict(gps, abi)[0]
+        s = np.mean(fb * (fab - fa), axis=0) / np.where(var > 0, var, 1.0)
+        for j, q in enumerate(quantities):
+            out[q["name"]][ax.name] = float(np.clip(s[j], 0.0, 1.0))
+    return out
+
+
+def _save_point(folder: Path | None, key: str, results: dict) -> None:
+    if folder is None:
+        return
+    for s, r in results.items():
+        save_run(folder / f"{key}-{s:g}Pa.h5", r, keep_particles=False)
+
+
+def _load_point(folder: Path | None, key: str, stresses, test: UniaxialTest) -> dict | None:
+    if folder is None:
+        return None
+    out = {}
+    for s in stresses:
+        p = folder / f"{key}-{s:g}Pa.h5"
+        if not p.exists():
+            return None
+        r = load_run(p)
+        if isinstance(r, str) or r.test != replace(test, consolidation_stress=s):
+            return None
+        out[s] = r
+    return out
+
+
+__all__ = ["CALIBRATED", "Calibration", "branch_stresses", "calibrate", "measure"]

@@ -2,6 +2,8 @@
 
     demscale study SPEC.json --out DIR [--workers N]   run a scaling study here
     demscale run TEST.json --out DIR                    one uniaxial test, with snapshots
+    demscale calibrate TARGETS.json --test T.json ...   a law fitted to laboratory data
+    demscale export LAW.json [--radius R]               a law for LIGGGHTS, or as a table
     demscale serve [--host H] [--port P]                the job service's HTTP API
     demscale worker [--once]                            a worker of the job service
 
@@ -570,6 +572,50 @@ def parser() -> argparse.ArgumentParser:
     p.set_defaults(func=run)
 
     p = sub.add_parser(
+        "calibrate",
+        help="calibrate a law to laboratory data (then, optionally, study it)",
+        description=CALIBRATE_HELP,
+        formatter_class=fmt,
+    )
+    p.add_argument("targets", metavar="TARGETS.json", help="the laboratory data (LabTargets)")
+    p.add_argument("--test", required=True, metavar="TEST.json", help="the base test and law")
+    p.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NAME=LOW:HIGH",
+        help="a law parameter to calibrate and its box (repeat: --param k1=3e3:2e4 ...)",
+    )
+    p.add_argument("--out", "-o", metavar="DIR", required=True, help="folder for the results")
+    p.add_argument("--runs", type=int, default=25, help="design runs (default 25)")
+    p.add_argument("--waves", type=int, default=2, help="history-matching waves (default 2)")
+    p.add_argument("--wave-runs", type=int, default=15, help="runs per wave (default 15)")
+    p.add_argument("--workers", "-j", type=int, default=1, metavar="N", help="runs side by side")
+    p.add_argument(
+        "--then-study", action="store_true", help="then a scaling study of the calibrated law"
+    )
+    p.add_argument("--study", metavar="SPEC.json", help="with --then-study: its radii and rules")
+    p.set_defaults(func=calibrate_cmd)
+
+    p = sub.add_parser(
+        "export",
+        help="a law (fine or scaled) as a LIGGGHTS fragment or a table",
+        description=EXPORT_HELP,
+        formatter_class=fmt,
+    )
+    p.add_argument("law", metavar="LAW.json", help='{"type": "BilinearAdhesive", ...}')
+    p.add_argument("--format", choices=("liggghts", "json", "csv"), default="liggghts")
+    p.add_argument("--radius", type=float, help="scale the law to this radius [m]")
+    p.add_argument("--rule", default="paper", help="the scaling rule (default paper)")
+    p.add_argument(
+        "--reference-radius",
+        type=float,
+        default=2.5e-3,
+        help="the law's own radius [m] (default 2.5e-3)",
+    )
+    p.set_defaults(func=export_cmd)
+
+    p = sub.add_parser(
         "serve",
         help="start the job service's HTTP API (and a worker)",
         description=SERVE_HELP,
@@ -625,6 +671,180 @@ def parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=worker)
     return ap
+
+
+CALIBRATE_HELP = """\
+Calibrate the pair law of TEST.json to the laboratory data in TARGETS.json (an
+engine.calibration.LabTargets: porosity against stress, loading and unloading stiffness,
+K0, unconfined strength at one or several consolidation stresses, each with its 1-sd
+uncertainty and the tester named) over the law parameters given with --param, with
+Gaussian-process emulators, history-matching waves and a posterior (docs/CALIBRATION.md).
+Every run is stored in DIR/runs as it finishes, and a rerun finds them. Writes:
+
+  calibration.json      the calibrated law, each parameter (median, 90 % interval,
+                        determined or free), every target met or not, the Sobol indices,
+                        every run
+  law.json              the calibrated law (an engine contact law as JSON)
+  law.liggghts          the law as a LIGGGHTS edinburgh/stiffness fragment (if it maps)
+
+With --then-study, a scaling study of the calibrated law follows (its coarse radii and
+rules: --study SPEC.json, else the default study's), written to DIR/study.
+"""
+
+EXPORT_HELP = """\
+Write a contact law (LAW.json: {"type": "BilinearAdhesive" or "EEPA", fields...}), or the
+law scaled to --radius by a rule, as a LIGGGHTS edinburgh/stiffness fragment, or as a JSON or
+CSV table of its parameters with units, to standard output.
+"""
+
+
+def _law_from_json(raw):
+    import engine
+
+    laws = {"BilinearAdhesive": engine.BilinearAdhesive, "EEPA": engine.EEPA}
+    if not isinstance(raw, dict) or raw.get("type") not in laws:
+        raise ValueError('the law must be a JSON object with "type": "BilinearAdhesive" or "EEPA"')
+    from engine.core.records import from_dict
+
+    body = dict(raw)
+    return from_dict(laws[body.pop("type")], body)
+
+
+def _param_box(text: str) -> tuple[str, tuple[float, float]]:
+    name, _, box = text.partition("=")
+    lo, _, hi = box.partition(":")
+    try:
+        return name.strip(), (float(lo), float(hi))
+    except ValueError:
+        raise ValueError(f"--param {text!r}: write NAME=LOW:HIGH, e.g. k1=3e3:2e4") from None
+
+
+def calibrate_cmd(args) -> int:
+    """``demscale calibrate``: calibrate a law to laboratory data, then (optionally) study it."""
+    import concurrent.futures as cf
+    import multiprocessing as mp
+
+    import engine
+    from engine.calibration import LabTargets, calibrate
+    from engine.core.records import to_dict
+    from engine.io.liggghts import to_liggghts
+
+    try:
+        targets = LabTargets.from_dict(json.loads(Path(args.targets).read_text()))
+        fields = json.loads(Path(args.test).read_text())
+        name = fields.pop("preset", None) if isinstance(fields, dict) else None
+        base = engine.preset(name).to_dict() if name is not None else {}
+        test = engine.UniaxialTest.from_dict({**base, **fields})
+        boxes = dict(_param_box(p) for p in args.param)
+        if not boxes:
+            raise ValueError("give the parameters to calibrate: --param k1=3e3:2e4 ...")
+    except (OSError, json.JSONDecodeError) as e:
+        print(f"cannot read the input: {e}", file=sys.stderr)
+        return 2
+    except (engine.ParameterError, TypeError, ValueError) as e:
+        print(f"not valid: {e}", file=sys.stderr)
+        return 2
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    total = args.runs + args.waves * args.wave_runs
+
+    def on_run(i, quantities):
+        q = ", ".join(f"{x['name']} {x['value']:.4g}" for x in quantities)
+        print(f"[{i + 1}/{total}] run done: {q}", file=sys.stderr, flush=True)
+
+    pool = None
+    if args.workers > 1:
+        pool = cf.ProcessPoolExecutor(args.workers, mp_context=mp.get_context("spawn"))
+    try:
+        cal = calibrate(
+            test,
+            targets,
+            boxes,
+            runs=args.runs,
+            waves=args.waves,
+            wave_runs=args.wave_runs,
+            store=out / "runs",
+            executor=pool,
+            on_run=on_run,
+        )
+    except engine.ParameterError as e:
+        print(f"not valid: {e}", file=sys.stderr)
+        return 2
+    finally:
+        if pool is not None:
+            pool.shutdown()
+    summary = cal.to_summary()
+    (out / "calibration.json").write_text(json.dumps(summary, indent=1))
+    law = {"type": type(cal.law).__name__, **to_dict(cal.law)}
+    (out / "law.json").write_text(json.dumps(law, indent=1))
+    try:
+        (out / "law.liggghts").write_text(to_liggghts(cal.law, note="calibrated by demscale"))
+    except engine.ParameterError as e:
+        print(f"no LIGGGHTS fragment: {e}", file=sys.stderr)
+    print("parameters:")
+    for n, p in cal.parameters.items():
+        lo, hi = p["interval"]
+        print(f"  {n} = {p['median']:.4g} (90 %: {lo:.4g} to {hi:.4g}), {p['status']}")
+    print("targets:")
+    for q in cal.targets_met:
+        print(
+            f"  {q['name']}: {q['value']:.4g} against {q['lab']:.4g} +/- {q['sd']:.2g}: "
+            + ("met" if q["met"] else f"NOT met (z = {q['z']:+.1f})")
+        )
+    print(f"written to {out}/calibration.json, law.json, law.liggghts")
+    if not args.then_study:
+        return 0
+    spec = engine.default_study()
+    if args.study:
+        spec = engine.StudySpec.from_dict(json.loads(Path(args.study).read_text()))
+    from dataclasses import replace
+
+    spec = replace(spec, reference=replace(test, pair_law=cal.law))
+    body = spec.to_dict()
+    (out / "study.json").write_text(json.dumps(body, indent=1))
+    ns = argparse.Namespace(
+        spec=str(out / "study.json"),
+        out=str(out / "study"),
+        workers=args.workers,
+        decide=False,
+        budget=None,
+        snapshots=False,
+        quiet=False,
+        backend=None,
+    )
+    return study(ns)
+
+
+def export_cmd(args) -> int:
+    """``demscale export``: a law, fine or scaled, for LIGGGHTS or as a table."""
+    import engine
+    from engine.io.liggghts import law_table, to_liggghts
+
+    try:
+        law = _law_from_json(json.loads(Path(args.law).read_text()))
+        note = ""
+        if args.radius is not None:
+            rule = engine.ScalingRule.named(args.rule)
+            ref = engine.UniaxialTest(radius=args.reference_radius, pair_law=law)
+            scaled = rule.apply(ref, args.radius, ref.dt)
+            law = scaled.pair_law
+            note = (
+                f"scaled from R = {args.reference_radius:g} m to R = {args.radius:g} m by rule "
+                f"{args.rule!r}"
+            )
+        if args.format == "liggghts":
+            sys.stdout.write(to_liggghts(law, note=note))
+        elif args.format == "csv":
+            sys.stdout.write(law_table(law, "csv"))
+        else:
+            print(json.dumps(law_table(law), indent=1))
+    except (OSError, json.JSONDecodeError) as e:
+        print(f"cannot read the law: {e}", file=sys.stderr)
+        return 2
+    except (engine.ParameterError, TypeError, ValueError, KeyError) as e:
+        print(f"not valid: {e}", file=sys.stderr)
+        return 2
+    return 0
 
 
 def _version() -> str:

@@ -45,7 +45,10 @@ def _strict(text: str):
     return json.loads(text, parse_constant=refuse)
 
 
-@pytest.mark.parametrize("argv", [[], ["study"], ["run"], ["serve"], ["worker"], ["job"]])
+@pytest.mark.parametrize(
+    "argv",
+    [[], ["study"], ["run"], ["serve"], ["worker"], ["job"], ["calibrate"], ["export"]],
+)
 def test_help_explains_every_command(argv, capsys):
     with pytest.raises(SystemExit) as e:
         main([*argv, "--help"])
@@ -67,6 +70,8 @@ def test_help_explains_every_command(argv, capsys):
         ),
         ("serve",): ("--host", "--port", "--no-worker", "/docs", "studies page"),
         ("worker",): ("--once", "DEMSCALE_DATA_DIR"),
+        ("calibrate",): ("TARGETS.json", "--param", "--then-study", "calibration.json"),
+        ("export",): ("LAW.json", "--radius", "liggghts", "csv"),
     }[tuple(argv)]
     for w in want:
         assert w in out, w
@@ -216,3 +221,43 @@ def test_study_decide_adds_seeds_and_reports_them(tmp_path):
     assert set(rows) <= set(planned + added)
     assert all(k in rows or k in summary["failed"] for k in added)
     assert "seeds until decided" in proc.stderr and added[0] in proc.stderr
+
+
+TINY_TEST = {
+    "cell": [0.015, 0.015, 0.015],
+    "platen_speed": 0.02,
+    "output_interval": 0.001,
+    "unconfined": False,
+    "pair_law": {"type": "BilinearAdhesive", "k1": 5e3, "k2": 4.5e4},
+}
+
+
+def test_calibrate_then_export(tmp_path, capsys):
+    # demscale calibrate: targets made by the engine from K1 = 8e3 N/m, the calibration told
+    # only a box; then demscale export of the law it wrote
+    truth = engine.UniaxialTest.from_dict(
+        {**TINY_TEST, "pair_law": {**TINY_TEST["pair_law"], "k1": 8e3}}
+    )
+    r = engine.run_uniaxial(truth)
+    lo = r.scalars["loading_stiffness"]
+    (tmp_path / "lab.json").write_text(
+        json.dumps(
+            {"tester": "uniaxial", "loading_stiffness": lo, "loading_stiffness_sd": 0.1 * lo}
+        )
+    )
+    (tmp_path / "test.json").write_text(json.dumps(TINY_TEST))
+    out = tmp_path / "cal"
+    argv = ["calibrate", str(tmp_path / "lab.json"), "--test", str(tmp_path / "test.json")]
+    argv += ["--param", "k1=3e3:2e4", "--out", str(out), "--runs", "5", "--waves", "1"]
+    assert main([*argv, "--wave-runs", "3"]) == 0
+    text = capsys.readouterr()
+    assert "k1 = " in text.out and "loading_stiffness" in text.out and "[8/8]" in text.err
+    summary = _strict((out / "calibration.json").read_text())
+    lo_k1, hi_k1 = summary["parameters"]["k1"]["interval"]
+    assert lo_k1 <= 8e3 <= hi_k1 and len(summary["runs"]) == 8
+    assert "LoadingStiffness" in (out / "law.liggghts").read_text()
+    assert main(["export", str(out / "law.json"), "--format", "csv"]) == 0
+    assert capsys.readouterr().out.startswith("name,value,unit,doc\ntype,BilinearAdhesive")
+    # a box the law cannot take is refused with the field named
+    assert main([*argv[:-6], "--param", "E=1:2", "--out", str(out)]) == 2
+    assert "calibrate.parameters.E" in capsys.readouterr().err

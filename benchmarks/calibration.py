@@ -1,0 +1,188 @@
+"""Calibrating the seed's cohesive law to laboratory-like targets at the quick scale, then
+coarsening it (issue 30's benchmark).
+
+    python -m benchmarks.calibration --workers 2     # runs not yet stored, then the report
+    python -m benchmarks.calibration --report        # docs/CALIBRATION_quick.md so far
+
+The "laboratory" is the engine itself, with a law the calibration is not told
+(:data:`TRUTH`: K1 = 6.5e3 N/m, K2 = 3.5e4 N/m, f0 = -0.55 N; the seed's law is 5e3, 2.5e4,
+-0.8): three packing seeds of its flow function at the quick scale (2,292 particles, 10
+diameters thick) give each target's mean and its seed-to-seed sd, as a tester's
+repeatability would; the tester is a lambda tester (K0). The calibration starts from the
+seed's law and is given the box :data:`BOX` for K1, K2 and f0, with 25 design runs and two
+waves of 15 (``engine.calibrate``'s defaults); every run is stored in
+``benchmarks/results/quick/calibration/`` as it finishes, and a rerun goes on from there.
+Each run is a quick-scale flow function (one fill, three consolidation stresses), about ten
+minutes on one core, so the whole takes several sessions on 2 cores; the report says how
+far it has come. When done it reports the runs used, the parameters recovered (the truth
+inside each determined parameter's 90 % interval?) and the targets met, then the
+coarsened law: the paper rule applied to the calibrated law at 3.75 and 5 mm.
+"""
+
+from __future__ import annotations
+
+import argparse
+import concurrent.futures as cf
+import json
+import multiprocessing as mp
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+import engine
+from engine.calibration import LabTargets, StrengthPoint, calibrate
+from engine.calibration.calibrate import branch_stresses, measure
+
+ROOT = Path(__file__).resolve().parent.parent
+STORE = ROOT / "benchmarks" / "results" / "quick" / "calibration"
+REPORT = ROOT / "docs" / "CALIBRATION_quick.md"
+TRUTH = engine.BilinearAdhesive(k1=6.5e3, k2=3.5e4, f0=-0.55, mu_s=0.5, mu_r=0.001, restitution=0.4)
+SEED_LAW = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.8, mu_s=0.5, mu_r=0.001, restitution=0.4)
+BOX = {"k1": (2e3, 2e4), "k2": (2.1e4, 1e5), "f0": (-2.0, -0.1)}
+#: consolidation stresses of the flow function [Pa]; the base test's is 20 kPa
+STRESSES = (1e4, 2e4, 4e4)
+#: stresses of the compression-curve targets [Pa]
+POROSITY_AT = (8e3, 1.5e4, 3e4)
+LAB_SEEDS = (101, 102, 103)
+
+
+def base_test(seed: int = 1) -> engine.UniaxialTest:
+    return engine.preset("quick", pair_law=SEED_LAW, seed=seed)
+
+
+def _lab_run(seed: int):
+    from engine.calibration.calibrate import _run_point
+
+    t = replace(base_test(seed), pair_law=TRUTH)
+    return _run_point(t, STRESSES)
+
+
+def lab_targets(workers: int) -> LabTargets:
+    """The targets: the truth's flow function at three seeds, mean and sd of each quantity
+    (stored in ``STORE / lab.json`` once made)."""
+    path = STORE / "lab.json"
+    if path.exists():
+        return LabTargets.from_dict(json.loads(path.read_text()))
+    draft = LabTargets(
+        tester="lambda",
+        compression=tuple({"stress": s, "porosity": 0.45} for s in POROSITY_AT),
+        loading_stiffness=1.0,
+        unloading_stiffness=1.0,
+        k0=0.5,
+        strength=tuple(StrengthPoint(consolidation_stress=s, strength=1.0) for s in STRESSES),
+    )
+    draft = LabTargets.from_dict(draft.to_dict())
+    with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as ex:
+        runs = list(ex.map(_lab_run, LAB_SEEDS))
+    qs = [measure(r, base_test(), draft) for r in runs]
+    vals = np.array([[q["value"] for q in x] for x in qs])
+    mean, sd = vals.mean(0), vals.std(0, ddof=1)
+    names = [q["name"] for q in qs[0]]
+    by = dict(zip(names, zip(mean, sd)))
+    comp = [
+        {
+            "stress": s,
+            "porosity": by[f"porosity@{s:g}Pa:loading"][0],
+            "sd": by[f"porosity@{s:g}Pa:loading"][1],
+        }
+        for s in POROSITY_AT
+    ]
+    body = {
+        "tester": "lambda",
+        "material": "the engine's TRUTH law, 3 seeds (benchmarks/calibration.py)",
+        "compression": comp,
+        "loading_stiffness": by["loading_stiffness"][0],
+        "loading_stiffness_sd": by["loading_stiffness"][1],
+        "unloading_stiffness": by["unloading_stiffness"][0],
+        "unloading_stiffness_sd": by["unloading_stiffness"][1],
+        "k0": by["k0"][0],
+        "k0_sd": by["k0"][1],
+        "strength": [
+            {
+                "consolidation_stress": s,
+                "strength": by[f"strength@{s:g}Pa"][0],
+                "sd": by[f"strength@{s:g}Pa"][1],
+            }
+            for s in STRESSES
+        ],
+    }
+    targets = LabTargets.from_dict(body)
+    STORE.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(targets.to_dict(), indent=1))
+    return targets
+
+
+def run(workers: int) -> engine.calibration.Calibration:
+    targets = lab_targets(workers)
+    assert branch_stresses(base_test(), targets) == STRESSES
+    with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as ex:
+        return calibrate(
+            base_test(),
+            targets,
+            BOX,
+            store=STORE / "runs",
+            executor=ex,
+            on_run=lambda i, q: print(f"run {i + 1} done", flush=True),
+        )
+
+
+def report(cal=None) -> str:
+    done = sorted((STORE / "runs").glob("cal-*.h5")) if (STORE / "runs").exists() else []
+    points = {p.name.split("-")[1] for p in done}
+    lines = [
+        "# Calibration benchmark (quick scale)",
+        "",
+        "Generated by `python -m benchmarks.calibration` (docs/CALIBRATION.md; "
+        "`--report` from the stored runs). The seed's cohesive law calibrated to targets "
+        "the engine made from a law it is not told "
+        f"(K1 = {TRUTH.k1:g} N/m, K2 = {TRUTH.k2:g} N/m, f0 = {TRUTH.f0:g} N; three seeds), "
+        f"over K1, K2, f0 in {BOX}, 25 design runs and two waves of 15.",
+        "",
+        f"Runs stored so far: {len(points)} of 55 (each a flow function at "
+        f"{', '.join(f'{s / 1e3:g}' for s in STRESSES)} kPa).",
+    ]
+    if cal is not None:
+        lines += [
+            "",
+            "| parameter | truth | median | 90 % interval | status |",
+            "|---|---|---|---|---|",
+        ]
+        for n, p in cal.parameters.items():
+            lo, hi = p["interval"]
+            lines.append(
+                f"| {n} | {getattr(TRUTH, n):.4g} | {p['median']:.4g} | {lo:.4g} to {hi:.4g} | "
+                f"{p['status']} |"
+            )
+        lines += ["", "| target | lab | check run | z | met |", "|---|---|---|---|---|"]
+        for q in cal.targets_met:
+            lines.append(
+                f"| {q['name']} | {q['lab']:.4g} +/- {q['sd']:.2g} | {q['value']:.4g} | "
+                f"{q['z']:+.1f} | {'yes' if q['met'] else 'no'} |"
+            )
+        rule = engine.ScalingRule.named("paper")
+        test = replace(base_test(), pair_law=cal.law)
+        lines += ["", "Coarsened by the paper rule:", ""]
+        for r in (3.75e-3, 5e-3):
+            law = rule.apply(test, r, test.dt).pair_law
+            lines.append(
+                f"- R = {r * 1e3:g} mm: K1 = {law.k1:.4g} N/m, K2 = {law.k2:.4g} N/m, "
+                f"f0 = {law.f0:.4g} N"
+            )
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--report", action="store_true")
+    args = ap.parse_args(argv)
+    cal = None if args.report else run(args.workers)
+    text = report(cal)
+    REPORT.write_text(text)
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -98,11 +98,13 @@ class LabTargets(Record):
     def __post_init__(self) -> None:
         check_fields(self)
         for name, cls in (("compression", CompressionPoint), ("strength", StrengthPoint)):
-            items = tuple(getattr(self, name))
+            items = list(getattr(self, name))
             for k, item in enumerate(items):
+                if isinstance(item, dict):  # its JSON form
+                    items[k] = item = cls.from_dict(item)
                 if not isinstance(item, cls):
-                    raise ParameterError(f"LabTargets.{name}[{k}]", item, f"an {cls.__name__}")
-            object.__setattr__(self, name, items)
+                    raise ParameterError(f"LabTargets.{name}[{k}]", item, f"a {cls.__name__}")
+            object.__setattr__(self, name, tuple(items))
         lo, hi = POROSITY_RANGE
         for k, p in enumerate(self.compression):
             if not lo <= p.porosity <= hi:

@@ -136,6 +136,11 @@ class AdhesiveLaw:
                 return d_eq
         return None
 
+    def load_overlap(self, force: float, radius: float) -> tuple[float, str]:
+        """Overlap [m] at which the virgin loading branch carries a compressive ``force`` [N]
+        (adhesion included: K1 d^n = force + |f0|), and the parameter that sets it."""
+        return ((force - self.f0) / self.k1) ** (1.0 / self.n), "k1"
+
     def impact_tangent(self, m_eff: float, v: float) -> tuple[float, str, str]:
         """The factor n d^(n-1) [m^(1-n)] that turns K into the tangent stiffness at the
         largest overlap of a head-on impact of two particles each at ``v`` [m/s] (reduced

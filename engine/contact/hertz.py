@@ -176,6 +176,12 @@ class HertzMindlin:
         """Kernel slot values of a contact between a particle of this material and ``wall``."""
         return self.slot_values(*self.wall_moduli(wall))
 
+    def load_overlap(self, force: float, radius: float) -> tuple[float, str]:
+        """Overlap [m] at which two particles of ``radius`` [m] carry ``force`` [N]
+        (F = 4/3 E* sqrt(R*) d^1.5, R* = radius / 2), and the parameter that sets it."""
+        e_star, _ = self.pair_moduli()
+        return (0.75 * force / (e_star * math.sqrt(0.5 * radius))) ** (2.0 / 3.0), "E"
+
     def adhesion_overlap(self, rmin: float, fraction: float) -> None:
         """No adhesion: None."""
         return None

@@ -253,6 +253,23 @@ class UniaxialTest(Record):
                 f"|f0|/k1 = {d_eq:.3g} m would pull contacts beyond "
                 f"{MAX_OVERLAP_FRACTION:g} x the smallest radius",
             )
+        # the law must carry the consolidation stress (and the sample's weight) within the
+        # overlap the engine allows: a contact force of about sigma (2 R)^2
+        rmax = self.radius * (1 + self.polydispersity)
+        stress = self.consolidation_stress + self.density * self.solid_fraction * (
+            self.gravity * self.cell[2]
+        )
+        force = stress * (2 * rmax) ** 2
+        d_load, what = law.load_overlap(force, rmin)
+        if not (d_load <= MAX_OVERLAP_FRACTION * rmin):
+            raise ParameterError(
+                f"{o}.pair_law.{what}",
+                getattr(law, what),
+                "stiff enough to carry the consolidation stress within the overlap limit",
+                f"a contact force of {force:.3g} N (consolidation stress and the sample's "
+                f"weight over (2R)^2) needs an overlap of {d_load:.3g} m, beyond "
+                f"{MAX_OVERLAP_FRACTION:g} x the smallest radius",
+            )
         if self.dt is not None:
             lim = self.time_step_limit()
             if self.dt > lim.dt:

@@ -432,3 +432,13 @@ def test_a_run_past_the_wall_time_limit_fails_with_that_reason(client, settings,
     # the reference ran past the limit, so nothing can be compared: the study fails with it
     assert done["status"] == "failed"
     assert "DEMSCALE_MAX_RUN_WALL_TIME" in done["error"], done["error"]
+
+
+def test_a_law_too_soft_to_carry_the_stress_is_refused_by_name(client):
+    # k1 = k2 = 5e-324 N/m passes every bound a field declares (> 0) but carries no stress:
+    # the engine's runnable check refuses it before anything is queued, naming the field
+    body = copy.deepcopy(TINY)
+    body["reference"]["pair_law"] = {"type": "BilinearAdhesive", "k1": 5e-324, "k2": 5e-324}
+    r = client.post("/studies", json=body)
+    assert r.status_code == 422, r.text
+    assert "pair_law" in r.text and "k1" in r.text and "overlap" in r.text, r.text

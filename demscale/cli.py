@@ -686,6 +686,7 @@ Every run is stored in DIR/runs as it finishes, and a rerun finds them. Writes:
                         every run
   law.json              the calibrated law (an engine contact law as JSON)
   law.liggghts          the law as a LIGGGHTS edinburgh/stiffness fragment (if it maps)
+  calibration.png       the compression curve and flow function against the lab points
 
 With --then-study, a scaling study of the calibrated law follows (its coarse radii and
 rules: --study SPEC.json, else the default study's), written to DIR/study.
@@ -791,7 +792,11 @@ def calibrate_cmd(args) -> int:
             f"  {q['name']}: {q['value']:.4g} against {q['lab']:.4g} +/- {q['sd']:.2g}: "
             + ("met" if q["met"] else f"NOT met (z = {q['z']:+.1f})")
         )
-    print(f"written to {out}/calibration.json, law.json, law.liggghts")
+    if importlib.util.find_spec("matplotlib") is not None:
+        from engine.io.figures import calibration_figure
+
+        calibration_figure(summary).savefig(out / "calibration.png", format="png")
+    print(f"written to {out}/calibration.json, calibration.png, law.json, law.liggghts")
     if not args.then_study:
         return 0
     spec = engine.default_study()

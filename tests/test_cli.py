@@ -256,6 +256,7 @@ def test_calibrate_then_export(tmp_path, capsys):
     lo_k1, hi_k1 = summary["parameters"]["k1"]["interval"]
     assert lo_k1 <= 8e3 <= hi_k1 and len(summary["runs"]) == 8
     assert "LoadingStiffness" in (out / "law.liggghts").read_text()
+    assert (out / "calibration.png").read_bytes()[:4] == b"\x89PNG"
     assert main(["export", str(out / "law.json"), "--format", "csv"]) == 0
     assert capsys.readouterr().out.startswith("name,value,unit,doc\ntype,BilinearAdhesive")
     # a box the law cannot take is refused with the field named

@@ -535,3 +535,80 @@ def section_figure(snap: Snapshot, title: str = ""):
         fontsize=10,
     )
     return fig
+
+
+# ------------------------------------------------------------------ calibration
+def _target_stress(name: str) -> float | None:
+    """The stress [Pa] in a calibration quantity's name (``porosity@8000Pa:loading``,
+    ``strength@20000Pa``), else None."""
+    if "@" not in name:
+        return None
+    return float(name.split("@", 1)[1].split("Pa", 1)[0])
+
+
+def calibration_figure(summary: dict):
+    """The calibration (engine.Calibration.to_summary()) against the laboratory: porosity
+    against stress and the flow function (strength against consolidation stress), the lab
+    points with their 1-sd bars, the check run of the calibrated law, and every run of the
+    design and waves (faint); the other targets listed with their check values."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(11.0, 4.4), dpi=100, layout="constrained")
+    FigureCanvasAgg(fig)
+    ax_c, ax_f = fig.subplots(1, 2)
+    checks = summary["targets_met"]
+    runs = summary.get("runs", [])
+    panels = ((ax_c, "porosity@", 1.0), (ax_f, "strength@", 1e-3))
+    for ax, prefix, sy in panels:
+        rows = [q for q in checks if q["name"].startswith(prefix)]
+        if not rows:
+            ax.text(0.5, 0.5, "no such target", ha="center", transform=ax.transAxes)
+            continue
+        for r in runs:
+            pts = [(q["name"], q["value"]) for q in r["quantities"] if q["name"].startswith(prefix)]
+            ax.scatter(
+                [_target_stress(n) * 1e-3 for n, _ in pts],
+                [v * sy for _, v in pts],
+                s=8,
+                color="0.75",
+                zorder=1,
+            )
+        x = [_target_stress(q["name"]) * 1e-3 for q in rows]
+        ax.errorbar(
+            x,
+            [q["lab"] * sy for q in rows],
+            yerr=[q["sd"] * sy for q in rows],
+            fmt="o",
+            color="black",
+            capsize=3,
+            label="laboratory (1 sd)",
+            zorder=3,
+        )
+        ax.scatter(
+            x,
+            [q["value"] * sy for q in rows],
+            marker="s",
+            color="C3",
+            zorder=4,
+            label="calibrated law (check run)",
+        )
+        ax.scatter([], [], s=8, color="0.75", label="design and wave runs")
+        ax.set_xlabel(
+            "vertical stress [kPa]" if prefix == "porosity@" else "consolidation stress [kPa]"
+        )
+        ax.set_ylabel("porosity [-]" if prefix == "porosity@" else "unconfined strength [kPa]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    ax_c.set_title("compression curve", fontsize=9)
+    ax_f.set_title("flow function", fontsize=9)
+    others = [q for q in checks if "@" not in q["name"]]
+    if others:
+        text = "; ".join(
+            f"{q['name']} {q['value']:.3g} vs {q['lab']:.3g} ({'met' if q['met'] else 'NOT met'})"
+            for q in others
+        )
+        fig.suptitle(f"Calibration against the laboratory: {text}", fontsize=8)
+    else:
+        fig.suptitle("Calibration against the laboratory", fontsize=9)
+    return fig

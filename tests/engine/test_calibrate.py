@@ -62,6 +62,10 @@ def test_synthetic_targets_are_recovered(targets, tmp_path, monkeypatch):
     assert max(s["loading_stiffness"], key=s["loading_stiffness"].get) == "k1"
     assert max(s["unloading_stiffness"], key=s["unloading_stiffness"].get) == "k2"
     assert isinstance(cal.law, engine.BilinearAdhesive) and cal.to_summary()["law"]["k1"] > 0
+    from engine.io.figures import calibration_figure
+
+    fig = calibration_figure(cal.to_summary())  # no curve target here: the panels say so
+    assert len(fig.axes) == 2 and "loading_stiffness" in fig._suptitle.get_text()
     # run again on the same store: every design and wave run is found, only the check runs
     calls = []
     real = cal_module._run_point

@@ -15,6 +15,8 @@ own module, with the attributes and methods the engine asks of it:
 - ``pair_time_steps(...)`` / ``wall_time_steps(...)``: its time-step limits
   (:mod:`engine.contact.limits`);
 - ``adhesion_overlap(rmin, fraction)``: the overlap its adhesion alone holds a contact at.
+- ``load_overlap(force, radius)`` (optional): the overlap at which it carries a compressive force,
+  and the parameter that sets it (a test refuses a law too soft for its consolidation stress).
 
 Adding a law is its module plus one line here (or ``LAWS[name] = Law`` from outside: nothing
 else in the engine asks which law it has; tests/engine/test_toy_law.py does it with a law of

@@ -110,9 +110,9 @@ def test_study_json_takes_a_preset_and_rule_names_and_refuses_the_wrong_shapes()
 
 def test_a_registered_law_is_read_and_written_through_the_registry(monkeypatch):
     monkeypatch.setitem(LAWS, "PowerSpring", toy_law.PowerSpring)
-    test = tiny(pair_law=toy_law.PowerSpring(k=5e3, p=1.5), dt=None)
+    test = tiny(pair_law=toy_law.PowerSpring(k=5e5, p=1.5), dt=None)
     d = to_dict(test)
-    assert d["pair_law"] == {"type": "PowerSpring", "k": 5e3, "p": 1.5}
+    assert d["pair_law"] == {"type": "PowerSpring", "k": 5e5, "p": 1.5}
     assert from_dict(engine.UniaxialTest, d) == test
 
 

@@ -250,10 +250,10 @@ def test_process_pool_gives_the_same_table_and_resumes(tiny_study):
     ran = []
     resumed = engine.run_study(spec, completed=partial, on_run=lambda k, r: ran.append(k))
     assert ran == ["r3.1mm-paper-s1"] and table(resumed) == table(res)
-    # one seed per variant: its spread is unknown, so a second seed of each is added, and
-    # the pool's added runs are those of the same study run here
+    # one seed per variant: its spread is unknown, so a second seed of each is added (with
+    # the control of that seed), and the pool's added runs are those of the same study here
     added = [a["run"] for a in pooled_d.advisor["adaptive"]["added_runs"]]
-    assert sorted(added) == ["r3.1mm-paper-s3", "r3.1mm-unscaled-s3"]
+    assert sorted(added) == ["ctl-r3.1mm-s3", "r3.1mm-paper-s3", "r3.1mm-unscaled-s3"]
     here = engine.run_study(deciding, completed=dict(stored))
     assert [a["run"] for a in here.advisor["adaptive"]["added_runs"]] == added
     assert table(here) == table(pooled_d)

@@ -92,6 +92,11 @@ class PowerSpring:
     def pair_values(self) -> dict[str, float]:
         return {"k": self.k, "p": self.p, "zeta": 0.0, "mu_s": 0.0, "mu_r": 0.0}
 
+    def load_overlap(self, force: float, radius: float) -> tuple[float, str]:
+        """Overlap [m] at which the spring carries ``force`` [N] (k d^p = F), and the
+        parameter that sets it."""
+        return (force / self.k) ** (1.0 / self.p), "k"
+
     def adhesion_overlap(self, rmin: float, fraction: float) -> None:
         return None
 

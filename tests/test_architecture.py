@@ -78,7 +78,17 @@ def test_engine_modules_import_only_numpy_numba_and_the_standard_library(path):
 
 
 #: The engine's layers, lowest first (ARCHITECTURE.md): a module's path names its layer.
-LAYERS = ("core", "contact", "kernel", "simulation", "cuda", "uniaxial", "study", "io")
+LAYERS = (
+    "core",
+    "contact",
+    "kernel",
+    "simulation",
+    "cuda",
+    "uniaxial",
+    "study",
+    "io",
+    "calibration",
+)
 
 
 def engine_imports(path: Path) -> list[tuple[str, bool]]:

@@ -132,7 +132,9 @@ def branch_stresses(base: UniaxialTest, targets: LabTargets) -> tuple[float, ...
 
 def measure(results: dict, base: UniaxialTest, targets: LabTargets) -> list[dict]:
     """Each target quantity of ``targets`` read from a run's ``results`` (consolidation
-    stress -> :class:`engine.UniaxialResult`): name, lab value, lab sd and the run's value."""
+    stress -> :class:`engine.UniaxialResult`): name, lab value, lab sd and the run's value.
+    The compression curve, the stiffnesses and K0 are read from the branch at the highest
+    consolidation stress (a tester's one consolidation), each strength from its own."""
     out = []
     top = results[max(results)]
     for p in targets.compression:
@@ -325,14 +327,16 @@ def calibrate(
         keep = np.nonzero(imp < IMPLAUSIBLE)[0]
         if keep.size < wave_runs:
             keep = np.argsort(imp)[: max(wave_runs * 20, 200)]
+        keep = np.array([k for k in keep if ok(cand[k])], dtype=int)  # laws it can make
+        if keep.size == 0:
+            break
+        # the least implausible first, then each next as far as it can be from those chosen
+        # and from the runs so far
         chosen = [int(keep[np.argmin(imp[keep])])]
         dmin = np.sqrt(((cand[keep] - cand[chosen[0]]) ** 2).sum(1))
         dmin = np.minimum(dmin, np.sqrt(((cand[keep][:, None] - u[None]) ** 2).sum(-1)).min(1))
-        while len(chosen) < wave_runs:
+        while len(chosen) < min(wave_runs, keep.size):
             k = int(np.argmax(dmin))
-            if not ok(cand[keep[k]]):
-                dmin[k] = -1.0
-                continue
             chosen.append(int(keep[k]))
             dmin = np.minimum(dmin, np.sqrt(((cand[keep] - cand[keep[k]]) ** 2).sum(1)))
         run_wave(cand[chosen], wave)

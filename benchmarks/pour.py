@@ -12,7 +12,10 @@ benchmark runs those two tests again with ``pour_speed`` = :data:`POUR_SPEED` (t
 free fall from 5 cm, chosen as a gentle fill before any run, not tuned), storing each in
 ``benchmarks/results/paper/pour/``. A capped pour changes every run's packing, so it decides
 nothing about the rule by itself: experiment (b) judged with it needs all its runs redone
-with the same pour (its references included), which is left to a later session.
+with the same pour (its references included): ``--study`` runs it, stored run by run in
+``benchmarks/results/paper/b_cohesive_capped/`` and resumed across sessions (about 8 h on
+2 cores in all); ``--report`` says how far it has come and, once its references are stored,
+judges it (claim (c) included).
 """
 
 from __future__ import annotations
@@ -93,14 +96,74 @@ def report() -> str:
     return "\n".join(lines)
 
 
+# ------------------------------------------------------------------ (b) with one capped pour
+#: Where experiment (b) with the capped pour is stored, run by run.
+STUDY_STORE = ROOT / "benchmarks" / "results" / "paper" / "b_cohesive_capped"
+
+
+def capped_study():
+    """Experiment (b) at the paper scale with every run (references, coarse runs, controls)
+    filled by the capped pour: the one fill that judging b = 3 on every seed needs."""
+    from benchmarks.experiments import experiments
+
+    spec = experiments("paper")["b_cohesive"]
+    return replace(spec, reference=replace(spec.reference, pour_speed=POUR_SPEED))
+
+
+def run_study(workers: int) -> None:
+    """The runs of :func:`capped_study` not yet stored (resumable across sessions)."""
+    import engine
+    from engine.io.store import completed_runs
+
+    spec = capped_study()
+    STUDY_STORE.mkdir(parents=True, exist_ok=True)
+    done, _ = completed_runs(spec, STUDY_STORE)
+
+    def on_run(key, outcome):
+        save_run(STUDY_STORE / f"{key}.h5", outcome, keep_particles=False)
+        print("stored", key, flush=True)
+
+    with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as ex:
+        engine.run_study(spec, executor=ex, completed=done, on_run=on_run)
+
+
+def study_report() -> str:
+    """How far experiment (b) with the capped pour has come, and, once its references are
+    stored, its verdicts and the claim (c) lines."""
+    from engine.io.store import completed_runs
+    from engine.study.plan import plan_runs
+
+    spec = capped_study()
+    done, _ = completed_runs(spec, STUDY_STORE) if STUDY_STORE.exists() else ({}, [])
+    planned = plan_runs(spec, done)[0]
+    lines = [
+        "",
+        f"Experiment (b) with every run filled at {POUR_SPEED:g} m/s "
+        f"(`python -m benchmarks.pour --study`): {len(done)} of {len(planned)} planned runs "
+        "stored.",
+    ]
+    if not any(p.is_reference and p.key in done for p in planned):
+        return "\n".join(lines)
+    from benchmarks.report import claim_c, verdict_table
+    from engine.study.results import assemble
+
+    res = assemble(spec, planned, done)
+    lines += ["", verdict_table(res), "", *[f"- {x}" for x in claim_c(res)]]
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--report", action="store_true")
+    ap.add_argument(
+        "--study", action="store_true", help="run experiment (b) whole with the capped pour"
+    )
     args = ap.parse_args(argv)
     if not args.report:
-        run(args.workers)
+        run_study(args.workers) if args.study else run(args.workers)
     print(report())
+    print(study_report())
     return 0
 
 

@@ -32,6 +32,10 @@ import numpy as np
 
 from .intervals import WELCH_MIN_SEEDS, t_quantile
 
+#: A size mean further than this many standard errors from the line says the property is
+#: not linear in d / L over the sizes run (:func:`curve_lines` says so).
+LACK_OF_FIT = 2.0
+
 
 def contrast_df(counts, shares) -> float:
     """Degrees of freedom of a linear combination of independent group means, with ``counts``
@@ -147,6 +151,11 @@ def curve_lines(curves: dict) -> list[str]:
         fit = ""
         if c["lack_of_fit"] is not None:
             fit = f"; the size means lie within {c['lack_of_fit']:.1f} standard errors of the line"
+            if c["lack_of_fit"] > LACK_OF_FIT:
+                fit += (
+                    f", more than {LACK_OF_FIT:g}: the property is not linear in d / L over "
+                    "these sizes, and the extrapolation is not to be trusted"
+                )
         lines.append(
             f"resolution curve, {n}: the reference ({c['reference_diameters_across']:.1f} "
             f"diameters across) is {100 * c['reference_offset']:+.1f} % "

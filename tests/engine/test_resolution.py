@@ -103,3 +103,16 @@ def test_the_adhesion_exponent_fit_and_its_fieller_interval():
         _, iv = fit_exponent(by_b, target, 0.95)
         hit += iv is None or iv[0] <= 2.3 <= iv[1]
     assert hit / n >= 0.95 - 3 * math.sqrt(0.05 * 0.95 / n), hit / n
+
+
+def test_a_curve_that_is_not_a_line_is_called_so():
+    # three sizes, the middle one far off the line through the others: the lines say the
+    # extrapolation is not to be trusted
+    sizes = [
+        {"x": x, "logs": np.log(m) + np.array([-0.001, 0.0, 0.001]), "reference": i == 0}
+        for i, (x, m) in enumerate([(0.1, 10.0), (0.15, 9.9), (0.2, 7.5)])
+    ]
+    c = fit_curve(sizes, 0.95)
+    assert c["lack_of_fit"] > 2
+    (line,) = curve_lines({"metrics": {"strength": c}, "confidence": 0.95})
+    assert "not to be trusted" in line

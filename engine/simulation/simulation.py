@@ -31,6 +31,7 @@ from ..kernel.state import PAUSE as _STATUS_PAUSE
 from ..kernel.state import REBUILD as _STATUS_REBUILD
 from ..kernel.state import NeighbourList, Particles, Scratch, StepParams, Walls
 from ..kernel.team import SYNC_STATUS, SYNC_STEPS, sync_length
+from ..kernel.virial import pair_virial
 from .backend import resolve_backend
 from .scene import Scene
 from .timestep import TimeStepLimit, adhesion_overlap, critical_time_step
@@ -776,19 +777,17 @@ class Simulation:
         contacts, whose branch vectors are normal to the platens, and the (quasi-static:
         small) kinetic part are left out: in a periodic cell between two horizontal platens
         the horizontal components are the whole lateral stress."""
-        m = self._n_entries
-        owner = np.repeat(np.arange(self.n), np.diff(self._list.start))
-        active = np.nonzero(self._list.entry[:m, 0] != 0.0)[0]
-        i = owner[active]
-        j = self._list.j[active].astype(np.int64)
-        pos, length = self._particles.pos, self._params.length
-        dx = pos[i] - pos[j]
-        for a in range(3):
-            if self._periodic[a]:
-                dx[:, a] -= length[a] * np.floor(dx[:, a] / length[a] + 0.5)
-        f = self._k.F_SLOT
-        forces = -self._list.entry[active, f : f + 3]  # on the list's owner i
-        return forces.T @ dx / float(volume)
+        sums = pair_virial(
+            self._list.start,
+            self._list.j,
+            self._list.entry,
+            self._k.F_SLOT,
+            self._particles.pos,
+            self._params.length,
+            self._periodic,
+            self._n_entries,
+        )
+        return sums / float(volume)
 
     def contacts(self) -> Contacts:
         """Particle-particle and particle-wall contacts at the last force evaluation."""

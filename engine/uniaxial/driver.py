@@ -19,6 +19,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..core.errors import StopRequested, WallTimeExceeded
+from ..kernel.virial import platen_levers
 from ..simulation.backend import check_backend, resolve_backend
 from ..simulation.packing import sphere_volume
 from ..simulation.simulation import Simulation
@@ -266,15 +267,14 @@ class _Driver:
         branch vectors run from the contact point to the centre along the platen's normal
         (exact for equal radii and equal overlaps; the horizontal components get nothing)."""
         sim = self.sim
-        pos, rad = sim.positions, sim.radii
-        out = 0.0
-        for w in range(self.n_walls):
-            point, normal = sim.wall_positions[w], (0.0, 0.0, 1.0 if w == 0 else -1.0)
-            overlap = rad - (pos[:, 2] - point[2]) * normal[2]
-            touch = overlap > 0
-            if touch.any():
-                lever = float(np.mean(rad[touch] - overlap[touch]))
-                out += abs(float(wall_forces[w, 2])) * lever
+        walls = sim.wall_positions
+        top = float(walls[1, 2]) if self.n_walls > 1 else np.inf
+        lever_b, lever_t = platen_levers(
+            np.ascontiguousarray(sim.positions[:, 2]), sim.radii, float(walls[0, 2]), top
+        )
+        out = abs(float(wall_forces[0, 2])) * lever_b
+        if self.n_walls > 1:
+            out += abs(float(wall_forces[1, 2])) * lever_t
         return out
 
     def cap_speed(self, cap: float) -> None:

@@ -543,10 +543,18 @@ class Simulation:
 
     def set_gravity(self, gravity) -> None:
         """Set the acceleration of gravity [m/s^2] (3 numbers) for the following runs; forces
-        are updated."""
+        are updated. A simulation built without gravity (its scene's is zero) has no gravity
+        in its compiled step, so only zero is accepted there."""
         g = np.asarray(gravity, dtype=np.float64)
         if g.shape != (3,) or not np.all(np.isfinite(g)):
             raise ParameterError("Simulation.set_gravity.gravity", gravity, "3 finite numbers")
+        if not self._features["gravity"] and np.any(g != 0):
+            raise ParameterError(
+                "Simulation.set_gravity.gravity",
+                gravity,
+                "zero: this simulation was built without gravity (give its Scene the gravity "
+                "to switch it off and on)",
+            )
         self._params.gravity[:] = g
         self._compute_forces()
 

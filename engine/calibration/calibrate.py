@@ -181,15 +181,20 @@ def measure(results: dict, base: UniaxialTest, targets: LabTargets) -> list[dict
     return out
 
 
-def _run_point(test: UniaxialTest, stresses: tuple[float, ...]) -> dict:
+def _run_point(test: UniaxialTest, stresses: tuple[float, ...]) -> dict | str:
     """One parameter set: its fill once, one branch per consolidation stress (a picklable
-    task for an executor)."""
-    ff = flow_function(test, stresses) if test.unconfined else None
-    if ff is not None:
-        return dict(zip(ff.consolidation_stresses, ff.results))
-    from ..uniaxial.driver import run_uniaxial
+    task for an executor); the error text where the run stops (a stage that misses its
+    criterion, an instability): such a parameter set is left out, not the calibration."""
+    from ..core.errors import InstabilityError
+    from ..uniaxial.driver import StageError, run_uniaxial
 
-    return {stresses[-1]: run_uniaxial(replace(test, consolidation_stress=stresses[-1]))}
+    try:
+        if test.unconfined:
+            ff = flow_function(test, stresses)
+            return dict(zip(ff.consolidation_stresses, ff.results))
+        return {stresses[-1]: run_uniaxial(replace(test, consolidation_stress=stresses[-1]))}
+    except (StageError, InstabilityError) as e:
+        return f"{type(e).__name__}: {e}"
 
 
 # ------------------------------------------------------------------ the result
@@ -279,10 +284,11 @@ def calibrate(
     if folder is not None:
         folder.mkdir(parents=True, exist_ok=True)
     done: list[tuple[np.ndarray, list[dict], int]] = []
+    failed: list[dict] = []
 
     def run_wave(us: np.ndarray, wave: int) -> None:
         tests = [replace(base_test, pair_law=_law(law0, axes, x)) for x in us]
-        start = len(done)
+        start = len(done) + len(failed)
         keys = [f"cal-{start + i:03d}" for i in range(len(us))]
         outcomes: dict[int, dict] = {}
         todo = []
@@ -295,20 +301,38 @@ def calibrate(
         if executor is None:
             for i in todo:
                 outcomes[i] = _run_point(tests[i], stresses)
-                _save_point(folder, keys[i], outcomes[i])
+                _save_point(folder, keys[i], outcomes[i], tests[i])
         else:
             futs = {executor.submit(_run_point, tests[i], stresses): i for i in todo}
             for f in cf.as_completed(futs):
                 i = futs[f]
                 outcomes[i] = f.result()
-                _save_point(folder, keys[i], outcomes[i])
+                _save_point(folder, keys[i], outcomes[i], tests[i])
         for i in range(len(us)):
+            if isinstance(outcomes[i], str):  # failed: left out of the emulators
+                failed.append(
+                    {
+                        "wave": wave,
+                        "parameters": {a.name: a.value(float(x)) for a, x in zip(axes, us[i])},
+                        "error": outcomes[i],
+                    }
+                )
+                if on_run is not None:
+                    on_run(start + i, [])
+                continue
             q = measure(outcomes[i], base_test, targets)
             done.append((us[i], q, wave))
             if on_run is not None:
                 on_run(start + i, q)
 
     run_wave(_maximin(rng, runs, d, ok), 0)
+    if len(done) < d + 2:
+        raise ParameterError(
+            "calibrate.parameters",
+            parameters,
+            "a box where most runs finish",
+            f"{len(failed)} of {runs} design runs failed, e.g. {failed[0]['error']}",
+        )
     quantities = done[0][1]
     z, lab_var = _log_lab(quantities)
     lab = np.array([q["lab"] for q in quantities])
@@ -358,12 +382,20 @@ def calibrate(
             "status": "determined" if ratio < DETERMINED else "free",
         }
     sens = _sobol(gps, quantities, axes, rng)
-    check = measure(_run_point(replace(base_test, pair_law=law), stresses), base_test, targets)
+    checked = _run_point(replace(base_test, pair_law=law), stresses)
+    if isinstance(checked, str):
+        check = [{**q, "value": math.nan} for q in quantities]
+    else:
+        check = measure(checked, base_test, targets)
     noise = np.array([g.noise for g in gps])
     met, missed = [], []
     for j, q in enumerate(check):
         sd = math.sqrt(q["sd"] ** 2 + noise[j] * q["lab"] ** 2)  # seed noise (log) as relative
         zscore = (q["value"] - q["lab"]) / sd if sd > 0 else math.inf
+        if not math.isfinite(q["value"]):  # the check run failed
+            met.append({**q, "seed_sd": math.sqrt(noise[j]) * q["lab"], "z": None, "met": False})
+            missed.append(f"{q['name']}: the check run failed ({checked})")
+            continue
         row = {**q, "seed_sd": math.sqrt(noise[j]) * q["lab"], "z": zscore, "met": abs(zscore) <= 2}
         met.append(row)
         if not row["met"]:
@@ -371,7 +403,7 @@ def calibrate(
                 f"{q['name']}: {q['value']:.4g} against {q['lab']:.4g} +/- {sd:.2g} "
                 f"({100 * (q['value'] / q['lab'] - 1):+.1f} %, z = {zscore:+.1f})"
             )
-    run_rows = [
+    run_rows = failed + [
         {
             "wave": w,
             "parameters": {a.name: a.value(float(x)) for a, x in zip(axes, ux)},
@@ -427,8 +459,19 @@ def _sobol(gps, quantities, axes, rng, n: int = 2048) -> dict:
     return out
 
 
-def _save_point(folder: Path | None, key: str, results: dict) -> None:
+def _digest(test: UniaxialTest) -> str:
+    """A short digest of a test (a failed run's file names its test: an error text cannot)."""
+    import hashlib
+    import json
+
+    return hashlib.sha1(json.dumps(test.to_dict(), sort_keys=True).encode()).hexdigest()[:10]
+
+
+def _save_point(folder: Path | None, key: str, results: dict | str, test: UniaxialTest) -> None:
     if folder is None:
+        return
+    if isinstance(results, str):
+        save_run(folder / f"{key}-failed-{_digest(test)}.h5", results)
         return
     for s, r in results.items():
         save_run(folder / f"{key}-{s:g}Pa.h5", r, keep_particles=False)
@@ -437,6 +480,9 @@ def _save_point(folder: Path | None, key: str, results: dict) -> None:
 def _load_point(folder: Path | None, key: str, stresses, test: UniaxialTest) -> dict | None:
     if folder is None:
         return None
+    bad = folder / f"{key}-failed-{_digest(test)}.h5"
+    if bad.exists():  # the parameter set is the design's: the same key, the same test
+        return load_run(bad)
     out = {}
     for s in stresses:
         p = folder / f"{key}-{s:g}Pa.h5"

@@ -10,11 +10,13 @@ import pytest
 
 from .conftest import AUTH, TINIEST, wait_for
 
-N = 20
+#: Submissions at once: 12 queue six studies per worker (20 until 0.2.0; the suite's
+#: longest test, cut to keep CI under ten minutes)
+N = 12
 
 
 @pytest.mark.timeout(300)
-def test_twenty_concurrent_submissions_all_run_once(live_server, workers):
+def test_many_concurrent_submissions_all_run_once(live_server, workers):
     def post(i: int) -> httpx.Response:
         with httpx.Client(base_url=live_server, timeout=60, headers=AUTH) as c:
             return c.post("/studies", json={**TINIEST, "name": f"study-{i}"})

@@ -127,6 +127,37 @@ def run_study(workers: int) -> None:
         engine.run_study(spec, executor=ex, completed=done, on_run=on_run)
 
 
+def _run_planned(key: str) -> str:
+    import numba
+
+    from engine.study.plan import plan as plan_of
+    from engine.uniaxial.driver import run_uniaxial
+
+    numba.set_num_threads(1)
+    test = next(p.test for p in plan_of(capped_study()).runs if p.key == key)
+    t0 = time.perf_counter()
+    try:
+        outcome = run_uniaxial(test)
+    except Exception as e:  # stored as the run's error, as the studies do
+        outcome = f"{type(e).__name__}: {e}"
+    save_run(STUDY_STORE / f"{key}.h5", outcome, keep_particles=False)
+    return f"{key}: {time.perf_counter() - t0:.0f} s"
+
+
+def run_keys(keys: list[str], workers: int) -> None:
+    """Only these planned runs of :func:`capped_study` (a share to run where a whole study
+    would not finish), each stored as it ends; keys already stored are skipped."""
+    planned = {p.key for p in plan(capped_study()).runs}
+    unknown = sorted(set(keys) - planned)
+    if unknown:
+        raise SystemExit(f"--runs: the capped study has no run {', '.join(unknown)}")
+    STUDY_STORE.mkdir(parents=True, exist_ok=True)
+    todo = [k for k in keys if not (STUDY_STORE / f"{k}.h5").exists()]
+    with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as ex:
+        for f in cf.as_completed([ex.submit(_run_planned, k) for k in todo]):
+            print("stored", f.result(), flush=True)
+
+
 def study_report() -> str:
     """How far experiment (b) with the capped pour has come, and, once its references are
     stored, its verdicts and the claim (c) lines."""
@@ -159,9 +190,17 @@ def main(argv=None) -> int:
     ap.add_argument(
         "--study", action="store_true", help="run experiment (b) whole with the capped pour"
     )
+    ap.add_argument(
+        "--runs", nargs="*", metavar="KEY", help="with --study: only these of its planned runs"
+    )
     args = ap.parse_args(argv)
     if not args.report:
-        run_study(args.workers) if args.study else run(args.workers)
+        if args.study and args.runs:
+            run_keys(args.runs, args.workers)
+        elif args.study:
+            run_study(args.workers)
+        else:
+            run(args.workers)
     print(report())
     print(study_report())
     return 0

@@ -122,11 +122,14 @@ def _maximin(rng, n: int, d: int, ok, tries: int = 40) -> np.ndarray:
 
 # ------------------------------------------------------------------ what a run measures
 def branch_stresses(base: UniaxialTest, targets: LabTargets) -> tuple[float, ...]:
-    """Consolidation stresses the runs need [Pa]: every strength target's, and the base
-    test's for the compression curve, stiffness and K0 targets."""
+    """Consolidation stresses the runs need [Pa]: every strength target's and, for the
+    compression curve, stiffness and K0 targets (read on the highest branch), the base
+    test's or the highest compression target's where no strength branch reaches it."""
     s = {p.consolidation_stress for p in targets.strength}
     if set(targets.names()) - {"strength"}:
-        s.add(max([base.consolidation_stress, *[p.stress for p in targets.compression]]))
+        need = max([base.consolidation_stress, *[p.stress for p in targets.compression]])
+        if not s or max(s) < need:  # the highest branch is where those are read
+            s.add(need)
     return tuple(sorted(s))
 
 

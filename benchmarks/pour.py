@@ -47,7 +47,9 @@ def capped_test(key: str):
     return replace(p.test, pour_speed=POUR_SPEED)
 
 
-def _run_one(key: str) -> str:
+def _run_and_store(test, path: Path) -> str:
+    """One run on one engine thread, stored at ``path`` (its error text where it fails, as
+    the studies store it); a picklable task."""
     import numba
 
     from engine.uniaxial.driver import run_uniaxial
@@ -55,19 +57,26 @@ def _run_one(key: str) -> str:
     numba.set_num_threads(1)
     t0 = time.perf_counter()
     try:
-        outcome = run_uniaxial(capped_test(key))
+        outcome = run_uniaxial(test)
     except Exception as e:  # stored as the run's error, as the studies do
         outcome = f"{type(e).__name__}: {e}"
-    save_run(STORE / f"{key}.h5", outcome, keep_particles=False)
-    return f"{key}: {time.perf_counter() - t0:.0f} s"
+    save_run(path, outcome, keep_particles=False)
+    return f"{path.stem}: {time.perf_counter() - t0:.0f} s"
+
+
+def _store_all(jobs: dict[Path, object], workers: int) -> None:
+    """Run every (path -> test) not yet stored, side by side, each stored as it ends."""
+    todo = {p: t for p, t in jobs.items() if not p.exists()}
+    if not todo:
+        return
+    next(iter(todo)).parent.mkdir(parents=True, exist_ok=True)
+    with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as ex:
+        for f in cf.as_completed([ex.submit(_run_and_store, t, p) for p, t in todo.items()]):
+            print("stored", f.result(), flush=True)
 
 
 def run(workers: int) -> None:
-    STORE.mkdir(parents=True, exist_ok=True)
-    todo = [k for k in FAILED if not (STORE / f"{k}.h5").exists()]
-    with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as ex:
-        for f in cf.as_completed([ex.submit(_run_one, k) for k in todo]):
-            print("stored", f.result(), flush=True)
+    _store_all({STORE / f"{k}.h5": capped_test(k) for k in FAILED}, workers)
 
 
 def report() -> str:
@@ -127,35 +136,14 @@ def run_study(workers: int) -> None:
         engine.run_study(spec, executor=ex, completed=done, on_run=on_run)
 
 
-def _run_planned(key: str) -> str:
-    import numba
-
-    from engine.study.plan import plan as plan_of
-    from engine.uniaxial.driver import run_uniaxial
-
-    numba.set_num_threads(1)
-    test = next(p.test for p in plan_of(capped_study()).runs if p.key == key)
-    t0 = time.perf_counter()
-    try:
-        outcome = run_uniaxial(test)
-    except Exception as e:  # stored as the run's error, as the studies do
-        outcome = f"{type(e).__name__}: {e}"
-    save_run(STUDY_STORE / f"{key}.h5", outcome, keep_particles=False)
-    return f"{key}: {time.perf_counter() - t0:.0f} s"
-
-
 def run_keys(keys: list[str], workers: int) -> None:
     """Only these planned runs of :func:`capped_study` (a share to run where a whole study
     would not finish), each stored as it ends; keys already stored are skipped."""
-    planned = {p.key for p in plan(capped_study()).runs}
-    unknown = sorted(set(keys) - planned)
+    tests = {p.key: p.test for p in plan(capped_study()).runs}
+    unknown = sorted(set(keys) - set(tests))
     if unknown:
         raise SystemExit(f"--runs: the capped study has no run {', '.join(unknown)}")
-    STUDY_STORE.mkdir(parents=True, exist_ok=True)
-    todo = [k for k in keys if not (STUDY_STORE / f"{k}.h5").exists()]
-    with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as ex:
-        for f in cf.as_completed([ex.submit(_run_planned, k) for k in todo]):
-            print("stored", f.result(), flush=True)
+    _store_all({STUDY_STORE / f"{k}.h5": tests[k] for k in keys}, workers)
 
 
 def study_report() -> str:

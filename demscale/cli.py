@@ -747,9 +747,12 @@ def calibrate_cmd(args) -> int:
         return 2
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    total = args.runs + args.waves * args.wave_runs
+    total = args.runs + args.waves * args.wave_runs  # on_run: the design and wave runs
 
     def on_run(i, quantities):
+        if isinstance(quantities, str):  # a run that failed: left out
+            print(f"[{i + 1}/{total}] run failed: {quantities}", file=sys.stderr, flush=True)
+            return
         q = ", ".join(f"{x['name']} {x['value']:.4g}" for x in quantities)
         print(f"[{i + 1}/{total}] run done: {q}", file=sys.stderr, flush=True)
 

@@ -3,7 +3,7 @@ uniaxial-tester data give (:mod:`engine.calibration.targets`), the calibration t
 the law's parameters with a posterior (:mod:`engine.calibration.calibrate`, on Gaussian-process
 emulators: :mod:`engine.calibration.gp`)."""
 
-from .calibrate import CALIBRATED, Calibration, calibrate
+from .calibrate import CALIBRATED, Calibration, calibrate, calibration_runs
 from .targets import CompressionPoint, LabTargets, StrengthPoint
 
 __all__ = [
@@ -13,4 +13,5 @@ __all__ = [
     "LabTargets",
     "StrengthPoint",
     "calibrate",
+    "calibration_runs",
 ]

@@ -184,20 +184,77 @@ def measure(results: dict, base: UniaxialTest, targets: LabTargets) -> list[dict
     return out
 
 
-def _run_point(test: UniaxialTest, stresses: tuple[float, ...]) -> dict | str:
+def _run_point(
+    test: UniaxialTest,
+    stresses: tuple[float, ...],
+    key: str = "",
+    channel=None,
+    limit: tuple | None = None,
+    backend: str | None = None,
+    threads: int | None = None,
+    progress=None,
+) -> dict | str:
     """One parameter set: its fill once, one branch per consolidation stress (a picklable
     task for an executor); the error text where the run stops (a stage that misses its
-    criterion, an instability): such a parameter set is left out, not the calibration."""
-    from ..core.errors import InstabilityError
+    criterion, an instability, the wall-time limit): such a parameter set is left out, not
+    the calibration. ``progress`` (in this process) or ``channel`` (a task elsewhere:
+    :class:`engine.FileChannel`) hears the run and may stop it
+    (:class:`engine.StopRequested`, not caught); ``limit``: (max_wall_time [s], the
+    setting's name); ``threads``: engine threads of a task."""
+    from ..core.errors import InstabilityError, StopRequested, WallTimeExceeded
+    from ..study.channel import task_progress
     from ..uniaxial.driver import StageError, run_uniaxial
 
+    if threads is not None:
+        import numba
+
+        numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+    if channel is not None:
+        if channel.stop_requested():
+            raise StopRequested(f"calibration run {key} not started: the calibration was stopped")
+        progress = task_progress(channel, key)
+    how = {"progress": progress, "backend": backend}
+    if limit is not None and limit[0] is not None:
+        how.update(max_wall_time=limit[0], wall_time_setting=limit[1])
     try:
         if test.unconfined:
-            ff = flow_function(test, stresses)
+            ff = flow_function(test, stresses, **how)
             return dict(zip(ff.consolidation_stresses, ff.results))
-        return {stresses[-1]: run_uniaxial(replace(test, consolidation_stress=stresses[-1]))}
-    except (StageError, InstabilityError) as e:
+        return {stresses[-1]: run_uniaxial(replace(test, consolidation_stress=stresses[-1]), **how)}
+    except (StageError, InstabilityError, WallTimeExceeded) as e:
         return f"{type(e).__name__}: {e}"
+
+
+def _curves(results: dict | str) -> dict:
+    """The check run's curves as the page and the API show them: porosity against the top
+    platen's stress on loading (pre-compression and consolidation) and unloading of the
+    highest branch [Pa, -], and the flow function (one row per branch)."""
+    if isinstance(results, str):
+        return {}
+    top = results[max(results)]
+    out = {}
+    for part, stages in (
+        ("loading", ("pre_compression", "consolidation")),
+        ("unloading", ("unloading",)),
+    ):
+        curves = [top.stages[s].curves for s in stages if s in top.stages]
+        if curves:
+            out[part] = {
+                "stress": np.concatenate([c["stress_top"] for c in curves]).tolist(),
+                "porosity": np.concatenate([c["porosity"] for c in curves]).tolist(),
+            }
+    if "unconfined_strength" in top.scalars:
+        out["flow_function"] = [
+            {
+                "consolidation_stress": float(s),
+                "strength": float(r.scalars["unconfined_strength"]),
+                "ffc": float(s / r.scalars["unconfined_strength"])
+                if r.scalars["unconfined_strength"] > 0
+                else None,
+            }
+            for s, r in sorted(results.items())
+        ]
+    return out
 
 
 # ------------------------------------------------------------------ the result
@@ -210,7 +267,8 @@ class Calibration:
     ``targets_met`` (per target quantity: lab value and sd, the check run's value, its z and
     whether it is met), ``sensitivity`` (per quantity, each parameter's first-order Sobol
     index), ``runs`` (every run's parameters and measured quantities, by wave),
-    ``not_met`` (the targets missed, in words)."""
+    ``not_met`` (the targets missed, in words), ``curves`` (the check run's compression
+    curve and flow function: :func:`_curves`)."""
 
     law: object
     parameters: dict
@@ -218,6 +276,7 @@ class Calibration:
     sensitivity: dict
     runs: list[dict]
     not_met: list[str] = field(default_factory=list)
+    curves: dict = field(default_factory=dict)
 
     def to_summary(self) -> dict:
         """JSON-friendly form."""
@@ -230,6 +289,7 @@ class Calibration:
             "sensitivity": self.sensitivity,
             "runs": self.runs,
             "not_met": self.not_met,
+            "curves": self.curves,
         }
 
 
@@ -254,6 +314,12 @@ def _floor_log(values: np.ndarray, lab: np.ndarray) -> np.ndarray:
     return np.log(np.maximum(values, 1e-3 * lab))
 
 
+def calibration_runs(runs: int, waves: int, wave_runs: int) -> int:
+    """The most parameter sets a calibration runs: its design, its waves and the check run
+    (a wave may run fewer where few parameter sets are left)."""
+    return runs + waves * wave_runs + 1
+
+
 def calibrate(
     base_test: UniaxialTest,
     targets: LabTargets,
@@ -266,20 +332,43 @@ def calibrate(
     executor: cf.Executor | None = None,
     seed: int = 0,
     on_run=None,
+    progress=None,
+    options=None,
 ) -> Calibration:
     """Calibrate ``base_test``'s pair law to ``targets`` over ``parameters`` ({name: (low,
     high)} in the law's units) with ``runs`` design runs and ``waves`` waves of ``wave_runs``
-    (module docstring). ``store``: a folder where every run is stored as it finishes and
-    found again on a rerun (resumable); ``executor``: runs a wave's runs as tasks;
-    ``on_run(index, quantities)`` hears of each finished run. Raises
-    :class:`engine.ParameterError` naming a parameter it cannot set or a bad box."""
+    (module docstring).
+
+    Args:
+        store: a folder where every run (and the check run) is stored as it finishes and
+            found again on a rerun (resumable; a run in flight starts again).
+        executor: runs a wave's runs as tasks (shorthand for ``options.executor``).
+        on_run: ``on_run(index, quantities)`` hears of each finished run, ``quantities``
+            the measured targets, or the error text of a run that failed.
+        progress: receives :class:`engine.StudyProgress` (``run_key`` ``cal-NNN`` of
+            :func:`calibration_runs` in all; with an executor, from its ``channel`` every
+            ``poll_interval`` s); returning False stops the calibration with
+            :class:`engine.StopRequested` (stored runs are kept: a rerun resumes).
+        options: how the runs are run (:class:`engine.RunOptions`: executor, task threads,
+            channel, poll interval, wall-time limit per run, backend; checkpoints are not
+            kept, a run in flight starts again).
+
+    Raises :class:`engine.ParameterError` naming a parameter it cannot set or a bad box."""
+    from ..core.errors import StopRequested
+    from ..study.run import RunOptions, StudyProgress
+
     if not isinstance(targets, LabTargets):
         raise ParameterError("calibrate.targets", type(targets).__name__, "an engine LabTargets")
+    options = options if options is not None else RunOptions()
+    if executor is not None:
+        options = replace(options, executor=executor)
+    limit = (options.max_run_wall_time, options.wall_time_setting)
     law0 = base_test.pair_law
     axes = _axes(law0, parameters)
     if runs < len(axes) + 2:
         raise ParameterError("calibrate.runs", runs, f">= {len(axes) + 2} (parameters + 2)")
     stresses = branch_stresses(base_test, targets)
+    total = calibration_runs(runs, waves, wave_runs)
     rng = np.random.default_rng(seed)
     d = len(axes)
     ok = lambda x: _feasible(law0, axes, x)  # noqa: E731
@@ -289,11 +378,85 @@ def calibrate(
     done: list[tuple[np.ndarray, list[dict], int]] = []
     failed: list[dict] = []
 
+    def ask(fraction: float, index: int, key: str, stage: str, time: float, msg: str = ""):
+        if progress is None:
+            return
+        report = StudyProgress(min(fraction, 1.0), index, total, key, stage, time, msg)
+        if progress(report) is False:
+            if options.channel is not None:
+                options.channel.request_stop()
+            raise StopRequested(f"calibration stopped during run {key}")
+
+    def execute(tests: list, keys: list[str], first: int) -> dict[int, dict | str]:
+        """Run ``tests`` (not stored), each stored as it ends; index -> outcome."""
+        out: dict[int, dict | str] = {}
+        if options.executor is None:
+            for i, (k, t) in enumerate(zip(keys, tests)):
+                j = first + i
+
+                def here(p, j=j, k=k):
+                    ask((j + p.fraction) / total, j, k, p.stage, p.time, p.message)
+
+                here(_setup_progress())
+                out[i] = _run_point(t, stresses, k, None, limit, options.backend, None, here)
+                _save_point(folder, k, out[i], t)
+            return out
+        channel = options.channel
+        if channel is not None:
+            channel.reset()
+        futs = {
+            options.executor.submit(
+                _run_point,
+                t,
+                stresses,
+                k,
+                channel,
+                limit,
+                options.backend,
+                options.task_threads,
+            ): i
+            for i, (k, t) in enumerate(zip(keys, tests))
+        }
+        pending = set(futs)
+        try:
+            while pending:
+                fin, pending = cf.wait(
+                    pending,
+                    timeout=options.poll_interval if channel is not None else None,
+                    return_when=cf.FIRST_COMPLETED,
+                )
+                for f in fin:
+                    i = futs[f]
+                    out[i] = f.result()  # a stop (StopRequested) or a broken pool: raised
+                    _save_point(folder, keys[i], out[i], tests[i])
+                    ask((first + len(out)) / total, first + i, keys[i], "done", 0.0)
+                if channel is not None and pending and not fin:
+                    seen = channel.read()
+                    running = [futs[f] for f in pending if keys[futs[f]] in seen]
+                    if running:
+                        frac = len(out) + sum(
+                            min(max(seen[keys[i]]["fraction"], 0.0), 1.0) for i in running
+                        )
+                        i = min(running, key=lambda i: seen[keys[i]]["fraction"])
+                        r = seen[keys[i]]
+                        ask(
+                            (first + frac) / total,
+                            first + i,
+                            keys[i],
+                            r["stage"],
+                            float(r["time"]),
+                            f"{len(running)} runs in progress",
+                        )
+        finally:
+            for f in futs:
+                f.cancel()
+        return out
+
     def run_wave(us: np.ndarray, wave: int) -> None:
         tests = [replace(base_test, pair_law=_law(law0, axes, x)) for x in us]
         start = len(done) + len(failed)
         keys = [f"cal-{start + i:03d}" for i in range(len(us))]
-        outcomes: dict[int, dict] = {}
+        outcomes: dict[int, dict | str] = {}
         todo = []
         for i, (k, t) in enumerate(zip(keys, tests)):
             stored = _load_point(folder, k, stresses, t)
@@ -301,16 +464,8 @@ def calibrate(
                 outcomes[i] = stored
             else:
                 todo.append(i)
-        if executor is None:
-            for i in todo:
-                outcomes[i] = _run_point(tests[i], stresses)
-                _save_point(folder, keys[i], outcomes[i], tests[i])
-        else:
-            futs = {executor.submit(_run_point, tests[i], stresses): i for i in todo}
-            for f in cf.as_completed(futs):
-                i = futs[f]
-                outcomes[i] = f.result()
-                _save_point(folder, keys[i], outcomes[i], tests[i])
+        ran = execute([tests[i] for i in todo], [keys[i] for i in todo], start + len(outcomes))
+        outcomes.update({todo[i]: o for i, o in ran.items()})
         for i in range(len(us)):
             if isinstance(outcomes[i], str):  # failed: left out of the emulators
                 failed.append(
@@ -321,7 +476,7 @@ def calibrate(
                     }
                 )
                 if on_run is not None:
-                    on_run(start + i, [])
+                    on_run(start + i, outcomes[i])
                 continue
             q = measure(outcomes[i], base_test, targets)
             done.append((us[i], q, wave))
@@ -385,7 +540,10 @@ def calibrate(
             "status": "determined" if ratio < DETERMINED else "free",
         }
     sens = _sobol(gps, quantities, axes, rng)
-    checked = _run_point(replace(base_test, pair_law=law), stresses)
+    check_test = replace(base_test, pair_law=law)
+    checked = _load_point(folder, "check", stresses, check_test)
+    if checked is None:
+        checked = execute([check_test], ["check"], total - 1)[0]
     if isinstance(checked, str):
         check = [{**q, "value": math.nan} for q in quantities]
     else:
@@ -414,7 +572,7 @@ def calibrate(
         }
         for ux, qs, w in done
     ]
-    return Calibration(law, params, met, sens, run_rows, missed)
+    return Calibration(law, params, met, sens, run_rows, missed, _curves(checked))
 
 
 def _metropolis(gps, z, lab_var, d: int, rng, chains: int = 8, steps: int = 4000) -> np.ndarray:
@@ -462,6 +620,12 @@ def _sobol(gps, quantities, axes, rng, n: int = 2048) -> dict:
     return out
 
 
+def _setup_progress():
+    from ..uniaxial.results import Progress
+
+    return Progress(0.0, "setup", 0.0, 0.0, 0, "building the packing")
+
+
 def _digest(test: UniaxialTest) -> str:
     """A short digest of a test (a failed run's file names its test: an error text cannot)."""
     import hashlib
@@ -498,4 +662,11 @@ def _load_point(folder: Path | None, key: str, stresses, test: UniaxialTest) -> 
     return out
 
 
-__all__ = ["CALIBRATED", "Calibration", "branch_stresses", "calibrate", "measure"]
+__all__ = [
+    "CALIBRATED",
+    "Calibration",
+    "branch_stresses",
+    "calibrate",
+    "calibration_runs",
+    "measure",
+]

@@ -594,6 +594,30 @@ def calibration_figure(summary: dict):
             label="calibrated law (check run)",
         )
         ax.scatter([], [], s=8, color="0.75", label="design and wave runs")
+        curves = summary.get("curves") or {}
+        if prefix == "porosity@":
+            for part, style in (("loading", "-"), ("unloading", "--")):
+                c = curves.get(part)
+                if c:
+                    ax.plot(
+                        np.asarray(c["stress"]) * 1e-3,
+                        c["porosity"],
+                        style,
+                        color="C3",
+                        lw=1,
+                        zorder=2,
+                        label=f"check run, {part}",
+                    )
+        elif curves.get("flow_function"):
+            ff = curves["flow_function"]
+            ax.plot(
+                [p["consolidation_stress"] * 1e-3 for p in ff],
+                [p["strength"] * sy for p in ff],
+                "-",
+                color="C3",
+                lw=1,
+                zorder=2,
+            )
         ax.set_xlabel(
             "vertical stress [kPa]" if prefix == "porosity@" else "consolidation stress [kPa]"
         )

@@ -19,6 +19,7 @@ from dataclasses import dataclass, replace
 
 from ..core.errors import ParameterError
 from ..simulation.backend import check_backend
+from .checkpoint import check_interval
 from .driver import ProgressCallback, _Driver
 from .results import UniaxialResult
 from .spec import UniaxialTest
@@ -73,12 +74,16 @@ def flow_function(
     consolidation_stresses,
     progress: ProgressCallback | None = None,
     backend: str | None = None,
+    max_wall_time: float | None = None,
+    wall_time_setting: str = "max_wall_time",
 ) -> FlowFunction:
     """The flow function of ``test``'s sample: its fill once, then each of
     ``consolidation_stresses`` [Pa] (module docstring). ``test`` must have the unconfined
-    stage; each stress must exceed its ``pre_stress``. Raises
-    :class:`engine.ParameterError` naming the offending stress, or what
-    :func:`engine.run_uniaxial` raises."""
+    stage; each stress must exceed its ``pre_stress``. ``progress`` hears the whole: branch
+    k of n reports a ``fraction`` of (k + its own fraction) / n (the fill is branch 0's);
+    ``max_wall_time`` [s] bounds the whole (fill and branches) as
+    :func:`engine.run_uniaxial` bounds a run. Raises :class:`engine.ParameterError` naming
+    the offending stress, or what :func:`engine.run_uniaxial` raises."""
     stresses = tuple(sorted(float(s) for s in consolidation_stresses))
     if not 1 <= len(stresses) <= MAX_STRESSES:
         raise ParameterError(
@@ -100,16 +105,26 @@ def flow_function(
             )
         tests.append(replace(test, consolidation_stress=s))
     backend = check_backend(backend, "flow_function.backend")
-    d = _Driver(tests[0], progress, None, None, backend)
+    if max_wall_time is not None:
+        check_interval(max_wall_time, "flow_function.max_wall_time")
+    n = len(tests)
+
+    def branch_progress(k: int) -> ProgressCallback | None:
+        if progress is None:
+            return None
+        return lambda p: progress(replace(p, fraction=(k + p.fraction) / n))
+
+    d = _Driver(tests[0], branch_progress(0), None, None, backend)
+    d.max_wall_time, d.wall_time_setting = max_wall_time, wall_time_setting
     d.begin("fill")
     d.loop()
     d.end("fill")
     filled = pickle.dumps(d, protocol=pickle.HIGHEST_PROTOCOL)
     results = []
-    for t in tests:
+    for k, t in enumerate(tests):
         branch = pickle.loads(filled)
         branch.test = t
-        branch.progress = progress
+        branch.progress = branch_progress(k)
         results.append(branch.run())
     return FlowFunction(test, stresses, tuple(results))
 

@@ -66,12 +66,14 @@ def test_synthetic_targets_are_recovered(targets, tmp_path, monkeypatch):
 
     fig = calibration_figure(cal.to_summary())  # no curve target here: the panels say so
     assert len(fig.axes) == 2 and "loading_stiffness" in fig._suptitle.get_text()
-    # run again on the same store: every design and wave run is found, only the check runs
+    # run again on the same store: every design, wave and check run is found, none runs
     calls = []
     real = cal_module._run_point
-    monkeypatch.setattr(cal_module, "_run_point", lambda t, s: calls.append(t) or real(t, s))
+    monkeypatch.setattr(
+        cal_module, "_run_point", lambda t, s, *a: calls.append(t) or real(t, s, *a)
+    )
     again = calibrate(BASE, targets, BOX, runs=12, waves=1, wave_runs=8, seed=1, store=tmp_path)
-    assert len(calls) == 1 and again.parameters == cal.parameters
+    assert calls == [] and again.parameters == cal.parameters  # the check run is stored too
 
 
 def test_a_calibration_refuses_what_it_cannot_set(targets):
@@ -89,12 +91,74 @@ def test_a_run_that_fails_is_left_out_not_the_calibration(targets, monkeypatch):
     real = cal_module._run_point
     calls = []
 
-    def flaky(test, stresses):
+    def flaky(test, stresses, *a):
         calls.append(test)
-        return "StageError: stage fill did not settle" if len(calls) == 3 else real(test, stresses)
+        return (
+            "StageError: stage fill did not settle" if len(calls) == 3 else real(test, stresses, *a)
+        )
 
     monkeypatch.setattr(cal_module, "_run_point", flaky)
     cal = calibrate(BASE, targets, BOX, runs=6, waves=1, wave_runs=3, seed=2)
     errors = [r for r in cal.runs if "error" in r]
     assert len(errors) == 1 and errors[0]["error"].startswith("StageError")
     assert len(cal.runs) == 9 and cal.parameters["k1"]["median"] > 0
+
+
+def test_progress_stop_and_resume(targets, tmp_path):
+    # progress names each run and the check run; returning False stops the calibration
+    # (engine.StopRequested); a rerun on the store resumes with what was stored
+    seen = []
+
+    def stop_at_third(p):
+        seen.append(p)
+        return p.run_key != "cal-002"
+
+    with pytest.raises(engine.StopRequested):
+        calibrate(
+            BASE,
+            targets,
+            {"k1": BOX["k1"]},
+            runs=4,
+            waves=0,
+            store=tmp_path,
+            progress=stop_at_third,
+        )
+    assert {p.run_key for p in seen} == {"cal-000", "cal-001", "cal-002"}
+    assert all(p.n_runs == 5 for p in seen)  # 4 design runs and the check run
+    fractions = [p.fraction for p in seen]
+    assert fractions == sorted(fractions) and fractions[-1] < 0.6
+    stored = sorted(p.name for p in tmp_path.glob("cal-*.h5"))
+    assert [n[:7] for n in stored] == ["cal-000", "cal-001"]
+    heard, outcomes = [], []
+    cal = calibrate(
+        BASE,
+        targets,
+        {"k1": BOX["k1"]},
+        runs=4,
+        waves=0,
+        store=tmp_path,
+        progress=heard.append,
+        on_run=lambda i, q: outcomes.append((i, q)),
+    )
+    assert {p.run_key for p in heard} == {"cal-002", "cal-003", "check"}  # the rest only
+    assert [i for i, _ in outcomes] == [0, 1, 2, 3] and heard[-1].fraction == pytest.approx(1.0)
+    assert cal.curves["loading"]["stress"] and "flow_function" not in cal.curves
+
+
+def test_tasks_on_an_executor_give_the_same_calibration(targets, tmp_path):
+    # the runs as tasks (reporting through a FileChannel) give the calibration the runs in
+    # this process give, bit for bit
+    import concurrent.futures as cf
+
+    box = {"k1": BOX["k1"]}
+    here = calibrate(BASE, targets, box, runs=4, waves=0)
+    heard = []
+    with cf.ThreadPoolExecutor(2) as pool:
+        options = engine.RunOptions(
+            executor=pool, channel=engine.FileChannel(tmp_path / "ch"), poll_interval=0.05
+        )
+        there = calibrate(
+            BASE, targets, box, runs=4, waves=0, options=options, progress=heard.append
+        )
+    assert there.parameters == here.parameters and there.targets_met == here.targets_met
+    assert heard and heard[-1].fraction == pytest.approx(1.0)

@@ -19,6 +19,7 @@ Public API (stable names)::
     ParameterError, StabilityError, InstabilityError
 """
 
+from .calibration import Calibration, LabTargets, calibrate
 from .contact.bilinear import BilinearAdhesive
 from .contact.eepa import EEPA
 from .contact.hertz import HertzMindlin
@@ -58,12 +59,14 @@ __all__ = [
     "NAMED_RULES",
     "RESUMED",
     "BilinearAdhesive",
+    "Calibration",
     "Checkpoint",
     "Contacts",
     "FileChannel",
     "FlowFunction",
     "HertzMindlin",
     "InstabilityError",
+    "LabTargets",
     "ParameterError",
     "Plane",
     "PlannedRun",
@@ -90,6 +93,7 @@ __all__ = [
     "UniaxialTest",
     "WallMaterial",
     "WallTimeExceeded",
+    "calibrate",
     "critical_time_step",
     "default_study",
     "flow_function",

@@ -15,6 +15,7 @@ from __future__ import annotations
 import logging
 import math
 import re
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
@@ -126,22 +127,38 @@ def _too_many_runs(n: int, settings: Settings) -> SpecRejected:
     )
 
 
-def check_costs(costs: list[cost.RunCost], settings: Settings) -> None:
-    """The study's worst-case particle-steps and curve samples against their caps."""
+#: What the particle-steps cap is, and how to come under it, per kind of job.
+_STEPS_CAP = {
+    "study": (
+        "max_particle_steps",
+        "DEMSCALE_MAX_PARTICLE_STEPS",
+        "use fewer or coarser runs, a smaller cell, fewer seeds or a lower max_stage_time",
+    ),
+    "calibration": (
+        "max_calibration_particle_steps",
+        "DEMSCALE_MAX_CALIBRATION_PARTICLE_STEPS",
+        "use fewer runs, waves or wave_runs, a smaller cell or a lower max_stage_time",
+    ),
+}
+
+
+def check_costs(costs: list[cost.RunCost], settings: Settings, kind: str = "study") -> None:
+    """The job's worst-case particle-steps and curve samples against their caps (``kind``:
+    a ``study`` or a ``calibration``, each with its particle-steps cap)."""
+    attr, env, advice = _STEPS_CAP[kind]
+    cap = getattr(settings, attr)
+    where = "reference" if kind == "study" else "test"
     steps = sum(c.particle_steps for c in costs)
-    if steps > settings.max_particle_steps:
+    if steps > cap:
         worst = max(costs, key=lambda c: c.particle_steps)
         raise SpecRejected(
             [
                 _error(
                     (),
-                    f"the study could take {steps:.3g} particle-steps at worst (every stage "
+                    f"the {kind} could take {steps:.3g} particle-steps at worst (every stage "
                     f"to its bound: max_stage_time, the platen travel, release_time, "
                     f"max_unconfined_strain; the largest run {worst.key}: "
-                    f"{worst.particle_steps:.3g}); the limit is "
-                    f"{settings.max_particle_steps:.3g} (DEMSCALE_MAX_PARTICLE_STEPS): "
-                    "use fewer or coarser runs, a smaller cell, fewer seeds or a lower "
-                    "max_stage_time",
+                    f"{worst.particle_steps:.3g}); the limit is {cap:.3g} ({env}): {advice}",
                     steps,
                 )
             ]
@@ -151,23 +168,23 @@ def check_costs(costs: list[cost.RunCost], settings: Settings) -> None:
         raise SpecRejected(
             [
                 _error(
-                    ("reference", "output_interval"),
-                    f"the study could store {samples:.3g} curve samples at worst; the limit is "
-                    f"{settings.max_curve_samples} (DEMSCALE_MAX_CURVE_SAMPLES): use a longer "
-                    "output_interval, a lower max_stage_time or fewer runs",
+                    (where, "output_interval"),
+                    f"the {kind} could store {samples:.3g} curve samples at worst; the limit "
+                    f"is {settings.max_curve_samples} (DEMSCALE_MAX_CURVE_SAMPLES): use a "
+                    "longer output_interval, a lower max_stage_time or fewer runs",
                     samples,
                 )
             ]
         )
 
 
-def _check_bounds(fields: dict) -> None:
+def _check_bounds(fields: dict, where: str = "reference") -> None:
     bad = cost.work_bounds(fields, cost.reference_dt(fields))
     if bad:
         raise SpecRejected(
             [
                 _error(
-                    ("reference", name),
+                    (where, name),
                     f"UniaxialTest.{name} = {value!r} is not allowed: must be {bound}",
                     value,
                 )
@@ -218,7 +235,11 @@ def admit(body: StudyCreate, settings: Settings) -> Admitted:
     the engine accepts it and it is within the caps; raises :class:`SpecRejected`
     otherwise. (The checks on the built spec repeat those on the raw fields, which give up
     where a field the engine will refuse makes their arithmetic fail.)"""
-    data = body.engine_dict()
+    return admit_spec(body.engine_dict(), settings)
+
+
+def admit_spec(data: dict, settings: Settings) -> Admitted:
+    """:func:`admit` of a study's fields as :meth:`engine.StudySpec.from_dict` takes them."""
     try:
         _check_size_first(data, settings)
         study = engine.plan(engine.StudySpec.from_dict(data))
@@ -249,3 +270,115 @@ def admit(body: StudyCreate, settings: Settings) -> Admitted:
     costs = cost.worst_case(spec.to_dict())
     check_costs(costs, settings)
     return Admitted(study, costs)
+
+
+# ------------------------------------------------------------------------------ calibration
+class AdmittedCalibration(NamedTuple):
+    """An admitted calibration: its normalised ``request`` (what the worker runs: the
+    test's, the targets' and the then-study's JSON forms, the boxes and the design's size),
+    the worst-case ``costs`` of its runs, and the then-study's (empty without one)."""
+
+    request: dict
+    costs: list[cost.RunCost]
+    then_costs: list[cost.RunCost]
+
+
+def calibration_loc(field: str) -> tuple:
+    """Where in a calibration's body the engine's dotted field name points."""
+    head, _, rest = field.partition(".")
+    if head == "calibrate":
+        parts = rest.split(".")
+        return tuple(parts) if parts != [""] else ()
+    if head in ("LabTargets", "CompressionPoint", "StrengthPoint"):
+        loc = engine_loc(field.replace(head, "StudySpec", 1))
+        return ("targets", *loc) if head == "LabTargets" else ("targets",)
+    loc = engine_loc(field)
+    return ("test", *loc[1:]) if loc[:1] == ("reference",) else ("test", *loc)
+
+
+def calibration_costs(test, stresses, total: int) -> list[cost.RunCost]:
+    """Worst case of every run: each of ``total`` parameter sets runs a branch per
+    consolidation stress, each counted as a whole run (the fill they share included)."""
+    dt = test.dt if test.dt is not None else test.time_step_limit().recommended
+    branches = [
+        cost.run_cost(f"{s:g}Pa", replace(test, consolidation_stress=s), dt) for s in stresses
+    ]
+    one = cost.RunCost(
+        "calibration run",
+        max(b.particles for b in branches),
+        sum(b.steps for b in branches),
+        sum(b.samples for b in branches),
+    )
+    return [one] * total
+
+
+def admit_calibration(body, settings: Settings) -> AdmittedCalibration:
+    """The normalised request of ``body`` (a :class:`service.spec.CalibrationCreate`) and
+    its worst-case costs if the engine accepts it and it is within the caps (the particles of
+    its test, the number of runs, the particle-steps and curve samples of all its runs at
+    worst; a then-study is admitted as a study would be, with the uncalibrated law); raises
+    :class:`SpecRejected` with the field otherwise."""
+    from engine.calibration import LabTargets
+    from engine.calibration.calibrate import calibration_runs, check_request
+
+    data = body.engine_dict()
+    total = calibration_runs(data["runs"], data["waves"], data["wave_runs"])
+    if total > settings.max_runs:
+        raise SpecRejected(
+            [
+                _error(
+                    ("runs",),
+                    f"the calibration runs up to {total} parameter sets (runs + waves x "
+                    f"wave_runs + the check run); the limit is {settings.max_runs} "
+                    "(DEMSCALE_MAX_RUNS)",
+                    total,
+                )
+            ]
+        )
+    fields = cost.reference_fields({"reference": data["test"]})
+    if isinstance(fields.get("radius"), (int, float)):
+        n = particles_from_fields(fields, fields["radius"])
+        if n > settings.max_particles_per_run:
+            raise _too_many_particles(("test",), "calibration run", n, settings)
+    try:
+        _check_bounds(fields, "test")
+        test = engine.UniaxialTest.from_dict(fields)
+        targets = LabTargets.from_dict(data["targets"])
+        params = {k: tuple(v) for k, v in data["parameters"].items()}
+        stresses = check_request(test, targets, params, data["runs"])
+        for sv in stresses:  # each branch a test the engine can run
+            replace(test, consolidation_stress=sv)
+        costs = calibration_costs(test, stresses, total)
+    except SpecRejected:
+        raise
+    except engine.ParameterError as e:
+        raise SpecRejected([_error(calibration_loc(e.field), str(e), e.value)]) from e
+    except (TypeError, ValueError) as e:
+        raise SpecRejected([_error((), f"the calibration is not valid: {e}", None)]) from e
+    except Exception as e:  # an input the engine's checks did not foresee: logged, refused
+        log.exception("the engine failed on a submitted calibration: %s", data)
+        raise SpecRejected(
+            [_error((), f"the engine cannot build this calibration: {type(e).__name__}: {e}", None)]
+        ) from e
+    check_costs(costs, settings, "calibration")
+    request = {
+        "test": test.to_dict(),
+        "targets": targets.to_dict(),
+        "parameters": {k: list(v) for k, v in params.items()},
+        **{k: data[k] for k in ("runs", "waves", "wave_runs", "seed")},
+        "then_study": None,
+    }
+    then_costs: list[cost.RunCost] = []
+    then = data.get("then_study")
+    if then is not None:
+        try:
+            admitted = admit_spec({**then, "reference": data["test"]}, settings)
+        except SpecRejected as e:
+            raise SpecRejected(
+                [{**err, "loc": ("body", "then_study", *tuple(err["loc"])[1:])} for err in e.errors]
+            ) from e
+        spec = admitted.plan.spec.to_dict()
+        spec.pop("reference")
+        request["then_study"] = spec
+        then_costs = admitted.costs
+    return AdmittedCalibration(request, costs, then_costs)

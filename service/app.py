@@ -33,7 +33,7 @@ from .guard import Guard, Tokens
 from .headers import SecurityHeaders
 from .models import Status, Study
 from .ratelimit import Buckets, SubmitRateLimit
-from .routes import results, studies
+from .routes import calibrations, results, studies
 from .settings import ConfigError, Settings, get_settings, secure_data_dir
 from .web import router as web_router
 from .web import templates
@@ -144,6 +144,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_middleware(SecurityHeaders)  # outermost: on every answer, the guard's too
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
     app.include_router(studies.router)
+    app.include_router(calibrations.router)
     app.include_router(results.router)
     app.include_router(web_router)  # the studies web page at /
 

@@ -59,6 +59,19 @@ def get_engine(url: str) -> Engine:
     # a store made before studies kept their plan: NULL, such a study's worker plans it
     # from its spec
     _add_column(engine, "plan", "ALTER TABLE study ADD COLUMN plan JSON")
+    # a store made before calibrations: every job in it is a study
+    _add_column(
+        engine,
+        "kind",
+        "ALTER TABLE study ADD COLUMN kind VARCHAR(11) NOT NULL DEFAULT 'study'",
+        "CREATE INDEX IF NOT EXISTS ix_study_kind ON study (kind)",
+    )
+    _add_column(
+        engine,
+        "parent_id",
+        "ALTER TABLE study ADD COLUMN parent_id CHAR(32)",
+        "CREATE INDEX IF NOT EXISTS ix_study_parent_id ON study (parent_id)",
+    )
     return engine
 
 

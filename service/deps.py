@@ -15,7 +15,7 @@ from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from sqlmodel import Session, select
 
 from .db import session_scope
-from .models import Status, Study
+from .models import Kind, Status, Study
 from .settings import Settings, get_settings
 
 SettingsDep = Annotated[Settings, Depends(get_settings)]
@@ -56,15 +56,32 @@ OwnerDep = Annotated[str, Depends(get_owner)]
 StudyId = Annotated[uuid.UUID, PathParam(description="The study's id (a UUID).")]
 
 
+def _job(job_id: uuid.UUID, kind: Kind, session: Session, owner: str) -> Study:
+    job = session.exec(
+        select(Study).where(Study.id == job_id, Study.owner == owner, Study.kind == kind)
+    ).first()
+    if job is None:
+        raise HTTPException(status_code=404, detail=f"no {kind.value} {job_id}")
+    return job
+
+
 def get_study(study_id: StudyId, session: SessionDep, owner: OwnerDep) -> Study:
     """The caller's study of the path; 404 when there is none, or it is another token's."""
-    study = session.exec(select(Study).where(Study.id == study_id, Study.owner == owner)).first()
-    if study is None:
-        raise HTTPException(status_code=404, detail=f"no study {study_id}")
-    return study
+    return _job(study_id, Kind.study, session, owner)
 
 
 StudyDep = Annotated[Study, Depends(get_study)]
+
+CalibrationId = Annotated[uuid.UUID, PathParam(description="The calibration's id (a UUID).")]
+
+
+def get_calibration(calibration_id: CalibrationId, session: SessionDep, owner: OwnerDep) -> Study:
+    """The caller's calibration of the path; 404 when there is none, or it is another
+    token's."""
+    return _job(calibration_id, Kind.calibration, session, owner)
+
+
+CalibrationDep = Annotated[Study, Depends(get_calibration)]
 
 
 def get_results(study: StudyDep, settings: SettingsDep) -> Path:

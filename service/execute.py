@@ -23,8 +23,9 @@ from engine.study.plan import plan_runs
 
 from . import checkpoints, transitions
 from .db import engine_for
+from .errors import finite
 from .h5store import NotOurs, write_results
-from .models import Status, Study
+from .models import Kind, Status, Study
 from .pools import run_executor
 from .settings import Settings
 
@@ -49,6 +50,7 @@ class StudyExecution:
         self.done = threading.Event()
         self.known_runs: set[str] = set()  # run keys with a row (added runs get one)
         self.plan: engine.StudyPlan | None = None
+        self.test: engine.UniaxialTest | None = None
 
     # ------------------------------------------------------------------- heartbeat thread
     def beat(self) -> None:
@@ -204,30 +206,7 @@ class StudyExecution:
         beats = threading.Thread(target=self._beat_loop, name="heartbeat", daemon=True)
         beats.start()
         try:
-            plan = self.plan = self.load_plan()
-            self.known_runs.update(p.key for p in plan.runs)
-            with run_executor(self.settings) as pool:
-                # runs in other processes or hosts report and hear a cancel through files in
-                # the study's folder (engine.FileChannel)
-                channel = (
-                    None
-                    if pool is None
-                    else engine.FileChannel(self.settings.study_dir(self.study_id) / "channel")
-                )
-                # a run in flight keeps a checkpoint: after a crash it resumes where it was
-                result = engine.run_study(
-                    plan,
-                    progress=self.progress,
-                    completed=self.stored_runs(plan),
-                    on_run=self.on_run,
-                    options=self.settings.run_options(self.study_id, pool, channel),
-                )
-            write_results(
-                self.settings.results_path(self.study_id),
-                self.study_id,
-                result,
-                still_ours=self._still_ours,
-            )
+            table = self.work()
         except engine.StopRequested:
             return self._stopped(time.perf_counter() - t0)
         except NotOurs:
@@ -253,12 +232,41 @@ class StudyExecution:
             self._finish_beats(beats)
         with Session(self.db) as s:
             ok = transitions.succeed(
-                s, self.study_id, self.worker_id, time.perf_counter() - t0, result.table
+                s, self.study_id, self.worker_id, time.perf_counter() - t0, table
             )
         if ok:
             self.drop_checkpoints()
         log.info("study %s: %s", self.study_id, "succeeded" if ok else "done, but not ours")
         return Status.succeeded if ok else None
+
+    def work(self) -> list[dict]:
+        """Run the study's runs not yet stored and write its results file; returns its
+        result table (each run's steps and wall time)."""
+        plan = self.plan = self.load_plan()
+        self.known_runs.update(p.key for p in plan.runs)
+        with run_executor(self.settings) as pool:
+            # a run in flight keeps a checkpoint: after a crash it resumes where it was
+            result = engine.run_study(
+                plan,
+                progress=self.progress,
+                completed=self.stored_runs(plan),
+                on_run=self.on_run,
+                options=self.settings.run_options(self.study_id, pool, self.channel(pool)),
+            )
+        write_results(
+            self.settings.results_path(self.study_id),
+            self.study_id,
+            result,
+            still_ours=self._still_ours,
+        )
+        return result.table
+
+    def channel(self, pool) -> engine.FileChannel | None:
+        """Runs in other processes or hosts report and hear a cancel through files in the
+        job's folder (engine.FileChannel); None for runs in this process."""
+        if pool is None:
+            return None
+        return engine.FileChannel(self.settings.study_dir(self.study_id) / "channel")
 
     def drop_checkpoints(self) -> None:
         """The study has ended: the checkpoints of runs it left in flight go."""
@@ -285,3 +293,124 @@ class StudyExecution:
                 return Status.cancelled
             log.info("study %s: worker shutting down, back to the queue", self.study_id)
             return Status.queued if transitions.release(s, self.study_id, self.worker_id) else None
+
+
+class CalibrationExecution(StudyExecution):
+    """One attempt at a calibration (a job of kind ``calibration``): :func:`engine.calibrate`
+    on the stored request, every run stored in the job's ``runs/`` folder as it finishes
+    (a resumed attempt finds them; a run in flight starts again), a run row each, then the
+    result (``calibration.json``, written atomically while the job is still ours) and, with
+    ``then_study``, the study of the calibrated law queued as a job of its own."""
+
+    def work(self) -> list[dict]:
+        from engine.calibration import LabTargets
+
+        req = self.spec_dict
+        self.test = engine.UniaxialTest.from_dict(req["test"])
+        targets = LabTargets.from_dict(req["targets"])
+        with run_executor(self.settings) as pool:
+            cal = engine.calibrate(
+                self.test,
+                targets,
+                {k: tuple(v) for k, v in req["parameters"].items()},
+                runs=req["runs"],
+                waves=req["waves"],
+                wave_runs=req["wave_runs"],
+                seed=req["seed"],
+                store=self.settings.runs_dir(self.study_id),
+                progress=self.progress,
+                on_run=self.on_point,
+                options=self.settings.run_options(self.study_id, pool, self.channel(pool)),
+            )
+        summary = cal.to_summary()
+        if req.get("then_study") is not None:
+            summary["then_study"] = self.submit_study(req["then_study"], cal.law)
+        self.write_summary(summary)
+        return []
+
+    def ensure_row(self, key: str) -> None:
+        """A calibration's runs get their rows as they start (or, resumed, as they are found
+        stored): they are chosen wave by wave, not planned."""
+        if key in self.known_runs or self.test is None:
+            return
+        row = {
+            "key": key,
+            "radius": self.test.radius,
+            "seed": self.test.seed,
+            "rule": "calibration",
+            "particles": self.test.n_particles,
+        }
+        with Session(self.db) as s:
+            transitions.add_runs(s, self.study_id, [row])
+        self.known_runs.add(key)
+
+    def on_point(self, index: int, quantities) -> None:
+        """engine.calibrate's on_run: the run (stored by the engine) is marked finished, or
+        failed with its error (left out of the emulators; the calibration goes on)."""
+        key = f"cal-{index:03d}"
+        self.ensure_row(key)
+        failed = isinstance(quantities, str)
+        with Session(self.db) as s:
+            transitions.run_finished(s, self.study_id, key, error=quantities if failed else None)
+
+    def submit_study(self, then: dict, law) -> dict:
+        """Queue the scaling study of the calibrated ``law`` (once: a resumed attempt finds
+        the one it queued); returns its id, or the reason it was refused (the calibrated law
+        may be one the study cannot take, e.g. too soft for its coarse radii)."""
+        from dataclasses import replace
+
+        from .admission import SpecRejected, admit_spec
+        from .jobs import study_rows
+
+        with Session(self.db) as s:
+            have = transitions.child_of(s, self.study_id)
+        if have is not None:
+            return {"id": str(have)}
+        data = {**then, "reference": replace(self.test, pair_law=law).to_dict()}
+        try:
+            admitted = admit_spec(data, self.settings)
+        except SpecRejected as e:
+            return {"id": None, "error": str(e)}
+        with Session(self.db) as s:
+            owner, name = transitions.owner_and_name(s, self.study_id)
+            study, runs = study_rows(
+                admitted, owner, f"{name or 'calibration'}: study", self.study_id
+            )
+            try:  # this calibration still holds its slot: the study may take one more
+                transitions.submit(
+                    s,
+                    study,
+                    runs,
+                    self.settings.max_active + 1,
+                    self.settings.max_active_per_token + 1,
+                )
+            except transitions.QueueFull as e:
+                return {"id": None, "error": f"{e}: submit it again later"}
+        log.info("calibration %s: study %s of the calibrated law queued", self.study_id, study.id)
+        return {"id": str(study.id)}
+
+    def write_summary(self, summary: dict) -> None:
+        """``calibration.json`` of the job, written to a temporary file and renamed into
+        place while the job is still this worker's."""
+        import json
+
+        path = self.settings.calibration_path(self.study_id)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        # strict JSON: a failed check run's NaN values as text (service.errors.finite)
+        tmp.write_text(json.dumps(finite(summary), allow_nan=False, default=_plain_number))
+        if not self._still_ours():
+            tmp.unlink(missing_ok=True)
+            raise NotOurs(self.study_id)
+        os.replace(tmp, path)
+
+
+def _plain_number(value):
+    """numpy scalars as JSON numbers."""
+    return value.item() if hasattr(value, "item") else str(value)
+
+
+def execution_for(settings: Settings, worker_id: str, study: Study, shutdown) -> StudyExecution:
+    """The execution of a claimed job of either kind."""
+    cls = CalibrationExecution if study.kind == Kind.calibration else StudyExecution
+    return cls(settings, worker_id, study, shutdown)

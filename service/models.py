@@ -1,7 +1,12 @@
 """SQLModel classes of the job store, one family per resource (base, table, public).
 
-A study is one submitted :class:`engine.StudySpec`; its runs are the planned runs of the
-spec (the reference of each seed, then every coarse radius x rule). Times are UTC.
+The queue holds jobs of two kinds in one table (``study``), as procrastinate keeps every
+task in one jobs table: a *study* is one submitted :class:`engine.StudySpec`, its runs the
+planned runs of the spec (the reference of each seed, then every coarse radius x rule); a
+*calibration* is one submitted :func:`engine.calibrate` request, its runs the parameter sets
+it has run (a row each as it finishes). Both share the queue, its quotas, claims,
+heartbeats, cancel and resume. A study a calibration submitted when it ended
+(``then_study``) names it in ``parent_id``. Times are UTC.
 """
 
 from __future__ import annotations
@@ -27,6 +32,13 @@ class Status(str, Enum):
 
 #: Statuses a study never leaves.
 TERMINAL = frozenset({Status.succeeded, Status.failed, Status.cancelled})
+
+
+class Kind(str, Enum):
+    """What a job of the queue is."""
+
+    study = "study"
+    calibration = "calibration"
 
 
 def _as_utc(value: datetime | None) -> datetime | None:
@@ -56,12 +68,17 @@ class Study(StudyBase, table=True):
     """A study row: the spec, its status and the worker's bookkeeping."""
 
     id: uuid.UUID = Field(default_factory=uuid.uuid4, primary_key=True)
+    kind: Kind = Field(default=Kind.study, index=True, description="A study or a calibration.")
+    #: The calibration whose ``then_study`` submitted this study (None: submitted by a client).
+    parent_id: uuid.UUID | None = Field(default=None, index=True)
     owner: str = Field(
         default="",
         index=True,
         max_length=16,
         description="Fingerprint of the token that submitted it (service.settings.fingerprint).",
     )
+    #: A study's normalised spec (engine.StudySpec.to_dict); a calibration's normalised
+    #: request (service.admission.admit_calibration).
     spec: dict = Field(sa_column=Column(JSON, nullable=False))
     #: The engine's plan of the spec (engine.StudyPlan.to_dict), made once at submission: the
     #: worker runs it as stored. None for a study stored before plans were (planned then).
@@ -179,3 +196,30 @@ class StudyDetail(StudyPublic):
 
     spec: dict
     runs: list[RunPublic] = []
+
+
+# ------------------------------------------------------------------------------ calibration
+class CalibrationPublic(StudyPublic):
+    """A calibration as the API shows it (progress: runs done of the most it runs)."""
+
+    study_id: uuid.UUID | None = Field(
+        None, description="The study of the calibrated law it submitted (then_study)."
+    )
+
+
+class CalibrationsPublic(SQLModel):
+    """A page of calibrations, newest first."""
+
+    data: list[CalibrationPublic]
+    count: int
+
+
+class CalibrationDetail(CalibrationPublic):
+    """A calibration with its normalised request, its runs and, once it has succeeded, its
+    result (engine.Calibration.to_summary(): the calibrated law, each parameter's median,
+    90 % interval and whether the data determine it, every target met or not, the Sobol
+    indices, every run, the check run's curves)."""
+
+    request: dict
+    runs: list[RunPublic] = []
+    result: dict | None = None

@@ -56,7 +56,17 @@ class Settings(BaseSettings):
     max_particle_steps: float = Field(
         5e10, gt=0, description="Largest worst-case particle-steps of a whole study [-]."
     )
-    max_runs: int = Field(64, gt=0, description="Largest number of runs in a study [-].")
+    max_calibration_particle_steps: float = Field(
+        3e11,
+        gt=0,
+        description="Largest worst-case particle-steps of a whole calibration (each of its "
+        "runs counted as its branches' worst cases) [-].",
+    )
+    max_runs: int = Field(
+        64,
+        gt=0,
+        description="Largest number of runs in a study, or of parameter sets in a calibration [-].",
+    )
     max_curve_samples: int = Field(
         1_000_000,
         gt=0,
@@ -213,6 +223,10 @@ class Settings(BaseSettings):
     def results_path(self, study_id: object) -> Path:
         """The HDF5 file of one study."""
         return self.study_dir(study_id) / "results.h5"
+
+    def calibration_path(self, study_id: object) -> Path:
+        """The result of one calibration (engine.Calibration.to_summary() as JSON)."""
+        return self.study_dir(study_id) / "calibration.json"
 
     def snapshots_dir(self, study_id: object) -> Path:
         """ParaView snapshots and PNG sections of one study's runs, one folder per run."""

@@ -34,6 +34,7 @@ from pydantic import (
 )
 
 import engine
+from engine.calibration import CALIBRATED, LabTargets
 from engine.core.records import ParamInfo, describe
 from engine.study.spec import NAMED_RULES
 from engine.uniaxial.spec import PRESETS
@@ -290,3 +291,93 @@ StudyCreate = create_model(
     ),
     **_study_fields,
 )
+
+
+# ------------------------------------------------------------------------------ calibration
+#: Most design runs, waves and runs per wave a calibration takes (60 runs in all by default
+#: make the issue's "within 60 runs" plan: 25 + 2 x 15 + the check run).
+MAX_CALIBRATION_RUNS = 60
+MAX_WAVES = 4
+MAX_WAVE_RUNS = 30
+
+#: A parameter's box: (low, high) in the law's units.
+Box = Annotated[
+    list[Annotated[float, Field(strict=True, allow_inf_nan=False)]],
+    Field(min_length=2, max_length=2, description="(low, high) in the law's units"),
+]
+CalibratedName = Literal[tuple(CALIBRATED)]
+
+_then_fields = {k: v for k, v in _study_fields.items() if k != "reference"}
+ThenStudyIn = create_model(
+    "ThenStudyIn",
+    __config__=_forbid,
+    __doc__="The scaling study of the calibrated law (engine.StudySpec's fields but the "
+    "reference, which is the calibration's test with the calibrated law).",
+    **_then_fields,
+)
+
+CALIBRATION_EXAMPLE = {
+    "name": "my powder",
+    "test": {"preset": "quick"},
+    "targets": {
+        "tester": "uniaxial",
+        "loading_stiffness": 1.2e6,
+        "loading_stiffness_sd": 1.0e5,
+        "strength": [{"consolidation_stress": 2e4, "strength": 3.0e3, "sd": 400.0}],
+    },
+    "parameters": {"k1": [3e3, 2e4], "f0": [-1e-3, -1e-5]},
+    "runs": 12,
+    "waves": 1,
+    "wave_runs": 8,
+}
+
+
+class CalibrationCreate(BaseModel):
+    """A calibration to run (the body of ``POST /calibrations``): the test whose pair law is
+    calibrated, the laboratory targets, the parameters and their boxes, the design's size
+    and, optionally, the scaling study of the calibrated law that follows."""
+
+    model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [CALIBRATION_EXAMPLE]})
+
+    name: str | None = Field(None, max_length=NAME_MAX_LENGTH, strict=True, description="A label.")
+    test: ReferenceIn = Field(  # type: ignore[valid-type]
+        {"preset": "quick"},
+        description="the uniaxial test whose pair law is calibrated (a preset and/or fields)",
+    )
+    targets: record_model(LabTargets) = Field(  # type: ignore[valid-type]
+        ..., description="the laboratory data (engine.calibration.LabTargets)"
+    )
+    parameters: dict[CalibratedName, Box] = Field(
+        ...,
+        min_length=1,
+        max_length=len(CALIBRATED),
+        description="law parameters to calibrate and their (low, high) boxes",
+    )
+    runs: int = Field(
+        25,
+        strict=True,
+        ge=3,
+        le=MAX_CALIBRATION_RUNS,
+        description="runs of the space-filling design (at least parameters + 2)",
+    )
+    waves: int = Field(
+        2, strict=True, ge=0, le=MAX_WAVES, description="history-matching waves after the design"
+    )
+    wave_runs: int = Field(
+        15, strict=True, ge=1, le=MAX_WAVE_RUNS, description="runs per wave (at most)"
+    )
+    seed: int = Field(0, strict=True, ge=0, le=2**31 - 1, description="the design's random seed")
+    then_study: ThenStudyIn | None = Field(  # type: ignore[valid-type]
+        None,
+        description="a scaling study of the calibrated law, submitted when the calibration "
+        "succeeds (its reference: the test with the calibrated law)",
+    )
+
+    def engine_dict(self) -> dict:
+        """The request as :func:`service.admission.admit_calibration` takes it (what the
+        client set; defaults filled in for the design's size)."""
+        out = self.model_dump(exclude_unset=True, exclude={"name"})
+        for k in ("runs", "waves", "wave_runs", "seed"):
+            out.setdefault(k, getattr(self, k))
+        out.setdefault("test", {"preset": "quick"})
+        return out

@@ -143,6 +143,18 @@ def remove(session: Session, study_id: uuid.UUID) -> bool:
     return gone
 
 
+def child_of(session: Session, job_id: uuid.UUID) -> uuid.UUID | None:
+    """The study a calibration queued when it ended (``parent_id``), if any."""
+    stmt = select(Study.id).where(Study.parent_id == job_id).limit(1)
+    return session.execute(stmt).scalar()
+
+
+def owner_and_name(session: Session, job_id: uuid.UUID) -> tuple[str, str | None]:
+    """The owner and name of a job."""
+    row = session.execute(select(Study.owner, Study.name).where(Study.id == job_id)).one()
+    return row[0], row[1]
+
+
 # ------------------------------------------------------------------------------- worker side
 def claim_next(session: Session, worker_id: str) -> Study | None:
     """Claim the oldest queued study for ``worker_id`` (attempts + 1); None if none is queued.

@@ -4,6 +4,9 @@ little JavaScript that polls the JSON API for live progress. No build step.
     /                          the caller's studies, newest first: status and live progress
     /studies/{id}/page         one study: progress, verdicts, the summary table, the plots
                                and links to the HDF5 file and the JSON endpoints
+    /calibrations/{id}/page    one calibration: progress, each parameter and how well the
+                               data determine it, the targets met, the compression curve and
+                               flow function against the lab points, the Sobol indices
     /login, /logout            the API token kept in a cookie (service.weblogin)
 
 The pages read the same database and result files as the API and, like it, show a token only
@@ -15,16 +18,18 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from fastapi import APIRouter, Request
+from fastapi import APIRouter, HTTPException, Request
 from fastapi.responses import HTMLResponse
 from fastapi.templating import Jinja2Templates
 from sqlmodel import select
 
 from engine.io.figures import KINDS
 
-from . import h5store
-from .deps import OwnerDep, SessionDep, SettingsDep, StudyDep
-from .models import TERMINAL, Run, Status, Study
+from . import h5store, transitions
+from .deps import CalibrationDep, OwnerDep, SessionDep, SettingsDep, StudyDep
+from .models import TERMINAL, Kind, Run, Status, Study
+from .routes.calibrations import public as calibration_public
+from .routes.calibrations import read_result as read_calibration
 from .routes.studies import public
 
 router = APIRouter(include_in_schema=False)
@@ -63,11 +68,52 @@ def cell(value, scale: float | None, fmt: str) -> str:
 @router.get("/", response_class=HTMLResponse)
 def studies_page(request: Request, session: SessionDep, owner: OwnerDep) -> HTMLResponse:
     """The caller's studies, newest first (the latest 200)."""
-    rows = session.exec(
-        select(Study).where(Study.owner == owner).order_by(Study.created_at.desc()).limit(200)
-    ).all()
+
+    def latest(kind: Kind) -> list[Study]:
+        return session.exec(
+            select(Study)
+            .where(Study.owner == owner, Study.kind == kind)
+            .order_by(Study.created_at.desc())
+            .limit(200)
+        ).all()
+
     return templates.TemplateResponse(
-        request, "studies.html", {"studies": [public(s) for s in rows], "terminal": TERMINAL}
+        request,
+        "studies.html",
+        {
+            "studies": [public(s) for s in latest(Kind.study)],
+            "calibrations": [calibration_public(c, session) for c in latest(Kind.calibration)],
+            "terminal": TERMINAL,
+        },
+    )
+
+
+@router.get("/calibrations/{calibration_id}/page", response_class=HTMLResponse)
+def calibration_page(
+    request: Request, job: CalibrationDep, session: SessionDep, settings: SettingsDep
+) -> HTMLResponse:
+    """One calibration: progress while it runs; parameters, targets, the figure and the
+    sensitivities once done."""
+    runs = session.exec(select(Run).where(Run.study_id == job.id).order_by(Run.position)).all()
+    result, missing = None, None
+    if job.status is Status.succeeded:
+        try:
+            result = read_calibration(job, settings)
+        except HTTPException as e:
+            missing = e.detail
+    return templates.TemplateResponse(
+        request,
+        "calibration.html",
+        {
+            "job": calibration_public(job, session),
+            "request": job.spec,
+            "runs": runs,
+            "result": result,
+            "missing": missing,
+            "study_id": transitions.child_of(session, job.id),
+            "terminal": TERMINAL,
+            "fmt": cell,
+        },
     )
 
 

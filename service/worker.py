@@ -22,7 +22,7 @@ from sqlmodel import Session
 
 from . import checkpoints, transitions
 from .db import engine_for
-from .execute import StudyExecution
+from .execute import StudyExecution, execution_for
 from .models import Status, utcnow
 from .settings import Settings, get_settings, secure_data_dir
 
@@ -94,8 +94,14 @@ class Worker:
             if study is None:
                 self.shutdown.wait(self.settings.poll_interval)
                 continue
-            log.info("worker %s: claimed study %s (attempt %d)", self.id, study.id, study.attempts)
-            self.current = StudyExecution(self.settings, self.id, study, self.shutdown)
+            log.info(
+                "worker %s: claimed %s %s (attempt %d)",
+                self.id,
+                study.kind.value,
+                study.id,
+                study.attempts,
+            )
+            self.current = execution_for(self.settings, self.id, study, self.shutdown)
             try:
                 self.current.run()
             finally:

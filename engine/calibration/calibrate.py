@@ -30,6 +30,7 @@ engine):
 from __future__ import annotations
 
 import concurrent.futures as cf
+import dataclasses
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -74,9 +75,10 @@ def _axes(base_law, parameters: dict) -> list[_Axis]:
     if not parameters:
         raise ParameterError("calibrate.parameters", parameters, "at least one law parameter")
     out = []
+    fields = {f.name for f in dataclasses.fields(base_law)}
     for name, box in parameters.items():
-        if name not in CALIBRATED or not hasattr(base_law, name):
-            have = [p for p in CALIBRATED if hasattr(base_law, p)]
+        if name not in CALIBRATED or name not in fields:
+            have = [p for p in CALIBRATED if p in fields]
             raise ParameterError(f"calibrate.parameters.{name}", name, f"one of {have}")
         try:
             lo, hi = (float(v) for v in box)
@@ -314,6 +316,34 @@ def _floor_log(values: np.ndarray, lab: np.ndarray) -> np.ndarray:
     return np.log(np.maximum(values, 1e-3 * lab))
 
 
+def check_request(
+    base_test: UniaxialTest, targets: LabTargets, parameters: dict, runs: int
+) -> tuple[float, ...]:
+    """Check a calibration request without running anything; returns the consolidation
+    stresses its runs branch at [Pa]. Raises :class:`engine.ParameterError` naming the
+    field: targets that are not a :class:`LabTargets`, a parameter the law has not or a bad
+    box, too few design runs, strength targets from a test without the unconfined stage, a
+    consolidation stress at or below the test's ``pre_stress``."""
+    if not isinstance(targets, LabTargets):
+        raise ParameterError("calibrate.targets", type(targets).__name__, "an engine LabTargets")
+    axes = _axes(base_test.pair_law, parameters)
+    if runs < len(axes) + 2:
+        raise ParameterError("calibrate.runs", runs, f">= {len(axes) + 2} (parameters + 2)")
+    if targets.strength and not base_test.unconfined:
+        raise ParameterError(
+            "UniaxialTest.unconfined", False, "True (strength targets need the unconfined stage)"
+        )
+    stresses = branch_stresses(base_test, targets)
+    for k, p in enumerate(targets.strength):
+        if p.consolidation_stress <= base_test.pre_stress:
+            raise ParameterError(
+                f"LabTargets.strength[{k}].consolidation_stress",
+                p.consolidation_stress,
+                f"> the test's pre_stress = {base_test.pre_stress:g} Pa",
+            )
+    return stresses
+
+
 def calibration_runs(runs: int, waves: int, wave_runs: int) -> int:
     """The most parameter sets a calibration runs: its design, its waves and the check run
     (a wave may run fewer where few parameter sets are left)."""
@@ -357,17 +387,13 @@ def calibrate(
     from ..core.errors import StopRequested
     from ..study.run import RunOptions, StudyProgress
 
-    if not isinstance(targets, LabTargets):
-        raise ParameterError("calibrate.targets", type(targets).__name__, "an engine LabTargets")
+    stresses = check_request(base_test, targets, parameters, runs)
     options = options if options is not None else RunOptions()
     if executor is not None:
         options = replace(options, executor=executor)
     limit = (options.max_run_wall_time, options.wall_time_setting)
     law0 = base_test.pair_law
     axes = _axes(law0, parameters)
-    if runs < len(axes) + 2:
-        raise ParameterError("calibrate.runs", runs, f">= {len(axes) + 2} (parameters + 2)")
-    stresses = branch_stresses(base_test, targets)
     total = calibration_runs(runs, waves, wave_runs)
     rng = np.random.default_rng(seed)
     d = len(axes)
@@ -387,8 +413,9 @@ def calibrate(
                 options.channel.request_stop()
             raise StopRequested(f"calibration stopped during run {key}")
 
-    def execute(tests: list, keys: list[str], first: int) -> dict[int, dict | str]:
-        """Run ``tests`` (not stored), each stored as it ends; index -> outcome."""
+    def execute(tests: list, keys: list[str], first: int, finished=None) -> dict[int, dict | str]:
+        """Run ``tests`` (not stored), each stored as it ends and then told to
+        ``finished(index, outcome)``; index -> outcome."""
         out: dict[int, dict | str] = {}
         if options.executor is None:
             for i, (k, t) in enumerate(zip(keys, tests)):
@@ -400,6 +427,8 @@ def calibrate(
                 here(_setup_progress())
                 out[i] = _run_point(t, stresses, k, None, limit, options.backend, None, here)
                 _save_point(folder, k, out[i], t)
+                if finished is not None:
+                    finished(i, out[i])
             return out
         channel = options.channel
         if channel is not None:
@@ -429,6 +458,8 @@ def calibrate(
                     i = futs[f]
                     out[i] = f.result()  # a stop (StopRequested) or a broken pool: raised
                     _save_point(folder, keys[i], out[i], tests[i])
+                    if finished is not None:
+                        finished(i, out[i])
                     ask((first + len(out)) / total, first + i, keys[i], "done", 0.0)
                 if channel is not None and pending and not fin:
                     seen = channel.read()
@@ -457,16 +488,30 @@ def calibrate(
         start = len(done) + len(failed)
         keys = [f"cal-{start + i:03d}" for i in range(len(us))]
         outcomes: dict[int, dict | str] = {}
+        measured: dict[int, list[dict]] = {}
+
+        def heard(i: int, outcome) -> None:
+            # each run is measured and told to on_run as soon as it is stored (or found)
+            outcomes[i] = outcome
+            if not isinstance(outcome, str):
+                measured[i] = measure(outcome, base_test, targets)
+            if on_run is not None:
+                on_run(start + i, outcome if isinstance(outcome, str) else measured[i])
+
         todo = []
         for i, (k, t) in enumerate(zip(keys, tests)):
             stored = _load_point(folder, k, stresses, t)
             if stored is not None:
-                outcomes[i] = stored
+                heard(i, stored)
             else:
                 todo.append(i)
-        ran = execute([tests[i] for i in todo], [keys[i] for i in todo], start + len(outcomes))
-        outcomes.update({todo[i]: o for i, o in ran.items()})
-        for i in range(len(us)):
+        execute(
+            [tests[i] for i in todo],
+            [keys[i] for i in todo],
+            start + len(outcomes),
+            lambda j, outcome: heard(todo[j], outcome),
+        )
+        for i in range(len(us)):  # in the wave's order, however the runs ended
             if isinstance(outcomes[i], str):  # failed: left out of the emulators
                 failed.append(
                     {
@@ -475,13 +520,8 @@ def calibrate(
                         "error": outcomes[i],
                     }
                 )
-                if on_run is not None:
-                    on_run(start + i, outcomes[i])
-                continue
-            q = measure(outcomes[i], base_test, targets)
-            done.append((us[i], q, wave))
-            if on_run is not None:
-                on_run(start + i, q)
+            else:
+                done.append((us[i], measured[i], wave))
 
     run_wave(_maximin(rng, runs, d, ok), 0)
     if len(done) < d + 2:
@@ -668,5 +708,6 @@ __all__ = [
     "branch_stresses",
     "calibrate",
     "calibration_runs",
+    "check_request",
     "measure",
 ]

@@ -139,14 +139,19 @@ class HertzMindlin:
         |F_t| \le \mu F_n
 
     Attributes:
-        E: Young's modulus of the particle material [Pa], > 0.
+        E: Young's modulus of the particle material [Pa], >= 1 (below that its shear modulus underflows).
         nu: Poisson's ratio of the particle material [-], in (-1, 0.5).
         restitution: coefficient of restitution [-], in (0, 1].
         mu: sliding friction coefficient [-], >= 0.
         mu_r: rolling friction coefficient [-], >= 0 (constant directional torque).
     """
 
-    E: float = param(unit="Pa", doc="Young's modulus of the particle material", gt=0)
+    E: float = param(
+        unit="Pa",
+        doc="Young's modulus of the particle material (>= 1 Pa: below that no solid, and "
+        "its shear modulus underflows)",
+        ge=1.0,
+    )
     nu: float = param(0.25, unit="1", doc="Poisson's ratio of the particle material", gt=-1, lt=0.5)
     restitution: float = param(0.4, unit="1", doc="coefficient of restitution", gt=0, le=1)
     mu: float = param(0.3, unit="1", doc="sliding friction coefficient", ge=0)

@@ -12,11 +12,13 @@ class WallMaterial:
     """Elastic properties of a wall (platen) for the Hertz-Mindlin wall law.
 
     Attributes:
-        E: Young's modulus [Pa], > 0 (steel: 2e11).
+        E: Young's modulus [Pa], >= 1 (steel: 2e11).
         nu: Poisson's ratio [-], in (-1, 0.5).
     """
 
-    E: float = param(2e11, unit="Pa", doc="Young's modulus of the wall", gt=0)
+    E: float = param(
+        2e11, unit="Pa", doc="Young's modulus of the wall (>= 1 Pa, as a particle's)", ge=1.0
+    )
     nu: float = param(0.3, unit="1", doc="Poisson's ratio of the wall", gt=-1, lt=0.5)
 
     def __post_init__(self) -> None:

@@ -10,12 +10,14 @@ from fastapi.exceptions import RequestValidationError
 from sqlmodel import func, select
 
 from .. import transitions
-from ..admission import SpecRejected, admit
+from ..admission import Admitted, SpecRejected, admit
 from ..cost import output_bytes, stored_bytes
 from ..cost import worst_case as cost_of
 from ..deps import OwnerDep, SessionDep, SettingsDep, StudyDep
 from ..errors import answers
+from ..jobs import calibration_bytes, study_rows
 from ..models import (
+    Kind,
     Run,
     RunPublic,
     Status,
@@ -61,14 +63,21 @@ def check_storage(session, settings, owner: str, new_id, new_bytes: float) -> No
     yet to write) plus the worst-case size of the new one (``new_id``, already inserted in
     this transaction: two submissions cannot both slip under the quota)."""
     rows = session.exec(
-        select(Study.id, Study.status, Study.spec).where(Study.owner == owner, Study.id != new_id)
+        select(Study.id, Study.status, Study.spec, Study.kind).where(
+            Study.owner == owner, Study.id != new_id
+        )
     ).all()
     used = 0.0
-    for sid, status, spec in rows:
+    for sid, status, spec, kind in rows:
         held = stored_bytes([settings.study_dir(sid)])
         if status in (Status.queued, Status.running):
             try:
-                held = max(held, output_bytes(cost_of(spec)))
+                worst = (
+                    calibration_bytes(spec)
+                    if kind == Kind.calibration
+                    else output_bytes(cost_of(spec))
+                )
+                held = max(held, worst)
             except Exception:  # a spec stored by an older version: what it holds now
                 pass
         used += held
@@ -76,9 +85,10 @@ def check_storage(session, settings, owner: str, new_id, new_bytes: float) -> No
     if used + new_bytes > limit:
         raise HTTPException(
             status_code=507,
-            detail=f"this token's studies take up to {used / 1e6:.1f} MB and this one could "
-            f"take {new_bytes / 1e6:.1f} MB more; the limit is {limit / 1e6:.1f} MB per token "
-            "(DEMSCALE_MAX_STORAGE_PER_TOKEN): delete finished studies first",
+            detail=f"this token's studies and calibrations take up to {used / 1e6:.1f} MB "
+            f"and this one could take {new_bytes / 1e6:.1f} MB more; the limit is "
+            f"{limit / 1e6:.1f} MB per token (DEMSCALE_MAX_STORAGE_PER_TOKEN): "
+            "delete finished studies or calibrations first",
         )
 
 
@@ -113,29 +123,7 @@ def submit_study(
         plan, costs = admit(body, settings)  # the study's one planning
     except SpecRejected as e:
         raise RequestValidationError(e.errors) from e
-    spec, planned = plan.spec, plan.runs
-    study = Study(
-        owner=owner,
-        name=body.name,
-        spec=spec.to_dict(),
-        plan=plan.to_dict(),  # what the worker runs
-        n_runs=len(planned),
-        max_particles=plan.max_particles(),
-        # the worst case its bounds allow, as admitted
-        estimated_particle_steps=sum(c.particle_steps for c in costs),
-    )
-    runs = [
-        Run(
-            study_id=study.id,
-            key=p.key,
-            position=i,
-            radius=p.radius,
-            seed=p.seed,
-            rule=p.label,
-            particles=p.test.n_particles,
-        )
-        for i, p in enumerate(planned)
-    ]
+    study, runs = study_rows(Admitted(plan, costs), owner, body.name)
     try:
         study = transitions.submit(
             session,
@@ -165,13 +153,10 @@ def list_studies(
 ) -> StudiesPublic:
     """This token's studies, newest first, with status and progress; ``count`` is their
     total."""
-    count = session.exec(select(func.count()).select_from(Study).where(Study.owner == owner)).one()
+    mine = (Study.owner == owner, Study.kind == Kind.study)
+    count = session.exec(select(func.count()).select_from(Study).where(*mine)).one()
     rows = session.exec(
-        select(Study)
-        .where(Study.owner == owner)
-        .order_by(Study.created_at.desc())
-        .offset(offset)
-        .limit(limit)
+        select(Study).where(*mine).order_by(Study.created_at.desc()).offset(offset).limit(limit)
     ).all()
     return StudiesPublic(data=[public(s) for s in rows], count=count)
 

@@ -1,4 +1,5 @@
-// live progress: poll the study while it is queued or running; reload when it ends
+// live progress: poll the study (or calibration: data-url) while it is queued or running;
+// reload when it ends
 // (a file of its own: the page's Content-Security-Policy allows no inline script)
 (function () {
   const box = document.getElementById("progress");
@@ -6,7 +7,8 @@
   if (terminal.has(box.dataset.status)) return;
   async function poll() {
     try {
-      const resp = await fetch("/studies/" + encodeURIComponent(box.dataset.id), {headers: {Accept: "application/json"}});
+      const url = box.dataset.url || "/studies/" + encodeURIComponent(box.dataset.id);
+      const resp = await fetch(url, {headers: {Accept: "application/json"}});
       if (!resp.ok) throw new Error("HTTP " + resp.status);
       const s = await resp.json();
       if (terminal.has(s.status)) { location.reload(); return; }

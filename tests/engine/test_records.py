@@ -82,6 +82,9 @@ def test_a_law_field_carries_its_type_and_a_record_field_does_not():
         ({"wall_law": {"type": "BilinearAdhesive", "k1": 1, "k2": 1}}, "UniaxialTest.wall_law"),
         ({"cell": "big"}, "UniaxialTest.cell"),
         ({"colour": "red"}, "UniaxialTest"),
+        # a modulus whose shear modulus underflows to 0 (it was a ZeroDivisionError)
+        ({"wall_material": {"E": 5e-324, "nu": 0.3}}, "WallMaterial.E"),
+        ({"wall_law": {"type": "HertzMindlin", "E": 5e-324}}, "HertzMindlin.E"),
     ],
 )
 def test_bad_json_is_refused_naming_the_field(change, field):

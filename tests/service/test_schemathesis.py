@@ -9,7 +9,8 @@ No engine run is started: no worker runs, and admission caps the runs at 3,000 p
 its packing) stay quick. Valid-by-schema studies may still be refused with 422 by the
 engine's cross-field rules (e.g. consolidation_stress > pre_stress), which a JSON schema
 cannot state, or by the size caps: that is the one 422 counted as an acceptance, and only
-for ``POST /studies``. Set DEMSCALE_SCHEMATHESIS_LOG=<file> to log each request's
+for ``POST /studies`` and ``POST /calibrations`` (whose engine rules, e.g. runs >= parameters
++ 2, a schema cannot state either). Set DEMSCALE_SCHEMATHESIS_LOG=<file> to log each request's
 operation, generation mode and status.
 """
 
@@ -59,21 +60,35 @@ with TestClient(APP, headers=AUTH) as _client:
     assert _r.status_code == 202, _r.text
     #: A real (queued) study, so that the study routes answer more than 404.
     STUDY_ID = _r.json()["id"]
+    _r = _client.post(
+        "/calibrations",
+        json={
+            "test": TINIEST["reference"],
+            "targets": {"tester": "uniaxial", "loading_stiffness": 1e6},
+            "parameters": {"k1": [3e3, 2e4]},
+            "runs": 3,
+            "waves": 0,
+        },
+    )
+    assert _r.status_code == 202, _r.text
+    #: A real (queued) calibration, for the calibration routes.
+    CALIBRATION_ID = _r.json()["id"]
 
 CONFIG = SchemathesisConfig.from_dict(
     {
         "headers": {"Authorization": f"Bearer {TOKEN}"},
         "generation": {"mode": "all", "max-examples": MAX_EXAMPLES},
-        "parameters": {"study_id": STUDY_ID},
+        "parameters": {"study_id": STUDY_ID, "calibration_id": CALIBRATION_ID},
         "operations": [
             {
-                "include-name": "POST /studies",
+                "include-name": name,
                 "checks": {
                     "positive_data_acceptance": {
                         "expected-statuses": ["202", "401", "422", "429", "507"]
                     }
                 },
             }
+            for name in ("POST /studies", "POST /calibrations")
         ],
     }
 )

@@ -1,4 +1,5 @@
-"""A per-token rate limit on submissions (``POST /studies``), refused ones included: each
+"""A per-token rate limit on submissions (``POST /studies`` and ``POST /calibrations``, one
+bucket for both), refused ones included: each
 costs the server the admission's work, a refused one as much as an accepted one.
 
 A token bucket per token fingerprint: ``submit_burst`` submissions at once, refilled at
@@ -15,6 +16,8 @@ import time
 
 from .guard import _answer
 
+#: The submissions the limit counts.
+SUBMIT_PATHS = frozenset({"/studies", "/calibrations"})
 #: Buckets kept at most (least recently used dropped): bounded memory whatever the tokens.
 MAX_BUCKETS = 10_000
 
@@ -48,7 +51,7 @@ class Buckets:
 
 class SubmitRateLimit:
     """ASGI middleware inside :class:`service.guard.Guard` (the owner is known): 429 with
-    ``Retry-After`` for a ``POST /studies`` beyond the token's rate."""
+    ``Retry-After`` for a submission (:data:`SUBMIT_PATHS`) beyond the token's rate."""
 
     def __init__(self, app, per_minute: float, burst: int):
         self.app = app
@@ -58,7 +61,7 @@ class SubmitRateLimit:
         if (
             scope["type"] == "http"
             and scope["method"] == "POST"
-            and scope["path"].rstrip("/") == "/studies"
+            and scope["path"].rstrip("/") in SUBMIT_PATHS
         ):
             owner = scope.get("state", {}).get("owner")
             if owner is not None:

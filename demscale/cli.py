@@ -595,6 +595,12 @@ def parser() -> argparse.ArgumentParser:
         "--then-study", action="store_true", help="then a scaling study of the calibrated law"
     )
     p.add_argument("--study", metavar="SPEC.json", help="with --then-study: its radii and rules")
+    p.add_argument(
+        "--resolution",
+        metavar="SUMMARY.json",
+        help="correct the cell's values to the bulk by the resolution curve of a study whose "
+        "reference is this test (its summary.json), or by {kind: [factor, sd of log]}",
+    )
     p.set_defaults(func=calibrate_cmd)
 
     p = sub.add_parser(
@@ -690,6 +696,11 @@ Every run is stored in DIR/runs as it finishes, and a rerun finds them. Writes:
 
 With --then-study, a scaling study of the calibrated law follows (its coarse radii and
 rules: --study SPEC.json, else the default study's), written to DIR/study.
+
+Laboratory values are bulk values; a small cell loses some of each property (the
+resolution curve of a study with controls says how much). --resolution SUMMARY.json
+corrects each run's values to the bulk by the curve of a study whose reference is TEST.json
+(docs/CALIBRATION.md), so that the law does not absorb the cell's loss.
 """
 
 EXPORT_HELP = """\
@@ -709,6 +720,21 @@ def _law_from_json(raw):
 
     body = dict(raw)
     return from_dict(laws[body.pop("type")], body)
+
+
+def _resolution(raw) -> dict:
+    """--resolution: a study's summary.json (its advisor's resolution curve), or the
+    corrections themselves ({kind: [factor, sd of its log]})."""
+    from engine.calibration.calibrate import resolution_corrections
+
+    if isinstance(raw, dict) and "advisor" in raw:
+        curve = (raw["advisor"] or {}).get("resolution_curve")
+        if not curve:
+            raise ValueError("--resolution: the study has no resolution curve (no controls)")
+        return resolution_corrections(curve)
+    if not isinstance(raw, dict):
+        raise ValueError("--resolution: a study's summary.json or {kind: [factor, sd]}")
+    return raw
 
 
 def _param_box(text: str) -> tuple[str, tuple[float, float]]:
@@ -739,6 +765,9 @@ def calibrate_cmd(args) -> int:
         boxes = dict(_param_box(p) for p in args.param)
         if not boxes:
             raise ValueError("give the parameters to calibrate: --param k1=3e3:2e4 ...")
+        resolution = None
+        if args.resolution:
+            resolution = _resolution(json.loads(Path(args.resolution).read_text()))
     except (OSError, json.JSONDecodeError) as e:
         print(f"cannot read the input: {e}", file=sys.stderr)
         return 2
@@ -770,6 +799,7 @@ def calibrate_cmd(args) -> int:
             store=out / "runs",
             executor=pool,
             on_run=on_run,
+            resolution=resolution,
         )
     except engine.ParameterError as e:
         print(f"not valid: {e}", file=sys.stderr)

@@ -319,7 +319,11 @@ def admit_calibration(body, settings: Settings) -> AdmittedCalibration:
     worst; a then-study is admitted as a study would be, with the uncalibrated law); raises
     :class:`SpecRejected` with the field otherwise."""
     from engine.calibration import LabTargets
-    from engine.calibration.calibrate import calibration_runs, check_request
+    from engine.calibration.calibrate import (
+        calibration_runs,
+        check_corrections,
+        check_request,
+    )
 
     data = body.engine_dict()
     total = calibration_runs(data["runs"], data["waves"], data["wave_runs"])
@@ -346,6 +350,7 @@ def admit_calibration(body, settings: Settings) -> AdmittedCalibration:
         targets = LabTargets.from_dict(data["targets"])
         params = {k: tuple(v) for k, v in data["parameters"].items()}
         stresses = check_request(test, targets, params, data["runs"])
+        corrections = check_corrections(data.get("resolution"))
         for sv in stresses:  # each branch a test the engine can run
             replace(test, consolidation_stress=sv)
         costs = calibration_costs(test, stresses, total)
@@ -366,6 +371,7 @@ def admit_calibration(body, settings: Settings) -> AdmittedCalibration:
         "targets": targets.to_dict(),
         "parameters": {k: list(v) for k, v in params.items()},
         **{k: data[k] for k in ("runs", "waves", "wave_runs", "seed")},
+        "resolution": {k: list(v) for k, v in corrections.items()} or None,
         "then_study": None,
     }
     then_costs: list[cost.RunCost] = []

@@ -317,6 +317,7 @@ class CalibrationExecution(StudyExecution):
                 waves=req["waves"],
                 wave_runs=req["wave_runs"],
                 seed=req["seed"],
+                resolution=req.get("resolution"),
                 store=self.settings.runs_dir(self.study_id),
                 progress=self.progress,
                 on_run=self.on_point,

@@ -35,6 +35,7 @@ from pydantic import (
 
 import engine
 from engine.calibration import CALIBRATED, LabTargets
+from engine.calibration.calibrate import CORRECTED_BY
 from engine.core.records import ParamInfo, describe
 from engine.study.spec import NAMED_RULES
 from engine.uniaxial.spec import PRESETS
@@ -367,6 +368,21 @@ class CalibrationCreate(BaseModel):
         15, strict=True, ge=1, le=MAX_WAVE_RUNS, description="runs per wave (at most)"
     )
     seed: int = Field(0, strict=True, ge=0, le=2**31 - 1, description="the design's random seed")
+    resolution: (
+        dict[
+            Literal[tuple(CORRECTED_BY)],
+            Annotated[
+                list[Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0)]],
+                Field(min_length=2, max_length=2),
+            ],
+        ]
+        | None
+    ) = Field(
+        None,
+        description="the test's cell is not the bulk: per kind of target, [factor, sd of its "
+        "log] taking the cell's value to the bulk's (e.g. from the resolution curve of a "
+        "study whose reference is this test; docs/CALIBRATION.md)",
+    )
     then_study: ThenStudyIn | None = Field(  # type: ignore[valid-type]
         None,
         description="a scaling study of the calibrated law, submitted when the calibration "

@@ -262,3 +262,10 @@ def test_calibrate_then_export(tmp_path, capsys):
     # a box the law cannot take is refused with the field named
     assert main([*argv[:-6], "--param", "E=1:2", "--out", str(out)]) == 2
     assert "calibrate.parameters.E" in capsys.readouterr().err
+    # --resolution: a study without controls has no curve to correct by; a bad kind is named
+    (tmp_path / "study.json").write_text(json.dumps({"advisor": {"resolution_curve": None}}))
+    assert main([*argv, "--resolution", str(tmp_path / "study.json")]) == 2
+    assert "no resolution curve" in capsys.readouterr().err
+    (tmp_path / "res.json").write_text(json.dumps({"k0": [1.0, 0.1]}))
+    assert main([*argv, "--resolution", str(tmp_path / "res.json")]) == 2
+    assert "calibrate.resolution.k0" in capsys.readouterr().err

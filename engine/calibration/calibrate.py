@@ -186,6 +186,86 @@ def measure(results: dict, base: UniaxialTest, targets: LabTargets) -> list[dict
     return out
 
 
+#: The resolution-curve property (engine.study.resolution) that corrects each kind of target
+#: (a target's name up to its "@"); K0 has none.
+CORRECTED_BY = {
+    "porosity": "density",
+    "loading_stiffness": "loading_stiffness",
+    "unloading_stiffness": "unloading_stiffness",
+    "strength": "strength",
+}
+
+
+def resolution_corrections(curve: dict) -> dict[str, tuple[float, float]]:
+    """Corrections for a calibration run in a study's reference cell, from that study's
+    resolution curve (``StudyResult.advisor()["resolution_curve"]``, or its summary's): per
+    kind of target, the factor bulk / cell value, 1 / (1 + the reference's offset from the
+    bulk), and the standard deviation of its logarithm (from the offset's interval and its
+    degrees of freedom). Only properties the curve has are corrected."""
+    from ..study.intervals import t_quantile
+
+    conf = float(curve.get("confidence", 0.95))
+    out = {}
+    for kind, metric in CORRECTED_BY.items():
+        c = curve.get("metrics", {}).get(metric)
+        if c is None:
+            continue
+        lo, hi = c["reference_offset_interval"]
+        df = c.get("reference_offset_df", math.inf)
+        q = t_quantile(0.5 + conf / 2, df) if math.isfinite(df) else 1.959963984540054
+        sd = (math.log1p(hi) - math.log1p(lo)) / (2 * q) if q > 0 else math.inf
+        out[kind] = (1.0 / (1.0 + c["reference_offset"]), sd)
+    return out
+
+
+def check_corrections(resolution: dict | None) -> dict:
+    """``resolution`` of :func:`calibrate` checked: kind -> (factor > 0, sd >= 0); raises
+    :class:`engine.ParameterError` naming the kind."""
+    if resolution is None:
+        return {}
+    out = {}
+    for kind, pair in resolution.items():
+        if kind not in CORRECTED_BY:
+            raise ParameterError(
+                f"calibrate.resolution.{kind}", kind, f"one of {list(CORRECTED_BY)}"
+            )
+        try:
+            factor, sd = (float(v) for v in pair)
+        except (TypeError, ValueError):
+            raise ParameterError(
+                f"calibrate.resolution.{kind}", pair, "a (factor, sd of its log) pair"
+            ) from None
+        if not (math.isfinite(factor) and factor > 0 and math.isfinite(sd) and sd >= 0):
+            raise ParameterError(
+                f"calibrate.resolution.{kind}", pair, "factor > 0, 0 <= sd of its log < inf"
+            )
+        out[kind] = (factor, sd)
+    return out
+
+
+def _corrected(quantities: list[dict], corrections: dict) -> list[dict]:
+    """``quantities`` as bulk values: each target of a corrected kind has its cell's value
+    (``cell_value``) times the factor (porosity through the solid fraction, 1 - n), and the
+    correction's relative sd (``correction_sd``), which adds to the laboratory's."""
+    if not corrections:
+        return quantities
+    out = []
+    for q in quantities:
+        kind = q["name"].split("@")[0]
+        if kind not in corrections or not math.isfinite(q["value"]):
+            out.append(q)
+            continue
+        factor, sd = corrections[kind]
+        v = q["value"]
+        if kind == "porosity":  # the density (1 - n) is what the curve corrects
+            bulk = 1.0 - (1.0 - v) * factor
+            rel = sd * (1.0 - bulk) / bulk if bulk > 0 else math.inf
+        else:
+            bulk, rel = v * factor, sd
+        out.append({**q, "value": bulk, "cell_value": v, "correction_sd": rel})
+    return out
+
+
 def _run_point(
     test: UniaxialTest,
     stresses: tuple[float, ...],
@@ -270,7 +350,8 @@ class Calibration:
     whether it is met), ``sensitivity`` (per quantity, each parameter's first-order Sobol
     index), ``runs`` (every run's parameters and measured quantities, by wave),
     ``not_met`` (the targets missed, in words), ``curves`` (the check run's compression
-    curve and flow function: :func:`_curves`)."""
+    curve and flow function: :func:`_curves`), ``resolution`` (the corrections applied: kind
+    -> (factor, sd of its log); the quantities then carry ``cell_value``)."""
 
     law: object
     parameters: dict
@@ -279,6 +360,7 @@ class Calibration:
     runs: list[dict]
     not_met: list[str] = field(default_factory=list)
     curves: dict = field(default_factory=dict)
+    resolution: dict = field(default_factory=dict)
 
     def to_summary(self) -> dict:
         """JSON-friendly form."""
@@ -292,6 +374,7 @@ class Calibration:
             "runs": self.runs,
             "not_met": self.not_met,
             "curves": self.curves,
+            "resolution": {k: list(v) for k, v in self.resolution.items()},
         }
 
 
@@ -306,10 +389,12 @@ def _predict(gps: list[GP], u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
 
 
 def _log_lab(quantities: list[dict]) -> tuple[np.ndarray, np.ndarray]:
-    """Lab values and variances in logs (relative sd: sd / value; a 1 % floor)."""
+    """Lab values and variances in logs (relative sd: sd / value; a 1 % floor), with a
+    resolution correction's relative sd added."""
     z = np.array([math.log(q["lab"]) for q in quantities])
     rel = np.array([max(q["sd"] / q["lab"], 0.01) for q in quantities])
-    return z, rel**2
+    corr = np.array([q.get("correction_sd", 0.0) for q in quantities])
+    return z, rel**2 + corr**2
 
 
 def _floor_log(values: np.ndarray, lab: np.ndarray) -> np.ndarray:
@@ -364,6 +449,7 @@ def calibrate(
     on_run=None,
     progress=None,
     options=None,
+    resolution: dict | None = None,
 ) -> Calibration:
     """Calibrate ``base_test``'s pair law to ``targets`` over ``parameters`` ({name: (low,
     high)} in the law's units) with ``runs`` design runs and ``waves`` waves of ``wave_runs``
@@ -382,12 +468,19 @@ def calibrate(
         options: how the runs are run (:class:`engine.RunOptions`: executor, task threads,
             channel, poll interval, wall-time limit per run, backend; checkpoints are not
             kept, a run in flight starts again).
+        resolution: the runs' cell is not the bulk: per kind of target (``porosity``,
+            ``loading_stiffness``, ``unloading_stiffness``, ``strength``) a (factor, sd of
+            its log) that takes a value in the cell to the bulk, e.g.
+            :func:`resolution_corrections` of a study's resolution curve in the same cell
+            (docs/CALIBRATION.md); each run's value is corrected before it meets the
+            laboratory's, and the correction's sd adds to the laboratory's.
 
     Raises :class:`engine.ParameterError` naming a parameter it cannot set or a bad box."""
     from ..core.errors import StopRequested
     from ..study.run import RunOptions, StudyProgress
 
     stresses = check_request(base_test, targets, parameters, runs)
+    corrections = check_corrections(resolution)
     options = options if options is not None else RunOptions()
     if executor is not None:
         options = replace(options, executor=executor)
@@ -494,7 +587,7 @@ def calibrate(
             # each run is measured and told to on_run as soon as it is stored (or found)
             outcomes[i] = outcome
             if not isinstance(outcome, str):
-                measured[i] = measure(outcome, base_test, targets)
+                measured[i] = _corrected(measure(outcome, base_test, targets), corrections)
             if on_run is not None:
                 on_run(start + i, outcome if isinstance(outcome, str) else measured[i])
 
@@ -587,11 +680,13 @@ def calibrate(
     if isinstance(checked, str):
         check = [{**q, "value": math.nan} for q in quantities]
     else:
-        check = measure(checked, base_test, targets)
+        check = _corrected(measure(checked, base_test, targets), corrections)
     noise = np.array([g.noise for g in gps])
     met, missed = [], []
     for j, q in enumerate(check):
-        sd = math.sqrt(q["sd"] ** 2 + noise[j] * q["lab"] ** 2)  # seed noise (log) as relative
+        # laboratory, seed (log, as relative) and resolution correction (relative) together
+        corr = q.get("correction_sd", 0.0) * q["lab"]
+        sd = math.sqrt(q["sd"] ** 2 + noise[j] * q["lab"] ** 2 + corr**2)
         zscore = (q["value"] - q["lab"]) / sd if sd > 0 else math.inf
         if not math.isfinite(q["value"]):  # the check run failed
             met.append({**q, "seed_sd": math.sqrt(noise[j]) * q["lab"], "z": None, "met": False})
@@ -612,7 +707,9 @@ def calibrate(
         }
         for ux, qs, w in done
     ]
-    return Calibration(law, params, met, sens, run_rows, missed, _curves(checked))
+    return Calibration(
+        law, params, met, sens, run_rows, missed, _curves(checked), dict(corrections)
+    )
 
 
 def _metropolis(gps, z, lab_var, d: int, rng, chains: int = 8, steps: int = 4000) -> np.ndarray:
@@ -708,6 +805,8 @@ __all__ = [
     "branch_stresses",
     "calibrate",
     "calibration_runs",
+    "check_corrections",
     "check_request",
     "measure",
+    "resolution_corrections",
 ]

@@ -139,7 +139,8 @@ class HertzMindlin:
         |F_t| \le \mu F_n
 
     Attributes:
-        E: Young's modulus of the particle material [Pa], >= 1 (below that its shear modulus underflows).
+        E: Young's modulus of the particle material [Pa], >= 1 (below that its shear
+            modulus underflows).
         nu: Poisson's ratio of the particle material [-], in (-1, 0.5).
         restitution: coefficient of restitution [-], in (0, 1].
         mu: sliding friction coefficient [-], >= 0.

@@ -6,6 +6,7 @@ stored runs."""
 from __future__ import annotations
 
 import importlib
+import math
 from dataclasses import replace
 
 import pytest
@@ -162,3 +163,66 @@ def test_tasks_on_an_executor_give_the_same_calibration(targets, tmp_path):
         )
     assert there.parameters == here.parameters and there.targets_met == here.targets_met
     assert heard and heard[-1].fraction == pytest.approx(1.0)
+
+
+def test_a_calibration_in_a_small_cell_corrected_to_the_bulk(targets):
+    # laboratory data are bulk values; a cell whose resolution curve puts its loading
+    # stiffness at half the bulk's is corrected by a factor 2 (with its uncertainty): the
+    # calibration against targets twice the cell's recovers the untold law, and says what
+    # the cell itself gave
+    bulk = replace(
+        targets,
+        loading_stiffness=2 * targets.loading_stiffness,
+        loading_stiffness_sd=2 * targets.loading_stiffness_sd,
+        unloading_stiffness=None,
+    )
+    box = {"k1": BOX["k1"]}
+    cal = calibrate(
+        BASE,
+        bulk,
+        box,
+        runs=5,
+        waves=1,
+        wave_runs=3,
+        seed=3,
+        resolution={"loading_stiffness": (2.0, 0.02), "strength": (1.2, 0.05)},
+    )
+    lo, hi = cal.parameters["k1"]["interval"]
+    assert lo <= TRUTH.k1 <= hi, cal.parameters
+    (q,) = cal.targets_met
+    assert q["value"] == pytest.approx(2 * q["cell_value"]) and q["correction_sd"] == 0.02
+    assert q["met"], cal.not_met
+    assert cal.to_summary()["resolution"]["loading_stiffness"] == [2.0, 0.02]
+    # uncorrected, the calibration absorbs the cell's loss into the law: K1 comes out stiffer
+    # than the untold law's, outside its interval
+    plain = calibrate(BASE, bulk, box, runs=5, waves=1, wave_runs=3, seed=3)
+    assert plain.parameters["k1"]["interval"][0] > TRUTH.k1, plain.parameters
+    with pytest.raises(engine.ParameterError, match="resolution.k0"):
+        calibrate(BASE, bulk, box, runs=5, resolution={"k0": (1.0, 0.0)})
+    with pytest.raises(engine.ParameterError, match="resolution.strength"):
+        calibrate(BASE, bulk, box, runs=5, resolution={"strength": (0.0, 0.1)})
+
+
+def test_corrections_from_a_resolution_curve():
+    from engine.calibration.calibrate import resolution_corrections
+
+    curve = {
+        "confidence": 0.95,
+        "metrics": {
+            "strength": {
+                "reference_offset": -0.15,
+                "reference_offset_interval": [-0.25, -0.04],
+                "reference_offset_df": math.inf,
+            },
+            "coordination_interior": {
+                "reference_offset": -0.02,
+                "reference_offset_interval": [-0.03, -0.01],
+                "reference_offset_df": 4.0,
+            },
+        },
+    }
+    out = resolution_corrections(curve)
+    assert set(out) == {"strength"}  # coordination is no target
+    factor, sd = out["strength"]
+    assert factor == pytest.approx(1 / 0.85)
+    assert sd == pytest.approx((math.log(0.96) - math.log(0.75)) / (2 * 1.959964), rel=1e-5)

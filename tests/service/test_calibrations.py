@@ -43,7 +43,8 @@ def submit(client, body=CALIBRATION) -> str:
 @pytest.mark.timeout(2 * RUN_TIMEOUT)
 def test_a_calibration_runs_end_to_end_then_its_study(client, workers, settings):
     then = {"coarse_radii": [3.1e-3], "rules": ["paper"], "controls": False}
-    cid = submit(client, {**CALIBRATION, "then_study": then})
+    resolution = {"loading_stiffness": [1.5, 0.05]}  # the cell's loss, made up here
+    cid = submit(client, {**CALIBRATION, "then_study": then, "resolution": resolution})
     assert client.get(f"/studies/{cid}").status_code == 404  # a calibration, not a study
     workers.start()
     seen = []
@@ -68,6 +69,8 @@ def test_a_calibration_runs_end_to_end_then_its_study(client, workers, settings)
     assert 3e3 <= k1["median"] <= 2e4 and k1["status"] in ("determined", "free")
     (target,) = res["targets_met"]
     assert target["name"] == "loading_stiffness" and target["value"] > 0
+    assert target["value"] == pytest.approx(1.5 * target["cell_value"])
+    assert res["resolution"] == resolution
     assert isinstance(target["met"], bool)
     assert res["law"]["type"] == "BilinearAdhesive" and res["law"]["k1"] == k1["median"]
     curves = client.get(f"/calibrations/{cid}/curves").json()
@@ -191,6 +194,11 @@ def test_cancel_a_queued_and_a_running_calibration(client, workers):
         ),
         ({"test": {"cell": [1.0, 1.0, 2.0]}}, ["body", "test"], "DEMSCALE_MAX_PARTICLES_PER_RUN"),
         ({"runs": 2.5}, ["body", "runs"], "integer"),
+        (
+            {"resolution": {"strength": [0.0, 0.1]}},
+            ["body", "resolution", "strength"],
+            "factor > 0",
+        ),
     ],
 )
 def test_a_request_the_engine_refuses_gets_a_422_naming_the_field(client, change, loc, words):

@@ -592,6 +592,27 @@ def _interval_words(m: dict) -> str:
     return f"{m['metric']} {_pct(m['level_error'])} [{_pct(lo)}, {_pct(hi)}{pairs}]"
 
 
+def _scaled_law(spec, rule, radius: float) -> dict:
+    """The reference's pair law scaled by ``rule`` to ``radius`` [m], as JSON (its ``type``
+    and fields in SI units): what to run at the coarsest radius."""
+    from ..core.records import to_dict
+
+    base = spec.reference.pair_law
+    law = base.scaled(radius / spec.reference.radius, *rule.exponents(base))
+    return {"type": type(law).__name__, **to_dict(law)}
+
+
+def _law_text(law: dict) -> str:
+    """A scaled law's stiffness and adhesion parameters in words."""
+    units = {"k1": "N/m", "k2": "N/m", "f0": "N", "kadh": "N/m"}
+    parts = [
+        f"{k.upper() if k != 'kadh' else 'kadh'} = {law[k]:.4g} {u}"
+        for k, u in units.items()
+        if k in law
+    ]
+    return ", ".join(parts) or law["type"]
+
+
 def resolution_lines(resolution: list[dict], rule_errors: list[dict], spec) -> list[str]:
     """The advisor's lines on the controls: per rule and radius whether the rule holds
     against its control (its own error), and per radius what a sample that many diameters
@@ -674,6 +695,7 @@ def advise(
         )
         rules[rule.name] = {
             "coarsest_radius": best["radius"] if best else None,
+            "coarsest_law": _scaled_law(spec, rule, best["radius"]) if best else None,
             "speedup": g["speedup"] if g else None,
             "radii_equivalent": [v["radius"] for v in mine if v["verdict"] == "equivalent"],
             "sequence_stopped_at": None
@@ -687,7 +709,7 @@ def advise(
         if a["coarsest_radius"] is not None:
             lines.append(
                 f"{name}: equivalent up to R = {a['coarsest_radius'] * 1e3:g} mm "
-                f"({a['speedup']:.1f}x faster)"
+                f"({a['speedup']:.1f}x faster); the law there: {_law_text(a['coarsest_law'])}"
             )
         last = a["coarsest_radius"]
         beyond = [r for r in a["radii_equivalent"] if last is None or r > last]

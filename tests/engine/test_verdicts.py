@@ -442,11 +442,15 @@ def test_the_coarsest_radius_is_tested_fine_to_coarse():
     # 5 mm, so 4 mm is reported and 6 mm is listed but not acted on
     from types import SimpleNamespace
 
+    from engine.core.records import to_dict
+
+    law_name = "BilinearAdhesive"
+    law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.1)
     spec = SimpleNamespace(
-        rules=[SimpleNamespace(name="paper")],
+        rules=[engine.ScalingRule.named("paper")],
         tolerances={},
         confidence=0.95,
-        reference=SimpleNamespace(unconfined=False),
+        reference=SimpleNamespace(unconfined=False, radius=2e-3, pair_law=law),
         coarse_radii=(3e-3, 4e-3, 5e-3, 6e-3),
     )
     verdicts = [
@@ -465,6 +469,11 @@ def test_the_coarsest_radius_is_tested_fine_to_coarse():
     assert rule["radii_equivalent"] == [3e-3, 4e-3, 6e-3]
     assert rule["sequence_stopped_at"] == {"radius": 5e-3, "verdict": "undecided"}
     assert "6 mm equivalent but not reported" in a["message"]
+    # the law to run there: K ~ R, f0 ~ R^2 (the paper rule) from 2 to 4 mm
+    assert rule["coarsest_law"] == {**to_dict(law.scaled(2.0, 1.0, 2.0, 1.0)), "type": law_name}
+    assert rule["coarsest_law"]["k1"] == pytest.approx(1e4)
+    assert rule["coarsest_law"]["f0"] == pytest.approx(-0.4)
+    assert "K1 = 1e+04 N/m" in a["message"] and "F0 = -0.4 N" in a["message"]
     # the finest radius not equivalent: nothing to report
     verdicts[1] = _verdict(3e-3, "differs")
     assert advisor.advise(spec, groups, verdicts, None)["rules"]["paper"]["coarsest_radius"] is None

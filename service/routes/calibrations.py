@@ -36,7 +36,7 @@ from ..models import (
     StudySubmitted,
 )
 from ..spec import CalibrationCreate
-from .studies import MAX_LIMIT, MAX_OFFSET, check_storage
+from .studies import MAX_LIMIT, MAX_OFFSET, enqueue, submitted
 
 router = APIRouter(prefix="/calibrations", tags=["calibrations"], responses=answers(401))
 
@@ -91,18 +91,7 @@ def _result(job: Study, settings) -> dict:
     "",
     status_code=202,
     response_model=StudySubmitted,
-    responses={
-        202: {
-            "headers": {
-                "Location": {
-                    "schema": {"type": "string"},
-                    "required": True,
-                    "description": "URL of the new calibration.",
-                }
-            }
-        },
-        **answers(400, 413, 429, 507),
-    },
+    responses=submitted("calibration"),
 )
 def submit_calibration(
     body: CalibrationCreate,
@@ -121,21 +110,7 @@ def submit_calibration(
     except SpecRejected as e:
         raise RequestValidationError(e.errors) from e
     job = calibration_row(admitted, owner, body.name)
-    try:
-        job = transitions.submit(
-            session,
-            job,
-            [],
-            settings.max_active,
-            settings.max_active_per_token,
-            check=lambda s: check_storage(s, settings, owner, job.id, worst_case_bytes(admitted)),
-        )
-    except transitions.QueueFull as e:
-        raise HTTPException(
-            status_code=429,
-            detail=f"{e}: try again later",
-            headers={"Retry-After": str(settings.retry_after)},
-        ) from e
+    job = enqueue(session, settings, job, [], worst_case_bytes(admitted))
     response.headers["Location"] = f"/calibrations/{job.id}"
     return StudySubmitted(id=job.id, status=job.status, links=links(job.id))
 

@@ -92,22 +92,28 @@ def check_storage(session, settings, owner: str, new_id, new_bytes: float) -> No
         )
 
 
-@router.post(
-    "",
-    status_code=202,
-    response_model=StudySubmitted,
-    responses={
+def submitted(what: str) -> dict:
+    """The OpenAPI answers of a submission: 202 with the new job's ``Location``, and the
+    refusals."""
+    return {
         202: {
             "headers": {
                 "Location": {
                     "schema": {"type": "string"},
                     "required": True,
-                    "description": "URL of the new study.",
+                    "description": f"URL of the new {what}.",
                 }
             }
         },
         **answers(400, 413, 429, 507),
-    },
+    }
+
+
+@router.post(
+    "",
+    status_code=202,
+    response_model=StudySubmitted,
+    responses=submitted("study"),
 )
 def submit_study(
     body: StudyCreate,
@@ -124,15 +130,23 @@ def submit_study(
     except SpecRejected as e:
         raise RequestValidationError(e.errors) from e
     study, runs = study_rows(Admitted(plan, costs), owner, body.name)
+    study = enqueue(session, settings, study, runs, output_bytes(costs))
+    response.headers["Location"] = f"/studies/{study.id}"
+    return StudySubmitted(id=study.id, status=study.status, links=links(study.id))
+
+
+def enqueue(session, settings, job: Study, runs: list, new_bytes: float) -> Study:
+    """Insert a queued job (a study or a calibration) and its run rows, within the queue
+    bounds (429 with ``Retry-After`` beyond them) and the owner's storage quota (507), both
+    checked inside the insert's transaction (SQLite's one writer at a time)."""
     try:
-        study = transitions.submit(
+        return transitions.submit(
             session,
-            study,
+            job,
             runs,
             settings.max_active,
             settings.max_active_per_token,
-            # inside the insert's transaction (SQLite's one writer at a time)
-            check=lambda s: check_storage(s, settings, owner, study.id, output_bytes(costs)),
+            check=lambda s: check_storage(s, settings, job.owner, job.id, new_bytes),
         )
     except transitions.QueueFull as e:
         raise HTTPException(
@@ -140,8 +154,6 @@ def submit_study(
             detail=f"{e}: try again later",
             headers={"Retry-After": str(settings.retry_after)},
         ) from e
-    response.headers["Location"] = f"/studies/{study.id}"
-    return StudySubmitted(id=study.id, status=study.status, links=links(study.id))
 
 
 @router.get("", response_model=StudiesPublic)

@@ -361,6 +361,7 @@ class Calibration:
     not_met: list[str] = field(default_factory=list)
     curves: dict = field(default_factory=dict)
     resolution: dict = field(default_factory=dict)
+    posterior: dict = field(default_factory=dict)
 
     def to_summary(self) -> dict:
         """JSON-friendly form."""
@@ -375,6 +376,7 @@ class Calibration:
             "not_met": self.not_met,
             "curves": self.curves,
             "resolution": {k: list(v) for k, v in self.resolution.items()},
+            "posterior": self.posterior,
         }
 
 
@@ -672,6 +674,7 @@ def calibrate(
             "spread_ratio": ratio,
             "status": "determined" if ratio < DETERMINED else "free",
         }
+    posterior = _posterior(samples, axes)
     sens = _sobol(gps, quantities, axes, rng)
     check_test = replace(base_test, pair_law=law)
     checked = _load_point(folder, "check", stresses, check_test)
@@ -708,8 +711,35 @@ def calibrate(
         for ux, qs, w in done
     ]
     return Calibration(
-        law, params, met, sens, run_rows, missed, _curves(checked), dict(corrections)
+        law, params, met, sens, run_rows, missed, _curves(checked), dict(corrections), posterior
     )
+
+
+#: Posterior samples kept in the result (evenly thinned).
+POSTERIOR_SAMPLES = 400
+
+
+def _posterior(samples: np.ndarray, axes: list[_Axis]) -> dict:
+    """The posterior as the result carries it: :data:`POSTERIOR_SAMPLES` samples, evenly
+    thinned, in the law's units (a row per sample, a column per parameter), and the
+    correlation matrix of the parameters in the box's scale (log where the box is): a
+    correlation near +-1 is a pair the data determine only together (e.g. mu_s and mu_r
+    through density and strength)."""
+    keep = samples[
+        np.linspace(0, len(samples) - 1, min(POSTERIOR_SAMPLES, len(samples))).astype(int)
+    ]
+    values = [[a.value(float(x)) for a, x in zip(axes, row)] for row in keep]
+    if samples.shape[1] > 1:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            corr = np.corrcoef(samples, rowvar=False)
+        corr = np.where(np.isfinite(corr), corr, 0.0)
+    else:
+        corr = np.ones((1, 1))
+    return {
+        "parameters": [a.name for a in axes],
+        "samples": values,
+        "correlation": [[float(c) for c in row] for row in corr],
+    }
 
 
 def _metropolis(gps, z, lab_var, d: int, rng, chains: int = 8, steps: int = 4000) -> np.ndarray:

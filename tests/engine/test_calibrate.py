@@ -58,6 +58,15 @@ def test_synthetic_targets_are_recovered(targets, tmp_path, monkeypatch):
         assert p["status"] in ("determined", "free") and p["box"] == list(BOX[name])
     assert all(q["met"] for q in cal.targets_met), cal.not_met
     assert cal.not_met == []
+    # the posterior itself: samples in the law's units inside the box, and the parameters'
+    # correlation (symmetric, unit diagonal)
+    post = cal.posterior
+    assert post["parameters"] == ["k1", "k2"] and len(post["samples"]) == 400
+    assert all(3e3 <= k1 <= 2e4 and 2.5e4 <= k2 <= 8e4 for k1, k2 in post["samples"])
+    c = post["correlation"]
+    assert (
+        c[0][0] == pytest.approx(1.0) and c[0][1] == pytest.approx(c[1][0]) and -1 <= c[0][1] <= 1
+    )
     # which target moves with which parameter: loading with K1, unloading with K2
     s = cal.sensitivity
     assert max(s["loading_stiffness"], key=s["loading_stiffness"].get) == "k1"

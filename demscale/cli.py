@@ -832,13 +832,10 @@ def calibrate_cmd(args) -> int:
     print(f"written to {out}/calibration.json, calibration.png, law.json, law.liggghts")
     if not args.then_study:
         return 0
-    spec = engine.default_study()
+    spec = None
     if args.study:
         spec = engine.StudySpec.from_dict(json.loads(Path(args.study).read_text()))
-    from dataclasses import replace
-
-    spec = replace(spec, reference=replace(test, pair_law=cal.law))
-    body = spec.to_dict()
+    body = cal.study(spec).to_dict()
     (out / "study.json").write_text(json.dumps(body, indent=1))
     ns = argparse.Namespace(
         spec=str(out / "study.json"),

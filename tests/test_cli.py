@@ -262,6 +262,17 @@ def test_calibrate_then_export(tmp_path, capsys):
     # a box the law cannot take is refused with the field named
     assert main([*argv[:-6], "--param", "E=1:2", "--out", str(out)]) == 2
     assert "calibrate.parameters.E" in capsys.readouterr().err
+    # --then-study: the calibrated law's scaling study follows (a small one here)
+    (tmp_path / "then.json").write_text(
+        json.dumps({"coarse_radii": [3.1e-3], "rules": ["paper"], "controls": False})
+    )
+    then = [*argv, "--wave-runs", "3", "--then-study", "--study", str(tmp_path / "then.json")]
+    assert main(then) in (0, 1)  # 1: a verdict is not "equivalent"
+    study = json.loads((out / "study.json").read_text())
+    law = json.loads((out / "law.json").read_text())
+    assert study["reference"]["pair_law"] == law and study["coarse_radii"] == [3.1e-3]
+    assert (out / "study" / "summary.json").is_file()
+    capsys.readouterr()
     # --resolution: a study without controls has no curve to correct by; a bad kind is named
     (tmp_path / "study.json").write_text(json.dumps({"advisor": {"resolution_curve": None}}))
     assert main([*argv, "--resolution", str(tmp_path / "study.json")]) == 2

@@ -351,7 +351,10 @@ class Calibration:
     index), ``runs`` (every run's parameters and measured quantities, by wave),
     ``not_met`` (the targets missed, in words), ``curves`` (the check run's compression
     curve and flow function: :func:`_curves`), ``resolution`` (the corrections applied: kind
-    -> (factor, sd of its log); the quantities then carry ``cell_value``)."""
+    -> (factor, sd of its log); the quantities then carry ``cell_value``), ``posterior``
+    (:func:`_posterior`: samples in the law's units and the parameters' correlation, which
+    shows pairs the data determine only together), ``test`` (the calibrated test: the base
+    test with :attr:`law`)."""
 
     law: object
     parameters: dict
@@ -362,6 +365,17 @@ class Calibration:
     curves: dict = field(default_factory=dict)
     resolution: dict = field(default_factory=dict)
     posterior: dict = field(default_factory=dict)
+    test: UniaxialTest | None = None
+
+    def study(self, spec=None):
+        """The scaling study of the calibrated law, to hand to :func:`engine.run_study`:
+        ``spec``'s radii, rules and seeds (an :class:`engine.StudySpec`; None: the default
+        study's) with the calibrated test as its reference. Calibrate, then coarsen:
+        ``engine.run_study(cal.study())``; its advisor names the coarsest radius each rule
+        keeps every property within tolerance at, and the law to run there."""
+        from ..study.spec import default_study
+
+        return replace(spec if spec is not None else default_study(), reference=self.test)
 
     def to_summary(self) -> dict:
         """JSON-friendly form."""
@@ -711,7 +725,16 @@ def calibrate(
         for ux, qs, w in done
     ]
     return Calibration(
-        law, params, met, sens, run_rows, missed, _curves(checked), dict(corrections), posterior
+        law,
+        params,
+        met,
+        sens,
+        run_rows,
+        missed,
+        _curves(checked),
+        dict(corrections),
+        posterior,
+        check_test,
     )
 
 

@@ -72,6 +72,11 @@ def test_synthetic_targets_are_recovered(targets, tmp_path, monkeypatch):
     assert max(s["loading_stiffness"], key=s["loading_stiffness"].get) == "k1"
     assert max(s["unloading_stiffness"], key=s["unloading_stiffness"].get) == "k2"
     assert isinstance(cal.law, engine.BilinearAdhesive) and cal.to_summary()["law"]["k1"] > 0
+    # calibrate, then coarsen: the study of the calibrated test, the default's radii and rules
+    assert cal.test == replace(BASE, pair_law=cal.law)
+    study = cal.study()
+    assert study.reference == cal.test
+    assert study.coarse_radii == engine.default_study().coarse_radii
     from engine.io.figures import calibration_figure
 
     fig = calibration_figure(cal.to_summary())  # no curve target here: the panels say so

@@ -198,7 +198,7 @@ CORRECTED_BY = {
 
 def resolution_corrections(curve: dict) -> dict[str, tuple[float, float]]:
     """Corrections for a calibration run in a study's reference cell, from that study's
-    resolution curve (``StudyResult.advisor()["resolution_curve"]``, or its summary's): per
+    resolution curve (``StudyResult.advisor["resolution_curve"]``, or its summary's): per
     kind of target, the factor bulk / cell value, 1 / (1 + the reference's offset from the
     bulk), and the standard deviation of its logarithm (from the offset's interval and its
     degrees of freedom). Only properties the curve has are corrected."""

@@ -128,6 +128,9 @@ class StudyPublic(StudyBase):
     error: str | None
     max_particles: int
     estimated_particle_steps: float
+    parent_id: uuid.UUID | None = Field(
+        None, description="The calibration that queued this study (its then_study), if any."
+    )
     links: dict[str, str] = {}
 
 

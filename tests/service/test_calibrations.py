@@ -94,6 +94,8 @@ def test_a_calibration_runs_end_to_end_then_its_study(client, workers, settings)
     )
     assert study["status"] == "succeeded", study["error"]
     assert study["spec"]["reference"]["pair_law"]["k1"] == k1["median"]
+    assert study["parent_id"] == cid
+    assert f"/calibrations/{cid}/page" in client.get(f"/studies/{sid}/page").text
     listed = client.get("/calibrations").json()
     assert listed["count"] == 1 and listed["data"][0]["id"] == cid
     assert [s["id"] for s in client.get("/studies").json()["data"]] == [sid]

@@ -159,6 +159,34 @@ def report(cal=None) -> str:
         f"Runs stored so far: {len(points)} of 55 (each a flow function at "
         f"{', '.join(f'{s / 1e3:g}' for s in STRESSES)} kPa).",
     ]
+    lab = STORE / "lab.json"
+    if lab.exists():  # the targets, made once from the untold law
+        t = LabTargets.from_dict(json.loads(lab.read_text()))
+        lines += [
+            "",
+            "The laboratory (the untold law at three packing seeds: mean +/- sd):",
+            "",
+            "| target | value | sd |",
+            "|---|---|---|",
+        ]
+        lines += [
+            f"| porosity at {p.stress / 1e3:g} kPa ({p.branch}) | {p.porosity:.4f} | {p.sd:.4f} |"
+            for p in t.compression
+        ]
+        for name, unit, scale in (
+            ("loading_stiffness", "MPa", 1e-6),
+            ("unloading_stiffness", "MPa", 1e-6),
+            ("k0", "", 1.0),
+        ):
+            v = getattr(t, name)
+            if v is not None:
+                sd = getattr(t, f"{name}_sd")
+                lines.append(f"| {name} [{unit or '-'}] | {v * scale:.4g} | {sd * scale:.2g} |")
+        lines += [
+            f"| strength at {p.consolidation_stress / 1e3:g} kPa [kPa] | {p.strength / 1e3:.4g} | "
+            f"{p.sd / 1e3:.2g} |"
+            for p in t.strength
+        ]
     if cal is not None:
         lines += [
             "",

@@ -39,6 +39,7 @@ import numpy as np
 
 from ..core.errors import ParameterError
 from ..io.store import load_run, save_run
+from ..study.channel import wait_tasks
 from ..uniaxial.flow import flow_function
 from ..uniaxial.spec import UniaxialTest
 from .gp import GP
@@ -555,41 +556,21 @@ def calibrate(
             ): i
             for i, (k, t) in enumerate(zip(keys, tests))
         }
-        pending = set(futs)
-        try:
-            while pending:
-                fin, pending = cf.wait(
-                    pending,
-                    timeout=options.poll_interval if channel is not None else None,
-                    return_when=cf.FIRST_COMPLETED,
-                )
-                for f in fin:
-                    i = futs[f]
-                    out[i] = f.result()  # a stop (StopRequested) or a broken pool: raised
-                    _save_point(folder, keys[i], out[i], tests[i])
-                    if finished is not None:
-                        finished(i, out[i])
-                    ask((first + len(out)) / total, first + i, keys[i], "done", 0.0)
-                if channel is not None and pending and not fin:
-                    seen = channel.read()
-                    running = [futs[f] for f in pending if keys[futs[f]] in seen]
-                    if running:
-                        frac = len(out) + sum(
-                            min(max(seen[keys[i]]["fraction"], 0.0), 1.0) for i in running
-                        )
-                        i = min(running, key=lambda i: seen[keys[i]]["fraction"])
-                        r = seen[keys[i]]
-                        ask(
-                            (first + frac) / total,
-                            first + i,
-                            keys[i],
-                            r["stage"],
-                            float(r["time"]),
-                            f"{len(running)} runs in progress",
-                        )
-        finally:
-            for f in futs:
-                f.cancel()
+
+        def ended(i: int, fut) -> None:
+            out[i] = fut.result()  # a stop (StopRequested) or a broken pool: raised
+            _save_point(folder, keys[i], out[i], tests[i])
+            if finished is not None:
+                finished(i, out[i])
+            ask((first + len(out)) / total, first + i, keys[i], "done", 0.0)
+
+        def running(reports) -> None:
+            frac = len(out) + sum(min(max(r["fraction"], 0.0), 1.0) for _, r in reports)
+            i, r = min(reports, key=lambda ir: ir[1]["fraction"])
+            msg = f"{len(reports)} runs in progress"
+            ask((first + frac) / total, first + i, keys[i], r["stage"], float(r["time"]), msg)
+
+        wait_tasks(futs, keys, channel, options.poll_interval, ended, running)
         return out
 
     def run_wave(us: np.ndarray, wave: int) -> None:

@@ -88,3 +88,36 @@ def task_progress(channel, key: str):
         return False if channel.stop_requested() else None
 
     return callback
+
+
+def wait_tasks(futures: dict, keys, channel, poll_interval: float, on_done, on_running) -> None:
+    """Wait for the tasks ``futures`` (future -> index; ``keys[index]``: the run key each
+    reports under) the way a study or a calibration does: ``on_done(index, future)`` as each
+    ends; with a ``channel``, every ``poll_interval`` seconds [s] in which none ended,
+    ``on_running([(index, report), ...])`` with the last report of each running task that
+    has reported (:meth:`FileChannel.read`). Whatever leaves the wait (an exception, e.g. a
+    stop raised by a callback) cancels the tasks not yet started."""
+    import concurrent.futures as cf
+
+    pending = set(futures)
+    try:
+        while pending:
+            done, pending = cf.wait(
+                pending,
+                timeout=poll_interval if channel is not None else None,
+                return_when=cf.FIRST_COMPLETED,
+            )
+            for fut in done:
+                on_done(futures[fut], fut)
+            if channel is not None and pending and not done:
+                seen = channel.read()
+                running = [
+                    (futures[f], seen[keys[futures[f]]])
+                    for f in pending
+                    if keys[futures[f]] in seen
+                ]
+                if running:
+                    on_running(running)
+    finally:
+        for fut in futures:
+            fut.cancel()

@@ -23,7 +23,7 @@ from ..simulation.backend import check_backend
 from ..uniaxial.checkpoint import CHECKPOINT_INTERVAL, Checkpoint, check_interval
 from ..uniaxial.driver import run_uniaxial
 from ..uniaxial.results import Progress, UniaxialResult
-from .channel import task_progress
+from .channel import task_progress, wait_tasks
 from .plan import (
     PlannedRun,
     StudyPlan,
@@ -354,7 +354,6 @@ def _run_on(
         for i in todo
     }
     done_weight = _done_weight(planned, weights, outcomes)
-    pending = set(futures)
 
     def ask(report: StudyProgress) -> None:
         if progress is not None and progress(report) is False:
@@ -362,53 +361,42 @@ def _run_on(
                 channel.request_stop()  # running tasks stop at their next report
             raise StopRequested(f"stopped by the progress callback during run {report.run_key}")
 
-    try:
-        while pending:
-            done, pending = cf.wait(
-                pending, timeout=poll_interval if channel else None, return_when=cf.FIRST_COMPLETED
+    def done(i: int, fut) -> None:
+        nonlocal done_weight
+        p = planned[i]
+        try:
+            outcome = fut.result()
+        except (cf.CancelledError, StopRequested):
+            return  # stopped, not failed: a resume runs it again
+        except cf.BrokenExecutor:
+            # the pool itself died (a worker process killed): an interruption, not a
+            # failure of the run; finished runs were reported, a resume runs the rest
+            raise
+        except Exception as e:
+            outcome = f"{type(e).__name__}: {e}"
+        record(p, outcome)
+        done_weight += weights[i]
+        ask(
+            StudyProgress(
+                float(min(done_weight, 1.0)),
+                i,
+                len(planned),
+                p.key,
+                "done",
+                0.0,
+                "run finished" if not isinstance(outcome, str) else outcome,
             )
-            for fut in done:
-                i = futures[fut]
-                p = planned[i]
-                try:
-                    outcome = fut.result()
-                except (cf.CancelledError, StopRequested):
-                    continue  # stopped, not failed: a resume runs it again
-                except cf.BrokenExecutor:
-                    # the pool itself died (a worker process killed): an interruption, not a
-                    # failure of the run; finished runs were reported, a resume runs the rest
-                    raise
-                except Exception as e:
-                    outcome = f"{type(e).__name__}: {e}"
-                record(p, outcome)
-                done_weight += weights[i]
-                ask(
-                    StudyProgress(
-                        float(min(done_weight, 1.0)),
-                        i,
-                        len(planned),
-                        p.key,
-                        "done",
-                        0.0,
-                        "run finished" if not isinstance(outcome, str) else outcome,
-                    )
-                )
-            if channel is not None and pending and not done:
-                _report_running(
-                    channel, planned, weights, [futures[f] for f in pending], done_weight, ask
-                )
-    finally:
-        for fut in futures:
-            fut.cancel()
+        )
+
+    def running(reports) -> None:
+        _report_running(planned, weights, reports, done_weight, ask)
+
+    wait_tasks(futures, [p.key for p in planned], channel, poll_interval, done, running)
 
 
-def _report_running(channel, planned, weights, pending, done_weight, ask) -> None:
-    """One progress report from the channel of the ``pending`` runs (their planned indices):
-    the study's fraction summed over the runs, named after the least advanced running run."""
-    seen = channel.read()
-    running = [(i, seen[planned[i].key]) for i in pending if planned[i].key in seen]
-    if not running:
-        return
+def _report_running(planned, weights, running, done_weight, ask) -> None:
+    """One progress report of the ``running`` runs ((planned index, channel report) each):
+    the study's fraction summed over the runs, named after the least advanced one."""
     frac = done_weight + sum(weights[i] * min(max(r["fraction"], 0.0), 1.0) for i, r in running)
     i, r = min(running, key=lambda ir: ir[1]["fraction"])
     ask(

@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import ParameterError
+from ..core.records import describe
 from ..io.store import load_run, save_run
 from ..study.channel import wait_tasks
 from ..uniaxial.flow import flow_function
@@ -95,6 +96,16 @@ def _axes(base_law, parameters: dict) -> list[_Axis]:
 
 def _law(base_law, axes: list[_Axis], u: np.ndarray):
     return replace(base_law, **{a.name: a.value(float(x)) for a, x in zip(axes, u)})
+
+
+def _test(base_test: UniaxialTest, axes: list[_Axis], u) -> UniaxialTest | str:
+    """The test of parameter set ``u``, or the reason it cannot be made (a law the test
+    refuses, e.g. too soft to carry the consolidation stress within the overlap limit: left
+    out like a run that failed, at no cost)."""
+    try:
+        return replace(base_test, pair_law=_law(base_test.pair_law, axes, u))
+    except ParameterError as e:
+        return f"ParameterError: {e}"
 
 
 def _feasible(base_law, axes, u) -> bool:
@@ -428,9 +439,30 @@ def check_request(
     consolidation stress at or below the test's ``pre_stress``."""
     if not isinstance(targets, LabTargets):
         raise ParameterError("calibrate.targets", type(targets).__name__, "an engine LabTargets")
-    axes = _axes(base_test.pair_law, parameters)
+    law = base_test.pair_law
+    axes = _axes(law, parameters)
     if runs < len(axes) + 2:
         raise ParameterError("calibrate.runs", runs, f">= {len(axes) + 2} (parameters + 2)")
+    infos = {i.name: i for i in describe(type(law))}
+    for a in axes:  # each end of a box within the range the law declares for its field
+        info = infos[a.name]
+        for end in (a.lo, a.hi):
+            if (
+                (info.gt is not None and not end > info.gt)
+                or (info.ge is not None and not end >= info.ge)
+                or (info.lt is not None and not end < info.lt)
+                or (info.le is not None and not end <= info.le)
+            ):
+                raise ParameterError(
+                    f"calibrate.parameters.{a.name}",
+                    [a.lo, a.hi],
+                    f"a box {info.limit_text()} (the law's {a.name})",
+                )
+    u = np.random.default_rng(0).random((512, len(axes)))
+    if not any(_feasible(law, axes, x) for x in u):  # e.g. K2 < K1 everywhere in the box
+        raise ParameterError(
+            "calibrate.parameters", parameters, "a box holding laws the law accepts (K2 >= K1)"
+        )
     if targets.strength and not base_test.unconfined:
         raise ParameterError(
             "UniaxialTest.unconfined", False, "True (strength targets need the unconfined stage)"
@@ -574,7 +606,7 @@ def calibrate(
         return out
 
     def run_wave(us: np.ndarray, wave: int) -> None:
-        tests = [replace(base_test, pair_law=_law(law0, axes, x)) for x in us]
+        tests = [_test(base_test, axes, x) for x in us]
         start = len(done) + len(failed)
         keys = [f"cal-{start + i:03d}" for i in range(len(us))]
         outcomes: dict[int, dict | str] = {}
@@ -590,6 +622,9 @@ def calibrate(
 
         todo = []
         for i, (k, t) in enumerate(zip(keys, tests)):
+            if isinstance(t, str):  # a law the test refuses (e.g. too soft): not run
+                heard(i, t)
+                continue
             stored = _load_point(folder, k, stresses, t)
             if stored is not None:
                 heard(i, stored)

@@ -98,6 +98,24 @@ def test_a_calibration_refuses_what_it_cannot_set(targets):
         calibrate(BASE, targets, {"k1": (2e4, 3e3)})
     with pytest.raises(engine.ParameterError, match="calibrate.runs"):
         calibrate(BASE, targets, BOX, runs=3)
+    # a box end outside the range the law declares, a box with no law the law accepts
+    with pytest.raises(engine.ParameterError, match=r"parameters.mu_s .* >= 0"):
+        calibrate(BASE, targets, {"mu_s": (-1.0, 0.5)})
+    with pytest.raises(engine.ParameterError, match=r"K2 >= K1"):
+        calibrate(BASE, targets, {"k2": (1e3, 4e3)})
+
+
+def test_a_law_the_test_refuses_is_left_out_without_a_run(targets, monkeypatch):
+    # the soft end of a K1 box (too soft to carry the consolidation stress within the
+    # overlap limit): those parameter sets are listed with the reason and never run
+    real = cal_module._run_point
+    ran = []
+    monkeypatch.setattr(cal_module, "_run_point", lambda t, s, *a: ran.append(t) or real(t, s, *a))
+    cal = calibrate(BASE, targets, {"k1": (10.0, 2e4)}, runs=6, waves=0, seed=4)
+    refused = [r for r in cal.runs if "error" in r]
+    assert refused and all("stiff enough" in r["error"] for r in refused)
+    assert all(r["parameters"]["k1"] < 500 for r in refused)
+    assert len(ran) == 6 - len(refused) + 1  # the others and the check run
 
 
 def test_a_run_that_fails_is_left_out_not_the_calibration(targets, monkeypatch):

@@ -187,6 +187,7 @@ def test_cancel_a_queued_and_a_running_calibration(client, workers):
         ),
         ({"parameters": {"n": [1.0, 2.0]}}, ["body", "parameters", "n"], "one of"),
         ({"parameters": {"k1": [2e4, 3e3]}}, ["body", "parameters", "k1"], "low < high"),
+        ({"parameters": {"mu_s": [-1.0, 0.5]}}, ["body", "parameters", "mu_s"], ">= 0"),
         ({"parameters": {"k1": [3e3, 2e4], "k2": [3e4, 9e4]}}, ["body", "runs"], ">= 4"),
         ({"runs": 40, "waves": 2}, ["body", "runs"], "DEMSCALE_MAX_RUNS"),
         (

@@ -47,21 +47,32 @@ def capped_test(key: str):
     return replace(p.test, pour_speed=POUR_SPEED)
 
 
+#: Wall time between two checkpoints of a run in flight [s]: a paper-scale run takes longer
+#: than a session, and one cut off resumes from its last checkpoint in the next.
+CHECKPOINT_INTERVAL = 300.0
+
+
 def _run_and_store(test, path: Path) -> str:
     """One run on one engine thread, stored at ``path`` (its error text where it fails, as
-    the studies store it); a picklable task."""
+    the studies store it); a picklable task. While it runs it keeps a checkpoint beside
+    ``path`` (``.checkpoints/<key>.ckpt``, not tracked by git), from which a run cut off (a
+    session's end) resumes, bit for bit; the checkpoint goes once the run is stored."""
     import numba
 
+    from engine.uniaxial.checkpoint import Checkpoint
     from engine.uniaxial.driver import run_uniaxial
 
     numba.set_num_threads(1)
+    ckpt = Checkpoint(path.parent / ".checkpoints" / f"{path.stem}.ckpt", CHECKPOINT_INTERVAL)
     t0 = time.perf_counter()
     try:
-        outcome = run_uniaxial(test)
+        outcome = run_uniaxial(test, checkpoint=ckpt)
     except Exception as e:  # stored as the run's error, as the studies do
         outcome = f"{type(e).__name__}: {e}"
     save_run(path, outcome, keep_particles=False)
-    return f"{path.stem}: {time.perf_counter() - t0:.0f} s"
+    ckpt.remove()
+    resumed = "" if ckpt.resumed_steps is None else f", resumed at step {ckpt.resumed_steps}"
+    return f"{path.stem}: {time.perf_counter() - t0:.0f} s{resumed}"
 
 
 def _store_all(jobs: dict[Path, object], workers: int) -> None:

@@ -10,6 +10,18 @@ from .cost import output_bytes
 from .models import Kind, Run, Study
 
 
+def jobs_page(session, owner: str, kind: Kind, offset: int = 0, limit: int = 200):
+    """A page of ``owner``'s jobs of ``kind``, newest first, and how many there are in all."""
+    from sqlmodel import func, select
+
+    mine = (Study.owner == owner, Study.kind == kind)
+    count = session.exec(select(func.count()).select_from(Study).where(*mine)).one()
+    rows = session.exec(
+        select(Study).where(*mine).order_by(Study.created_at.desc()).offset(offset).limit(limit)
+    ).all()
+    return rows, count
+
+
 def study_rows(
     admitted: Admitted, owner: str, name: str | None, parent_id: uuid.UUID | None = None
 ) -> tuple[Study, list[Run]]:

@@ -27,7 +27,8 @@ from engine.io.figures import KINDS
 
 from . import h5store, transitions
 from .deps import CalibrationDep, OwnerDep, SessionDep, SettingsDep, StudyDep
-from .models import TERMINAL, Kind, Run, Status, Study
+from .jobs import jobs_page
+from .models import TERMINAL, Kind, Run, Status
 from .routes.calibrations import public as calibration_public
 from .routes.calibrations import read_result as read_calibration
 from .routes.studies import public
@@ -67,22 +68,16 @@ def cell(value, scale: float | None, fmt: str) -> str:
 
 @router.get("/", response_class=HTMLResponse)
 def studies_page(request: Request, session: SessionDep, owner: OwnerDep) -> HTMLResponse:
-    """The caller's studies, newest first (the latest 200)."""
-
-    def latest(kind: Kind) -> list[Study]:
-        return session.exec(
-            select(Study)
-            .where(Study.owner == owner, Study.kind == kind)
-            .order_by(Study.created_at.desc())
-            .limit(200)
-        ).all()
-
+    """The caller's studies and calibrations, newest first (the latest 200 of each)."""
     return templates.TemplateResponse(
         request,
         "studies.html",
         {
-            "studies": [public(s) for s in latest(Kind.study)],
-            "calibrations": [calibration_public(c, session) for c in latest(Kind.calibration)],
+            "studies": [public(s) for s in jobs_page(session, owner, Kind.study)[0]],
+            "calibrations": [
+                calibration_public(c, session)
+                for c in jobs_page(session, owner, Kind.calibration)[0]
+            ],
             "terminal": TERMINAL,
         },
     )

@@ -17,13 +17,13 @@ from typing import Annotated
 
 from fastapi import APIRouter, HTTPException, Query, Response
 from fastapi.exceptions import RequestValidationError
-from sqlmodel import func, select
+from sqlmodel import select
 
 from .. import transitions
 from ..admission import SpecRejected, admit_calibration
 from ..deps import CalibrationDep, OwnerDep, SessionDep, SettingsDep
 from ..errors import answers
-from ..jobs import calibration_row, worst_case_bytes
+from ..jobs import calibration_row, jobs_page, worst_case_bytes
 from ..models import (
     CalibrationDetail,
     CalibrationPublic,
@@ -123,11 +123,7 @@ def list_calibrations(
     limit: Annotated[int, Query(ge=1, le=MAX_LIMIT, description="Most returned.")] = 100,
 ) -> CalibrationsPublic:
     """This token's calibrations, newest first, with status and progress."""
-    mine = (Study.owner == owner, Study.kind == Kind.calibration)
-    count = session.exec(select(func.count()).select_from(Study).where(*mine)).one()
-    rows = session.exec(
-        select(Study).where(*mine).order_by(Study.created_at.desc()).offset(offset).limit(limit)
-    ).all()
+    rows, count = jobs_page(session, owner, Kind.calibration, offset, limit)
     return CalibrationsPublic(data=[public(j, session) for j in rows], count=count)
 
 

@@ -7,7 +7,7 @@ from typing import Annotated
 
 from fastapi import APIRouter, HTTPException, Query, Response
 from fastapi.exceptions import RequestValidationError
-from sqlmodel import func, select
+from sqlmodel import select
 
 from .. import transitions
 from ..admission import Admitted, SpecRejected, admit
@@ -15,7 +15,7 @@ from ..cost import output_bytes, stored_bytes
 from ..cost import worst_case as cost_of
 from ..deps import OwnerDep, SessionDep, SettingsDep, StudyDep
 from ..errors import answers
-from ..jobs import calibration_bytes, study_rows
+from ..jobs import calibration_bytes, jobs_page, study_rows
 from ..models import (
     Kind,
     Run,
@@ -165,11 +165,7 @@ def list_studies(
 ) -> StudiesPublic:
     """This token's studies, newest first, with status and progress; ``count`` is their
     total."""
-    mine = (Study.owner == owner, Study.kind == Kind.study)
-    count = session.exec(select(func.count()).select_from(Study).where(*mine)).one()
-    rows = session.exec(
-        select(Study).where(*mine).order_by(Study.created_at.desc()).offset(offset).limit(limit)
-    ).all()
+    rows, count = jobs_page(session, owner, Kind.study, offset, limit)
     return StudiesPublic(data=[public(s) for s in rows], count=count)
 
 

@@ -157,6 +157,35 @@ def run_keys(keys: list[str], workers: int) -> None:
     _store_all({STUDY_STORE / f"{k}.h5": tests[k] for k in keys}, workers)
 
 
+def in_flight(store: Path) -> list[str]:
+    """One line per run cut off in flight (its checkpoint beside ``store``): how far it came,
+    when the checkpoint was written, and whether this engine code would resume it (a
+    checkpoint written by other engine code is not resumed: that run starts again)."""
+    import datetime
+    import pickle
+
+    from engine.uniaxial.checkpoint import code_digest
+
+    out = []
+    for path in sorted((store / ".checkpoints").glob("*.ckpt")):
+        try:
+            with open(path, "rb") as fh:
+                stored = pickle.load(fh)
+            d = stored["driver"]
+            how = (
+                f"{d.stage_now} {100 * d.stage_fraction:.0f} %, step {d.sim.steps}, "
+                f"t = {d.sim.time:.3f} s"
+            )
+            code = "resumable" if stored.get("code") == code_digest() else "other engine code"
+        except Exception as e:  # a torn or foreign file: said, not fatal
+            how, code = f"unreadable ({type(e).__name__})", "starts again"
+        when = datetime.datetime.fromtimestamp(path.stat().st_mtime, datetime.UTC)
+        out.append(
+            f"- in flight: {path.stem}: {how} (checkpoint {when:%Y-%m-%d %H:%M} UTC, {code})"
+        )
+    return out
+
+
 def study_report() -> str:
     """How far experiment (b) with the capped pour has come, and, once its references are
     stored, its verdicts and the claim (c) lines."""
@@ -172,6 +201,7 @@ def study_report() -> str:
         f"(`python -m benchmarks.pour --study`): {len(done)} of {len(planned)} planned runs "
         "stored.",
     ]
+    lines += in_flight(STUDY_STORE)
     if not any(p.is_reference and p.key in done for p in planned):
         return "\n".join(lines)
     from benchmarks.report import claim_c, verdict_table

@@ -164,7 +164,7 @@ def in_flight(store: Path) -> list[str]:
     import datetime
     import pickle
 
-    from engine.uniaxial.checkpoint import code_digest
+    from engine.uniaxial.checkpoint import trajectory_digest
 
     out = []
     for path in sorted((store / ".checkpoints").glob("*.ckpt")):
@@ -176,7 +176,7 @@ def in_flight(store: Path) -> list[str]:
                 f"{d.stage_now} {100 * d.stage_fraction:.0f} %, step {d.sim.steps}, "
                 f"t = {d.sim.time:.3f} s"
             )
-            code = "resumable" if stored.get("code") == code_digest() else "other engine code"
+            code = "resumable" if stored.get("code") == trajectory_digest() else "other engine code"
         except Exception as e:  # a torn or foreign file: said, not fatal
             how, code = f"unreadable ({type(e).__name__})", "starts again"
         when = datetime.datetime.fromtimestamp(path.stat().st_mtime, datetime.UTC)

@@ -10,9 +10,12 @@ generator is used once, before the first step), so a resumed run is bit-identica
 was never interrupted (tests/engine/test_checkpoint.py kills a run mid-stage and compares the
 stored curves byte for byte).
 
-A checkpoint is only used for the very test it was written for, by the very engine code:
-the file carries the test's parameters and a digest of the engine's source and the numba
-version, and one that does not match is ignored (and replaced). Pickles run code when they
+A checkpoint is only used for the very test it was written for, by the very code that makes
+a run's trajectory: the file carries the test's parameters and a digest of the engine's
+packages a run steps through (:data:`TRAJECTORY_PACKAGES`) and the numba and Python
+versions, and one that does not match is ignored (and replaced). Code a run does not step
+through (studies, calibration, storage and figures) is left out, so that a long run cut off by
+a session's end still resumes after an edit there. Pickles run code when they
 are read: a checkpoint file is trusted like the program itself, and lives in a folder only
 its owner can write (the service keeps it beside the study's runs, mode 0600).
 """
@@ -33,27 +36,53 @@ import numba
 
 from ..core.errors import ParameterError
 
-__all__ = ["CHECKPOINT_INTERVAL", "Checkpoint", "check_interval", "code_digest"]
+__all__ = [
+    "CHECKPOINT_INTERVAL",
+    "TRAJECTORY_PACKAGES",
+    "Checkpoint",
+    "check_interval",
+    "code_digest",
+    "trajectory_digest",
+]
 
 #: Default wall time between two checkpoints of a run [s]: a killed run loses at most this
 #: much work; one write of a paper-scale run's state (about 20 MB) takes a fraction of a second.
 CHECKPOINT_INTERVAL = 60.0
 _FORMAT = "demscale-checkpoint/1"
 _ENGINE = Path(__file__).resolve().parents[1]
-_digest: str | None = None
+#: The engine's packages a uniaxial run steps through (its records and errors, the contact
+#: laws, the kernels, the simulation, the stage driver, the CUDA backend): nothing else in
+#: the engine (studies, calibration, storage, figures) is imported by them, so an edit
+#: elsewhere cannot change a trajectory.
+TRAJECTORY_PACKAGES = ("core", "contact", "kernel", "simulation", "uniaxial", "cuda")
+_digests: dict[tuple[str, ...] | None, str] = {}
+
+
+def _source_digest(root: Path, packages: tuple[str, ...] | None) -> str:
+    """Digest of the Python sources under ``root`` (only those of ``packages``, or all) and
+    the numba and Python versions."""
+    h = hashlib.sha256(f"{numba.__version__} {sys.version_info[:2]}".encode())
+    dirs = [root] if packages is None else [root / p for p in packages]
+    for f in sorted(f for d in dirs for f in d.rglob("*.py")):
+        h.update(f.relative_to(root).as_posix().encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()[:20]
 
 
 def code_digest() -> str:
-    """Digest of the engine's Python sources and the numba and Python versions: a checkpoint
-    written by other code is not resumed (its trajectory could differ)."""
-    global _digest
-    if _digest is None:
-        h = hashlib.sha256(f"{numba.__version__} {sys.version_info[:2]}".encode())
-        for f in sorted(_ENGINE.rglob("*.py")):
-            h.update(f.relative_to(_ENGINE).as_posix().encode())
-            h.update(f.read_bytes())
-        _digest = h.hexdigest()[:20]
-    return _digest
+    """Digest of all the engine's Python sources and the numba and Python versions: the code
+    a stored run records it was made by (:func:`this_code`)."""
+    if None not in _digests:
+        _digests[None] = _source_digest(_ENGINE, None)
+    return _digests[None]
+
+
+def trajectory_digest() -> str:
+    """Digest of the sources of :data:`TRAJECTORY_PACKAGES` and the numba and Python versions:
+    a checkpoint written by other such code is not resumed (its trajectory could differ)."""
+    if TRAJECTORY_PACKAGES not in _digests:
+        _digests[TRAJECTORY_PACKAGES] = _source_digest(_ENGINE, TRAJECTORY_PACKAGES)
+    return _digests[TRAJECTORY_PACKAGES]
 
 
 _code: dict | None = None
@@ -147,7 +176,7 @@ class Checkpoint:
         why = None
         if not isinstance(stored, dict) or stored.get("format") != _FORMAT:
             why = "not a demscale checkpoint of this format"
-        elif stored.get("code") != code_digest():
+        elif stored.get("code") != trajectory_digest():
             why = "written by other engine code"
         elif stored.get("test") != test.to_dict():
             why = "written for another test"
@@ -183,7 +212,7 @@ class Checkpoint:
         blob = pickle.dumps(
             {
                 "format": _FORMAT,
-                "code": code_digest(),
+                "code": trajectory_digest(),
                 "test": driver.test.to_dict(),
                 "driver": driver,
             },

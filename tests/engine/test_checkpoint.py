@@ -152,6 +152,67 @@ def test_a_checkpoint_of_another_test_or_a_torn_file_is_ignored(tmp_path, cohesi
         assert Checkpoint(path).load(cohesive_test) is None
 
 
+def test_a_checkpoint_of_other_trajectory_code_is_ignored(tmp_path, cohesive_test):
+    from engine.uniaxial import checkpoint as ck_module
+
+    path = tmp_path / "run.ckpt"
+    ck = Checkpoint(path, interval=1e-12)
+
+    def stop(p):
+        if ck.writes >= 2:
+            raise Killed()
+
+    with pytest.raises(Killed):
+        engine.run_uniaxial(cohesive_test, progress=stop, checkpoint=ck)
+    assert Checkpoint(path).load(cohesive_test) is not None
+    stored = pickle.loads(path.read_bytes())
+    path.write_bytes(pickle.dumps({**stored, "code": "0" * 20}))
+    with pytest.warns(RuntimeWarning, match="other engine code"):
+        assert Checkpoint(path).load(cohesive_test) is None
+    assert stored["code"] == ck_module.trajectory_digest() != ck_module.code_digest()
+
+
+def test_the_resume_digest_follows_only_the_code_a_run_steps_through(tmp_path):
+    """An edit in a package a run steps through changes the digest a checkpoint is resumed
+    by; an edit in the studies, calibration or storage does not (a long run cut off by a
+    session's end resumes after it). Every engine import of those packages stays inside
+    them."""
+    import ast
+    import shutil
+
+    from engine.uniaxial import checkpoint as ck_module
+
+    engine_dir = ROOT / "engine"
+    root = tmp_path / "engine"
+    shutil.copytree(engine_dir, root, ignore=shutil.ignore_patterns("__pycache__"))
+    keys = ck_module.TRAJECTORY_PACKAGES
+
+    def digests():
+        return ck_module._source_digest(root, keys), ck_module._source_digest(root, None)
+
+    run0, all0 = digests()
+    assert run0 == ck_module.trajectory_digest() and all0 == ck_module.code_digest()
+    with open(root / "study" / "advisor.py", "a") as fh:
+        fh.write("\n# an edit outside the trajectory\n")
+    run1, all1 = digests()
+    assert run1 == run0 and all1 != all0
+    with open(root / "kernel" / "step_template.py", "a") as fh:
+        fh.write("\n# an edit in the kernel\n")
+    assert digests()[0] != run0
+    outside = {p.name for p in engine_dir.iterdir() if p.is_dir()} - set(keys) - {"__pycache__"}
+    assert outside >= {"study", "calibration", "io"}
+    for pkg in keys:
+        for f in (engine_dir / pkg).rglob("*.py"):
+            for node in ast.walk(ast.parse(f.read_text())):
+                if isinstance(node, ast.ImportFrom) and node.module:
+                    name = ("." * node.level + node.module).lstrip(".")
+                    top = name.split(".")[1] if name.startswith("engine.") else name.split(".")[0]
+                    if node.level >= 2 or name.startswith("engine."):
+                        assert top not in outside or (f.name, top) == ("results.py", "io"), (
+                            f"{f.relative_to(engine_dir)} imports {name}"
+                        )
+
+
 def test_the_interval_is_checked():
     for bad in (0, -1.0, float("nan"), float("inf"), True, "60"):
         with pytest.raises(engine.ParameterError, match="Checkpoint.interval"):

@@ -294,8 +294,12 @@ def claim_c(res) -> list[str]:
             )
     adh = res.advisor.get("adhesion_exponent") or {}
     for r, v in (adh.get("by_radius") or {}).items():
+        missing = [
+            b[1] for b in ("b1", "b2", "b3") if _verdict_of(res, float(r), b, "strength") is None
+        ]
+        among = f" (b = {', '.join(missing)} not run yet: closest of those run)" if missing else ""
         out.append(
-            f"Adhesion exponent at R = {float(r) * 1e3:g} mm: closest b = {v['best']:g}"
+            f"Adhesion exponent at R = {float(r) * 1e3:g} mm: closest b = {v['best']:g}{among}"
             f"{exponent_text(v)}."
         )
     curve = ((res.advisor.get("resolution_curve") or {}).get("metrics") or {}).get("strength")

@@ -22,6 +22,7 @@ its owner can write (the service keeps it beside the study's runs, mode 0600).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 import os
@@ -55,7 +56,6 @@ _ENGINE = Path(__file__).resolve().parents[1]
 #: the engine (studies, calibration, storage, figures) is imported by them, so an edit
 #: elsewhere cannot change a trajectory.
 TRAJECTORY_PACKAGES = ("core", "contact", "kernel", "simulation", "uniaxial", "cuda")
-_digests: dict[tuple[str, ...] | None, str] = {}
 
 
 def _source_digest(root: Path, packages: tuple[str, ...] | None) -> str:
@@ -69,20 +69,18 @@ def _source_digest(root: Path, packages: tuple[str, ...] | None) -> str:
     return h.hexdigest()[:20]
 
 
+@functools.cache
 def code_digest() -> str:
     """Digest of all the engine's Python sources and the numba and Python versions: the code
     a stored run records it was made by (:func:`this_code`)."""
-    if None not in _digests:
-        _digests[None] = _source_digest(_ENGINE, None)
-    return _digests[None]
+    return _source_digest(_ENGINE, None)
 
 
+@functools.cache
 def trajectory_digest() -> str:
     """Digest of the sources of :data:`TRAJECTORY_PACKAGES` and the numba and Python versions:
     a checkpoint written by other such code is not resumed (its trajectory could differ)."""
-    if TRAJECTORY_PACKAGES not in _digests:
-        _digests[TRAJECTORY_PACKAGES] = _source_digest(_ENGINE, TRAJECTORY_PACKAGES)
-    return _digests[TRAJECTORY_PACKAGES]
+    return _source_digest(_ENGINE, TRAJECTORY_PACKAGES)
 
 
 _code: dict | None = None

@@ -15,8 +15,11 @@ waves of 15 (``engine.calibrate``'s defaults); every run is stored in
 Each run is a quick-scale flow function (one fill, three consolidation stresses), about ten
 minutes on one core, so the whole takes several sessions on 2 cores; the report says how
 far it has come. When done it reports the runs used, the parameters recovered (the truth
-inside each determined parameter's 90 % interval?) and the targets met, then the
-coarsened law: the paper rule applied to the calibrated law at 3.75 and 5 mm.
+inside each determined parameter's 90 % interval?), the targets met and which target
+moves with which parameter, then the coarsened law: the paper rule applied to the
+calibrated law at 3.75 and 5 mm. The finished calibration's summary is stored as
+``result.json`` beside the runs and drawn as docs/calibration_quick.png, so ``--report``
+rebuilds the whole report without a run.
 """
 
 from __future__ import annotations
@@ -37,6 +40,9 @@ from engine.calibration.calibrate import branch_stresses, measure
 ROOT = Path(__file__).resolve().parent.parent
 STORE = ROOT / "benchmarks" / "results" / "quick" / "calibration"
 REPORT = ROOT / "docs" / "CALIBRATION_quick.md"
+#: the finished calibration's summary (``Calibration.to_summary()``), so ``--report`` needs no run
+RESULT = STORE / "result.json"
+FIGURE = ROOT / "docs" / "calibration_quick.png"
 TRUTH = engine.BilinearAdhesive(k1=6.5e3, k2=3.5e4, f0=-0.55, mu_s=0.5, mu_r=0.001, restitution=0.4)
 SEED_LAW = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.8, mu_s=0.5, mu_r=0.001, restitution=0.4)
 BOX = {"k1": (2e3, 2e4), "k2": (2.1e4, 1e5), "f0": (-2.0, -0.1)}
@@ -144,20 +150,114 @@ def run(workers: int) -> engine.calibration.Calibration:
         )
 
 
-def report(cal=None) -> str:
+def _coarsened(law_json: dict) -> list[str]:
+    """The calibrated law coarsened by the paper rule at 3.75 and 5 mm."""
+    law = engine.BilinearAdhesive(**{k: v for k, v in law_json.items() if k != "type"})
+    rule = engine.ScalingRule.named("paper")
+    test = replace(base_test(), pair_law=law)
+    out = []
+    for r in (3.75e-3, 5e-3):
+        c = rule.apply(test, r, test.dt).pair_law
+        out.append(
+            f"- R = {r * 1e3:g} mm: K1 = {c.k1:.4g} N/m, K2 = {c.k2:.4g} N/m, f0 = {c.f0:.4g} N"
+        )
+    return out
+
+
+def _result_lines(summary: dict) -> list[str]:
+    """The finished calibration (``Calibration.to_summary()``, stored as ``RESULT``) in words
+    and tables: the runs used, the parameters against the untold truth, the targets met, the
+    sensitivities and the coarsened law."""
+    runs = summary["runs"]
+    failed = [r for r in runs if "error" in r]
+    waves = sorted({r["wave"] for r in runs})
+    per_wave = ", ".join(
+        f"{'design' if w == 0 else f'wave {w}'}: {sum(r['wave'] == w for r in runs)}" for w in waves
+    )
+    checked = all(q["z"] is not None for q in summary["targets_met"])
+    lines = [
+        "",
+        "## Result",
+        "",
+        f"Runs used: {len(runs) + 1} ({per_wave}, and the check run of the calibrated law"
+        f"{'' if checked else ', which failed'}). Stopped with an error, and left out of the "
+        f"emulators: {len(failed)}" + (":" if failed else "."),
+        "",
+    ]
+    for r in failed:
+        p = ", ".join(f"{k} = {v:.4g}" for k, v in r["parameters"].items())
+        lines.append(
+            f"- {'design' if r['wave'] == 0 else 'wave ' + str(r['wave'])}: {p}: "
+            f"{r['error'].splitlines()[0][:160]}"
+        )
+    lines += [
+        "",
+        "The parameters (posterior median and 90 % credible interval; `determined` where the "
+        "posterior's spread is under half the box's; the truth is the law the targets were "
+        "made with, which the calibration was not told):",
+        "",
+        "| parameter | truth | median | 90 % interval | status | truth inside |",
+        "|---|---|---|---|---|---|",
+    ]
+    for n, p in summary["parameters"].items():
+        lo, hi = p["interval"]
+        truth = getattr(TRUTH, n)
+        inside = min(lo, hi) <= truth <= max(lo, hi)
+        lines.append(
+            f"| {n} | {truth:.4g} | {p['median']:.4g} | {lo:.4g} to {hi:.4g} | {p['status']} | "
+            f"{'yes' if inside else 'no'} |"
+        )
+    lines += [
+        "",
+        "The targets, met by the check run of the calibrated law when |z| <= 2 (z against the "
+        "laboratory's sd, the emulator's seed noise and any resolution correction together):",
+        "",
+        "| target | lab | check run | z | met |",
+        "|---|---|---|---|---|",
+    ]
+    for q in summary["targets_met"]:
+        z = "-" if q["z"] is None else f"{q['z']:+.1f}"
+        lines.append(
+            f"| {q['name']} | {q['lab']:.4g} +/- {q['sd']:.2g} | {q['value']:.4g} | {z} | "
+            f"{'yes' if q['met'] else 'no'} |"
+        )
+    if summary["not_met"]:
+        lines += ["", "Not met:", ""] + [f"- {m}" for m in summary["not_met"]]
+    names = list(summary["parameters"])
+    lines += [
+        "",
+        "Which target moves with which parameter (first-order Sobol index of the emulator):",
+        "",
+        "| target | " + " | ".join(names) + " |",
+        "|---|" + "---|" * len(names),
+    ]
+    for q, s in summary["sensitivity"].items():
+        lines.append(f"| {q} | " + " | ".join(f"{s[n]:.2f}" for n in names) + " |")
+    lines += ["", "Coarsened by the paper rule (K ~ R, f0 ~ R^2):", ""]
+    lines += _coarsened(summary["law"])
+    lines += ["", f"![calibration]({FIGURE.name})"]
+    return lines
+
+
+def report(summary: dict | None = None) -> str:
+    """docs/CALIBRATION_quick.md: the targets, how far the runs have come and, once the
+    calibration has finished (``summary``, or the stored ``RESULT``), its result."""
     done = sorted((STORE / "runs").glob("cal-*.h5")) if (STORE / "runs").exists() else []
     points = {p.name.split("-")[1] for p in done}
+    if summary is None and RESULT.exists():
+        summary = json.loads(RESULT.read_text())
     lines = [
         "# Calibration benchmark (quick scale)",
         "",
         "Generated by `python -m benchmarks.calibration` (docs/CALIBRATION.md; "
-        "`--report` from the stored runs). The seed's cohesive law calibrated to targets "
-        "the engine made from a law it is not told "
+        "`--report` from the stored runs and result). The seed's cohesive law calibrated to "
+        "targets the engine made from a law it is not told "
         f"(K1 = {TRUTH.k1:g} N/m, K2 = {TRUTH.k2:g} N/m, f0 = {TRUTH.f0:g} N; three seeds), "
         f"over K1, K2, f0 in {BOX}, 25 design runs and two waves of 15.",
         "",
         f"Runs stored so far: {len(points)} of 55 (each a flow function at "
-        f"{', '.join(f'{s / 1e3:g}' for s in STRESSES)} kPa).",
+        f"{', '.join(f'{s / 1e3:g}' for s in STRESSES)} kPa; a run that stopped with an "
+        "error is stored with it).",
     ]
     lab = STORE / "lab.json"
     if lab.exists():  # the targets, made once from the untold law
@@ -187,33 +287,8 @@ def report(cal=None) -> str:
             f"{p.sd / 1e3:.2g} |"
             for p in t.strength
         ]
-    if cal is not None:
-        lines += [
-            "",
-            "| parameter | truth | median | 90 % interval | status |",
-            "|---|---|---|---|---|",
-        ]
-        for n, p in cal.parameters.items():
-            lo, hi = p["interval"]
-            lines.append(
-                f"| {n} | {getattr(TRUTH, n):.4g} | {p['median']:.4g} | {lo:.4g} to {hi:.4g} | "
-                f"{p['status']} |"
-            )
-        lines += ["", "| target | lab | check run | z | met |", "|---|---|---|---|---|"]
-        for q in cal.targets_met:
-            lines.append(
-                f"| {q['name']} | {q['lab']:.4g} +/- {q['sd']:.2g} | {q['value']:.4g} | "
-                f"{q['z']:+.1f} | {'yes' if q['met'] else 'no'} |"
-            )
-        rule = engine.ScalingRule.named("paper")
-        test = replace(base_test(), pair_law=cal.law)
-        lines += ["", "Coarsened by the paper rule:", ""]
-        for r in (3.75e-3, 5e-3):
-            law = rule.apply(test, r, test.dt).pair_law
-            lines.append(
-                f"- R = {r * 1e3:g} mm: K1 = {law.k1:.4g} N/m, K2 = {law.k2:.4g} N/m, "
-                f"f0 = {law.f0:.4g} N"
-            )
+    if summary is not None:
+        lines += _result_lines(summary)
     return "\n".join(lines) + "\n"
 
 
@@ -222,8 +297,17 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--report", action="store_true")
     args = ap.parse_args(argv)
-    cal = None if args.report else run(args.workers)
-    text = report(cal)
+    summary = None
+    if not args.report:
+        summary = run(args.workers).to_summary()
+        RESULT.write_text(json.dumps(summary, indent=1))
+    if summary is None and RESULT.exists():
+        summary = json.loads(RESULT.read_text())
+    if summary is not None:
+        from engine.io.figures import calibration_figure
+
+        calibration_figure(summary).savefig(FIGURE)
+    text = report(summary)
     REPORT.write_text(text)
     print(text)
     return 0

@@ -188,7 +188,7 @@ def _result_lines(summary: dict) -> list[str]:
         p = ", ".join(f"{k} = {v:.4g}" for k, v in r["parameters"].items())
         lines.append(
             f"- {'design' if r['wave'] == 0 else 'wave ' + str(r['wave'])}: {p}: "
-            f"{r['error'].splitlines()[0][:160]}"
+            f"{r['error'].splitlines()[0].split('; dt')[0]}"
         )
     lines += [
         "",

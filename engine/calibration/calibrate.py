@@ -810,16 +810,20 @@ def _metropolis(gps, z, lab_var, d: int, rng, chains: int = 8, steps: int = 4000
 
 def _sobol(gps, quantities, axes, rng, n: int = 2048) -> dict:
     """First-order Sobol index of each parameter for each quantity's emulator mean (Saltelli
-    2010: S_i = mean(f(B) (f(A_B^i) - f(A))) / var)."""
+    2010: S_i = mean(f(B) (f(A_B^i) - f(A))) / var), on outputs centred by their mean: the
+    estimator's scatter grows with the mean, and a log stiffness of about 14 with a variance
+    of a few tenths gave an index of 0.6 to a parameter that does not move it."""
     d = len(axes)
     a, b = rng.random((n, d)), rng.random((n, d))
     fa, fb = (_predict(gps, m)[0] for m in (a, b))
-    var = np.var(np.vstack([fa, fb]), axis=0)
+    both = np.vstack([fa, fb])
+    centre, var = both.mean(axis=0), both.var(axis=0)
+    fa, fb = fa - centre, fb - centre
     out = {q["name"]: {} for q in quantities}
     for i, ax in enumerate(axes):
         abi = a.copy()
         abi[:, i] = b[:, i]
-        fab = _predict(gps, abi)[0]
+        fab = _predict(gps, abi)[0] - centre
         s = np.mean(fb * (fab - fa), axis=0) / np.where(var > 0, var, 1.0)
         for j, q in enumerate(quantities):
             out[q["name"]][ax.name] = float(np.clip(s[j], 0.0, 1.0))

@@ -566,7 +566,11 @@ def calibration_figure(summary: dict):
             ax.text(0.5, 0.5, "no such target", ha="center", transform=ax.transAxes)
             continue
         for r in runs:
-            pts = [(q["name"], q["value"]) for q in r["quantities"] if q["name"].startswith(prefix)]
+            pts = [
+                (q["name"], q["value"])
+                for q in r.get("quantities", [])
+                if q["name"].startswith(prefix)
+            ]
             ax.scatter(
                 [_target_stress(n) * 1e-3 for n, _ in pts],
                 [v * sy for _, v in pts],

@@ -8,7 +8,9 @@ from __future__ import annotations
 import importlib
 import math
 from dataclasses import replace
+from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 import engine
@@ -258,3 +260,37 @@ def test_corrections_from_a_resolution_curve():
     factor, sd = out["strength"]
     assert factor == pytest.approx(1 / 0.85)
     assert sd == pytest.approx((math.log(0.96) - math.log(0.75)) / (2 * 1.959964), rel=1e-5)
+
+
+def test_the_figure_draws_a_calibration_with_a_failed_run():
+    # a run that stopped has an error and no quantities: the figure skips it (it raised
+    # KeyError on the quick-scale benchmark's four fill failures)
+    from engine.io.figures import calibration_figure
+
+    def q(name, value):
+        return {"name": name, "value": value, "lab": value, "sd": 0.01 * value, "met": True}
+
+    checks = [q("porosity@8000Pa:loading", 0.45), q("strength@20000Pa", 1.3e4), q("k0", 0.4)]
+    runs = [
+        {"wave": 0, "parameters": {"k1": 5e3}, "quantities": checks},
+        {"wave": 0, "parameters": {"k1": 2e3}, "error": "InstabilityError: overlap"},
+    ]
+    fig = calibration_figure({"targets_met": checks, "runs": runs})
+    faint = [c for ax in fig.axes for c in ax.collections if len(c.get_offsets()) == 1]
+    assert len(fig.axes) == 2 and "k0 0.4" in fig._suptitle.get_text()
+    assert len(faint) >= 4  # per panel: the good run's point, the check run's square
+
+
+def test_sobol_indices_of_a_known_function_far_from_zero():
+    # y = 100 + u0 + 0.1 u1 (and nothing of u2): S = (1, 0.01, 0) / 1.01. The mean of 100
+    # made the uncentred estimator's scatter larger than the indices themselves
+    class Exact:
+        noise = 0.0
+
+        def predict(self, u):
+            return 100.0 + u[:, 0] + 0.1 * u[:, 1], np.zeros(len(u))
+
+    axes = [SimpleNamespace(name=n) for n in ("k1", "k2", "f0")]
+    s = cal_module._sobol([Exact()], [{"name": "y"}], axes, np.random.default_rng(3))["y"]
+    assert s["k1"] == pytest.approx(1 / 1.01, abs=0.05)
+    assert s["k2"] < 0.05 and s["f0"] < 0.05

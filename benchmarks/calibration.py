@@ -35,7 +35,9 @@ import numpy as np
 
 import engine
 from engine.calibration import LabTargets, StrengthPoint, calibrate
-from engine.calibration.calibrate import branch_stresses, measure
+from engine.calibration.calibrate import DETERMINED, branch_stresses, measure
+from engine.contact.registry import LAWS
+from engine.core.records import from_dict
 
 ROOT = Path(__file__).resolve().parent.parent
 STORE = ROOT / "benchmarks" / "results" / "quick" / "calibration"
@@ -152,7 +154,8 @@ def run(workers: int) -> engine.calibration.Calibration:
 
 def _coarsened(law_json: dict) -> list[str]:
     """The calibrated law coarsened by the paper rule at 3.75 and 5 mm."""
-    law = engine.BilinearAdhesive(**{k: v for k, v in law_json.items() if k != "type"})
+    body = dict(law_json)
+    law = from_dict(LAWS[body.pop("type")], body)
     rule = engine.ScalingRule.named("paper")
     test = replace(base_test(), pair_law=law)
     out = []
@@ -193,8 +196,8 @@ def _result_lines(summary: dict) -> list[str]:
     lines += [
         "",
         "The parameters (posterior median and 90 % credible interval; `determined` where the "
-        "posterior's spread is under half the box's; the truth is the law the targets were "
-        "made with, which the calibration was not told):",
+        f"posterior's spread is under {DETERMINED:g} of the box's; the truth is the law the "
+        "targets were made with, which the calibration was not told):",
         "",
         "| parameter | truth | median | 90 % interval | status | truth inside |",
         "|---|---|---|---|---|---|",
@@ -239,13 +242,11 @@ def _result_lines(summary: dict) -> list[str]:
     return lines
 
 
-def report(summary: dict | None = None) -> str:
+def report(summary: dict | None) -> str:
     """docs/CALIBRATION_quick.md: the targets, how far the runs have come and, once the
-    calibration has finished (``summary``, or the stored ``RESULT``), its result."""
+    calibration has finished (``summary``: the stored ``RESULT``), its result."""
     done = sorted((STORE / "runs").glob("cal-*.h5")) if (STORE / "runs").exists() else []
     points = {p.name.split("-")[1] for p in done}
-    if summary is None and RESULT.exists():
-        summary = json.loads(RESULT.read_text())
     lines = [
         "# Calibration benchmark (quick scale)",
         "",
@@ -297,12 +298,9 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--report", action="store_true")
     args = ap.parse_args(argv)
-    summary = None
     if not args.report:
-        summary = run(args.workers).to_summary()
-        RESULT.write_text(json.dumps(summary, indent=1))
-    if summary is None and RESULT.exists():
-        summary = json.loads(RESULT.read_text())
+        RESULT.write_text(json.dumps(run(args.workers).to_summary(), separators=(",", ":")))
+    summary = json.loads(RESULT.read_text()) if RESULT.exists() else None
     if summary is not None:
         from engine.io.figures import calibration_figure
 

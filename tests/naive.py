@@ -74,24 +74,67 @@ def rsa_packing(
     periodic=(True, True, True),
 ):
     """Random sequential addition of up to ``n`` spheres (radii uniform in [rmin, rmax]) in a
-    box, allowing overlaps up to ``max_overlap`` x the smaller radius."""
+    box, allowing overlaps up to ``max_overlap`` x the smaller radius; at most ``200 n``
+    tries.
+
+    Each try draws its radius, then its position (``rng.uniform``'s formula, ``lo + (hi - lo)
+    u``, on the generator's doubles in that order), and is kept when it overlaps no sphere
+    kept before it by more than the limit. The tries are drawn and checked against the
+    spheres already kept in batches (the checks of a late, dense packing were seconds of
+    per-try overhead); a batch's survivors are then taken one by one, each checked against
+    the batch's earlier keepers: the same spheres, to the bit, as one try at a time. A
+    packing is made once per process and handed out as copies."""
+    key = (n, tuple(map(float, lengths)), rmin, rmax, seed, max_overlap, tuple(map(bool, periodic)))
+    if key not in _PACKINGS:
+        _PACKINGS[key] = _rsa_packing(n, lengths, rmin, rmax, seed, max_overlap, periodic)
+    pos, rad = _PACKINGS[key]
+    return pos.copy(), rad.copy()
+
+
+#: Packings made in this process: (arguments) -> (positions, radii).
+_PACKINGS: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _rsa_packing(n, lengths, rmin, rmax, seed, max_overlap, periodic):
     rng = np.random.default_rng(seed)
     lengths = np.asarray(lengths, dtype=float)
+    periodic = np.asarray(periodic, dtype=bool)
     pos = np.zeros((n, 3))
     rad = np.zeros(n)
     m = 0
     tries = 0
-    while m < n and tries < 200 * n:
-        tries += 1
-        r = rng.uniform(rmin, rmax)
-        lo = np.where(periodic, 0.0, r)
-        hi = np.where(periodic, lengths, lengths - r)
-        x = rng.uniform(lo, hi)
-        if m:
-            d = np.linalg.norm(minimum_image(x - pos[:m], lengths, periodic), axis=1)
-            if np.any(r + rad[:m] - d > max_overlap * np.minimum(r, rad[:m])):
+    limit = 200 * n
+    while m < n and tries < limit:
+        batch = min(256, limit - tries)
+        u = rng.random((batch, 4))
+        r = rmin + (rmax - rmin) * u[:, 0]
+        lo = np.where(periodic, 0.0, r[:, None])
+        hi = np.where(periodic, lengths, lengths - r[:, None])
+        x = lo + (hi - lo) * u[:, 1:]
+        m0 = m
+        bad = _overlapping(x, r, pos[:m0], rad[:m0], lengths, periodic, max_overlap)
+        for j in range(batch):
+            tries += 1
+            if bad[j] or (
+                m > m0
+                and _overlapping(
+                    x[j : j + 1], r[j : j + 1], pos[m0:m], rad[m0:m], lengths, periodic, max_overlap
+                )[0]
+            ):
                 continue
-        pos[m] = x
-        rad[m] = r
-        m += 1
+            pos[m] = x[j]
+            rad[m] = r[j]
+            m += 1
+            if m == n:
+                break
     return pos[:m], rad[:m]
+
+
+def _overlapping(x, r, pos, rad, lengths, periodic, max_overlap) -> np.ndarray:
+    """For each candidate (rows of ``x``, radii ``r``): does it overlap a sphere of ``pos``,
+    ``rad`` by more than ``max_overlap`` x the smaller radius?"""
+    if len(pos) == 0:
+        return np.zeros(len(x), dtype=bool)
+    d = np.linalg.norm(minimum_image(x[:, None, :] - pos[None, :, :], lengths, periodic), axis=2)
+    rj = r[:, None]
+    return np.any(rj + rad[None, :] - d > max_overlap * np.minimum(rj, rad[None, :]), axis=1)

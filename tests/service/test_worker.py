@@ -355,7 +355,11 @@ def test_progress_within_runs_and_cancel_on_a_pool_or_a_dask_cluster(
     """Runs on other processes report progress while they run (engine.FileChannel in the
     study's folder), and a cancel stops the running tasks, not only the pending ones."""
     with runs_elsewhere(settings, where):
-        sid = submit(client, {**SLOW, "reference_seeds": [1, 2], "seeds": [1]})
+        # half SLOW's step: a run lasts several progress intervals (engine's
+        # REPORT_INTERVAL, 0.5 s), so the first report the study shows cannot come from a
+        # run that finished within one interval (CI-like run, session 35: SLOW's 1 s run did)
+        slower = {**SLOW["reference"], "dt": 2e-6}
+        sid = submit(client, {**SLOW, "reference": slower, "reference_seeds": [1, 2], "seeds": [1]})
         workers.start()
         mid = wait_for(
             study_getter(client, sid),

@@ -174,3 +174,18 @@ def test_the_benchmarks_import_no_circle():
 
     circles = sorted(m for m in graph if reaches(m, m))
     assert circles == [], circles
+
+
+def test_the_capped_study_is_experiment_b_with_only_the_pour_changed():
+    """(b) with the capped pour plans the same runs as (b), every test filled at POUR_SPEED
+    and nothing else changed: its stored runs are (b)'s runs with another fill."""
+    from dataclasses import replace
+
+    from benchmarks.experiments import POUR_SPEED, capped_study, experiments
+
+    b, capped = experiments("paper")["b_cohesive"], capped_study()
+    runs_b, runs_c = engine.plan(b).runs, engine.plan(capped).runs
+    assert [p.key for p in runs_c] == [p.key for p in runs_b]
+    for p, q in zip(runs_b, runs_c, strict=True):
+        assert p.test.pour_speed is None and q.test.pour_speed == POUR_SPEED
+        assert replace(q.test, pour_speed=None) == p.test

@@ -819,10 +819,12 @@ def write_report(
         capped = results.get("b_cohesive_capped")
         if isinstance(capped, engine.StudyResult):
             n_capped = counts["b_cohesive_capped"]
+            lost = sorted(k for k, v in data["b_cohesive_capped"][1].items() if isinstance(v, str))
             lines.append(
                 "  - With the capped pour (every run of (b) filled at "
-                f"{capped.spec.reference.pour_speed:g} m/s, no b = 3 seed lost in the fill; "
-                f"{n_capped[0]} of its {n_capped[1]} runs stored):"
+                f"{capped.spec.reference.pour_speed:g} m/s; "
+                + (f"failed: {', '.join(lost)}" if lost else "no run failed")
+                + f"; {n_capped[0]} of its {n_capped[1]} runs stored):"
             )
             lines += [f"    - {t}" for t in claim_c(capped)]
         lines.append(f"- *About 9x less compute.* {claim_d(b, machines.get('b_cohesive'))}")

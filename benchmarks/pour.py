@@ -13,9 +13,11 @@ free fall from 5 cm, chosen as a gentle fill before any run, not tuned), storing
 ``benchmarks/results/paper/pour/``. A capped pour changes every run's packing, so it decides
 nothing about the rule by itself: experiment (b) judged with it needs all its runs redone
 with the same pour (its references included): ``--study`` runs it, stored run by run in
-``benchmarks/results/paper/b_cohesive_capped/`` and resumed across sessions (about 8 h on
-2 cores in all); ``--report`` says how far it has come and, once its references are stored,
-judges it (claim (c) included).
+``benchmarks/results/paper/b_cohesive_capped/`` and resumed across sessions (31 runs, its
+pilot and the seeds its two-stage design added: 10 h of one-core wall time summed over its
+runs, on the two machines its column 'ran on' names); ``--report`` lists its runs and those
+in flight and judges it (claim (c) included); docs/VALIDATION.md judges it beside (b)
+(``python -m benchmarks.reproduce --scale paper --report``).
 """
 
 from __future__ import annotations
@@ -118,7 +120,7 @@ def report() -> str:
 # ------------------------------------------------------------------ (b) with one capped pour
 #: Where experiment (b) with the capped pour is stored, run by run.
 STUDY_STORE = store_dir("paper", CAPPED)
-#: Its interim report, rewritten by every ``--report``.
+#: Its run page, rewritten by every ``--report``.
 DOC = ROOT / "docs" / "VALIDATION_capped.md"
 
 

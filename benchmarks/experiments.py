@@ -97,5 +97,16 @@ def capped_study() -> engine.StudySpec:
     return replace(spec, reference=replace(spec.reference, pour_speed=POUR_SPEED))
 
 
+def judged_experiments(scale: str) -> dict[str, engine.StudySpec]:
+    """The experiments the report of ``scale`` judges: :func:`experiments`, and at the paper
+    scale, once its store exists, (b) with the capped pour right after (b)."""
+    out = {}
+    for name, spec in experiments(scale).items():
+        out[name] = spec
+        if name == "b_cohesive" and scale == "paper" and store_dir(scale, CAPPED).is_dir():
+            out[CAPPED] = capped_study()
+    return out
+
+
 def store_dir(scale: str, name: str) -> Path:
     return STORE / scale / name

@@ -44,6 +44,7 @@ import numba
 import numpy as np
 
 import engine
+from benchmarks.experiments import CAPPED
 from engine.study.plan import adaptive_summary, final_look, plan_runs, stored_plan_runs
 from engine.study.results import assemble
 from engine.uniaxial.measures import overburden_ratio
@@ -596,7 +597,7 @@ def porosity_note(res) -> str:
 
 
 #: How to run the missing runs of an experiment that benchmarks/reproduce.py does not run.
-RUN_COMMANDS = {"b_cohesive_capped": "python -m benchmarks.pour --study"}
+RUN_COMMANDS = {CAPPED: "python -m benchmarks.pour --study"}
 
 
 def write_report(
@@ -728,10 +729,6 @@ def write_report(
         r = [f"{x * 1e3:g}" for x in data[name][0].coarse_radii]
         return (" and ".join(r) if len(r) < 3 else ", ".join(r)) + " mm"
 
-    def _pour_speed(name: str) -> str:
-        speed = data[name][0].reference.pour_speed if name in data else None
-        return "a capped speed" if speed is None else f"{speed:g}"
-
     titles = {
         "a_cohesionless": "(a) Cohesionless: 2.5 mm against 5 mm, stiffness unscaled "
         "and linearly scaled (confined stages only)",
@@ -739,9 +736,11 @@ def write_report(
         "stiffness ~ R, adhesion ~ R^b with b = 1, 2, 3",
         "c_eepa_cohesionless": "(c) EEPA n = 1.5, cohesionless: 2.5 against 5 mm, "
         "stress similarity (K ~ R^0.5) against linear stiffness (K ~ R)",
-        "b_cohesive_capped": "(b) with a capped pour: every run filled at "
-        f"{_pour_speed('b_cohesive_capped')} m/s, {_radii('b_cohesive_capped')}, "
-        "stiffness ~ R, adhesion ~ R^b with b = 1, 2, 3",
+        CAPPED: "(b) with a capped pour: every run filled at "
+        f"{data[CAPPED][0].reference.pour_speed:g} m/s, {_radii(CAPPED)}, "
+        "stiffness ~ R, adhesion ~ R^b with b = 1, 2, 3"
+        if CAPPED in data
+        else CAPPED,
         "d_eepa_cohesive": "(d) EEPA n = 1.5, cohesive (f0 = -0.8 N at 2.5 mm): "
         f"{_radii('d_eepa_cohesive')}, stress similarity (K ~ R^0.5, f0 ~ R^2) "
         "against linear stiffness (K ~ R, f0 ~ R^2)",
@@ -816,10 +815,10 @@ def write_report(
             "- *Quadratic adhesion matches the unconfined strength; linear under- and "
             "cubic over-predicts.*"
         ] + [f"  - {t}" for t in claim_c(b)]
-        capped = results.get("b_cohesive_capped")
+        capped = results.get(CAPPED)
         if isinstance(capped, engine.StudyResult):
-            n_capped = counts["b_cohesive_capped"]
-            lost = sorted(k for k, v in data["b_cohesive_capped"][1].items() if isinstance(v, str))
+            n_capped = counts[CAPPED]
+            lost = sorted(k for k, v in data[CAPPED][1].items() if isinstance(v, str))
             lines.append(
                 "  - With the capped pour (every run of (b) filled at "
                 f"{capped.spec.reference.pour_speed:g} m/s; "

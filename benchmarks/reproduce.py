@@ -41,7 +41,6 @@ from pathlib import Path
 
 import engine
 from benchmarks.experiments import (  # noqa: F401  (names of this module before the split)
-    CAPPED,
     COARSE_SEEDS,
     DECIDE,
     EEPA_COARSE_RADII,
@@ -51,8 +50,8 @@ from benchmarks.experiments import (  # noqa: F401  (names of this module before
     ROOT,
     STORE,
     R,
-    capped_study,
     experiments,
+    judged_experiments,
     store_dir,
 )
 from engine.io.store import completed_runs, load_all, save_run, stored_code, stored_machine
@@ -210,12 +209,7 @@ def main(argv=None) -> int:
             return 0
     from benchmarks.report import write_report
 
-    specs = experiments(args.scale)
-    if args.scale == "paper" and store_dir("paper", CAPPED).is_dir():
-        # (b) with the capped pour, judged beside (b)
-        after_b = list(specs).index("b_cohesive") + 1
-        items = list(specs.items())
-        specs = dict([*items[:after_b], (CAPPED, capped_study()), *items[after_b:]])
+    specs = judged_experiments(args.scale)
     path = write_report(
         args.scale,
         {

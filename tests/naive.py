@@ -6,6 +6,7 @@ compare with.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 
@@ -84,17 +85,12 @@ def rsa_packing(
     per-try overhead); a batch's survivors are then taken one by one, each checked against
     the batch's earlier keepers: the same spheres, to the bit, as one try at a time. A
     packing is made once per process and handed out as copies."""
-    key = (n, tuple(map(float, lengths)), rmin, rmax, seed, max_overlap, tuple(map(bool, periodic)))
-    if key not in _PACKINGS:
-        _PACKINGS[key] = _rsa_packing(n, lengths, rmin, rmax, seed, max_overlap, periodic)
-    pos, rad = _PACKINGS[key]
+    lengths, periodic = tuple(map(float, lengths)), tuple(map(bool, periodic))
+    pos, rad = _rsa_packing(n, lengths, rmin, rmax, seed, max_overlap, periodic)
     return pos.copy(), rad.copy()
 
 
-#: Packings made in this process: (arguments) -> (positions, radii).
-_PACKINGS: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
-
-
+@functools.cache
 def _rsa_packing(n, lengths, rmin, rmax, seed, max_overlap, periodic):
     rng = np.random.default_rng(seed)
     lengths = np.asarray(lengths, dtype=float)
@@ -115,9 +111,9 @@ def _rsa_packing(n, lengths, rmin, rmax, seed, max_overlap, periodic):
         bad = _overlapping(x, r, pos[:m0], rad[:m0], lengths, periodic, max_overlap)
         for j in range(batch):
             tries += 1
-            if bad[j] or (
-                m > m0
-                and _overlapping(
+            if (
+                bad[j]
+                or _overlapping(
                     x[j : j + 1], r[j : j + 1], pos[m0:m], rad[m0:m], lengths, periodic, max_overlap
                 )[0]
             ):

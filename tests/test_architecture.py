@@ -16,8 +16,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 #: What engine modules may import at module level besides the standard library and engine.
 ENGINE_TOP = {"numpy", "numba", "llvmlite"}
-#: What they may import inside a function (files and figures, on request).
-ENGINE_LAZY = ENGINE_TOP | {"h5py", "matplotlib", "distributed"}
+#: What they may import inside a function (files and figures, and scipy's statistics and
+#: optimisers, on request).
+ENGINE_LAZY = ENGINE_TOP | {"h5py", "matplotlib", "distributed", "scipy"}
 #: Packages of the layers above the engine, or of the web and the database.
 ABOVE = {
     "service",

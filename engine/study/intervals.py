@@ -1,20 +1,20 @@
 r"""Intervals with the coverage they state, for the verdicts (docs/PHYSICS.md section 7).
 
-Everything here is plain numpy and :mod:`math` (the engine carries no scipy):
+Student's t and the normal come from :mod:`scipy.stats` (imported on first use) (a well-kept library where it has
+the function; until issue 42 they were hand-written continued fractions and Newton steps).
+What stays here is the verdicts' own arithmetic:
 
-- :func:`t_cdf` / :func:`t_quantile`: Student's t distribution for any real degrees of
-  freedom :math:`\nu > 0` (the regularised incomplete beta function by its continued
-  fraction, inverted by bisection to 1e-12);
 - :func:`welch`: the difference of two sample means with its standard uncertainty and the
   Welch-Satterthwaite effective degrees of freedom
 
   .. math:: u^2 = \frac{s_c^2}{n_c} + \frac{s_r^2}{n_r}, \qquad
             \nu = \frac{u^4}{\frac{(s_c^2/n_c)^2}{n_c - 1} + \frac{(s_r^2/n_r)^2}{n_r - 1}};
 
+- :func:`interval_df`: the degrees of freedom a verdict's interval takes (a lower bound of
+  Welch-Satterthwaite's, Hsu's where a side has fewer than three seeds), for spreads
+  estimated from a side's own seeds or pooled over several groups (engine.study.pooling);
 - :func:`log_ratio_interval`: the interval of a ratio of geometric means (a relative error),
-  a t interval on the difference of mean logarithms, with Welch-Satterthwaite degrees of
-  freedom where both sides have three or more values and Hsu's min(n_c, n_r) - 1 otherwise
-  (:func:`interval_df`).
+  a t interval on the difference of mean logarithms.
 """
 
 from __future__ import annotations
@@ -22,174 +22,69 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
-
-_EPS = 1e-15
-_TINY = 1e-300
 
 
-@njit(cache=True)
-def _betacf(a: float, b: float, x: float) -> float:
-    """Continued fraction of the incomplete beta function (modified Lentz)."""
-    qab, qap, qam = a + b, a + 1.0, a - 1.0
-    c, d = 1.0, 1.0 - qab * x / qap
-    d = 1.0 / (d if abs(d) > _TINY else _TINY)
-    h = d
-    for m in range(1, 10_000):
-        m2 = 2 * m
-        aa = m * (b - m) * x / ((qam + m2) * (a + m2))
-        d = 1.0 + aa * d
-        d = 1.0 / (d if abs(d) > _TINY else _TINY)
-        c = 1.0 + aa / c
-        c = c if abs(c) > _TINY else _TINY
-        h *= d * c
-        aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2))
-        d = 1.0 + aa * d
-        d = 1.0 / (d if abs(d) > _TINY else _TINY)
-        c = 1.0 + aa / c
-        c = c if abs(c) > _TINY else _TINY
-        delta = d * c
-        h *= delta
-        if abs(delta - 1.0) < _EPS:
-            return h
-    return h  # not reached for the a, b, x a t distribution needs
+def _stats():
+    """scipy.stats, imported when an interval is first asked for (``import engine`` and a run
+    load only numpy and numba)."""
+    from scipy import stats
 
-
-def betainc(a: float, b: float, x: float) -> float:
-    """Regularised incomplete beta function :math:`I_x(a, b)` for a, b > 0, x in [0, 1]."""
-    if not (a > 0 and b > 0 and 0.0 <= x <= 1.0):
-        raise ValueError(f"betainc: needs a, b > 0 and x in [0, 1] (got {a}, {b}, {x})")
-    return _betainc(float(a), float(b), float(x))
-
-
-@njit(cache=True)
-def _betainc(a: float, b: float, x: float) -> float:
-    if x == 0.0 or x == 1.0:
-        return x
-    ln = math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b) + a * math.log(x) + b * math.log1p(-x)
-    front = math.exp(ln)
-    if x < (a + 1.0) / (a + b + 2.0):
-        return front * _betacf(a, b, x) / a
-    return 1.0 - front * _betacf(b, a, 1.0 - x) / b
+    return stats
 
 
 def t_cdf(x: float, df: float) -> float:
     """P(T <= x) of Student's t with ``df`` > 0 degrees of freedom (inf: the normal)."""
+    stats = _stats()
     if not df > 0:
         raise ValueError(f"t_cdf: degrees of freedom {df} must be > 0")
-    return _t_cdf(float(x), float(df))
-
-
-@njit(cache=True)
-def _t_cdf(x: float, df: float) -> float:
     if math.isinf(df):
-        return 0.5 * math.erfc(-x / math.sqrt(2.0))
-    tail = 0.5 * _betainc(0.5 * df, 0.5, df / (df + x * x))
-    return 1.0 - tail if x > 0 else tail
+        return float(stats.norm.cdf(x))
+    return float(stats.t.cdf(x, df))
 
 
-@njit(cache=True)
 def t_pdf(x: float, df: float) -> float:
-    """Density of Student's t with ``df`` > 0 degrees of freedom."""
+    """Density of Student's t with ``df`` > 0 degrees of freedom (inf: the normal)."""
+    stats = _stats()
     if math.isinf(df):
-        return math.exp(-0.5 * x * x) / math.sqrt(2.0 * math.pi)
-    ln = (
-        math.lgamma(0.5 * (df + 1.0))
-        - math.lgamma(0.5 * df)
-        - 0.5 * math.log(df * math.pi)
-        - 0.5 * (df + 1.0) * math.log1p(x * x / df)
-    )
-    return math.exp(ln)
+        return float(stats.norm.pdf(x))
+    return float(stats.t.pdf(x, df))
 
 
-@njit(cache=True)
 def t_sf(x: float, df: float) -> float:
-    """Upper tail P(T > x) of Student's t (computed as a tail, not as 1 - cdf, so that
-    it keeps its relative precision far out)."""
-    return _t_cdf(-x, df)
+    """Upper tail P(T > x) of Student's t (a tail, not 1 - cdf: precise far out)."""
+    stats = _stats()
+    if math.isinf(df):
+        return float(stats.norm.sf(x))
+    return float(stats.t.sf(x, df))
 
 
 def t_quantile(p: float, df: float) -> float:
     """The x with P(T <= x) = ``p`` (0 < p < 1) of Student's t with ``df`` > 0 degrees of
-    freedom, to about 1e-10 relative for df up to 1e4: Newton steps on the upper tail
-    :func:`t_sf` from the Cornish-Fisher expansion of the normal quantile, kept inside a
-    bracket that bisection narrows where a step would leave it."""
+    freedom (inf: the normal)."""
+    stats = _stats()
     if not 0.0 < p < 1.0:
         raise ValueError(f"t_quantile: p = {p} outside (0, 1)")
     if not df > 0:
         raise ValueError(f"t_quantile: degrees of freedom {df} must be > 0")
-    if p < 0.5:
-        return -_t_upper(p, float(df))
-    if p == 0.5:
-        return 0.0
-    return _t_upper(1.0 - p, float(df))
+    if math.isinf(df):
+        return float(stats.norm.ppf(p))
+    return float(stats.t.ppf(p, df))
 
 
 def t_upper_quantiles(q: float, df) -> np.ndarray:
     """Element-wise :func:`t_quantile` (1 - ``q``, ``df``) for one upper-tail probability
     0 < ``q`` < 0.5 and an array of degrees of freedom > 0 (inf: the normal)."""
+    stats = _stats()
     if not 0.0 < q < 0.5:
         raise ValueError(f"t_upper_quantiles: q = {q} outside (0, 0.5)")
     df = np.asarray(df, dtype=float)
     if not np.all(df > 0):
         raise ValueError("t_upper_quantiles: degrees of freedom must be > 0")
-    return _t_upper_many(float(q), df.ravel()).reshape(df.shape)
-
-
-@njit(cache=True)
-def _t_upper_many(q: float, df: np.ndarray) -> np.ndarray:
-    out = np.empty(df.size)
-    for i in range(df.size):
-        out[i] = _t_upper(q, df[i])
-    return out
-
-
-@njit(cache=True)
-def _t_upper(q: float, df: float) -> float:
-    """The x > 0 with P(T > x) = q < 0.5."""
-    lo, hi = 0.0, 1.0
-    while t_sf(hi, df) > q:
-        lo, hi = hi, 4.0 * hi
-        if hi > 1e300:
-            return math.inf
-    z = _normal_quantile(q)
-    x = (
-        z
-        if math.isinf(df)
-        else z + (z**3 + z) / (4 * df) + (5 * z**5 + 16 * z**3 + 3 * z) / (96 * df**2)
-    )
-    if not lo < x < hi:
-        x = 0.5 * (lo + hi)
-    for _ in range(200):
-        f = q - t_sf(x, df)  # increasing in x
-        if f < 0:
-            lo = x
-        else:
-            hi = x
-        nxt = x - f / max(t_pdf(x, df), _TINY)
-        if not lo < nxt < hi:
-            nxt = 0.5 * (lo + hi)
-        if abs(nxt - x) <= 1e-14 * abs(nxt) or hi - lo <= 1e-14 * hi:
-            return nxt
-        x = nxt
-    return x
-
-
-@njit(cache=True)
-def _normal_quantile(q: float) -> float:
-    """Standard normal upper quantile: the x > 0 with P(Z > x) = ``q`` < 0.5 (Newton on
-    erfc from the Abramowitz-Stegun 26.2.23 start)."""
-    t = math.sqrt(-2.0 * math.log(q))
-    x = t - (2.515517 + 0.802853 * t + 0.010328 * t * t) / (
-        1.0 + 1.432788 * t + 0.189269 * t * t + 0.001308 * t**3
-    )
-    for _ in range(50):
-        f = q - 0.5 * math.erfc(x / math.sqrt(2.0))
-        step = f / (math.exp(-0.5 * x * x) / math.sqrt(2.0 * math.pi))
-        x -= step
-        if abs(step) <= 1e-15 * max(abs(x), 1.0):
-            break
-    return x
+    finite = np.isfinite(df)
+    out = np.full(df.shape, float(stats.norm.isf(q)))
+    if np.any(finite):
+        out[finite] = stats.t.isf(q, df[finite])
+    return out[()]
 
 
 def welch(c: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -222,50 +117,58 @@ def hsu_df(nc: int, nr: int) -> int:
 WELCH_MIN_SEEDS = 3
 
 
-def interval_df(nc: int, nr: int, vc, vr):
+def interval_df(nc: int, nr: int, vc, vr, dfc=None, dfr=None, shared: bool = False):
     r"""Degrees of freedom of a two-sample interval with ``nc`` and ``nr`` values whose squared
     standard errors are ``vc`` = s_c^2 / n_c and ``vr`` = s_r^2 / n_r (numbers or arrays,
-    element-wise). With :data:`WELCH_MIN_SEEDS` or more on each side, the smaller of
-    :math:`(n_i - 1) / c_i` over the two sides, :math:`c_i` a side's share of the squared
+    element-wise); ``dfc`` and ``dfr`` are the degrees of freedom of each side's spread
+    (default n - 1: its own seeds; more where it is pooled over several groups,
+    engine.study.pooling). With two or more on each side, the smaller of
+    :math:`\nu_i / c_i` over the two sides, :math:`c_i` a side's share of the squared
     standard error,
 
-    .. math:: \nu = \min_i \frac{n_i - 1}{c_i}, \qquad c_c = \frac{v_c}{v_c + v_r},
+    .. math:: \nu = \min_i \frac{\nu_i}{c_i}, \qquad c_c = \frac{v_c}{v_c + v_r},
 
-    a lower bound of Welch-Satterthwaite's :math:`1 / \sum_i c_i^2 / (n_i - 1)` (the
-    shares sum to 1) and at least Hsu's min(n_c, n_r) - 1, equal to both where one side
-    carries all the variance. Welch-Satterthwaite overshoots where a side of three seeds
-    carries most of the variance and its spread came out small by chance, the more so for
-    skewed values (simulated: up to 5.5 % wrong ``differs`` at a nominal 2.5 % per end,
-    docs/PHYSICS.md section 7.1);
-    this bound does not. With fewer seeds on a side, Hsu's min(n_c, n_r) - 1, which holds for
-    any two spreads. Infinite where both spreads are zero."""
+    a lower bound of Welch-Satterthwaite's :math:`1 / \sum_i c_i^2 / \nu_i` (the shares sum
+    to 1) and at least :math:`\min_i \nu_i` (Hsu's min(n_c, n_r) - 1 for own spreads),
+    equal to both where one side carries all the variance. Welch-Satterthwaite overshoots
+    where a side of three seeds carries most of the variance and its spread came out small
+    by chance, the more so for skewed values (simulated: up to 5.5 % wrong ``differs`` at a
+    nominal 2.5 % per end, docs/PHYSICS.md section 7.1); this bound does not. With fewer than
+    two on a side (fewer than three seeds of its own), :math:`\min_i \nu_i`, which holds for
+    any two spreads (Hsu 1938). ``shared``: both sides' spread is one pooled estimate (a
+    coarse variant and the controls of its radius), whose ``dfc`` the interval takes, as the
+    pooled two-sample t does. Infinite where both spreads are zero."""
     vc = np.asarray(vc, dtype=float)
     vr = np.asarray(vr, dtype=float)
-    hsu = float(hsu_df(nc, nr))
-    if min(nc, nr) < WELCH_MIN_SEEDS:
-        return np.full(np.broadcast_shapes(vc.shape, vr.shape), hsu)[()]
+    dfc = float(nc - 1 if dfc is None else dfc)
+    dfr = float(nr - 1 if dfr is None else dfr)
+    shape = np.broadcast_shapes(vc.shape, vr.shape)
+    if shared:
+        return np.full(shape, dfc)[()]
+    floor = min(dfc, dfr)
+    if floor < WELCH_MIN_SEEDS - 1:
+        return np.full(shape, floor)[()]
     u2 = vc + vr
     with np.errstate(divide="ignore", invalid="ignore"):
         nu = np.minimum(
-            np.where(vc > 0, (nc - 1) * u2 / np.where(vc > 0, vc, 1.0), np.inf),
-            np.where(vr > 0, (nr - 1) * u2 / np.where(vr > 0, vr, 1.0), np.inf),
+            np.where(vc > 0, dfc * u2 / np.where(vc > 0, vc, 1.0), np.inf),
+            np.where(vr > 0, dfr * u2 / np.where(vr > 0, vr, 1.0), np.inf),
         )
-    return np.maximum(nu, hsu)[()]
+    return np.maximum(nu, floor)[()]
 
 
 def log_ratio_interval(c, r, alpha: float) -> tuple[float, float, float, float]:
     r"""Ratio of the geometric means of the positive samples ``c`` and ``r`` (1-D, two or more
-        values each, independent, spreads not assumed equal) with its interval at one-sided rate
-        ``alpha`` per end: the t interval of the difference of the mean logarithms,
+    values each, independent, spreads not assumed equal) with its interval at one-sided rate
+    ``alpha`` per end: the t interval of the difference of the mean logarithms,
 
-        .. math:: ar{\ell}_c - ar{\ell}_r \pm t_{1-lpha,
-    u}
-                  \sqrt{s_{\ell c}^2 / n_c + s_{\ell r}^2 / n_r},
+    .. math:: \bar\ell_c - \bar\ell_r \pm t_{1-\alpha, \nu}
+              \sqrt{s_{\ell c}^2 / n_c + s_{\ell r}^2 / n_r},
 
-        mapped back by exp (Schuirmann 1987, the bioequivalence two one-sided tests), with
-        :func:`interval_df` degrees of freedom. Bounded for any data, unlike Fieller's interval
-        of a ratio of arithmetic means, and its degrees of freedom do not depend on the ratio.
-        Returns (ratio, low end, high end, degrees of freedom)."""
+    mapped back by exp (Schuirmann 1987, the bioequivalence two one-sided tests), with
+    :func:`interval_df` degrees of freedom. Bounded for any data, unlike Fieller's interval
+    of a ratio of arithmetic means, and its degrees of freedom do not depend on the ratio.
+    Returns (ratio, low end, high end, degrees of freedom)."""
     c = np.asarray(c, dtype=float)
     r = np.asarray(r, dtype=float)
     nc, nr = len(c), len(r)
@@ -296,7 +199,6 @@ def welch_interval(c, r, alpha: float) -> tuple[float, float, float, float]:
 
 __all__ = [
     "WELCH_MIN_SEEDS",
-    "betainc",
     "hsu_df",
     "interval_df",
     "log_ratio_interval",

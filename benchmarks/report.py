@@ -70,6 +70,8 @@ def interval_text(m: dict) -> str:
     equivalence interval (at the worst level of a curve), or for ``differs`` the interval
     that lies beyond the tolerance."""
     if m.get("interval") is None:
+        if m.get("signed_error") is None:
+            return "not compared (no failed run on a side)"
         return f"{_pct(m['signed_error'], True)} (spread unknown)"
     if m["verdict"] == "differs":
         e, (lo, hi) = m["differs_error"], m["differs_interval"]
@@ -202,16 +204,28 @@ def _variant(res, radius, rule, where="verdicts"):
     )
 
 
+def _direction(m: dict) -> str | None:
+    """"low" or "high" where the metric's interval excludes zero (its bias), else None."""
+    b = m.get("bias")
+    return None if not b else b.get("direction")
+
+
 def _adhesion_state(ms: dict) -> str:
     """Claim (c) from the strength judgements of b1, b2, b3: agrees when b2 is equivalent
-    and b1 and b3 differ, below and above; differs when b2 differs or the order is wrong."""
-    under, over = ms["b1"]["signed_error"] < 0, ms["b3"]["signed_error"] > 0
-    if not under or not over or ms["b2"]["verdict"] == "differs":
+    and b1 and b3 differ, below and above; differs when b2 differs or the order is shown
+    wrong (b1 biased high or b3 biased low beyond their intervals); else undecided."""
+    if any(m.get("signed_error") is None for m in ms.values()):
+        return "undecided"
+    wrong = _direction(ms["b1"]) == "high" or _direction(ms["b3"]) == "low"
+    if wrong or ms["b2"]["verdict"] == "differs":
         return "differs"
+    under, over = ms["b1"]["signed_error"] < 0, ms["b3"]["signed_error"] > 0
     if (
         ms["b2"]["verdict"] == "equivalent"
         and ms["b1"]["verdict"] == "differs"
         and ms["b3"]["verdict"] == "differs"
+        and under
+        and over
     ):
         return "agrees"
     return "undecided"
@@ -221,7 +235,7 @@ def claim_a(res) -> str:
     m = _verdict_of(res, 2 * 2.5e-3, "unscaled", "loading_stiffness")
     if m is None:
         return "*undecided*: the unscaled runs are missing."
-    soft = m["signed_error"] < 0
+    soft = m["signed_error"] is not None and m["signed_error"] < 0
     state = (
         "agrees"
         if soft and m["verdict"] == "differs"
@@ -399,7 +413,7 @@ def claim_eepa(res) -> list[str]:
         k = _metric(lin, "loading_stiffness")
         f = (
             "agrees"
-            if lin["verdict"] == "differs" and k is not None and k["signed_error"] > 0
+            if lin["verdict"] == "differs" and k is not None and (k["signed_error"] or 0) > 0
             else "differs"
             if lin["verdict"] == "equivalent"
             else "undecided"

@@ -210,7 +210,7 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
                 for r in table
                 if r["rule"] == v["rule"] and r["radius"] == v["radius"]
             ]
-            if m is None or not times or v["rule"] not in rules:
+            if m is None or m.get("error") is None or not times or v["rule"] not in rules:
                 continue
             ax.scatter(
                 float(np.mean(times)),

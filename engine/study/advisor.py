@@ -1,44 +1,13 @@
-r"""From metric values to verdicts (docs/PHYSICS.md section 7).
+r"""The advisor: what a study's verdicts mean for a user (docs/PHYSICS.md section 7).
 
-For every verdict metric (:data:`engine.study.metrics.METRICS`), with the reference seeds' values
-:math:`r_i` and a coarse variant's seeds' values :math:`c_j` (per stress level for density
-and coordination):
-
-- the **reference** is the mean of the reference seeds' values; its **noise floor** is their
-  seed-to-seed spread (sample standard deviation) relative to the mean;
-- the variant's relative error at a level is :math:`\rho - 1` with the ratio of geometric
-  means :math:`\rho = \exp(\overline{\log c} - \overline{\log r})` (for the strength of a
-  reference weaker than 5 % of the consolidation stress: the difference over that floor);
-  its interval is the t interval of the difference of mean logarithms (Schuirmann 1987),
-  with :func:`engine.study.intervals.interval_df` degrees of freedom (a lower bound of
-  Welch-Satterthwaite's with three or more seeds a side, Hsu's min(n_c, n_r) - 1 with two):
-  it holds for the seeds actually run, spreads not assumed equal, and is bounded for any
-  positive values;
-- the verdict reads two one-sided tests at error rate :math:`\alpha = 1 -` confidence
-  (default 95 %): ``equivalent`` when, at every level, the interval at one-sided rate
-  :math:`\alpha / 2` lies inside the tolerance (:data:`EQUIVALENCE_LEVEL`: the two-sided
-  :math:`1 - \alpha` interval, which keeps its rate for skewed values and an adaptive second
-  stage where the plain :math:`\alpha` per end does not; an intersection-union test needs no
-  split over levels or metrics); ``differs`` when the interval of the per-seed mean over
-  levels (for a curve; the value itself for a scalar metric) lies wholly outside the
-  tolerance at rate :math:`\alpha_k / 2M` per end over the :math:`M` metrics judged
-  (Bonferroni over the metrics, the two ends, either of which may clear its bound, and the
-  looks :math:`k`; the level mean is outside the tolerance only if some level is); else
-  ``undecided``;
-- a study that adds seeds until decided (engine.study.adaptive) claims ``equivalent`` at its
-  final look only, on seeds sized from the pilot's spreads, and ``differs`` at any look, the
-  looks sharing :math:`\alpha` (:func:`look_alpha`); its rates are shown by simulation
-  (tests/engine/test_coverage.py);
-- with fewer than two reference seeds, or fewer than two seeds of the variant, a spread is
-  unknown and the metric is ``undecided``.
-
-A (radius, rule) ``differs`` when any metric differs, is ``equivalent`` when all are, and is
-``undecided`` otherwise; its reason says which metrics decided, with their intervals, and
-an undecided metric says how many more seeds would decide it if the means and spreads
-stayed as observed. The coarsest equivalent radius of a rule is found by testing its radii
-from fine to coarse in a fixed sequence (:func:`advise`), so that the stated confidence
-holds for the radius a user acts on. docs/PHYSICS.md section 7 states why;
-tests/engine/test_coverage.py checks the rates and the power by simulation.
+Input: the verdicts (engine.study.judge) of every (radius, rule), the rule errors and
+resolution errors of the controls, the groups' summaries. Output: per rule the coarsest
+radius judged ``equivalent`` in a fixed sequence (so that the stated confidence holds for
+the radius a user acts on), the lines of advice with each verdict's reason, the
+finite-size warnings, the best-fitting adhesion exponent per radius. The statistics
+themselves (pooling, intervals, verdicts, seed projections) live in engine.study.pooling,
+engine.study.noise and engine.study.judge; their names are importable from here as
+before.
 """
 
 from __future__ import annotations
@@ -48,514 +17,29 @@ import math
 import numpy as np
 
 from ..uniaxial.spec import MIN_THICKNESS_DIAMETERS
-from .intervals import interval_df, t_quantile, t_upper_quantiles
-from .metrics import METRICS, STRENGTH_FLOOR, reference_scale, relative_error, signed_error
-
-#: Default confidence of a verdict: 1 - the largest rate of a wrong ``equivalent`` or of a
-#: wrong ``differs`` [-].
-CONFIDENCE = 0.95
-
-#: Most seeds a "would need" estimate looks for (beyond it: "more than" this).
-MAX_SEEDS_NEEDED = 100
-
-VERDICTS = ("equivalent", "differs", "undecided")
-
-
-#: Share of the ``differs`` error rate an adaptive study spends at its pilot look (the
-#: planned runs); the later looks share the rest equally. The pilot is there to stop early on
-#: gross differences (a variant 40 % off is told apart at 1 % as surely as at 5 %); most of
-#: the rate goes to the look that has the seeds sized for it (docs/PHYSICS.md section 7.2).
-PILOT_SHARE = 0.2
-
-#: Power the second stage of an adaptive study is sized for: the chance that a variant whose
-#: true error is 0 is called ``equivalent`` at the final look, with the pilot's spreads [-].
-PLANNED_POWER = 0.8
-
-#: The nominal one-sided rate of each end of an equivalence interval, as a fraction of
-#: alpha = 1 - confidence: one half, so that ``equivalent`` means the two-sided
-#: 1 - alpha interval lies inside the tolerance (the conservative form of the two one-sided
-#: tests; the plain form, alpha per end, is the two-sided 1 - 2 alpha interval). Two things
-#: make the plain form cover less than it states here (docs/PHYSICS.md section 7.1,
-#: ``python -m benchmarks.verdict_rates``): skewed values with three seeds on one side and
-#: many on the other (simulated, alpha = 5 %: up to 7.3 % wrong ``equivalent`` for normal
-#: values and 8.5 % with one seed in ten from a second mode 30 % away), and an adaptive
-#: second stage sized from the pilot's spreads (up to 7.8 %). At alpha / 2 per end the
-#: simulated rates stay under 5 % (tests/engine/test_coverage.py).
-EQUIVALENCE_LEVEL = 0.5
-
-#: Variance of the per-seed difference of a coarse run and its resolution control (both
-#: started from the same scaled cloud), relative to the sum of their variances, per metric:
-#: var(log c - log k) / (var log c + var log k) = 1 - rho for equal spreads, rho their
-#: correlation. Measured by ``python -m benchmarks.pairing`` on the stored runs of the four
-#: experiments (2026-12-03, quick and paper scale, pooled within variants: 44 degrees of
-#: freedom, 30 for strength): density and coordination keep the cloud's imprint
-#: (rho = 0.64 and 0.51); the stiffnesses and the strength forget it (rho -0.12, -0.06,
-#: -0.05, none distinguishable from 0 at 1 / sqrt(44) = 0.15): a packing is chaotic and
-#: bit-level differences in the clock grow. Fixed here, so that whether a metric is paired
-#: depends on seed counts only, never on the values judged (:func:`pairing_pays`).
-PAIRING_VARIANCE_RATIO = {
-    "density": 0.37,
-    "loading_stiffness": 1.12,
-    "unloading_stiffness": 1.06,
-    "coordination": 0.51,
-    "strength": 1.05,
-}
-
-
-def pairing_pays(name: str, pairs: int, nc: int, nr: int, alpha: float) -> bool:
-    """Whether the rule's own error of metric ``name`` is judged paired by seed (the t
-    interval of the ``pairs`` per-seed differences, pairs - 1 degrees of freedom) rather
-    than unpaired (all ``nc`` coarse and ``nr`` control seeds, :func:`two_sample_intervals`):
-    paired when its expected half-width at one-sided rate ``alpha``, with equal spreads and
-    the measured :data:`PAIRING_VARIANCE_RATIO`, is the smaller. Depends on the counts and
-    the fixed ratio alone, so either interval keeps its own coverage."""
-    ratio = PAIRING_VARIANCE_RATIO.get(name, 1.0)
-    if pairs < 2 or ratio >= 1.0:
-        return False
-    df_unpaired = float(interval_df(nc, nr, 1.0 / nc, 1.0 / nr))
-    unpaired = t_quantile(1.0 - alpha, df_unpaired) * math.sqrt(1.0 / nc + 1.0 / nr)
-    paired = t_quantile(1.0 - alpha, pairs - 1) * math.sqrt(2.0 * ratio / pairs)
-    return paired < unpaired
-
-
-def look_alpha(confidence: float, look: int = 1, looks: int = 1) -> float:
-    """The ``differs`` error rate spent at look ``look`` of ``looks`` (1 for a study judged
-    once): all of alpha = 1 - confidence when judged once; else :data:`PILOT_SHARE` of it at
-    the pilot (look 1) and the rest split equally over the later looks. The rates over all
-    looks add up to alpha, so a ``differs`` reported from any look is wrong in at most alpha
-    of studies (Bonferroni over the looks)."""
-    if not 0.5 < confidence < 1.0:
-        raise ValueError(f"confidence {confidence} outside (0.5, 1)")
-    if not 1 <= look <= looks:
-        raise ValueError(f"look {look} outside 1 to {looks}")
-    alpha = 1.0 - confidence
-    if looks == 1:
-        return alpha
-    if look == 1:
-        return PILOT_SHARE * alpha
-    return (1.0 - PILOT_SHARE) * alpha / (looks - 1)
-
-
-def error_rates(
-    confidence: float, metrics_judged: int, look: int = 1, looks: int = 1
-) -> tuple[float, float]:
-    """Nominal one-sided rates per end of the intervals of one metric's two tests, for a
-    variant judged on ``metrics_judged`` metrics at look ``look`` of ``looks`` (module
-    docstring): equivalence :data:`EQUIVALENCE_LEVEL` x alpha at any look (an intersection-
-    union test needs no split over metrics or levels, and an adaptive study never stops on
-    an ``equivalent`` before its final look, so equivalence is claimed once); differs
-    :func:`look_alpha` / (2 metrics), since any metric and either end of its interval may
-    clear its tolerance bound, at any look."""
-    a = look_alpha(confidence, look, looks)
-    return EQUIVALENCE_LEVEL * (1.0 - confidence), a / (2 * max(metrics_judged, 1))
-
-
-def _stack(values: list[dict], name: str) -> np.ndarray:
-    return np.array([np.atleast_1d(v[name]) for v in values], dtype=float)
-
-
-def noise_floor(ref_values: list[dict], names, consolidation_stress: float) -> dict:
-    """Per metric, the reference seeds' ``values`` (seeds x levels), mean values, spread
-    (per level) and the relative noise floor [-] (RMS over levels of spread / scale); the
-    floor is None with one seed."""
-    out = {}
-    for n in names:
-        a = _stack(ref_values, n)
-        mean = a.mean(axis=0)
-        sd = a.std(axis=0, ddof=1) if len(a) > 1 else None
-        scale = reference_scale(n, mean, consolidation_stress)
-        floor = None if sd is None else float(np.sqrt(np.mean((sd / scale) ** 2)))
-        out[n] = {"values": a, "mean": mean, "sd": sd, "noise": floor, "seeds": len(a)}
-    return out
-
-
-def _floored(name: str, ref_mean: float, consolidation_stress: float) -> float | None:
-    """The constant scale of a strength compared against the 5 % floor, else None."""
-    if name == "strength" and abs(ref_mean) < STRENGTH_FLOOR * consolidation_stress:
-        return STRENGTH_FLOOR * consolidation_stress
-    return None
-
-
-def two_sample_intervals(mc, mr, sc2, sr2, nc: int, nr: int, alpha: float):
-    """Element-wise difference of two sample means ``mc`` - ``mr`` (numbers or arrays) with
-    its interval at one-sided rate ``alpha`` per end, from the sample variances ``sc2``,
-    ``sr2`` of ``nc`` and ``nr`` values: :func:`engine.study.intervals.interval_df` degrees
-    of freedom and a Student-t quantile. Returns arrays (difference, low, high, dof, standard
-    error). The one computation behind every interval of a verdict."""
-    mc, mr = np.asarray(mc, dtype=float), np.asarray(mr, dtype=float)
-    vc = np.asarray(sc2, dtype=float) / nc
-    vr = np.asarray(sr2, dtype=float) / nr
-    df = np.asarray(interval_df(nc, nr, vc, vr), dtype=float)
-    u = np.sqrt(vc + vr)
-    h = np.where(u > 0, t_upper_quantiles(alpha, df) * u, 0.0)
-    d = mc - mr
-    return d, d - h, d + h, df, u
-
-
-def _bounds(tolerance: float) -> tuple[float, float]:
-    """The tolerance ± ``tolerance`` on a ratio as bounds on a difference of logarithms."""
-    return (math.log(1.0 - tolerance) if tolerance < 1 else -math.inf), math.log1p(tolerance)
-
-
-def judge_samples(
-    c, r, tolerance: float, alpha_e: float, alpha_d: float, paired: bool = False
-) -> np.ndarray:
-    """The verdicts of many studies of one positive scalar metric at once: ``c`` (studies x
-    coarse seeds) and ``r`` (studies x reference seeds; ``paired``: as many, matched column
-    by column), the same tests as :func:`judge_metric` (which judges one study, and curves).
-    Returns an array of ``"equivalent"``, ``"differs"`` or ``"undecided"``;
-    tests/engine/test_coverage.py simulates the rule's rates with it and checks that it
-    agrees with :func:`judge_metric`."""
-    lc, lr = np.log(np.asarray(c, dtype=float)), np.log(np.asarray(r, dtype=float))
-    nc, nr = lc.shape[1], lr.shape[1]
-    lo_b, hi_b = _bounds(tolerance)
-    if paired:
-        dd = lc - lr
-        zero = np.zeros(len(dd))
-        stats = (dd.mean(1), zero, dd.var(1, ddof=1), zero)
-    else:
-        stats = (lc.mean(1), lr.mean(1), lc.var(1, ddof=1), lr.var(1, ddof=1))
-    _, lo, hi, _, _ = two_sample_intervals(*stats, nc, nr, alpha_e)
-    equivalent = (lo >= lo_b) & (hi <= hi_b)
-    _, lo, hi, _, _ = two_sample_intervals(*stats, nc, nr, alpha_d)
-    differs = (lo > hi_b) | (hi < lo_b)
-    return np.where(differs, "differs", np.where(equivalent, "equivalent", "undecided"))
-
-
-class _Space:
-    """Where a metric's two samples are compared (docs/PHYSICS.md section 7.1): ``log``, the
-    logarithms of positive values (a difference d of mean logs is the ratio exp(d) of
-    geometric means, relative error exp(d) - 1, tolerance bounds log(1 -/+ tol)), or
-    ``difference``, the values over a constant scale (a strength under 5 % of the
-    consolidation stress, over that floor; any non-positive value, over the reference mean),
-    relative error d and bounds -/+ tol. Holds the per-level means and sample variances of
-    the transformed values (seeds x levels), ``stats``, and those of each seed's mean over
-    levels (of logs: a geometric mean over levels), ``summed``, whose difference is the mean
-    of the level differences, so that it lies beyond a tolerance bound only if some level
-    does. ``paired``: the rows of the two samples are matched by seed (a coarse run and its
-    resolution control), and the intervals are those of the per-seed differences."""
-
-    def __init__(
-        self,
-        name: str,
-        a: np.ndarray,
-        r: np.ndarray,
-        tolerance: float,
-        cons: float,
-        paired: bool = False,
-    ):
-        floor = _floored(name, float(r.mean(axis=0)[0]), cons) if a.shape[1] == 1 else None
-        if floor is None and np.all(a > 0) and np.all(r > 0):
-            self.kind = "log"
-            c, r = np.log(a), np.log(r)
-            self.lo, self.hi = _bounds(tolerance)
-        else:
-            self.kind = "difference"
-            scale = floor if floor is not None else reference_scale(name, r.mean(axis=0), cons)
-            c, r = a / scale, r / scale
-            self.lo, self.hi = -tolerance, tolerance
-        self.nc, self.nr = len(c), len(r)
-        self.paired = paired
-        if paired:  # rows matched by seed: the one-sample t of the per-seed differences
-            # (two_sample_intervals with a second sample of zero spread and as many values:
-            # interval_df gives n - 1 and the standard error is s_D / sqrt(n))
-            dd = c - r
-            z = np.zeros(dd.shape[1])
-            self.stats = (dd.mean(0), z, dd.var(0, ddof=1), z)
-            ds = dd.mean(axis=1)
-            self.summed = (ds.mean(), 0.0, ds.var(ddof=1), 0.0)
-            return
-        self.stats = (c.mean(0), r.mean(0), c.var(0, ddof=1), r.var(0, ddof=1))
-        cs, rs = c.mean(axis=1), r.mean(axis=1)
-        self.summed = (cs.mean(), rs.mean(), cs.var(ddof=1), rs.var(ddof=1))
-
-    def rel(self, d):
-        """A difference in this space as a relative error [-]."""
-        return math.expm1(d) if self.kind == "log" else float(d)
-
-    def interval(self, stats, alpha: float, nc=None, nr=None):
-        """:func:`two_sample_intervals` of ``stats`` (:attr:`stats`, per level, or
-        :attr:`summed`) with the observed counts or, projected, ``nc`` and ``nr`` seeds."""
-        return two_sample_intervals(
-            *stats, self.nc if nc is None else nc, self.nr if nr is None else nr, alpha
-        )
-
-    def equivalent(self, alpha: float, nc=None, nr=None) -> bool:
-        """Every level's interval inside the bounds."""
-        _, lo, hi, _, _ = self.interval(self.stats, alpha, nc, nr)
-        return bool(np.all(lo >= self.lo) and np.all(hi <= self.hi))
-
-    def differs(self, alpha: float, nc=None, nr=None) -> bool:
-        """The interval of the level-summed values wholly beyond a bound."""
-        _, lo, hi, _, _ = self.interval(self.summed, alpha, nc, nr)
-        return bool(lo > self.hi or hi < self.lo)
-
-
-def judge_metric(
-    name: str,
-    values: list[dict],
-    ref: dict,
-    tolerance: float,
-    consolidation_stress: float,
-    alpha_equivalent: float = EQUIVALENCE_LEVEL * (1 - CONFIDENCE),
-    alpha_differs: float = (1 - CONFIDENCE) / 2,
-    paired: bool = False,
-    against: str = "reference",
-) -> dict:
-    """Error, interval and verdict of one metric of one (radius, rule) (module docstring).
-    ``values``: the variant's metric values per seed; ``ref``: this metric's entry of
-    :func:`noise_floor`; the two one-sided error rates as from :func:`error_rates`.
-    ``paired``: ``values`` and the values in ``ref`` are matched by seed, row by row (a rule
-    against its resolution controls, :func:`judge_rule_error`); ``against`` names the other
-    side in the reason ("reference" or "control")."""
-    a = _stack(values, name)
-    mean = a.mean(axis=0)
-    err = relative_error(name, mean, ref["mean"], consolidation_stress)
-    signed = signed_error(name, mean, ref["mean"], consolidation_stress)
-    out = {
-        "metric": name,
-        "error": err,
-        "signed_error": signed,
-        "tolerance": tolerance,
-        "noise": ref["noise"],
-        "seeds": len(a),
-        "reference_seeds": ref["seeds"],
-        "alpha_equivalent": alpha_equivalent,
-        "alpha_differs": alpha_differs,
-        "interval": None,
-        "differs_interval": None,
-        "level": None,
-        "df": None,
-        "uncertainty": None,
-        "needs": None,
-        "paired": paired,
-        "against": against,
-    }
-    if ref["seeds"] < 2 or len(a) < 2:
-        out.update(verdict="undecided")
-        return out
-    r = ref["values"]
-    levels = a.shape[1]
-    sp = _Space(name, a, r, tolerance, consolidation_stress, paired)
-    d, lo, hi, df, u = sp.interval(sp.stats, alpha_equivalent)
-    excess = np.maximum(hi - sp.hi, sp.lo - lo)
-    k = int(np.argmax(excess))
-    equivalent = bool(excess[k] <= 0)
-    dd = sp.interval(sp.summed, alpha_differs)
-    differs = bool(dd[1] > sp.hi or dd[2] < sp.lo)
-    if paired:  # the per-seed differences' standard error, relative (logs) or scaled
-        u2 = np.asarray(u) ** 2
-    else:
-        sc = reference_scale(name, ref["mean"], consolidation_stress)
-        u2 = (a.var(axis=0, ddof=1) / len(a) + r.var(axis=0, ddof=1) / len(r)) / sc**2
-    out.update(
-        interval=[sp.rel(lo[k]), sp.rel(hi[k])],
-        level=None if levels == 1 else k,
-        level_error=sp.rel(d[k]),
-        df=float(df[k]),
-        differs_interval=[sp.rel(dd[1]), sp.rel(dd[2])],
-        differs_error=sp.rel(dd[0]),
-        uncertainty=float(np.sqrt(np.mean(u2))),
-        scale=sp.kind,
-        verdict="differs" if differs else "equivalent" if equivalent else "undecided",
-    )
-    if out["verdict"] == "undecided":
-        out["needs"] = seeds_needed(
-            name, a, r, tolerance, consolidation_stress, alpha_equivalent, alpha_differs, paired
-        )
-    return out
-
-
-def _projected(sp: _Space, n: int, m: int, alpha_e: float, alpha_d: float) -> str | None:
-    """The verdict a metric (in its comparison space ``sp``) would get with ``n`` coarse and
-    ``m`` reference seeds if its means and spreads stayed as observed: the verdict's own
-    intervals at the projected counts and their degrees of freedom; None: undecided."""
-    if sp.differs(alpha_d, n, m):
-        return "differs"
-    return "equivalent" if sp.equivalent(alpha_e, n, m) else None
-
-
-def _decides(
-    sp: _Space, n: int, m: int, alpha_e: float, alpha_d: float, planned: bool = False
-) -> bool:
-    """Whether a metric would be decided with ``n`` coarse and ``m`` reference seeds if its
-    spreads stayed as observed and
-
-    - (``planned`` False) its means too (:func:`_projected`);
-    - (``planned`` True) its true error were 0: the chance of ``equivalent`` would be at
-      least :data:`PLANNED_POWER` at every level, computed for a normal difference of
-      standard error u with the nearer tolerance bound m on both sides (half-width h at the
-      projected counts, h + z u <= m with z the normal quantile of (1 + power) / 2): a second
-      stage sized from the pilot's spreads alone (Stein 1945)."""
-    if planned:
-        _, lo, hi, _, u = sp.interval(sp.stats, alpha_e, n, m)
-        z = t_quantile(0.5 + 0.5 * PLANNED_POWER, math.inf)
-        return bool(np.all(0.5 * (hi - lo) + z * u <= min(sp.hi, -sp.lo)))
-    return _projected(sp, n, m, alpha_e, alpha_d) is not None
-
-
-def variant_decided(projections) -> bool:
-    """A (radius, rule) is decided when any metric differs or every metric is equivalent:
-    ``projections`` holds each metric's verdict (None: undecided)."""
-    projections = list(projections)
-    return any(p == "differs" for p in projections) or all(p == "equivalent" for p in projections)
-
-
-def seeds_needed(
-    name: str,
-    c: np.ndarray,
-    r: np.ndarray,
-    tolerance: float,
-    consolidation_stress: float,
-    alpha_e: float,
-    alpha_d: float,
-    paired: bool = False,
-) -> dict:
-    """How many more seeds would decide an undecided metric if its means and spreads stayed
-    as observed: ``coarse`` (more coarse seeds, reference seeds as they are), or
-    ``coarse_and_reference`` (the same number more of each) where coarse seeds alone cannot
-    (``paired``: more pairs, always both), each None when more than
-    :data:`MAX_SEEDS_NEEDED` would be needed (an error that sits at the tolerance is decided
-    by no seed count); ``verdict``: the one those seeds would give."""
-    sp = _Space(name, c, r, tolerance, consolidation_stress, paired)
-    n0, m0 = len(c), len(r)
-
-    def first(pred):
-        lo, hi = 1, MAX_SEEDS_NEEDED  # undecided now: at least one more seed
-        if not pred(hi):
-            return None
-        while lo < hi:  # smallest k with pred(k): decidedness grows with seeds
-            mid = (lo + hi) // 2
-            if pred(mid):
-                hi = mid
-            else:
-                lo = mid + 1
-        return lo
-
-    coarse = None if paired else first(lambda k: _decides(sp, n0 + k, m0, alpha_e, alpha_d))
-    both = (
-        None
-        if coarse is not None
-        else first(lambda k: _decides(sp, n0 + k, m0 + k, alpha_e, alpha_d))
-    )
-    verdict = None
-    if coarse is not None:
-        verdict = _projected(sp, n0 + coarse, m0, alpha_e, alpha_d)
-    elif both is not None:
-        verdict = _projected(sp, n0 + both, m0 + both, alpha_e, alpha_d)
-    return {"coarse": coarse, "coarse_and_reference": both, "verdict": verdict}
-
-
-def _pct(x: float) -> str:
-    return f"{100 * x:+.1f} %"
-
-
-def _describe(m: dict) -> str:
-    tol = f"± {m['tolerance']:.0%}"
-    if m["interval"] is None:
-        return f"{m['metric']} {_pct(m['signed_error'])} (spread unknown) against {tol}"
-    conf = 1 - m["alpha_equivalent"]
-    if m["verdict"] == "differs":
-        lo, hi = m["differs_interval"]
-        what = "summed over levels " if m["level"] is not None else ""
-        return (
-            f"{m['metric']} {what}{_pct(m['differs_error'])} in [{_pct(lo)}, {_pct(hi)}] "
-            f"({1 - m['alpha_differs']:.1%} one-sided) against {tol}"
-        )
-    lo, hi = m["interval"]
-    at = "" if m["level"] is None else f" at its worst level {m['level'] + 1}"
-    pairs = ", paired by seed" if m.get("paired") else ""
-    text = (
-        f"{m['metric']} {_pct(m['level_error'])}{at} in [{_pct(lo)}, {_pct(hi)}] "
-        f"({conf:.1%} one-sided per end, {m['df']:.1f} dof{pairs}) against {tol}"
-    )
-    need = m.get("needs")
-    if need is not None:
-        if need["coarse"] is not None:
-            text += f"; about {need['coarse']} more coarse seeds would decide it"
-        elif need["coarse_and_reference"] is not None:
-            text += (
-                f"; about {need['coarse_and_reference']} more coarse and "
-                f"{m.get('against', 'reference')} seeds each would decide it"
-            )
-        else:
-            text += f"; more than {MAX_SEEDS_NEEDED} more seeds would be needed"
-    return text
-
-
-def what_decides(metrics: list[dict]) -> str | None:
-    """One line on what would decide an undecided (radius, rule), from its metrics'
-    ``needs`` (as if their means and spreads stayed as observed): the fewest seeds with
-    which some metric would differ, or with which every metric would be equivalent; None
-    when it is decided."""
-    if any(m["verdict"] == "differs" for m in metrics):
-        return None
-    open_ = [m for m in metrics if m["verdict"] == "undecided"]
-    if not open_:
-        return None
-    if open_[0]["reference_seeds"] < 2 or open_[0]["seeds"] < 2:
-        return "two or more seeds on each side (three give the intervals more degrees of freedom)"
-    other = open_[0].get("against", "reference")
-
-    def cost(n: dict) -> tuple[int, str] | None:
-        if n.get("coarse") is not None:
-            return n["coarse"], "coarse"
-        if n.get("coarse_and_reference") is not None:
-            return n["coarse_and_reference"], f"coarse and {other}"
-        return None
-
-    def words(k: int, kind: str) -> str:
-        return f"about {k} more {kind} seeds" + (" each" if kind != "coarse" else "")
-
-    needs = {m["metric"]: m.get("needs") or {} for m in open_}
-    to_differ = [
-        (cost(n), name) for name, n in needs.items() if n.get("verdict") == "differs" and cost(n)
-    ]
-    if to_differ:
-        (k, kind), name = min(to_differ, key=lambda x: (x[0][1] != "coarse", x[0][0]))
-        return (
-            f"{words(k, kind)} would show it differs in {name}, if the means and spreads "
-            "stayed as observed"
-        )
-    costs = {name: cost(n) for name, n in needs.items()}
-    hopeless = [name for name, c in costs.items() if c is None]
-    if hopeless:
-        return (
-            f"no seed count within {MAX_SEEDS_NEEDED} more: {', '.join(hopeless)} sits at "
-            "its tolerance (as observed); a looser tolerance, or a finer radius"
-        )
-    kind = "coarse" if all(c[1] == "coarse" for c in costs.values()) else f"coarse and {other}"
-    k = max(c[0] for c in costs.values())
-    return f"{words(k, kind)} would decide it, if the means and spreads stayed as observed"
-
-
-def verdict(metrics: list[dict]) -> tuple[str, str]:
-    """Overall verdict and its reason from the per-metric judgements."""
-    if metrics and metrics[0]["reference_seeds"] < 2:
-        return "undecided", (
-            "one reference seed: the reference's own spread is unknown, so "
-            "no error can be told apart from noise; run two or more "
-            "reference seeds"
-        )
-    if metrics and metrics[0]["seeds"] < 2:
-        return "undecided", (
-            "one seed of this variant: its own spread is unknown (a coarse "
-            "bed of fewer particles scatters more than the reference), so "
-            "no interval holds; run two or more seeds: " + "; ".join(_describe(m) for m in metrics)
-        )
-    differs = [m for m in metrics if m["verdict"] == "differs"]
-    undecided = [m for m in metrics if m["verdict"] == "undecided"]
-    if differs:
-        return "differs", "differs beyond noise in " + "; ".join(_describe(m) for m in differs)
-    if undecided:
-        ok = [m["metric"] for m in metrics if m["verdict"] == "equivalent"]
-        reason = "noise too large to tell for " + "; ".join(_describe(m) for m in undecided)
-        if ok:
-            reason += "; within tolerance: " + ", ".join(ok)
-        return "undecided", reason
-    return "equivalent", "within tolerance beyond noise: " + "; ".join(
-        _describe(m) for m in metrics
-    )
+from .intervals import t_quantile
+from .judge import (
+    CONFIDENCE,
+    EQUIVALENCE_LEVEL,
+    MAX_SEEDS_NEEDED,
+    PAIRING_VARIANCE_RATIO,
+    PILOT_SHARE,
+    PLANNED_POWER,
+    VERDICTS,
+    _pct,
+    error_rates,
+    judge_groups,
+    judge_metric,
+    judge_rule_error,
+    judge_samples,
+    look_alpha,
+    pairing_pays,
+    seeds_needed,
+    verdict,
+    what_decides,
+)
+from .metrics import METRICS
+from .noise import noise_floor
 
 
 def finite_size_warnings(groups: list[dict], controlled: bool = False) -> list[str]:
@@ -587,6 +71,8 @@ def finite_size_warnings(groups: list[dict], controlled: bool = False) -> list[s
 def _interval_words(m: dict) -> str:
     lo, hi = m["interval"] if m["interval"] is not None else (None, None)
     if lo is None:
+        if m.get("signed_error") is None:
+            return f"{m['metric']} not compared (no failed run on a side)"
         return f"{m['metric']} {_pct(m['signed_error'])}"
     pairs = ", paired" if m.get("paired") else ""
     return f"{m['metric']} {_pct(m['level_error'])} [{_pct(lo)}, {_pct(hi)}{pairs}]"
@@ -873,96 +359,14 @@ def adhesion_advice(
     return {"stiffness_exponent": a, "dt": dt, "by_radius": by_radius} if by_radius else None
 
 
-def judge_groups(
-    spec,
-    ref_values: list[dict],
-    variants: dict[tuple, list[dict]],
-    names,
-    look: int = 1,
-    looks: int = 1,
-) -> tuple[dict, list[dict]]:
-    """Noise floor and verdicts: ``ref_values`` per reference seed, ``variants`` maps
-    (radius, rule name) to the metric values of its seeds; ``looks``: how many times a
-    study may judge its data (1 for a fixed study). Returns (noise floor per metric as
-    JSON-friendly numbers, verdicts list)."""
-    cons = spec.reference.consolidation_stress
-    floor = noise_floor(ref_values, names, cons)
-    alpha_e, alpha_d = error_rates(getattr(spec, "confidence", CONFIDENCE), len(names), look, looks)
-    out = []
-    for (radius, rule), values in variants.items():
-        per_metric = [
-            judge_metric(n, values, floor[n], spec.tolerances[n], cons, alpha_e, alpha_d)
-            for n in names
-        ]
-        out.append(_judged(radius, rule, per_metric, len(values)))
-    noise = {n: floor[n]["noise"] for n in names}
-    return noise, out
-
-
-def _judged(radius: float, rule: str, per_metric: list[dict], seeds: int) -> dict:
-    v, reason = verdict(per_metric)
-    return {
-        "radius": radius,
-        "rule": rule,
-        "verdict": v,
-        "reason": reason,
-        "to_decide": what_decides(per_metric) if v == "undecided" else None,
-        "seeds": seeds,
-        "metrics": per_metric,
-    }
-
-
-def judge_rule_error(
-    spec,
-    radius: float,
-    rule: str,
-    values: dict[int, dict],
-    controls: dict[int, dict],
-    names,
-    look: int = 1,
-    looks: int = 1,
-) -> dict:
-    """A coarse variant against the resolution controls of its radius: the rule's own error
-    (docs/PHYSICS.md section 7.4). ``values`` and ``controls`` map packing seed to metric
-    values. A control and a coarse run of one seed start from the same scaled cloud, so a
-    metric is judged on the per-seed differences of the seeds both have where
-    :func:`pairing_pays` (their correlation, measured, narrows the interval more than the
-    lost degrees of freedom widen it), else unpaired on all seeds of each side (for the
-    metrics whose measured correlation is nil). The verdicts, rates and seed projections
-    are those of :func:`judge_groups`; each metric says whether it was paired."""
-    cons = spec.reference.consolidation_stress
-    alpha_e, alpha_d = error_rates(getattr(spec, "confidence", CONFIDENCE), len(names), look, looks)
-    both = sorted(set(values) & set(controls))
-    c_all, k_all = list(values.values()), list(controls.values())
-    floor_all = noise_floor(k_all, names, cons)
-    floor_paired = noise_floor([controls[s] for s in both], names, cons) if both else None
-    per_metric = []
-    for n in names:
-        tol = spec.tolerances[n]
-        if pairing_pays(n, len(both), len(c_all), len(k_all), alpha_e):
-            m = judge_metric(
-                n,
-                [values[s] for s in both],
-                floor_paired[n],
-                tol,
-                cons,
-                alpha_e,
-                alpha_d,
-                paired=True,
-                against="control",
-            )
-        else:
-            m = judge_metric(n, c_all, floor_all[n], tol, cons, alpha_e, alpha_d, against="control")
-        per_metric.append(m)
-    out = _judged(radius, rule, per_metric, len(c_all))
-    out["control_seeds"] = len(k_all)
-    out["paired_seeds"] = len(both)
-    return out
-
-
 __all__ = [
     "CONFIDENCE",
+    "EQUIVALENCE_LEVEL",
+    "MAX_SEEDS_NEEDED",
     "METRICS",
+    "PAIRING_VARIANCE_RATIO",
+    "PILOT_SHARE",
+    "PLANNED_POWER",
     "VERDICTS",
     "adhesion_advice",
     "advise",
@@ -978,8 +382,6 @@ __all__ = [
     "pairing_pays",
     "resolution_lines",
     "seeds_needed",
-    "two_sample_intervals",
-    "variant_decided",
     "verdict",
     "what_decides",
 ]

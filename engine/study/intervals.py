@@ -1,7 +1,7 @@
 r"""Intervals with the coverage they state, for the verdicts (docs/PHYSICS.md section 7).
 
-Student's t and the normal come from :mod:`scipy.stats` (imported on first use) (a well-kept library where it has
-the function; until issue 42 they were hand-written continued fractions and Newton steps).
+Student's t and the normal come from :mod:`scipy.special`, imported on first use (a
+well-kept library where it has the function; until issue 42 they were hand-written).
 What stays here is the verdicts' own arithmetic:
 
 - :func:`welch`: the difference of two sample means with its standard uncertainty and the
@@ -24,27 +24,25 @@ import math
 import numpy as np
 
 
-def _stats():
-    """scipy.stats, imported when an interval is first asked for (``import engine`` and a run
-    load only numpy and numba)."""
-    from scipy import stats
+def _special():
+    """scipy.special (Student's t as ufuncs: ``stdtr``, ``stdtrit``), imported when an
+    interval is first asked for (``import engine`` and a run load only numpy and numba)."""
+    from scipy import special
 
-    return stats
+    return special
 
 
 def t_cdf(x: float, df: float) -> float:
     """P(T <= x) of Student's t with ``df`` > 0 degrees of freedom (inf: the normal)."""
-    stats = _stats()
     if not df > 0:
         raise ValueError(f"t_cdf: degrees of freedom {df} must be > 0")
-    if math.isinf(df):
-        return float(stats.norm.cdf(x))
-    return float(stats.t.cdf(x, df))
+    return float(_special().stdtr(df, x))
 
 
 def t_pdf(x: float, df: float) -> float:
     """Density of Student's t with ``df`` > 0 degrees of freedom (inf: the normal)."""
-    stats = _stats()
+    from scipy import stats
+
     if math.isinf(df):
         return float(stats.norm.pdf(x))
     return float(stats.t.pdf(x, df))
@@ -52,39 +50,30 @@ def t_pdf(x: float, df: float) -> float:
 
 def t_sf(x: float, df: float) -> float:
     """Upper tail P(T > x) of Student's t (a tail, not 1 - cdf: precise far out)."""
-    stats = _stats()
-    if math.isinf(df):
-        return float(stats.norm.sf(x))
-    return float(stats.t.sf(x, df))
+    return float(_special().stdtr(df, -x))
 
 
 def t_quantile(p: float, df: float) -> float:
     """The x with P(T <= x) = ``p`` (0 < p < 1) of Student's t with ``df`` > 0 degrees of
     freedom (inf: the normal)."""
-    stats = _stats()
     if not 0.0 < p < 1.0:
         raise ValueError(f"t_quantile: p = {p} outside (0, 1)")
     if not df > 0:
         raise ValueError(f"t_quantile: degrees of freedom {df} must be > 0")
-    if math.isinf(df):
-        return float(stats.norm.ppf(p))
-    return float(stats.t.ppf(p, df))
+    if p < 0.5:  # the lower tail as a tail: precise far out
+        return -float(_special().stdtrit(df, 1.0 - p))
+    return float(_special().stdtrit(df, p))
 
 
 def t_upper_quantiles(q: float, df) -> np.ndarray:
     """Element-wise :func:`t_quantile` (1 - ``q``, ``df``) for one upper-tail probability
     0 < ``q`` < 0.5 and an array of degrees of freedom > 0 (inf: the normal)."""
-    stats = _stats()
     if not 0.0 < q < 0.5:
         raise ValueError(f"t_upper_quantiles: q = {q} outside (0, 0.5)")
     df = np.asarray(df, dtype=float)
     if not np.all(df > 0):
         raise ValueError("t_upper_quantiles: degrees of freedom must be > 0")
-    finite = np.isfinite(df)
-    out = np.full(df.shape, float(stats.norm.isf(q)))
-    if np.any(finite):
-        out[finite] = stats.t.isf(q, df[finite])
-    return out[()]
+    return (-_special().stdtrit(df, q))[()]
 
 
 def welch(c: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

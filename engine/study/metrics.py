@@ -153,7 +153,8 @@ def branch_on_levels(
 def metric_values(result) -> dict[str, np.ndarray]:
     """Values of every verdict metric of one :class:`engine.UniaxialResult` (see the module
     docstring), plus ``density_whole`` and ``coordination_whole`` (whole-sample values at the
-    same levels, reported next to the interior ones)."""
+    same levels, reported next to the interior ones) and, with a strength, ``failed`` (1.0
+    when the sample failed at a peak, 0.0 when it hardened)."""
     test = result.test
     names = ("porosity_interior", "coordination_interior", "porosity", "coordination")
     parts: dict[str, list] = {n: [] for n in names}
@@ -175,6 +176,9 @@ def metric_values(result) -> dict[str, np.ndarray]:
     }
     if "unconfined_strength" in s:
         out["strength"] = np.array([s["unconfined_strength"]])
+        # whether the sample failed at a peak: a strength compares failed runs only
+        # (engine.study.noise); a hardening sample's is the largest stress reached
+        out["failed"] = float(s.get("unconfined_failure", 1.0))
     return out
 
 

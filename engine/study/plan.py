@@ -16,9 +16,10 @@ import numpy as np
 
 from ..core.errors import ParameterError
 from ..uniaxial.spec import UniaxialTest
-from .adaptive import Addition, next_runs
-from .advisor import judge_groups
+from .allocate import Addition, next_runs
+from .judge import error_rates, judge_group, judge_groups
 from .metrics import metric_names, metric_values, shape_errors
+from .noise import StudyNoise
 from .spec import ScalingRule, StudySpec
 
 #: The variant name of a study's resolution controls (a rule may not take it).
@@ -259,7 +260,7 @@ def plan_runs(
 ) -> tuple[list[PlannedRun], list[dict], str | None]:
     """Every run of the ``study`` (a :class:`StudyPlan`, or a spec planned here) given the
     ``outcomes`` so far: the planned runs, then, with ``decide``, the runs each round adds
-    (engine.study.adaptive), replayed from the outcomes round by round (deterministic: a
+    (engine.study.allocate), replayed from the outcomes round by round (deterministic: a
     resumed study, or a report from stored runs, finds the same runs). Returns (runs, the
     added runs as {run, round, kind, reason}, why the study stopped adding: None while some
     run of the last round is still to run)."""
@@ -305,11 +306,13 @@ def plan_runs(
 
 
 def _stop_reason(spec, planned, outcomes, added, otherwise: str) -> str:
-    names, ref_values, variants = _judged_values(spec, planned, outcomes)
+    names, ref_values, variants, controls = _judged_values(spec, planned, outcomes)
     if not ref_values:
         return "no reference run finished"
     look = final_look(spec, added)
-    _, verdicts = judge_groups(spec, ref_values, variants, names, look=look, looks=spec.looks)
+    _, verdicts = judge_groups(
+        spec, ref_values, variants, names, look=look, looks=spec.looks, controls=controls
+    )
     return (
         otherwise
         if any(v["verdict"] == "undecided" for v in verdicts)
@@ -365,23 +368,28 @@ def adaptive_summary(
 
 
 def _judged_values(spec: StudySpec, planned: list[PlannedRun], outcomes: dict):
-    """Metric values of the finished references and of every variant's finished seeds that
-    :func:`assemble` judges (a run whose curves cannot be compared is left out there too)."""
+    """Metric values of the finished references, of every variant's finished seeds and of
+    each radius's finished controls that :func:`assemble` judges (a run whose curves cannot
+    be compared is left out there too): (names, reference values, variants, controls)."""
     names = metric_names(spec.reference.unconfined)
     ok = [p for p in planned if p.key in outcomes and not isinstance(outcomes[p.key], str)]
     refs = {p.seed: outcomes[p.key] for p in ok if p.is_reference}
     ref_values = [metric_values(r) for r in refs.values()]
     variants: dict[tuple, list[dict]] = {}
+    controls: dict[float, list[dict]] = {}
     for p in ok:
-        if p.is_reference or p.control:  # controls follow the coarse seeds (_added_runs)
+        if p.is_reference:
             continue
         res = outcomes[p.key]
         try:
             shape_errors(res, refs.get(p.seed, next(iter(refs.values()))))
         except (ValueError, StopIteration):
             continue
-        variants.setdefault((p.radius, p.rule.name), []).append(metric_values(res))
-    return names, ref_values, variants
+        if p.control:
+            controls.setdefault(p.radius, []).append(metric_values(res))
+        else:
+            variants.setdefault((p.radius, p.rule.name), []).append(metric_values(res))
+    return names, ref_values, variants, controls
 
 
 def _added_runs(
@@ -389,10 +397,14 @@ def _added_runs(
 ) -> list[tuple[PlannedRun, Addition]]:
     """The runs round ``round_no`` adds (engine.study.adaptive): planned runs of the study
     (``planned``, the stored plan's first) with new seeds, nothing planned again."""
-    names, ref_values, variants = _judged_values(spec, planned, outcomes)
+    names, ref_values, variants, controls = _judged_values(spec, planned, outcomes)
     if not ref_values:
         return []
-    _, verdicts = judge_groups(spec, ref_values, variants, names, look=round_no, looks=spec.looks)
+    groups = dict(variants)
+    groups.update({(r, CONTROL): v for r, v in controls.items()})
+    noise = StudyNoise(ref_values, groups, names, spec.reference.consolidation_stress)
+    alpha_e, alpha_d = error_rates(spec.confidence, len(names), round_no, spec.looks)
+    verdicts = [judge_group(noise, k, spec.tolerances, alpha_e, alpha_d) for k in variants]
     cost: dict = {}
     attempted: dict = {}
     template: dict = {}  # the first planned run of each variant (None: the reference)
@@ -404,7 +416,10 @@ def _added_runs(
         template.setdefault(p.variant, p)
         used.setdefault(p.variant, set()).add(p.seed)
     budget_left = None if spec.budget is None else spec.budget - spent
-    adds = next_runs(spec, ref_values, variants, verdicts, cost, round_no, budget_left, attempted)
+    control_costs = {
+        k[0]: c for k, c in cost.items() if k is not None and k != "reference" and k[1] == CONTROL
+    }
+    adds = next_runs(spec, noise, verdicts, cost, round_no, budget_left, attempted, control_costs)
     out = []
     for a in adds:
         seeds = used.setdefault(a.variant, set())
@@ -418,13 +433,11 @@ def _added_runs(
     for p, a in list(out):
         # a control follows each added coarse seed at its radius (one control per radius
         # and seed serves every rule there), so that the rule's own error keeps its pairs
-        # (engine.study.advisor.judge_rule_error); within the budget
+        # (engine.study.judge.judge_rule_error); the allocation reserved its cost
         ck = (p.radius, CONTROL)
         if a.kind != "coarse" or ck not in template or p.seed in used.get(ck, set()):
             continue
         ctl = template[ck].with_seed(p.seed)
-        if budget_left is not None and ctl.particle_steps > budget_left:
-            continue
         used[ck].add(p.seed)
         if budget_left is not None:
             budget_left -= ctl.particle_steps

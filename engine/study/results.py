@@ -10,7 +10,8 @@ import numpy as np
 
 from ..uniaxial.measures import overburden_ratio
 from ..uniaxial.results import UniaxialResult
-from .advisor import advise, judge_groups, judge_rule_error
+from .advisor import advise
+from .judge import error_rates, judge_group, judge_rule_error
 from .metrics import (
     METRIC_COLUMNS,
     SHAPE_NAMES,
@@ -19,7 +20,8 @@ from .metrics import (
     relative_error,
     shape_errors,
 )
-from .plan import PlannedRun
+from .noise import StudyNoise, noise_floor
+from .plan import CONTROL, PlannedRun
 from .resolution import curve_lines, resolution_curves
 from .spec import ScalingRule, StudySpec
 
@@ -219,7 +221,17 @@ def assemble(
             seeds_of.setdefault((p.radius, p.rule.name), []).append(p.seed)
     table = [r.row() for r in runs.values()]
     groups = _groups(spec, runs, names)
-    noise, verdicts = judge_groups(spec, ref_values, variants, names, look=look, looks=spec.looks)
+    ctl_values = {r: list(c.values()) for r, c in controls.items()}
+    pooled = StudyNoise(
+        ref_values,
+        {**variants, **{(r, CONTROL): v for r, v in ctl_values.items()}},
+        names,
+        cons,
+    )
+    alpha_e, alpha_d = error_rates(spec.confidence, len(names), look, spec.looks)
+    verdicts = [judge_group(pooled, k, spec.tolerances, alpha_e, alpha_d) for k in variants]
+    floor = noise_floor(ref_values, names, cons)
+    noise = {n: floor[n]["noise"] for n in names}
     keys_of: dict[tuple, list[str]] = {}
     for p in planned:
         if not p.is_reference and not p.control:
@@ -255,7 +267,7 @@ def assemble(
     if spec.reference.unconfined:
         ref_strength = float(np.mean([r.scalars["unconfined_strength"] for r in refs.values()]))
     resolution, rule_errors = judge_controls(
-        spec, ref_values, variants, controls, names, look, runs, seeds_of
+        spec, pooled, variants, controls, names, look, runs, seeds_of
     )
     strengths = None
     if spec.reference.unconfined:
@@ -294,7 +306,7 @@ def assemble(
 
 def judge_controls(
     spec: StudySpec,
-    ref_values: list[dict],
+    noise: StudyNoise,
     variants: dict[tuple, list[dict]],
     controls: dict[float, dict[int, dict]],
     names,
@@ -307,14 +319,15 @@ def judge_controls(
     sample that many diameters across loses; judged once, at the study's confidence), and
     per coarse variant at that radius, the variant against the controls (the rule's own
     error, at the variant's look; ``seeds_of`` gives the packing seed of each of its values):
-    paired by seed where that pays (:func:`engine.study.advisor.judge_rule_error`), since a
-    control and a coarse run of one seed start from the same scaled cloud."""
+    paired by seed where that pays (:func:`engine.study.judge.judge_rule_error`), since a
+    control and a coarse run of one seed start from the same scaled cloud; ``noise``: the
+    study's groups with their spreads pooled by radius."""
     if not controls:
         return [], []
-    control_lists = {r: list(c.values()) for r, c in controls.items()}
-    _, resolution = judge_groups(
-        spec, ref_values, {(r, "control"): v for r, v in control_lists.items()}, names
-    )
+    alpha_e, alpha_d = error_rates(spec.confidence, len(names), 1, 1)
+    resolution = [
+        judge_group(noise, (r, CONTROL), spec.tolerances, alpha_e, alpha_d) for r in controls
+    ]
     for v in resolution:
         ctl = [x for x in runs.values() if x.control and x.radius == v["radius"]]
         v["diameters_across"] = ctl[0].result.scalars["thickness_diameters"] if ctl else None
@@ -324,7 +337,7 @@ def judge_controls(
         if r not in controls:
             continue
         mine = dict(zip(seeds_of[(r, rule)], vals))
-        v = judge_rule_error(spec, r, rule, mine, controls[r], names, look, spec.looks)
+        v = judge_rule_error(spec, r, rule, mine, controls[r], names, look, spec.looks, noise)
         v["what"] = "rule"
         rule_errors.append(v)
     return resolution, rule_errors

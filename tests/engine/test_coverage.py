@@ -31,9 +31,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from engine.study import advisor
-from engine.study.adaptive import next_runs
+from engine.study import advisor, judge
+from engine.study.allocate import next_runs
 from engine.study.intervals import hsu_df, t_quantile
+from engine.study.noise import Space, StudyNoise
 
 CONS = 2e4
 TOL = 0.15
@@ -88,9 +89,14 @@ def test_the_fast_path_is_the_rule():
         c = np.exp(rng.normal(rng.choice([0.0, 0.1, 0.2]), 0.1, (60, n_coarse)))
         fast = advisor.judge_samples(c, r, TOL, ae, ad)
         for i in range(60):
-            ref = advisor.noise_floor([{"k": np.array([x])} for x in r[i]], ["k"], CONS)["k"]
-            m = advisor.judge_metric(
-                "k", [{"k": np.array([x])} for x in c[i]], ref, TOL, CONS, ae, ad
+            m = judge.judge_values(
+                "k",
+                [{"k": np.array([x])} for x in c[i]],
+                [{"k": np.array([x])} for x in r[i]],
+                TOL,
+                CONS,
+                ae,
+                ad,
             )
             assert m["verdict"] == fast[i]
     assert set(fast) == {"equivalent", "differs", "undecided"}
@@ -267,8 +273,9 @@ def _curve_rates(true_error, n_ref, n_coarse, n=300, seed=0):
                 for _ in range(k)
             ]
 
-        ref = advisor.noise_floor(draw(n_ref, 0.0), ["density"], CONS)["density"]
-        v = advisor.judge_metric("density", draw(n_coarse, shape), ref, 0.03, CONS, ae, ad)
+        v = judge.judge_values(
+            "density", draw(n_coarse, shape), draw(n_ref, 0.0), 0.03, CONS, ae, ad
+        )
         eq += v["verdict"] == "equivalent"
         di += v["verdict"] == "differs"
     return eq / n, di / n
@@ -289,8 +296,8 @@ def test_curve_metric_rates():
 def _adaptive(
     ratio, sd_ref=SD_REF, sd_coarse=SD_COARSE, kind="lognormal", n=1000, seed=0, rounds=1
 ):
-    """Adaptive studies of one variant from a pilot of 3 + 3 seeds (engine.study.adaptive.
-    next_runs picks the runs of each round, the advisor judges each look, as
+    """Adaptive studies of one variant from a pilot of 3 + 3 seeds (engine.study.allocate.
+    next_runs picks the runs of each round, engine.study.judge judges each look, as
     engine.study.plan.plan_runs does): the fractions finally called equivalent and differs,
     and the mean number of added coarse seeds."""
     name = "loading_stiffness"
@@ -304,6 +311,7 @@ def _adaptive(
         rounds=rounds,
         looks=rounds + 1,
         budget=None,
+        rules=(SimpleNamespace(name="rule"),),
     )
     rng = np.random.default_rng(seed)
     key = (5e-3, "rule")
@@ -318,10 +326,10 @@ def _adaptive(
         coarse = [one(ratio, sd_coarse) for _ in range(3)]
         look = 1
         for round_no in range(1, rounds + 1):
-            _, verdicts = advisor.judge_groups(
-                spec, refs, {key: coarse}, [name], look=look, looks=spec.looks
-            )
-            adds = next_runs(spec, refs, {key: coarse}, verdicts, costs, round_no, None)
+            noise = StudyNoise(refs, {key: coarse}, [name], CONS)
+            ae, ad = advisor.error_rates(spec.confidence, 1, look, spec.looks)
+            verdicts = [judge.judge_group(noise, key, spec.tolerances, ae, ad)]
+            adds = next_runs(spec, noise, verdicts, costs, round_no, None)
             if not adds:
                 break
             for a in adds:
@@ -411,10 +419,9 @@ def test_the_paired_fast_path_is_the_rule():
         c, r = _pairs(rng, 60, n_pairs, 1.08, 2.0, 0.6, "lognormal")
         fast = advisor.judge_samples(c, r, TOL, ae, ad, paired=True)
         for i in range(60):
-            ref = advisor.noise_floor([{"k": np.array([x])} for x in r[i]], ["k"], CONS)["k"]
-            m = advisor.judge_metric(
-                "k", [{"k": np.array([x])} for x in c[i]], ref, TOL, CONS, ae, ad, paired=True
-            )
+            lc, lr = np.log(c[i])[:, None], np.log(r[i])[:, None]
+            comp = judge.Comparison(Space("log"), lc, lr, None, None, TOL, paired=True)
+            m = judge.judge_metric("k", comp, ae, ad)
             assert m["verdict"] == fast[i] and m["paired"]
             assert m["df"] == pytest.approx(n_pairs - 1)
 

@@ -22,6 +22,12 @@ def _m(name, signed, verdict):
         "interval": [signed - 0.05, signed + 0.05],
         "differs_error": signed,
         "differs_interval": [signed - 0.08, signed + 0.08],
+        # the two-sided interval of the signed error: a bias where it excludes zero
+        "bias": {
+            "direction": "high" if signed > 0.05 else "low" if signed < -0.05 else None,
+            "error": signed,
+            "interval": [signed - 0.05, signed + 0.05],
+        },
     }
 
 
@@ -78,6 +84,7 @@ def test_claim_b(verdicts, word):
         ((-0.4, "differs"), (0.02, "equivalent"), (0.4, "differs"), "agrees"),
         ((-0.4, "differs"), (-0.3, "differs"), (0.4, "differs"), "differs"),  # b = 2 off
         ((0.1, "undecided"), (0.02, "equivalent"), (0.4, "differs"), "differs"),  # b = 1 over
+        ((0.04, "undecided"), (0.02, "equivalent"), (0.4, "differs"), "undecided"),  # not shown
         ((-0.4, "differs"), (0.02, "undecided"), (0.4, "differs"), "undecided"),
         ((-0.4, "undecided"), (0.02, "equivalent"), (0.4, "differs"), "undecided"),
     ],

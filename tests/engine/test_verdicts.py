@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import engine
-from engine.study import advisor, metrics
+from engine.study import advisor, judge, metrics
 from engine.study.intervals import log_ratio_interval, t_quantile
 from engine.uniaxial.measures import (
     FailureDetector,
@@ -118,7 +118,7 @@ def _seeds(name, values):
 
 
 def _ref(name, values):
-    return advisor.noise_floor(_seeds(name, values), [name], 2e4)[name]
+    return _seeds(name, values)
 
 
 @pytest.mark.parametrize(
@@ -134,7 +134,7 @@ def _ref(name, values):
 )
 def test_verdict_from_error_tolerance_and_noise(coarse, expect):
     ref = _ref("density", [0.999, 1.0, 1.001])
-    m = advisor.judge_metric("density", _seeds("density", coarse), ref, 0.03, 2e4)
+    m = judge.judge_values("density", _seeds("density", coarse), ref, 0.03, 2e4)
     assert m["verdict"] == expect
     assert m["error"] == pytest.approx(abs(np.mean(coarse) - 1.0))
     lo, hi = m["interval"]
@@ -147,7 +147,7 @@ def test_the_interval_is_a_t_interval_on_the_difference_of_mean_logs():
     r = np.array([0.9, 1.0, 1.1])
     c = np.array([1.0, 1.1, 1.25, 1.15])
     ref = _ref("loading_stiffness", r)
-    m = advisor.judge_metric("loading_stiffness", _seeds("loading_stiffness", c), ref, 0.15, 2e4)
+    m = judge.judge_values("loading_stiffness", _seeds("loading_stiffness", c), ref, 0.15, 2e4)
     lc, lr = np.log(c), np.log(r)
     vc, vr = lc.var(ddof=1) / 4, lr.var(ddof=1) / 3
     df = min(3 * (vc + vr) / vc, 2 * (vc + vr) / vr)
@@ -169,7 +169,7 @@ def test_the_interval_is_a_t_interval_on_the_difference_of_mean_logs():
 
 def test_two_seeds_on_a_side_take_hsus_degrees_of_freedom():
     ref = _ref("loading_stiffness", [0.9, 1.0, 1.1, 1.05])
-    m = advisor.judge_metric(
+    m = judge.judge_values(
         "loading_stiffness", _seeds("loading_stiffness", [1.0, 1.1]), ref, 0.15, 2e4
     )
     assert m["df"] == 1.0
@@ -179,19 +179,19 @@ def test_a_ratio_is_bounded_where_fieller_was_not():
     # a reference mean close to its own noise gave Fieller's [-inf, inf]; the ratio of
     # geometric means has a finite interval from any positive values
     ref = _ref("strength", [2e3, 9e3, 1.6e4])
-    m = advisor.judge_metric("strength", _seeds("strength", [4e3, 1.5e4, 8e3]), ref, 0.15, 2e4)
+    m = judge.judge_values("strength", _seeds("strength", [4e3, 1.5e4, 8e3]), ref, 0.15, 2e4)
     assert all(math.isfinite(x) for x in m["interval"])
 
 
 def test_a_strength_under_the_floor_is_compared_as_a_difference():
     ref = _ref("strength", [100.0, 200.0, 150.0])  # under 5 % of 20 kPa: cohesionless
-    m = advisor.judge_metric("strength", _seeds("strength", [120.0, 180.0, 200.0]), ref, 0.15, 2e4)
+    m = judge.judge_values("strength", _seeds("strength", [120.0, 180.0, 200.0]), ref, 0.15, 2e4)
     assert m["scale"] == "difference" and m["verdict"] == "equivalent"
 
 
 def test_noise_too_large_to_tell():
     ref = _ref("strength", [1.6e4, 2e4, 2.4e4])  # references differ by 20 % among themselves
-    m = advisor.judge_metric("strength", _seeds("strength", [2.0e4, 2.2e4]), ref, 0.15, 2e4)
+    m = judge.judge_values("strength", _seeds("strength", [2.0e4, 2.2e4]), ref, 0.15, 2e4)
     assert m["verdict"] == "undecided"
     assert m["needs"]["coarse"] is not None or m["needs"]["coarse_and_reference"] is not None
     overall, reason = advisor.verdict([m])
@@ -201,14 +201,15 @@ def test_noise_too_large_to_tell():
 
 def test_one_seed_of_a_variant_is_undecided_and_says_why():
     ref = _ref("density", [0.6, 0.601])
-    m = advisor.judge_metric("density", _seeds("density", [0.9]), ref, 0.03, 2e4)
+    m = judge.judge_values("density", _seeds("density", [0.9]), ref, 0.03, 2e4)
     overall, reason = advisor.verdict([m])
     assert overall == "undecided" and "one seed of this variant" in reason
 
 
 def test_one_reference_seed_is_undecided_and_says_why():
-    floor = advisor.noise_floor([{"density": np.array([0.6])}], ["density"], 2e4)
-    m = advisor.judge_metric("density", [{"density": np.array([0.9])}], floor["density"], 0.03, 2e4)
+    m = judge.judge_values(
+        "density", [{"density": np.array([0.9])}], [{"density": np.array([0.6])}], 0.03, 2e4
+    )
     overall, reason = advisor.verdict([m])
     assert overall == "undecided" and "one reference seed" in reason
 
@@ -481,13 +482,13 @@ def test_the_coarsest_radius_is_tested_fine_to_coarse():
 
 def test_what_decides_an_undecided_verdict():
     ref = _ref("strength", [1.6e4, 2e4, 2.4e4])
-    m = advisor.judge_metric("strength", _seeds("strength", [2.0e4, 2.2e4, 1.9e4]), ref, 0.15, 2e4)
+    m = judge.judge_values("strength", _seeds("strength", [2.0e4, 2.2e4, 1.9e4]), ref, 0.15, 2e4)
     assert m["verdict"] == "undecided"
     text = advisor.what_decides([m])
     assert text.startswith("about ") and "seeds" in text
     # at the tolerance no seed count decides it
     ref_tight = _ref("strength", [2e4, 2.002e4, 1.998e4])
-    at = advisor.judge_metric(
+    at = judge.judge_values(
         "strength", _seeds("strength", [2.28e4, 2.32e4, 2.3e4]), ref_tight, 0.15, 2e4
     )
     assert at["verdict"] == "undecided"

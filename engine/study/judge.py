@@ -1,0 +1,800 @@
+r"""From compared values and spreads to verdicts (docs/PHYSICS.md section 7.1).
+
+For every verdict metric (:data:`engine.study.metrics.METRICS`) a coarse variant's seeds
+are compared with the reference seeds (or, for the rule's own error, with its radius's
+resolution controls) on the scale :mod:`engine.study.noise` chose, with the spreads it
+pooled:
+
+- the relative error at a level is :math:`\rho - 1` with the ratio of geometric means
+  :math:`\rho = \exp(\overline{\log c} - \overline{\log r})` (a strength weaker than 5 % of
+  the consolidation stress: the difference over that floor); its interval is the t interval
+  of the difference of the means, with each side's spread (pooled over its radius, or its
+  own) and :func:`engine.study.intervals.interval_df` degrees of freedom;
+- ``equivalent`` when at **every** level the interval at one-sided rate
+  :math:`\alpha_e = \alpha/2` lies inside the tolerance (:data:`EQUIVALENCE_LEVEL`: the
+  two-sided :math:`1 - \alpha` interval); ``differs`` when the interval of the per-seed
+  level means lies wholly outside it at :math:`\alpha_k / 2M` per end (Bonferroni over the
+  :math:`M` metrics, the two ends and the looks :math:`k`); else ``undecided``;
+- every metric also carries its **signed error** and that two-sided :math:`1 - \alpha`
+  interval of the level mean: where it excludes zero the metric is *biased* high or low,
+  whatever the tolerance question answers (a user needs the direction and size of a bias
+  while the tolerance is still open);
+- with fewer than two seeds on a side (and no pool) a spread is unknown: ``undecided``.
+
+A (radius, rule) differs when any metric differs, is equivalent when all are, undecided
+otherwise. The functions here are pure: arrays in, verdicts out; tests/engine/test_coverage.py
+simulates their rates and power with :func:`judge_samples`, which runs the same arithmetic
+over many studies at once.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .intervals import interval_df, t_quantile, t_upper_quantiles
+from .metrics import relative_error, signed_error
+from .noise import REFERENCE, Space, StudyNoise
+from .pooling import SCREEN_LEVEL, Spread, pool_arrays
+
+#: Default confidence of a verdict: 1 - the largest rate of a wrong ``equivalent`` or of a
+#: wrong ``differs`` [-].
+CONFIDENCE = 0.95
+
+#: Most seeds a "would need" estimate looks for (beyond it: "more than" this).
+MAX_SEEDS_NEEDED = 100
+
+VERDICTS = ("equivalent", "differs", "undecided")
+
+#: Share of the ``differs`` error rate an adaptive study spends at its pilot look (the
+#: planned runs); the later looks share the rest equally (docs/PHYSICS.md section 7.2).
+PILOT_SHARE = 0.2
+
+#: Power a variant's added seeds are sized for where the chance of deciding it is judged at
+#: a true error of 0 (engine.study.allocate) [-].
+PLANNED_POWER = 0.8
+
+#: The nominal one-sided rate of each end of an equivalence interval, as a fraction of
+#: alpha = 1 - confidence: one half, so that ``equivalent`` means the two-sided
+#: 1 - alpha interval lies inside the tolerance. The plain form (alpha per end) covers less
+#: than it states for skewed values with three reference seeds against many coarse ones
+#: (simulated, alpha = 5 %: up to 7.3 % wrong ``equivalent`` for normal values, 8.5 % with
+#: one seed in ten from a second mode 30 % away), for an adaptive second stage sized from a
+#: pilot (7.8 %), and with pooled spreads where one variant's spread is twice the others'
+#: (9 to 11 %): docs/PHYSICS.md section 7.1, tests/engine/test_coverage.py.
+EQUIVALENCE_LEVEL = 0.5
+
+#: Variance of the per-seed difference of a coarse run and its resolution control, relative
+#: to the sum of their variances, per metric (``python -m benchmarks.pairing``, 2026-12-03):
+#: density and coordination keep the cloud's imprint, the stiffnesses and the strength
+#: forget it. Fixed, so that whether a metric is paired depends on counts only.
+PAIRING_VARIANCE_RATIO = {
+    "density": 0.37,
+    "loading_stiffness": 1.12,
+    "unloading_stiffness": 1.06,
+    "coordination": 0.51,
+    "strength": 1.05,
+}
+
+
+def pairing_pays(
+    name: str, pairs: int, nc: int, nr: int, alpha: float, df_unpaired: float | None = None
+) -> bool:
+    """Whether the rule's own error of metric ``name`` is judged paired by seed (the t
+    interval of the ``pairs`` per-seed differences, pairs - 1 degrees of freedom) rather
+    than unpaired (all ``nc`` coarse and ``nr`` control seeds with ``df_unpaired`` degrees
+    of freedom, their pooled ones; default the own-spread bound): paired when its expected
+    half-width at one-sided rate ``alpha``, with equal spreads and the measured
+    :data:`PAIRING_VARIANCE_RATIO`, is the smaller. Depends on counts and fixed numbers
+    alone, so either interval keeps its own coverage."""
+    ratio = PAIRING_VARIANCE_RATIO.get(name, 1.0)
+    if pairs < 2 or ratio >= 1.0:
+        return False
+    if df_unpaired is None:
+        df_unpaired = float(interval_df(nc, nr, 1.0 / nc, 1.0 / nr))
+    unpaired = t_quantile(1.0 - alpha, df_unpaired) * math.sqrt(1.0 / nc + 1.0 / nr)
+    paired = t_quantile(1.0 - alpha, pairs - 1) * math.sqrt(2.0 * ratio / pairs)
+    return paired < unpaired
+
+
+def look_alpha(confidence: float, look: int = 1, looks: int = 1) -> float:
+    """The ``differs`` error rate spent at look ``look`` of ``looks``: all of
+    alpha = 1 - confidence when judged once; else :data:`PILOT_SHARE` of it at the pilot and
+    the rest split equally over the later looks (Bonferroni over the looks)."""
+    if not 0.5 < confidence < 1.0:
+        raise ValueError(f"confidence {confidence} outside (0.5, 1)")
+    if not 1 <= look <= looks:
+        raise ValueError(f"look {look} outside 1 to {looks}")
+    alpha = 1.0 - confidence
+    if looks == 1:
+        return alpha
+    if look == 1:
+        return PILOT_SHARE * alpha
+    return (1.0 - PILOT_SHARE) * alpha / (looks - 1)
+
+
+def error_rates(
+    confidence: float, metrics_judged: int, look: int = 1, looks: int = 1
+) -> tuple[float, float]:
+    """Nominal one-sided rates per end of one metric's two tests: equivalence
+    :data:`EQUIVALENCE_LEVEL` x alpha (claimed at the final look only; an intersection-union
+    test needs no split), differs :func:`look_alpha` / (2 metrics)."""
+    a = look_alpha(confidence, look, looks)
+    return EQUIVALENCE_LEVEL * (1.0 - confidence), a / (2 * max(metrics_judged, 1))
+
+
+# ---------------------------------------------------------------------------- the arithmetic
+def difference_interval(d, vc, vr, nc, nr, dfc, dfr, alpha, shared=False):
+    """Difference ``d`` of two means with its interval at one-sided rate ``alpha`` per end:
+    ``vc``, ``vr`` the per-seed variances of the two sides (numbers or arrays), ``nc``,
+    ``nr`` their seeds, ``dfc``, ``dfr`` their spreads' degrees of freedom, ``shared`` one
+    pooled spread for both. Returns arrays (low, high, dof, standard error). The one
+    computation behind every interval of a verdict."""
+    d = np.asarray(d, dtype=float)
+    uc = np.asarray(vc, dtype=float) / nc
+    ur = np.asarray(vr, dtype=float) / nr
+    df = np.asarray(interval_df(nc, nr, uc, ur, dfc, dfr, shared), dtype=float)
+    u = np.sqrt(uc + ur)
+    h = np.where(u > 0, t_upper_quantiles(alpha, np.maximum(df, 1e-9)) * u, 0.0)
+    return d - h, d + h, df, u
+
+
+class Comparison:
+    """One metric of one group against another (the references, or the controls of its
+    radius) on the compared scale: means per level and of the per-seed level means, the two
+    spreads (:class:`engine.study.pooling.Spread`), the bounds of the tolerance.
+    ``paired``: the rows are matched by seed and the interval is the one-sample t of the
+    per-seed differences (a rule against its controls); ``shared``: both sides take one
+    pooled spread."""
+
+    def __init__(
+        self,
+        space: Space,
+        c: np.ndarray,
+        r: np.ndarray,
+        sc: Spread,
+        sr: Spread,
+        tolerance: float,
+        paired: bool = False,
+    ):
+        self.space = space
+        self.kind = space.kind
+        self.lo, self.hi = space.bounds(tolerance)
+        self.tolerance = tolerance
+        self.paired = paired
+        c, r = np.atleast_2d(c), np.atleast_2d(r)
+        self.nc, self.nr = len(c), len(r)
+        if self.nc == 0 or self.nr == 0:  # nothing to compare (e.g. no run failed)
+            width = max(c.shape[1], r.shape[1])
+            c = np.zeros((0, width)) if self.nc == 0 else c
+            r = np.zeros((0, width)) if self.nr == 0 else r
+            self.mc = c.mean(axis=0) if self.nc else np.zeros(width)
+            self.mr = r.mean(axis=0) if self.nr else np.zeros(width)
+            self.mcs = self.mrs = 0.0
+            self.sc, self.sr, self.shared = sc, sr, False
+            self.paired = False
+            return
+        if paired:
+            dd = c - r
+            self.mc, self.mr = dd.mean(axis=0), np.zeros(dd.shape[1])
+            ds = dd.mean(axis=1)
+            self.mcs, self.mrs = float(ds.mean()), 0.0
+            own = len(dd) > 1
+            self.sc = Spread(
+                dd.var(axis=0, ddof=1) if own else np.zeros(dd.shape[1]),
+                float(ds.var(ddof=1)) if own else 0.0,
+                float(len(dd) - 1),
+                False,
+                ("paired",),
+            )
+            self.sr = Spread(np.zeros(dd.shape[1]), 0.0, math.inf, False, ("paired",))
+            self.shared = False
+            return
+        self.mc, self.mr = c.mean(axis=0), r.mean(axis=0)
+        self.mcs, self.mrs = float(c.mean(axis=1).mean()), float(r.mean(axis=1).mean())
+        self.sc, self.sr = sc, sr
+        self.shared = sc.pooled and sr.pooled and set(sc.pool) == set(sr.pool)
+
+    @property
+    def known(self) -> bool:
+        """Whether both spreads are known (the interval exists)."""
+        if self.nc == 0 or self.nr == 0:
+            return False
+        if self.paired:
+            return self.nc > 1
+        return self.sc.known and self.sr.known and self.nc > 0 and self.nr > 0
+
+    def interval(self, alpha: float, nc=None, nr=None, summed: bool = False):
+        """(difference, low, high, dof, standard error) per level, or of the level means
+        (``summed``), at the observed counts or, projected, ``nc`` and ``nr`` seeds (a
+        spread gains a degree of freedom per added seed)."""
+        nc = self.nc if nc is None else nc
+        nr = self.nr if nr is None else nr
+        add_c, add_r = nc - self.nc, nr - self.nr
+        if summed:
+            d = self.mcs - self.mrs
+            vc, vr = self.sc.var_summed, self.sr.var_summed
+        else:
+            d = self.mc - self.mr
+            vc, vr = self.sc.var, self.sr.var
+        dfc = self.sc.grown(add_c)
+        dfr = self.sr.grown(add_r)
+        if self.shared:
+            dfc = dfr = self.sc.df + add_c + add_r
+        if self.paired:
+            lo, hi, df, u = difference_interval(d, vc, 0.0, nc, 1, dfc, math.inf, alpha)
+        else:
+            lo, hi, df, u = difference_interval(d, vc, vr, nc, nr, dfc, dfr, alpha, self.shared)
+        return np.asarray(d, dtype=float), lo, hi, df, u
+
+    def equivalent(self, alpha: float, nc=None, nr=None) -> bool:
+        """Every level's interval inside the bounds."""
+        _, lo, hi, _, _ = self.interval(alpha, nc, nr)
+        return bool(np.all(lo >= self.lo) and np.all(hi <= self.hi))
+
+    def differs(self, alpha: float, nc=None, nr=None) -> bool:
+        """The interval of the level means wholly beyond a bound."""
+        _, lo, hi, _, _ = self.interval(alpha, nc, nr, summed=True)
+        return bool(lo > self.hi or hi < self.lo)
+
+    def projected(self, n: int, m: int, alpha_e: float, alpha_d: float) -> str | None:
+        """The verdict with ``n`` and ``m`` seeds if the means and spreads stayed as
+        observed (None: undecided)."""
+        if self.differs(alpha_d, n, m):
+            return "differs"
+        return "equivalent" if self.equivalent(alpha_e, n, m) else None
+
+    def chance(self, n: int, m: int, alpha_e: float, alpha_d: float, truth=None):
+        """Chance that this metric is decided with ``n`` and ``m`` seeds, if its spreads
+        stayed as observed and its true difference were ``truth`` (a number for every level;
+        default: the observed differences): each estimate normal about the truth with its
+        projected standard error, against the bounds narrowed (equivalence, at the level
+        where that is least likely: an upper bound of every level's being inside) or widened
+        (differs, on the level means) by the projected half-widths. Returns the chances
+        of ``equivalent`` and of ``differs``."""
+        z = _normal_cdf
+        d, _, hi, _, u = self.interval(alpha_e, n, m)
+        mu = np.broadcast_to(d if truth is None else float(truth), np.shape(d))
+        p_eq = 1.0
+        for dl, hl, ul, ml in zip(
+            np.atleast_1d(d), np.atleast_1d(hi), np.atleast_1d(u), np.atleast_1d(mu)
+        ):
+            h = float(hl - dl)
+            if ul > 0:
+                p = z((self.hi - h - ml) / ul) - z((self.lo + h - ml) / ul)
+            else:
+                p = float(self.lo + h <= ml <= self.hi - h)
+            p_eq = min(p_eq, max(0.0, p))
+        ds, _, hi_d, _, us = self.interval(alpha_d, n, m, summed=True)
+        ms = float(ds) if truth is None else float(truth)
+        h = float(hi_d - ds)
+        us = float(us)
+        if us > 0:
+            p_di = 1.0 - z((self.hi + h - ms) / us) + z((self.lo - h - ms) / us)
+        else:
+            p_di = float(ms > self.hi + h or ms < self.lo - h)
+        return p_eq, min(1.0, p_di)
+
+    def planned_power(self, n: int, m: int, alpha_e: float) -> bool:
+        """Whether with ``n`` and ``m`` seeds, a true error of 0 and the spreads as observed,
+        the chance of ``equivalent`` is at least :data:`PLANNED_POWER` at every level."""
+        _, lo, hi, _, u = self.interval(alpha_e, n, m)
+        z = t_quantile(0.5 + 0.5 * PLANNED_POWER, math.inf)
+        return bool(np.all(0.5 * (hi - lo) + z * u <= min(self.hi, -self.lo)))
+
+
+def _normal_cdf(x: float) -> float:
+    return 0.5 * math.erfc(-x / math.sqrt(2.0))
+
+
+# ------------------------------------------------------------------------------- one metric
+def judge_metric(
+    name: str,
+    comp: Comparison,
+    alpha_equivalent: float,
+    alpha_differs: float,
+    raw_c: np.ndarray | None = None,
+    raw_r: np.ndarray | None = None,
+    consolidation_stress: float = 1.0,
+    against: str = "reference",
+    counts: dict | None = None,
+) -> dict:
+    """Error, interval, bias and verdict of one metric of one group (module docstring).
+    ``raw_c``, ``raw_r``: the raw values (seeds x levels) for the reported RMS and signed
+    errors; ``counts``: runs left out of this metric (hardening samples, for a strength)."""
+    out = {
+        "metric": name,
+        "tolerance": comp.tolerance,
+        "seeds": comp.nc,
+        "reference_seeds": comp.nr,
+        "alpha_equivalent": alpha_equivalent,
+        "alpha_differs": alpha_differs,
+        "interval": None,
+        "differs_interval": None,
+        "level": None,
+        "df": None,
+        "uncertainty": None,
+        "needs": None,
+        "paired": comp.paired,
+        "against": against,
+        "pooled": bool(comp.sc.pooled) and not comp.paired,
+        "pool_df": float(comp.sc.df) if comp.sc.known else None,
+        "screen": _screen_words(comp.sc, comp.paired),
+        "bias": None,
+        **(counts or {}),
+    }
+    if raw_c is not None and raw_r is not None and len(raw_c) and len(raw_r):
+        mc, mr = np.asarray(raw_c).mean(axis=0), np.asarray(raw_r).mean(axis=0)
+        out["error"] = relative_error(name, mc, mr, consolidation_stress)
+        out["signed_error"] = signed_error(name, mc, mr, consolidation_stress)
+    else:
+        out["error"] = out["signed_error"] = None
+    if not comp.known:
+        out.update(verdict="undecided")
+        return out
+    sp = comp.space
+    d, lo, hi, df, u = comp.interval(alpha_equivalent)
+    excess = np.maximum(hi - comp.hi, comp.lo - lo)
+    k = int(np.argmax(excess))
+    equivalent = bool(excess[k] <= 0)
+    dd = comp.interval(alpha_differs, summed=True)
+    differs = bool(dd[1] > comp.hi or dd[2] < comp.lo)
+    ds, ls, hs, _, _ = comp.interval(alpha_equivalent, summed=True)
+    bias = None
+    if ls > 0:
+        bias = "high"
+    elif hs < 0:
+        bias = "low"
+    levels = len(np.atleast_1d(d))
+    out.update(
+        interval=[sp.rel(lo[k]), sp.rel(hi[k])],
+        level=None if levels == 1 else k,
+        level_error=sp.rel(d[k]),
+        df=float(df[k]),
+        differs_interval=[sp.rel(dd[1]), sp.rel(dd[2])],
+        differs_error=sp.rel(dd[0]),
+        uncertainty=float(np.sqrt(np.mean(np.asarray(u) ** 2))),
+        scale=comp.kind,
+        bias={
+            "direction": bias,
+            "error": sp.rel(ds),
+            "interval": [sp.rel(ls), sp.rel(hs)],
+            "confidence": 1.0 - 2.0 * alpha_equivalent,
+        },
+        verdict="differs" if differs else "equivalent" if equivalent else "undecided",
+    )
+    if out["verdict"] == "undecided":
+        out["needs"] = seeds_needed(comp, alpha_equivalent, alpha_differs)
+    return out
+
+
+def _screen_words(s: Spread, paired: bool) -> str | None:
+    """How a group's spread was taken, for the reason."""
+    if paired:
+        return "paired by seed"
+    if s.pooled:
+        return f"spread pooled over {len(s.pool)} groups at its radius, {s.df:g} dof"
+    if s.ratio is not None and s.p_value is not None and s.p_value < SCREEN_LEVEL:
+        return (
+            f"spread {math.sqrt(s.ratio):.1f}x the pooled spread of the other groups at "
+            f"its radius (one-sided F test, p = {s.p_value:.2g} < {SCREEN_LEVEL:g}): judged "
+            f"on its own spread, {s.df:g} dof"
+        )
+    return None
+
+
+def seeds_needed(comp: Comparison, alpha_e: float, alpha_d: float) -> dict:
+    """How many more seeds would decide an undecided metric if its means and spreads stayed
+    as observed: ``coarse`` (more of this group), or ``coarse_and_reference`` (the same
+    number more of each side; paired: more pairs), each None beyond
+    :data:`MAX_SEEDS_NEEDED`; ``verdict``: the one those seeds would give."""
+    n0, m0 = comp.nc, comp.nr
+
+    def first(pred):
+        lo, hi = 1, MAX_SEEDS_NEEDED
+        if not pred(hi):
+            return None
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if pred(mid):
+                hi = mid
+            else:
+                lo = mid + 1
+        return lo
+
+    def decides(n, m):
+        return comp.projected(n, m, alpha_e, alpha_d) is not None
+
+    coarse = None if comp.paired else first(lambda k: decides(n0 + k, m0))
+    both = None if coarse is not None else first(lambda k: decides(n0 + k, m0 + k))
+    verdict = None
+    if coarse is not None:
+        verdict = comp.projected(n0 + coarse, m0, alpha_e, alpha_d)
+    elif both is not None:
+        verdict = comp.projected(n0 + both, m0 + both, alpha_e, alpha_d)
+    return {"coarse": coarse, "coarse_and_reference": both, "verdict": verdict}
+
+
+# ------------------------------------------------------------------- many studies at once
+def judge_samples(
+    c,
+    r,
+    tolerance: float,
+    alpha_e: float,
+    alpha_d: float,
+    paired: bool = False,
+    others=(),
+    level: float | None = SCREEN_LEVEL,
+) -> np.ndarray:
+    """The verdicts of many studies of one positive scalar metric at once: ``c`` (studies x
+    coarse seeds), ``r`` (studies x reference seeds; ``paired``: as many, matched by
+    column), ``others``: arrays (studies x seeds) of the other groups at the coarse side's
+    radius, pooled with it (:func:`engine.study.pooling.pool_arrays`, screen at ``level``);
+    the same arithmetic as :func:`judge_metric`. Returns an array of verdicts."""
+    lc, lr = np.log(np.asarray(c, dtype=float)), np.log(np.asarray(r, dtype=float))
+    nc, nr = lc.shape[1], lr.shape[1]
+    lo_b, hi_b = Space("log").bounds(tolerance)
+    if paired:
+        dd = lc - lr
+        d = dd.mean(1)
+        vc, vr, dfc, dfr, shared = dd.var(1, ddof=1), 0.0, nc - 1.0, math.inf, False
+        nr_eff = 1
+    else:
+        d = lc.mean(1) - lr.mean(1)
+        vc, dfc = lc.var(1, ddof=1), float(nc - 1)
+        if len(others):
+            groups = [lc, *(np.log(np.asarray(o, dtype=float)) for o in others)]
+            var = np.stack([g.var(1, ddof=1) for g in groups], axis=-1)[..., None]
+            dof = np.array([g.shape[1] - 1 for g in groups], dtype=float)
+            pv, _, pdf, _, _ = pool_arrays(var, var[..., 0], dof, level)
+            vc, dfc = pv[:, 0, 0], pdf[:, 0]
+        vr, dfr, shared, nr_eff = lr.var(1, ddof=1), float(nr - 1), False, nr
+    lo, hi, _, _ = difference_interval(d, vc, vr, nc, nr_eff, dfc, dfr, alpha_e, shared)
+    equivalent = (lo >= lo_b) & (hi <= hi_b)
+    lo, hi, _, _ = difference_interval(d, vc, vr, nc, nr_eff, dfc, dfr, alpha_d, shared)
+    differs = (lo > hi_b) | (hi < lo_b)
+    return np.where(differs, "differs", np.where(equivalent, "equivalent", "undecided"))
+
+
+# ----------------------------------------------------------------------------- the reasons
+def _pct(x: float) -> str:
+    return f"{100 * x:+.1f} %"
+
+
+def bias_words(m: dict) -> str | None:
+    """ "biased low by 27.0 [18.2, 34.9] %" where the metric's interval excludes zero."""
+    b = m.get("bias")
+    if not b or b["direction"] is None:
+        return None
+    lo, hi = b["interval"]
+    if b["direction"] == "low":
+        size, a, z = -b["error"], -hi, -lo
+    else:
+        size, a, z = b["error"], lo, hi
+    what = "" if m["level"] is None else " (mean over levels)"
+    return (
+        f"{m['metric']} biased {b['direction']} by {100 * size:.1f} "
+        f"[{100 * a:.1f}, {100 * z:.1f}] %{what} ({b['confidence']:.0%} interval)"
+    )
+
+
+def describe(m: dict) -> str:
+    """One metric's verdict in words: its error, interval, rate, spread and what would
+    decide it."""
+    tol = f"± {m['tolerance']:.0%}"
+    left = ""
+    if m.get("left_out"):
+        left = f" ({m['left_out']} hardening runs left out)"
+    if m["interval"] is None:
+        err = "" if m.get("signed_error") is None else f" {_pct(m['signed_error'])}"
+        why = "no failed run" if m["seeds"] == 0 or m["reference_seeds"] == 0 else "spread unknown"
+        return f"{m['metric']}{err} ({why}{left}) against {tol}"
+    conf = 1 - m["alpha_equivalent"]
+    spread = f", {m['screen']}" if m.get("screen") else ""
+    if m["verdict"] == "differs":
+        lo, hi = m["differs_interval"]
+        what = "summed over levels " if m["level"] is not None else ""
+        return (
+            f"{m['metric']} {what}{_pct(m['differs_error'])} in [{_pct(lo)}, {_pct(hi)}] "
+            f"({1 - m['alpha_differs']:.1%} one-sided{spread}) against {tol}{left}"
+        )
+    lo, hi = m["interval"]
+    at = "" if m["level"] is None else f" at its worst level {m['level'] + 1}"
+    text = (
+        f"{m['metric']} {_pct(m['level_error'])}{at} in [{_pct(lo)}, {_pct(hi)}] "
+        f"({conf:.1%} one-sided per end, {m['df']:.1f} dof{spread}) against {tol}{left}"
+    )
+    if m["verdict"] == "undecided":
+        b = bias_words(m)
+        if b:
+            text += f"; {b}"
+    need = m.get("needs")
+    if need is not None:
+        if need["coarse"] is not None:
+            text += f"; about {need['coarse']} more coarse seeds would decide it"
+        elif need["coarse_and_reference"] is not None:
+            text += (
+                f"; about {need['coarse_and_reference']} more coarse and "
+                f"{m.get('against', 'reference')} seeds each would decide it"
+            )
+        else:
+            text += f"; more than {MAX_SEEDS_NEEDED} more seeds would be needed"
+    return text
+
+
+def what_decides(metrics: list[dict]) -> str | None:
+    """One line on what would decide an undecided (radius, rule), from its metrics'
+    ``needs`` (as if their means and spreads stayed as observed); None when decided."""
+    if any(m["verdict"] == "differs" for m in metrics):
+        return None
+    open_ = [m for m in metrics if m["verdict"] == "undecided"]
+    if not open_:
+        return None
+    if any(m["interval"] is None for m in open_):
+        return "two or more seeds on each side (three give the intervals more degrees of freedom)"
+    other = open_[0].get("against", "reference")
+
+    def cost(n: dict) -> tuple[int, str] | None:
+        if n.get("coarse") is not None:
+            return n["coarse"], "coarse"
+        if n.get("coarse_and_reference") is not None:
+            return n["coarse_and_reference"], f"coarse and {other}"
+        return None
+
+    def words(k: int, kind: str) -> str:
+        return f"about {k} more {kind} seeds" + (" each" if kind != "coarse" else "")
+
+    needs = {m["metric"]: m.get("needs") or {} for m in open_}
+    to_differ = [
+        (cost(n), name) for name, n in needs.items() if n.get("verdict") == "differs" and cost(n)
+    ]
+    if to_differ:
+        (k, kind), name = min(to_differ, key=lambda x: (x[0][1] != "coarse", x[0][0]))
+        return (
+            f"{words(k, kind)} would show it differs in {name}, if the means and spreads "
+            "stayed as observed"
+        )
+    costs = {name: cost(n) for name, n in needs.items()}
+    hopeless = [name for name, c in costs.items() if c is None]
+    if hopeless:
+        return (
+            f"no seed count within {MAX_SEEDS_NEEDED} more: {', '.join(hopeless)} sits at "
+            "its tolerance (as observed); a looser tolerance, or a finer radius"
+        )
+    kind = "coarse" if all(c[1] == "coarse" for c in costs.values()) else f"coarse and {other}"
+    k = max(c[0] for c in costs.values())
+    return f"{words(k, kind)} would decide it, if the means and spreads stayed as observed"
+
+
+def verdict(metrics: list[dict]) -> tuple[str, str]:
+    """Overall verdict and its reason from the per-metric judgements."""
+    if metrics and all(m["interval"] is None for m in metrics):
+        if metrics[0]["reference_seeds"] < 2:
+            return "undecided", (
+                "one reference seed: the reference's own spread is unknown, so no error "
+                "can be told apart from noise; run two or more reference seeds"
+            )
+        return "undecided", (
+            "one seed of this variant and no pooled spread at its radius: its spread is "
+            "unknown, so no interval holds; run two or more seeds: "
+            + "; ".join(describe(m) for m in metrics)
+        )
+    differs = [m for m in metrics if m["verdict"] == "differs"]
+    undecided = [m for m in metrics if m["verdict"] == "undecided"]
+    if differs:
+        reason = "differs beyond noise in " + "; ".join(describe(m) for m in differs)
+        biased = [b for m in undecided if (b := bias_words(m))]
+        if biased:
+            reason += "; also " + "; ".join(biased)
+        return "differs", reason
+    if undecided:
+        ok = [m["metric"] for m in metrics if m["verdict"] == "equivalent"]
+        reason = "noise too large to tell for " + "; ".join(describe(m) for m in undecided)
+        if ok:
+            reason += "; within tolerance: " + ", ".join(ok)
+        return "undecided", reason
+    return "equivalent", "within tolerance beyond noise: " + "; ".join(describe(m) for m in metrics)
+
+
+# ------------------------------------------------------------------------- groups at once
+def _counts(noise: StudyNoise, name: str, key) -> dict:
+    _, left = noise.kept.get((name, key), (0, 0))
+    return {"left_out": left} if left else {}
+
+
+def compare(noise: StudyNoise, name: str, key, tolerance: float, against=REFERENCE) -> Comparison:
+    """Group ``key`` against the references (``against`` = REFERENCE) or another group
+    of its radius, unpaired, on the study's compared scale and spreads."""
+    radius = key[0]
+    c, sc = noise.group(name, key)
+    if against == REFERENCE:
+        r, sr = noise.reference(name, radius)
+    else:
+        r, sr = noise.group(name, against)
+    return Comparison(noise.space[name, radius], c, r, sc, sr, tolerance)
+
+
+def judge_group(noise: StudyNoise, key, tolerances: dict, alpha_e: float, alpha_d: float) -> dict:
+    """Every metric of group ``key`` against the references, and its overall verdict."""
+    per_metric = []
+    for n in noise.names:
+        comp = compare(noise, n, key, tolerances[n])
+        per_metric.append(
+            judge_metric(
+                n,
+                comp,
+                alpha_e,
+                alpha_d,
+                noise.raw[n, key],
+                noise.raw[n, REFERENCE],
+                noise.cons,
+                counts=_counts(noise, n, key),
+            )
+        )
+    seeds = max((m["seeds"] for m in per_metric), default=0)
+    return judged(key[0], key[1], per_metric, seeds)
+
+
+def judged(radius: float, rule: str, per_metric: list[dict], seeds: int) -> dict:
+    v, reason = verdict(per_metric)
+    biased = [
+        {
+            "metric": m["metric"],
+            "direction": m["bias"]["direction"],
+            "error": m["bias"]["error"],
+            "interval": m["bias"]["interval"],
+        }
+        for m in per_metric
+        if m.get("bias") and m["bias"]["direction"] is not None
+    ]
+    return {
+        "radius": radius,
+        "rule": rule,
+        "verdict": v,
+        "reason": reason,
+        "to_decide": what_decides(per_metric) if v == "undecided" else None,
+        "seeds": seeds,
+        "biased": biased,
+        "metrics": per_metric,
+    }
+
+
+def judge_groups(
+    spec,
+    ref_values: list[dict],
+    variants: dict[tuple, list[dict]],
+    names,
+    look: int = 1,
+    looks: int = 1,
+    controls: dict | None = None,
+    pool: bool = True,
+) -> tuple[dict, list[dict]]:
+    """Noise floor and verdicts: ``ref_values`` per reference seed, ``variants`` maps
+    (radius, rule name) to the metric values of its seeds, ``controls`` (radius -> the
+    metric values of its controls) join their radius's pool; ``looks``: how many times a
+    study may judge its data. Returns (noise floor per metric, verdicts)."""
+    cons = spec.reference.consolidation_stress
+    groups = dict(variants)
+    for r, vals in (controls or {}).items():
+        groups[r, "control"] = list(vals)
+    noise = StudyNoise(ref_values, groups, names, cons, pool=pool)
+    alpha_e, alpha_d = error_rates(getattr(spec, "confidence", CONFIDENCE), len(names), look, looks)
+    out = [judge_group(noise, key, spec.tolerances, alpha_e, alpha_d) for key in variants]
+    from .noise import noise_floor
+
+    floor = noise_floor(ref_values, names, cons)
+    return {n: floor[n]["noise"] for n in names}, out
+
+
+def judge_values(
+    name: str,
+    values: list[dict],
+    ref_values: list[dict],
+    tolerance: float,
+    consolidation_stress: float,
+    alpha_equivalent: float = EQUIVALENCE_LEVEL * (1 - CONFIDENCE),
+    alpha_differs: float = (1 - CONFIDENCE) / 2,
+    others: dict | None = None,
+) -> dict:
+    """One metric of one group of seeds (``values``: metric values per seed) against
+    reference seeds (``ref_values``), with the spreads pooled with ``others`` (key -> metric
+    values per seed of the other groups at its radius; None: its own spread): the study's
+    arithmetic for a group outside a study (benchmarks, tests)."""
+    key = (0.0, "group")
+    groups = {key: list(values)}
+    for k, v in (others or {}).items():
+        groups[0.0, str(k)] = list(v)
+    noise = StudyNoise(ref_values, groups, [name], consolidation_stress)
+    comp = compare(noise, name, key, tolerance)
+    return judge_metric(
+        name,
+        comp,
+        alpha_equivalent,
+        alpha_differs,
+        noise.raw[name, key],
+        noise.raw[name, REFERENCE],
+        consolidation_stress,
+        counts=_counts(noise, name, key),
+    )
+
+
+def judge_rule_error(
+    spec,
+    radius: float,
+    rule: str,
+    values: dict[int, dict],
+    controls: dict[int, dict],
+    names,
+    look: int = 1,
+    looks: int = 1,
+    noise: StudyNoise | None = None,
+) -> dict:
+    """A coarse variant against the resolution controls of its radius: the rule's own error
+    (docs/PHYSICS.md section 7.4). ``values`` and ``controls`` map packing seed to metric
+    values; ``noise``: the study's (pooled spreads), else built from these two groups. A
+    metric is judged on the per-seed differences of the seeds both have where
+    :func:`pairing_pays`, else unpaired with the pooled spreads."""
+    cons = spec.reference.consolidation_stress
+    alpha_e, alpha_d = error_rates(getattr(spec, "confidence", CONFIDENCE), len(names), look, looks)
+    key, ck = (radius, rule), (radius, "control")
+    if noise is None:
+        noise = StudyNoise(
+            [], {key: list(values.values()), ck: list(controls.values())}, names, cons
+        )
+    both = sorted(set(values) & set(controls))
+    per_metric = []
+    for n in names:
+        tol = spec.tolerances[n]
+        comp = compare(noise, n, key, tol, against=ck)
+        df_unpaired = float(np.min(comp.interval(alpha_e)[3])) if comp.known else None
+        if n != "strength" and pairing_pays(n, len(both), comp.nc, comp.nr, alpha_e, df_unpaired):
+            sp = noise.space[n, radius]
+            c = sp.map(np.array([np.atleast_1d(values[s][n]) for s in both], dtype=float))
+            k = sp.map(np.array([np.atleast_1d(controls[s][n]) for s in both], dtype=float))
+            comp = Comparison(sp, c, k, comp.sc, comp.sr, tol, paired=True)
+        m = judge_metric(
+            n,
+            comp,
+            alpha_e,
+            alpha_d,
+            noise.raw[n, key],
+            noise.raw[n, ck],
+            cons,
+            against="control",
+            counts=_counts(noise, n, key),
+        )
+        per_metric.append(m)
+    out = judged(radius, rule, per_metric, len(values))
+    out["control_seeds"] = len(controls)
+    out["paired_seeds"] = len(both)
+    return out
+
+
+__all__ = [
+    "CONFIDENCE",
+    "EQUIVALENCE_LEVEL",
+    "MAX_SEEDS_NEEDED",
+    "PAIRING_VARIANCE_RATIO",
+    "PILOT_SHARE",
+    "PLANNED_POWER",
+    "VERDICTS",
+    "Comparison",
+    "bias_words",
+    "compare",
+    "describe",
+    "difference_interval",
+    "error_rates",
+    "judge_group",
+    "judge_groups",
+    "judge_metric",
+    "judge_rule_error",
+    "judge_samples",
+    "judge_values",
+    "judged",
+    "look_alpha",
+    "pairing_pays",
+    "seeds_needed",
+    "verdict",
+    "what_decides",
+]

@@ -205,7 +205,7 @@ def _variant(res, radius, rule, where="verdicts"):
 
 
 def _direction(m: dict) -> str | None:
-    """"low" or "high" where the metric's interval excludes zero (its bias), else None."""
+    """Whether "low" or "high": where the metric's interval excludes zero (its bias), else None."""
     b = m.get("bias")
     return None if not b else b.get("direction")
 

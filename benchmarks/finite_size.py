@@ -54,7 +54,7 @@ from pathlib import Path
 import numpy as np
 
 from engine.io.store import load_run, save_run
-from engine.study.advisor import error_rates, judge_metric, noise_floor
+from engine.study.judge import error_rates, judge_values
 from engine.study.metrics import METRICS, metric_names, metric_values
 from engine.study.plan import reference_test as study_reference
 from engine.uniaxial.driver import run_uniaxial
@@ -210,9 +210,8 @@ def _summed(m: dict) -> str:
 def _judge(
     values: list[dict], against: list[dict], names, cons: float, confidence: float
 ) -> list[dict]:
-    floor = noise_floor(against, names, cons)
     a_e, a_d = error_rates(confidence, len(names))
-    return [judge_metric(n, values, floor[n], METRICS[n].tolerance, cons, a_e, a_d) for n in names]
+    return [judge_values(n, values, against, METRICS[n].tolerance, cons, a_e, a_d) for n in names]
 
 
 def _table(
@@ -362,7 +361,7 @@ def control_report(
     lines += [
         "Signed errors are (mean of the first - mean of the second) / mean of the second "
         "(per level, then averaged, for density and coordination); intervals from "
-        "engine.study.advisor.judge_metric (ratio of geometric means, t interval on mean "
+        "engine.study.judge.judge_values (ratio of geometric means, t interval on mean "
         "logs, two one-sided tests).",
         "",
     ]

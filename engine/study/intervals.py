@@ -129,21 +129,20 @@ def interval_df(nc: int, nr: int, vc, vr, dfc=None, dfr=None, shared: bool = Fal
     pooled two-sample t does. Infinite where both spreads are zero."""
     vc = np.asarray(vc, dtype=float)
     vr = np.asarray(vr, dtype=float)
-    dfc = float(nc - 1 if dfc is None else dfc)
-    dfr = float(nr - 1 if dfr is None else dfr)
-    shape = np.broadcast_shapes(vc.shape, vr.shape)
+    dfc = np.asarray(nc - 1 if dfc is None else dfc, dtype=float)
+    dfr = np.asarray(nr - 1 if dfr is None else dfr, dtype=float)
+    shape = np.broadcast_shapes(vc.shape, vr.shape, dfc.shape, dfr.shape)
     if shared:
-        return np.full(shape, dfc)[()]
-    floor = min(dfc, dfr)
-    if floor < WELCH_MIN_SEEDS - 1:
-        return np.full(shape, floor)[()]
+        return np.broadcast_to(dfc, shape).astype(float)[()]
+    floor = np.minimum(dfc, dfr)
     u2 = vc + vr
     with np.errstate(divide="ignore", invalid="ignore"):
         nu = np.minimum(
             np.where(vc > 0, dfc * u2 / np.where(vc > 0, vc, 1.0), np.inf),
             np.where(vr > 0, dfr * u2 / np.where(vr > 0, vr, 1.0), np.inf),
         )
-    return np.maximum(nu, floor)[()]
+    nu = np.where(floor < WELCH_MIN_SEEDS - 1, floor, np.maximum(nu, floor))
+    return np.broadcast_to(nu, shape).astype(float)[()]
 
 
 def log_ratio_interval(c, r, alpha: float) -> tuple[float, float, float, float]:

@@ -196,6 +196,13 @@ class Comparison:
         self.sc, self.sr = sc, sr
         self.shared = sc.pooled and sr.pooled and set(sc.pool) == set(sr.pool)
 
+    def own_known(self, nc=None, nr=None) -> bool:
+        """Whether both sides' own spreads are known (two or more seeds each) at the observed
+        or projected counts."""
+        nc = self.nc if nc is None else nc
+        nr = self.nr if nr is None else nr
+        return nc >= 2 and (self.paired or nr >= 2)
+
     @property
     def known(self) -> bool:
         """Whether both spreads are known (the interval exists)."""
@@ -205,27 +212,30 @@ class Comparison:
             return self.nc > 1
         return self.sc.known and self.sr.known and self.nc > 0 and self.nr > 0
 
-    def interval(self, alpha: float, nc=None, nr=None, summed: bool = False):
+    def interval(self, alpha: float, nc=None, nr=None, summed: bool = False, own=False):
         """(difference, low, high, dof, standard error) per level, or of the level means
         (``summed``), at the observed counts or, projected, ``nc`` and ``nr`` seeds (a
-        spread gains a degree of freedom per added seed)."""
+        spread gains a degree of freedom per added seed); with each side's own spread
+        (``own``: the ``differs`` test and the bias) or the pooled one (equivalence)."""
         nc = self.nc if nc is None else nc
         nr = self.nr if nr is None else nr
         add_c, add_r = nc - self.nc, nr - self.nr
+        sc, sr = (self.sc.own, self.sr.own) if own else (self.sc, self.sr)
+        shared = self.shared and not own
         if summed:
             d = self.mcs - self.mrs
-            vc, vr = self.sc.var_summed, self.sr.var_summed
+            vc, vr = sc.var_summed, sr.var_summed
         else:
             d = self.mc - self.mr
-            vc, vr = self.sc.var, self.sr.var
-        dfc = self.sc.grown(add_c)
-        dfr = self.sr.grown(add_r)
-        if self.shared:
-            dfc = dfr = self.sc.df + add_c + add_r
+            vc, vr = sc.var, sr.var
+        dfc = sc.grown(add_c)
+        dfr = sr.grown(add_r)
+        if shared:
+            dfc = dfr = sc.df + add_c + add_r
         if self.paired:
             lo, hi, df, u = difference_interval(d, vc, 0.0, nc, 1, dfc, math.inf, alpha)
         else:
-            lo, hi, df, u = difference_interval(d, vc, vr, nc, nr, dfc, dfr, alpha, self.shared)
+            lo, hi, df, u = difference_interval(d, vc, vr, nc, nr, dfc, dfr, alpha, shared)
         return np.asarray(d, dtype=float), lo, hi, df, u
 
     def equivalent(self, alpha: float, nc=None, nr=None) -> bool:
@@ -234,8 +244,11 @@ class Comparison:
         return bool(np.all(lo >= self.lo) and np.all(hi <= self.hi))
 
     def differs(self, alpha: float, nc=None, nr=None) -> bool:
-        """The interval of the level means wholly beyond a bound."""
-        _, lo, hi, _, _ = self.interval(alpha, nc, nr, summed=True)
+        """The interval of the level means, with each side's own spread, wholly beyond a
+        bound."""
+        if not self.own_known(nc, nr):
+            return False
+        _, lo, hi, _, _ = self.interval(alpha, nc, nr, summed=True, own=True)
         return bool(lo > self.hi or hi < self.lo)
 
     def projected(self, n: int, m: int, alpha_e: float, alpha_d: float) -> str | None:
@@ -266,7 +279,9 @@ class Comparison:
             else:
                 p = float(self.lo + h <= ml <= self.hi - h)
             p_eq = min(p_eq, max(0.0, p))
-        ds, _, hi_d, _, us = self.interval(alpha_d, n, m, summed=True)
+        if not self.own_known(n, m):
+            return p_eq, 0.0
+        ds, _, hi_d, _, us = self.interval(alpha_d, n, m, summed=True, own=True)
         ms = float(ds) if truth is None else float(truth)
         h = float(hi_d - ds)
         us = float(us)
@@ -338,13 +353,14 @@ def judge_metric(
     excess = np.maximum(hi - comp.hi, comp.lo - lo)
     k = int(np.argmax(excess))
     equivalent = bool(excess[k] <= 0)
-    dd = comp.interval(alpha_differs, summed=True)
-    differs = bool(dd[1] > comp.hi or dd[2] < comp.lo)
-    ds, ls, hs, _, _ = comp.interval(alpha_equivalent, summed=True)
+    own = comp.own_known()
+    dd = comp.interval(alpha_differs, summed=True, own=True) if own else (d, lo, hi)
+    differs = own and bool(dd[1] > comp.hi or dd[2] < comp.lo)
+    ds, ls, hs, _, _ = comp.interval(alpha_equivalent, summed=True, own=own)
     bias = None
-    if ls > 0:
+    if own and ls > 0:
         bias = "high"
-    elif hs < 0:
+    elif own and hs < 0:
         bias = "low"
     levels = len(np.atleast_1d(d))
     out.update(
@@ -352,8 +368,8 @@ def judge_metric(
         level=None if levels == 1 else k,
         level_error=sp.rel(d[k]),
         df=float(df[k]),
-        differs_interval=[sp.rel(dd[1]), sp.rel(dd[2])],
-        differs_error=sp.rel(dd[0]),
+        differs_interval=[sp.rel(dd[1]), sp.rel(dd[2])] if own else None,
+        differs_error=sp.rel(dd[0]) if own else None,
         uncertainty=float(np.sqrt(np.mean(np.asarray(u) ** 2))),
         scale=comp.kind,
         bias={
@@ -452,7 +468,8 @@ def judge_samples(
         vr, dfr, shared, nr_eff = lr.var(1, ddof=1), float(nr - 1), False, nr
     lo, hi, _, _ = difference_interval(d, vc, vr, nc, nr_eff, dfc, dfr, alpha_e, shared)
     equivalent = (lo >= lo_b) & (hi <= hi_b)
-    lo, hi, _, _ = difference_interval(d, vc, vr, nc, nr_eff, dfc, dfr, alpha_d, shared)
+    own_c = (lc - lr).var(1, ddof=1) if paired else lc.var(1, ddof=1)
+    lo, hi, _, _ = difference_interval(d, own_c, vr, nc, nr_eff, nc - 1.0, dfr, alpha_d)
     differs = (lo > hi_b) | (hi < lo_b)
     return np.where(differs, "differs", np.where(equivalent, "equivalent", "undecided"))
 

@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from engine.study import advisor
+from engine.study import advisor, judge
 from tests.engine import test_coverage as sim
 
 KINDS = ("normal", "lognormal", "low", "high")
@@ -40,15 +40,15 @@ def _welch_satterthwaite(nc, nr, vc, vr):
 def variant(name: str):
     """The rule (``rule``) or a plain alternative: ``alpha per end`` or
     ``Welch-Satterthwaite``."""
-    saved = advisor.EQUIVALENCE_LEVEL, advisor.interval_df
+    saved = judge.EQUIVALENCE_LEVEL, judge.interval_df
     if name == "alpha per end":
-        advisor.EQUIVALENCE_LEVEL = 1.0
+        judge.EQUIVALENCE_LEVEL = 1.0
     elif name == "Welch-Satterthwaite":
-        advisor.interval_df = _welch_satterthwaite
+        judge.interval_df = lambda nc, nr, vc, vr, *_, **__: _welch_satterthwaite(nc, nr, vc, vr)
     try:
         yield
     finally:
-        advisor.EQUIVALENCE_LEVEL, advisor.interval_df = saved
+        judge.EQUIVALENCE_LEVEL, judge.interval_df = saved
 
 
 def coverage(n: int) -> dict:
@@ -120,6 +120,71 @@ def adaptive(n: int) -> dict:
     return out
 
 
+def pooled(n: int) -> dict:
+    """Pooled spreads (engine.study.pooling): the worst wrong-verdict rates of the judged
+    variant at ± tolerance over 2 or 4 groups at its radius of 2-8 seeds each, with equal
+    spreads, its own twice the others' and another's twice; then the issue-39 scenario's
+    power (three rules at 10 %, three references at 3 %, error 0) pooled and unpooled, and
+    the rates with no screen."""
+    out = {"coverage": {}, "power": [], "no_screen": None}
+    for wide, label in ((None, "equal spreads"), (0, "judged variant 2x"), (1, "another 2x")):
+        for kind in ("normal", "lognormal"):
+            worst_e, worst_d = (0.0, None), (0.0, None)
+            for groups in (2, 4):
+                for seeds in (2, 3, 5, 8):
+                    for ratio in (1 + sim.TOL, 1 - sim.TOL):
+                        seed = 97 * groups + 13 * seeds + (ratio > 1) + 7 * (wide or 0)
+                        eq, di = sim._pooled_rates(groups, seeds, ratio, wide, kind, n, seed=seed)
+                        where = f"{groups} groups of {seeds}, {ratio - 1:+.0%}"
+                        worst_e = max(worst_e, (eq, where), key=lambda w: w[0])
+                        worst_d = max(worst_d, (di, where), key=lambda w: w[0])
+            out["coverage"][f"{label}, {kind}"] = {"equivalent": worst_e, "differs": worst_d}
+    for k in range(3, 11):
+        out["power"].append(
+            (k, sim._pooled_power(k, True, n, k), sim._pooled_power(k, False, n, k))
+        )
+    rng = np.random.default_rng(17)
+    r = sim._draw(rng, (n, 3), 1.0, sim.SD_REF, "normal")
+    c = sim._draw(rng, (n, 8), 1 + sim.TOL, 2 * sim.SD_COARSE, "normal")
+    others = [sim._draw(rng, (n, 8), 1.0, sim.SD_COARSE, "normal") for _ in range(3)]
+    ae, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
+    for level, key in ((None, "no_screen"), (0.05, "screen_5pct"), (judge.SCREEN_LEVEL, "screen")):
+        v = judge.judge_samples(c, r, sim.TOL, ae, ad, others=others, level=level)
+        out[key] = float(np.mean(v == "equivalent"))
+    return out
+
+
+def pooled_markdown(po: dict) -> str:
+    lines = [
+        "Pooled spreads (the judged variant against 3 references at 3 %, pooled with 1 or 3 "
+        "other groups of its radius; 2, 3, 5 or 8 seeds each; coarse spread 10 %; worst case "
+        "over the grid at ± tolerance):",
+        "",
+        "| spreads, values | wrong `equivalent` | wrong `differs` |",
+        "|---|---|---|",
+    ]
+    for label, r in po["coverage"].items():
+        lines.append(
+            f"| {label} | {_pct(r['equivalent'][0])} ({r['equivalent'][1]}) "
+            f"| {_pct(r['differs'][0])} ({r['differs'][1]}) |"
+        )
+    lines += [
+        "",
+        "A variant with twice the others' spread at +15 %, four groups of 8 seeds, normal "
+        f"values: wrong `equivalent` {_pct(po['no_screen'])} pooled without a screen, "
+        f"{_pct(po['screen_5pct'])} with a 5 % screen, {_pct(po['screen'])} with the rule's "
+        f"{judge.SCREEN_LEVEL:.0%}.",
+        "",
+        "Power, three rules at one radius with 10 % spread, three references at 3 %, error 0:",
+        "",
+        "| seeds per rule | `equivalent`, pooled | `equivalent`, own spread |",
+        "|---|---|---|",
+    ]
+    for k, a, b in po["power"]:
+        lines.append(f"| {k} | {_pct(a)} | {_pct(b)} |")
+    return "\n".join(lines)
+
+
 def _pct(x: float) -> str:
     return f"{100 * x:.1f} %"
 
@@ -185,7 +250,10 @@ def main(argv=None) -> int:
     cov = coverage(args.n)
     pw = power(args.n)
     ad = adaptive(args.adaptive_n)
+    po = pooled(args.n)
     print(markdown(cov, pw, ad))
+    print()
+    print(pooled_markdown(po))
     mc = 3 * math.sqrt(0.05 * 0.95 / args.n)
     print(
         f"\n{args.n} studies per cell (3 Monte Carlo s.e. at 5 %: {_pct(mc)}); "
@@ -193,7 +261,7 @@ def main(argv=None) -> int:
     )
     if args.out:
         with open(args.out, "w") as f:
-            json.dump({"coverage": cov, "power": pw, "adaptive": ad}, f, indent=1)
+            json.dump({"coverage": cov, "power": pw, "adaptive": ad, "pooled": po}, f, indent=1)
     return 0
 
 

@@ -344,9 +344,10 @@ def judge_controls(
 
 
 def _note_failure_kinds(refs: dict, runs: dict[str, RunResult], verdicts: list[dict]) -> None:
-    """Name the kinds of strength a verdict compares whenever they are mixed: how many of the
-    references and of the variant's runs failed at a peak (engine.uniaxial.measures.failed_by_curve)
-    and how many hardened (their strength is the largest stress up to the strain limit)."""
+    """Say what a strength verdict compared: only the runs that failed at a peak
+    (engine.study.noise; engine.uniaxial.measures.failed_by_curve) where any run of the
+    study failed, with how many references and runs of the variant hardened instead (their
+    "strength" is the largest stress up to the strain limit, another quantity)."""
     ref_flags = [r.scalars["unconfined_failure"] == 1.0 for r in refs.values()]
     for v in verdicts:
         flags = [
@@ -358,10 +359,10 @@ def _note_failure_kinds(refs: dict, runs: dict[str, RunResult], verdicts: list[d
         v["reference_failed_runs"] = sum(ref_flags)
         if flags and len(set(flags + ref_flags)) > 1:
             v["reason"] += (
-                f"; strength compares mixed kinds: {sum(ref_flags)} of "
-                f"{len(ref_flags)} references and {sum(flags)} of {len(flags)} "
-                "runs of this variant failed at a peak, the others hardened to "
-                "the strain limit (their strength is the largest stress reached)"
+                f"; strength compares failed runs only: {sum(ref_flags)} of "
+                f"{len(ref_flags)} references and {sum(flags)} of {len(flags)} runs of this "
+                "variant failed at a peak, the others hardened to the strain limit and are "
+                "left out of it"
             )
 
 

@@ -145,13 +145,17 @@ def test_the_service_never_imports_the_command(path):
 def test_import_engine_and_a_run_load_nothing_else():
     code = (
         "import sys, engine\n"
+        "HEAVY = [['scipy', 'stats'], ['scipy', 'optimize'], ['scipy', 'special']]\n"
         "from tests.engine.test_uniaxial import tiny\n"
         "engine.run_uniaxial(tiny(unconfined=False))\n"
         "bad = sorted({m.split('.')[0] for m in sys.modules} & set(sys.argv[1:]))\n"
+        "bad += sorted(m for m in sys.modules if m.split('.')[:2] in HEAVY)\n"
         "cuda = [m for m in sys.modules if m.startswith('numba.cuda')]\n"
         "print(bad, cuda)\n"
     )
-    forbidden = sorted(ABOVE | {"h5py", "matplotlib", "distributed", "scipy", "pandas"})
+    # numba itself imports scipy's top package where scipy is installed (for its LAPACK
+    # bindings); the engine's statistics (scipy.stats, .special, .optimize) load on first use
+    forbidden = sorted(ABOVE | {"h5py", "matplotlib", "distributed", "pandas"})
     proc = subprocess.run(
         [sys.executable, "-c", code, *forbidden],
         cwd=ROOT,
@@ -162,3 +166,34 @@ def test_import_engine_and_a_run_load_nothing_else():
     )
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == "[] []", proc.stdout
+
+
+#: A study flows one way (ARCHITECTURE.md, docs/PHYSICS.md section 7.1): each module of
+#: engine/study imports at module level only the modules before it in this order.
+STUDY_FLOW = (
+    "channel",
+    "intervals",
+    "metrics",
+    "spec",
+    "pooling",
+    "noise",
+    "reasons",
+    "judge",
+    "resolution",
+    "allocate",
+    "plan",
+    "advisor",
+    "results",
+    "run",
+)
+
+
+def test_a_study_flows_one_way():
+    study = ROOT / "engine" / "study"
+    assert {p.stem for p in study.glob("*.py")} - {"__init__"} == set(STUDY_FLOW)
+    for i, name in enumerate(STUDY_FLOW):
+        tree = ast.parse((study / f"{name}.py").read_text())
+        for node in tree.body:
+            if isinstance(node, ast.ImportFrom) and node.level == 1 and node.module:
+                dep = node.module.split(".")[0]
+                assert dep in STUDY_FLOW[:i], f"study/{name}.py imports .{dep}, not before it"

@@ -26,7 +26,6 @@ from .judge import (
     PILOT_SHARE,
     PLANNED_POWER,
     VERDICTS,
-    _pct,
     error_rates,
     judge_groups,
     judge_metric,
@@ -40,6 +39,7 @@ from .judge import (
 )
 from .metrics import METRICS
 from .noise import noise_floor
+from .reasons import _pct
 
 
 def finite_size_warnings(groups: list[dict], controlled: bool = False) -> list[str]:

@@ -38,6 +38,7 @@ TABLE_UNITS = {
     "wall_time": "s",
     "particle_steps": "1",
     "speedup": "1",
+    "speedup_steps": "1",
     "thickness_diameters": "1",
     "height_diameters": "1",
     "overburden_ratio": "1",
@@ -53,8 +54,11 @@ class RunResult:
     """One finished run: its key, radius [m], rule (None for a reference or a control), seed,
     the :class:`UniaxialResult`, its errors (verdict metrics against the mean reference, shape
     measures against the reference of its seed; zeros for references), its speed-up over
-    the mean reference wall time, its scale s = R / R_ref (a control: that of the coarse
-    radius it stands for) and whether it is a resolution ``control``."""
+    the median reference wall time (stepping only: kernel compilation is set-up time, and
+    the median keeps a first run's one-off compilation of the measuring kernels out), its
+    speed-up in particle-steps (the cost that does not depend on the machine or its load),
+    its scale s = R / R_ref (a control: that of the coarse radius it stands for) and whether
+    it is a resolution ``control``."""
 
     key: str
     radius: float
@@ -65,6 +69,7 @@ class RunResult:
     speedup: float = 1.0
     scale: float = 1.0
     control: bool = False
+    speedup_steps: float = 1.0
 
     @property
     def is_reference(self) -> bool:
@@ -92,6 +97,7 @@ class RunResult:
             "wall_time": s["wall_time"],
             "particle_steps": s["particle_steps"],
             "speedup": self.speedup,
+            "speedup_steps": self.speedup_steps,
             "thickness_diameters": s["thickness_diameters"],
             "height_diameters": s["height_diameters"],
             "overburden_ratio": overburden_ratio(self.result),
@@ -175,7 +181,8 @@ def assemble(
         raise RunFailed(key, failed.get(key, "no reference run succeeded"))
     names = metric_names(spec.reference.unconfined)
     ref_values = [metric_values(r) for r in refs.values()]
-    ref_wall = float(np.mean([r.scalars["wall_time"] for r in refs.values()]))
+    ref_wall = float(np.median([r.scalars["wall_time"] for r in refs.values()]))
+    ref_steps = float(np.median([r.scalars["particle_steps"] for r in refs.values()]))
     cons = spec.reference.consolidation_stress
     floor_mean = {n: np.mean([v[n] for v in ref_values], axis=0) for n in names}
     first_ref = next(iter(refs.values()))
@@ -213,6 +220,7 @@ def assemble(
             ref_wall / res.scalars["wall_time"],
             p.radius / spec.reference.radius,
             p.control,
+            ref_steps / res.scalars["particle_steps"],
         )
         if p.control:
             controls.setdefault(p.radius, {})[p.seed] = values
@@ -412,6 +420,7 @@ def _groups(spec: StudySpec, runs: dict[str, RunResult], names) -> list[dict]:
             for k in ("wall_time", "height_diameters"):
                 cols[k] = [m.result.scalars[k] for m in members]
             cols["speedup"] = [m.speedup for m in members]
+            cols["speedup_steps"] = [m.speedup_steps for m in members]
             if spec.reference.unconfined:
                 cols["unconfined_strength"] = [
                     m.result.scalars["unconfined_strength"] for m in members

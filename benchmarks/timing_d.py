@@ -84,11 +84,13 @@ def report() -> str:
         ]
         k = sum(ks) / len(ks)
         at = 1.875**k
-        word = "agrees" if abs(at - 9.0) <= 0.25 * 9.0 else "differs"
         lines.append(
             f"\nWall time falls as s^{k:.2f}, which gives {at:.1f}x at the seed's "
-            f"2 -> 3.75 mm (s = 1.875): **{word}** with the seed's 9x within 25 % "
-            "(the rule of claim (d), applied to wall time)"
+            "2 -> 3.75 mm (s = 1.875). **Not decided** against the seed's 9x: one timed run "
+            "per radius at a fixed time step has no spread to judge it by, and the fixed step "
+            "is itself part of the speed-up (at a fixed fraction of each run's contact time a "
+            "coarse run under the paper rule gains about s^4, not s^3: issue 40). The "
+            "particle-steps, which do not depend on the machine, decide claim (d)."
         )
     return "\n".join(lines)
 

@@ -676,6 +676,10 @@ def parser() -> argparse.ArgumentParser:
         help="the API's data folder (default: DEMSCALE_DATA_DIR, else ./var)",
     )
     p.set_defaults(func=worker)
+
+    from .deck import add_commands  # export-test, judge-liggghts (issue 43)
+
+    add_commands(sub, fmt)
     return ap
 
 

@@ -1,0 +1,230 @@
+"""``demscale export-test`` and ``demscale judge-liggghts``: a uniaxial test out as a LIGGGHTS
+3.8 deck, and LIGGGHTS' runs of it back, judged against demscale's own (docs/LIGGGHTS_DECK.md).
+
+    demscale export-test --preset quick --law law.json --seeds 1 2 3 --out deck/
+    (cd deck/s1 && liggghts -in in.demscale)       # and s2, s3
+    demscale judge-liggghts deck/s1 deck/s2 deck/s3 --reference results/quick/results.h5
+
+The engine side is engine.io.liggghts_deck (the deck) and engine.io.liggghts_read (the
+reader and the verdict); this module parses the command lines and prints.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+EXPORT_HELP = """\
+Write a uniaxial test as a complete LIGGGHTS 3.8 input deck: the cell with its periodic
+axes, demscale's own poured cloud (read_data), the pair law (edinburgh/stiffness for the
+bilinear and EEPA laws, hertz for Hertz-Mindlin), Hertz platens, every stage with demscale's
+targets and stopping rules, the time step and the output demscale's reader needs.
+
+The test comes from a JSON file (an engine.UniaxialTest; "preset": "quick" with overrides
+as for `demscale run`), from --preset with --law, or from a study (--study SPEC.json --run
+KEY: any reference, coarse run or control of its plan). --seeds writes one deck per packing
+seed (folders s1, s2, ... under --out). Run each unmodified in its folder:
+
+    cd OUT && liggghts -in in.demscale
+
+and read it back with `demscale judge-liggghts OUT --reference ...`. The deck's comments say
+what LIGGGHTS does differently; what it cannot express (an adhesive branch kadh > 0, a
+platen speed held to an inertial number) is refused, naming the field."""
+
+JUDGE_HELP = """\
+Read LIGGGHTS runs of exported decks back into demscale's run record (curves and scalars in
+the HDF5 layout of a run: liggghts.h5 in each folder, or --store DIR) and judge them, as a
+study judges a coarse variant, against demscale's own runs of the test they stand for: the
+verdict metrics (interior density, loading and unloading stiffness, interior coordination,
+unconfined strength), each with its error, its interval at the study's confidence and a
+verdict, equivalent, differs or undecided.
+
+--reference takes demscale runs: run files (.h5, engine.io.store layout), folders of them,
+or a study's results.h5 (its reference runs, or those named by --runs). A LIGGGHTS deck
+that stopped at a stage's bound counts as a failed run and is left out of the verdict."""
+
+
+def _read_test(args):
+    import engine
+
+    if args.study is not None:
+        from engine.study.plan import plan
+
+        spec = engine.StudySpec.from_dict(json.loads(Path(args.study).read_text()))
+        runs = {p.key: p for p in plan(spec).runs}
+        if args.run not in runs:
+            raise ValueError(
+                f"--run {args.run!r}: not a run of the study; its runs: {', '.join(runs)}"
+            )
+        return runs[args.run].test
+    if args.test is not None:
+        fields = json.loads(Path(args.test).read_text())
+        if not isinstance(fields, dict):
+            raise ValueError("the test file must hold a JSON object of the test's fields")
+        name = fields.pop("preset", None)
+        base = engine.preset(name).to_dict() if name is not None else {}
+        return engine.UniaxialTest.from_dict({**base, **fields})
+    if args.preset is None:
+        raise ValueError("give a test: TEST.json, --preset NAME [--law LAW.json] or --study")
+    fields = engine.preset(args.preset).to_dict()
+    if args.law is not None:  # {"type": ..., fields}: the law as a test's JSON holds it
+        fields["pair_law"] = json.loads(Path(args.law).read_text())
+    return engine.UniaxialTest.from_dict(fields)
+
+
+def export_test(args) -> int:
+    """``demscale export-test``: the deck folder(s) of one test."""
+    from dataclasses import replace
+
+    import engine
+    from engine.io.liggghts_deck import DECK, differences, write_deck
+
+    try:
+        test = _read_test(args)
+        if args.run is not None and args.study is None:
+            raise ValueError("--run needs --study")
+        if args.radius is not None:
+            rule = engine.ScalingRule.named(args.rule)
+            test = rule.apply(test, args.radius, test.resolved_dt())
+        seeds = args.seeds or [None]
+        out = Path(args.out)
+        written = []
+        for seed in seeds:
+            t = test if seed is None else replace(test, seed=seed)
+            folder = out if seed is None else out / f"s{seed}"
+            written.append(write_deck(t, folder, skin=args.skin))
+    except (OSError, json.JSONDecodeError) as e:
+        print(f"cannot read the input: {e}", file=sys.stderr)
+        return 2
+    except (engine.ParameterError, TypeError, ValueError, KeyError) as e:
+        print(f"not valid: {e}", file=sys.stderr)
+        return 2
+    print(
+        f"{test.n_particles} particles, R = {test.radius:g} m, {type(test.pair_law).__name__}, "
+        f"dt = {test.resolved_dt():g} s"
+    )
+    for path in written:
+        print(f"wrote {path}   run it: (cd {path.parent} && liggghts -in {DECK})")
+    print("LIGGGHTS does differently:")
+    for d in differences(test):
+        print(f"  - {d}")
+    return 0
+
+
+def _references(paths, runs) -> list:
+    """demscale's runs: run files, folders of run files, or a study's results.h5."""
+    import h5py
+
+    from engine.io.store import load_run, read_run_group
+
+    out = []
+    for p in map(Path, paths):
+        files = sorted(p.glob("*.h5")) if p.is_dir() else [p]
+        for f in files:
+            with h5py.File(f, "r") as h:
+                if "runs" in h:  # a study's file
+                    for key, g in h["runs"].items():
+                        if (key in runs) if runs else bool(g.attrs.get("reference", False)):
+                            out.append(read_run_group(g))
+                    continue
+            out.append(load_run(f))
+    return out
+
+
+def judge_liggghts(args) -> int:
+    """``demscale judge-liggghts``: LIGGGHTS runs read back, stored and judged."""
+    import engine
+    from engine.io.liggghts_read import OutputError, judge_runs, save_output
+    from engine.io.store import load_run
+
+    try:
+        tolerances = {}
+        for item in args.tolerance:
+            name, _, value = item.partition("=")
+            tolerances[name.strip()] = float(value)
+        runs = []
+        for folder in map(Path, args.decks):
+            name = folder.name if args.store else "liggghts.h5"
+            path = (Path(args.store) / f"{name}.h5") if args.store else folder / name
+            save_output(folder, path)
+            runs.append(load_run(path))
+            print(f"read {folder} -> {path}")
+        refs = _references(args.reference, set(args.runs))
+        result = judge_runs(runs, refs, tolerances, args.confidence)
+    except (OSError, OutputError) as e:
+        print(f"cannot read: {e}", file=sys.stderr)
+        return 2
+    except (engine.ParameterError, TypeError, ValueError, KeyError) as e:
+        print(f"not valid: {e}", file=sys.stderr)
+        return 2
+    print(
+        f"\nLIGGGHTS ({result['seeds']} run(s), {len(result['failed'])} stopped) against "
+        f"demscale ({result['reference_seeds']} run(s)): {result['verdict']}"
+    )
+    print(f"  {result['reason']}")
+    for m in result["metrics"]:
+        err = "" if m["error"] is None else f"{100 * m['signed_error']:+.1f} %"
+        iv = m.get("interval")
+        ivs = "" if iv is None else f"[{100 * iv[0]:+.1f}, {100 * iv[1]:+.1f}] %"
+        print(
+            f"  {m['metric']:20s} {err:>9s}  {ivs:>20s}  "
+            f"(tolerance {100 * m['tolerance']:g} %)  {m['verdict']}"
+        )
+    for f in result["failed"]:
+        print(f"  stopped: {f}")
+    if args.json:
+        from engine.io.store import strict_json
+
+        Path(args.json).write_text(strict_json(result) + "\n")
+    return 0
+
+
+def add_commands(sub, fmt) -> None:
+    """The two subcommands, on the ``demscale`` parser's subparsers ``sub``."""
+    p = sub.add_parser(
+        "export-test",
+        help="a uniaxial test as a complete LIGGGHTS 3.8 deck",
+        description=EXPORT_HELP,
+        formatter_class=fmt,
+    )
+    p.add_argument("test", nargs="?", metavar="TEST.json", help="the test (engine.UniaxialTest)")
+    p.add_argument("--preset", help="a named test (quick, paper) instead of TEST.json")
+    p.add_argument(
+        "--law", metavar="LAW.json", help='with --preset: {"type": "BilinearAdhesive", ...}'
+    )
+    p.add_argument("--study", metavar="SPEC.json", help="a study spec; with --run KEY")
+    p.add_argument("--run", metavar="KEY", help="the study's run (ref-s1, r5mm-paper-s2, ...)")
+    p.add_argument("--radius", type=float, help="scale the test to this radius [m] (--rule)")
+    p.add_argument("--rule", default="paper", help="the scaling rule of --radius (default paper)")
+    p.add_argument("--seeds", type=int, nargs="*", help="one deck per packing seed (OUT/sN)")
+    p.add_argument("--skin", type=float, help="LIGGGHTS' Verlet skin [m] (default R/2)")
+    p.add_argument("--out", "-o", metavar="DIR", required=True, help="the deck's folder")
+    p.set_defaults(func=export_test)
+
+    p = sub.add_parser(
+        "judge-liggghts",
+        help="LIGGGHTS runs of exported decks judged against demscale's runs",
+        description=JUDGE_HELP,
+        formatter_class=fmt,
+    )
+    p.add_argument("decks", nargs="+", metavar="DECK_DIR", help="folders LIGGGHTS ran a deck in")
+    p.add_argument(
+        "--reference",
+        nargs="+",
+        required=True,
+        metavar="PATH",
+        help="demscale's runs: .h5 run files, folders of them, or a study's results.h5",
+    )
+    p.add_argument("--runs", nargs="*", default=[], metavar="KEY", help="a study's runs to use")
+    p.add_argument("--store", metavar="DIR", help="store the read runs here (default: each folder)")
+    p.add_argument(
+        "--tolerance",
+        action="append",
+        default=[],
+        metavar="METRIC=VALUE",
+        help="a tolerance other than the default (repeat: --tolerance strength=0.1)",
+    )
+    p.add_argument("--confidence", type=float, help="the verdicts' confidence (default 0.95)")
+    p.add_argument("--json", metavar="FILE", help="also write the verdict as JSON")
+    p.set_defaults(func=judge_liggghts)

@@ -1,0 +1,811 @@
+"""A uniaxial test, whole, as a LIGGGHTS 3.8 input deck (docs/LIGGGHTS_DECK.md).
+
+:func:`write_deck` writes a folder that LIGGGHTS runs unmodified (``liggghts -in
+in.demscale`` there): the deck, demscale's own poured cloud as a LAMMPS data file (the
+packing :meth:`engine.UniaxialTest.initial_packing` places, so both codes start from the
+same spheres), the two platen meshes (STL) and the test's JSON (what
+:mod:`engine.io.liggghts_read` reads the output back with). The deck runs the stages of
+:mod:`engine.uniaxial.driver` with their targets and stopping rules, one curve sample every
+``output_interval``, as a loop of ``run`` commands with ``if`` checks between them:
+
+=================  ==================================================================
+demscale           LIGGGHTS 3.8
+=================  ==================================================================
+cell, periodic     ``boundary p p f``, the box (0, Lx) x (0, Ly), z from below the
+x and y            bottom platen to above the pour column
+the poured cloud   ``read_data packing.data`` (id, type 1, diameter, density, x, y, z)
+pair law           ``pair_style gran model edinburgh/stiffness`` (bilinear and EEPA, as
+                   :mod:`engine.io.liggghts` maps them) or ``model hertz``
+platens            Hertz-Mindlin walls of atom type 2 (E, nu of ``wall_material``;
+                   the particles' E, nu from ``wall_law``): the bottom a
+                   ``primitive zplane 0`` with ``store_force``, the top during the fill a
+                   primitive plane at the pour column's top + 4 R, from the
+                   pre-compression on an STL plate of the cell's size
+                   (``mesh/surface/stress``, moved by ``move/mesh linear/variable``),
+                   after the release a plate three cells wide
+fill               run until the free-fall time has passed and the kinetic energy is
+                   below ``settle_ke N m g R`` (``pour_speed``: ``velocity set`` caps
+                   every faster particle after each sample)
+pre-compression,   the plate placed 0.05 R above the highest sphere, moved down at
+consolidation      ``platen_speed`` until its stress reaches each target
+unloading          moved up until the stress is below ``unloaded_stress`` sigma_c
+release            ``change_box all boundary f f f`` (contacts across the faces go), the
+                   box widened, the wide plate put where the plate was; settle or
+                   ``release_time``
+unconfined         moved down until demscale's failure detector fires (its peak and
+                   drop replayed in LIGGGHTS variables) or ``max_unconfined_strain``
+stage bound        ``max_stage_time``: the deck writes an ``error`` line and stops
+=================  ==================================================================
+
+After every sample the deck appends one line to ``curves.txt`` (:data:`COLUMNS`: step, the
+top platen's height, the platen forces [N], kinetic energies [J], contacts, the interior
+slab's solid volume [m^3], particle and contact counts, the pair virial [N m] and the
+platen levers [m] of demscale's vertical virial), and marks each stage's begin and end;
+each stage's end writes the particles (``stage_<name>.dump``: id x y z radius). The reader
+turns them into demscale's curves with demscale's own formulas.
+
+What the deck cannot make LIGGGHTS do the same way is said in its comments
+(:func:`differences`): for the bilinear and EEPA laws those of
+:func:`engine.io.liggghts.differences` (tangential stiffness K1, Coulomb cap mu |F_n|,
+damping for n != 1, force clipping without adhesion) and the platen and history
+differences of the deck itself. What it cannot express at all raises
+:class:`engine.ParameterError` naming the field (:func:`check_exportable`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..contact.bilinear import BilinearAdhesive
+from ..contact.eepa import EEPA
+from ..contact.hertz import HertzMindlin
+from ..core.errors import ParameterError
+from ..simulation.packing import sphere_volume
+from .liggghts import differences as law_differences
+
+#: Files of a deck folder.
+DECK = "in.demscale"
+DATA = "packing.data"
+PLATE = "plate.stl"
+PLATE_WIDE = "plate_wide.stl"
+TEST = "test.json"
+#: What the deck writes there.
+CURVES = "curves.txt"
+LOG = "log.liggghts"
+STAGE_DUMP = "stage_{}.dump"
+
+#: The stages, in order (engine.uniaxial.driver.STAGES).
+STAGES = ("fill", "pre_compression", "consolidation", "unloading", "release", "unconfined")
+
+#: The columns of a sample line of ``curves.txt``, with units: the stage's index in
+#: :data:`STAGES`, the step, the top platen's height (the bottom one is at z = 0) [m], the z
+#: force on the top platen and the z force of the bottom platen on the particles [N],
+#: translational and rotational kinetic energy [J], the particle-particle contacts counted
+#: at both ends (LIGGGHTS ``contact/atom``, summed), the solid volume inside the interior
+#: slab [m^3], the particles whose centres lie in it and their contacts, the sums over
+#: particles of LIGGGHTS' per-atom pair stress xx, yy, zz [N m] (minus the pair virial),
+#: and for each platen the sum of the levers (radius less overlap) of the particles
+#: touching it [m] and their number.
+COLUMNS = {
+    "stage": "1",
+    "step": "1",
+    "ztop": "m",
+    "ftop": "N",
+    "fbot": "N",
+    "ke_trans": "J",
+    "ke_rot": "J",
+    "contacts": "1",
+    "slab_solid": "m^3",
+    "interior_n": "1",
+    "interior_contacts": "1",
+    "stress_xx": "N m",
+    "stress_yy": "N m",
+    "stress_zz": "N m",
+    "lever_bottom": "m",
+    "touch_bottom": "1",
+    "lever_top": "m",
+    "touch_top": "1",
+}
+
+#: Verlet skin in radii of the largest particle: a list is rebuilt when a particle has moved
+#: a quarter radius.
+SKIN_RADII = 0.5
+#: The plate after the release spans this many cells along x and y, centred on the cell,
+#: so that a sample spreading sideways stays under it (demscale's platens are unbounded).
+WIDE = 3
+#: Gap between the highest sphere and the top plate when the pre-compression begins, in
+#: radii (engine.uniaxial.driver: bed top + 0.05 R).
+PLACE_GAP = 0.05
+
+
+def _num(x: float) -> str:
+    """A float as LIGGGHTS reads it back to the same double."""
+    return repr(float(x))
+
+
+def _pair_law_kind(law) -> str:
+    if isinstance(law, (BilinearAdhesive, EEPA)):
+        return "edinburgh"
+    if isinstance(law, HertzMindlin):
+        return "hertz"
+    raise ParameterError(
+        "UniaxialTest.pair_law",
+        type(law).__name__,
+        "an engine.BilinearAdhesive, engine.EEPA or engine.HertzMindlin to export to LIGGGHTS",
+    )
+
+
+#: UniaxialTest fields that set the protocol; a field not listed here and not known to
+#: keep the protocol of the seed (constant platen speed, fixed dt) is refused, so that a
+#: test with a protocol this deck does not write is never exported as if it had the seed's.
+_PROTOCOL_DEFAULTS = {
+    "inertial_number": None,
+    "max_platen_speed": None,
+}
+
+
+def check_exportable(test) -> None:
+    """Raise :class:`engine.ParameterError` naming the field of ``test`` (an
+    :class:`engine.UniaxialTest`) that a LIGGGHTS 3.8 deck cannot express: a pair law other
+    than the bilinear, EEPA and Hertz-Mindlin laws, an adhesive branch (kadh > 0, see
+    :mod:`engine.io.liggghts`), a Hertz pair law whose E, nu differ from the wall law's
+    (LIGGGHTS has one E and nu per atom type), or a platen speed that is not constant."""
+    law = test.pair_law
+    kind = _pair_law_kind(law)
+    if kind == "edinburgh" and law.kadh != 0.0:
+        raise ParameterError(
+            "UniaxialTest.pair_law.kadh",
+            law.kadh,
+            "0 to export to LIGGGHTS",
+            "LIGGGHTS' adhesive branch (fixKc) resets the plastic overlap with the n = 1 "
+            "formula and has no checked mapping here",
+        )
+    w = test.wall_law
+    if kind == "hertz" and (law.E != w.E or law.nu != w.nu):
+        raise ParameterError(
+            "UniaxialTest.wall_law.E",
+            f"E = {w.E:g} Pa, nu = {w.nu:g}",
+            f"the pair law's E = {law.E:g} Pa and nu = {law.nu:g}",
+            "LIGGGHTS gives the particles' atom type one Young's modulus and Poisson's ratio "
+            "for pairs and platens alike",
+        )
+    for name, default in _PROTOCOL_DEFAULTS.items():
+        value = getattr(test, name, default)
+        if value != default:
+            raise ParameterError(
+                f"UniaxialTest.{name}",
+                value,
+                f"{default} (a constant platen speed) to export to LIGGGHTS",
+                "the deck moves the platen at platen_speed; a speed held to an inertial "
+                "number is not written",
+            )
+
+
+def differences(test) -> list[str]:
+    """What LIGGGHTS does differently from demscale in the deck of ``test``: the pair law's
+    (:func:`engine.io.liggghts.differences` for the bilinear and EEPA laws), then the deck's
+    own (platens, contact history)."""
+    law = test.pair_law
+    out = []
+    if _pair_law_kind(law) == "edinburgh":
+        out += law_differences(law)
+        if law.f0 != 0.0 or law.kadh != 0.0:
+            out.append(
+                "plastic reload: a LIGGGHTS contact below its plastic overlap that closes "
+                "again reloads along K2 from the overlap of the step before; demscale's stays "
+                "on the plateau f0 until the overlap is back at the plastic overlap"
+            )
+        if law.mu_r > 0.0:
+            out.append(
+                "rolling friction: LIGGGHTS cdt mu_r K1 d R/2 against the relative spin; "
+                "demscale mu_r |f_hys| R against the particle's own spin"
+            )
+    else:
+        out.append(
+            "Hertz pairs: LIGGGHTS caps friction at mu |F_n| with damping, demscale at mu "
+            "times the elastic force; rolling friction (cdt) as for the platens"
+        )
+    out.append(
+        "platens: the top one is an STL plate (the cell's size, three cells wide after the "
+        "release; contacts with its edges are sphere-edge contacts), the bottom one a "
+        "primitive plane; LIGGGHTS caps platen friction at mu |F_n| with damping, demscale "
+        "at mu times the elastic Hertz force"
+    )
+    out.append(
+        "contact history: LIGGGHTS keeps a pair's history on one of its particles and hands "
+        "the other a negated copy, so a contact that changes hands at a list rebuild (a "
+        "particle crossing a periodic face) restarts its plastic overlap"
+    )
+    if test.pour_speed is not None:
+        out.append(
+            "the fill's speed cap is applied with the same rule, after each sample, through "
+            "velocity set"
+        )
+    return out
+
+
+# ----------------------------------------------------------------------------- the files
+def data_file(test, positions: np.ndarray, radii: np.ndarray) -> str:
+    """The poured cloud as a LAMMPS ``atom_style granular`` data file: two atom types (1
+    the particles, 2 the platens' material), the box of the deck, one line per sphere
+    (id = demscale's index + 1, type, diameter [m], density [kg/m^3], x, y, z [m])."""
+    lo, hi = box(test)
+    lines = [
+        "LAMMPS data file of a demscale uniaxial test (engine.io.liggghts_deck)",
+        "",
+        f"{len(radii)} atoms",
+        "2 atom types",
+        "",
+        f"{_num(lo[0])} {_num(hi[0])} xlo xhi",
+        f"{_num(lo[1])} {_num(hi[1])} ylo yhi",
+        f"{_num(lo[2])} {_num(hi[2])} zlo zhi",
+        "",
+        "Atoms",
+        "",
+    ]
+    rho = _num(test.density)
+    lines += [
+        f"{i + 1} 1 {_num(2 * r)} {rho} {_num(x)} {_num(y)} {_num(z)}"
+        for i, (r, (x, y, z)) in enumerate(zip(radii, positions))
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def plate_stl(x0: float, y0: float, x1: float, y1: float, name: str = "plate") -> str:
+    """A flat rectangle [x0, x1] x [y0, y1] at z = 0 [m] as two ASCII STL facets."""
+    corners = [(x0, y0), (x1, y1), (x1, y0), (x0, y0), (x0, y1), (x1, y1)]
+    out = [f"solid {name}"]
+    for k in (0, 3):
+        out += ["  facet normal 0 0 -1", "    outer loop"]
+        out += [f"      vertex {_num(x)} {_num(y)} 0" for x, y in corners[k : k + 3]]
+        out += ["    endloop", "  endfacet"]
+    out.append(f"endsolid {name}")
+    return "\n".join(out) + "\n"
+
+
+def box(test) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """The LIGGGHTS box (lo, hi) [m]: the periodic cell in x and y, in z from two largest
+    radii below the bottom platen to four above the fill's top wall."""
+    lx, ly, _ = test.pour_region
+    rmax = test.radius * (1 + test.polydispersity)
+    return (0.0, 0.0, -2 * rmax), (lx, ly, fill_top(test) + 4 * rmax)
+
+
+def fill_top(test) -> float:
+    """Height of the top wall during the fill [m] (engine.UniaxialTest.scene)."""
+    return test.pour_region[2] + 4 * test.radius
+
+
+def resolved_dt(test) -> float:
+    """The time step demscale runs ``test`` with [s]."""
+    return float(test.resolved_dt())
+
+
+def sample_steps(test) -> int:
+    """Steps between two curve samples (engine.uniaxial.driver)."""
+    return max(1, round(test.output_interval / resolved_dt(test)))
+
+
+def max_steps(test) -> int:
+    """Steps a stage may take before it fails (``max_stage_time``)."""
+    return max(1, round(test.max_stage_time / resolved_dt(test)))
+
+
+def fall_time(test) -> float:
+    """The fill's shortest duration [s] (engine.uniaxial.driver: the free fall over the
+    cell's height, or the capped pour's column over ``pour_speed``)."""
+    t = math.sqrt(2 * test.cell[2] / test.gravity)
+    if test.pour_speed is not None:
+        t = max(t, test.pour_height / test.pour_speed)
+    return t
+
+
+def settle_energy(test) -> float:
+    """The kinetic energy below which a stage has settled [J]: settle_ke N m g R."""
+    m = float(test.density * sphere_volume(test.radius))
+    return test.settle_ke * test.n_particles * m * test.gravity * test.radius
+
+
+def release_times(test) -> tuple[float, float]:
+    """The release's shortest and longest duration [s] (engine.uniaxial.driver)."""
+    t_min = 5 * math.sqrt(2 * test.radius / test.gravity)
+    return t_min, max(t_min, test.release_time)
+
+
+# ----------------------------------------------------------------------------- the deck
+def _materials(test) -> list[str]:
+    """``fix property/global`` lines for two atom types (1 particles, 2 platens) and the
+    pair style."""
+    law, wall, mat = test.pair_law, test.wall_law, test.wall_material
+    kind = _pair_law_kind(law)
+
+    def pair(pp: float, pw: float) -> str:
+        return f"peratomtypepair 2 {_num(pp)} {_num(pw)} {_num(pw)} {_num(pw)}"
+
+    if kind == "edinburgh":
+        mu_pp, mu_r_pp, e_pp = law.mu_s, law.mu_r, law.restitution
+    else:
+        mu_pp, mu_r_pp, e_pp = law.mu, law.mu_r, law.restitution
+    lines = [
+        "# materials: atom type 1 the particles, 2 the platens (Hertz-Mindlin: E, nu of",
+        "# both sides; restitution, friction and rolling friction per type pair)",
+        f"fix m1 all property/global youngsModulus peratomtype {_num(wall.E)} {_num(mat.E)}",
+        f"fix m2 all property/global poissonsRatio peratomtype {_num(wall.nu)} {_num(mat.nu)}",
+        "fix m3 all property/global coefficientRestitution " + pair(e_pp, wall.restitution),
+        "fix m4 all property/global coefficientFriction " + pair(mu_pp, wall.mu),
+        "fix m5 all property/global coefficientRollingFriction " + pair(mu_r_pp, wall.mu_r),
+    ]
+    roll = " rolling_friction cdt" if mu_r_pp > 0 else ""
+    if kind == "edinburgh":
+        n, chi = (law.n, law.chi) if isinstance(law, EEPA) else (1.0, 1.0)
+        k1 = law.k1
+
+        def same(v: float) -> str:
+            return pair(v, v)
+
+        lines += [
+            f"# {type(law).__name__}: K1 = {law.k1!r} N/m^n, K2 = {law.k2!r} N/m^n, "
+            f"n = {n:g}, chi = {chi:g}, f0 = {law.f0!r} N, kadh = 0 (surfaceEnergy 0, "
+            "fixKc off)",
+            "fix m6 all property/global LoadingStiffness " + same(k1),
+            "fix m7 all property/global UnloadingStiffness " + same(law.k2 / k1),
+            f"fix m8 all property/global overlapExponent scalar {_num(n)}",
+            f"fix m9 all property/global adhesionExponent scalar {_num(chi)}",
+            "fix m10 all property/global pullOffForce " + same(law.f0),
+            "fix m11 all property/global surfaceEnergy " + same(0.0),
+            "fix m12 all property/global coefficientAdhesionStiffness " + same(0.0),
+            f"pair_style gran model edinburgh/stiffness tangential history{roll}",
+        ]
+    else:
+        lines.append(f"pair_style gran model hertz tangential history{roll}")
+    lines.append("pair_coeff * *")
+    return lines
+
+
+def _wall_model(test) -> str:
+    roll = " rolling_friction cdt" if test.wall_law.mu_r > 0 else ""
+    return f"wall/gran model hertz tangential history{roll}"
+
+
+def _min(a: str, b: str) -> str:
+    """min(a, b) as a LIGGGHTS formula (it has no min function)."""
+    return f"(({a})*(({a})<({b}))+({b})*(({a})>=({b})))"
+
+
+def _clip(x: str, r: str) -> str:
+    """x clipped to [-r, r] as a LIGGGHTS atom formula."""
+    return f"({x}+(({x})<-({r}))*(-({r})-({x}))+(({x})>({r}))*(({r})-({x})))"
+
+
+class _Deck:
+    """Builds the deck's lines for one test."""
+
+    def __init__(self, test, skin: float, rmax: float):
+        self.t = test
+        self.skin = skin
+        self.lines: list[str] = []
+        self.dt = resolved_dt(test)
+        self.area = test.cell[0] * test.cell[1]
+        self.S = sample_steps(test)
+        self.max_steps = max_steps(test)
+        self.rmax = rmax  # the largest radius of the packing [m], as demscale's interior
+
+    def add(self, *lines: str) -> None:
+        self.lines.extend(lines)
+
+    def row(self, stage: str) -> None:
+        """One sample line of curves.txt."""
+        values = " ".join(
+            "${" + v + "}"
+            for v in (
+                "n",
+                "ztop",
+                "ftop",
+                "fbot",
+                "ket",
+                "ker",
+                "ncon",
+                "slab",
+                "nin",
+                "cin",
+                "sxx",
+                "syy",
+                "szz",
+                "lbot",
+                "nbot",
+                "ltop",
+                "ntop",
+            )
+        )
+        self.add(f'print "{STAGES.index(stage)} {values}" append {CURVES} screen no')
+
+    def velocity(self, v: float) -> None:
+        """The top platen moves at v [m/s] from now on: its height so far is frozen into
+        zbase at this step, and the height formula goes on from there."""
+        self.add(
+            "variable zbase equal ${ztop}",
+            "variable sbase equal ${n}",
+            f"variable vplaten equal {_num(v)}",
+        )
+
+    def begin(self, stage: str) -> None:
+        self.add("", f"# ---------------------------------------------------------- {stage}")
+
+    def start_stage(self, stage: str, h0: str = "${gap}") -> None:
+        """The stage's start step and reference height (immediate values), its begin mark
+        and its first sample (computes current: the run before left them so)."""
+        self.add(f"variable h0 equal {h0}", "variable t0 equal ${n}")
+        self.add(
+            f'print "# begin {stage} ${{t0}} ${{h0}}" append {CURVES} screen no',
+        )
+        self.row(stage)
+
+    def loop(self, stage: str, done: str, after_run: tuple[str, ...] = ()) -> None:
+        """The stage's loop: until ``done`` (an equal-style formula, 1 when the stage is
+        over) holds for the last sample: the bound on its steps, one sample's run, the
+        sample."""
+        self.add(
+            f"variable done equal {done}",
+            f"variable over equal (v_n-v_t0)>={self.max_steps}",
+            f"label loop_{stage}",
+            f'if "${{done}} > 0" then "jump SELF end_{stage}"',
+            'if "${over} > 0" then &',
+            f"  \"print '# error {stage} ${{n}} ${{stop}} ${{gap}} ${{kin}}' append {CURVES} "
+            'screen no" "jump SELF finish"',
+            f"run {self.S} pre no post no",
+            *after_run,
+        )
+        self.row(stage)
+        self.add(f"jump SELF loop_{stage}", f"label end_{stage}")
+
+    def end(self, stage: str) -> None:
+        self.add(
+            f"write_dump all custom {STAGE_DUMP.format(stage)} id x y z radius modify sort id",
+            f'print "# end {stage} ${{n}}" append {CURVES} screen no',
+        )
+
+    def thermo(self, fill_wall: bool) -> list[str]:
+        """Thermo output of every compute a sample reads: LIGGGHTS refreshes a compute for
+        a variable between runs only when something asked for it on the run's last step
+        (thermo is printed there, and at a run's set-up), and the pair virial is tallied
+        only on steps whose output asks for it."""
+        computes = [
+            "c_fbsum",
+            *(["c_ffsum"] if fill_wall else []),
+            "c_ker",
+            "c_ncn",
+            "c_slabv",
+            "c_insum[1]",
+            "c_insum[2]",
+            "c_sab[1]",
+            "c_sab[2]",
+            "c_sab[3]",
+            "c_lev[1]",
+            "c_lev[2]",
+            "c_lev[3]",
+            "c_lev[4]",
+            "c_zmax",
+        ]
+        return [
+            "thermo_style custom step atoms ke " + " ".join(computes),
+            "thermo_modify norm no lost error",
+        ]
+
+    # ------------------------------------------------------------------- sections
+    def build(self) -> str:
+        t = self.t
+        law = t.pair_law
+        self.add(
+            "# demscale uniaxial test as a LIGGGHTS 3.8 deck (engine.io.liggghts_deck),",
+            "# docs/LIGGGHTS_DECK.md. Run it in this folder: liggghts -in in.demscale",
+            f"# {t.n_particles} particles, R = {t.radius!r} m, cell {t.cell!r} m, seed {t.seed},",
+            f"# pair law {type(law).__name__}, dt = {self.dt!r} s, a sample every {self.S} steps;",
+            "# every parameter of the test is in test.json. LIGGGHTS does differently:",
+        )
+        for d in differences(t):
+            self.add(f"#   - {d}")
+        self.add(
+            "",
+            f"log {LOG}",
+            "units si",
+            "atom_style granular",
+            "atom_modify map array sort 0 0.0",
+            "boundary p p f",
+            "newton off",
+            "communicate single vel yes",
+            "processors * * 1",
+            f"read_data {DATA}",
+            "hard_particles yes",
+            f"neighbor {_num(self.skin)} bin",
+            "neigh_modify delay 0",
+            "",
+            *_materials(t),
+            "",
+            f"timestep {_num(self.dt)}",
+            f"fix grav all gravity {_num(t.gravity)} vector 0.0 0.0 -1.0",
+            "fix integr all nve/sphere",
+            f"fix wallb all {_wall_model(t)} primitive type 2 zplane 0.0 store_force yes",
+            f"fix wallf all {_wall_model(t)} primitive type 2 zplane {_num(fill_top(t))} "
+            "store_force yes",
+            "",
+            "# Variables. LIGGGHTS 3.8 redefines an equal-style variable by deleting it and",
+            "# appending it anew, which shifts every later variable's index, and fixes and",
+            "# computes keep the index they found at a run's set-up (runs here skip it): so the",
+            "# variables a fix or compute reads come first and are never redefined, and those",
+            "# the stages redefine come last.",
+            "variable zero equal 0.0",
+            "variable vmesh equal v_vplaten",
+            *self.pour_variables(),
+            "variable ua atom " + _clip("v_lo-z", "r"),
+            "variable ub atom " + _clip("v_hi-z", "r"),
+            "variable vs atom PI*(r*r*(v_ub-v_ua)-(v_ub*v_ub*v_ub-v_ua*v_ua*v_ua)/3.0)",
+            "variable vsp atom v_vs*(v_vs>0)",
+            "variable inside atom (z>=v_lo)*(z<=v_hi)",
+            "compute cn all contact/atom",
+            "variable cinside atom v_inside*c_cn",
+            "variable tb atom z<r",
+            "variable lb atom (z<r)*z",
+            "variable tt atom (v_ztop-z)<r",
+            "variable lt atom ((v_ztop-z)<r)*(v_ztop-z)",
+            "variable zr atom z+r",
+            "# what a sample reads",
+            "compute fbsum all reduce sum f_force_wallb[3]",
+            "compute ffsum all reduce sum f_force_wallf[3]",
+            "compute ker all erotate/sphere",
+            "compute ncn all reduce sum c_cn",
+            "# the interior slab (engine.uniaxial.measures.interior_measures)",
+            "compute slabv all reduce sum v_vsp",
+            "compute insum all reduce sum v_inside v_cinside",
+            "# pair virial, minus (engine.Simulation.pair_stress)",
+            "compute sa all stress/atom pair",
+            "compute sab all reduce sum c_sa[1] c_sa[2] c_sa[3]",
+            "# platen levers (engine.kernel.virial.platen_levers)",
+            "compute lev all reduce sum v_lb v_tb v_lt v_tt",
+            "compute zmax all reduce max v_zr",
+            "variable n equal step",
+            f"variable ztop equal v_zbase+v_vplaten*(step-v_sbase)*{_num(self.dt)}",
+            "variable gap equal v_ztop",
+            "variable fbot equal c_fbsum",
+            f"variable stop equal v_ftop/{_num(self.area)}",
+            "variable ket equal ke(all)",
+            "variable ker equal c_ker",
+            "variable kin equal v_ket+v_ker",
+            "variable ncon equal c_ncn",
+            f"variable mg equal {_min(_num(t.margin), f'0.5*v_gap-{_num(self.rmax)}')}",
+            "variable lo equal v_mg*(v_mg>0)",
+            "variable hi equal v_gap-v_lo",
+            "variable slab equal c_slabv",
+            "variable nin equal c_insum[1]",
+            "variable cin equal c_insum[2]",
+            "variable sxx equal c_sab[1]",
+            "variable syy equal c_sab[2]",
+            "variable szz equal c_sab[3]",
+            "variable lbot equal c_lev[1]",
+            "variable nbot equal c_lev[2]",
+            "variable ltop equal c_lev[3]",
+            "variable ntop equal c_lev[4]",
+            "variable strain equal (v_h0-v_gap)/v_h0",
+            "# redefined by the stages (the top platen's motion, the stage's start)",
+            f"variable zbase equal {_num(fill_top(t))}",
+            "variable sbase equal 0",
+            "variable vplaten equal 0.0",
+            "variable ftop equal -c_ffsum",
+            "",
+            *self.thermo(fill_wall=True),
+            f"thermo {self.S}",
+            f'print "# demscale LIGGGHTS output: {" ".join(COLUMNS)}" file {CURVES} screen no',
+        )
+        self.fill()
+        self.compression()
+        self.release()
+        self.unconfined()
+        self.add("", "label finish", f'print "# done ${{n}}" append {CURVES} screen no')
+        return "\n".join(self.lines) + "\n"
+
+    def pour_variables(self) -> list[str]:
+        """The capped pour's velocity formulas: every particle faster than pour_speed
+        slowed to it (engine.uniaxial.driver: after each sample of the fill)."""
+        if self.t.pour_speed is None:
+            return []
+        cap = _num(self.t.pour_speed)
+        return [
+            "variable vm atom sqrt(vx*vx+vy*vy+vz*vz)",
+            f"variable cf atom (v_vm>{cap})*{cap}/(v_vm+(v_vm<={cap}))+(v_vm<={cap})",
+            "variable vxn atom vx*v_cf",
+            "variable vyn atom vy*v_cf",
+            "variable vzn atom vz*v_cf",
+        ]
+
+    def fill(self) -> None:
+        t = self.t
+        self.begin("fill")
+        self.add("run 0")
+        self.start_stage("fill")
+        after: tuple[str, ...] = ()
+        if t.pour_speed is not None:
+            after = ("velocity all set v_vxn v_vyn v_vzn units box",)
+        self.loop(
+            "fill",
+            f"((v_n-v_t0)*{_num(self.dt)}>={_num(fall_time(t))})*(v_kin<={_num(settle_energy(t))})",
+            after,
+        )
+        self.end("fill")
+
+    def compression(self) -> None:
+        t = self.t
+        self.begin("pre_compression")
+        if t.gravity_off_after_fill:
+            self.add("unfix grav")
+        self.add(
+            *self.thermo(fill_wall=False),
+            "unfix wallf",
+            "uncompute ffsum",
+            f"variable zp equal c_zmax+{_num(PLACE_GAP * t.radius)}",
+            "variable zplace equal ${zp}",
+            f"fix topmesh all mesh/surface/stress file {PLATE} type 2 move 0.0 0.0 ${{zplace}}",
+            f"fix walltop all {_wall_model(t)} mesh n_meshes 1 meshes topmesh",
+            "variable zbase equal ${zplace}",
+            "variable sbase equal ${n}",
+            f"variable vplaten equal {_num(-t.platen_speed)}",
+            "fix movetop all move/mesh mesh topmesh linear/variable v_zero v_zero v_vmesh",
+            "variable ftop equal f_topmesh[3]",
+            "run 0",
+        )
+        self.start_stage("pre_compression")
+        self.loop("pre_compression", f"v_stop>={_num(t.pre_stress)}")
+        self.end("pre_compression")
+
+        self.begin("consolidation")
+        self.add("variable hcons equal ${gap}")
+        self.start_stage("consolidation")
+        self.loop("consolidation", f"v_stop>={_num(t.consolidation_stress)}")
+        self.end("consolidation")
+
+        self.begin("unloading")
+        self.velocity(t.platen_speed)
+        self.start_stage("unloading", "${hcons}")
+        low = t.unloaded_stress * t.consolidation_stress
+        self.loop("unloading", f"v_stop<={_num(low)}")
+        self.end("unloading")
+        self.velocity(0.0)
+
+    def release(self) -> None:
+        t = self.t
+        if not t.unconfined:
+            self.add("jump SELF finish")
+            return
+        lx, ly = t.cell[0], t.cell[1]
+        lo = -(WIDE - 1) / 2
+        hi = (WIDE + 1) / 2
+        self.begin("release")
+        self.add(
+            "variable zkeep equal ${ztop}",
+            "unfix movetop",
+            "unfix walltop",
+            "unfix topmesh",
+            "change_box all boundary f f f",
+            f"change_box all x final {_num(lo * lx)} {_num(hi * lx)} "
+            f"y final {_num(lo * ly)} {_num(hi * ly)} boundary m m f",
+            f"fix topmesh all mesh/surface/stress file {PLATE_WIDE} type 2 move 0.0 0.0 ${{zkeep}}",
+            f"fix walltop all {_wall_model(t)} mesh n_meshes 1 meshes topmesh",
+            "variable zbase equal ${zkeep}",
+            "variable sbase equal ${n}",
+            "variable vplaten equal 0.0",
+            "fix movetop all move/mesh mesh topmesh linear/variable v_zero v_zero v_vmesh",
+            "run 0",
+        )
+        self.start_stage("release")
+        t_min, t_max = release_times(t)
+        dt = _num(self.dt)
+        self.loop(
+            "release",
+            f"((v_n-v_t0)*{dt}>={_num(t_min)})*(v_kin<={_num(settle_energy(t))})"
+            f"+((v_n-v_t0)*{dt}>={_num(t_max)})",
+        )
+        self.end("release")
+
+    def unconfined(self) -> None:
+        t = self.t
+        if not t.unconfined:
+            return
+        self.begin("unconfined")
+        self.velocity(-t.platen_speed)
+        self.add(
+            "# demscale's failure detector (engine.uniaxial.measures.FailureDetector)",
+            "variable peak equal 0.0",
+            "variable below equal 1e300",
+        )
+        self.add(
+            f"variable isb equal (v_peak>0)*(v_stop<{_num(1 - t.failure_drop)}*v_peak)",
+            f"variable fdone equal (v_strain-v_below)>={_num(t.failure_strain)}",
+        )
+        detector = (
+            'if "${stop} > ${peak}" then "variable peak equal ${stop}"',
+            'if "${isb} == 0" then "variable below equal 1e300"',
+            'if "${isb} == 1 && ${strain} < ${below}" then "variable below equal ${strain}"',
+            f'if "${{fdone}} > 0" then "print \'# failed ${{n}}\' append {CURVES} screen no"',
+        )
+        self.start_stage("unconfined")
+        self.add(*detector)
+        done = f"(v_fdone>0)+(v_strain>={_num(t.max_unconfined_strain)})"
+        self.add(
+            f"variable done equal {done}",
+            f"variable over equal (v_n-v_t0)>={self.max_steps}",
+        )
+        # the detector after each sample, then the criterion on that sample
+        self.add(
+            "label loop_unconfined",
+            'if "${done} > 0" then "jump SELF end_unconfined"',
+            'if "${over} > 0" then &',
+            f"  \"print '# error unconfined ${{n}} ${{stop}} ${{gap}} ${{kin}}' append {CURVES} "
+            'screen no" "jump SELF finish"',
+            f"run {self.S} pre no post no",
+        )
+        self.row("unconfined")
+        self.add(*detector, "jump SELF loop_unconfined", "label end_unconfined")
+        self.velocity(0.0)
+        self.end("unconfined")
+
+
+def deck(test, skin: float | None = None, radii: np.ndarray | None = None) -> str:
+    """The LIGGGHTS 3.8 input deck of ``test`` (an :class:`engine.UniaxialTest`; see the
+    module docstring): ``skin`` the Verlet skin [m] (default :data:`SKIN_RADII` largest
+    radii), ``radii`` those of the packing [m] (default: the test's poured cloud). Raises
+    :class:`engine.ParameterError` for what it cannot express (:func:`check_exportable`)."""
+    check_exportable(test)
+    if radii is None:
+        radii = test.initial_packing()[1]
+    rmax = float(np.max(radii))
+    if skin is None:
+        skin = SKIN_RADII * rmax
+    if not (math.isfinite(skin) and skin > 0):
+        raise ParameterError("skin", skin, "a length > 0 m")
+    return _Deck(test, skin, rmax).build()
+
+
+def write_deck(test, directory, skin: float | None = None) -> Path:
+    """Write the deck folder of ``test`` into ``directory`` (created): ``in.demscale``, the
+    poured cloud ``packing.data``, the plates ``plate.stl`` and ``plate_wide.stl`` and the
+    test as ``test.json``. Returns the deck's path. LIGGGHTS runs it there, unmodified:
+    ``liggghts -in in.demscale`` (its output: ``curves.txt``, ``stage_<name>.dump``,
+    ``log.liggghts``; :func:`engine.io.liggghts_read.read_output` reads them back)."""
+    pos, radii = test.initial_packing()
+    text = deck(test, skin, radii)
+    out = Path(directory)
+    out.mkdir(parents=True, exist_ok=True)
+    lx, ly = test.cell[0], test.cell[1]
+    lo, hi = -(WIDE - 1) / 2, (WIDE + 1) / 2
+    files = {
+        DECK: text,
+        DATA: data_file(test, pos, radii),
+        PLATE: plate_stl(0.0, 0.0, lx, ly),
+        PLATE_WIDE: plate_stl(lo * lx, lo * ly, hi * lx, hi * ly, "plate_wide"),
+        TEST: json.dumps(test.to_dict(), indent=1) + "\n",
+    }
+    for name, body in files.items():
+        (out / name).write_text(body)
+    for stale in [out / CURVES, out / LOG, *out.glob(STAGE_DUMP.format("*"))]:
+        stale.unlink(missing_ok=True)
+    return out / DECK
+
+
+__all__ = [
+    "COLUMNS",
+    "CURVES",
+    "DATA",
+    "DECK",
+    "LOG",
+    "STAGES",
+    "STAGE_DUMP",
+    "TEST",
+    "check_exportable",
+    "data_file",
+    "deck",
+    "differences",
+    "plate_stl",
+    "write_deck",
+]

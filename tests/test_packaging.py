@@ -32,7 +32,7 @@ def test_pyproject_declares_licence_script_and_extras():
     project = meta["project"]
     assert project["license"] == "MIT"  # an SPDX expression, not the deprecated table
     assert meta["build-system"]["requires"] == ["setuptools>=77"]  # PEP 639 support
-    assert project["dependencies"] == ["numpy>=1.24", "numba>=0.59"]
+    assert project["dependencies"] == ["numpy>=1.24", "numba>=0.59", "scipy>=1.11"]
     assert project["scripts"] == {"demscale": "demscale.cli:main"}
     extras = project["optional-dependencies"]
     assert {"service", "cli", "snapshots"} <= set(extras)

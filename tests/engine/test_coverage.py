@@ -629,7 +629,7 @@ def test_the_pooled_adaptive_rule_keeps_its_rates(ratio, sds):
     # three rules at one radius, a pilot of 3 seeds each, seeds allocated by the chance of a
     # verdict per particle-step (engine.study.allocate, which reads the observed means):
     # the judged rule at its tolerance is called equivalent, or differs, in at most 5 %
-    n = 1500
+    n = 800
     eq, di, _ = _adaptive_pooled((ratio, 1.0, 1.0), sds, n=n, seed=int(1000 * ratio))
     assert eq <= _bound(n) and di <= _bound(n), (eq, di)
 
@@ -637,5 +637,5 @@ def test_the_pooled_adaptive_rule_keeps_its_rates(ratio, sds):
 def test_the_pooled_adaptive_rule_decides_good_rules():
     # three good rules (error 0, 10 % spread) against references at 3 %: the allocation
     # decides most studies with at most 10 seeds a rule
-    eq, _, added = _adaptive_pooled((1.0, 1.0, 1.0), (0.10, 0.10, 0.10), n=600, seed=5)
+    eq, _, added = _adaptive_pooled((1.0, 1.0, 1.0), (0.10, 0.10, 0.10), n=400, seed=5)
     assert eq >= 0.6 and added <= 7, (eq, added)

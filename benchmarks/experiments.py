@@ -36,10 +36,15 @@ DECIDE = {"decide": True, "rounds": 2, "max_seeds": 10, "max_reference_seeds": 5
 
 def experiments(scale: str) -> dict[str, engine.StudySpec]:
     """The experiments of the seed at ``scale`` ("paper" or "quick"); at the paper scale
-    each adds seeds until decided, within :data:`DECIDE`."""
-    plain = replace(engine.preset(scale), unconfined=False)  # f0 = 0: cohesionless
+    each adds seeds until decided, within :data:`DECIDE`. Every run is made with the seed's
+    protocol (``engine.preset(scale, protocol="seed")``: dt = 1e-5 s, the platen at a constant
+    10 mm/s, the free-fall fill, the strength read from the top platen, and at the quick scale
+    the 50 x 50 x 100 mm cell), as the stored runs were: the defaults of new studies moved on
+    (docs/PROTOCOL.md) and these studies judge the runs they stored."""
+    plain = replace(engine.preset(scale, protocol="seed"), unconfined=False)  # f0 = 0
     cohesive = engine.preset(
         scale,
+        protocol="seed",
         pair_law=engine.BilinearAdhesive(
             k1=5e3, k2=2.5e4, f0=-0.8, mu_s=0.5, mu_r=0.001, restitution=0.4
         ),
@@ -69,13 +74,13 @@ def experiments(scale: str) -> dict[str, engine.StudySpec]:
             **common,
         ),
         "c_eepa_cohesionless": engine.StudySpec(
-            reference=engine.preset(scale, pair_law=eepa, unconfined=False),
+            reference=engine.preset(scale, protocol="seed", pair_law=eepa, unconfined=False),
             coarse_radii=(2 * R,),
             rules=eepa_rules,
             **eepa_common,
         ),
         "d_eepa_cohesive": engine.StudySpec(
-            reference=engine.preset(scale, pair_law=replace(eepa, f0=-0.8)),
+            reference=engine.preset(scale, protocol="seed", pair_law=replace(eepa, f0=-0.8)),
             coarse_radii=eepa_radii,
             rules=eepa_rules,
             **eepa_common,

@@ -32,7 +32,7 @@ def pool_speedup(workers: int = 2) -> list[tuple[str, bool]]:
     """Wall time of one study (four reference seeds and four coarse runs of a 50 x 50 x 50 mm
     cell: comparable runs) run in process against the same study on a ``workers``-process
     pool, in the same run; the tables must be identical."""
-    ref = engine.preset("quick", pair_law=LAW, cell=(0.05, 0.05, 0.05))
+    ref = engine.preset("quick", protocol="seed", pair_law=LAW, cell=(0.05, 0.05, 0.05))
     spec = engine.StudySpec(
         reference=ref,
         coarse_radii=(3e-3,),
@@ -40,7 +40,9 @@ def pool_speedup(workers: int = 2) -> list[tuple[str, bool]]:
         reference_seeds=(1, 2, 3, 4),
         seeds=(1, 2),
     )
-    engine.run_uniaxial(engine.preset("quick", pair_law=LAW, cell=(0.015, 0.015, 0.015)))
+    engine.run_uniaxial(
+        engine.preset("quick", protocol="seed", pair_law=LAW, cell=(0.015, 0.015, 0.015))
+    )
     t0 = time.perf_counter()
     seq = engine.run_study(spec)
     t_seq = time.perf_counter() - t0
@@ -77,7 +79,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.pool:
         return report(pool_speedup(args.workers))
-    ref = engine.preset("quick", pair_law=LAW)
+    ref = engine.preset("quick", protocol="seed", pair_law=LAW)
     # warm the kernels (compile or load from the disk cache) outside the timed runs
     engine.run_uniaxial(
         engine.preset(

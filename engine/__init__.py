@@ -9,6 +9,7 @@ Public API (stable names)::
     Simulation                                      run it
     critical_time_step                              time-step limits of a scene
     UniaxialTest, preset, run_uniaxial              the uniaxial test and its stages
+    SEED_PROTOCOL                                   the seed's protocol (preset protocol="seed")
     Checkpoint                                      resume a killed run where it was
     ScalingRule, StudySpec, run_study               scaling studies, errors and costs
     plan, StudyPlan                                 a study's runs, planned once
@@ -47,7 +48,7 @@ from .uniaxial.checkpoint import Checkpoint
 from .uniaxial.driver import StageError, run_uniaxial
 from .uniaxial.flow import FlowFunction, flow_function
 from .uniaxial.results import RESUMED, Progress, StageResult, UniaxialResult
-from .uniaxial.spec import UniaxialTest, preset
+from .uniaxial.spec import SEED_PROTOCOL, UniaxialTest, preset
 
 __version__ = "0.1.0"
 
@@ -58,6 +59,7 @@ __all__ = [
     "METRICS",
     "NAMED_RULES",
     "RESUMED",
+    "SEED_PROTOCOL",
     "BilinearAdhesive",
     "Calibration",
     "Checkpoint",

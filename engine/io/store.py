@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from ..uniaxial.checkpoint import this_code
-from ..uniaxial.measures import failed_by_curve
+from ..uniaxial.measures import failed_by_curve, strength_curve
 from ..uniaxial.results import CURVE_UNITS, SCALAR_UNITS, StageResult, UniaxialResult
 from ..uniaxial.spec import UniaxialTest
 
@@ -101,7 +101,7 @@ def read_run_group(g):
     the error text."""
     if "error" in g.attrs:
         return str(g.attrs["error"])
-    test = UniaxialTest.from_dict(json.loads(g.attrs["test"]))
+    test = UniaxialTest.from_stored(json.loads(g.attrs["test"]))
     scalars = {k: float(v) for k, v in g["scalars"].attrs.items() if not k.endswith("_units")}
     stages = {}
     for name in stage_names(g):
@@ -116,10 +116,11 @@ def read_run_group(g):
         )
     if "unconfined_failure" in scalars and "unconfined" in stages:
         # one criterion for every run, stored before or after it was written: failure is
-        # derived from the stored curve (engine.uniaxial.measures.failed_by_curve)
+        # derived from the stored curve its strength is read from
+        # (engine.uniaxial.measures.failed_by_curve, strength_curve)
         u = stages["unconfined"].curves
         failed = scalars["unconfined_failure"] == 1.0 or failed_by_curve(
-            u["strain"], u["stress_top"], test.failure_strain
+            u["strain"], strength_curve(test, u), test.failure_strain
         )
         scalars["unconfined_failure"] = 1.0 if failed else 0.0
     return UniaxialResult(test, stages, scalars)

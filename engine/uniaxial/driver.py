@@ -26,13 +26,16 @@ from ..simulation.simulation import Simulation
 from ..simulation.snapshot import capture
 from .checkpoint import Checkpoint, check_interval, this_code
 from .measures import (
+    SOFTENING,
     FailureDetector,
-    failed_by_curve,
+    held_inertial_numbers,
+    interior_axial_stress,
     interior_margin,
     interior_measures,
     lateral_ratio,
+    loading_speed,
     secant_slope,
-    unconfined_strength,
+    strength_scalars,
 )
 from .results import (
     CURVE_UNITS,
@@ -46,6 +49,10 @@ from .results import (
 from .spec import UniaxialTest
 
 STAGES = ("fill", "pre_compression", "consolidation", "unloading", "release", "unconfined")
+
+#: The stages whose top platen moves: at ``inertial_number`` each holds it (docs/PHYSICS.md
+#: section 4, "Loading rate").
+LOADING = ("pre_compression", "consolidation", "unloading", "unconfined")
 
 
 #: Stage weights of the overall progress fraction.
@@ -88,6 +95,10 @@ class _Recorder:
         self.steps0 = driver.sim.steps
         self.steps = 0
         self.failure: FailureDetector | None = None
+        # unconfined, at inertial_number: the running peak of the strength curve smoothed
+        # over the last failure_strain of strain, and whether it has turned (post-peak)
+        self.smoothed_peak = 0.0
+        self.post_peak = False
 
     def sample(self) -> tuple:
         d = self.d
@@ -109,6 +120,20 @@ class _Recorder:
         sig = sim.pair_stress(area * gap)
         s_lat = 0.5 * float(sig[0, 0] + sig[1, 1])
         s_ver = float(sig[2, 2]) + d.platen_virial(f) / (area * gap)
+        # the axial contact-virial stress of the particles whose centres lie in the interior
+        # window (the strength curve of the unconfined stage)
+        c = sim.contacts()
+        s_in = interior_axial_stress(
+            sim.positions[:, 2] - bottom,
+            sim.radii,
+            c.pairs,
+            c.forces,
+            c.normals,
+            c.overlaps,
+            gap,
+            d.test.margin,
+            area,
+        )
         ke = sim.kinetic_energy()
         speed = abs(float(sim.wall_velocities[1, 2])) if d.n_walls > 1 else 0.0
         # inertial number with the pressure floored at the weight of one particle layer
@@ -128,9 +153,29 @@ class _Recorder:
             coord_in,
             s_lat,
             s_ver,
+            s_in,
         )
         self.rows.append(row)
         return row
+
+    def turned(self) -> bool:
+        """Whether the unconfined strength curve (``strength_from``), smoothed over the last
+        ``failure_strain`` of strain, has fallen ``SOFTENING`` below its running peak: the
+        peak is passed and the sample softens (latched)."""
+        if not self.post_peak:
+            t = self.d.test
+            col = STRENGTH_COLUMN[t.strength_from]
+            e_now = self.rows[-1][1]
+            total, n = 0.0, 0
+            for r in reversed(self.rows):
+                if r[1] < e_now - t.failure_strain:
+                    break
+                total += r[col]
+                n += 1
+            sm = total / n
+            self.smoothed_peak = max(self.smoothed_peak, sm)
+            self.post_peak = self.smoothed_peak > 0 and sm < (1 - SOFTENING) * self.smoothed_peak
+        return self.post_peak
 
     def result(self) -> StageResult:
         a = np.array(self.rows, dtype=float).reshape(-1, len(CURVE_UNITS))
@@ -144,6 +189,10 @@ class _Recorder:
         return StageResult(
             self.stage, curves, snap.positions, snap.radii, self.d.sim.steps - self.steps0, snap
         )
+
+
+#: The column of a curve row (:data:`CURVE_UNITS` order) each strength estimator reads.
+STRENGTH_COLUMN = {"platen": 2, "interior": list(CURVE_UNITS).index("stress_interior")}
 
 
 class _Driver:
@@ -187,7 +236,10 @@ class _Driver:
         # kernels are compiled (or loaded from the disk cache) when a Simulation is built and
         # when its periodicity changes: that time is kept out of the run's wall time
         t0 = time.perf_counter()
-        self.sim = Simulation(scene, dt=test.dt, backend=backend)
+        self.time_step = test.time_step()
+        self.sim = Simulation(
+            scene, dt=self.time_step.dt, max_speed=self.time_step.impact_speed, backend=backend
+        )
         self.setup_time = time.perf_counter() - t0
         self.sample_steps = max(1, round(test.output_interval / self.sim.dt))
         self.max_steps = max(1, round(test.max_stage_time / self.sim.dt))
@@ -291,6 +343,25 @@ class _Driver:
     def move_top(self, speed: float) -> None:
         self.sim.set_wall_velocity(1, (0.0, 0.0, speed))
 
+    def drive(self, stage: str, gap: float, stress: float, post_peak: bool = False) -> None:
+        """Set the top platen's speed for the next curve sample of a loading ``stage``: the
+        constant ``platen_speed``, or at ``inertial_number`` the speed of
+        :func:`engine.uniaxial.measures.loading_speed` for the platen ``gap`` [m] and the
+        sample's mean axial ``stress`` [Pa] (down, or up while unloading)."""
+        t = self.test
+        if t.inertial_number is None:
+            v = t.platen_speed
+        else:
+            v = loading_speed(
+                t,
+                gap,
+                stress,
+                h0=self.current.h0 if self.current is not None else gap,
+                unconfined=stage == "unconfined",
+                post_peak=post_peak,
+            )
+        self.move_top(v if stage == "unloading" else -v)
+
     # ------------------------------------------------------------------ the stage machine
     def run(self) -> UniaxialResult:
         """Run (or, resumed from a checkpoint, go on with) the stages, then the scalars."""
@@ -314,11 +385,12 @@ class _Driver:
                 self.sim.set_gravity((0.0, 0.0, 0.0))
             top = self.bed_top() + 0.05 * t.radius
             self.sim.set_wall_position(1, (0.0, 0.0, top))
-            self.move_top(-t.platen_speed)
+            # the platen is placed above the bed: the stress is the floor until it touches
+            self.drive(stage, self.gap(), 0.5 * self.bottom_stress())
         elif stage == "consolidation":
             self.h_consolidation = self.gap()
         elif stage == "unloading":
-            self.move_top(+t.platen_speed)
+            self.drive(stage, self.gap(), self.mean_stress())
             h0 = self.h_consolidation
         elif stage == "release":
             t_setup = time.perf_counter()
@@ -328,13 +400,21 @@ class _Driver:
             # the platen starts where unloading left it, on top of the consolidated sample,
             # and strain is measured against that height: a sample that collapsed on release
             # is never reached within max_unconfined_strain and has exactly zero strength
-            self.move_top(-t.platen_speed)
+            self.drive(stage, self.gap(), self.mean_stress())
         rec = _Recorder(self, stage, self.gap() if h0 is None else h0)
         if stage == "unconfined":
             rec.failure = FailureDetector(t.failure_drop, t.failure_strain)
         self.current = rec
         self.stage_now, self.stage_fraction = stage, 0.0
         rec.sample()
+
+    def bottom_stress(self) -> float:
+        """The bottom platen's stress at the last force evaluation [Pa]."""
+        return -float(self.sim.wall_forces[0, 2]) / self.area
+
+    def mean_stress(self) -> float:
+        """The mean of the two platens' stresses at the last force evaluation [Pa]."""
+        return 0.5 * (float(self.sim.wall_forces[1, 2]) / self.area + self.bottom_stress())
 
     def criterion(self, rec: _Recorder) -> tuple[Callable, Callable, str]:
         """The stage's end criterion, its progress fraction and what it waits for."""
@@ -373,8 +453,10 @@ class _Driver:
                 "settle after the release (kinetic energy below settle_ke x N m g R)",
             )
 
+        col = STRENGTH_COLUMN[t.strength_from]
+
         def failed(r) -> bool:
-            if rec.failure.update(r[1], r[2]):
+            if rec.failure.update(r[1], r[col]):
                 self.unconfined_failed = True
                 return True
             return r[1] >= t.max_unconfined_strain
@@ -411,6 +493,9 @@ class _Driver:
             if stage == "fill" and self.test.pour_speed is not None:
                 self.cap_speed(self.test.pour_speed)
             row = rec.sample()
+            if stage in LOADING and self.test.inertial_number is not None:
+                turned = stage == "unconfined" and rec.turned()
+                self.drive(stage, row[8], 0.5 * (row[2] + row[3]), post_peak=turned)
             self.stage_fraction = fraction(row)
             self.report(stage, self.stage_fraction)
             if self.checkpoint is not None:
@@ -442,17 +527,32 @@ class _Driver:
         s["height_diameters"] = gap / dmax
         s["interior_margin"] = interior_margin(self.test.margin, gap, dmax / 2)
         if "unconfined" in self.stages:
-            u = self.stages["unconfined"].curves
-            failed = self.unconfined_failed or failed_by_curve(
-                u["strain"], u["stress_top"], self.test.failure_strain
+            g = 0.0 if self.test.gravity_off_after_fill else self.test.gravity
+            s.update(
+                strength_scalars(
+                    self.stages["unconfined"].curves,
+                    self.test,
+                    self.unconfined_failed,
+                    self.test.density * self.solid_volume * g / (2.0 * self.area),
+                )
             )
-            strength, strain, failed = unconfined_strength(u["strain"], u["stress_top"], failed)
-            s["unconfined_strength"] = strength
-            s["strain_at_peak"] = strain
-            s["unconfined_failure"] = 1.0 if failed else 0.0
         s["particles"] = float(self.sim.n)
         s["steps"] = float(self.sim.steps)
         s["dt"] = self.sim.dt
+        ts = self.time_step
+        s["dt_fraction"] = self.sim.dt / ts.critical
+        s["dt_critical"] = ts.critical
+        s["dt_limited_by_wall"] = 1.0 if ts.kind == "wall" else 0.0
+        s["impact_speed"] = ts.impact_speed
+        held = np.concatenate(
+            [
+                held_inertial_numbers(self.stages[k].curves, self.test)
+                for k in LOADING
+                if k in self.stages
+            ]
+        )
+        s["inertial_number_held"] = float(np.median(held))
+        s["inertial_number_held_max"] = float(np.max(held))
         s["setup_time"] = self.setup_time
         s["wall_time"] = self.wall_time()
         s["particle_steps"] = float(self.sim.n) * self.sim.steps

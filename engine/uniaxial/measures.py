@@ -1,6 +1,8 @@
 """Bulk measures of a uniaxial test, from its curves and particles: the interior slab's
-porosity and coordination, secant stiffnesses, failure of the unconfined sample and its
-strength (docs/PHYSICS.md sections 4 and 6). Plain numpy: recomputable from stored curves."""
+porosity, coordination and axial contact-virial stress, secant stiffnesses, failure of the
+unconfined sample and its strength, the platen speed that holds a stated inertial number and
+the inertial number a run held (docs/PHYSICS.md sections 4, 6 and 7.3). Plain numpy:
+recomputable from stored curves."""
 
 from __future__ import annotations
 
@@ -66,6 +68,171 @@ def failed_by_curve(
     k = int(np.argmax(sm))
     peak = float(sm[k])
     return bool(peak > 0 and e[-1] - e[k] >= 2 * w and sm[-1] < (1 - softening) * peak)
+
+
+#: Thickness of a shear band in particle diameters [-]: localised shear bands in granular
+#: samples are about ten grains thick (Muhlhaus and Vardoulakis 1987: 16 d in sand; Oda and
+#: Kazama 1998: 7-8 d; DEM of biaxial tests, Iwashita and Oda 1998: about 10 d). Past the
+#: unconfined peak the deformation gathers in such a band, whose strain rate is the sample's
+#: times h / (band thickness): the platen slows by that ratio so that the band holds the
+#: stated inertial number (:func:`loading_speed`).
+SHEAR_BAND_DIAMETERS = 10.0
+
+#: Curve samples within one ``failure_strain`` of unconfined strain, at least [-]: the window
+#: the strength curve is smoothed over and the failure detector's persistence, each then
+#: resolved by ten samples or more (:func:`loading_speed`).
+SAMPLES_PER_WINDOW = 10
+
+
+def stress_floor(test) -> float:
+    """The weight of one layer of grains, rho g d [Pa] (``test``'s particle density, gravity
+    and mean diameter 2R): the pressure below which grains rearrange at their free-fall time
+    over a diameter, sqrt(d / g), whatever the platen stress. The floor of the pressure in
+    the inertial number (recorded curve and platen speed alike)."""
+    return test.density * test.gravity * 2.0 * test.radius
+
+
+def loading_speed(
+    test,
+    gap: float,
+    stress: float,
+    h0: float,
+    unconfined: bool = False,
+    post_peak: bool = False,
+) -> float:
+    """The top platen's speed [m/s] that holds ``test.inertial_number`` I* in a loading stage
+    (docs/PHYSICS.md section 4, "Loading rate"):
+
+        v = I* (h / d) sqrt(max(p, rho g d) / rho),   at most ``max_platen_speed``,
+
+    with h the platen ``gap`` [m], d = 2R, rho the particle density and p the sample's mean
+    axial ``stress`` [Pa], the mean of the two platens' stresses (the top's plus half the
+    sample's weight over its cross-section), floored (:func:`stress_floor`). In the
+    unconfined stage (``unconfined``) the platen also moves at most ``failure_strain`` h0 /
+    ``SAMPLES_PER_WINDOW`` per curve sample (h0 [m]: the gap at the stage's start), and
+    ``post_peak`` (the smoothed strength curve has turned, see the stage driver) it holds I*
+    over a shear band instead of the sample: v times min(1, ``SHEAR_BAND_DIAMETERS`` d / h)."""
+    d = 2.0 * test.radius
+    p = max(float(stress), stress_floor(test))
+    v = test.inertial_number * gap / d * math.sqrt(p / test.density)
+    if post_peak:
+        v *= min(1.0, SHEAR_BAND_DIAMETERS * d / gap)
+    if unconfined:
+        window = max(test.failure_strain, 1e-3)  # as failed_by_curve's smoothing window
+        v = min(v, window * h0 / (SAMPLES_PER_WINDOW * test.output_interval))
+    return min(v, test.max_platen_speed)
+
+
+def held_inertial_numbers(curves: dict, test) -> np.ndarray:
+    """The inertial number a loading stage held between consecutive curve samples [-]:
+    (v / h) d sqrt(rho / max(p, rho g d)) with v the platen's mean speed over the interval
+    (from ``platen_gap`` and ``time``), h the gap and p the mean of the two platens'
+    stresses at its end, d = 2R: the quantity :func:`loading_speed` holds (empty for a stage
+    of one sample)."""
+    t = np.asarray(curves["time"], dtype=float)
+    gap = np.asarray(curves["platen_gap"], dtype=float)
+    mean = 0.5 * (np.asarray(curves["stress_top"]) + np.asarray(curves["stress_bottom"]))
+    if len(t) < 2:
+        return np.zeros(0)
+    dt = np.diff(t)
+    ok = dt > 0
+    v = np.abs(np.diff(gap))[ok] / dt[ok]
+    p = np.maximum(mean[1:][ok], stress_floor(test))
+    return v / gap[1:][ok] * 2.0 * test.radius * np.sqrt(test.density / p)
+
+
+def interior_axial_stress(
+    z: np.ndarray,
+    radii: np.ndarray,
+    pairs: np.ndarray,
+    forces: np.ndarray,
+    normals: np.ndarray,
+    overlaps: np.ndarray,
+    gap: float,
+    margin: float,
+    area: float,
+) -> float:
+    r"""The axial (zz) contact-virial stress of the particles whose centres lie in the
+    interior window [Pa] (compression positive): the Love-Weber sum over those particles of
+    their contacts' lever times force,
+
+    .. math:: \sigma_{zz} = \frac{1}{A (h - 2m)} \sum_{i \in W} \sum_{c \in i}
+              a_{ic}\, n_z f_z, \qquad a_{ic} = r_i - \delta_c / 2,
+
+    over particle-particle contacts (``pairs`` (M, 2) ids into ``z`` and ``radii``, ``forces``
+    on the first particle [N], unit ``normals`` from the second to the first, ``overlaps``
+    delta [m]: :class:`engine.Contacts`), W the particles with centre heights ``z`` [m] (from
+    the bottom platen) in [m, gap - m], m the interior margin (:func:`interior_margin` of
+    ``margin`` [m]) and A the cross-section ``area`` [m^2]. A contact with both particles in
+    W counts whole (f l, as :meth:`engine.Simulation.pair_stress`), one with a single
+    particle in W by that particle's lever. Quasi-statically it is the mean over the window
+    of the axial force through a horizontal section over A: the top platen's stress plus
+    the weight above the window's middle (the mean of the two platens' stresses for a
+    centred window); no platen contact lies in the window when m is at least a diameter."""
+    z = np.asarray(z, dtype=float)
+    r = np.asarray(radii, dtype=float)
+    m = interior_margin(margin, gap, float(np.max(r)))
+    lo, hi = m, gap - m
+    inside = ((z >= lo) & (z <= hi)).astype(float)
+    if len(pairs) == 0 or hi <= lo:
+        return 0.0
+    i, j = pairs[:, 0], pairs[:, 1]
+    half = 0.5 * np.asarray(overlaps, dtype=float)
+    lever = (r[i] - half) * inside[i] + (r[j] - half) * inside[j]
+    szz = float(np.sum(lever * normals[:, 2] * forces[:, 2]))
+    return szz / (area * (hi - lo))
+
+
+def strength_scalars(curves: dict, test, detector_fired: bool, self_weight: float) -> dict:
+    """The unconfined stage's scalars from its ``curves``: ``unconfined_strength`` [Pa],
+    ``strain_at_peak`` [-] and ``unconfined_failure`` (1 or 0) read from the test's
+    ``strength_from`` curve, the interior virial stress (the peak of the curve smoothed over
+    ``failure_strain``) or the top platen's (its largest value, the seed's estimator), a
+    failure being the in-run detector's (``detector_fired``, on that curve) or
+    :func:`failed_by_curve`'s on that curve; beside them ``unconfined_strength_platen``,
+    ``unconfined_strength_interior`` (where the curve exists), ``self_weight_stress``
+    (``self_weight`` [Pa]: the sample's weight over its cross-section, halved) and
+    ``strength_from_interior`` (1 where the strength is the interior's)."""
+    e = np.asarray(curves["strain"], dtype=float)
+    w = test.failure_strain
+    platen = np.asarray(curves["stress_top"], dtype=float)
+    strength_p, strain_p, _ = unconfined_strength(e, platen, False)
+    out = {"unconfined_strength_platen": strength_p, "self_weight_stress": float(self_weight)}
+    interior = curves.get("stress_interior")
+    if interior is not None:
+        strength_i, strain_i = smoothed_peak(e, interior, w)
+        out["unconfined_strength_interior"] = strength_i
+    if test.strength_from == "interior" and interior is not None:
+        strength, strain, curve = strength_i, strain_i, interior
+    else:
+        strength, strain, curve = strength_p, strain_p, platen
+    failed = detector_fired or failed_by_curve(e, curve, w)
+    out.update(
+        unconfined_strength=strength,
+        strain_at_peak=strain,
+        unconfined_failure=1.0 if failed else 0.0,
+        strength_from_interior=1.0 if curve is interior else 0.0,
+    )
+    return out
+
+
+def smoothed_peak(strain: np.ndarray, stress: np.ndarray, window: float) -> tuple[float, float]:
+    """The peak of ``stress`` smoothed over ``window`` of strain [-] (as
+    :func:`failed_by_curve` smooths it; at least 1e-3) [Pa], not below 0, and the strain at
+    it [-]."""
+    e = np.asarray(strain, dtype=float)
+    sm = smoothed(e, stress, max(float(window), 1e-3))
+    k = int(np.argmax(sm))
+    return max(0.0, float(sm[k])), float(e[k])
+
+
+def strength_curve(test, curves: dict) -> np.ndarray:
+    """The unconfined curve a run's strength and failure are read from [Pa]: the interior
+    virial stress where the test reads it (``strength_from``) and the run recorded it, else
+    the top platen's stress (runs stored before the interior curve existed)."""
+    if getattr(test, "strength_from", "platen") == "interior" and "stress_interior" in curves:
+        return curves["stress_interior"]
+    return curves["stress_top"]
 
 
 def unconfined_strength(

@@ -26,6 +26,7 @@ CURVE_UNITS = {
     "coordination_interior": "1",
     "stress_lateral": "Pa",
     "stress_vertical": "Pa",
+    "stress_interior": "Pa",
 }
 
 
@@ -111,4 +112,14 @@ SCALAR_UNITS = {
     "threads": "1",
     "max_inertial_number": "1",
     "k0": "1",
+    "unconfined_strength_platen": "Pa",
+    "unconfined_strength_interior": "Pa",
+    "self_weight_stress": "Pa",
+    "strength_from_interior": "1",
+    "dt_fraction": "1",
+    "dt_critical": "s",
+    "dt_limited_by_wall": "1",
+    "impact_speed": "m/s",
+    "inertial_number_held": "1",
+    "inertial_number_held_max": "1",
 }

@@ -32,12 +32,51 @@ GRAVITY = 9.81  # [m/s^2]
 MIN_THICKNESS_DIAMETERS = 5.0
 
 
+#: The seed's protocol: every field this project's protocol changed since the seed's
+#: reproduction, at its seed value. The fixed time step dt = 1e-5 s, the constant platen speed
+#: of 10 mm/s (``inertial_number`` None), the free-fall fill (``pour_speed`` None) and the
+#: strength read from the top platen's stress; ``dt_fraction`` and ``max_platen_speed`` are
+#: unused under it (stated so that a test made with it is one record). ``preset(name,
+#: protocol="seed")`` is the seed's set-up; a stored run written before these fields existed
+#: reads them from here (:meth:`UniaxialTest.from_stored`).
+SEED_PROTOCOL = {
+    "dt": 1e-5,
+    "dt_fraction": 0.2,
+    "platen_speed": 0.01,
+    "inertial_number": None,
+    "max_platen_speed": 0.1,
+    "strength_from": "platen",
+    "pour_speed": None,
+}
+
+#: The fields a stored test may lack (added with the protocol of issue 40): read at their
+#: seed values.
+_ADDED_FIELDS = ("dt_fraction", "inertial_number", "max_platen_speed", "strength_from")
+
+
 def _cohesionless_law() -> BilinearAdhesive:
     return BilinearAdhesive(k1=5e3, k2=2.5e4, f0=0.0, mu_s=0.5, mu_r=0.001, restitution=0.4)
 
 
 def _platen_law() -> HertzMindlin:
     return HertzMindlin(E=1e8, nu=0.25, restitution=0.4, mu=0.3)
+
+
+@dataclass(frozen=True)
+class TimeStep:
+    """A test's time step and where it comes from (:meth:`UniaxialTest.time_step`).
+
+    Attributes: ``dt`` [s]; ``fraction`` (dt over the critical time) [-]; ``critical``, the
+    smallest stability limit [s]; ``reason``, the contact that sets it; ``kind``, ``"pair"``
+    or ``"wall"``; ``impact_speed``, the speed the Hertz limits assume [m/s].
+    """
+
+    dt: float
+    fraction: float
+    critical: float
+    reason: str
+    kind: str
+    impact_speed: float
 
 
 @dataclass(frozen=True)
@@ -76,7 +115,15 @@ class UniaxialTest(Record):
         wall_material: platen material.
         pre_stress: pre-compression stress [Pa].
         consolidation_stress: consolidation stress [Pa], > pre_stress.
-        platen_speed: top platen speed [m/s].
+        platen_speed: top platen speed [m/s] of every loading stage when ``inertial_number``
+            is None (the seed's constant 10 mm/s).
+        inertial_number: the inertial number I* = (v / h) d sqrt(rho / p) every loading stage
+            (pre-compression, consolidation, unloading, unconfined) holds [-]: its platen moves
+            at the speed v that gives I* for the platen gap h, the mean diameter d, the
+            particle density rho and the top platen stress p (floored at the weight of one
+            layer of grains, rho g d), at most ``max_platen_speed`` (docs/PHYSICS.md section 4,
+            "Loading rate"). None: the constant ``platen_speed``.
+        max_platen_speed: the largest platen speed with ``inertial_number`` [m/s].
         unloaded_stress: unloading ends when the top stress is below this fraction of the
             consolidation stress [-].
         unconfined: run the release and unconfined compression stages.
@@ -95,7 +142,17 @@ class UniaxialTest(Record):
             (the scalar ``interior_margin`` of a result is the one used at consolidation).
         seed: random seed of the packing.
         output_interval: simulated time between curve samples [s].
-        dt: time step [s]; None lets the engine choose from its stability limits.
+        dt: time step [s]; None: ``dt_fraction`` of the critical time of the test's stiffest
+            contact (:meth:`time_step`).
+        dt_fraction: with ``dt`` None, the time step as a fraction of the critical time of the
+            stiffest contact [-]: the smallest stability limit of the damped oscillator of the
+            pair unloading stiffness K2 (lightest pair) and of the platen Hertz contact at the
+            expected impact speed (:attr:`impact_speed`) (docs/PHYSICS.md section 6).
+        strength_from: the curve the unconfined strength and failure are read from:
+            ``"interior"``, the axial contact-virial stress of the particles whose centres lie
+            in the interior window (the peak of its smoothed curve), or ``"platen"``, the top
+            platen's stress (the largest value: the seed's estimator; runs stored before the
+            interior curve existed were read so). Both are reported.
         max_stage_time: bound on the simulated time of any single stage [s].
     """
 
@@ -155,7 +212,20 @@ class UniaxialTest(Record):
     consolidation_stress: float = param(
         20e3, unit="Pa", gt=0, doc="consolidation stress (> pre_stress)"
     )
-    platen_speed: float = param(0.01, unit="m/s", doc="top platen speed", gt=0)
+    platen_speed: float = param(
+        0.01, unit="m/s", gt=0, doc="top platen speed when inertial_number is None"
+    )
+    inertial_number: float | None = param(
+        None,
+        unit="1",
+        gt=0,
+        le=0.01,
+        nullable=True,
+        doc="inertial number every loading stage holds (None: constant platen_speed)",
+    )
+    max_platen_speed: float = param(
+        0.1, unit="m/s", gt=0, le=1.0, doc="largest platen speed with inertial_number"
+    )
     unloaded_stress: float = param(
         0.01,
         unit="1",
@@ -189,7 +259,25 @@ class UniaxialTest(Record):
     seed: int = param(1, unit="", kind="int", ge=0, lt=2**31, doc="packing seed")
     output_interval: float = param(1e-3, unit="s", gt=0, doc="time between curve samples")
     dt: float | None = param(
-        1e-5, unit="s", gt=0, nullable=True, doc="time step (None: chosen from the stability limit)"
+        1e-5,
+        unit="s",
+        gt=0,
+        nullable=True,
+        doc="time step (None: dt_fraction of the critical time of the stiffest contact)",
+    )
+    dt_fraction: float = param(
+        0.2,
+        unit="1",
+        gt=0,
+        le=0.5,
+        doc="with dt None: time step over the critical time of the stiffest contact",
+    )
+    strength_from: str = param(
+        "platen",
+        unit="",
+        kind="str",
+        choices=("interior", "platen"),
+        doc="unconfined strength from the interior virial stress or the top platen",
     )
     max_stage_time: float = param(5.0, unit="s", gt=0, doc="bound on any stage's time")
 
@@ -272,15 +360,28 @@ class UniaxialTest(Record):
                 f"weight over (2R)^2) needs an overlap of {d_load:.3g} m, beyond "
                 f"{MAX_OVERLAP_FRACTION:g} x the smallest radius",
             )
-        if self.dt is not None:
-            lim = self.time_step_limit()
-            if self.dt > lim.dt:
-                raise ParameterError(
-                    f"{o}.dt",
-                    self.dt,
-                    f"<= {lim.dt:.4g} s, the stable limit "
-                    f"set by {lim.reason} (recommended {lim.recommended:.4g} s)",
-                )
+        lim = self.time_step_limit()
+        if self.dt is not None and self.dt > lim.dt:
+            raise ParameterError(
+                f"{o}.dt",
+                self.dt,
+                f"<= {lim.dt:.4g} s, the stable limit "
+                f"set by {lim.reason} (recommended {lim.recommended:.4g} s)",
+            )
+        if self.dt is None and not math.isfinite(lim.dt):
+            raise ParameterError(
+                f"{o}.dt", None, "given explicitly", "no contact law limits the time step"
+            )
+
+    @classmethod
+    def from_stored(cls, data: dict) -> UniaxialTest:
+        """The test of a stored run's JSON (:mod:`engine.io.store`): a field it lacks because
+        it was stored before the field existed takes its value in :data:`SEED_PROTOCOL`, the
+        protocol every such run was made with; otherwise :meth:`from_dict`."""
+        data = dict(data)
+        for k in _ADDED_FIELDS:
+            data.setdefault(k, SEED_PROTOCOL[k])
+        return cls.from_dict(data)
 
     @property
     def margin(self) -> float:
@@ -306,13 +407,35 @@ class UniaxialTest(Record):
         """(Lx, Ly, pour height) [m]: the box the loose cloud is placed in."""
         return (self.cell[0], self.cell[1], self.pour_height)
 
+    @property
+    def impact_speed(self) -> float:
+        """The largest speed at which a particle is expected to meet a platen or another
+        particle [m/s]: the free fall over the pour column, sqrt(2 g H_pour), or, with a
+        capped pour, ``pour_speed`` plus what gravity adds within one curve sample (the cap
+        is applied between samples), whichever is less; at least the platen's speed and
+        0.1 m/s (as :func:`engine.simulation.timestep.expected_max_speed`)."""
+        v = math.sqrt(2.0 * self.gravity * self.pour_height)
+        if self.pour_speed is not None:
+            v = min(v, self.pour_speed + self.gravity * self.output_interval)
+        platen = self.platen_speed if self.inertial_number is None else self.max_platen_speed
+        return max(v, platen, 0.1)
+
     def time_step_limit(self):
         """:func:`engine.critical_time_step` of this test's laws for its lightest particles
-        and the free fall over its pour column (a two-particle stand-in for the packing)."""
+        at :attr:`impact_speed` (a two-particle stand-in for the packing)."""
         rmin = self.radius * (1 - self.polydispersity)
         lx, ly, lz = self.pour_region
         pos = np.array([(lx / 2, ly / 2, rmin), (lx / 2, ly / 2, lz - rmin)])
-        return critical_time_step(self.scene(pos, np.full(2, rmin)))
+        return critical_time_step(self.scene(pos, np.full(2, rmin)), self.impact_speed)
+
+    def time_step(self) -> TimeStep:
+        """The time step a run of this test takes and where it comes from: ``dt`` when given,
+        else ``dt_fraction`` of the critical time of the stiffest contact, the smallest
+        stability limit of :meth:`time_step_limit` (docs/PHYSICS.md section 6)."""
+        lim = self.time_step_limit()
+        hard = min((c for c in lim.candidates if c.hard), key=lambda c: c.value)
+        dt = self.dt if self.dt is not None else self.dt_fraction * lim.dt
+        return TimeStep(dt, dt / lim.dt, lim.dt, lim.reason, hard.kind, self.impact_speed)
 
     def scene(self, positions: np.ndarray, radii: np.ndarray) -> Scene:
         """The test's scene for particles at ``positions`` [m] with ``radii`` [m]: periodic
@@ -349,8 +472,9 @@ class UniaxialTest(Record):
         return pos.copy(), radii.copy()
 
     def resolved_dt(self) -> float:
-        """The time step a run of this test takes [s]: ``dt``, or the recommended one."""
-        return self.dt if self.dt is not None else self.time_step_limit().recommended
+        """The time step a run of this test takes [s]: ``dt``, or ``dt_fraction`` of the
+        critical time of the stiffest contact (:meth:`time_step`)."""
+        return self.dt if self.dt is not None else self.time_step().dt
 
     @property
     def n_particles(self) -> int:
@@ -384,11 +508,30 @@ def _packing(
     return loose_packing(radii, [(0, lx), (0, ly), (0, lz)], seed=seed), radii
 
 
+def halved_protocol(test: UniaxialTest) -> UniaxialTest:
+    """``test`` at half its loading rate and half its time step, everything else equal: the
+    inertial number (with ``max_platen_speed``) halved, or the constant ``platen_speed``
+    where it has none; ``dt`` halved where given, else ``dt_fraction``. A run of it against
+    ``test``'s shows whether the protocol is quasi-static and its step converged (a study
+    proves its own protocol, issue 40)."""
+    if test.inertial_number is not None:
+        rate = {
+            "inertial_number": test.inertial_number / 2,
+            "max_platen_speed": test.max_platen_speed / 2,
+        }
+    else:
+        rate = {"platen_speed": test.platen_speed / 2}
+    step = {"dt": test.dt / 2} if test.dt is not None else {"dt_fraction": test.dt_fraction / 2}
+    return replace(test, **rate, **step)
+
+
 #: Named tests: their cells and what each stands for.
 PRESETS = ("paper", "quick")
+#: Protocols of :func:`preset`: the default, and the seed's (:data:`SEED_PROTOCOL`).
+PROTOCOLS = ("default", "seed")
 
 
-def preset(name: str, **overrides) -> UniaxialTest:
+def preset(name: str, protocol: str = "default", **overrides) -> UniaxialTest:
     """A named test; keyword overrides replace fields.
 
     ``"paper"``: the set-up of Thakur et al. (2013) as written: a 50 x 150 x 300 mm cuboid
@@ -403,11 +546,20 @@ def preset(name: str, **overrides) -> UniaxialTest:
 
     ``"quick"``: the same law, speed and time step in a 50 x 50 x 100 mm cuboid (about
     2,300 particles at R = 2.5 mm), the smoke-test scale: a few minutes per study.
+
+    ``protocol="seed"``: the seed's set-up of the preset as this project first reproduced it
+    (:data:`SEED_PROTOCOL`); the stored studies of the seed's experiments are made with it.
     """
+    if protocol not in PROTOCOLS:
+        raise ParameterError(
+            "preset.protocol", protocol, "one of " + ", ".join(repr(p) for p in PROTOCOLS)
+        )
     if name == "paper":
         base = UniaxialTest(cell=(0.05, 0.15, 0.30))
     elif name == "quick":
         base = UniaxialTest(cell=(0.05, 0.05, 0.1))
     else:
         raise ParameterError("preset", name, "one of " + ", ".join(repr(p) for p in PRESETS))
+    if protocol == "seed":
+        base = replace(base, **SEED_PROTOCOL)
     return replace(base, **overrides) if overrides else base

@@ -1,0 +1,227 @@
+"""The run protocol (docs/PROTOCOL.md, docs/PHYSICS.md sections 4 and 6): the time step as a
+stated fraction of the critical time of the stiffest contact, the platen speed that holds a
+stated inertial number, the halved protocol, the interior virial strength and the seed's
+protocol kept one option away."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+import engine
+from engine.contact.hertz import hertz_damping_factor, hertz_impact_overlap
+from engine.contact.limits import damping_ratio
+from engine.simulation.packing import sphere_volume
+from engine.uniaxial.measures import (
+    SAMPLES_PER_WINDOW,
+    SHEAR_BAND_DIAMETERS,
+    held_inertial_numbers,
+    interior_axial_stress,
+    loading_speed,
+    stress_floor,
+)
+from engine.uniaxial.spec import SEED_PROTOCOL, halved_protocol
+
+from .test_uniaxial import COHESIVE, tiny
+
+ROOT = Path(__file__).resolve().parents[2]
+R = 2.5e-3
+
+
+def _oscillator(k: float, m: float, zeta: float) -> float:
+    w = math.sqrt(k / m)
+    return 2.0 / w * (math.sqrt(1 + zeta * zeta) - zeta)
+
+
+def test_the_step_is_a_fraction_of_the_pair_unloading_limit_when_the_pour_is_slow():
+    # a pour capped at 0.1 m/s: the platen Hertz contact at that impact is softer than the
+    # pair unloading branch K2, whose damped-oscillator limit (lightest pair, the damping of
+    # K1 seen by K2) is then the critical time
+    t = tiny(pair_law=COHESIVE, dt=None, dt_fraction=0.3, pour_speed=0.1)
+    ts = t.time_step()
+    m = 2000.0 * sphere_volume(R)
+    zeta = damping_ratio(0.4) * math.sqrt(COHESIVE.k1 / COHESIVE.k2)
+    assert ts.kind == "pair"
+    assert ts.critical == pytest.approx(_oscillator(COHESIVE.k2, m / 2, zeta), rel=1e-12)
+    assert ts.dt == pytest.approx(0.3 * ts.critical, rel=1e-12) and t.resolved_dt() == ts.dt
+    assert ts.impact_speed == pytest.approx(0.1 + t.gravity * t.output_interval)
+
+
+def test_the_step_is_a_fraction_of_the_platen_hertz_limit_at_the_free_fall_speed():
+    # a free fall from the pour column hits the platen at sqrt(2 g H_pour): the Hertz
+    # stiffness at the overlap of that impact, 2 E* sqrt(R d_max), is the stiffest contact
+    t = engine.preset("paper", dt=None, dt_fraction=0.25)
+    ts = t.time_step()
+    v = math.sqrt(2 * t.gravity * t.pour_height)
+    e_star = 1 / ((1 - 0.25**2) / 1e8 + (1 - 0.3**2) / 2e11)
+    m = 2000.0 * sphere_volume(R)
+    d = hertz_impact_overlap(m, R, e_star, v)
+    limit = _oscillator(2 * e_star * math.sqrt(R * d), m, 0.5 * hertz_damping_factor(0.4))
+    assert ts.kind == "wall" and ts.impact_speed == pytest.approx(v)
+    assert ts.critical == pytest.approx(limit, rel=1e-12)
+    assert ts.dt == pytest.approx(0.25 * limit, rel=1e-12)
+    # an explicit dt is kept; its fraction of the critical time is reported
+    seed = engine.preset("paper", protocol="seed")
+    assert seed.time_step().dt == 1e-5
+    assert seed.time_step().fraction == pytest.approx(1e-5 / ts.critical)
+
+
+@pytest.fixture(scope="module")
+def held():
+    """A tiny cohesive run at a stated inertial number and dt fraction."""
+    t = tiny(pair_law=COHESIVE, dt=None, dt_fraction=0.4, inertial_number=1e-3)
+    return engine.run_uniaxial(t)
+
+
+def test_a_run_records_its_step_and_the_inertial_number_it_held(held):
+    s, t = held.scalars, held.test
+    ts = t.time_step()
+    assert s["dt"] == ts.dt and s["dt_fraction"] == pytest.approx(0.4, rel=1e-12)
+    assert s["dt_critical"] == ts.critical
+    assert s["dt_limited_by_wall"] == (1.0 if ts.kind == "wall" else 0.0)
+    assert s["impact_speed"] == ts.impact_speed
+    # the speed is set from each sample for the next, and it is bounded (the floor, the
+    # resolution cap, the post-peak band): the median holds I* within the change of the
+    # stress over one sample, and none exceeds it by much
+    assert s["inertial_number_held"] == pytest.approx(1e-3, rel=0.15)
+    assert s["inertial_number_held_max"] < 3e-3
+    assert all(np.all(np.isfinite(st.curves["stress_interior"])) for st in held.stages.values())
+
+
+def test_the_platen_speed_holds_the_inertial_number_in_closed_form():
+    t = tiny(inertial_number=2e-4, max_platen_speed=0.5, failure_strain=0.005)
+    d, rho, gap, h0 = 2 * R, 2000.0, 0.1, 0.12
+    # above the floor: v = I* (h / d) sqrt(p / rho)
+    p = 1.5e4
+    v = 2e-4 * gap / d * math.sqrt(p / rho)
+    assert loading_speed(t, gap, p, h0) == pytest.approx(v, rel=1e-12)
+    # below the weight of one layer (rho g d) the floor holds
+    floor = rho * t.gravity * d
+    assert stress_floor(t) == pytest.approx(floor)
+    v0 = 2e-4 * gap / d * math.sqrt(floor / rho)
+    assert loading_speed(t, gap, 0.0, h0) == pytest.approx(v0, rel=1e-12)
+    assert loading_speed(t, gap, -50.0, h0) == pytest.approx(v0, rel=1e-12)
+    # past the unconfined peak the band of SHEAR_BAND_DIAMETERS holds I*
+    post = loading_speed(t, gap, p, h0, unconfined=True, post_peak=True)
+    assert post == pytest.approx(v * SHEAR_BAND_DIAMETERS * d / gap, rel=1e-12)
+    # the bound, and the unconfined resolution cap: failure_strain h0 per SAMPLES_PER_WINDOW
+    fast = replace(t, inertial_number=1e-2)
+    assert loading_speed(replace(fast, max_platen_speed=0.05), gap, p, h0) == 0.05
+    cap = 0.005 * h0 / (SAMPLES_PER_WINDOW * t.output_interval)
+    assert loading_speed(fast, gap, p, h0, unconfined=True) == pytest.approx(cap, rel=1e-12)
+    # and on a synthetic row: a platen closing at that speed holds I* (held_inertial_numbers)
+    tt = np.array([0.0, 1e-3])
+    curves = {
+        "time": tt,
+        "platen_gap": np.array([gap + v * 1e-3, gap]),
+        "stress_top": np.array([p - 500.0, p - 500.0]),
+        "stress_bottom": np.array([p + 500.0, p + 500.0]),
+    }
+    np.testing.assert_allclose(held_inertial_numbers(curves, t), [2e-4], rtol=1e-9)
+
+
+def test_halved_protocol_halves_the_rate_and_the_step_and_nothing_else():
+    t = tiny(inertial_number=5e-4, dt=None, dt_fraction=0.3, max_platen_speed=0.08)
+    h = halved_protocol(t)
+    assert h.inertial_number == 2.5e-4 and h.dt_fraction == 0.15 and h.dt is None
+    assert h.max_platen_speed == 0.04
+    assert replace(h, inertial_number=5e-4, dt_fraction=0.3, max_platen_speed=0.08) == t
+    seed = tiny(**SEED_PROTOCOL)
+    hs = halved_protocol(seed)
+    assert hs.platen_speed == 0.005 and hs.dt == 5e-6 and hs.inertial_number is None
+    assert replace(hs, platen_speed=0.01, dt=1e-5) == seed
+
+
+def test_a_simple_cubic_stack_carries_the_platen_stress_in_its_interior():
+    # m x m columns of n spheres in contact, each vertical contact pressed by F: the interior
+    # virial stress is F / d^2 whatever whole layers the window holds (the platen's stress
+    # over the cross-section m d x m d)
+    m, n, f, delta = 3, 8, 0.7, 1e-6
+    d = 2 * R - delta
+    z = np.tile(R + d * np.arange(n), m * m)
+    ids = np.arange(m * m * n).reshape(m * m, n)
+    pairs = np.array([(c[k + 1], c[k]) for c in ids for k in range(n - 1)])
+    forces = np.tile([0.0, 0.0, f], (len(pairs), 1))  # on the upper sphere, upwards
+    normals = np.tile([0.0, 0.0, 1.0], (len(pairs), 1))
+    gap = 2 * R + (n - 1) * d
+    area = (m * 2 * R) ** 2
+    for margin in (1.5 * 2 * R, 2.5 * 2 * R):
+        s = interior_axial_stress(
+            z, np.full(z.size, R), pairs, forces, normals, np.full(len(pairs), delta), gap,
+            margin, area,
+        )  # fmt: skip
+        # the window [margin, gap - margin] holds whole layers k with z_k inside: each
+        # particle's lever R - delta/2 on its two contacts, over the window's volume
+        inside = (z[:n] >= margin) & (z[:n] <= gap - margin)
+        lever = 2 * (R - delta / 2) * f * inside.sum() * m * m
+        assert s == pytest.approx(lever / (area * (gap - 2 * margin)), rel=1e-12)
+    # with the window holding every contact whole, the stress is F d / (2R)^2 per column
+    whole = interior_axial_stress(
+        z, np.full(z.size, R), pairs, forces, normals, np.full(len(pairs), delta), gap, 0.0,
+        area,
+    )  # fmt: skip
+    assert whole == pytest.approx(f * d * (n - 1) * m * m / (area * gap), rel=1e-12)
+
+
+def test_the_interior_virial_stress_is_the_mean_platen_stress_quasi_statically():
+    # a bed 6 x 6 x 12 diameters (about 500 particles) consolidated at I* = 1e-3: the
+    # interior window's axial virial stress is the mean axial force over the window, the top
+    # platen's plus the weight above the window's middle, the mean of the two platens'
+    # stresses for a centred window. Tolerance 5 %: the count of particle centres near the
+    # window's two edges fluctuates by about its square root (about 12 of its ~400 particles,
+    # 3 %), the kinetic part is below 1e-3.
+    t = engine.UniaxialTest(
+        cell=(0.03, 0.03, 0.06),
+        pair_law=COHESIVE,
+        dt=None,
+        dt_fraction=0.4,
+        inertial_number=1e-3,
+        interior_margin=2 * R,
+        unconfined=False,
+    )
+    res = engine.run_uniaxial(t)
+    c = res.stages["consolidation"].curves
+    platens = 0.5 * (c["stress_top"][-1] + c["stress_bottom"][-1])
+    assert c["stress_interior"][-1] == pytest.approx(platens, rel=0.05)
+
+
+def test_bad_protocol_values_name_the_field():
+    for field, value in (
+        ("inertial_number", 0.5),
+        ("inertial_number", 0.0),
+        ("dt_fraction", 0.9),
+        ("max_platen_speed", 0.0),
+        ("strength_from", "bottom"),
+    ):
+        with pytest.raises(engine.ParameterError, match=field):
+            tiny(**{field: value})
+    with pytest.raises(engine.ParameterError, match="protocol"):
+        engine.preset("quick", protocol="fast")
+
+
+def test_stored_seed_runs_read_as_the_seed_protocol_and_keep_their_platen_strength():
+    # a run stored before the protocol fields existed (experiment (b) at the quick scale):
+    # its test reads them at the seed's values and is the seed preset's, so the stored study
+    # still finds it; its strength is the top platen's, and it has no interior curve
+    from benchmarks.experiments import experiments
+    from engine.io.store import load_run
+
+    path = ROOT / "benchmarks" / "results" / "quick" / "b_cohesive" / "ref-s1.h5"
+    with h5py.File(path, "r") as f:
+        stored = json.loads(f.attrs["test"])
+    assert "inertial_number" not in stored and "strength_from" not in stored
+    res = load_run(path)
+    ref = experiments("quick")["b_cohesive"].reference
+    assert res.test == replace(ref, interior_margin=res.test.interior_margin, seed=1)
+    assert res.test.inertial_number is None and res.test.dt == 1e-5
+    assert res.test.strength_from == "platen"
+    u = res.stages["unconfined"].curves
+    assert "stress_interior" not in u
+    assert res.scalars["unconfined_strength"] == pytest.approx(float(np.max(u["stress_top"])))
+    assert engine.preset("quick", protocol="seed").cell == (0.05, 0.05, 0.1)

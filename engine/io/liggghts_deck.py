@@ -86,7 +86,8 @@ STAGES = ("fill", "pre_compression", "consolidation", "unloading", "release", "u
 #: force on the top platen and the z force of the bottom platen on the particles [N],
 #: translational and rotational kinetic energy [J], the particle-particle contacts counted
 #: at both ends (LIGGGHTS ``contact/atom``, summed), the solid volume inside the interior
-#: slab [m^3], the particles whose centres lie in it and their contacts, the sums over
+#: slab [m^3], the particles whose centres lie in it, their contacts and the sum of their
+#: per-atom pair stress zz [N m] (the interior virial stress, minus), the sums over
 #: particles of LIGGGHTS' per-atom pair stress xx, yy, zz [N m] (minus the pair virial),
 #: and for each platen the sum of the levers (radius less overlap) of the particles
 #: touching it [m] and their number.
@@ -102,6 +103,7 @@ COLUMNS = {
     "slab_solid": "m^3",
     "interior_n": "1",
     "interior_contacts": "1",
+    "interior_stress_zz": "N m",
     "stress_xx": "N m",
     "stress_yy": "N m",
     "stress_zz": "N m",
@@ -139,13 +141,11 @@ def _pair_law_kind(law) -> str:
     )
 
 
-#: UniaxialTest fields that set the protocol; a field not listed here and not known to
-#: keep the protocol of the seed (constant platen speed, fixed dt) is refused, so that a
-#: test with a protocol this deck does not write is never exported as if it had the seed's.
-_PROTOCOL_DEFAULTS = {
-    "inertial_number": None,
-    "max_platen_speed": None,
-}
+#: Protocol fields the deck cannot write, at the value it can: a platen speed held to an
+#: inertial number is recomputed after every sample from the stress and, past the
+#: unconfined peak, from a running smoothed strength curve that LIGGGHTS 3.8's input
+#: language (no arrays) cannot keep; the deck moves the platen at ``platen_speed``.
+_PROTOCOL_DEFAULTS = {"inertial_number": None}
 
 
 def check_exportable(test) -> None:
@@ -412,6 +412,7 @@ class _Deck:
                 "slab",
                 "nin",
                 "cin",
+                "szi",
                 "sxx",
                 "syy",
                 "szz",
@@ -464,16 +465,14 @@ class _Deck:
 
     def end(self, stage: str) -> None:
         self.add(
-            f"write_dump all custom {STAGE_DUMP.format(stage)} id x y z radius modify sort id",
+            f"write_dump all custom {STAGE_DUMP.format(stage)} id x y z radius modify sort id "
+            'format "%d %.17g %.17g %.17g %.17g"',
             f'print "# end {stage} ${{n}}" append {CURVES} screen no',
         )
 
-    def thermo(self, fill_wall: bool) -> list[str]:
-        """Thermo output of every compute a sample reads: LIGGGHTS refreshes a compute for
-        a variable between runs only when something asked for it on the run's last step
-        (thermo is printed there, and at a run's set-up), and the pair virial is tallied
-        only on steps whose output asks for it."""
-        computes = [
+    def computes(self, fill_wall: bool) -> list[str]:
+        """Every compute a sample reads."""
+        return [
             "c_fbsum",
             *(["c_ffsum"] if fill_wall else []),
             "c_ker",
@@ -481,6 +480,7 @@ class _Deck:
             "c_slabv",
             "c_insum[1]",
             "c_insum[2]",
+            "c_insum[3]",
             "c_sab[1]",
             "c_sab[2]",
             "c_sab[3]",
@@ -490,8 +490,21 @@ class _Deck:
             "c_lev[4]",
             "c_zmax",
         ]
+
+    def sampler(self, fill_wall: bool) -> list[str]:
+        """A fix that invokes every compute a sample reads on every run's last step:
+        LIGGGHTS lets a variable read a compute between runs only when something invoked it
+        on that step, and tallies the pair virial only on steps something asked for it."""
+        c = " ".join(self.computes(fill_wall))
+        return [f"fix sample all ave/time {self.S} 1 {self.S} {c}"]
+
+    def setup_run(self, fill_wall: bool) -> list[str]:
+        """A set-up run of no steps (new fixes, a new box) with the computes in the thermo
+        output, which invokes them there, then the thermo output back to the step alone."""
         return [
-            "thermo_style custom step atoms ke " + " ".join(computes),
+            "thermo_style custom step atoms ke " + " ".join(self.computes(fill_wall)),
+            "run 0",
+            "thermo_style custom step atoms ke",
             "thermo_modify norm no lost error",
         ]
 
@@ -511,6 +524,7 @@ class _Deck:
         self.add(
             "",
             f"log {LOG}",
+            "echo none",
             "units si",
             "atom_style granular",
             "atom_modify map array sort 0 0.0",
@@ -547,6 +561,8 @@ class _Deck:
             "variable inside atom (z>=v_lo)*(z<=v_hi)",
             "compute cn all contact/atom",
             "variable cinside atom v_inside*c_cn",
+            "compute sa all stress/atom pair",
+            "variable szin atom v_inside*c_sa[3]",
             "variable tb atom z<r",
             "variable lb atom (z<r)*z",
             "variable tt atom (v_ztop-z)<r",
@@ -559,9 +575,8 @@ class _Deck:
             "compute ncn all reduce sum c_cn",
             "# the interior slab (engine.uniaxial.measures.interior_measures)",
             "compute slabv all reduce sum v_vsp",
-            "compute insum all reduce sum v_inside v_cinside",
+            "compute insum all reduce sum v_inside v_cinside v_szin",
             "# pair virial, minus (engine.Simulation.pair_stress)",
-            "compute sa all stress/atom pair",
             "compute sab all reduce sum c_sa[1] c_sa[2] c_sa[3]",
             "# platen levers (engine.kernel.virial.platen_levers)",
             "compute lev all reduce sum v_lb v_tb v_lt v_tt",
@@ -581,6 +596,9 @@ class _Deck:
             "variable slab equal c_slabv",
             "variable nin equal c_insum[1]",
             "variable cin equal c_insum[2]",
+            "variable szi equal c_insum[3]",
+            f"variable sin equal -v_szi/({_num(self.area)}*(v_hi-v_lo)+(v_hi<=v_lo))*(v_hi>v_lo)",
+            f"variable sdet equal v_{'sin' if t.strength_from == 'interior' else 'stop'}",
             "variable sxx equal c_sab[1]",
             "variable syy equal c_sab[2]",
             "variable szz equal c_sab[3]",
@@ -595,7 +613,9 @@ class _Deck:
             "variable vplaten equal 0.0",
             "variable ftop equal -c_ffsum",
             "",
-            *self.thermo(fill_wall=True),
+            *self.sampler(fill_wall=True),
+            "thermo_style custom step atoms ke",
+            "thermo_modify norm no lost error",
             f"thermo {self.S}",
             f'print "# demscale LIGGGHTS output: {" ".join(COLUMNS)}" file {CURVES} screen no',
         )
@@ -623,7 +643,7 @@ class _Deck:
     def fill(self) -> None:
         t = self.t
         self.begin("fill")
-        self.add("run 0")
+        self.add(*self.setup_run(fill_wall=True))
         self.start_stage("fill")
         after: tuple[str, ...] = ()
         if t.pour_speed is not None:
@@ -641,9 +661,10 @@ class _Deck:
         if t.gravity_off_after_fill:
             self.add("unfix grav")
         self.add(
-            *self.thermo(fill_wall=False),
+            "unfix sample",
             "unfix wallf",
             "uncompute ffsum",
+            *self.sampler(fill_wall=False),
             f"variable zp equal c_zmax+{_num(PLACE_GAP * t.radius)}",
             "variable zplace equal ${zp}",
             f"fix topmesh all mesh/surface/stress file {PLATE} type 2 move 0.0 0.0 ${{zplace}}",
@@ -653,7 +674,7 @@ class _Deck:
             f"variable vplaten equal {_num(-t.platen_speed)}",
             "fix movetop all move/mesh mesh topmesh linear/variable v_zero v_zero v_vmesh",
             "variable ftop equal f_topmesh[3]",
-            "run 0",
+            *self.setup_run(fill_wall=False),
         )
         self.start_stage("pre_compression")
         self.loop("pre_compression", f"v_stop>={_num(t.pre_stress)}")
@@ -696,7 +717,7 @@ class _Deck:
             "variable sbase equal ${n}",
             "variable vplaten equal 0.0",
             "fix movetop all move/mesh mesh topmesh linear/variable v_zero v_zero v_vmesh",
-            "run 0",
+            *self.setup_run(fill_wall=False),
         )
         self.start_stage("release")
         t_min, t_max = release_times(t)
@@ -715,16 +736,17 @@ class _Deck:
         self.begin("unconfined")
         self.velocity(-t.platen_speed)
         self.add(
-            "# demscale's failure detector (engine.uniaxial.measures.FailureDetector)",
+            "# demscale's failure detector (engine.uniaxial.measures.FailureDetector) on the",
+            "# strength curve (strength_from: the top platen's stress or the interior's)",
             "variable peak equal 0.0",
             "variable below equal 1e300",
         )
         self.add(
-            f"variable isb equal (v_peak>0)*(v_stop<{_num(1 - t.failure_drop)}*v_peak)",
+            f"variable isb equal (v_peak>0)*(v_sdet<{_num(1 - t.failure_drop)}*v_peak)",
             f"variable fdone equal (v_strain-v_below)>={_num(t.failure_strain)}",
         )
         detector = (
-            'if "${stop} > ${peak}" then "variable peak equal ${stop}"',
+            'if "${sdet} > ${peak}" then "variable peak equal ${sdet}"',
             'if "${isb} == 0" then "variable below equal 1e300"',
             'if "${isb} == 1 && ${strain} < ${below}" then "variable below equal ${strain}"',
             f'if "${{fdone}} > 0" then "print \'# failed ${{n}}\' append {CURVES} screen no"',

@@ -26,14 +26,15 @@ from pathlib import Path
 import numpy as np
 
 from ..simulation.packing import sphere_volume
-from ..uniaxial.driver import StageError
+from ..uniaxial.driver import LOADING, StageError
 from ..uniaxial.measures import (
     FailureDetector,
-    failed_by_curve,
+    held_inertial_numbers,
     interior_margin,
     lateral_ratio,
     secant_slope,
-    unconfined_strength,
+    strength_curve,
+    strength_scalars,
 )
 from ..uniaxial.results import CURVE_UNITS, StageResult, UniaxialResult
 from ..uniaxial.spec import UniaxialTest
@@ -167,6 +168,9 @@ def stage_curves(test: UniaxialTest, stage: str, rows: np.ndarray, h0: float, ra
         ),
         "stress_lateral": -0.5 * (c["stress_xx"] + c["stress_yy"]) / volume,
         "stress_vertical": (-c["stress_zz"] + platen) / volume,
+        "stress_interior": np.where(
+            slab > 0, -c["interior_stress_zz"] / np.where(slab > 0, slab, 1.0), 0.0
+        ),
     }
     for k, v in out.items():
         if not np.all(np.isfinite(v)):
@@ -213,11 +217,14 @@ def read_output(directory) -> UniaxialResult:
         raise OutputError(f"{directory / CURVES}: stages {list(stages)}, not {expected}")
     log = directory / LOG
     seconds, ranks = loop_seconds(log.read_text()) if log.exists() else (0.0, 1)
-    return UniaxialResult(test, stages, scalars(test, stages, len(radii), seconds, ranks))
+    solid = float(sphere_volume(radii).sum())
+    return UniaxialResult(test, stages, scalars(test, stages, len(radii), solid, seconds, ranks))
 
 
-def scalars(test, stages: dict, n: int, seconds: float, ranks: int) -> dict:
-    """The scalars of a demscale run (engine.uniaxial.driver) from the stages read back."""
+def scalars(test, stages: dict, n: int, solid: float, seconds: float, ranks: int) -> dict:
+    """The scalars of a demscale run (engine.uniaxial.driver ``finish``) from the stages
+    read back: ``n`` particles of ``solid`` volume [m^3], ``seconds`` of LIGGGHTS' run loops
+    on ``ranks`` MPI ranks (in ``wall_time`` and ``threads``; ``setup_time`` 0)."""
     s: dict[str, float] = {}
     cons, unl = stages["consolidation"].curves, stages["unloading"].curves
     s["loading_stiffness"] = secant_slope(cons["strain"], cons["stress_top"], 0.5, 1.0)
@@ -232,26 +239,33 @@ def scalars(test, stages: dict, n: int, seconds: float, ranks: int) -> dict:
     s["interior_margin"] = interior_margin(test.margin, gap, dmax / 2)
     if "unconfined" in stages:
         u = stages["unconfined"].curves
-        # the detector replayed on the samples (the deck's own copy marks the same step)
+        # the detector replayed on the strength curve's samples (the deck's own copy stopped
+        # the stage on the same sample)
         det = FailureDetector(test.failure_drop, test.failure_strain)
-        fired = any(det.update(e, x) for e, x in zip(u["strain"], u["stress_top"]))
-        failed = fired or failed_by_curve(u["strain"], u["stress_top"], test.failure_strain)
-        strength, strain, failed = unconfined_strength(u["strain"], u["stress_top"], failed)
-        s["unconfined_strength"] = strength
-        s["strain_at_peak"] = strain
-        s["unconfined_failure"] = 1.0 if failed else 0.0
+        fired = any(det.update(e, x) for e, x in zip(u["strain"], strength_curve(test, u)))
+        area = test.cell[0] * test.cell[1]
+        g = 0.0 if test.gravity_off_after_fill else test.gravity
+        s.update(strength_scalars(u, test, fired, test.density * solid * g / (2.0 * area)))
     last = sum(st.steps for st in stages.values())
     s["particles"] = float(n)
     s["steps"] = float(last)
-    s["dt"] = test.resolved_dt()
+    ts = test.time_step()
+    s["dt"] = ts.dt
+    s["dt_fraction"] = ts.dt / ts.critical
+    s["dt_critical"] = ts.critical
+    s["dt_limited_by_wall"] = 1.0 if ts.kind == "wall" else 0.0
+    s["impact_speed"] = ts.impact_speed
+    held = np.concatenate(
+        [held_inertial_numbers(stages[k].curves, test) for k in LOADING if k in stages]
+    )
+    s["inertial_number_held"] = float(np.median(held))
+    s["inertial_number_held_max"] = float(np.max(held))
     s["setup_time"] = 0.0
     s["wall_time"] = seconds
     s["particle_steps"] = s["particles"] * last
     s["threads"] = float(ranks)
     s["max_inertial_number"] = max(
-        float(np.max(stages[k].curves["inertial_number"]))
-        for k in ("pre_compression", "consolidation", "unloading", "unconfined")
-        if k in stages
+        float(np.max(stages[k].curves["inertial_number"])) for k in LOADING if k in stages
     )
     bad = [k for k, v in s.items() if not math.isfinite(v)]
     if bad:
@@ -294,21 +308,31 @@ def judge_runs(runs: list, references: list, tolerances: dict | None = None, con
     Returns {verdict, reason, metrics (per metric: error, signed_error, interval, verdict,
     ...), seeds, reference_seeds, failed (the error texts), radius, noise (the references'
     spread per metric)}."""
+    from types import SimpleNamespace
+
+    from ..core.errors import ParameterError
     from ..study.advisor import judge_groups
-    from ..study.metrics import metric_names, metric_values
-    from ..study.spec import StudySpec
+    from ..study.judge import CONFIDENCE
+    from ..study.metrics import DEFAULT_TOLERANCES, metric_names, metric_values
 
     done = [r for r in runs if not isinstance(r, str)]
     failed = [r for r in runs if isinstance(r, str)]
     refs = [r for r in references if not isinstance(r, str)]
     if len(refs) < 2:
         raise ValueError(f"{len(refs)} finished reference run(s): a verdict needs at least 2")
+    tol = dict(DEFAULT_TOLERANCES)
+    for k, v in (tolerances or {}).items():
+        if k not in tol:
+            raise ParameterError("tolerances", k, f"a metric among {sorted(tol)}")
+        if not 0 < v <= 1:
+            raise ParameterError(f"tolerances.{k}", v, "in (0, 1]")
+        tol[k] = float(v)
+    confidence = CONFIDENCE if confidence is None else float(confidence)
+    if not 0.5 <= confidence < 1:
+        raise ParameterError("confidence", confidence, "in [0.5, 1)")
     base = refs[0].test
-    spec = StudySpec(
-        reference=base,
-        tolerances={**(tolerances or {})},
-        **({} if confidence is None else {"confidence": confidence}),
-    )
+    # what the study's verdict rule reads of a study: its reference, tolerances, confidence
+    spec = SimpleNamespace(reference=base, tolerances=tol, confidence=confidence)
     radius = float(done[0].test.radius) if done else float(base.radius)
     out = {
         "radius": radius,

@@ -113,6 +113,28 @@ COLUMNS = {
     "touch_top": "1",
 }
 
+#: The deck's variable behind each column of :data:`COLUMNS` after the stage's index.
+ROW_VARIABLES = (
+    "n",
+    "ztop",
+    "ftop",
+    "fbot",
+    "ket",
+    "ker",
+    "ncon",
+    "slab",
+    "nin",
+    "cin",
+    "szi",
+    "sxx",
+    "syy",
+    "szz",
+    "lbot",
+    "nbot",
+    "ltop",
+    "ntop",
+)
+
 #: Verlet skin in radii of the largest particle: a list is rebuilt when a particle has moved
 #: a quarter radius.
 SKIN_RADII = 0.5
@@ -399,29 +421,7 @@ class _Deck:
 
     def row(self, stage: str) -> None:
         """One sample line of curves.txt."""
-        values = " ".join(
-            "${" + v + "}"
-            for v in (
-                "n",
-                "ztop",
-                "ftop",
-                "fbot",
-                "ket",
-                "ker",
-                "ncon",
-                "slab",
-                "nin",
-                "cin",
-                "szi",
-                "sxx",
-                "syy",
-                "szz",
-                "lbot",
-                "nbot",
-                "ltop",
-                "ntop",
-            )
-        )
+        values = " ".join("${" + v + "}" for v in ROW_VARIABLES)
         self.add(f'print "{STAGES.index(stage)} {values}" append {CURVES} screen no')
 
     def velocity(self, v: float) -> None:
@@ -491,18 +491,19 @@ class _Deck:
             "c_zmax",
         ]
 
-    def sampler(self, fill_wall: bool) -> list[str]:
+    def sampler(self, fill_wall: bool, extra=()) -> list[str]:
         """A fix that invokes every compute a sample reads on every run's last step:
         LIGGGHTS lets a variable read a compute between runs only when something invoked it
         on that step, and tallies the pair virial only on steps something asked for it."""
-        c = " ".join(self.computes(fill_wall))
-        return [f"fix sample all ave/time {self.S} 1 {self.S} {c}"]
+        c = " ".join([*self.computes(fill_wall), *extra])
+        every = self.S if not extra else self.probe_every
+        return [f"fix sample all ave/time {every} 1 {every} {c}"]
 
-    def setup_run(self, fill_wall: bool) -> list[str]:
+    def setup_run(self, fill_wall: bool, extra=()) -> list[str]:
         """A set-up run of no steps (new fixes, a new box) with the computes in the thermo
         output, which invokes them there, then the thermo output back to the step alone."""
         return [
-            "thermo_style custom step atoms ke " + " ".join(self.computes(fill_wall)),
+            "thermo_style custom step atoms ke " + " ".join([*self.computes(fill_wall), *extra]),
             "run 0",
             "thermo_style custom step atoms ke",
             "thermo_modify norm no lost error",
@@ -510,6 +511,20 @@ class _Deck:
 
     # ------------------------------------------------------------------- sections
     def build(self) -> str:
+        self.header()
+        self.add(
+            f'print "# demscale LIGGGHTS output: {" ".join(COLUMNS)}" file {CURVES} screen no',
+        )
+        self.fill()
+        self.compression()
+        self.release()
+        self.unconfined()
+        self.add("", "label finish", f'print "# done ${{n}}" append {CURVES} screen no')
+        return "\n".join(self.lines) + "\n"
+
+    def header(self, periodic: bool = True) -> None:
+        """Everything before the stages: units, box, packing, materials, walls, what a
+        sample reads; ``periodic`` False: a box walled in x and y instead (a probe's)."""
         t = self.t
         law = t.pair_law
         self.add(
@@ -528,7 +543,7 @@ class _Deck:
             "units si",
             "atom_style granular",
             "atom_modify map array sort 0 0.0",
-            "boundary p p f",
+            "boundary p p f" if periodic else "boundary f f f",
             "newton off",
             "communicate single vel yes",
             "processors * * 1",
@@ -545,6 +560,7 @@ class _Deck:
             f"fix wallb all {_wall_model(t)} primitive type 2 zplane 0.0 store_force yes",
             f"fix wallf all {_wall_model(t)} primitive type 2 zplane {_num(fill_top(t))} "
             "store_force yes",
+            *([] if periodic else self.side_walls()),
             "",
             "# Variables. LIGGGHTS 3.8 redefines an equal-style variable by deleting it and",
             "# appending it anew, which shifts every later variable's index, and fixes and",
@@ -617,13 +633,63 @@ class _Deck:
             "thermo_style custom step atoms ke",
             "thermo_modify norm no lost error",
             f"thermo {self.S}",
-            f'print "# demscale LIGGGHTS output: {" ".join(COLUMNS)}" file {CURVES} screen no',
         )
-        self.fill()
-        self.compression()
-        self.release()
-        self.unconfined()
-        self.add("", "label finish", f'print "# done ${{n}}" append {CURVES} screen no')
+
+    def side_walls(self) -> list[str]:
+        """Primitive planes on the cell's four side faces (a probe without periodicity)."""
+        lx, ly = self.t.cell[0], self.t.cell[1]
+        return [
+            f"fix {name} all {_wall_model(self.t)} primitive type 2 {axis}plane {_num(at)} "
+            "store_force yes"
+            for name, axis, at in (
+                ("wx0", "x", 0.0),
+                ("wx1", "x", lx),
+                ("wy0", "y", 0.0),
+                ("wy1", "y", ly),
+            )
+        ]
+
+    def probe(self, steps: int, every: int, periodic: bool) -> str:
+        """A deck that runs ``steps`` steps from the packing at rest with every force on, no
+        platen but the bottom one and the fill's top wall, and writes after every ``every``
+        steps a sample line (:data:`COLUMNS`) and the sums over the particles of the total
+        force and of the walls' forces [N] (``probe.txt``): the pair forces' sum, their
+        difference less gravity, is zero for a law that conserves momentum."""
+        self.header(periodic)
+        walls = ["wallb", "wallf"] + ([] if periodic else ["wx0", "wx1", "wy0", "wy1"])
+        parts = " ".join(f"f_force_{w}[{k}]" for k in (1, 2, 3) for w in walls)
+        self.add(
+            "compute fat all reduce sum fx fy fz",
+            f"compute fwall all reduce sum {parts}",
+        )
+        n = len(walls)
+        sums = [f"c_fwall[{k * n + w + 1}]" for k in range(3) for w in range(n)]
+        for k, axis in enumerate("xyz"):
+            self.add(f"variable fw{axis} equal " + "+".join(sums[k * n : (k + 1) * n]))
+        self.add(
+            "variable fax equal c_fat[1]",
+            "variable fay equal c_fat[2]",
+            "variable faz equal c_fat[3]",
+        )
+        extra = ["c_fat[1]", "c_fat[2]", "c_fat[3]", *[f"c_fwall[{i + 1}]" for i in range(3 * n)]]
+        self.probe_extra = extra
+        names = (*ROW_VARIABLES, "fax", "fay", "faz", "fwx", "fwy", "fwz")
+        row = " ".join("${" + v + "}" for v in names)
+        line = f'print "0 {row}" append probe.txt screen no'
+        self.add(
+            *self.sampler(fill_wall=True, extra=extra),
+            "thermo_style custom step atoms ke",
+            "thermo_modify norm no lost error",
+            f"thermo {every}",
+            f"variable h0 equal {_num(fill_top(self.t))}",
+            "variable t0 equal 0",
+            f'print "# probe: {" ".join(COLUMNS)} sum_fx sum_fy sum_fz wall_fx wall_fy wall_fz"'
+            " file probe.txt screen no",
+            *self.setup_run(fill_wall=True, extra=extra),
+            line,
+        )
+        for _ in range(steps // every):
+            self.add(f"run {every} pre no post no", line)
         return "\n".join(self.lines) + "\n"
 
     def pour_variables(self) -> list[str]:
@@ -789,6 +855,31 @@ def deck(test, skin: float | None = None, radii: np.ndarray | None = None) -> st
     return _Deck(test, skin, rmax).build()
 
 
+def probe_deck(
+    test,
+    positions: np.ndarray,
+    radii: np.ndarray,
+    steps: int,
+    every: int,
+    periodic: bool = True,
+    skin: float | None = None,
+) -> dict[str, str]:
+    """The files of a probe deck: ``test``'s materials, walls and measures on the packing
+    ``positions``, ``radii`` [m] at rest, run ``steps`` steps with a sample line every
+    ``every`` steps in ``probe.txt`` (:data:`COLUMNS`, then the sums over the particles of
+    the total force and of the walls' forces on them [N]); ``periodic`` False walls the cell
+    in x and y instead. What it is for: demscale's measures of one state against the deck's
+    (tests), and whether LIGGGHTS' pair forces sum to zero (benchmarks/liggghts_deck.py)."""
+    check_exportable(test)
+    rmax = float(np.max(radii))
+    d = _Deck(test, SKIN_RADII * rmax if skin is None else skin, rmax)
+    d.probe_every = every
+    return {
+        "in.probe": d.probe(steps, every, periodic),
+        DATA: data_file(test, positions, radii),
+    }
+
+
 def write_deck(test, directory, skin: float | None = None) -> Path:
     """Write the deck folder of ``test`` into ``directory`` (created): ``in.demscale``, the
     poured cloud ``packing.data``, the plates ``plate.stl`` and ``plate_wide.stl`` and the
@@ -829,5 +920,6 @@ __all__ = [
     "deck",
     "differences",
     "plate_stl",
+    "probe_deck",
     "write_deck",
 ]

@@ -237,11 +237,15 @@ def differences(test) -> list[str]:
         "primitive plane; LIGGGHTS caps platen friction at mu |F_n| with damping, demscale "
         "at mu times the elastic Hertz force"
     )
-    out.append(
-        "contact history: LIGGGHTS keeps a pair's history on one of its particles and hands "
-        "the other a negated copy, so a contact that changes hands at a list rebuild (a "
-        "particle crossing a periodic face) restarts its plastic overlap"
-    )
+    if _pair_law_kind(law) == "edinburgh" and law.k2 != law.k1:
+        out.append(
+            "contact history across the periodic faces: LIGGGHTS (newton off) computes such "
+            "a contact once from each particle, each with its own copy of the plastic "
+            "history, and the copies part (the one handed to the partner at a list rebuild "
+            "is negated): the two particles feel different forces, so the pair forces stop "
+            "summing to zero; a cohesive bed of this law gains momentum and may not settle "
+            "(docs/LIGGGHTS_DECK.md, the probe)"
+        )
     if test.pour_speed is not None:
         out.append(
             "the fill's speed cap is applied with the same rule, after each sample, through "

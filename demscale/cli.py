@@ -46,7 +46,9 @@ SPEC.json holds an engine.StudySpec: "reference" (a preset name and overrides, o
 field of a uniaxial test), "coarse_radii" [m], "rules" (names such as "paper" or objects
 with stiffness_exponent, adhesion_exponent and adhesive_exponent), "seeds",
 "reference_seeds", "tolerances".
-examples/quick_study.json is one (four runs, about three minutes on two cores).
+examples/quick_study.json is one (7 runs of at most 286 particles: two reference seeds,
+each again at half the time step and loading rate as the protocol check, two coarse
+variants and their resolution control).
 
 Exit status: 0 every run finished; 1 some run failed (what finished is written; the
 failures are in summary.json) or no reference run finished; 2 the spec is not valid."""
@@ -86,6 +88,12 @@ Start a worker of the job service (the same as `python -m service.worker`): it c
 studies from the service's database one at a time and runs them. Use it with
 `demscale serve --no-worker` to run the API and the workers as separate processes; they
 must share DEMSCALE_DATA_DIR (and DEMSCALE_DATABASE_URL, if set)."""
+
+
+#: How an error is printed on the console: one line however long (a log or a test reads
+#: it whole), red, and its text as it is (an engine field such as ``coarse_radii[0]`` is no
+#: rich markup).
+_ERROR = {"style": "red", "markup": False, "highlight": False, "soft_wrap": True}
 
 
 def _missing(modules) -> list[str]:
@@ -222,19 +230,25 @@ def study(args) -> int:
     spec_path = Path(args.spec)
     try:
         body = json.loads(spec_path.read_text())
+        if isinstance(body, dict) and "reference" not in body:
+            raise ValueError(
+                'reference: required (a preset named, e.g. {"preset": "quick"}, or the '
+                "pair law with the other fields of the test): no study runs a default "
+                "reference"
+            )
         if args.decide and isinstance(body, dict):
             body["decide"] = True
         if args.budget is not None and isinstance(body, dict):
             body["budget"] = args.budget
         study = engine.plan(engine.StudySpec.from_dict(body))  # planned once
     except (OSError, json.JSONDecodeError) as e:
-        console.print(f"[red]cannot read the spec {spec_path}:[/red] {e}")
+        console.print(f"cannot read the spec {spec_path}: {e}", **_ERROR)
         return 2
     except (engine.ParameterError, TypeError, ValueError) as e:
-        console.print(f"[red]the spec {spec_path} is not valid:[/red] {e}")
+        console.print(f"the spec {spec_path} is not valid: {e}", **_ERROR)
         return 2
     if args.workers < 1:
-        console.print("[red]--workers must be at least 1[/red]")
+        console.print(f"--workers {args.workers}: must be at least 1", **_ERROR)
         return 2
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -346,10 +360,10 @@ def run(args) -> int:
         if args.snapshot_interval is not None and not args.snapshot_interval > 0:
             raise ValueError("--snapshot-interval must be a time > 0 s")
     except (OSError, json.JSONDecodeError) as e:
-        console.print(f"[red]cannot read the test {path}:[/red] {e}")
+        console.print(f"cannot read the test {path}: {e}", **_ERROR)
         return 2
     except (engine.ParameterError, TypeError, ValueError) as e:
-        console.print(f"[red]the test {path} is not valid:[/red] {e}")
+        console.print(f"the test {path} is not valid: {e}", **_ERROR)
         return 2
     out = Path(args.out)
     snap_dir = out / "snapshots"
@@ -616,8 +630,10 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--reference-radius",
         type=float,
-        default=2.5e-3,
-        help="the law's own radius [m] (default 2.5e-3)",
+        default=None,
+        metavar="R",
+        help="the radius the law is for [m]; needed with --radius when LAW.json has no "
+        "reference_radius (demscale calibrate writes it)",
     )
     p.set_defaults(func=export_cmd)
 
@@ -701,6 +717,10 @@ Every run is stored in DIR/runs as it finishes, and a rerun finds them. Writes:
 With --then-study, a scaling study of the calibrated law follows (its coarse radii and
 rules: --study SPEC.json, else the default study's), written to DIR/study.
 
+Exit status: 0 every target met; 1 the calibration finished but some target is not met by
+the check run (named, with its z; everything is still written) or the then-study had a
+failed run; 2 the input is not valid (the message names the flag or the file's field).
+
 Laboratory values are bulk values; a small cell loses some of each property (the
 resolution curve of a study with controls says how much). --resolution SUMMARY.json
 corrects each run's values to the bulk by the curve of a study whose reference is TEST.json
@@ -708,13 +728,20 @@ corrects each run's values to the bulk by the curve of a study whose reference i
 """
 
 EXPORT_HELP = """\
-Write a contact law (LAW.json: {"type": "BilinearAdhesive" or "EEPA", fields...}), or the
-law scaled to --radius by a rule, as a LIGGGHTS edinburgh/stiffness fragment, or as a JSON or
-CSV table of its parameters with units, to standard output.
+Write a contact law (LAW.json: {"type": "BilinearAdhesive" or "EEPA", fields...,
+"reference_radius": R}), or the law scaled to --radius by a rule, as a LIGGGHTS
+edinburgh/stiffness fragment (each value's meaning and unit in a comment above it), or as a
+JSON or CSV table of its parameters with units, to standard output. A law is calibrated for
+one particle radius: LAW.json's reference_radius [m] (demscale calibrate writes it), or
+--reference-radius; --radius without either is refused.
+
+Exit status: 0 written; 2 LAW.json or an option is not valid (the message names it).
 """
 
 
 def _law_from_json(raw):
+    """A law file's law and the particle radius it is for [m] (``reference_radius``; None
+    where the file does not say)."""
     import engine
 
     laws = {"BilinearAdhesive": engine.BilinearAdhesive, "EEPA": engine.EEPA}
@@ -723,7 +750,38 @@ def _law_from_json(raw):
     from engine.core.records import from_dict
 
     body = dict(raw)
-    return from_dict(laws[body.pop("type")], body)
+    radius = body.pop("reference_radius", None)
+    if radius is not None and not (_is_number(radius) and math.isfinite(radius) and radius > 0):
+        raise ValueError(f"reference_radius = {radius!r}: must be a radius > 0 m")
+    return from_dict(laws[body.pop("type")], body), radius
+
+
+def _is_number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+#: Where a command-line user gave what an engine field names: the flags of ``calibrate``.
+_CALIBRATE_FLAGS = {
+    "calibrate.parameters": "--param",
+    "calibrate.runs": "--runs",
+    "calibrate.resolution": "--resolution",
+    "calibrate.targets": "TARGETS.json",
+}
+
+
+def _calibrate_where(field: str, args) -> str:
+    """The flag or file of ``demscale calibrate`` that holds the engine's ``field``."""
+    head = field.split(".")[0]
+    if field.startswith("calibrate.parameters."):
+        name = field.split(".")[2]
+        box = next((p for p in args.param if p.partition("=")[0].strip() == name), name)
+        return f"--param {box}"
+    for prefix, flag in _CALIBRATE_FLAGS.items():
+        if field.startswith(prefix):
+            return flag
+    if head in ("LabTargets", "CompressionPoint", "StrengthPoint"):
+        return f"{args.targets} ({field})"
+    return f"--test {args.test} ({field})"
 
 
 def _resolution(raw) -> dict:
@@ -775,8 +833,14 @@ def calibrate_cmd(args) -> int:
     except (OSError, json.JSONDecodeError) as e:
         print(f"cannot read the input: {e}", file=sys.stderr)
         return 2
-    except (engine.ParameterError, TypeError, ValueError) as e:
+    except engine.ParameterError as e:
+        print(f"{_calibrate_where(e.field, args)}: not valid: {e}", file=sys.stderr)
+        return 2
+    except (TypeError, ValueError) as e:
         print(f"not valid: {e}", file=sys.stderr)
+        return 2
+    if args.workers < 1:
+        print(f"--workers {args.workers}: must be at least 1", file=sys.stderr)
         return 2
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -806,39 +870,57 @@ def calibrate_cmd(args) -> int:
             resolution=resolution,
         )
     except engine.ParameterError as e:
-        print(f"not valid: {e}", file=sys.stderr)
+        print(f"{_calibrate_where(e.field, args)}: not valid: {e}", file=sys.stderr)
         return 2
     finally:
         if pool is not None:
             pool.shutdown()
     summary = cal.to_summary()
     (out / "calibration.json").write_text(json.dumps(summary, indent=1))
-    law = {"type": type(cal.law).__name__, **to_dict(cal.law)}
+    # the law with the particle radius it is calibrated for: `demscale export --radius`
+    # scales it from there
+    law = {"type": type(cal.law).__name__, **to_dict(cal.law), "reference_radius": test.radius}
     (out / "law.json").write_text(json.dumps(law, indent=1))
     try:
-        (out / "law.liggghts").write_text(to_liggghts(cal.law, note="calibrated by demscale"))
+        (out / "law.liggghts").write_text(
+            to_liggghts(cal.law, note="calibrated by demscale", radius=test.radius)
+        )
     except engine.ParameterError as e:
         print(f"no LIGGGHTS fragment: {e}", file=sys.stderr)
-    print("parameters:")
+    print(f"parameters (calibrated for R = {test.radius:g} m):")
     for n, p in cal.parameters.items():
         lo, hi = p["interval"]
-        print(f"  {n} = {p['median']:.4g} (90 %: {lo:.4g} to {hi:.4g}), {p['status']}")
-    print("targets:")
+        u = f" {p['unit']}" if p.get("unit") not in (None, "", "1") else ""
+        print(f"  {n} = {p['median']:.4g}{u} (90 %: {lo:.4g} to {hi:.4g}{u}), {p['status']}")
+    print("targets (check run of the calibrated law against the laboratory, 1 sd):")
     for q in cal.targets_met:
+        u = f" {q['unit']}" if q.get("unit") not in (None, "", "1") else ""
+        z = "the check run failed" if q["z"] is None else f"z = {q['z']:+.1f}"
         print(
-            f"  {q['name']}: {q['value']:.4g} against {q['lab']:.4g} +/- {q['sd']:.2g}: "
-            + ("met" if q["met"] else f"NOT met (z = {q['z']:+.1f})")
+            f"  {q['name']}: {q['value']:.4g}{u} against {q['lab']:.4g} +/- {q['sd']:.2g}{u}: "
+            + ("met" if q["met"] else f"NOT met ({z})")
         )
     if importlib.util.find_spec("matplotlib") is not None:
         from engine.io.figures import calibration_figure
 
         calibration_figure(summary).savefig(out / "calibration.png", format="png")
     print(f"written to {out}/calibration.json, calibration.png, law.json, law.liggghts")
+    code = 0
+    if not cal.all_met:
+        n = len(cal.targets_met)
+        print(
+            f"calibration finished, but {len(cal.not_met)} of {n} targets NOT met (exit "
+            "status 1): " + "; ".join(cal.not_met),
+            file=sys.stderr,
+        )
+        code = 1
     if not args.then_study:
-        return 0
+        return code
     spec = None
-    if args.study:
-        spec = engine.StudySpec.from_dict(json.loads(Path(args.study).read_text()))
+    if args.study:  # its radii and rules; its reference is the calibrated test
+        body = json.loads(Path(args.study).read_text())
+        body["reference"] = test.to_dict()
+        spec = engine.StudySpec.from_dict(body)
     body = cal.study(spec).to_dict()
     (out / "study.json").write_text(json.dumps(body, indent=1))
     ns = argparse.Namespace(
@@ -851,7 +933,14 @@ def calibrate_cmd(args) -> int:
         quiet=False,
         backend=None,
     )
-    return study(ns)
+    return max(code, study(ns))
+
+
+def _radius_flag(flag: str, value) -> str | None:
+    """Why ``value`` of ``flag`` is not a particle radius, or None."""
+    if value is None or (math.isfinite(value) and value > 0):
+        return None
+    return f"{flag} {value:g}: must be a particle radius > 0 m"
 
 
 def export_cmd(args) -> int:
@@ -859,30 +948,63 @@ def export_cmd(args) -> int:
     import engine
     from engine.io.liggghts import law_table, to_liggghts
 
+    def refuse(msg: str) -> int:
+        print(f"demscale export: {msg}", file=sys.stderr)
+        return 2
+
     try:
-        law = _law_from_json(json.loads(Path(args.law).read_text()))
-        note = ""
-        if args.radius is not None:
-            rule = engine.ScalingRule.named(args.rule)
-            ref = engine.UniaxialTest(radius=args.reference_radius, pair_law=law)
-            scaled = rule.apply(ref, args.radius, ref.dt)
-            law = scaled.pair_law
-            note = (
-                f"scaled from R = {args.reference_radius:g} m to R = {args.radius:g} m by rule "
-                f"{args.rule!r}"
-            )
-        if args.format == "liggghts":
-            sys.stdout.write(to_liggghts(law, note=note))
-        elif args.format == "csv":
-            sys.stdout.write(law_table(law, "csv"))
-        else:
-            print(json.dumps(law_table(law), indent=1))
+        raw = json.loads(Path(args.law).read_text())
     except (OSError, json.JSONDecodeError) as e:
-        print(f"cannot read the law: {e}", file=sys.stderr)
-        return 2
-    except (engine.ParameterError, TypeError, ValueError, KeyError) as e:
-        print(f"not valid: {e}", file=sys.stderr)
-        return 2
+        return refuse(f"cannot read the law {args.law}: {e}")
+    try:
+        law, own_radius = _law_from_json(raw)
+    except (engine.ParameterError, TypeError, ValueError) as e:
+        return refuse(f"{args.law} is not a law: {e}")
+    for flag, value in (("--radius", args.radius), ("--reference-radius", args.reference_radius)):
+        if (why := _radius_flag(flag, value)) is not None:
+            return refuse(why)
+    if (
+        args.reference_radius is not None
+        and own_radius is not None
+        and not math.isclose(args.reference_radius, own_radius, rel_tol=1e-12)
+    ):
+        return refuse(
+            f"--reference-radius {args.reference_radius:g}: {args.law} says the law is for "
+            f"R = {own_radius:g} m (its reference_radius); leave the flag out"
+        )
+    radius = args.reference_radius if args.reference_radius is not None else own_radius
+    note = ""
+    if args.radius is not None:
+        if radius is None:
+            return refuse(
+                f"--radius {args.radius:g}: scaling needs the radius the law is for, and "
+                f"{args.law} has no reference_radius: give --reference-radius R [m]"
+            )
+        try:
+            rule = engine.ScalingRule.named(args.rule)
+        except (engine.ParameterError, KeyError, ValueError) as e:
+            return refuse(f"--rule {args.rule}: {e}")
+        try:
+            ref = engine.UniaxialTest(radius=radius, pair_law=law)
+            law = rule.apply(ref, args.radius, ref.dt).pair_law
+        except engine.ParameterError as e:
+            return refuse(
+                f"--radius {args.radius:g}: the law scaled from R = {radius:g} m by rule "
+                f"{args.rule!r} is not valid: {e}"
+            )
+        note = f"scaled from R = {radius:g} m to R = {args.radius:g} m by rule {args.rule!r}"
+        radius = args.radius
+    try:
+        if args.format == "liggghts":
+            text = to_liggghts(law, note=note, radius=radius)
+        elif args.format == "csv":
+            text = law_table(law, "csv", radius=radius)
+        else:
+            text = json.dumps(law_table(law, radius=radius), indent=1) + "\n"
+    except engine.ParameterError as e:
+        return refuse(f"--format {args.format}: {e}")
+    sys.stdout.write(text)
+    sys.stdout.flush()
     return 0
 
 
@@ -916,3 +1038,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # the reader went away (`demscale export law.json | head -1`): nothing to say to
+        # it; stdout goes to /dev/null so that the interpreter's own flush at exit is quiet
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 141  # 128 + SIGPIPE, as a program the signal stopped

@@ -24,6 +24,7 @@ import engine
 from engine.uniaxial.spec import particle_count
 
 from . import cost
+from .errors import UNION_TAGS, untagged
 from .settings import Settings
 from .spec import StudyCreate
 
@@ -77,6 +78,128 @@ def engine_loc(field: str) -> tuple:
     if head == "ScalingRule":
         rest = []
     return (*prefix, *rest)
+
+
+#: A rule that spans fields is broken by the field the engine names or by one it compares it
+#: with: when the request set only the other one, that one is named (the field the user
+#: gave), with the engine's words. Keyed by the field the engine names; the others as paths
+#: from the same test (or law), most likely first.
+RELATED: dict[str, tuple[tuple[str, ...], ...]] = {
+    "k2": (("k1",),),
+    "consolidation_stress": (("pre_stress",),),
+    "pour_fraction": (("solid_fraction",),),
+    "output_interval": (("dt",), ("platen_speed",), ("cell",)),
+    "max_stage_time": (
+        ("platen_speed",),
+        ("cell",),
+        ("pour_fraction",),
+        ("solid_fraction",),
+        ("pour_speed",),
+        ("gravity",),
+    ),
+    # the stable time step: set by the stiffest law and the lightest particle
+    "dt": (
+        ("pair_law", "k2"),
+        ("pair_law", "k1"),
+        ("pair_law", "kadh"),
+        ("pair_law", "restitution"),
+        ("radius",),
+        ("polydispersity",),
+        ("density",),
+        ("wall_law",),
+        ("wall_material",),
+    ),
+    "f0": (("k1",),),
+    "cell": (("radius",), ("polydispersity",)),
+}
+
+
+def given_paths(value, prefix: tuple = ()) -> set[tuple]:
+    """Every path into a request body (objects and lists, and each one's prefixes): what
+    the client set."""
+    out = {prefix} if prefix else set()
+    if isinstance(value, dict):
+        for k, v in value.items():
+            out |= given_paths(v, (*prefix, k))
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            out |= given_paths(v, (*prefix, i))
+    return out
+
+
+def value_at(body, path: tuple):
+    for key in path:
+        body = body[key]
+    return body
+
+
+def _blamed(loc: tuple, given: set[tuple], data: dict) -> tuple[tuple, str] | None:
+    """The field the client set that breaks the rule the engine reported at ``loc`` (a
+    field the client did not set), and its value in words; None to keep ``loc``."""
+    plain = untagged(loc)
+    if not plain or plain in given:
+        return None
+    name = plain[-1]
+    # the test (or law) the field belongs to: "dt" and "cell" at the test, law fields at it
+    if name in ("dt", "cell", "output_interval", "max_stage_time") or plain[-2:-1] != ("pair_law",):
+        test = plain[:-1]
+    else:
+        test = plain[:-2]
+    for other in RELATED.get(name, ()):
+        where = (*plain[:-1], *other) if name in ("k2", "f0") else (*test, *other)
+        if where in given:
+            value = value_at(data, where)
+            return where, f"{'.'.join(map(str, where))} = {value!r}"
+    return None
+
+
+def engine_error(loc: tuple, msg: str, value, data: dict) -> dict:
+    """A 422 error of the engine's at ``loc`` in the request ``data``: at the field the
+    client set that breaks the rule when the engine named one it left to a default."""
+    blamed = _blamed(loc, given_paths(data), data)
+    if blamed is None:
+        return _error(loc, msg, value)
+    where, given = blamed
+    return _error(
+        tagged(where, data),
+        f"{given}: with it, {msg} ({loc[-1]} was not given: the preset's or the default)",
+        value_at(data, where),
+    )
+
+
+#: The law fields of a test, and the law a body means where it names none (``type``).
+_LAW_FIELDS = {"pair_law": "BilinearAdhesive", "wall_law": "HertzMindlin"}
+
+
+def tagged(path: tuple, data: dict) -> tuple:
+    """``path`` (into the body ``data``) as pydantic writes the loc of a field inside a
+    tagged union: the law's type after ``pair_law`` (``("reference", "pair_law", "EEPA",
+    "k1")``)."""
+    for i, part in enumerate(path[:-1]):
+        if part in _LAW_FIELDS and path[i + 1] not in UNION_TAGS:
+            try:
+                law = value_at(data, path[: i + 1])
+            except (KeyError, IndexError, TypeError):
+                law = {}
+            kind = law.get("type", _LAW_FIELDS[part]) if isinstance(law, dict) else None
+            return (*path[: i + 1], kind, *path[i + 1 :]) if kind else tuple(path)
+    return tuple(path)
+
+
+def _unstable_alone(fields: dict, loc: tuple) -> str | None:
+    """Where the engine refused k2 >= k1 and the client set both: whether k1 alone is beyond
+    the test's time step (with the softest k2 it admits, k2 = k1); the engine's words if so.
+    Then k1 is the field to name, not k2 (a k1 of 1e300 N/m is wrong whatever k2 is)."""
+    law = fields.get("pair_law")
+    if untagged(loc)[-1:] != ("k2",) or not isinstance(law, dict) or "k1" not in law:
+        return None
+    try:
+        engine.UniaxialTest.from_dict({**fields, "pair_law": {**law, "k2": law["k1"]}})
+    except engine.ParameterError as e:
+        return str(e) if e.field.endswith(".dt") else None
+    except Exception:  # anything else: the engine's own error (k2) stands
+        return None
+    return None
 
 
 def particles_from_fields(fields: dict, radius: float) -> float:
@@ -178,19 +301,56 @@ def check_costs(costs: list[cost.RunCost], settings: Settings, kind: str = "stud
         )
 
 
-def _check_bounds(fields: dict, where: str = "reference") -> None:
+def _check_bounds(fields: dict, where: str = "reference", data: dict | None = None) -> None:
     bad = cost.work_bounds(fields, cost.reference_dt(fields))
     if bad:
-        raise SpecRejected(
-            [
-                _error(
-                    (where, name),
-                    f"UniaxialTest.{name} = {value!r} is not allowed: must be {bound}",
-                    value,
-                )
-                for name, value, bound in bad
-            ]
-        )
+        errors: dict[tuple, dict] = {}
+        for name, value, bound in bad:  # one error per field named
+            e = engine_error(
+                (where, name),
+                f"UniaxialTest.{name} = {value!r} is not allowed: must be {bound}",
+                value,
+                data if data is not None else {},
+            )
+            if e["loc"] in errors:
+                errors[e["loc"]]["msg"] += f"; and {e['msg']}"
+            else:
+                errors[e["loc"]] = e
+        raise SpecRejected(list(errors.values()))
+
+
+def refused(e: engine.ParameterError, loc: tuple, data: dict, fields: dict) -> SpecRejected:
+    """The 422 of an engine refusal ``e`` at ``loc`` of the request ``data`` (its test's
+    ``fields`` as built): at the field the client set (:func:`engine_error`), and at k1 where
+    k1 alone is beyond the time step (:func:`_unstable_alone`)."""
+    alone = _unstable_alone(fields, loc)
+    where = (*untagged(loc)[:-1], "k1")
+    if alone is not None and where in given_paths(data):
+        value = value_at(data, where)
+        msg = f"{'.'.join(map(str, where))} = {value!r} is beyond the time step: {alone}"
+        return SpecRejected([_error(tagged(where, data), msg, value)])
+    return SpecRejected([engine_error(loc, str(e), e.value, data)])
+
+
+def check_coarse_radii(data: dict, fields: dict) -> None:
+    """Each coarse radius above the reference's: a coarse variant has larger particles (a
+    finer one is not coarse-graining, and costs more than the reference)."""
+    r_ref = fields.get("radius")
+    if not isinstance(r_ref, (int, float)):
+        return
+    for i, r in enumerate(data.get("coarse_radii") or ()):
+        if isinstance(r, (int, float)) and not r > r_ref:
+            raise SpecRejected(
+                [
+                    _error(
+                        ("coarse_radii", i),
+                        f"coarse_radii[{i}] = {r:g} m is not allowed: must be > the reference "
+                        f"radius {r_ref:g} m (a coarse variant has larger particles than the "
+                        "reference)",
+                        r,
+                    )
+                ]
+            )
 
 
 def _check_size_first(data: dict, settings: Settings) -> None:
@@ -203,17 +363,35 @@ def _check_size_first(data: dict, settings: Settings) -> None:
     fields = cost.reference_fields(data)
     if not isinstance(fields.get("radius"), (int, float)):
         return  # the engine names the bad field
+    check_coarse_radii(data, fields)
     radii = [("reference", (("reference",)), fields["radius"])]
     radii += [
         (f"r{r * 1e3:g}mm", ("coarse_radii", i), r)
         for i, r in enumerate(data.get("coarse_radii", ()))
     ]
+    given = given_paths(data)
     for key, loc, radius in radii:
         n = particles_from_fields(fields, radius)
         if n > settings.max_particles_per_run:
+            if loc == ("reference",):  # the field the client set that makes them many
+                loc = next(
+                    (
+                        ("reference", f)
+                        for f in ("radius", "cell", "solid_fraction", "polydispersity")
+                        if ("reference", f) in given
+                    ),
+                    loc,
+                )
             raise _too_many_particles(loc, key, n, settings)
+    try:  # the reference's own checks first (the time step, k2 >= k1, ...), then the
+        # bounds that compare its fields, then the worst case
+        engine.UniaxialTest.from_dict(fields)
+    except engine.ParameterError as e:
+        raise refused(e, engine_loc(e.field), data, fields) from e
+    except (TypeError, ValueError, KeyError, AttributeError):
+        return  # the engine's building of the spec names it
     try:  # a field the engine will refuse may make the arithmetic fail: the engine names it
-        _check_bounds(fields)
+        _check_bounds(fields, data=data)
         costs = cost.worst_case(data)
     except (SpecRejected, engine.ParameterError):
         raise
@@ -246,7 +424,7 @@ def admit_spec(data: dict, settings: Settings) -> Admitted:
     except SpecRejected:
         raise
     except engine.ParameterError as e:
-        raise SpecRejected([_error(engine_loc(e.field), str(e), e.value)]) from e
+        raise refused(e, engine_loc(e.field), data, cost.reference_fields(data)) from e
     except (TypeError, ValueError) as e:  # e.g. an explicit null where a value is needed
         raise SpecRejected([_error((), f"the spec is not valid: {e}", None)]) from e
     except Exception as e:  # an input the engine's checks did not foresee: logged, refused
@@ -266,7 +444,7 @@ def admit_spec(data: dict, settings: Settings) -> Admitted:
             else ("coarse_radii", spec.coarse_radii.index(biggest.radius))
         )
         raise _too_many_particles(loc, biggest.key, n, settings)
-    _check_bounds(spec.reference.to_dict())
+    _check_bounds(spec.reference.to_dict(), data=data)
     costs = cost.worst_case(spec.to_dict())
     check_costs(costs, settings)
     return Admitted(study, costs)
@@ -345,8 +523,8 @@ def admit_calibration(body, settings: Settings) -> AdmittedCalibration:
         if n > settings.max_particles_per_run:
             raise _too_many_particles(("test",), "calibration run", n, settings)
     try:
-        _check_bounds(fields, "test")
-        test = engine.UniaxialTest.from_dict(fields)
+        test = engine.UniaxialTest.from_dict(fields)  # its own checks first (the time step)
+        _check_bounds(fields, "test", data)
         targets = LabTargets.from_dict(data["targets"])
         params = {k: tuple(v) for k, v in data["parameters"].items()}
         stresses = check_request(test, targets, params, data["runs"])
@@ -357,7 +535,7 @@ def admit_calibration(body, settings: Settings) -> AdmittedCalibration:
     except SpecRejected:
         raise
     except engine.ParameterError as e:
-        raise SpecRejected([_error(calibration_loc(e.field), str(e), e.value)]) from e
+        raise refused(e, calibration_loc(e.field), data, fields) from e
     except (TypeError, ValueError) as e:
         raise SpecRejected([_error((), f"the calibration is not valid: {e}", None)]) from e
     except Exception as e:  # an input the engine's checks did not foresee: logged, refused

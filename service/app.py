@@ -26,6 +26,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 import engine
 
+from .body import JsonBody
 from .db import engine_for
 from .embedded import EmbeddedWorker
 from .errors import validation_error
@@ -130,6 +131,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.dependency_overrides[get_settings] = lambda: settings
     app.state.worker = None
+    # innermost: a body that is not UTF-8 JSON is a 400 before FastAPI reads it
+    app.add_middleware(JsonBody)
     # inside the guard (it knows the owner): a token's submissions, refused ones included
     app.add_middleware(
         SubmitRateLimit, per_minute=settings.submit_rate, burst=settings.submit_burst

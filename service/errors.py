@@ -16,6 +16,8 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 
+from engine.contact.registry import LAWS
+
 
 class ErrorMessage(BaseModel):
     """An error: what went wrong, in words."""
@@ -92,11 +94,11 @@ async def validation_error(request, exc: RequestValidationError) -> JSONResponse
     error of its own at its field, type ``finite_number``, and the echoed inputs are made
     finite (:func:`finite`)."""
     errors = jsonable_encoder(exc.errors())
-    seen = {tuple(e.get("loc", ())) for e in errors}
+    seen = {untagged(e.get("loc", ())) for e in errors}
     body = getattr(exc, "body", None)
     for path in _non_finite_paths(body):
         loc = ("body", *path)
-        if loc not in seen:
+        if untagged(loc) not in seen:
             errors.append(
                 {
                     "type": "finite_number",
@@ -106,6 +108,17 @@ async def validation_error(request, exc: RequestValidationError) -> JSONResponse
                 }
             )
     return JSONResponse(status_code=422, content={"detail": finite(errors)})
+
+
+#: The tags pydantic puts into the ``loc`` of an error inside a tagged union (the contact
+#: laws: ``["body", "reference", "pair_law", "EEPA", "n"]``), where the body has none.
+UNION_TAGS = frozenset(LAWS)
+
+
+def untagged(loc) -> tuple:
+    """``loc`` as a path into the body: the union tags pydantic adds left out, so that a
+    field is one place however its error was found."""
+    return tuple(p for p in loc if p not in UNION_TAGS)
 
 
 def body_at(body: Any, path: tuple) -> Any:

@@ -31,11 +31,14 @@ from pydantic import (
     Field,
     Tag,
     create_model,
+    model_validator,
 )
+from pydantic_core import PydanticCustomError
 
 import engine
 from engine.calibration import CALIBRATED, LabTargets
 from engine.calibration.calibrate import CORRECTED_BY
+from engine.calibration.targets import UNCERTAINTY_OF
 from engine.core.records import ParamInfo, describe
 from engine.study.spec import NAMED_RULES
 from engine.uniaxial.spec import PRESETS
@@ -54,6 +57,31 @@ SERVICE_LIMITS: dict[tuple[str, str], dict[str, Any]] = {
     # bounds relative to dt and the stages, on output_interval and max_stage_time, are
     # checked at admission: a schema cannot state them)
     ("UniaxialTest", "settle_ke"): {"ge": MIN_SETTLE_KE},
+}
+#: Rules that span fields, which JSON Schema cannot state (it compares no two values): each
+#: is written into the field's description in the OpenAPI document, and the request is
+#: refused with a 422 naming the field when it breaks one (the engine's checks, or
+#: :mod:`service.admission`'s where the engine is more lenient than the API).
+CROSS_FIELD_RULES: dict[tuple[str, str], str] = {
+    ("StudySpec", "coarse_radii"): "each > reference.radius (a coarse variant has larger "
+    "particles than the reference) and <= 4 x reference.radius, all distinct; the cell must "
+    "hold 2.4 coarsest diameters across and 2 in height",
+    ("StudySpec", "seeds"): "distinct",
+    ("StudySpec", "reference_seeds"): "distinct",
+    ("StudySpec", "max_seeds"): "with decide: >= the number of seeds",
+    ("StudySpec", "max_reference_seeds"): "with decide: >= the number of reference seeds",
+    ("UniaxialTest", "consolidation_stress"): "> pre_stress",
+    ("UniaxialTest", "pour_fraction"): "<= solid_fraction",
+    ("UniaxialTest", "cell"): "x and y >= 4.8 largest radii, z >= 4 largest radii",
+    ("UniaxialTest", "dt"): "<= the stable limit of the laws for the smallest particles "
+    "(engine.UniaxialTest.time_step_limit; the 422 names the limit)",
+    ("UniaxialTest", "output_interval"): ">= dt and <= 0.01 x cell height / platen_speed",
+    ("UniaxialTest", "max_stage_time"): "<= 10 x max(2 free-fall times of the pour column, "
+    "pour column / platen_speed)",
+    ("UniaxialTest", "pair_law"): "|f0| / k1 within 0.5 of the smallest radius, and stiff "
+    "enough to carry the consolidation stress within that overlap",
+    ("BilinearAdhesive", "k2"): ">= k1",
+    ("EEPA", "k2"): ">= k1",
 }
 #: Longest list or object the API takes where the engine declares no ``max_items``.
 MAX_ITEMS = 32
@@ -188,11 +216,13 @@ def _field_type(owner: type, info: ParamInfo, hint: Any) -> Any:
     return _scalar(info.kind, info, extra)
 
 
-def _description(info: ParamInfo) -> str:
+def _description(owner: type, info: ParamInfo) -> str:
     unit = f" [{info.unit}]" if info.unit else ""
+    text = f"{info.doc}{unit}"
     if info.kind in ("float", "int", "str", "bool") or _bounds(info):
-        return f"{info.doc}{unit}; allowed: {info.limit_text()}"
-    return f"{info.doc}{unit}"
+        text += f"; allowed: {info.limit_text()}"
+    rule = CROSS_FIELD_RULES.get((owner.__name__, info.name))
+    return f"{text}; also: {rule}" if rule else text
 
 
 def fields_of(cls: type) -> dict[str, tuple[Any, Any]]:
@@ -204,7 +234,7 @@ def fields_of(cls: type) -> dict[str, tuple[Any, Any]]:
         if info.nullable:
             kind = kind | None
         field_kwargs: dict[str, Any] = {
-            "description": _description(info),
+            "description": _description(cls, info),
             "json_schema_extra": {"x-unit": info.unit} if info.unit else None,
         }
         if info.required:
@@ -228,18 +258,46 @@ def record_model(cls: type) -> type[BaseModel]:
         name = cls.__name__
         fields = {"type": (Literal[name], Field(name, description="the record's kind")), **fields}
     doc = (cls.__doc__ or cls.__name__).strip().split("\n\n")[0]
-    model = create_model(f"{cls.__name__}In", __config__=_forbid, __doc__=doc, **fields)
+    config = _forbid
+    if cls is LabTargets:  # a target needs its uncertainty: JSON Schema states that much
+        depends = {v: [sd] for v, sd in UNCERTAINTY_OF.items()}
+        config = ConfigDict(extra="forbid", json_schema_extra={"dependentRequired": depends})
+    model = create_model(f"{cls.__name__}In", __config__=config, __doc__=doc, **fields)
     _MODELS[cls] = model
     return model
 
 
 NamedOrRule = _named_or_rule()
 _reference_fields = fields_of(engine.UniaxialTest)
+
+
+class _ReferenceBase(BaseModel):
+    """A test as a request gives it: a named preset, or the pair law (the physics) with any
+    other fields; never the record's defaults alone, which would run a law nobody chose."""
+
+    model_config = ConfigDict(
+        extra="forbid",
+        # JSON Schema states it: at least one of the two
+        json_schema_extra={"anyOf": [{"required": ["preset"]}, {"required": ["pair_law"]}]},
+    )
+
+    @model_validator(mode="after")
+    def _named_or_given(self):
+        if self.preset is None and "pair_law" not in self.model_fields_set:
+            raise PydanticCustomError(
+                "preset_or_pair_law",
+                "give a preset (quick or paper) or the pair law: a test of the record's "
+                "defaults alone would run a law nobody chose",
+            )
+        return self
+
+
 ReferenceIn = create_model(
     "ReferenceIn",
-    __config__=_forbid,
-    __doc__="The fine reference test: a preset and/or fields of engine.UniaxialTest; the "
-    "preset's values (or the record's defaults) fill in what is left out.",
+    __base__=_ReferenceBase,
+    __doc__="The fine reference test: a preset, and/or the pair law and any other fields of "
+    "engine.UniaxialTest; the preset's values (or the record's defaults) fill in what is "
+    "left out. A preset or a pair_law is required.",
     preset=(
         Literal[tuple(PRESETS)] | None,
         Field(None, description="a named test (engine.preset) whose fields the others override"),
@@ -255,9 +313,18 @@ ReferenceIn = create_model(
     },
 )
 _study_fields = fields_of(engine.StudySpec)
+#: Fields the API requires where the engine has a default (none now: the engine requires
+#: a study's reference too; kept so that the two may differ, in the API's favour, and the
+#: agreement test knows it).
+SERVICE_REQUIRED: frozenset[tuple[str, str]] = frozenset({("StudySpec", "reference")})
+_reference_doc = next(i.doc for i in describe(engine.StudySpec) if i.name == "reference")
 _study_fields["reference"] = (
     ReferenceIn,
-    Field({"preset": "quick"}, description="the fine reference test"),
+    Field(
+        ...,
+        description=f"{_reference_doc}: a preset named, e.g. "
+        '{"preset": "quick"}, or the pair law with the other fields of the test',
+    ),
 )
 
 #: A study that fits the default caps: the quick preset against two coarse radii.
@@ -342,8 +409,10 @@ class CalibrationCreate(BaseModel):
 
     name: str | None = Field(None, max_length=NAME_MAX_LENGTH, strict=True, description="A label.")
     test: ReferenceIn = Field(  # type: ignore[valid-type]
-        {"preset": "quick"},
-        description="the uniaxial test whose pair law is calibrated (a preset and/or fields)",
+        ...,
+        description="the uniaxial test whose pair law is calibrated (required: a preset "
+        "named, or the pair law with the other fields of the test); its time step must be "
+        "stable for every law in the parameters' boxes",
     )
     targets: record_model(LabTargets) = Field(  # type: ignore[valid-type]
         ..., description="the laboratory data (engine.calibration.LabTargets)"
@@ -395,5 +464,4 @@ class CalibrationCreate(BaseModel):
         out = self.model_dump(exclude_unset=True, exclude={"name"})
         for k in ("runs", "waves", "wave_runs", "seed"):
             out.setdefault(k, getattr(self, k))
-        out.setdefault("test", {"preset": "quick"})
         return out

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -78,11 +79,16 @@ def test_help_explains_every_command(argv, capsys):
 
 
 def test_example_spec_is_a_valid_small_study():
+    from demscale.cli import STUDY_HELP
+
     spec = engine.StudySpec.from_dict(json.loads((ROOT / "examples/quick_study.json").read_text()))
     runs = engine.plan(spec).runs
-    assert len(runs) == 5 and len(spec.reference_seeds) == 2  # a noise floor exists
+    assert len(spec.reference_seeds) == 2  # a noise floor exists
     assert [p.key for p in runs if p.control] == ["ctl-r3.75mm-s1"]  # its resolution control
-    assert max(p.test.n_particles for p in runs) < 400
+    # what `demscale study --help` says of it is its plan
+    said = re.search(r"quick_study.json is one \((\d+) runs of at most (\d+)", STUDY_HELP)
+    count, most = said.groups()
+    assert (int(count), int(most)) == (len(runs), max(p.test.n_particles for p in runs))
 
 
 def test_invalid_spec_exits_2(tmp_path, capsys):
@@ -249,10 +255,17 @@ def test_calibrate_then_export(tmp_path, capsys):
     out = tmp_path / "cal"
     argv = ["calibrate", str(tmp_path / "lab.json"), "--test", str(tmp_path / "test.json")]
     argv += ["--param", "k1=3e3:2e4", "--out", str(out), "--runs", "5", "--waves", "1"]
-    assert main([*argv, "--wave-runs", "3"]) == 0
+    code = main([*argv, "--wave-runs", "3"])
     text = capsys.readouterr()
     assert "k1 = " in text.out and "loading_stiffness" in text.out and "[8/8]" in text.err
     summary = _strict((out / "calibration.json").read_text())
+    # a target the check run did not meet: exit status 1, said on stderr and in the JSON
+    met = all(q["met"] for q in summary["targets_met"])
+    assert code == (0 if met else 1) and summary["all_targets_met"] == met
+    assert met or "NOT met" in text.err
+    radius = engine.UniaxialTest.from_dict(TINY_TEST).radius
+    assert summary["reference_radius"] == radius
+    assert json.loads((out / "law.json").read_text())["reference_radius"] == radius
     lo_k1, hi_k1 = summary["parameters"]["k1"]["interval"]
     assert lo_k1 <= 8e3 <= hi_k1 and len(summary["runs"]) == 8
     assert "LoadingStiffness" in (out / "law.liggghts").read_text()
@@ -267,9 +280,10 @@ def test_calibrate_then_export(tmp_path, capsys):
         json.dumps({"coarse_radii": [3.1e-3], "rules": ["paper"], "controls": False})
     )
     then = [*argv, "--wave-runs", "3", "--then-study", "--study", str(tmp_path / "then.json")]
-    assert main(then) in (0, 1)  # 1: a verdict is not "equivalent"
+    assert main(then) in (0, 1)  # 1: a target not met, or a run failed
     study = json.loads((out / "study.json").read_text())
     law = json.loads((out / "law.json").read_text())
+    law.pop("reference_radius")
     assert study["reference"]["pair_law"] == law and study["coarse_radii"] == [3.1e-3]
     assert (out / "study" / "summary.json").is_file()
     capsys.readouterr()
@@ -280,3 +294,64 @@ def test_calibrate_then_export(tmp_path, capsys):
     (tmp_path / "res.json").write_text(json.dumps({"k0": [1.0, 0.1]}))
     assert main([*argv, "--resolution", str(tmp_path / "res.json")]) == 2
     assert "calibrate.resolution.k0" in capsys.readouterr().err
+
+
+def test_bad_inputs_exit_2_naming_the_flag_or_field(tmp_path, capsys):
+    """The command-line half of issue 42's replay: each bad input exits 2 with one message
+    that names the flag (or the file and its field) the user gave, before anything runs."""
+    law = {"type": "BilinearAdhesive", "k1": 5e3, "k2": 2.5e4, "f0": -0.4}
+    (tmp_path / "law.json").write_text(json.dumps(law))
+    (tmp_path / "law_r.json").write_text(json.dumps({**law, "reference_radius": 2.5e-3}))
+    (tmp_path / "test.json").write_text(json.dumps(TINY_TEST))
+    lab = {"tester": "uniaxial", "loading_stiffness": 1e6, "loading_stiffness_sd": 1e5}
+    (tmp_path / "lab.json").write_text(json.dumps(lab))
+    (tmp_path / "lab_nosd.json").write_text(json.dumps({**lab, "loading_stiffness_sd": None}))
+    spec = {k: v for k, v in TINY.items() if k != "reference"}
+    (tmp_path / "noref.json").write_text(json.dumps(spec))
+    cal = ["calibrate", str(tmp_path / "lab.json"), "--test", str(tmp_path / "test.json")]
+    cal += ["--out", str(tmp_path / "cal")]
+    cases = [
+        (["export", str(tmp_path / "law_r.json"), "--radius", "-1"], "--radius -1"),
+        (["export", str(tmp_path / "law.json"), "--radius", "5e-3"], "--reference-radius"),
+        (["export", str(tmp_path / "law_r.json"), "--radius", "5e-3", "--rule", "x"], "--rule x"),
+        (["export", str(tmp_path / "law_r.json"), "--reference-radius", "1e-3"], "--reference"),
+        ([*cal, "--param", "k1=3e3:1e300"], "--param k1=3e3:1e300"),
+        ([*cal, "--param", "k1=3e3:2e4", "--runs", "2"], "--runs"),
+        ([*cal[:1], str(tmp_path / "lab_nosd.json"), *cal[2:], "--param", "k1=3e3:2e4"], "_sd"),
+        (["study", str(tmp_path / "noref.json"), "--out", str(tmp_path / "s")], "reference"),
+    ]
+    for argv, word in cases:
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert word in err and err.count("\n") == 1, (argv, err)
+    assert not (tmp_path / "cal" / "runs").exists()  # nothing ran
+
+
+def test_export_into_a_closed_pipe_is_quiet(tmp_path):
+    # `demscale export law.json | head -1`: the reader goes away; no "Broken pipe" message,
+    # the status of a program SIGPIPE stopped
+    law = {"type": "BilinearAdhesive", "k1": 5e3, "k2": 2.5e4, "reference_radius": 2.5e-3}
+    (tmp_path / "law.json").write_text(json.dumps(law))
+    p = subprocess.Popen(
+        [sys.executable, "-m", "demscale", "export", str(tmp_path / "law.json")],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        cwd=ROOT,
+    )
+    p.stdout.close()  # before the command writes
+    err = p.stderr.read().decode()
+    assert p.wait(60) == 141 and err == "", err
+
+
+def test_the_exported_fragment_says_what_each_value_is(tmp_path, capsys):
+    law = {"type": "BilinearAdhesive", "k1": 5e3, "k2": 4.8883e4, "reference_radius": 2.5e-3}
+    (tmp_path / "law.json").write_text(json.dumps(law))
+    assert main(["export", str(tmp_path / "law.json")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    fixes = [i for i, line in enumerate(lines) if line.startswith("fix ")]
+    for i in fixes:  # each value's meaning and unit on the line above it
+        name = lines[i].split()[4]
+        assert lines[i - 1].startswith(f"# {name}: ") and "[" in lines[i - 1], lines[i - 1]
+    ratio = next(lines[i - 1] for i in fixes if "UnloadingStiffness" in lines[i])
+    assert "RATIO K2 / K1" in ratio and "48883" in ratio
+    assert any("R = 0.0025 m" in line for line in lines)

@@ -117,11 +117,15 @@ def _feasible(base_law, axes, u) -> bool:
 
 
 def _maximin(rng, n: int, d: int, ok, tries: int = 40) -> np.ndarray:
-    """A maximin Latin hypercube of ``n`` feasible points in [0, 1]^d (infeasible points
-    of a hypercube are drawn again uniformly until ``ok``)."""
+    """A maximin Latin hypercube of ``n`` feasible points in [0, 1]^d: of ``tries`` Latin
+    hypercubes (``scipy.stats.qmc.LatinHypercube``), the one whose closest two points are
+    farthest apart (the maximin criterion, which scipy's optimisers of a hypercube do not
+    offer); infeasible points of a hypercube are drawn again uniformly until ``ok``."""
+    from scipy.stats import qmc
+
     best, score = None, -1.0
     for _ in range(tries):
-        x = (np.argsort(rng.random((d, n)), axis=1).T + rng.random((n, d))) / n
+        x = qmc.LatinHypercube(d, seed=rng).random(n)
         for i in range(n):
             k = 0
             while not ok(x[i]) and k < 1000:
@@ -145,6 +149,16 @@ def branch_stresses(base: UniaxialTest, targets: LabTargets) -> tuple[float, ...
         if not s or max(s) < need:  # the highest branch is where those are read
             s.add(need)
     return tuple(sorted(s))
+
+
+#: The unit of each kind of target (a quantity's name up to its "@").
+TARGET_UNITS = {
+    "porosity": "1",
+    "loading_stiffness": "Pa",
+    "unloading_stiffness": "Pa",
+    "k0": "1",
+    "strength": "Pa",
+}
 
 
 def measure(results: dict, base: UniaxialTest, targets: LabTargets) -> list[dict]:
@@ -172,6 +186,7 @@ def measure(results: dict, base: UniaxialTest, targets: LabTargets) -> list[dict
                 "lab": p.porosity,
                 "sd": p.sd,
                 "value": value,
+                "unit": "1",
             }
         )
     for name in ("loading_stiffness", "unloading_stiffness", "k0"):
@@ -183,6 +198,7 @@ def measure(results: dict, base: UniaxialTest, targets: LabTargets) -> list[dict
                     "lab": lab,
                     "sd": getattr(targets, f"{name}_sd"),
                     "value": float(top.scalars[name]),
+                    "unit": TARGET_UNITS[name],
                 }
             )
     for p in targets.strength:
@@ -193,6 +209,7 @@ def measure(results: dict, base: UniaxialTest, targets: LabTargets) -> list[dict
                 "lab": p.strength,
                 "sd": p.sd,
                 "value": float(r.scalars["unconfined_strength"]),
+                "unit": "Pa",
             }
         )
     return out
@@ -379,6 +396,12 @@ class Calibration:
     posterior: dict = field(default_factory=dict)
     test: UniaxialTest | None = None
 
+    @property
+    def all_met(self) -> bool:
+        """Whether the check run met every target (a calibration that did not is a result
+        too, but not a law to use as it is: :attr:`not_met` says which and by how much)."""
+        return not self.not_met
+
     def study(self, spec=None):
         """The scaling study of the calibrated law, to hand to :func:`engine.run_study`:
         ``spec``'s radii, rules and seeds (an :class:`engine.StudySpec`; None: the default
@@ -395,6 +418,9 @@ class Calibration:
 
         return {
             "law": {"type": type(self.law).__name__, **to_dict(self.law)},
+            # the particle radius the law is calibrated for [m]: scaling it elsewhere needs it
+            "reference_radius": None if self.test is None else self.test.radius,
+            "all_targets_met": self.all_met,
             "parameters": self.parameters,
             "targets_met": self.targets_met,
             "sensitivity": self.sensitivity,
@@ -458,11 +484,12 @@ def check_request(
                     [a.lo, a.hi],
                     f"a box {info.limit_text()} (the law's {a.name})",
                 )
-    u = np.random.default_rng(0).random((512, len(axes)))
+    u = _box_points(len(axes))
     if not any(_feasible(law, axes, x) for x in u):  # e.g. K2 < K1 everywhere in the box
         raise ParameterError(
             "calibrate.parameters", parameters, "a box holding laws the law accepts (K2 >= K1)"
         )
+    _check_box_ends(base_test, axes, u)
     if targets.strength and not base_test.unconfined:
         raise ParameterError(
             "UniaxialTest.unconfined", False, "True (strength targets need the unconfined stage)"
@@ -476,6 +503,99 @@ def check_request(
                 f"> the test's pre_stress = {base_test.pre_stress:g} Pa",
             )
     return stresses
+
+
+def _box_points(d: int, n: int = 256) -> np.ndarray:
+    """Points that probe the scaled box [0, 1]^d: its corners (at most 2^9) and a scrambled
+    Sobol sequence of ``n`` (``scipy.stats.qmc``; seeded, so a request is judged the same way
+    every time)."""
+    from scipy.stats import qmc
+
+    corners = np.array(np.meshgrid(*[[0.0, 1.0]] * d, indexing="ij")).reshape(d, -1).T
+    return np.vstack([corners, qmc.Sobol(d, scramble=True, seed=0).random(n)])
+
+
+def _law_error(law, axes: list[_Axis], u: np.ndarray) -> ParameterError | None:
+    try:
+        _law(law, axes, u)
+    except ParameterError as e:
+        return e
+    return None
+
+
+def _check_box_ends(base_test: UniaxialTest, axes: list[_Axis], points: np.ndarray) -> None:
+    """Each end of each box must hold a law the law accepts (with the other parameters
+    somewhere in their boxes: a corner or a probe point) and that the test runs at its time
+    step: a box that reaches a law the test's ``dt`` cannot integrate would spend its runs
+    failing. The time step is tried one parameter at a time, from the softest law of the box
+    the test runs to that end, so that the parameter named is the one that breaks it.
+    Raises :class:`engine.ParameterError` naming ``calibrate.parameters.<name>``."""
+    law0 = base_test.pair_law
+    for i, a in enumerate(axes):
+        for end in (0.0, 1.0):
+            at_end = points[points[:, i] == end]
+            if not any(_feasible(law0, axes, x) for x in at_end):
+                why = _law_error(law0, axes, at_end[0])
+                raise ParameterError(
+                    f"calibrate.parameters.{a.name}",
+                    [a.lo, a.hi],
+                    f"a box whose {'high' if end else 'low'} end {a.value(end):g} some law "
+                    f"accepts with the other parameters in their boxes (the law's "
+                    f"{a.name}: {describe_limit(law0, a.name)})",
+                    f"{why}" if why is not None else "",
+                )
+    if base_test.dt is None:  # each run takes its own law's recommended step
+        return
+
+    def runs(x) -> ParameterError | None:
+        try:
+            replace(base_test, pair_law=_law(law0, axes, x))
+        except ParameterError as e:
+            return e if e.field.endswith(".dt") else None
+        return None
+
+    feasible = [x for x in points if _feasible(law0, axes, x)]
+    # the softest laws first (stiffness, adhesion and friction grow with u on every axis
+    # but f0, whose magnitude does too)
+    feasible.sort(key=lambda x: float(np.sum(x)))
+    base = next((x for x in feasible if runs(x) is None), None)
+    if base is None:
+        e = runs(feasible[0])
+        raise ParameterError(
+            "calibrate.parameters",
+            {a.name: [a.lo, a.hi] for a in axes},
+            f"a box holding laws the test's time step dt = {base_test.dt:g} s can run",
+            f"{e}; lower the boxes' stiff ends, or give the test a smaller dt",
+        )
+    for i, a in enumerate(axes):
+        for end in (0.0, 1.0):
+            x = base.copy()
+            x[i] = end
+            if not _feasible(law0, axes, x):  # the nearest law at this end the law accepts
+                at_end = [p for p in feasible if p[i] == end]
+                x = min(at_end, key=lambda p: float(np.sum((p - base) ** 2)))
+            e = runs(x)
+            if e is not None:
+                raise ParameterError(
+                    f"calibrate.parameters.{a.name}",
+                    [a.lo, a.hi],
+                    f"a box whose laws the test's time step dt = {base_test.dt:g} s can run",
+                    f"at {a.name} = {a.value(end):g} {describe_unit(law0, a.name)}: {e}; "
+                    f"lower the box's {'high' if end else 'low'} end, or give the test a "
+                    "smaller dt (or dt null: each run takes its law's recommended step)",
+                )
+
+
+def describe_limit(law, name: str) -> str:
+    """The declared range of the law's field ``name``, in words, and its cross-field rule."""
+    info = next(i for i in describe(type(law)) if i.name == name)
+    extra = {"k1": ", <= k2", "k2": ", >= k1"}.get(name, "")
+    return f"{info.limit_text()}{extra}"
+
+
+def describe_unit(law, name: str) -> str:
+    """The unit of the law's field ``name``."""
+    return next(i.unit for i in describe(type(law)) if i.name == name)
 
 
 def calibration_runs(runs: int, waves: int, wave_runs: int) -> int:
@@ -703,6 +823,7 @@ def calibrate(
             "box": [a.lo, a.hi],
             "spread_ratio": ratio,
             "status": "determined" if ratio < DETERMINED else "free",
+            "unit": describe_unit(law0, a.name),
         }
     posterior = _posterior(samples, axes)
     sens = _sobol(gps, quantities, axes, rng)
@@ -813,8 +934,13 @@ def _sobol(gps, quantities, axes, rng, n: int = 2048) -> dict:
     2010: S_i = mean(f(B) (f(A_B^i) - f(A))) / var), on outputs centred by their mean: the
     estimator's scatter grows with the mean, and a log stiffness of about 14 with a variance
     of a few tenths gave an index of 0.6 to a parameter that does not move it."""
+    from scipy.stats import qmc
+
     d = len(axes)
-    a, b = rng.random((n, d)), rng.random((n, d))
+    # the two sample matrices from one scrambled Sobol sequence in 2d dimensions (Saltelli
+    # 2010 section 3: quasi-random points converge faster than random ones)
+    ab = qmc.Sobol(2 * d, scramble=True, seed=rng).random_base2(math.ceil(math.log2(n)))
+    a, b = ab[:, :d], ab[:, d:]
     fa, fb = (_predict(gps, m)[0] for m in (a, b))
     both = np.vstack([fa, fb])
     centre, var = both.mean(axis=0), both.var(axis=0)

@@ -1,5 +1,6 @@
-r"""A Gaussian-process emulator in numpy (docs/CALIBRATION.md): one output of the uniaxial
-test as a function of the law's parameters (scaled to the unit cube), from a few tens of runs.
+r"""A Gaussian-process emulator in numpy, fitted with scipy's optimiser (docs/CALIBRATION.md):
+one output of the uniaxial test as a function of the law's parameters (scaled to the unit
+cube), from a few tens of runs.
 
 Squared-exponential kernel with one length per input (automatic relevance), a signal
 variance and a noise variance (the seed-to-seed scatter of a run: the same parameters with
@@ -9,10 +10,10 @@ another packing give another value), on standardised outputs:
           + \sigma_n^2 \delta_{xx'}
 
 The hyperparameters maximise the log marginal likelihood (Rasmussen and Williams 2006, eq.
-2.30): a space-filling start of the log-hyperparameters, then Nelder-Mead from the best
-few. :meth:`GP.predict` gives the mean and the variance of the latent function (the noise
-variance is :attr:`GP.noise`, in the output's units, for the caller to add where it
-compares with a measurement).
+2.30): a space-filling start of the log-hyperparameters, then Nelder-Mead
+(``scipy.optimize.minimize``) from the best few. :meth:`GP.predict` gives the mean and the
+variance of the latent function (the noise variance is :attr:`GP.noise`, in the output's
+units, for the caller to add where it compares with a measurement).
 """
 
 from __future__ import annotations
@@ -22,42 +23,25 @@ import math
 import numpy as np
 
 
-def nelder_mead(f, x0: np.ndarray, step: float = 0.5, iters: int = 300, tol: float = 1e-7):
-    """Minimise ``f`` from ``x0`` with the Nelder-Mead simplex (standard coefficients).
+def _minimise(f, x0: np.ndarray, step: float = 0.5, iters: int = 300) -> tuple[np.ndarray, float]:
+    """Minimise ``f`` from ``x0`` with scipy's Nelder-Mead simplex (standard coefficients; the
+    first simplex ``x0`` and a ``step`` along each axis, at most ``iters`` iterations).
     Returns (x, f(x))."""
-    n = len(x0)
-    pts = [np.asarray(x0, dtype=float)]
-    for i in range(n):
-        p = pts[0].copy()
-        p[i] += step
-        pts.append(p)
-    vals = [f(p) for p in pts]
-    for _ in range(iters):
-        order = np.argsort(vals)
-        pts = [pts[i] for i in order]
-        vals = [vals[i] for i in order]
-        if abs(vals[-1] - vals[0]) < tol * (1 + abs(vals[0])):
-            break
-        c = np.mean(pts[:-1], axis=0)
-        xr = c + (c - pts[-1])
-        fr = f(xr)
-        if fr < vals[0]:
-            xe = c + 2 * (c - pts[-1])
-            fe = f(xe)
-            pts[-1], vals[-1] = (xe, fe) if fe < fr else (xr, fr)
-        elif fr < vals[-2]:
-            pts[-1], vals[-1] = xr, fr
-        else:
-            xc = c + 0.5 * (pts[-1] - c)
-            fc = f(xc)
-            if fc < vals[-1]:
-                pts[-1], vals[-1] = xc, fc
-            else:
-                for i in range(1, n + 1):
-                    pts[i] = pts[0] + 0.5 * (pts[i] - pts[0])
-                    vals[i] = f(pts[i])
-    k = int(np.argmin(vals))
-    return pts[k], vals[k]
+    from scipy.optimize import minimize
+
+    x0 = np.asarray(x0, dtype=float)
+    simplex = np.vstack([x0, x0 + step * np.eye(len(x0))])
+    # stop on the spread of the simplex's values alone (relative 1e-7): a length the data do
+    # not bound lies along a flat valley, where a test on the points would walk to the
+    # search's edge for nothing
+    fatol = 1e-7 * (1.0 + abs(f(x0)))
+    r = minimize(
+        f,
+        x0,
+        method="Nelder-Mead",
+        options={"initial_simplex": simplex, "maxiter": iters, "xatol": np.inf, "fatol": fatol},
+    )
+    return r.x, float(r.fun)
 
 
 class GP:
@@ -102,7 +86,7 @@ class GP:
         vals = np.array([self._nll(h) for h in starts])
         best = None
         for h0 in starts[np.argsort(vals)[:3]]:
-            h, v = nelder_mead(self._nll, h0)
+            h, v = _minimise(self._nll, h0)
             if best is None or v < best[1]:
                 best = (h, v)
         return best[0]
@@ -135,4 +119,4 @@ class GP:
         return self.mean + self.scale * mu, var * self.scale**2
 
 
-__all__ = ["GP", "nelder_mead"]
+__all__ = ["GP"]

@@ -15,7 +15,9 @@ target the test cannot reproduce is refused with the field and the reason:
 - K0 without a lateral sensor (only a ``"lambda"`` tester measures it);
 - a porosity that spheres cannot reach (:data:`POROSITY_RANGE`): a calibration would
   distort every other parameter trying;
-- a negative uncertainty, a non-positive stress (the declared bounds).
+- a negative uncertainty, a non-positive stress (the declared bounds);
+- a value without its uncertainty (``sd`` of every point, ``<name>_sd`` of every scalar
+  target given): it would be taken as exact.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..core.errors import ParameterError
-from ..core.records import Record, check_fields, param
+from ..core.records import Record, check_fields, from_dict, param
 
 #: Testers whose data a target may come from. ``uniaxial``: confined compression and
 #: unconfined strength (no lateral sensor); ``lambda``: the same with a lateral stress
@@ -44,7 +46,7 @@ class CompressionPoint(Record):
 
     stress: float = param(unit="Pa", gt=0, doc="vertical stress")
     porosity: float = param(unit="1", gt=0, lt=1, doc="porosity measured at that stress")
-    sd: float = param(0.0, unit="1", ge=0, lt=1, doc="its uncertainty (1 sd)")
+    sd: float = param(unit="1", ge=0, lt=1, doc="its uncertainty (1 sd; required)")
     branch: str = param(
         "loading",
         unit="",
@@ -63,10 +65,31 @@ class StrengthPoint(Record):
 
     consolidation_stress: float = param(unit="Pa", gt=0, doc="consolidation stress sigma_1")
     strength: float = param(unit="Pa", ge=0, doc="unconfined strength sigma_c")
-    sd: float = param(0.0, unit="Pa", ge=0, doc="its uncertainty (1 sd)")
+    sd: float = param(unit="Pa", ge=0, doc="its uncertainty (1 sd; required)")
 
     def __post_init__(self) -> None:
         check_fields(self)
+
+
+def _point(cls, raw: dict, where: str):
+    """A :class:`CompressionPoint` or :class:`StrengthPoint` from its JSON form; its errors
+    named at ``where`` (``LabTargets.strength[0]``) and the field."""
+    try:
+        return from_dict(cls, raw)
+    except ParameterError as e:
+        part = e.field.split(".", 1)[1] if "." in e.field else ""
+        raise ParameterError(
+            where + (f".{part}" if part else ""), e.value, e.limit, e.why
+        ) from None
+
+
+#: Each scalar target and the field of its uncertainty, which must come with it: a value
+#: without one would be taken as exact (the calibration weighs each target by it).
+UNCERTAINTY_OF = {
+    "loading_stiffness": "loading_stiffness_sd",
+    "unloading_stiffness": "unloading_stiffness_sd",
+    "k0": "k0_sd",
+}
 
 
 @dataclass(frozen=True)
@@ -82,15 +105,21 @@ class LabTargets(Record):
     loading_stiffness: float | None = param(
         None, unit="Pa", gt=0, nullable=True, doc="confined loading stiffness"
     )
-    loading_stiffness_sd: float = param(0.0, unit="Pa", ge=0, doc="its uncertainty (1 sd)")
+    loading_stiffness_sd: float | None = param(
+        None, unit="Pa", ge=0, nullable=True, doc="its uncertainty (1 sd; required with it)"
+    )
     unloading_stiffness: float | None = param(
         None, unit="Pa", gt=0, nullable=True, doc="confined unloading stiffness"
     )
-    unloading_stiffness_sd: float = param(0.0, unit="Pa", ge=0, doc="its uncertainty (1 sd)")
+    unloading_stiffness_sd: float | None = param(
+        None, unit="Pa", ge=0, nullable=True, doc="its uncertainty (1 sd; required with it)"
+    )
     k0: float | None = param(
         None, unit="1", gt=0, lt=1.5, nullable=True, doc="lateral stress ratio on loading"
     )
-    k0_sd: float = param(0.0, unit="1", ge=0, doc="its uncertainty (1 sd)")
+    k0_sd: float | None = param(
+        None, unit="1", ge=0, nullable=True, doc="its uncertainty (1 sd; required with it)"
+    )
     strength: tuple[StrengthPoint, ...] = param(
         (), unit="", kind="list", max_items=16, doc="unconfined strength (flow function)"
     )
@@ -100,11 +129,20 @@ class LabTargets(Record):
         for name, cls in (("compression", CompressionPoint), ("strength", StrengthPoint)):
             items = list(getattr(self, name))
             for k, item in enumerate(items):
-                if isinstance(item, dict):  # its JSON form
-                    items[k] = item = cls.from_dict(item)
+                if isinstance(item, dict):  # its JSON form; an error named by its place
+                    items[k] = item = _point(cls, item, f"LabTargets.{name}[{k}]")
                 if not isinstance(item, cls):
                     raise ParameterError(f"LabTargets.{name}[{k}]", item, f"a {cls.__name__}")
             object.__setattr__(self, name, tuple(items))
+        for value, sd in UNCERTAINTY_OF.items():
+            if getattr(self, value) is not None and getattr(self, sd) is None:
+                raise ParameterError(
+                    f"LabTargets.{sd}",
+                    None,
+                    f"the uncertainty (1 sd) of {value} = {getattr(self, value):g}, >= 0",
+                    "a measured value comes with its repeatability; without one the "
+                    "calibration would take it as exact",
+                )
         lo, hi = POROSITY_RANGE
         for k, p in enumerate(self.compression):
             if not lo <= p.porosity <= hi:
@@ -134,6 +172,21 @@ class LabTargets(Record):
         if not self.names():
             raise ParameterError("LabTargets", "no target", "at least one measurement")
 
+    @classmethod
+    def from_dict(cls, data: dict) -> LabTargets:
+        """The targets from their JSON form; an error in a point is named by its place
+        (``LabTargets.compression[2].sd``), as the request holds it."""
+        if isinstance(data, dict):
+            data = dict(data)
+            for name, item_cls in (("compression", CompressionPoint), ("strength", StrengthPoint)):
+                items = data.get(name)
+                if isinstance(items, (list, tuple)):
+                    data[name] = [
+                        _point(item_cls, v, f"LabTargets.{name}[{k}]") if isinstance(v, dict) else v
+                        for k, v in enumerate(items)
+                    ]
+        return from_dict(cls, data)
+
     def names(self) -> list[str]:
         """The targets this record holds."""
         out = []
@@ -151,6 +204,7 @@ __all__ = [
     "POROSITY_RANGE",
     "SHEAR_TESTERS",
     "TESTERS",
+    "UNCERTAINTY_OF",
     "CompressionPoint",
     "LabTargets",
     "StrengthPoint",

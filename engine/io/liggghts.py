@@ -56,6 +56,28 @@ PROPERTIES = (
 _SCALAR = ("overlapExponent", "adhesionExponent")
 
 
+def _meanings(law, n: float, chi: float) -> dict[str, str]:
+    """What each property's value means, with its unit, for the fragment's comments: a
+    LIGGGHTS user reads ``UnloadingStiffness 9.78`` as a stiffness otherwise."""
+    k_unit = "N/m" if n == 1.0 else f"N/m^{n:g}"
+    return {
+        "coefficientRestitution": "normal coefficient of restitution [-] (sets the damping)",
+        "coefficientFriction": "sliding friction coefficient mu_s [-]",
+        "coefficientRollingFriction": "rolling friction coefficient mu_r [-] (cdt model)",
+        "LoadingStiffness": f"virgin loading stiffness K1 [{k_unit}]",
+        "UnloadingStiffness": f"RATIO K2 / K1 [-] of unloading to loading stiffness, not a "
+        f"stiffness: K2 = {law.k2!r} {k_unit}",
+        "overlapExponent": f"overlap exponent n [-] of the loading branch (K1 d^n); {n:g}: "
+        + ("linear" if n == 1.0 else "non-linear"),
+        "adhesionExponent": f"adhesion exponent chi [-] of the adhesive branch; {chi:g}",
+        "pullOffForce": "constant pull-off (adhesion) force f0 [N], <= 0 (0: none)",
+        "surfaceEnergy": "surface energy [J/m^2] from which LIGGGHTS computes the adhesive "
+        "branch's stiffness kadh (fixKc off); 0: kadh = 0, no adhesive branch",
+        "coefficientAdhesionStiffness": "adhesive branch stiffness kadh [N/m] for fixKc on; "
+        "0, and not read with fixKc off",
+    }
+
+
 def _exponents(law) -> tuple[float, float]:
     if isinstance(law, EEPA):
         return law.n, law.chi
@@ -104,11 +126,13 @@ def matched_restitution(restitution: float, n: float, d: float) -> float:
     return math.exp(-math.pi * z / math.sqrt(1.0 - z * z))
 
 
-def to_liggghts(law, atom_type: int = 1, note: str = "") -> str:
+def to_liggghts(law, atom_type: int = 1, note: str = "", radius: float | None = None) -> str:
     """The LIGGGHTS 3.8 input fragment of ``law`` (an :class:`engine.BilinearAdhesive` or
     :class:`engine.EEPA`, fine or scaled) for one ``atom_type``: ``fix property/global`` lines
-    and the ``pair_style``/``pair_coeff``, SI units, with what LIGGGHTS does differently in
-    its comments. Raises :class:`engine.ParameterError` for kadh > 0 (module docstring)."""
+    and the ``pair_style``/``pair_coeff``, SI units, each value's meaning and unit in a
+    comment line above it, with what LIGGGHTS does differently in its comments; ``radius``
+    [m], where known, the particle radius the law is for (a law is calibrated, or scaled,
+    for one size). Raises :class:`engine.ParameterError` for kadh > 0 (module docstring)."""
     n, chi = _exponents(law)
     if law.kadh != 0.0:
         raise ParameterError(
@@ -138,12 +162,19 @@ def to_liggghts(law, atom_type: int = 1, note: str = "") -> str:
         f"# K1 = {law.k1!r} {unit}, K2 = {law.k2!r} {unit}, n = {n:g}, chi = {chi:g}, "
         f"f0 = {law.f0!r} N, kadh = 0",
     ]
+    if radius is not None:
+        lines.append(
+            f"# for particles of radius R = {radius!r} m: the law is calibrated (or scaled) for "
+            "this size; at another radius scale it first (demscale export --radius)"
+        )
     if note:
         lines += [f"# {line}" for line in note.splitlines()]
     for d in differences(law):
         lines.append(f"# differs: {d}")
+    meaning = _meanings(law, n, chi)
     for k, name in enumerate(PROPERTIES, start=1):
         how = "scalar" if name in _SCALAR else f"peratomtypepair {atom_type}"
+        lines.append(f"# {name}: {meaning[name]}")
         lines.append(f"fix dsl{k} all property/global {name} {how} {values[name]!r}")
     lines += [
         "pair_style gran model edinburgh/stiffness tangential history rolling_friction cdt",
@@ -209,14 +240,24 @@ def from_liggghts(text: str, bilinear: bool = False):
     return EEPA(**common, n=n, chi=chi, friction_cap="normal")
 
 
-def law_table(law, fmt: str = "json"):
+def law_table(law, fmt: str = "json", radius: float | None = None):
     """The parameters of ``law`` with their units and meaning: a list of {name, value, unit,
-    doc} (``fmt`` ``"json"``) or CSV text with a header (``"csv"``)."""
+    doc} (``fmt`` ``"json"``) or CSV text with a header (``"csv"``); ``radius`` [m], where
+    known, as a row ``reference_radius``: the particle radius the law is for."""
     rows = [{"name": "type", "value": type(law).__name__, "unit": "", "doc": "contact law"}]
     rows += [
         {"name": i.name, "value": getattr(law, i.name), "unit": i.unit, "doc": i.doc}
         for i in describe(type(law))
     ]
+    if radius is not None:
+        rows.append(
+            {
+                "name": "reference_radius",
+                "value": radius,
+                "unit": "m",
+                "doc": "particle radius the law is calibrated (or scaled) for",
+            }
+        )
     if fmt == "json":
         return rows
     if fmt != "csv":

@@ -11,7 +11,7 @@ from fastapi.responses import FileResponse
 from engine.uniaxial.driver import STAGES
 
 from .. import h5store
-from ..deps import ResultsDep, SettingsDep, StudyDep
+from ..deps import ResultsDep, SettingsDep, StudyDep, get_results
 from ..errors import answers
 from ..plots import KINDS, plot_png
 
@@ -61,7 +61,6 @@ def summary(study: StudyDep, results: ResultsDep, settings: SettingsDep) -> dict
 )
 def snapshot(
     study: StudyDep,
-    results: ResultsDep,
     settings: SettingsDep,
     run: Annotated[
         str,
@@ -82,6 +81,7 @@ def snapshot(
 ) -> FileResponse:
     """A snapshot file of a run: the particles or the force chains at every stage end
     (temporal VTKHDF; docs/SNAPSHOTS.md), or the PNG section of one stage's end."""
+    get_results(study, settings)  # 409 unless succeeded: after the path's own checks (422)
     if name not in settings.snapshot_files(study.id).get(run, []):
         raise HTTPException(status_code=404, detail=f"no snapshot {name!r} of run {run!r}")
     path = settings.snapshots_dir(study.id) / run / name
@@ -92,7 +92,7 @@ def snapshot(
 @router.get("/curves")
 def curves(
     study: StudyDep,
-    results: ResultsDep,
+    settings: SettingsDep,
     run: Annotated[
         str | None,
         Query(
@@ -105,6 +105,7 @@ def curves(
 ) -> dict:
     """Curves of a run (or every run), of one stage or all: lists of numbers with units.
     404 for a run or stage the study does not have."""
+    results = get_results(study, settings)  # 409 after the query's own checks (422)
     stage = None if kind is StageKind.all else kind.value
     try:
         data = h5store.read_runs(results, run, stage, with_units=True)
@@ -125,10 +126,13 @@ def curves(
 def plot(
     kind: Annotated[PlotKind, Path(description="Which plot.")],
     study: StudyDep,
-    results: ResultsDep,
+    settings: SettingsDep,
 ) -> Response:
     """A PNG plot: stress_strain, stress_porosity, coordination, unconfined,
-    error_vs_runtime or resolution (the resolution curve of a study with controls)."""
+    error_vs_runtime or resolution (the resolution curve of a study with controls). An
+    unknown kind is a 422 whatever the study's status; a known one of a study that has not
+    succeeded a 409."""
+    results = get_results(study, settings)
     return Response(plot_png(results, kind.value), media_type="image/png")
 
 

@@ -105,6 +105,17 @@ def test_a_calibration_refuses_what_it_cannot_set(targets):
         calibrate(BASE, targets, {"mu_s": (-1.0, 0.5)})
     with pytest.raises(engine.ParameterError, match=r"K2 >= K1"):
         calibrate(BASE, targets, {"k2": (1e3, 4e3)})
+    # checked at once, before any run: an end no law in the box reaches (K1 = 1e300 N/m
+    # with K2 = 8e4 N/m), an end the test's time step cannot integrate (K2 = 1e12 N/m at
+    # dt = 1e-5 s: the stable limit is about 1.6e-8 s), each named
+    ran = []
+    with pytest.raises(engine.ParameterError, match=r"parameters\.k1 .* high end 1e\+300"):
+        calibrate(BASE, targets, {"k1": (3e3, 1e300)}, on_run=lambda i, q: ran.append(i))
+    with pytest.raises(engine.ParameterError, match=r"parameters\.k2 .* time step dt = 1e-05"):
+        calibrate(BASE, targets, {"k1": (3e3, 2e4), "k2": (2.5e4, 1e12)})
+    assert ran == []
+    # with dt left to each law (null) the same box runs at each law's own step
+    cal_module.check_request(replace(BASE, dt=None), targets, {"k2": (2.5e4, 1e12)}, 5)
 
 
 def test_a_law_the_test_refuses_is_left_out_without_a_run(targets, monkeypatch):
@@ -113,6 +124,11 @@ def test_a_law_the_test_refuses_is_left_out_without_a_run(targets, monkeypatch):
     real = cal_module._run_point
     ran = []
     monkeypatch.setattr(cal_module, "_run_point", lambda t, s, *a: ran.append(t) or real(t, s, *a))
+    # the design's points chosen, not drawn: K1 = 10, 21 and 46 N/m (refused: the limit is
+    # about 500 N/m) and 4.4e3, 9.3e3 and 2e4 N/m, well above it (a law just above the
+    # static limit may still blow up in the fill, which is another test's subject)
+    u = np.array([[0.0], [0.1], [0.2], [0.8], [0.9], [1.0]])
+    monkeypatch.setattr(cal_module, "_maximin", lambda rng, n, d, ok: u)
     cal = calibrate(BASE, targets, {"k1": (10.0, 2e4)}, runs=6, waves=0, seed=4)
     refused = [r for r in cal.runs if "error" in r]
     assert refused and all("stiff enough" in r["error"] for r in refused)

@@ -46,16 +46,29 @@ def test_targets_read_from_json_and_back():
         ({"tester": "ring_shear"}, "LabTargets.strength", "ring-shear"),
         ({"tester": "uniaxial"}, "LabTargets.k0", "lateral stress sensor"),
         (
-            {"compression": [{"stress": 5e3, "porosity": 0.6}]},
+            {"compression": [{"stress": 5e3, "porosity": 0.6, "sd": 0.01}]},
             "LabTargets.compression[0].porosity",
             "spheres do not reach it",
         ),
         ({"k0_sd": -0.01}, "LabTargets.k0_sd", ">= 0"),
         (
-            {"compression": [{"stress": -1.0, "porosity": 0.4}]},
-            "CompressionPoint.stress",
+            {"compression": [{"stress": -1.0, "porosity": 0.4, "sd": 0.01}]},
+            "LabTargets.compression[0].stress",
             "> 0",
         ),
+        # a value without its uncertainty would be an exact constraint: refused, by name
+        (
+            {"compression": [{"stress": 5e3, "porosity": 0.4}]},
+            "LabTargets.compression[0].sd",
+            "required",
+        ),
+        (
+            {"strength": [{"consolidation_stress": 2e4, "strength": 1.4e4}]},
+            "LabTargets.strength[0].sd",
+            "required",
+        ),
+        ({"k0_sd": None}, "LabTargets.k0_sd", "uncertainty (1 sd) of k0"),
+        ({"loading_stiffness_sd": None}, "LabTargets.loading_stiffness_sd", "repeatability"),
         ({"tester": "shear box"}, "LabTargets.tester", "uniaxial"),
         ({"colour": "red"}, "LabTargets", "fields among"),
     ],

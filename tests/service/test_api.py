@@ -34,8 +34,9 @@ BAD = [
     ("negative radius", ("reference", "radius"), -1e-3, ["reference", "radius"], "greater"),
     ("huge radius", ("reference", "radius"), 0.5, ["reference", "radius"], "less"),
     ("no coarse radii", ("coarse_radii",), [], ["coarse_radii"], "at least 1"),
-    ("coarse radius too big", ("coarse_radii",), [1.0], ["coarse_radii", 0], "4 reference radii"),
-    ("coarse radius = reference", ("coarse_radii",), [2.5e-3], ["coarse_radii", 0], "different"),
+    ("coarse radius too big", ("coarse_radii",), [1.0], ["coarse_radii", 0], "at most"),
+    ("coarse radius = reference", ("coarse_radii",), [2.5e-3], ["coarse_radii", 0], "> the"),
+    ("coarse radius finer", ("coarse_radii",), [1e-3], ["coarse_radii", 0], "reference radius"),
     ("cell too small for coarse", ("coarse_radii",), [9e-3], ["coarse_radii", 0], "cell"),
     (
         "exponent out of range",
@@ -136,7 +137,7 @@ def test_too_many_particles_is_refused(client, settings):
     r = client.post("/studies", json=body)
     assert r.status_code == 422, r.text
     (err,) = r.json()["detail"]
-    assert err["loc"] == ["body", "reference"]
+    assert err["loc"] == ["body", "reference", "radius"]  # the field given that makes them many
     assert "particles" in err["msg"] and str(settings.max_particles_per_run) in err["msg"]
     assert err["input"] > settings.max_particles_per_run
 

@@ -171,7 +171,12 @@ def test_cancel_a_queued_and_a_running_calibration(client, workers):
     ("change", "loc", "words"),
     [
         (
-            {"targets": {"tester": "uniaxial", "compression": [{"stress": 1e4, "porosity": 0.6}]}},
+            {
+                "targets": {
+                    "tester": "uniaxial",
+                    "compression": [{"stress": 1e4, "porosity": 0.6, "sd": 0.01}],
+                }
+            },
             ["body", "targets", "compression", 0, "porosity"],
             "spheres do not reach",
         ),
@@ -179,7 +184,7 @@ def test_cancel_a_queued_and_a_running_calibration(client, workers):
             {
                 "targets": {
                     "tester": "ring_shear",
-                    "strength": [{"consolidation_stress": 2e4, "strength": 3e3}],
+                    "strength": [{"consolidation_stress": 2e4, "strength": 3e3, "sd": 300.0}],
                 }
             },
             ["body", "targets", "strength"],
@@ -193,9 +198,27 @@ def test_cancel_a_queued_and_a_running_calibration(client, workers):
         (
             {"then_study": {"coarse_radii": [0.5]}},
             ["body", "then_study", "coarse_radii", 0],
-            "0.01",
+            "at most",
         ),
-        ({"test": {"cell": [1.0, 1.0, 2.0]}}, ["body", "test"], "DEMSCALE_MAX_PARTICLES_PER_RUN"),
+        (
+            {"test": {**TINIEST["reference"], "cell": [1.0, 1.0, 2.0]}},
+            ["body", "test"],
+            "DEMSCALE_MAX_PARTICLES_PER_RUN",
+        ),
+        # what the user gives is explicit: the test, and each target's uncertainty
+        ({"test": ...}, ["body", "test"], "Field required"),
+        (
+            {"targets": {"tester": "uniaxial", "loading_stiffness": 1e6}},
+            ["body", "targets", "loading_stiffness_sd"],
+            "uncertainty",
+        ),
+        # a box checked against the law's own bounds and the test's time step at once
+        ({"parameters": {"k1": [3e3, 1e300]}}, ["body", "parameters", "k1"], "high end"),
+        (
+            {"parameters": {"k1": [3e3, 2e4], "k2": [2.5e4, 1e12]}, "runs": 4},
+            ["body", "parameters", "k2"],
+            "time step",
+        ),
         ({"runs": 2.5}, ["body", "runs"], "integer"),
         (
             {"resolution": {"strength": [0.0, 0.1]}},
@@ -205,7 +228,8 @@ def test_cancel_a_queued_and_a_running_calibration(client, workers):
     ],
 )
 def test_a_request_the_engine_refuses_gets_a_422_naming_the_field(client, change, loc, words):
-    r = client.post("/calibrations", json={**CALIBRATION, **change})
+    body = {k: v for k, v in {**CALIBRATION, **change}.items() if v is not ...}
+    r = client.post("/calibrations", json=body)
     assert r.status_code == 422, r.text
     errors = r.json()["detail"]
     assert any(e["loc"] == loc and words in e["msg"] for e in errors), errors

@@ -64,7 +64,11 @@ with TestClient(APP, headers=AUTH) as _client:
         "/calibrations",
         json={
             "test": TINIEST["reference"],
-            "targets": {"tester": "uniaxial", "loading_stiffness": 1e6},
+            "targets": {
+                "tester": "uniaxial",
+                "loading_stiffness": 1e6,
+                "loading_stiffness_sd": 1e5,
+            },
             "parameters": {"k1": [3e3, 2e4]},
             "runs": 3,
             "waves": 0,

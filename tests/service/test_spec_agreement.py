@@ -16,7 +16,7 @@ import engine
 from engine.core.records import describe
 from engine.study.spec import NAMED_RULES
 from service.app import create_app
-from service.spec import SERVICE_LIMITS, TAGGED, StudyCreate, jsonable
+from service.spec import SERVICE_REQUIRED, SERVICE_LIMITS, TAGGED, StudyCreate, jsonable
 
 #: Fields the API adds to a record's own: the study's label, the reference's preset.
 SERVICE_FIELDS = {"StudySpec": {"name"}, "UniaxialTest": {"preset"}}
@@ -102,11 +102,14 @@ def test_fields_units_bounds_defaults_agree(components, cls):
         where = f"{cls.__name__}.{p.name}"
         body, nullable = branch(prop)
         assert nullable == p.nullable, where
-        assert (p.name in required) == p.required, where
+        # the API may require what the engine defaults (service.spec.SERVICE_REQUIRED)
+        assert (p.name in required) == (p.required or (cls.__name__, p.name) in SERVICE_REQUIRED), (
+            where
+        )
         if p.unit:
             assert prop.get("x-unit") == p.unit and f"[{p.unit}]" in prop["description"], where
         assert p.doc in prop["description"], where
-        if not p.required:
+        if not p.required and (cls.__name__, p.name) not in SERVICE_REQUIRED:
             if cls is engine.StudySpec and p.name == "reference":
                 # the API shows the preset the engine's default reference is
                 assert prop["default"] == {"preset": "quick"}, where
@@ -147,7 +150,7 @@ def test_named_rules_are_the_engines(components):
     (names,) = [o for o in items["anyOf"] if "enum" in o]
     assert names["enum"] == list(NAMED_RULES)
     for name in NAMED_RULES:
-        body = StudyCreate.model_validate({"rules": [name]})
+        body = StudyCreate.model_validate({"reference": {"preset": "quick"}, "rules": [name]})
         assert body.engine_dict()["rules"] == [engine.ScalingRule.named(name).to_dict()]
 
 
@@ -156,7 +159,18 @@ def test_the_engines_default_study_is_a_valid_body_and_comes_back_unchanged():
     body = StudyCreate.model_validate(spec.to_dict())
     assert engine.StudySpec.from_dict(body.engine_dict()).to_dict() == spec.to_dict()
     # and what the API documents as defaults is what the engine takes for left-out fields
-    assert engine.StudySpec.from_dict(StudyCreate().engine_dict()) == engine.StudySpec()
+    quick = {"reference": {"preset": "quick"}}
+    assert engine.StudySpec.from_dict(
+        StudyCreate.model_validate(quick).engine_dict()
+    ) == engine.StudySpec(reference=engine.preset("quick"))
+
+
+def test_a_study_and_a_calibration_need_their_test():
+    # no silent default for the physics: the reference (or the calibration's test) is
+    # required, and it names a preset or gives the pair law
+    for body in ({}, {"reference": {"radius": 2.5e-3}}):
+        with pytest.raises(ValueError, match="reference"):
+            StudyCreate.model_validate(body)
 
 
 def test_a_field_the_engine_does_not_declare_is_refused():

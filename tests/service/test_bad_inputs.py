@@ -9,7 +9,7 @@ import json
 
 import pytest
 
-from .conftest import TINY, TINIEST
+from .conftest import TINIEST, TINY
 
 #: A calibration the service accepts (3 design runs and the check run of TINIEST's K1).
 CALIBRATION = {

@@ -16,7 +16,7 @@ import engine
 from engine.core.records import describe
 from engine.study.spec import NAMED_RULES
 from service.app import create_app
-from service.spec import SERVICE_REQUIRED, SERVICE_LIMITS, TAGGED, StudyCreate, jsonable
+from service.spec import SERVICE_LIMITS, SERVICE_REQUIRED, TAGGED, StudyCreate, jsonable
 
 #: Fields the API adds to a record's own: the study's label, the reference's preset.
 SERVICE_FIELDS = {"StudySpec": {"name"}, "UniaxialTest": {"preset"}}

@@ -362,6 +362,25 @@ def test_export_test_and_judge_liggghts_commands(tmp_path, capsys):
     v = json.loads(out.read_text())
     assert v["seeds"] == 1 and v["reference_seeds"] == 2 and (folder / "liggghts.h5").exists()
     assert "LIGGGHTS (1 run(s)" in capsys.readouterr().out
+    # a study's file: its reference runs, or the runs named
+    import h5py
+
+    from engine.io.store import write_run_group
+
+    study = tmp_path / "results.h5"
+    with h5py.File(study, "w") as f:
+        for s, ref in ((1, True), (2, True), (3, False)):
+            g = f.create_group(f"runs/ref-s{s}" if ref else "runs/r5mm-x-s1")
+            write_run_group(g, load_run(DATA / f"demscale-s{min(s, 2)}.h5"))
+            g.attrs["reference"] = ref
+    out2 = tmp_path / "v2.json"
+    assert (
+        main(["judge-liggghts", str(folder), "--reference", str(study), "--json", str(out2)]) == 0
+    )
+    assert json.loads(out2.read_text())["reference_seeds"] == 2
+    args = ["judge-liggghts", str(folder), "--reference", str(study), "--runs", "ref-s1"]
+    assert main(args) == 2  # one reference run: no verdict
+    assert "at least 2" in capsys.readouterr().err
 
 
 def test_export_test_from_a_study_run(tmp_path):

@@ -35,10 +35,10 @@ from .headers import SecurityHeaders
 from .models import Status, Study
 from .ratelimit import Buckets, SubmitRateLimit
 from .routes import calibrations, results, studies
-from .settings import ConfigError, Settings, get_settings, secure_data_dir
+from .settings import ConfigError, Settings, get_settings, secure_data_dir, session_secret
 from .web import router as web_router
 from .web import templates
-from .weblogin import BrowserLogin
+from .weblogin import BrowserLogin, SessionCookie
 
 log = logging.getLogger("demscale.api")
 
@@ -142,8 +142,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_middleware(
         Guard, tokens=tokens, max_body_bytes=settings.max_body_bytes, failures=failures
     )
-    # outside the guard: the page's cookie
-    app.add_middleware(BrowserLogin, tokens=tokens, failures=failures)
+    # outside the guard: the pages' login, in a signed, expiring session cookie
+    app.add_middleware(
+        BrowserLogin, tokens=tokens, failures=failures, max_age=settings.session_max_age
+    )
+    app.add_middleware(
+        SessionCookie, secret_key=session_secret(settings), max_age=settings.session_max_age
+    )
     app.add_middleware(SecurityHeaders)  # outermost: on every answer, the guard's too
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
     app.include_router(studies.router)

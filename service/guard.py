@@ -33,9 +33,15 @@ class Tokens:
 
     def __init__(self, tokens: tuple[str, ...]):
         self._digests = tuple(hashlib.sha256(t.encode()).digest() for t in tokens)
+        self._owners = frozenset(d.hex()[:FINGERPRINT_DIGITS] for d in self._digests)
 
     def __len__(self) -> int:
         return len(self._digests)
+
+    def knows(self, owner: str) -> bool:
+        """Whether ``owner`` is the fingerprint of an accepted token (a browser session's
+        owner, whose token may have been revoked since it logged in)."""
+        return owner in self._owners
 
     def owner(self, presented: bytes) -> str | None:
         """The fingerprint of ``presented`` if it is an accepted token, else None."""
@@ -104,6 +110,10 @@ class Guard:
         headers = scope.get("headers", [])
         presented = _bearer(headers)
         owner = None if presented is None else self.tokens.owner(presented)
+        if owner is None and presented is None and scope["method"] in ("GET", "HEAD"):
+            # a browser's session (service.weblogin: signed, expiring, its token still
+            # accepted): it reads, and never submits, cancels or deletes
+            owner = scope.get("state", {}).get("session_owner")
         if owner is not None:
             scope.setdefault("state", {})["owner"] = owner
         path = scope["path"]

@@ -168,6 +168,18 @@ class Settings(BaseSettings):
         description="A file of bearer tokens, one per line ('#' comments and blank lines "
         "ignored); each token sees only the studies it submitted.",
     )
+    session_max_age: int = Field(
+        8 * 3600,
+        ge=60,
+        le=30 * 86400,
+        description="Seconds a browser's login lasts (the pages' signed session cookie): "
+        "after it, log in again.",
+    )
+    session_secret: SecretStr | None = Field(
+        None,
+        description="The key that signs the pages' session cookie (32 characters or more); "
+        "unset: a random one kept in <data dir>/session-secret (made on first start, 0600).",
+    )
     max_active: int = Field(
         100, ge=1, description="Most queued or running studies in all; more answer 429."
     )
@@ -352,6 +364,36 @@ def with_local_token(settings: Settings, host: str) -> tuple[Settings, str | Non
             f.write(secrets.token_urlsafe(32) + "\n")
     local = settings.model_copy(update={"api_token_file": path.resolve()})
     return local, local.tokens()[0]
+
+
+#: Where the pages' session-signing key is kept when none is configured.
+SESSION_SECRET_FILE = "session-secret"
+
+
+def session_secret(settings: Settings) -> str:
+    """The key that signs the pages' session cookie: ``DEMSCALE_SESSION_SECRET``, or a
+    random one kept in ``<data_dir>/session-secret`` (made on first use, mode 0600), so that
+    every API process on one data directory signs alike and a restart keeps the logins.
+    Raises :class:`ConfigError` for a configured key under 32 characters."""
+    if settings.session_secret is not None:
+        key = settings.session_secret.get_secret_value()
+        if len(key) < 32:
+            raise ConfigError("DEMSCALE_SESSION_SECRET must be 32 characters or more")
+        return key
+    path = settings.data_dir / SESSION_SECRET_FILE
+    if not path.exists():  # written whole, then linked into place: no reader sees it empty
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{SESSION_SECRET_FILE}.{os.getpid()}.tmp")
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        with os.fdopen(fd, "w") as f:
+            f.write(secrets.token_urlsafe(48) + "\n")
+        try:
+            os.link(tmp, path)
+        except FileExistsError:  # another process made it first: theirs is the key
+            pass
+        finally:
+            tmp.unlink(missing_ok=True)
+    return path.read_text().strip()
 
 
 @lru_cache

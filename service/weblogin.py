@@ -1,33 +1,27 @@
-"""Logging a browser in to the studies web page (:mod:`service.web`): the API token in an
-HttpOnly, SameSite=Strict cookie, handed to :class:`service.guard.Guard` as a bearer token on
-safe requests only. See :class:`BrowserLogin`."""
+"""Logging a browser in to the studies web page (:mod:`service.web`): a signed, expiring
+session cookie (Starlette's :class:`~starlette.middleware.sessions.SessionMiddleware`, signed
+with itsdangerous) that holds the token's fingerprint, never the token; the guard takes it as
+the caller's identity on safe requests only. See :class:`BrowserLogin`."""
 
 from __future__ import annotations
 
 import re
-from urllib.parse import parse_qs, quote, unquote, urlencode
+import time
+from urllib.parse import parse_qs, urlencode
+
+from starlette.middleware.sessions import SessionMiddleware
 
 from .guard import TOO_MANY_FAILURES, Tokens, failure_wait
 from .web import templates
 
-#: Name of the cookie that keeps a browser's API token.
-COOKIE = "demscale_token"
+#: Name of the pages' session cookie.
+COOKIE = "demscale_session"
 #: Paths of the pages: asked for without a token, or with a bad one, they go to /login.
 _PAGE = re.compile(r"/|/studies/[^/]+/page")
 #: What ``next`` may be: a path of this site made of unreserved characters only, one slash
 #: between segments. No scheme, host, query, percent sign (so no encoded tab, CR/LF or
 #: slash), backslash, whitespace or control character can pass.
 _LOCAL_PATH = re.compile(r"/(?:[A-Za-z0-9._~-]+/)*[A-Za-z0-9._~-]*")
-
-
-def _cookie(headers) -> str | None:
-    for name, value in headers:
-        if name == b"cookie":
-            for part in value.decode("latin-1").split(";"):
-                key, _, val = part.strip().partition("=")
-                if key == COOKIE and val:
-                    return unquote(val)
-    return None
 
 
 def safe_next(target: str | None) -> str:
@@ -73,14 +67,12 @@ def same_origin(scope) -> bool:
 _SECURITY_HEADERS = [(b"cache-control", b"no-store")]
 
 
-async def _redirect(send, location: str, cookie: str | None = None) -> None:
+async def _redirect(send, location: str) -> None:
     headers = [
         (b"location", location.encode("ascii")),
         (b"content-length", b"0"),
         *_SECURITY_HEADERS,
     ]
-    if cookie is not None:
-        headers.append((b"set-cookie", cookie.encode()))
     await send({"type": "http.response.start", "status": 303, "headers": headers})
     await send({"type": "http.response.body", "body": b""})
 
@@ -102,26 +94,44 @@ async def _html(send, status: int, html: str, extra: list | None = None) -> None
     await send({"type": "http.response.body", "body": body})
 
 
-class BrowserLogin:
-    """ASGI middleware in front of :class:`service.guard.Guard`, for people with a browser.
+class SessionCookie:
+    """Starlette's :class:`SessionMiddleware` (the session a signed, timestamped cookie:
+    itsdangerous; HttpOnly, SameSite=Strict, ``max_age`` seconds) with the ``Secure`` flag on
+    the requests that came over https (one middleware of each kind, picked per request)."""
 
-    ``POST /login`` takes the API token in a form and, if it is an accepted token, keeps it in
-    an HttpOnly, SameSite=Strict cookie; ``POST /logout`` drops it. Both refuse a request
-    that another site sent (:func:`same_origin`), and a token never travels in a URL:
-    ``GET /login`` only shows the form (a ``token`` in its query is ignored). A GET or HEAD
-    request that carries the cookie and no Authorization header is given the cookie's token
-    as its bearer token, and the guard checks it like any other. Only those safe methods: a
-    cookie never submits, cancels or deletes a study, so another site cannot make a
-    logged-in browser do so. A page asked for without a token, or with one the guard
-    refuses, is sent to ``/login``.
+    def __init__(self, app, secret_key: str, max_age: int):
+        kw = {"session_cookie": COOKIE, "max_age": max_age, "same_site": "strict"}
+        self.plain = SessionMiddleware(app, secret_key, https_only=False, **kw)
+        self.secure = SessionMiddleware(app, secret_key, https_only=True, **kw)
+
+    async def __call__(self, scope, receive, send) -> None:
+        https = scope["type"] == "http" and scope.get("scheme") == "https"
+        await (self.secure if https else self.plain)(scope, receive, send)
+
+
+class BrowserLogin:
+    """ASGI middleware in front of :class:`service.guard.Guard` and inside
+    :class:`SessionCookie`, for people with a browser.
+
+    ``POST /login`` takes the API token in a form and, if it is an accepted token, starts a
+    session that holds the token's fingerprint (the token itself is never in the cookie: a
+    stolen cookie is not a token, and it expires); ``POST /logout`` ends it. Both refuse a
+    request that another site sent (:func:`same_origin`), and a token never travels in a
+    URL: ``GET /login`` only shows the form (a ``token`` in its query is ignored). A GET or
+    HEAD request with a live session and no Authorization header is the session's token's
+    (``state.session_owner``, which the guard takes on those methods only), if that token is
+    still accepted. Only those safe methods: a session never submits, cancels or deletes a
+    study, so another site cannot make a logged-in browser do so. A page asked for without a
+    session, or with one the guard refuses, is sent to ``/login``.
     """
 
     max_form_bytes = 4096
 
-    def __init__(self, app, tokens: Tokens, failures=None):
+    def __init__(self, app, tokens: Tokens, failures=None, max_age: int = 8 * 3600):
         self.app = app
         self.tokens = tokens
         self.failures = failures  # wrong tokens per client address (shared with the guard)
+        self.max_age = max_age  # a session's whole life [s], however active
 
     async def __call__(self, scope, receive, send) -> None:
         if scope["type"] != "http":
@@ -137,10 +147,9 @@ class BrowserLogin:
         headers = scope.get("headers", [])
         page = method in ("GET", "HEAD") and _PAGE.fullmatch(path) is not None
         if method in ("GET", "HEAD") and not any(n == b"authorization" for n, _ in headers):
-            token = _cookie(headers)
-            if token is not None:
-                bearer = b"Bearer " + token.encode("latin-1", "replace")
-                scope = {**scope, "headers": [*headers, (b"authorization", bearer)]}
+            owner = self._session_owner(scope)
+            if owner is not None:
+                scope.setdefault("state", {})["session_owner"] = owner
             elif page:
                 await _redirect(send, "/login?" + urlencode({"next": path}))
                 return
@@ -154,24 +163,26 @@ class BrowserLogin:
             nonlocal refused
             if message["type"] == "http.response.start" and message["status"] == 401:
                 refused = True
-                await _redirect(
-                    send,
-                    "/login?" + urlencode({"next": path, "failed": 1}),
-                    self._set_cookie(scope, ""),
-                )
+                scope.get("session", {}).clear()
+                await _redirect(send, "/login?" + urlencode({"next": path, "failed": 1}))
             elif not refused:
                 await send(message)
 
         await self.app(scope, receive, to_login)
 
-    @staticmethod
-    def _set_cookie(scope, token: str) -> str:
-        attrs = "Path=/; HttpOnly; SameSite=Strict"
-        if scope.get("scheme") == "https":
-            attrs += "; Secure"
-        if not token:
-            return f"{COOKIE}=; {attrs}; Max-Age=0"
-        return f"{COOKIE}={quote(token, safe='')}; {attrs}"
+    def _session_owner(self, scope) -> str | None:
+        """The fingerprint of the session's token, while the session is young enough and its
+        token still accepted (tokens are read at start: a revoked one ends its sessions);
+        else None, and the session is ended."""
+        session = scope.get("session")
+        if not session:
+            return None
+        owner, since = session.get("owner"), session.get("since")
+        fresh = isinstance(since, (int, float)) and 0 <= time.time() - since <= self.max_age
+        if isinstance(owner, str) and fresh and self.tokens.knows(owner):
+            return owner
+        session.clear()
+        return None
 
     async def _form(self, receive, send) -> dict | None:
         body = b""
@@ -197,7 +208,8 @@ class BrowserLogin:
         if not same_origin(scope):
             await _html(send, 403, "logging out is only possible from this site's pages")
             return
-        await _redirect(send, "/login", self._set_cookie(scope, ""))
+        scope.get("session", {}).clear()  # the cookie is expired with it
+        await _redirect(send, "/login")
 
     async def _login(self, scope, receive, send) -> None:
         query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
@@ -213,8 +225,13 @@ class BrowserLogin:
                 return
             token = form.get("token", [""])[0].strip()
             target = safe_next(form.get("next", [target])[0])
-            if token and self.tokens.owner(token.encode("utf-8", "replace")) is not None:
-                await _redirect(send, target, self._set_cookie(scope, token))
+            owner = self.tokens.owner(token.encode("utf-8", "replace")) if token else None
+            if owner is not None:
+                # the session holds who logged in and when, signed; never the token
+                session = scope["session"]
+                session.clear()
+                session.update({"owner": owner, "since": int(time.time())})
+                await _redirect(send, target)
                 return
             failed = True  # no cookie for a token the guard would refuse
             wait = failure_wait(self.failures, scope)

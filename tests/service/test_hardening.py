@@ -5,12 +5,17 @@ directory permissions, ``/healthz`` without a token."""
 
 from __future__ import annotations
 
+import base64
+import json
 import os
 import re
 import stat
+import time
+from types import SimpleNamespace
 
 import pytest
 from fastapi.testclient import TestClient
+from pydantic import SecretStr
 
 from service.app import create_app
 from service.headers import CONTENT_SECURITY_POLICY
@@ -129,11 +134,18 @@ def test_login_by_post_only_and_only_for_an_accepted_token(browser):
     assert r.status_code == 401 and "set-cookie" not in r.headers
     # the right one does
     r = browser.post("/login", data={"token": TOKEN})
-    assert r.status_code == 303 and r.headers["set-cookie"].startswith("demscale_token=")
-    assert "SameSite=Strict" in r.headers["set-cookie"]
+    cookie = r.headers["set-cookie"]
+    assert r.status_code == 303 and cookie.startswith("demscale_session=")
+    assert "samesite=strict" in cookie.lower() and "httponly" in cookie.lower()
+    # a session, not the token: signed (itsdangerous), expiring, and holding no token
+    assert TOKEN not in cookie and f"Max-Age={8 * 3600}" in cookie
+    value = cookie.split(";")[0].split("=", 1)[1]
+    assert "." in value  # payload.timestamp.signature
     # logging out is a POST as well; a GET link changes nothing
     r = browser.get("/logout")
-    assert r.status_code == 405 and "set-cookie" not in r.headers
+    assert r.status_code == 405 and "expires=Thu, 01 Jan 1970" not in r.headers.get(
+        "set-cookie", ""
+    )
     assert browser.put("/login").status_code == 405
 
 
@@ -161,7 +173,7 @@ def test_login_from_its_own_page_is_accepted(browser):
     r = browser.post("/login", data={"token": TOKEN}, headers=own)
     assert r.status_code == 303 and "set-cookie" in r.headers
     r = browser.post("/logout", headers=own)
-    assert r.status_code == 303 and "Max-Age=0" in r.headers["set-cookie"]
+    assert r.status_code == 303 and "expires=Thu, 01 Jan 1970" in r.headers["set-cookie"]
     # behind a proxy that rewrites Host, the browser's Sec-Fetch-Site still decides
     proxied = {"origin": "https://demscale.example.org", "sec-fetch-site": "same-origin"}
     assert browser.post("/login", data={"token": TOKEN}, headers=proxied).status_code == 303
@@ -283,3 +295,40 @@ def test_database_and_data_directory_are_the_services_own(settings, tmp_path):
         assert mode(probe) == 0o600
     finally:
         os.umask(old)
+
+
+@pytest.mark.timeout(60)
+def test_a_session_cookie_is_signed_expires_and_outlives_no_token(settings, browser, monkeypatch):
+    r = browser.post("/login", data={"token": TOKEN, "next": "/"})
+    assert r.status_code == 303 and browser.get("/").status_code == 200
+    value = browser.cookies["demscale_session"]
+    # a forged cookie (its payload changed, the signature kept) is no session
+    _, stamp, sig = value.split(".")
+    forged = base64.b64encode(b'{"owner": "0123456789abcdef", "since": 9999999999}').decode()
+    browser.cookies.clear()
+    browser.cookies.set("demscale_session", f"{forged}.{stamp}.{sig}")
+    assert browser.get("/").status_code == 303
+    # a session older than DEMSCALE_SESSION_MAX_AGE is over, however it is signed
+    old = settings.model_copy(update={"session_max_age": 60})
+    with TestClient(create_app(old), follow_redirects=False) as b:
+        assert b.post("/login", data={"token": TOKEN}).status_code == 303
+        data = json.loads(base64.b64decode(b.cookies["demscale_session"].split(".")[0]))
+        assert data["since"] <= time.time() and set(data) == {"owner", "since"}
+        later = time.time() + 120  # the session's clock, two minutes on
+        monkeypatch.setattr("service.weblogin.time", SimpleNamespace(time=lambda: later))
+        assert b.get("/").status_code == 303
+    # a session whose token is revoked (the API restarted without it) is over too
+    browser.cookies.clear()
+    browser.cookies.set("demscale_session", value)
+    other = settings.model_copy(update={"api_token": SecretStr("another-token-0123456789")})
+    with TestClient(create_app(other), follow_redirects=False) as b:
+        b.cookies.set("demscale_session", value)
+        assert b.get("/").status_code == 303
+
+
+@pytest.mark.timeout(60)
+def test_log_out_is_offered_only_to_a_logged_in_browser(client, browser):
+    assert 'action="/logout"' not in browser.get("/login").text
+    assert 'action="/logout"' not in client.get("/").text  # a bearer token: nothing to end
+    browser.post("/login", data={"token": TOKEN})
+    assert 'action="/logout"' in browser.get("/").text

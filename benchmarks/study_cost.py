@@ -39,6 +39,7 @@ def pool_speedup(workers: int = 2) -> list[tuple[str, bool]]:
         rules=(engine.ScalingRule.named("paper"), engine.ScalingRule.named("unscaled")),
         reference_seeds=(1, 2, 3, 4),
         seeds=(1, 2),
+        protocol_check=False,
     )
     engine.run_uniaxial(
         engine.preset("quick", protocol="seed", pair_law=LAW, cell=(0.015, 0.015, 0.015))

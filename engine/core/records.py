@@ -230,6 +230,16 @@ def from_dict(cls, data: Any, owner: str | None = None):
     unknown = set(data) - set(infos)
     if unknown:
         raise ParameterError(owner, sorted(unknown), f"fields among {sorted(infos)}")
+    required = [
+        f.name
+        for f in dataclasses.fields(cls)
+        if f.init
+        and f.default is dataclasses.MISSING
+        and f.default_factory is dataclasses.MISSING
+        and f.name not in data
+    ]
+    if required:
+        raise ParameterError(f"{owner}.{required[0]}", None, "given (the field is required)")
     hints = _hints(cls)
     kwargs = {name: _from_json(raw, infos[name], hints[name], cls) for name, raw in data.items()}
     return cls(**kwargs)

@@ -594,6 +594,53 @@ def judge_values(
     )
 
 
+def _judge_by_seed(
+    spec,
+    noise: StudyNoise,
+    key,
+    other,
+    values: dict[int, dict],
+    others: dict[int, dict],
+    names,
+    look: int,
+    looks: int,
+    against: str,
+) -> tuple[list[dict], int]:
+    """Every metric of group ``key`` against group ``other`` of the same radius (its
+    ``REFERENCE`` entry: the references), whose runs share packing seeds (``values`` and
+    ``others``: seed -> metric values): paired by seed where :func:`pairing_pays`, else
+    unpaired with the study's spreads. Returns (per-metric judgements, pairs)."""
+    cons = spec.reference.consolidation_stress
+    alpha_e, alpha_d = error_rates(getattr(spec, "confidence", CONFIDENCE), len(names), look, looks)
+    radius = key[0]
+    both = sorted(set(values) & set(others))
+    raw_other = REFERENCE if other[1] == REFERENCE else other
+    per_metric = []
+    for n in names:
+        tol = spec.tolerances[n]
+        comp = compare(noise, n, key, tol, against=other)
+        df_unpaired = float(np.min(comp.interval(alpha_e)[3])) if comp.known else None
+        if n != "strength" and pairing_pays(n, len(both), comp.nc, comp.nr, alpha_e, df_unpaired):
+            sp = noise.space[n, radius]
+            c = sp.map(np.array([np.atleast_1d(values[s][n]) for s in both], dtype=float))
+            k = sp.map(np.array([np.atleast_1d(others[s][n]) for s in both], dtype=float))
+            comp = Comparison(sp, c, k, comp.sc, comp.sr, tol, paired=True)
+        per_metric.append(
+            judge_metric(
+                n,
+                comp,
+                alpha_e,
+                alpha_d,
+                noise.raw[n, key],
+                noise.raw[n, raw_other],
+                cons,
+                against=against,
+                counts=_counts(noise, n, key),
+            )
+        )
+    return per_metric, len(both)
+
+
 def judge_rule_error(
     spec,
     radius: float,
@@ -610,39 +657,38 @@ def judge_rule_error(
     values; ``noise``: the study's (pooled spreads), else built from these two groups. A
     metric is judged on the per-seed differences of the seeds both have where
     :func:`pairing_pays`, else unpaired with the pooled spreads."""
-    cons = spec.reference.consolidation_stress
-    alpha_e, alpha_d = error_rates(getattr(spec, "confidence", CONFIDENCE), len(names), look, looks)
     key, ck = (radius, rule), (radius, "control")
     if noise is None:
         noise = StudyNoise(
-            [], {key: list(values.values()), ck: list(controls.values())}, names, cons
+            [],
+            {key: list(values.values()), ck: list(controls.values())},
+            names,
+            spec.reference.consolidation_stress,
         )
-    both = sorted(set(values) & set(controls))
-    per_metric = []
-    for n in names:
-        tol = spec.tolerances[n]
-        comp = compare(noise, n, key, tol, against=ck)
-        df_unpaired = float(np.min(comp.interval(alpha_e)[3])) if comp.known else None
-        if n != "strength" and pairing_pays(n, len(both), comp.nc, comp.nr, alpha_e, df_unpaired):
-            sp = noise.space[n, radius]
-            c = sp.map(np.array([np.atleast_1d(values[s][n]) for s in both], dtype=float))
-            k = sp.map(np.array([np.atleast_1d(controls[s][n]) for s in both], dtype=float))
-            comp = Comparison(sp, c, k, comp.sc, comp.sr, tol, paired=True)
-        m = judge_metric(
-            n,
-            comp,
-            alpha_e,
-            alpha_d,
-            noise.raw[n, key],
-            noise.raw[n, ck],
-            cons,
-            against="control",
-            counts=_counts(noise, n, key),
-        )
-        per_metric.append(m)
+    per_metric, pairs = _judge_by_seed(
+        spec, noise, key, ck, values, controls, names, look, looks, "control"
+    )
     out = judged(radius, rule, per_metric, len(values))
     out["control_seeds"] = len(controls)
-    out["paired_seeds"] = len(both)
+    out["paired_seeds"] = pairs
+    return out
+
+
+def judge_protocol(
+    spec, noise: StudyNoise, radius: float, half: dict[int, dict], refs: dict[int, dict], names
+) -> dict:
+    """The protocol check (docs/PHYSICS.md section 7.6): the reference seeds run at half the
+    rate and step (``half``: seed -> metric values, the group (radius, "protocol") of
+    ``noise``) against the references (``refs``: seed -> metric values), paired by seed
+    where that pays; judged once, at the study's confidence. ``equivalent`` states that the
+    study's protocol is quasi-static and its time step converged for every metric."""
+    key = (radius, "protocol")
+    per_metric, pairs = _judge_by_seed(
+        spec, noise, key, (radius, REFERENCE), half, refs, names, 1, 1, "reference"
+    )
+    out = judged(radius, "protocol", per_metric, len(half))
+    out["paired_seeds"] = pairs
+    out["what"] = "protocol"
     return out
 
 
@@ -663,6 +709,7 @@ __all__ = [
     "judge_group",
     "judge_groups",
     "judge_metric",
+    "judge_protocol",
     "judge_rule_error",
     "judge_samples",
     "judge_values",

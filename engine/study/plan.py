@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..core.errors import ParameterError
-from ..uniaxial.spec import UniaxialTest
+from ..uniaxial.spec import UniaxialTest, halved_protocol
 from .allocate import Addition, next_runs
 from .judge import error_rates, judge_group, judge_groups
 from .metrics import metric_names, metric_values, shape_errors
@@ -24,6 +24,8 @@ from .spec import ScalingRule, StudySpec
 
 #: The variant name of a study's resolution controls (a rule may not take it).
 CONTROL = "control"
+#: The variant name of a study's protocol check: reference seeds at half the rate and step.
+PROTOCOL = "protocol"
 
 
 @dataclass(frozen=True)
@@ -31,7 +33,8 @@ class PlannedRun:
     """One run of a study: ``key``, ``radius`` [m] (a control's: the coarse radius it stands
     for), ``rule`` (None for a reference or a control), ``seed``, its ``test`` (complete: a
     coarse run's time step is known before any run starts) and whether it is a resolution
-    ``control`` (:func:`control_test`)."""
+    ``control`` (:func:`control_test`) or a ``protocol`` check (a reference seed at half the
+    rate and step, :func:`engine.uniaxial.spec.halved_protocol`)."""
 
     key: str
     radius: float
@@ -39,35 +42,41 @@ class PlannedRun:
     seed: int
     test: UniaxialTest
     control: bool = False
+    protocol: bool = False
 
     @property
     def is_reference(self) -> bool:
-        return self.rule is None and not self.control
+        return self.rule is None and not self.control and not self.protocol
 
     @property
     def variant(self) -> tuple[float, str] | None:
-        """(radius [m], rule name, or :data:`CONTROL`) of a coarse run or a control; None for
-        a reference."""
+        """(radius [m], rule name, :data:`CONTROL` or :data:`PROTOCOL`) of a coarse run, a
+        control or a protocol check; None for a reference."""
         if self.control:
             return (self.radius, CONTROL)
+        if self.protocol:
+            return (self.radius, PROTOCOL)
         return None if self.rule is None else (self.radius, self.rule.name)
 
     @property
     def label(self) -> str:
-        """``"reference"``, ``"control"`` or the rule's name."""
+        """``"reference"``, ``"control"``, ``"protocol"`` or the rule's name."""
         if self.control:
             return CONTROL
+        if self.protocol:
+            return PROTOCOL
         return "reference" if self.rule is None else self.rule.name
 
     def with_seed(self, seed: int) -> PlannedRun:
         """The same run with packing seed ``seed`` (its key says so)."""
         return PlannedRun(
-            run_key(self.radius, self.rule, seed, self.control),
+            run_key(self.radius, self.rule, seed, self.control, self.protocol),
             self.radius,
             self.rule,
             seed,
             replace(self.test, seed=seed),
             self.control,
+            self.protocol,
         )
 
     @property
@@ -76,10 +85,19 @@ class PlannedRun:
         return estimated_steps(self.test) * self.test.n_particles
 
 
-def run_key(radius: float, rule: ScalingRule | None, seed: int, control: bool = False) -> str:
-    """Key of a run, e.g. ``ref-s1``, ``r5mm-paper-s1`` or (a control) ``ctl-r5mm-s1``."""
+def run_key(
+    radius: float,
+    rule: ScalingRule | None,
+    seed: int,
+    control: bool = False,
+    protocol: bool = False,
+) -> str:
+    """Key of a run, e.g. ``ref-s1``, ``r5mm-paper-s1``, (a control) ``ctl-r5mm-s1`` or (a
+    protocol check) ``half-s1``."""
     if control:
         return f"ctl-r{radius * 1e3:g}mm-s{seed}"
+    if protocol:
+        return f"half-s{seed}"
     if rule is None:
         return f"ref-s{seed}"
     return f"r{radius * 1e3:g}mm-{rule.name}-s{seed}"
@@ -154,6 +172,7 @@ class StudyPlan:
             if k is None
             else c * (spec.max_seeds - len(spec.seeds))
             for k, c in cost.items()
+            if k is None or k[1] != PROTOCOL
         )
         return total + float(worst if spec.budget is None else min(worst, spec.budget))
 
@@ -170,6 +189,7 @@ class StudyPlan:
                     "seed": p.seed,
                     "test": p.test.to_dict(),
                     **({"control": True} if p.control else {}),
+                    **({"protocol": True} if p.protocol else {}),
                 }
                 for p in self.runs
             ],
@@ -189,6 +209,7 @@ class StudyPlan:
                 int(r["seed"]),
                 UniaxialTest.from_dict(r["test"]),
                 bool(r.get("control", False)),
+                bool(r.get("protocol", False)),
             )
             for r in d["runs"]
         )
@@ -233,6 +254,27 @@ def plan(spec: StudySpec) -> StudyPlan:
         PlannedRun(run_key(ref.radius, None, seed), ref.radius, None, seed, replace(ref, seed=seed))
         for seed in spec.reference_seeds
     ]
+    if spec.protocol_check:
+        try:
+            half = halved_protocol(ref)
+        except ParameterError as e:
+            raise ParameterError(
+                "StudySpec.protocol_check",
+                True,
+                "a reference whose rate and step can be halved (or protocol_check false)",
+                str(e),
+            ) from None
+        out += [
+            PlannedRun(
+                run_key(ref.radius, None, seed, protocol=True),
+                ref.radius,
+                None,
+                seed,
+                replace(half, seed=seed),
+                protocol=True,
+            )
+            for seed in spec.reference_seeds[: spec.protocol_seeds]
+        ]
     for seed in spec.seeds:
         for r in spec.coarse_radii:
             for rule in spec.rules:
@@ -272,9 +314,9 @@ def plan_runs(
         return planned, added, None
     spent = 0.0
     for round_no in range(1, spec.rounds + 1):
-        # a round is planned from the finished references and variants (the controls take
-        # no part in it, so a round need not wait for them)
-        if any(p.key not in outcomes for p in planned if not p.control):
+        # a round is planned from the finished references and variants (the controls and
+        # the protocol check take no part in it, so a round need not wait for them)
+        if any(p.key not in outcomes for p in planned if not p.control and not p.protocol):
             return planned, added, None
         new = _added_runs(spec, planned, outcomes, round_no, spent)
         if not new:
@@ -378,7 +420,7 @@ def _judged_values(spec: StudySpec, planned: list[PlannedRun], outcomes: dict):
     variants: dict[tuple, list[dict]] = {}
     controls: dict[float, list[dict]] = {}
     for p in ok:
-        if p.is_reference:
+        if p.is_reference or p.protocol:
             continue
         res = outcomes[p.key]
         try:

@@ -11,7 +11,7 @@ import numpy as np
 from ..uniaxial.measures import overburden_ratio
 from ..uniaxial.results import UniaxialResult
 from .advisor import advise
-from .judge import error_rates, judge_group, judge_rule_error
+from .judge import error_rates, judge_group, judge_protocol, judge_rule_error
 from .metrics import (
     METRIC_COLUMNS,
     SHAPE_NAMES,
@@ -21,7 +21,7 @@ from .metrics import (
     shape_errors,
 )
 from .noise import StudyNoise, noise_floor
-from .plan import CONTROL, PlannedRun
+from .plan import CONTROL, PROTOCOL, PlannedRun
 from .resolution import curve_lines, resolution_curves
 from .spec import ScalingRule, StudySpec
 
@@ -70,16 +70,19 @@ class RunResult:
     scale: float = 1.0
     control: bool = False
     speedup_steps: float = 1.0
+    protocol: bool = False
 
     @property
     def is_reference(self) -> bool:
-        return self.rule is None and not self.control
+        return self.rule is None and not self.control and not self.protocol
 
     @property
     def label(self) -> str:
-        """``"reference"``, ``"control"`` or the rule's name."""
+        """``"reference"``, ``"control"``, ``"protocol"`` or the rule's name."""
         if self.control:
             return "control"
+        if self.protocol:
+            return PROTOCOL
         return "reference" if self.rule is None else self.rule.name
 
     def row(self) -> dict:
@@ -190,6 +193,7 @@ def assemble(
     variants: dict[tuple, list[dict]] = {}
     seeds_of: dict[tuple, list[int]] = {}
     controls: dict[float, dict[int, dict]] = {}
+    half: dict[int, dict] = {}  # the protocol check, by seed
     for p in planned:
         res = outcomes.get(p.key)
         if res is None or isinstance(res, str):
@@ -221,8 +225,11 @@ def assemble(
             p.radius / spec.reference.radius,
             p.control,
             ref_steps / res.scalars["particle_steps"],
+            p.protocol,
         )
-        if p.control:
+        if p.protocol:
+            half[p.seed] = values
+        elif p.control:
             controls.setdefault(p.radius, {})[p.seed] = values
         else:
             variants.setdefault((p.radius, p.rule.name), []).append(values)
@@ -230,9 +237,14 @@ def assemble(
     table = [r.row() for r in runs.values()]
     groups = _groups(spec, runs, names)
     ctl_values = {r: list(c.values()) for r, c in controls.items()}
+    r_ref = spec.reference.radius
     pooled = StudyNoise(
         ref_values,
-        {**variants, **{(r, CONTROL): v for r, v in ctl_values.items()}},
+        {
+            **variants,
+            **{(r, CONTROL): v for r, v in ctl_values.items()},
+            **({(r_ref, PROTOCOL): list(half.values())} if half else {}),
+        },
         names,
         cons,
     )
@@ -242,7 +254,7 @@ def assemble(
     noise = {n: floor[n]["noise"] for n in names}
     keys_of: dict[tuple, list[str]] = {}
     for p in planned:
-        if not p.is_reference and not p.control:
+        if not p.is_reference and not p.control and not p.protocol:
             keys_of.setdefault((p.radius, p.rule.name), []).append(p.key)
     for v in verdicts:
         g = next(g for g in groups if g["radius"] == v["radius"] and g["rule"] == v["rule"])
@@ -282,7 +294,7 @@ def assemble(
         strengths = {"reference": [r.scalars["unconfined_strength"] for r in refs.values()]}
         strengths["variants"], strengths["controls"] = {}, {}
         for r in runs.values():
-            if r.is_reference:
+            if r.is_reference or r.protocol:
                 continue
             st = r.result.scalars["unconfined_strength"]
             if r.control:
@@ -307,6 +319,14 @@ def assemble(
         advisor["control_lines"] = advisor["control_lines"] + lines
         if lines:
             advisor["message"] = "; ".join([advisor["message"], *lines])
+    advisor["protocol"] = None
+    if half:
+        ref_by_seed = dict(zip(refs, ref_values))
+        check = judge_protocol(spec, pooled, r_ref, half, ref_by_seed, names)
+        advisor["protocol"] = check
+        line = protocol_line(check)
+        advisor["control_lines"] = [*advisor["control_lines"], line]
+        advisor["message"] = "; ".join([advisor["message"], line])
     advisor["noise_floor"] = noise
     advisor["reference"] = _reference_summary(refs, names, ref_values)
     return StudyResult(spec, runs, table, groups, advisor, failed)
@@ -349,6 +369,19 @@ def judge_controls(
         v["what"] = "rule"
         rule_errors.append(v)
     return resolution, rule_errors
+
+
+def protocol_line(check: dict) -> str:
+    """The advisor's line on the protocol check (docs/PHYSICS.md section 7.6)."""
+    says = {
+        "equivalent": "is quasi-static and its time step converged: halving the inertial "
+        "number (or platen speed) and the time step changes no metric beyond its tolerance",
+        "differs": "is NOT converged: halving the inertial number (or platen speed) and the "
+        "time step changes a metric beyond its tolerance",
+        "undecided": "is not shown converged: halving the inertial number (or platen speed) "
+        "and the time step leaves a metric undecided",
+    }
+    return f"protocol check: the study's protocol {says[check['verdict']]} ({check['reason']})"
 
 
 def _note_failure_kinds(refs: dict, runs: dict[str, RunResult], verdicts: list[dict]) -> None:

@@ -151,6 +151,11 @@ def _rules_from_json(raw):
     )
 
 
+#: Coarsest radius a study takes, in reference radii: a coarse-graining factor of 20 (users
+#: coarse-grain by 10 to 100; the plan refuses any radius the reference's cell cannot hold).
+MAX_COARSENING = 20.0
+
+
 @dataclass(frozen=True)
 class StudySpec(Record):
     """A scaling study.
@@ -185,14 +190,21 @@ class StudySpec(Record):
             is claimed at the last, so adding seeds keeps the stated confidence.
         budget: with ``decide``, most particle-steps of the added runs (estimated before each
             is started); None: the caps alone bound them.
+        protocol_check: the study proves its own protocol: the first ``protocol_seeds``
+            reference seeds are run again at half the inertial number (or platen speed) and
+            half the time step (:func:`engine.uniaxial.spec.halved_protocol`) and judged
+            against the references like a variant, paired by seed where that pays: a study
+            states that its loading is quasi-static and its step converged instead of
+            assuming it (docs/PHYSICS.md section 7.6).
+        protocol_seeds: with ``protocol_check``, how many reference seeds are run again (at
+            most the reference seeds there are; two or more give the check a spread).
     """
 
     reference: UniaxialTest = param(
         unit="",
         kind="record",
-        default_factory=lambda: preset("quick"),
         parse=_reference_from_json,
-        doc="the fine reference test",
+        doc="the fine reference test (required: a preset named, or a full test)",
     )
     coarse_radii: tuple[float, ...] = param(
         (5e-3,), unit="m", kind="list", max_items=8, doc="radii of the coarse variants"
@@ -265,6 +277,20 @@ class StudySpec(Record):
         nullable=True,
         doc="with decide: most particle-steps of the added runs",
     )
+    protocol_check: bool = param(
+        True,
+        unit="",
+        kind="bool",
+        doc="rerun reference seeds at half the inertial number and time step and judge them",
+    )
+    protocol_seeds: int = param(
+        2,
+        unit="1",
+        kind="int",
+        ge=2,
+        le=10,
+        doc="with protocol_check: how many reference seeds are rerun",
+    )
 
     def __post_init__(self) -> None:
         o = "StudySpec"
@@ -285,12 +311,12 @@ class StudySpec(Record):
             f = f"{o}.coarse_radii[{i}]"
             if isinstance(r, bool) or not isinstance(r, (int, float)) or not math.isfinite(r):
                 raise ParameterError(f, r, "a finite number of metres")
-            if not 0 < r <= 4 * r_ref or abs(r - r_ref) <= 1e-9 * r_ref:
+            if not r_ref * (1 + 1e-9) < r <= MAX_COARSENING * r_ref:
                 raise ParameterError(
                     f,
                     r,
-                    f"in (0, {4 * r_ref:g}] m (4 reference radii) and "
-                    f"different from the reference radius {r_ref:g} m",
+                    f"in ({r_ref:g}, {MAX_COARSENING * r_ref:g}] m: coarser than the reference "
+                    f"radius {r_ref:g} m (reference.radius), at most {MAX_COARSENING:g} times it",
                 )
         if len(set(radii)) != len(radii):
             raise ParameterError(f"{o}.coarse_radii", radii, "distinct radii")
@@ -301,9 +327,11 @@ class StudySpec(Record):
         if len({r.name for r in rules}) != len(rules):
             raise ParameterError(f"{o}.rules", [r.name for r in rules], "rules with unique names")
         for i, r in enumerate(rules):
-            if r.name in ("reference", "control"):
+            if r.name in ("reference", "control", "protocol"):
                 raise ParameterError(
-                    f"{o}.rules[{i}].name", r.name, "a name other than 'reference' and 'control'"
+                    f"{o}.rules[{i}].name",
+                    r.name,
+                    "a name other than 'reference', 'control' and 'protocol'",
                 )
         object.__setattr__(self, "rules", rules)
         seeds = None if self.seeds is None else _seed_list(f"{o}.seeds", self.seeds)

@@ -111,11 +111,14 @@ def test_study_json_takes_a_preset_and_rule_names_and_refuses_the_wrong_shapes()
     )
     assert spec.reference == engine.preset("quick", radius=2e-3)
     assert [r.name for r in spec.rules] == ["paper", "unscaled"]
+    ref = {"reference": {"preset": "quick"}}
     for bad, field in (
-        ({"rules": "paper"}, "StudySpec.rules"),
-        ({"rules": [{"name": "x", "slope": 1}]}, "StudySpec.rules[0]"),
-        ({"coarse_radii": 0.005}, "StudySpec.coarse_radii"),
-        ({"tolerances": [0.1]}, "StudySpec.tolerances"),
+        ({"rules": ["paper"]}, "StudySpec.reference"),  # no silent default for the physics
+        ({**ref, "rules": "paper"}, "StudySpec.rules"),
+        ({**ref, "rules": [{"name": "x", "slope": 1}]}, "StudySpec.rules[0]"),
+        ({**ref, "coarse_radii": 0.005}, "StudySpec.coarse_radii"),
+        ({**ref, "coarse_radii": [0.001]}, "StudySpec.coarse_radii[0]"),  # finer: not coarse
+        ({**ref, "tolerances": [0.1]}, "StudySpec.tolerances"),
     ):
         with pytest.raises(engine.ParameterError) as e:
             engine.StudySpec.from_dict(bad)
@@ -141,7 +144,10 @@ def test_records_do_no_work_and_a_study_is_planned_by_one_pure_function(monkeypa
     assert placed == []  # neither the records nor the plan place a packing
     assert spec.to_dict() == before  # the spec is not changed by planning
     assert engine.plan(spec) == plan  # and planning is deterministic
-    assert len(plan.runs) == 3 + 2 * 2 * 2 + 2 * 2  # references, variants, controls
+    # references, the protocol check (two reference seeds at half the rate and step),
+    # variants, controls
+    assert len(plan.runs) == 3 + 2 + 2 * 2 * 2 + 2 * 2
+    assert [p.key for p in plan.runs if p.protocol] == ["half-s1", "half-s2"]
     again = engine.StudyPlan.from_dict(json.loads(json.dumps(plan.to_dict())))
     assert again == plan and sum(p.control for p in again.runs) == 4
     # the coarse tests carry the scaled law and the reference's time step

@@ -186,8 +186,26 @@ def tiny_study():
 
 def test_tiny_study_end_to_end(tiny_study, tmp_path):
     spec, res, seen, stored = tiny_study
-    keys = ["ref-s1", "ref-s2", "r3.1mm-paper-s1", "r3.1mm-unscaled-s1", "ctl-r3.1mm-s1"]
+    keys = [
+        "ref-s1",
+        "ref-s2",
+        "half-s1",
+        "half-s2",
+        "r3.1mm-paper-s1",
+        "r3.1mm-unscaled-s1",
+        "ctl-r3.1mm-s1",
+    ]
     assert list(res.runs) == keys and list(stored) == keys and not res.failed
+    # the protocol check: the reference seeds at half the platen speed and half the step,
+    # judged against the references, paired by seed
+    half = stored["half-s1"]
+    assert half.scalars["dt"] == pytest.approx(stored["ref-s1"].scalars["dt"] / 2)
+    assert half.test.platen_speed == pytest.approx(stored["ref-s1"].test.platen_speed / 2)
+    check = res.advisor["protocol"]
+    assert check["rule"] == "protocol" and check["paired_seeds"] == 2
+    assert {m["metric"] for m in check["metrics"]} == set(engine.METRICS)
+    assert any(line.startswith("protocol check: ") for line in res.advisor["control_lines"])
+    assert res.runs["half-s1"].label == "protocol" and not res.runs["half-s1"].is_reference
     assert next(p.run_key for p in seen) == "ref-s1" and seen[-1].fraction == pytest.approx(1.0)
     for k in ("ref-s1", "ref-s2"):
         assert all(v == 0.0 for v in res.runs[k].errors.values())
@@ -200,7 +218,7 @@ def test_tiny_study_end_to_end(tiny_study, tmp_path):
     coarse = res.runs["r3.1mm-unscaled-s1"]
     assert coarse.result.scalars["dt"] == pytest.approx(ref.result.scalars["dt"] * 3.1 / 2.5)
     assert coarse.result.scalars["particles"] < ref.result.scalars["particles"]
-    mean_ref_wall = np.mean([res.runs[k].result.scalars["wall_time"] for k in keys[:2]])
+    mean_ref_wall = np.median([res.runs[k].result.scalars["wall_time"] for k in keys[:2]])
     assert coarse.speedup == pytest.approx(mean_ref_wall / coarse.result.scalars["wall_time"])
     adv = res.advisor
     assert set(adv["rules"]) == {"paper", "unscaled"}
@@ -260,7 +278,7 @@ def test_process_pool_gives_the_same_table_and_resumes(tiny_study):
 
 
 def test_a_failed_coarse_run_leaves_the_rest():
-    spec = _tiny_spec()
+    spec = _tiny_spec(protocol_check=False)
     outcomes = {}
     good = engine.run_study(spec, on_run=outcomes.__setitem__)
     outcomes["r3.1mm-paper-s1"] = "InstabilityError: blew up at step 12"
@@ -276,7 +294,10 @@ def test_a_failed_coarse_run_leaves_the_rest():
 
 def test_callback_can_stop_a_study():
     spec = engine.StudySpec(
-        reference=tiny(), coarse_radii=(3.1e-3,), rules=(engine.ScalingRule.named("paper"),)
+        reference=tiny(),
+        coarse_radii=(3.1e-3,),
+        rules=(engine.ScalingRule.named("paper"),),
+        protocol_check=False,
     )
     with pytest.raises(engine.StopRequested):
         engine.run_study(spec, progress=lambda p: p.run_index == 0)
@@ -391,6 +412,7 @@ def test_a_study_with_controls_gives_the_rule_error_and_the_resolution_error():
         rules=(engine.ScalingRule.named("paper"),),
         seeds=(1, 2, 3),
         reference_seeds=(1, 2, 3),
+        protocol_check=False,
     )
     assert spec.controls  # on by default
     keys = [p.key for p in engine.plan(spec).runs]

@@ -40,6 +40,7 @@ TINY = {
     "coarse_radii": [3.1e-3],
     "rules": ["paper"],
     "controls": False,
+    "protocol_check": False,
 }
 
 #: TINY with its resolution control (engine.study.plan.control_test): three runs.
@@ -55,6 +56,7 @@ TINIEST = {
     "coarse_radii": [3.1e-3],
     "rules": ["paper"],
     "controls": False,
+    "protocol_check": False,
 }
 
 

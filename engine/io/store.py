@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from ..uniaxial.checkpoint import this_code
-from ..uniaxial.measures import failed_by_curve, strength_curve
+from ..uniaxial.measures import curve_failed
 from ..uniaxial.results import CURVE_UNITS, SCALAR_UNITS, StageResult, UniaxialResult
 from ..uniaxial.spec import UniaxialTest
 
@@ -119,9 +119,7 @@ def read_run_group(g):
         # derived from the stored curve its strength is read from
         # (engine.uniaxial.measures.failed_by_curve, strength_curve)
         u = stages["unconfined"].curves
-        failed = scalars["unconfined_failure"] == 1.0 or failed_by_curve(
-            u["strain"], strength_curve(test, u), test.failure_strain
-        )
+        failed = scalars["unconfined_failure"] == 1.0 or curve_failed(test, u)
         scalars["unconfined_failure"] = 1.0 if failed else 0.0
     return UniaxialResult(test, stages, scalars)
 

@@ -28,12 +28,14 @@ from .checkpoint import Checkpoint, check_interval, this_code
 from .measures import (
     SOFTENING,
     FailureDetector,
+    curve_failed,
     held_inertial_numbers,
     interior_axial_stress,
     interior_margin,
     interior_measures,
     lateral_ratio,
     loading_speed,
+    peak_start,
     secant_slope,
     strength_scalars,
 )
@@ -161,21 +163,35 @@ class _Recorder:
     def turned(self) -> bool:
         """Whether the unconfined strength curve (``strength_from``), smoothed over the last
         ``failure_strain`` of strain, has fallen ``SOFTENING`` below its running peak: the
-        peak is passed and the sample softens (latched)."""
+        peak is passed and the sample softens (latched). The running peak counts smoothed
+        values from one window past the stage's start (``peak_start``: the first window's
+        mean holds the release's last settling, not the sample's strength)."""
         if not self.post_peak:
             t = self.d.test
             col = STRENGTH_COLUMN[t.strength_from]
+            w = max(t.failure_strain, 1e-3)
             e_now = self.rows[-1][1]
             total, n = 0.0, 0
             for r in reversed(self.rows):
-                if r[1] < e_now - t.failure_strain:
+                if r[1] < e_now - w:
                     break
                 total += r[col]
                 n += 1
             sm = total / n
-            self.smoothed_peak = max(self.smoothed_peak, sm)
+            if e_now - self.rows[0][1] >= max(peak_start(t), w):
+                self.smoothed_peak = max(self.smoothed_peak, sm)
             self.post_peak = self.smoothed_peak > 0 and sm < (1 - SOFTENING) * self.smoothed_peak
         return self.post_peak
+
+    def softened(self) -> bool:
+        """Whether the unconfined curve so far shows the documented failure
+        (:func:`engine.uniaxial.measures.curve_failed`: a peak, then ``SOFTENING`` below it
+        two windows later), checked once the curve has turned."""
+        if not self.post_peak:
+            return False
+        a = np.array(self.rows, dtype=float)
+        curves = {k: a[:, i] for i, k in enumerate(CURVE_UNITS)}
+        return curve_failed(self.d.test, curves)
 
     def result(self) -> StageResult:
         a = np.array(self.rows, dtype=float).reshape(-1, len(CURVE_UNITS))
@@ -456,7 +472,11 @@ class _Driver:
         col = STRENGTH_COLUMN[t.strength_from]
 
         def failed(r) -> bool:
-            if rec.failure.update(r[1], r[col]):
+            # the in-run detector (a drop of failure_drop held for failure_strain), or, where
+            # the strength is the interior's, the documented failure of that curve so far
+            if rec.failure.update(r[1], r[col]) or (
+                t.strength_from == "interior" and rec.softened()
+            ):
                 self.unconfined_failed = True
                 return True
             return r[1] >= t.max_unconfined_strain
@@ -493,8 +513,8 @@ class _Driver:
             if stage == "fill" and self.test.pour_speed is not None:
                 self.cap_speed(self.test.pour_speed)
             row = rec.sample()
+            turned = stage == "unconfined" and rec.turned()
             if stage in LOADING and self.test.inertial_number is not None:
-                turned = stage == "unconfined" and rec.turned()
                 self.drive(stage, row[8], 0.5 * (row[2] + row[3]), post_peak=turned)
             self.stage_fraction = fraction(row)
             self.report(stage, self.stage_fraction)

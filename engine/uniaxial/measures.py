@@ -50,7 +50,11 @@ def smoothed(strain: np.ndarray, stress: np.ndarray, window: float) -> np.ndarra
 
 
 def failed_by_curve(
-    strain: np.ndarray, stress: np.ndarray, window: float, softening: float = SOFTENING
+    strain: np.ndarray,
+    stress: np.ndarray,
+    window: float,
+    softening: float = SOFTENING,
+    start: float = 0.0,
 ) -> bool:
     """Whether an unconfined curve shows a peak followed by sustained softening (failure),
     as opposed to hardening to the strain limit. On the stress smoothed over ``window`` of
@@ -58,16 +62,39 @@ def failed_by_curve(
     end of the curve, and the stress at the end is more than ``softening`` [-] below the peak
     (2 %: over five times the smoothed stress's fluctuation in every stored run, whose raw
     samples scatter by 1-3 % of the peak). A curve that recovers to within ``softening`` of
-    its peak, or whose maximum comes in the last two windows, hardens."""
+    its peak, or whose maximum comes in the last two windows, hardens. The peak is sought
+    from ``start`` [-] of strain past the curve's first sample (:func:`peak_start`)."""
     e = np.asarray(strain, dtype=float)
     s = np.asarray(stress, dtype=float)
     if len(e) < 3 or not np.all(np.isfinite(s)):
         return False
     w = max(float(window), 1e-3)
     sm = smoothed(e, s, w)
-    k = int(np.argmax(sm))
+    after = np.nonzero(e >= e[0] + start)[0]
+    if after.size == 0:
+        return False
+    k = int(after[np.argmax(sm[after])])
     peak = float(sm[k])
     return bool(peak > 0 and e[-1] - e[k] >= 2 * w and sm[-1] < (1 - softening) * peak)
+
+
+def peak_start(test) -> float:
+    """Strain [-] past the unconfined stage's start before which no peak of the strength
+    curve is sought: one smoothing window (``failure_strain``, at least 1e-3) for the
+    interior virial stress, which starts at about the sample's self-weight stress and holds
+    the release's last settling there (the smoothed value of that first window is not a
+    peak of the sample's strength); 0 for the top platen's stress, which starts near 0."""
+    if getattr(test, "strength_from", "platen") == "interior":
+        return max(test.failure_strain, 1e-3)
+    return 0.0
+
+
+def curve_failed(test, curves: dict) -> bool:
+    """:func:`failed_by_curve` on the curve the test reads its strength from
+    (:func:`strength_curve`), the peak sought past :func:`peak_start`."""
+    return failed_by_curve(
+        curves["strain"], strength_curve(test, curves), test.failure_strain, start=peak_start(test)
+    )
 
 
 #: Thickness of a shear band in particle diameters [-]: localised shear bands in granular
@@ -200,29 +227,36 @@ def strength_scalars(curves: dict, test, detector_fired: bool, self_weight: floa
     out = {"unconfined_strength_platen": strength_p, "self_weight_stress": float(self_weight)}
     interior = curves.get("stress_interior")
     if interior is not None:
-        strength_i, strain_i = smoothed_peak(e, interior, w)
+        start = max(w, 1e-3)  # peak_start of the interior curve
+        strength_i, strain_i = smoothed_peak(e, interior, w, start)
         out["unconfined_strength_interior"] = strength_i
     if test.strength_from == "interior" and interior is not None:
-        strength, strain, curve = strength_i, strain_i, interior
+        strength, strain = strength_i, strain_i
     else:
-        strength, strain, curve = strength_p, strain_p, platen
-    failed = detector_fired or failed_by_curve(e, curve, w)
+        strength, strain = strength_p, strain_p
+    failed = detector_fired or curve_failed(test, curves)
     out.update(
         unconfined_strength=strength,
         strain_at_peak=strain,
         unconfined_failure=1.0 if failed else 0.0,
-        strength_from_interior=1.0 if curve is interior else 0.0,
+        strength_from_interior=1.0 if strength_curve(test, curves) is interior else 0.0,
     )
     return out
 
 
-def smoothed_peak(strain: np.ndarray, stress: np.ndarray, window: float) -> tuple[float, float]:
+def smoothed_peak(
+    strain: np.ndarray, stress: np.ndarray, window: float, start: float = 0.0
+) -> tuple[float, float]:
     """The peak of ``stress`` smoothed over ``window`` of strain [-] (as
-    :func:`failed_by_curve` smooths it; at least 1e-3) [Pa], not below 0, and the strain at
-    it [-]."""
+    :func:`failed_by_curve` smooths it; at least 1e-3) [Pa], not below 0, sought from
+    ``start`` [-] past the first sample (the whole curve where it is shorter), and the
+    strain at it [-]."""
     e = np.asarray(strain, dtype=float)
     sm = smoothed(e, stress, max(float(window), 1e-3))
-    k = int(np.argmax(sm))
+    after = np.nonzero(e >= e[0] + start)[0]
+    if after.size == 0:
+        after = np.arange(len(e))
+    k = int(after[np.argmax(sm[after])])
     return max(0.0, float(sm[k])), float(e[k])
 
 

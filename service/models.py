@@ -208,6 +208,17 @@ class CalibrationPublic(StudyPublic):
     study_id: uuid.UUID | None = Field(
         None, description="The study of the calibrated law it submitted (then_study)."
     )
+    all_targets_met: bool | None = Field(
+        None,
+        description="Once succeeded: whether the check run of the calibrated law met every "
+        "laboratory target within 2 sd (false: the calibration finished, but its law misses "
+        "a target: result.not_met says which and by how much); null before.",
+    )
+    outcome: str | None = Field(
+        None,
+        description="Once succeeded, in words: 'all N targets met' or 'k of N targets NOT "
+        "met: <target> (z = ...)'; null before.",
+    )
 
 
 class CalibrationsPublic(SQLModel):

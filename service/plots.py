@@ -30,7 +30,8 @@ def plot_png(results: Path, kind: str) -> bytes:
     cached (written atomically, so concurrent requests never see half a file)."""
     if kind not in KINDS:
         raise KeyError(f"unknown plot kind {kind!r}; kinds: {list(KINDS)}")
-    cached = results.parent / "plots" / f"{kind}.png"
+    # the figures' version in the name: a plot drawn by older code is drawn again
+    cached = results.parent / "plots" / f"{kind}.v{engine_plots.FIGURES_VERSION}.png"
     try:
         if cached.stat().st_mtime >= results.stat().st_mtime:
             return cached.read_bytes()

@@ -23,7 +23,8 @@ from fastapi.responses import HTMLResponse
 from fastapi.templating import Jinja2Templates
 from sqlmodel import select
 
-from engine.io.figures import KINDS
+from engine.calibration.calibrate import TARGET_UNITS
+from engine.io.figures import KINDS, has_controls
 
 from . import h5store, transitions
 from .deps import CalibrationDep, OwnerDep, SessionDep, SettingsDep, StudyDep
@@ -67,7 +68,9 @@ def cell(value, scale: float | None, fmt: str) -> str:
 
 
 @router.get("/", response_class=HTMLResponse)
-def studies_page(request: Request, session: SessionDep, owner: OwnerDep) -> HTMLResponse:
+def studies_page(
+    request: Request, session: SessionDep, owner: OwnerDep, settings: SettingsDep
+) -> HTMLResponse:
     """The caller's studies and calibrations, newest first (the latest 200 of each)."""
     return templates.TemplateResponse(
         request,
@@ -75,7 +78,7 @@ def studies_page(request: Request, session: SessionDep, owner: OwnerDep) -> HTML
         {
             "studies": [public(s) for s in jobs_page(session, owner, Kind.study)[0]],
             "calibrations": [
-                calibration_public(c, session)
+                calibration_public(c, session, settings)
                 for c in jobs_page(session, owner, Kind.calibration)[0]
             ],
             "terminal": TERMINAL,
@@ -100,7 +103,7 @@ def calibration_page(
         request,
         "calibration.html",
         {
-            "job": calibration_public(job, session),
+            "job": calibration_public(job, session, settings),
             "request": job.spec,
             "runs": runs,
             "result": result,
@@ -108,6 +111,8 @@ def calibration_page(
             "study_id": transitions.child_of(session, job.id),
             "terminal": TERMINAL,
             "fmt": cell,
+            # results stored before targets carried units: by the kind of target
+            "target_unit": lambda name: TARGET_UNITS.get(name.split("@")[0], ""),
         },
     )
 
@@ -142,8 +147,8 @@ def study_page(
             "missing": missing,
             "headings": headings,
             "table": table,
-            # the unconfined plot only for a study with that stage, the resolution curve
-            # only for one with resolution controls
+            # the unconfined plot only for a study with that stage, the resolution plot only
+            # for one with resolution controls (a line to the bulk, or the controls' points)
             "plots": {
                 k: t
                 for k, t in KINDS.items()
@@ -151,10 +156,7 @@ def study_page(
                     k != "unconfined"
                     or any("unconfined_strength" in row for row in (summary or {}).get("table", []))
                 )
-                and (
-                    k != "resolution"
-                    or bool(((summary or {}).get("advisor") or {}).get("resolution_curve"))
-                )
+                and (k != "resolution" or has_controls((summary or {}).get("table", [])))
             },
             "terminal": TERMINAL,
             "fmt": cell,

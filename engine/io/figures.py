@@ -19,15 +19,19 @@ import numpy as np
 from ..simulation.snapshot import Snapshot, particle_fields
 from ..study.metrics import METRIC_COLUMNS
 
-#: Plot kinds and their titles.
+#: Plot kinds and their titles (with the units of their axes).
 KINDS = {
-    "stress_strain": "Confined compression and unloading: stress against strain",
-    "stress_porosity": "Confined compression and unloading: porosity against stress",
-    "coordination": "Confined compression and unloading: coordination number against stress",
-    "unconfined": "Unconfined compression to failure",
-    "error_vs_runtime": "Error against the reference and run time",
-    "resolution": "Resolution curve: each property against particle diameter / sample size",
+    "stress_strain": "Confined compression and unloading: stress [kPa] against strain [%]",
+    "stress_porosity": "Confined compression and unloading: porosity [-] against stress [kPa]",
+    "coordination": "Confined compression and unloading: coordination number [-] against "
+    "stress [kPa]",
+    "unconfined": "Unconfined compression to failure: stress [kPa] against strain [%]",
+    "error_vs_runtime": "Signed error against the reference [%] and run time [s]",
+    "resolution": "Resolution: each property [% from the bulk or the reference] against "
+    "particle diameter / sample thickness [-]",
 }
+#: Bumped when a figure's drawing changes, so that cached PNGs are drawn again.
+FIGURES_VERSION = 2
 
 #: Kinds drawn from the advisor on a whole figure (several panels), not from the curves.
 _WHOLE_FIGURE = ("error_vs_runtime", "resolution")
@@ -136,12 +140,15 @@ def _plot_groups(
             if band is None:
                 continue
             grid, mean, sd = band
+            # every quantity drawn (stress, strain, porosity, coordination) is >= 0 where
+            # its mean is: the band stops at zero instead of promising negative values
+            low = np.where(mean >= 0, np.maximum(mean - sd, 0.0), mean - sd)
             if along_y:
                 ax.plot(mean, grid, ls=ls, label=name, **st)
-                ax.fill_betweenx(grid, mean - sd, mean + sd, color=st["color"], alpha=0.2, lw=0)
+                ax.fill_betweenx(grid, low, mean + sd, color=st["color"], alpha=0.2, lw=0)
             else:
                 ax.plot(grid, mean, ls=ls, label=name, **st)
-                ax.fill_between(grid, mean - sd, mean + sd, color=st["color"], alpha=0.2, lw=0)
+                ax.fill_between(grid, low, mean + sd, color=st["color"], alpha=0.2, lw=0)
 
 
 def _confined(
@@ -167,14 +174,52 @@ def _confined(
     )
 
 
+def _metric_bias(m: dict | None) -> tuple[float, float, float] | None:
+    """(signed error, low, high) of a verdict metric [-]: its bias and the bias's 95 %
+    interval, or its signed error alone; None where the metric compared nothing."""
+    if not m:
+        return None
+    bias = m.get("bias") or {}
+    err = bias.get("error", m.get("signed_error"))
+    if err is None:
+        return None
+    lo, hi = bias.get("interval") or (err, err)
+    return float(err), float(lo), float(hi)
+
+
+def _run_times(table: list[dict]) -> dict[tuple, float]:
+    """Mean wall time [s] of each (radius, rule) group of runs (controls: rule 'control')."""
+    acc: dict[tuple, list[float]] = {}
+    for r in table:
+        if r["rule"] != "reference" and r.get("wall_time") is not None:
+            acc.setdefault((r["radius"], r["rule"]), []).append(float(r["wall_time"]))
+    return {k: float(np.mean(v)) for k, v in acc.items()}
+
+
+def _time_axis(ax, times: list[float]) -> None:
+    """A run-time axis that reads: linear within a decade, else log with 1-2-5 ticks, each
+    tick written as a plain number of seconds."""
+    from matplotlib.ticker import FuncFormatter, LogLocator
+
+    if times and max(times) / max(min(times), 1e-9) > 10:
+        ax.set_xscale("log")
+        ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        ax.xaxis.set_minor_locator(LogLocator(subs="auto"))
+        ax.xaxis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+
+
 def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
-    """One panel per verdict metric: each coarse run's error [%] against its wall time, the
-    tolerance (dashed) and the reference's seed-to-seed noise floor (grey band). With
-    resolution controls the error splits in two: the controls' points are the resolution
-    error (the reference law that many diameters across), and an open marker per variant is
-    the rule's own error (its mean against its controls' mean)."""
+    """One panel per verdict metric: each coarse variant's signed error against the
+    reference [%] (the mean over its seeds, with its 95 % interval) at its mean run time
+    [s]; the resolution controls' likewise (the error of the reference law that many
+    diameters across), and, open, each rule's own error against its controls. The
+    tolerance (dashed, both signs) and the reference's seed-to-seed noise (grey band, 1 sd)
+    around zero. A symmetric-log error axis: linear within the widest tolerance, logarithmic
+    beyond, so that -26 % and +26 % read as themselves and a wide interval stays on the
+    panel."""
     from matplotlib.lines import Line2D
-    from matplotlib.ticker import NullFormatter
+    from matplotlib.ticker import FuncFormatter, SymmetricalLogLocator
 
     advisor = advisor or {}
     tol = advisor.get("tolerances", {})
@@ -182,54 +227,78 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
     names = [n for n, (col, _) in _METRIC_PANELS.items() if any(col in r for r in table)]
     rules = sorted({r["rule"] for r in table if r["rule"] != "reference"})
     radii = sorted({r["radius"] for r in table if r["rule"] != "reference"})
-    axes = fig.subplots(1, max(1, len(names)), sharex=True, squeeze=False)[0]
+    times = _run_times(table)
     ref_times = [r["wall_time"] for r in table if r["rule"] == "reference"]
+    groups = [(v, False) for v in advisor.get("verdicts") or []]
+    groups += [(v, False) for v in advisor.get("resolution") or []]
+    groups += [(v, True) for v in advisor.get("rule_errors") or []]
+    axes = fig.subplots(1, max(1, len(names)), sharex=True, squeeze=False)[0]
     for ax, name in zip(axes, names):
-        col, title = _METRIC_PANELS[name]
+        _, title = _METRIC_PANELS[name]
         if noise.get(name) is not None:
-            ax.axhspan(0, 100 * noise[name], color="0.85", zorder=0, label="reference noise (1 sd)")
+            band = 100 * noise[name]
+            ax.axhspan(-band, band, color="0.85", zorder=0, label="reference noise (1 sd)")
         if name in tol:
-            ax.axhline(100 * tol[name], color="black", ls="--", lw=1, label="tolerance")
+            for sign in (1, -1):
+                ax.axhline(sign * 100 * tol[name], color="black", ls="--", lw=1)
+        ax.axhline(0.0, color="0.4", lw=0.8)
         for t in ref_times:
             ax.axvline(t, color="black", ls=":", lw=0.8)
-        for row in table:
-            if row["rule"] == "reference" or col not in row:
+        drawn = 0
+        lin = 100 * tol.get(name, 0.1)  # linear within the tolerance
+        reach = [lin, 100 * noise.get(name) if noise.get(name) is not None else 0.0]
+        for v, own in groups:
+            rule = "control" if v.get("what") == "resolution" else v["rule"]
+            m = next((m for m in v.get("metrics", []) if m["metric"] == name), None)
+            got = _metric_bias(m)
+            t = times.get((v["radius"], rule))
+            if got is None or t is None or rule not in rules:
                 continue
-            ax.scatter(
-                row["wall_time"],
-                100 * row[col],
-                s=30,
-                zorder=3,
-                color=f"C{rules.index(row['rule']) % 10}",
-                marker=_MARKERS[radii.index(row["radius"]) % len(_MARKERS)],
+            err, lo, hi = (100 * x for x in got)
+            reach += [abs(err), abs(lo), abs(hi)]
+            colour = f"C{rules.index(rule) % 10}"
+            marker = _MARKERS[radii.index(v["radius"]) % len(_MARKERS)]
+            ax.errorbar(
+                t * (1.04 if own else 1.0),
+                err,
+                yerr=[[max(err - lo, 0.0)], [max(hi - err, 0.0)]],
+                fmt=marker,
+                ms=7 if own else 6,
+                mfc="none" if own else colour,
+                color=colour,
+                elinewidth=0.8,
+                capsize=2,
+                zorder=4 if own else 3,
             )
-        for v in advisor.get("rule_errors") or []:
-            m = next((m for m in v["metrics"] if m["metric"] == name), None)
-            times = [
-                r["wall_time"]
-                for r in table
-                if r["rule"] == v["rule"] and r["radius"] == v["radius"]
-            ]
-            if m is None or m.get("error") is None or not times or v["rule"] not in rules:
-                continue
-            ax.scatter(
-                float(np.mean(times)),
-                100 * m["error"],
-                s=46,
-                zorder=4,
-                facecolors="none",
-                edgecolors=f"C{rules.index(v['rule']) % 10}",
-                marker=_MARKERS[radii.index(v["radius"]) % len(_MARKERS)],
+            drawn += 1
+        if not drawn:
+            ax.text(
+                0.5,
+                0.5,
+                "nothing compared\n(no failed run)" if name == "strength" else "nothing compared",
+                ha="center",
+                va="center",
+                transform=ax.transAxes,
+                fontsize=8,
+                color="0.3",
             )
-        ax.set_title(title, fontsize=9)
-        ax.set_xscale("log")
-        ax.xaxis.set_minor_formatter(NullFormatter())
-        ax.set_ylim(bottom=0)
-        ax.set_xlabel("run time [s]", fontsize=8)
+        ax.set_title(f"{title} [%]", fontsize=9)
+        top = 1.15 * max(reach)
+        if top > 10 * lin:  # a wide interval: logarithmic beyond the tolerance
+            ax.set_yscale("symlog", linthresh=lin, linscale=1.0)
+            ax.yaxis.set_major_locator(
+                SymmetricalLogLocator(linthresh=lin, base=10, subs=(1.0, 3.0))
+            )
+        ax.set_ylim(-top, top)
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:+g}" if v else "0"))
+        _time_axis(ax, list(times.values()) + ref_times)
+        ax.set_xlabel("mean run time [s]", fontsize=8)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
-    axes[0].set_ylabel("error against the mean reference [%]", fontsize=8)
+    axes[0].set_ylabel("signed error against the mean reference [%] (95 % interval)", fontsize=8)
     handles, labels = axes[0].get_legend_handles_labels()
+    handles.append(Line2D([], [], ls="--", color="black"))
+    labels.append("tolerance (±)")
     for i, rule in enumerate(rules):
         handles.append(Line2D([], [], ls="", marker="o", color=f"C{i % 10}"))
         labels.append("resolution control" if rule == "control" else f"rule {rule}")
@@ -238,20 +307,23 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
         labels.append(f"R = {r * 1e3:g} mm")
     if advisor.get("rule_errors"):
         handles.append(Line2D([], [], ls="", marker="o", mfc="none", color="0.3"))
-        labels.append("open: the rule's own error (mean, against its control)")
+        labels.append("open: the rule's own error (against its control)")
     handles.append(Line2D([], [], ls=":", color="black"))
     labels.append("reference run time")
-    fig.legend(handles, labels, loc="outside lower center", ncol=min(6, len(labels)), fontsize=7)
+    fig.legend(handles, labels, loc="outside lower center", ncol=min(5, len(labels)), fontsize=7)
     fig.suptitle(KINDS["error_vs_runtime"], fontsize=10)
 
 
-def _resolution(fig, advisor: dict | None) -> None:
+def _resolution(fig, advisor: dict | None, table: list[dict] | None = None) -> None:
     """One panel per property with a resolution curve (engine.study.resolution): each sample
     size's mean relative to the extrapolated bulk value against d / L, the fitted line, and
     the bulk value's interval at d / L = 0."""
     curves = ((advisor or {}).get("resolution_curve") or {}).get("metrics") or {}
     names = [n for n in _TITLES if n in curves]
     if not names:
+        if (advisor or {}).get("resolution"):  # controls ran, too few seeds for a line
+            _resolution_points(fig, advisor, table)
+            return
         ax = fig.add_subplot()
         ax.text(
             0.5,
@@ -315,8 +387,8 @@ def _resolution(fig, advisor: dict | None) -> None:
             fontsize=6,
             va="bottom",
         )
-        ax.set_title(_TITLES[n], fontsize=9)
-        ax.set_xlabel("d / L (particle diameter / sample thickness)", fontsize=7)
+        ax.set_title(f"{_TITLES[n]} [%]", fontsize=9)
+        ax.set_xlabel("d / L (particle diameter / sample thickness) [-]", fontsize=7)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("mean relative to the bulk value [%]", fontsize=8)
@@ -331,6 +403,95 @@ def _resolution(fig, advisor: dict | None) -> None:
     fig.legend(handles, labels, loc="outside lower center", ncol=4, fontsize=7)
     conf = (advisor or {}).get("resolution_curve", {}).get("confidence", 0.95)
     fig.suptitle(f"{KINDS['resolution']} (bulk interval {conf:.0%})", fontsize=10)
+
+
+def _resolution_points(fig, advisor: dict, table: list[dict]) -> None:
+    """The resolution controls of a study whose sizes are too few, or too thinly seeded,
+    for a line (engine.study.resolution.fit_curve wants two sizes of two seeds or more):
+    per property, each control's signed error against the references [%] with its 95 %
+    interval at its d / L, the references at theirs (zero), and why there is no line."""
+    from matplotlib.ticker import FuncFormatter
+
+    controls = advisor.get("resolution") or []
+    ref_d = [r["thickness_diameters"] for r in table if r["rule"] == "reference"]
+    names = [n for n in _TITLES if any(_metric_bias(_metric(v, n)) is not None for v in controls)]
+    names = names or ["density"]
+    axes = fig.subplots(1, len(names), squeeze=False)[0]
+    for ax, n in zip(axes, names):
+        if ref_d:
+            x_ref = 1.0 / float(np.mean(ref_d))
+            ax.scatter([x_ref], [0.0], s=34, color="black", zorder=3)
+            ax.annotate(
+                f"{np.mean(ref_d):.1f} d",
+                (x_ref, 0.0),
+                fontsize=6,
+                xytext=(3, 3),
+                textcoords="offset points",
+            )
+        tol = (advisor.get("tolerances") or {}).get(n)
+        reach = [100 * (tol or 0.1)]  # the values the panel must show [%]
+        xs = [1.0 / float(np.mean(ref_d))] if ref_d else []
+        for v in controls:
+            got = _metric_bias(_metric(v, n))
+            if got is None or not v.get("diameters_across"):
+                continue
+            err, lo, hi = (100 * x for x in got)
+            reach += [abs(err), abs(lo), abs(hi)]
+            xs.append(1.0 / float(v["diameters_across"]))
+            x = 1.0 / float(v["diameters_across"])
+            ax.errorbar(
+                x,
+                err,
+                yerr=[[max(err - lo, 0.0)], [max(hi - err, 0.0)]],
+                fmt="o",
+                color="C3",
+                capsize=3,
+                zorder=3,
+            )
+            ax.annotate(
+                f"{v['diameters_across']:.1f} d",
+                (x, err),
+                fontsize=6,
+                xytext=(3, 3),
+                textcoords="offset points",
+            )
+        if tol is not None:
+            for sign in (1, -1):
+                ax.axhline(sign * 100 * tol, color="black", ls="--", lw=1)
+        ax.axhline(0.0, color="0.6", lw=0.8)
+        ax.set_xlim(0.0, 1.2 * max(xs or [1.0]))
+        top = 1.2 * max(reach)
+        if top > 10 * reach[0]:  # a wide interval: logarithmic beyond the tolerance
+            ax.set_yscale("symlog", linthresh=reach[0])
+        ax.set_ylim(-top, top)
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:+g}" if v else "0"))
+        ax.set_title(f"{_TITLES[n]} [%]", fontsize=9)
+        ax.set_xlabel("d / L (particle diameter / sample thickness) [-]", fontsize=7)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("error against the references [%] (95 % interval)", fontsize=8)
+    from matplotlib.lines import Line2D
+
+    fig.legend(
+        [
+            Line2D([], [], ls="", marker="o", color="black"),
+            Line2D([], [], ls="", marker="o", color="C3"),
+            Line2D([], [], ls="--", color="black"),
+        ],
+        ["references", "resolution controls (mean over seeds)", "tolerance (±)"],
+        loc="outside lower center",
+        ncol=3,
+        fontsize=7,
+    )
+    fig.suptitle(
+        f"{KINDS['resolution']}\nno line to the bulk: it needs two sizes with two or more "
+        "seeds each",
+        fontsize=9,
+    )
+
+
+def _metric(group: dict, name: str) -> dict | None:
+    return next((m for m in group.get("metrics", []) if m["metric"] == name), None)
 
 
 def draw(ax, kind: str, runs: dict, table: list[dict]) -> None:
@@ -387,12 +548,18 @@ def figure(kind: str, runs: dict, table: list[dict], advisor: dict | None = None
         if kind == "error_vs_runtime":
             _error_vs_runtime(fig, table, advisor)
         else:
-            _resolution(fig, advisor)
+            _resolution(fig, advisor, table)
         return fig
     fig = Figure(figsize=(7.0, 4.8), dpi=110, layout="constrained")
     FigureCanvasAgg(fig)
     draw(fig.add_subplot(), kind, runs, table)
     return fig
+
+
+def has_controls(table: list[dict]) -> bool:
+    """Whether a study ran resolution controls (its resolution plot has something to show,
+    a line to the bulk or the controls' points)."""
+    return any(r.get("rule") == "control" for r in table)
 
 
 def save_all(directory, runs: dict, table: list[dict], advisor: dict | None = None) -> list[Path]:
@@ -402,8 +569,8 @@ def save_all(directory, runs: dict, table: list[dict], advisor: dict | None = No
     d.mkdir(parents=True, exist_ok=True)
     out = []
     for kind in KINDS:
-        if kind == "resolution" and not (advisor or {}).get("resolution_curve"):
-            continue  # a study without resolution controls has no resolution curve
+        if kind == "resolution" and not has_controls(table):
+            continue  # a study without resolution controls has no resolution plot
         path = d / f"{kind}.png"
         figure(kind, runs, table, advisor).savefig(path, format="png")
         out.append(path)
@@ -546,25 +713,57 @@ def _target_stress(name: str) -> float | None:
     return float(name.split("@", 1)[1].split("Pa", 1)[0])
 
 
+#: Units of a calibration target's kind (engine.calibration.calibrate.TARGET_UNITS), as
+#: the figure writes them.
+_TARGET_UNITS = {
+    "porosity": "-",
+    "loading_stiffness": "Pa",
+    "unloading_stiffness": "Pa",
+    "k0": "-",
+    "strength": "Pa",
+}
+
+
+def calibration_status(summary: dict) -> str:
+    """One line on whether the calibrated law's check run met its targets: "all 9 targets
+    met", or "2 of 9 targets NOT met: ..." naming each with its z."""
+    checks = summary.get("targets_met") or []
+    missed = [q for q in checks if not q.get("met")]
+    if not missed:
+        return f"all {len(checks)} targets met (check run within 2 sd)"
+    words = ", ".join(
+        f"{q['name']} (z = {q['z']:+.1f})" if q.get("z") is not None else f"{q['name']} (failed)"
+        for q in missed
+    )
+    return f"{len(missed)} of {len(checks)} targets NOT met: {words}"
+
+
 def calibration_figure(summary: dict):
-    """The calibration (engine.Calibration.to_summary()) against the laboratory: porosity
-    against stress and the flow function (strength against consolidation stress), the lab
-    points with their 1-sd bars, the check run of the calibrated law, and every run of the
-    design and waves (faint); the other targets listed with their check values."""
+    """The calibration (engine.Calibration.to_summary()) against the laboratory, one panel
+    per kind of target it has (no empty panel): the compression curve, porosity against
+    vertical stress on a log stress axis (compressibility is read against log stress); the
+    flow function, strength against consolidation stress; and the scalar targets (stiffness,
+    K0) as the check run over the laboratory value. The laboratory points with their 1-sd
+    bars, the check run of the calibrated law and every run of the design and waves
+    (faint); the title says whether every target was met."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+    from matplotlib.ticker import FuncFormatter
 
-    fig = Figure(figsize=(11.0, 4.4), dpi=100, layout="constrained")
-    FigureCanvasAgg(fig)
-    ax_c, ax_f = fig.subplots(1, 2)
     checks = summary["targets_met"]
     runs = summary.get("runs", [])
-    panels = ((ax_c, "porosity@", 1.0), (ax_f, "strength@", 1e-3))
-    for ax, prefix, sy in panels:
+    kinds = [
+        (prefix, sy)
+        for prefix, sy in (("porosity@", 1.0), ("strength@", 1e-3))
+        if any(q["name"].startswith(prefix) for q in checks)
+    ]
+    scalars = [q for q in checks if "@" not in q["name"]]
+    n = len(kinds) + bool(scalars)
+    fig = Figure(figsize=(max(5.5, 4.6 * n), 4.6), dpi=100, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = list(fig.subplots(1, max(n, 1), squeeze=False)[0])
+    for ax, (prefix, sy) in zip(axes, kinds):
         rows = [q for q in checks if q["name"].startswith(prefix)]
-        if not rows:
-            ax.text(0.5, 0.5, "no such target", ha="center", transform=ax.transAxes)
-            continue
         for r in runs:
             pts = [
                 (q["name"], q["value"])
@@ -603,40 +802,80 @@ def calibration_figure(summary: dict):
             for part, style in (("loading", "-"), ("unloading", "--")):
                 c = curves.get(part)
                 if c:
+                    stress = np.asarray(c["stress"]) * 1e-3
+                    keep = stress > 0  # a log axis: the curve from the first loaded sample
                     ax.plot(
-                        np.asarray(c["stress"]) * 1e-3,
-                        c["porosity"],
+                        stress[keep],
+                        np.asarray(c["porosity"])[keep],
                         style,
                         color="C3",
                         lw=1,
                         zorder=2,
                         label=f"check run, {part}",
                     )
-        elif curves.get("flow_function"):
-            ff = curves["flow_function"]
-            ax.plot(
-                [p["consolidation_stress"] * 1e-3 for p in ff],
-                [p["strength"] * sy for p in ff],
-                "-",
-                color="C3",
-                lw=1,
-                zorder=2,
-            )
-        ax.set_xlabel(
-            "vertical stress [kPa]" if prefix == "porosity@" else "consolidation stress [kPa]"
+            ax.set_xscale("log")
+            ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            ax.set_xlabel("vertical stress [kPa] (log scale)")
+            ax.set_ylabel("porosity [-]")
+            ax.set_title("compression curve: porosity [-] against stress [kPa]", fontsize=9)
+        else:
+            if curves.get("flow_function"):
+                ff = curves["flow_function"]
+                ax.plot(
+                    [p["consolidation_stress"] * 1e-3 for p in ff],
+                    [p["strength"] * sy for p in ff],
+                    "-",
+                    color="C3",
+                    lw=1,
+                    zorder=2,
+                )
+            ax.set_xlabel("consolidation stress [kPa]")
+            ax.set_ylabel("unconfined strength [kPa]")
+            ax.set_title("flow function: strength [kPa] against consolidation [kPa]", fontsize=9)
+            ax.set_xlim(left=0)
+            ax.set_ylim(bottom=0)
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=7)
+    if scalars:
+        ax = axes[len(kinds)]
+        names = [
+            f"{q['name']}\n{q['lab']:.3g} [{_TARGET_UNITS.get(q['name'], '-')}]" for q in scalars
+        ]
+        xs = np.arange(len(scalars))
+        ax.errorbar(
+            xs,
+            np.ones(len(scalars)),
+            yerr=[q["sd"] / q["lab"] for q in scalars],
+            fmt="o",
+            color="black",
+            capsize=3,
+            label="laboratory (1 sd)",
         )
-        ax.set_ylabel("porosity [-]" if prefix == "porosity@" else "unconfined strength [kPa]")
+        for i, q in enumerate(scalars):
+            ok = q.get("met")
+            ax.scatter(
+                [i],
+                [q["value"] / q["lab"]],
+                marker="s",
+                color="C3" if ok else "C1",
+                zorder=4,
+                label=("calibrated law (check run)" if i == 0 else None),
+            )
+            if not ok:
+                ax.annotate(
+                    "NOT met",
+                    (i, q["value"] / q["lab"]),
+                    fontsize=7,
+                    color="C1",
+                    xytext=(5, -3),
+                    textcoords="offset points",
+                )
+        ax.axhline(1.0, color="0.6", lw=0.8)
+        ax.set_xticks(xs, names, fontsize=7)
+        ax.set_xlim(-0.6, len(scalars) - 0.4)
+        ax.set_ylabel("check run / laboratory value [-]")
+        ax.set_title("other targets: check run over the laboratory value [-]", fontsize=9)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-    ax_c.set_title("compression curve", fontsize=9)
-    ax_f.set_title("flow function", fontsize=9)
-    others = [q for q in checks if "@" not in q["name"]]
-    if others:
-        text = "; ".join(
-            f"{q['name']} {q['value']:.3g} vs {q['lab']:.3g} ({'met' if q['met'] else 'NOT met'})"
-            for q in others
-        )
-        fig.suptitle(f"Calibration against the laboratory: {text}", fontsize=8)
-    else:
-        fig.suptitle("Calibration against the laboratory", fontsize=9)
+    fig.suptitle(f"Calibration against the laboratory: {calibration_status(summary)}", fontsize=9)
     return fig

@@ -19,6 +19,8 @@ from fastapi import APIRouter, HTTPException, Query, Response
 from fastapi.exceptions import RequestValidationError
 from sqlmodel import select
 
+from engine.io.figures import FIGURES_VERSION, calibration_status  # matplotlib: when drawn
+
 from .. import transitions
 from ..admission import SpecRejected, admit_calibration
 from ..deps import CalibrationDep, OwnerDep, SessionDep, SettingsDep
@@ -54,11 +56,29 @@ def links(job_id: object) -> dict[str, str]:
     }
 
 
-def public(job: Study, session) -> CalibrationPublic:
-    """The API view of a calibration row (with the study it queued, if any)."""
+def outcome(job: Study, settings) -> dict:
+    """Whether a succeeded calibration's check run met every target, and in words
+    (``all_targets_met``, ``outcome``; None before it has succeeded or without its file)."""
+    try:
+        result = read_result(job, settings)
+    except HTTPException:
+        result = None
+    if not result:
+        return {"all_targets_met": None, "outcome": None}
+    met = all(q.get("met") for q in result.get("targets_met", []))
+    return {"all_targets_met": met, "outcome": calibration_status(result)}
+
+
+def public(job: Study, session, settings) -> CalibrationPublic:
+    """The API view of a calibration row (with the study it queued, if any, and once it has
+    succeeded whether its law met every target)."""
     return CalibrationPublic.model_validate(
         job,
-        update={"links": links(job.id), "study_id": transitions.child_of(session, job.id)},
+        update={
+            "links": links(job.id),
+            "study_id": transitions.child_of(session, job.id),
+            **outcome(job, settings),
+        },
     )
 
 
@@ -119,12 +139,13 @@ def submit_calibration(
 def list_calibrations(
     session: SessionDep,
     owner: OwnerDep,
+    settings: SettingsDep,
     offset: Annotated[int, Query(ge=0, le=MAX_OFFSET, description="Jobs to skip.")] = 0,
     limit: Annotated[int, Query(ge=1, le=MAX_LIMIT, description="Most returned.")] = 100,
 ) -> CalibrationsPublic:
     """This token's calibrations, newest first, with status and progress."""
     rows, count = jobs_page(session, owner, Kind.calibration, offset, limit)
-    return CalibrationsPublic(data=[public(j, session) for j in rows], count=count)
+    return CalibrationsPublic(data=[public(j, session, settings) for j in rows], count=count)
 
 
 @router.get("/{calibration_id}", response_model=CalibrationDetail, responses=answers(404))
@@ -141,6 +162,7 @@ def read_calibration(
         update={
             "links": links(job.id),
             "study_id": transitions.child_of(session, job.id),
+            **outcome(job, settings),
             "request": job.spec,
             "runs": [RunPublic.model_validate(r) for r in runs],
             "result": read_result(job, settings),
@@ -179,7 +201,7 @@ def plot(job: CalibrationDep, settings: SettingsDep) -> Response:
     """The compression curve and the flow function against the laboratory points (PNG;
     drawn once, then cached beside the result)."""
     result = _result(job, settings)
-    cached = settings.study_dir(job.id) / "plots" / "calibration.png"
+    cached = settings.study_dir(job.id) / "plots" / f"calibration.v{FIGURES_VERSION}.png"
     if not cached.is_file():
         from engine.io.figures import calibration_figure
 
@@ -236,7 +258,9 @@ def law(
     response_model=CalibrationPublic,
     responses=answers(404, 409),
 )
-def cancel_calibration(job: CalibrationDep, session: SessionDep) -> CalibrationPublic:
+def cancel_calibration(
+    job: CalibrationDep, session: SessionDep, settings: SettingsDep
+) -> CalibrationPublic:
     """Cancel a queued calibration now, or ask the worker of a running one to stop (at its
     run's next progress report; the runs stored so far are kept until it is deleted). 409
     when finished."""
@@ -246,7 +270,7 @@ def cancel_calibration(job: CalibrationDep, session: SessionDep) -> CalibrationP
             detail=f"calibration {job.id} is {job.status.value}: nothing to cancel",
         )
     session.refresh(job)
-    return public(job, session)
+    return public(job, session, settings)
 
 
 @router.delete(

@@ -293,8 +293,28 @@ def test_the_figure_draws_a_calibration_with_a_failed_run():
     ]
     fig = calibration_figure({"targets_met": checks, "runs": runs})
     faint = [c for ax in fig.axes for c in ax.collections if len(c.get_offsets()) == 1]
-    assert len(fig.axes) == 2 and "k0 0.4" in fig._suptitle.get_text()
+    # compression, flow function and the scalar targets (K0), each with its units
+    assert len(fig.axes) == 3 and "all 3 targets met" in fig._suptitle.get_text()
+    assert all("[" in ax.get_title() and "[" in ax.get_ylabel() for ax in fig.axes)
     assert len(faint) >= 4  # per panel: the good run's point, the check run's square
+
+
+def test_the_figure_has_no_empty_panel_and_says_a_target_is_missed():
+    from engine.io.figures import calibration_figure
+
+    def q(name, lab, value, sd):
+        z = (value - lab) / sd
+        return {"name": name, "value": value, "lab": lab, "sd": sd, "z": z, "met": abs(z) <= 2}
+
+    checks = [
+        q("porosity@5000Pa:loading", 0.45, 0.449, 0.004),
+        q("loading_stiffness", 2e6, 1.5e6, 2e5),
+    ]
+    fig = calibration_figure({"targets_met": checks, "runs": []})
+    # no strength target: no flow-function panel; compressibility on a log stress axis
+    assert len(fig.axes) == 2 and not any("flow" in ax.get_title() for ax in fig.axes)
+    assert fig.axes[0].get_xscale() == "log" and "kPa" in fig.axes[0].get_xlabel()
+    assert "1 of 2 targets NOT met: loading_stiffness (z = -2.5)" in fig._suptitle.get_text()
 
 
 def test_sobol_indices_of_a_known_function_far_from_zero():

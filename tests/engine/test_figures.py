@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 pytest.importorskip("matplotlib")
-from engine.io.figures import KINDS, figure, has_controls, save_all  # noqa: E402
+from engine.io.figures import KINDS, figure, has_controls, save_all
 
 TOL = {"density": 0.03, "loading_stiffness": 0.15, "strength": 0.15}
 

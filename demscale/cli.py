@@ -39,8 +39,10 @@ progress bar per run and one for the whole study. Writes into DIR:
   results.h5            curves, scalars and particle positions of every run (HDF5; the
                         layout of the job service's result files, docs/SERVICE.md)
   plots/*.png           stress-strain, porosity, coordination, unconfined, error vs time
-  snapshots/<run>/      particles.vtkhdf and contacts.vtkhdf (open in ParaView 5.12+; one
-                        time step per stage end) and a PNG section per stage
+  curves/<run>.csv      every run's curves, a row per sample, units in the headings
+  snapshots/<run>/      particles.vtkhdf and contacts.vtkhdf (ParaView 5.12+; one time step
+                        per stage end), particles.pvd and contacts.pvd (any ParaView, meshio:
+                        one .vtu file per time step) and a PNG section per stage
 
 SPEC.json holds an engine.StudySpec: "reference" (a preset name and overrides, or every
 field of a uniaxial test), "coarse_radii" [m], "rules" (names such as "paper" or objects
@@ -59,10 +61,12 @@ compression) with the engine, with a progress bar, and write into DIR:
 
   result.json           the test's parameters and its scalars (strength, stiffnesses,
                         porosity, ...) with their units
+  curves.csv            every stage's curves, a row per sample, units in the headings
   snapshots/            particles.vtkhdf and contacts.vtkhdf with a time step at every stage
                         end and, with --snapshot-interval, every that many seconds of
-                        simulated time (ParaView 5.12+ plays them as an animation), and a
-                        PNG section per stage
+                        simulated time (ParaView 5.12+ plays them as an animation), the
+                        same as particles.pvd and contacts.pvd (one .vtu per time step: any
+                        ParaView, meshio), and a PNG section per stage
 
 TEST.json holds an engine.UniaxialTest: every field may be given, the others take their
 defaults; {"preset": "quick"} (or "paper") starts from a named test. The snapshots are
@@ -223,6 +227,7 @@ def study(args) -> int:
     from rich.console import Console
 
     import engine
+    from engine.io.curves import write_curves_csv
     from engine.io.store import save_study
     from engine.io.vtkhdf import save as save_snapshots
 
@@ -259,12 +264,16 @@ def study(args) -> int:
         f"{study.estimated_particle_steps():.3g} particle-steps; writing to {out}"
     )
     snapshot_paths: dict[str, list[Path]] = {}
+    curve_paths: dict[str, Path] = {}
 
     with StudyBars(planned, console, enabled=not args.quiet) as bars:
 
         def on_run(key, outcome) -> None:
             bars.finished(key, outcome)
-            if args.snapshots and not isinstance(outcome, str):
+            if isinstance(outcome, str):
+                return
+            curve_paths[key] = write_curves_csv(outcome, out / "curves" / f"{key}.csv")
+            if args.snapshots:
                 snapshot_paths[key] = save_snapshots(outcome, out / "snapshots" / key, key)
 
         try:
@@ -294,6 +303,7 @@ def study(args) -> int:
         "files": {
             "results": h5.name,
             "plots": [str(p.relative_to(out)) for p in plots],
+            "curves": {k: str(p.relative_to(out)) for k, p in curve_paths.items()},
             "snapshots": {
                 k: [str(p.relative_to(out)) for p in v] for k, v in snapshot_paths.items()
             },
@@ -344,6 +354,7 @@ def run(args) -> int:
     from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
 
     import engine
+    from engine.io.curves import write_curves_csv
     from engine.io.figures import section_figure
     from engine.io.vtkhdf import SnapshotWriter
     from engine.uniaxial.results import SCALAR_UNITS
@@ -402,14 +413,15 @@ def run(args) -> int:
             return 1
     for st in result.stages.values():
         section_figure(st.snapshot, path.stem).savefig(snap_dir / f"{st.name}.png", format="png")
+    write_curves_csv(result, out / "curves.csv")
     summary = {
         "test": test.to_dict(),
         "scalars": result.scalars,
         "units": {k: SCALAR_UNITS.get(k, "") for k in result.scalars},
+        "curves": "curves.csv",
         "snapshots": {
             "files": [
-                "snapshots/particles.vtkhdf",
-                "snapshots/contacts.vtkhdf",
+                *(str(p.relative_to(out)) for p in writer.paths()),
                 *(f"snapshots/{k}.png" for k in result.stages),
             ],
             "time_steps": writer.labels,

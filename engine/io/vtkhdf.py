@@ -10,6 +10,9 @@ Per run directory (docs/SNAPSHOTS.md)::
     contacts.vtkhdf    PolyData, one line per particle-particle contact (from the first
                        particle's centre to the second's nearest periodic image); cell data:
                        normal_force [N] (> 0 compressive, < 0 adhesive), particle_i, particle_j
+    particles.pvd,     the same, as every ParaView (5.9 and earlier) and meshio read them:
+    contacts.pvd       a collection of one VTK XML file per time step,
+                       particles-NNNN.vtu and contacts-NNNN.vtu (engine.io.vtu)
     <stage>.png        section through the middle of the sample at the stage's end
 
 Each file holds every snapshot of the run as one time step (``/VTKHDF/Steps``): ParaView
@@ -170,13 +173,15 @@ class SnapshotWriter:
     as ``run_uniaxial(test, on_snapshot=writer.add, snapshot_interval=...)`` and close it (or
     use it as a context manager)."""
 
-    def __init__(self, directory):
+    def __init__(self, directory, legacy: bool = True):
         self.directory = Path(directory)
         self.directory.mkdir(parents=True, exist_ok=True)
         self.particles = _TemporalPolyData(self.directory / "particles.vtkhdf")
         self.contacts = _TemporalPolyData(self.directory / "contacts.vtkhdf")
         self.labels: list[str] = []
         self.last_steps: int | None = None
+        self.legacy = legacy  # also .vtu per time step and a .pvd of each (every ParaView)
+        self.times: list[float] = []
 
     def add(self, snap: Snapshot) -> None:
         """Append ``snap`` to both files."""
@@ -220,6 +225,66 @@ class SnapshotWriter:
         self.labels.append(snap.stage)
         self.last_steps = snap.steps
         self._write_labels()
+        if self.legacy:
+            self._write_vtu(snap, fields)
+
+    def _write_vtu(self, snap: Snapshot, fields: dict) -> None:
+        """The same time step as ``particles-NNNN.vtu`` and ``contacts-NNNN.vtu``, and the
+        two ``.pvd`` collections rewritten with it (:mod:`engine.io.vtu`)."""
+        from .vtu import VTK_LINE, VTK_VERTEX, write_pvd, write_vtu
+
+        i, n, m = len(self.times), len(snap.radii), len(snap.pairs)
+        write_vtu(
+            self.directory / f"particles-{i:04d}.vtu",
+            snap.positions,
+            np.arange(n)[:, None],
+            VTK_VERTEX,
+            {
+                "radius": snap.radii,
+                "velocity": snap.velocities,
+                "angular_velocity": snap.angular_velocities,
+                "contact_count": snap.contact_counts,
+                "mean_normal_force": fields["mean_normal_force"],
+                "pressure": fields["pressure"],
+                "id": np.arange(n, dtype=np.int64),
+            },
+            time=snap.time,
+        )
+        first = snap.positions[snap.pairs[:, 0]]
+        ends = np.empty((2 * m, 3))
+        ends[0::2] = first
+        ends[1::2] = first - snap.branches
+        write_vtu(
+            self.directory / f"contacts-{i:04d}.vtu",
+            ends,
+            np.arange(2 * m).reshape(m, 2),
+            VTK_LINE,
+            cell_data={
+                "normal_force": snap.normal_forces,
+                "particle_i": snap.pairs[:, 0],
+                "particle_j": snap.pairs[:, 1],
+            },
+            time=snap.time,
+        )
+        self.times.append(float(snap.time))
+        for kind in ("particles", "contacts"):
+            write_pvd(
+                self.directory / f"{kind}.pvd",
+                [(t, f"{kind}-{k:04d}.vtu") for k, t in enumerate(self.times)],
+            )
+
+    def paths(self) -> list[Path]:
+        """Every file written so far: the two VTKHDF files, and the ``.pvd`` collections
+        and ``.vtu`` files."""
+        out = [self.particles.path, self.contacts.path]
+        if self.legacy and self.times:
+            out += [self.directory / "particles.pvd", self.directory / "contacts.pvd"]
+            out += [
+                self.directory / f"{kind}-{k:04d}.vtu"
+                for k in range(len(self.times))
+                for kind in ("particles", "contacts")
+            ]
+        return out
 
     def _write_labels(self) -> None:
         # outside /VTKHDF (ignored by VTK): what each time step is, and the units
@@ -254,7 +319,7 @@ def save(result, directory, label: str = "") -> list[Path]:
     with SnapshotWriter(d) as w:
         for s in snaps:
             w.add(s)
-        paths += [w.particles.path, w.contacts.path]
+        paths += w.paths()
     from .figures import section_figure
 
     for s in snaps:

@@ -6,6 +6,7 @@ from enum import Enum
 from typing import Annotated
 
 from fastapi import APIRouter, HTTPException, Path, Query, Response
+from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse
 
 from engine.uniaxial.driver import STAGES
@@ -21,12 +22,21 @@ router = APIRouter(prefix="/studies/{study_id}", tags=["results"], responses=ans
 PlotKind = Enum("PlotKind", {k: k for k in KINDS}, type=str)
 #: A stage of the uniaxial test (engine.uniaxial.driver.STAGES), or every stage.
 StageKind = Enum("StageKind", {s: s for s in (*STAGES, "all")}, type=str)
+#: How the curves are sent.
+CurvesFormat = Enum("CurvesFormat", {k: k for k in ("json", "csv")}, type=str)
 #: Longest run key accepted [characters].
 RUN_KEY_MAX_LENGTH = 100
 
 
 #: Snapshot file names: the ParaView files and a PNG section per stage.
-SNAPSHOT_NAME = r"^(particles\.vtkhdf|contacts\.vtkhdf|[a-z_]+\.png)$"
+SNAPSHOT_NAME = r"^((particles|contacts)(\.vtkhdf|\.pvd|-[0-9]{4}\.vtu)|[a-z_]+\.png)$"
+#: The media type of each kind of snapshot file.
+SNAPSHOT_MEDIA = {
+    ".png": "image/png",
+    ".vtkhdf": "application/x-hdf5",
+    ".pvd": "application/xml",
+    ".vtu": "application/xml",
+}
 
 
 @router.get("/summary")
@@ -54,8 +64,10 @@ def summary(study: StudyDep, results: ResultsDep, settings: SettingsDep) -> dict
             "content": {
                 "application/x-hdf5": {"schema": {"type": "string", "format": "binary"}},
                 "image/png": {"schema": {"type": "string", "format": "binary"}},
+                "application/xml": {"schema": {"type": "string"}},
             },
-            "description": "A VTKHDF file (ParaView 5.12+) or a PNG section of a stage's end.",
+            "description": "A VTKHDF file (ParaView 5.12+), a VTK XML file (.vtu, one time "
+            "step) or its collection (.pvd, any ParaView), or a PNG section of a stage's end.",
         }
     },
 )
@@ -75,7 +87,8 @@ def snapshot(
         Path(
             max_length=64,
             pattern=SNAPSHOT_NAME,
-            description="particles.vtkhdf, contacts.vtkhdf or <stage>.png",
+            description="particles.vtkhdf, contacts.vtkhdf, particles.pvd, contacts.pvd, "
+            "particles-NNNN.vtu, contacts-NNNN.vtu or <stage>.png",
         ),
     ],
 ) -> FileResponse:
@@ -85,11 +98,23 @@ def snapshot(
     if name not in settings.snapshot_files(study.id).get(run, []):
         raise HTTPException(status_code=404, detail=f"no snapshot {name!r} of run {run!r}")
     path = settings.snapshots_dir(study.id) / run / name
-    media = "image/png" if name.endswith(".png") else "application/x-hdf5"
-    return FileResponse(path, media_type=media, filename=f"{run}-{name}")
+    media = SNAPSHOT_MEDIA[path.suffix]
+    # a .pvd names its .vtu files as they are in the run's folder: download them by name
+    filename = name if path.suffix in (".pvd", ".vtu") else f"{run}-{name}"
+    return FileResponse(path, media_type=media, filename=filename)
 
 
-@router.get("/curves")
+@router.get(
+    "/curves",
+    responses={
+        200: {
+            "content": {
+                "application/json": {"schema": {"type": "object"}},
+                "text/csv": {"schema": {"type": "string"}},
+            }
+        }
+    },
+)
 def curves(
     study: StudyDep,
     settings: SettingsDep,
@@ -102,15 +127,42 @@ def curves(
         ),
     ] = None,
     kind: Annotated[StageKind, Query(description="A stage name, or 'all'.")] = StageKind.all,
-) -> dict:
-    """Curves of a run (or every run), of one stage or all: lists of numbers with units.
-    404 for a run or stage the study does not have."""
+    format: Annotated[
+        CurvesFormat,
+        Query(
+            description="json: lists of numbers with units; csv: one run's curves (run "
+            "required), a row per sample, the stage first and each unit in its heading"
+        ),
+    ] = CurvesFormat.json,
+):
+    """Curves of a run (or every run), of one stage or all: lists of numbers with units, or
+    one run's as CSV. 404 for a run or stage the study does not have."""
+    if format is CurvesFormat.csv and run is None:
+        raise RequestValidationError(
+            [
+                {
+                    "type": "missing",
+                    "loc": ("query", "run"),
+                    "msg": "format=csv is one run's curves: give run (e.g. ref-s1)",
+                    "input": None,
+                }
+            ]
+        )
     results = get_results(study, settings)  # 409 after the query's own checks (422)
     stage = None if kind is StageKind.all else kind.value
     try:
         data = h5store.read_runs(results, run, stage, with_units=True)
     except KeyError as e:
         raise HTTPException(status_code=404, detail=e.args[0]) from e
+    if format is CurvesFormat.csv:
+        from engine.io.curves import curves_csv
+
+        text = curves_csv(data["runs"][run]["stages"])
+        return Response(
+            text,
+            media_type="text/csv",
+            headers={"Content-Disposition": f'attachment; filename="{run}-curves.csv"'},
+        )
     for entry in data["runs"].values():
         entry["stages"] = {
             s: {k: v.tolist() for k, v in c.items()} for s, c in entry["stages"].items()

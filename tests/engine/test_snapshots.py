@@ -105,6 +105,9 @@ def test_stage_files_read_back_with_h5py(run):
     assert {p.name for p in paths} == {
         "particles.vtkhdf",
         "contacts.vtkhdf",
+        "particles.pvd",
+        "contacts.pvd",
+        *(f"{kind}-{k:04d}.vtu" for k in range(len(snaps)) for kind in ("particles", "contacts")),
         *(f"{s}.png" for s in STAGES),
     }
     with h5py.File(d / "stages" / "particles.vtkhdf", "r") as f:
@@ -204,9 +207,81 @@ def test_vtk_reader_reads_every_step(run):
                 np.testing.assert_array_equal(fn, s.normal_forces)
 
 
+def _pvd(path) -> list[tuple[float, str]]:
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(path).getroot()
+    assert root.get("type") == "Collection"
+    return [(float(e.get("timestep")), e.get("file")) for e in root.iter("DataSet")]
+
+
+def test_legacy_vtk_files_list_every_step_in_time_order(run):
+    """Beside the VTKHDF files: a .pvd collection of one VTK XML (.vtu) file per time step,
+    what every ParaView (5.9 and earlier) opens."""
+    res, _, labels, d, paths = run
+    snaps = [st.snapshot for st in res.stages.values()]
+    for name in ("particles", "contacts"):
+        steps = _pvd(d / "stages" / f"{name}.pvd")
+        assert [t for t, _ in steps] == [s.time for s in snaps]
+        assert all((d / "stages" / f).is_file() and f.endswith(".vtu") for _, f in steps)
+        assert d / "stages" / f"{name}.pvd" in paths
+        interval = _pvd(d / "interval" / f"{name}.pvd")
+        assert len(interval) == len(labels) and np.all(np.diff([t for t, _ in interval]) > 0)
+
+
+def test_meshio_reads_the_legacy_vtk_files(run):
+    """meshio (an independent reader of VTK XML) reads every .vtu back: the points, the
+    cells and every array, bit for bit."""
+    meshio = pytest.importorskip("meshio")
+    res, _, _, d, _ = run
+    snaps = [st.snapshot for st in res.stages.values()]
+    parts = _pvd(d / "stages" / "particles.pvd")
+    lines = _pvd(d / "stages" / "contacts.pvd")
+    for s, (_, pf), (_, cf) in zip(snaps, parts, lines):
+        m = meshio.read(d / "stages" / pf)
+        np.testing.assert_array_equal(m.points, s.positions)
+        (block,) = m.cells
+        assert block.type == "vertex" and len(block.data) == len(s.radii)
+        np.testing.assert_array_equal(m.point_data["radius"], s.radii)
+        np.testing.assert_array_equal(m.point_data["velocity"], s.velocities)
+        np.testing.assert_array_equal(m.point_data["pressure"], particle_fields(s)["pressure"])
+        assert float(np.ravel(m.field_data["TimeValue"])[0]) == s.time
+        c = meshio.read(d / "stages" / cf)
+        (block,) = c.cells
+        assert block.type == "line" and len(block.data) == len(s.pairs)
+        np.testing.assert_array_equal(c.cell_data["normal_force"][0], s.normal_forces)
+        np.testing.assert_array_equal(c.cell_data["particle_j"][0], s.pairs[:, 1])
+        # a line runs from the first particle's centre to the second's nearest image
+        np.testing.assert_allclose(
+            c.points[block.data[:, 0]] - c.points[block.data[:, 1]], s.branches
+        )
+
+
 def test_interval_needs_a_receiver():
     test = engine.UniaxialTest(cell=(0.015, 0.015, 0.015))
     with pytest.raises(ValueError, match="on_snapshot"):
         engine.run_uniaxial(test, snapshot_interval=0.01)
     with pytest.raises(ValueError, match="> 0"):
         engine.run_uniaxial(test, on_snapshot=print, snapshot_interval=0.0)
+
+
+def test_the_curves_as_csv(run, tmp_path):
+    """Every stage's curves, a row per sample, the stage first and each unit in its
+    heading; the numbers exactly the run's."""
+    import csv
+
+    from engine.io.curves import write_curves_csv
+    from engine.uniaxial.results import CURVE_UNITS
+
+    res = run[0]
+    path = write_curves_csv(res, tmp_path / "curves.csv")
+    rows = list(csv.reader(path.read_text().splitlines()))
+    head, body = rows[0], rows[1:]
+    assert head[0] == "stage" and "time [s]" in head and "stress_top [Pa]" in head
+    assert all(h.split(" [")[0] in CURVE_UNITS for h in head[1:])
+    assert len(body) == sum(len(st.curves["time"]) for st in res.stages.values())
+    cons = [r for r in body if r[0] == "consolidation"]
+    col = head.index("stress_top [Pa]")
+    np.testing.assert_array_equal(
+        [float(r[col]) for r in cons], res.stages["consolidation"].curves["stress_top"]
+    )

@@ -103,13 +103,22 @@ def test_study_runs_end_to_end(client, workers, settings):
     urls = summary["snapshots"]["ref-s1"]
     assert any(u.endswith("/particles.vtkhdf") for u in urls)
     assert any(u.endswith("/unconfined.png") for u in urls)
+    assert any(u.endswith("/particles.pvd") for u in urls)  # every ParaView: .pvd + .vtu
+    assert any(u.endswith("/contacts-0000.vtu") for u in urls)
     for u in urls:
         r = client.get(u)
-        assert r.status_code == 200 and len(r.content) > 1000, u
+        assert r.status_code == 200 and len(r.content) > 200, u
         if u.endswith(".png"):
             assert r.content[:8] == b"\x89PNG\r\n\x1a\n"
+        elif u.endswith((".pvd", ".vtu")):
+            assert r.content.startswith(b'<?xml version="1.0"?>\n<VTKFile'), u
         else:
             assert r.content[:8] == b"\x89HDF\r\n\x1a\n"
+    # the curves of a run as CSV, units in the headings
+    r = client.get(f"/studies/{sid}/curves", params={"run": "ref-s1", "format": "csv"})
+    assert r.status_code == 200 and r.headers["content-type"].startswith("text/csv")
+    assert r.text.startswith("stage,time [s],strain [1],stress_top [Pa]")
+    assert client.get(f"/studies/{sid}/curves", params={"format": "csv"}).status_code == 422
     assert client.get(f"/studies/{sid}/runs/ref-s1/snapshots/other.png").status_code == 404
     assert client.get(f"/studies/{sid}/runs/ref-s1/snapshots/..%2Fresults.h5").status_code in (
         404,

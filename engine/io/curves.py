@@ -1,0 +1,54 @@
+"""A run's curves as CSV: one row per curve sample of every stage, in the order the stages
+ran, the stage named in the first column and each curve's unit in its heading (``time
+[s]``, ``stress_top [Pa]``, ``porosity [1]``). What a spreadsheet or pandas reads without
+HDF5 (``pandas.read_csv(path)``). numpy and the standard library only."""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..uniaxial.results import CURVE_UNITS
+
+__all__ = ["curves_csv", "write_curves_csv"]
+
+
+def curves_csv(result) -> str:
+    """The curves of every stage of ``result`` (an :class:`engine.UniaxialResult`, or a
+    mapping stage -> {curve: 1-D array} in the order the stages ran) as CSV text: a
+    heading ``stage,<curve> [<unit>],...`` (in :data:`engine.uniaxial.results.CURVE_UNITS`
+    order, then any others), then a row per sample. Values are written in full precision
+    (``repr``); a stage that lacks a curve another has leaves it empty."""
+    stages = (
+        {name: st.curves for name, st in result.stages.items()}
+        if hasattr(result, "stages")
+        else dict(result)
+    )
+    names: list[str] = []
+    for curves in stages.values():
+        names += [n for n in curves if n not in names]
+    order = list(CURVE_UNITS)
+    names.sort(key=lambda n: (order.index(n) if n in order else len(order), n))
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["stage", *(f"{n} [{CURVE_UNITS.get(n, '1')}]" for n in names)])
+    for stage, curves in stages.items():
+        cols = [np.asarray(curves[n]) if n in curves else None for n in names]
+        rows = max((len(c) for c in cols if c is not None), default=0)
+        for i in range(rows):
+            w.writerow([stage, *("" if c is None else repr(float(c[i])) for c in cols)])
+    return buf.getvalue()
+
+
+def write_curves_csv(result, path) -> Path:
+    """Write :func:`curves_csv` of ``result`` to ``path`` (a temporary file, then renamed)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(curves_csv(result))
+    os.replace(tmp, path)
+    return path

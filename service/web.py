@@ -104,7 +104,7 @@ def calibration_page(
         "calibration.html",
         {
             "job": calibration_public(job, session, settings),
-            "request": job.spec,
+            "asked": job.spec,  # the calibration as submitted ("request" is the page's)
             "runs": runs,
             "result": result,
             "missing": missing,

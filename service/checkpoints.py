@@ -1,7 +1,7 @@
 """The checkpoints of a study's runs in flight, as the worker sees them: whether an attempt
-moved one on (the poison rule of :func:`service.transitions.recover_stale`), and their
-removal once the study has ended (a stored run's own checkpoint goes as soon as it is
-stored: :func:`engine.run_study`)."""
+moved one on (the poison rule of :func:`service.transitions.recover_stale`), the note of a
+worker's death that shortens their interval, and their removal once the study has ended (a
+stored run's own checkpoint goes as soon as it is stored: :func:`engine.run_study`)."""
 
 from __future__ import annotations
 
@@ -20,6 +20,15 @@ def advanced_since(directory: Path, since: datetime) -> bool:
         return any(p.stat().st_mtime >= t for p in directory.glob("*.ckpt"))
     except OSError:  # removed meanwhile
         return False
+
+
+def note_crash(log: Path) -> None:
+    """Note that a study's worker died (a line with the time, UTC): from then on its runs
+    checkpoint every ``checkpoint_interval_after_crash`` (:meth:`Settings.run_options`), so
+    that a worker killed again and again still moves it on."""
+    log.parent.mkdir(parents=True, exist_ok=True)
+    with open(log, "a") as f:
+        f.write(datetime.now(timezone.utc).isoformat(timespec="seconds") + "\n")
 
 
 def remove_all(directory: Path) -> None:

@@ -76,6 +76,8 @@ class Worker:
                 log.warning("study %s had a dead worker: now %s", sid, status.value)
                 if status is not Status.queued:  # ended: its checkpoints will not be resumed
                     checkpoints.remove_all(self.settings.checkpoints_dir(sid))
+                else:  # its next attempts checkpoint more often (DEMSCALE_..._AFTER_CRASH)
+                    checkpoints.note_crash(self.settings.crash_log(sid))
 
     def parent_gone(self) -> bool:
         """Whether the embedding API process has exited."""

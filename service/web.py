@@ -42,16 +42,17 @@ RUN_COLUMNS = (
     ("run", "run", None, "{}"),
     ("rule", "rule", None, "{}"),
     ("radius", "R [mm]", 1e3, "{:g}"),
-    ("particles", "particles", None, "{}"),
+    ("particles", "particles [-]", None, "{}"),
     ("wall_time", "run time [s]", 1.0, "{:.1f}"),
-    ("speedup", "speed-up", 1.0, "{:.2f}x"),
-    ("overburden_ratio", "self-weight / consolidation", 1.0, "{:.3f}"),
+    ("speedup", "speed-up [x]", 1.0, "{:.2f}"),
+    ("overburden_ratio", "self-weight / consolidation [-]", 1.0, "{:.3f}"),
     ("unconfined_strength", "strength [kPa]", 1e-3, "{:.3g}"),
-    ("err_density", "density err", 100.0, "{:.1f} %"),
-    ("err_loading_stiffness", "loading stiffness err", 100.0, "{:.1f} %"),
-    ("err_unloading_stiffness", "unloading stiffness err", 100.0, "{:.1f} %"),
-    ("err_coordination_interior", "coordination err", 100.0, "{:.1f} %"),
-    ("err_strength", "strength err", 100.0, "{:.1f} %"),
+    # relative RMS errors against the mean reference (unsigned; the verdicts sign them)
+    ("err_density", "density err [%]", 100.0, "{:.1f}"),
+    ("err_loading_stiffness", "loading stiffness err [%]", 100.0, "{:.1f}"),
+    ("err_unloading_stiffness", "unloading stiffness err [%]", 100.0, "{:.1f}"),
+    ("err_coordination_interior", "coordination err [%]", 100.0, "{:.1f}"),
+    ("err_strength", "strength err [%]", 100.0, "{:.1f}"),
 )
 
 

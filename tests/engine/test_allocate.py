@@ -1,0 +1,115 @@
+"""Seeds where they decide (engine.study.allocate), on made-up groups: the rule under test
+first at an equal chance, no seed for a variant its headline metric already tells apart,
+controls reserved in the budget with the coarse seeds they pair with, nothing for a
+hopeless variant."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from engine.study import judge
+from engine.study.allocate import headline, next_runs
+from engine.study.noise import StudyNoise
+
+CONS = 2e4
+R = 5e-3
+
+
+def _spec(rules=("paper", "foil"), budget=None, max_seeds=10):
+    names = ("loading_stiffness", "strength")
+    return SimpleNamespace(
+        reference=SimpleNamespace(consolidation_stress=CONS),
+        tolerances=dict.fromkeys(names, 0.15),
+        confidence=0.95,
+        decide=True,
+        max_seeds=max_seeds,
+        max_reference_seeds=6,
+        rounds=1,
+        looks=2,
+        budget=budget,
+        rules=tuple(SimpleNamespace(name=r) for r in rules),
+    ), names
+
+
+def _values(rng, n, ratio, sd):
+    """``n`` seeds whose log values have mean log(ratio) and sample spread ``sd`` exactly
+    (standardised draws), so that a test's outcome does not hang on one draw."""
+    out = []
+    z = rng.normal(size=(2, n))
+    z = (z - z.mean(axis=1, keepdims=True)) / z.std(axis=1, ddof=1, keepdims=True)
+    for i in range(n):
+        out.append(
+            {
+                "loading_stiffness": np.array([1e5 * ratio * np.exp(sd * z[0, i])]),
+                "strength": np.array([1e4 * ratio * np.exp(sd * z[1, i])]),
+                "failed": 1.0,
+            }
+        )
+    return out
+
+
+def _round(spec, names, groups, refs, costs, budget=None, control_costs=None):
+    noise = StudyNoise(refs, groups, names, CONS)
+    ae, ad = judge.error_rates(spec.confidence, len(names), 1, spec.looks)
+    verdicts = [judge.judge_group(noise, k, spec.tolerances, ae, ad) for k in groups]
+    return next_runs(spec, noise, verdicts, costs, 1, budget, None, control_costs), verdicts
+
+
+def test_the_rule_under_test_comes_first_at_an_equal_chance():
+    spec, names = _spec(("paper", "foil"))
+    rng = np.random.default_rng(1)
+    refs = _values(rng, 3, 1.0, 0.02)
+    same = _values(rng, 3, 1.0, 0.06)
+    groups = {(R, "foil"): same, (R, "paper"): [dict(v) for v in same]}
+    costs = {"reference": 8.0, (R, "paper"): 1.0, (R, "foil"): 1.0}
+    adds, _ = _round(spec, names, groups, refs, costs)
+    coarse = [a for a in adds if a.kind == "coarse"]
+    assert coarse and coarse[0].variant == (R, "paper")
+    # and with the order of the rules turned round, the other one does
+    spec2, _ = _spec(("foil", "paper"))
+    adds2, _ = _round(spec2, names, groups, refs, costs)
+    assert [a for a in adds2 if a.kind == "coarse"][0].variant == (R, "foil")
+
+
+def test_no_seed_for_a_variant_its_headline_metric_tells_apart():
+    spec, names = _spec(("paper", "unscaled"))
+    assert headline(names) == "strength"
+    rng = np.random.default_rng(2)
+    refs = _values(rng, 3, 1.0, 0.02)
+    groups = {
+        (R, "paper"): _values(rng, 3, 1.02, 0.06),
+        (R, "unscaled"): _values(rng, 3, 0.45, 0.05),  # -55 %: its strength tells it apart
+    }
+    costs = {"reference": 8.0, (R, "paper"): 1.0, (R, "unscaled"): 1.0}
+    adds, verdicts = _round(spec, names, groups, refs, costs)
+    assert all(a.variant != (R, "unscaled") for a in adds), adds
+    assert any(a.variant == (R, "paper") for a in adds)
+
+
+def test_a_control_is_reserved_with_each_coarse_seed():
+    spec, names = _spec(("paper",), max_seeds=10)
+    rng = np.random.default_rng(3)
+    refs = _values(rng, 3, 1.0, 0.02)
+    groups = {(R, "paper"): _values(rng, 3, 1.0, 0.06)}
+    costs = {"reference": 100.0, (R, "paper"): 1.0}
+    # a budget of two coarse runs: two seeds alone, or one seed and its control
+    free, _ = _round(spec, names, groups, refs, costs, budget=2.0)
+    paired, _ = _round(spec, names, groups, refs, costs, budget=2.0, control_costs={R: 1.0})
+    n_free = sum(a.kind == "coarse" for a in free)
+    n_paired = sum(a.kind == "coarse" for a in paired)
+    assert n_free == 2 and n_paired == 1, (free, paired)
+    assert "with its resolution control" in paired[0].reason
+
+
+def test_nothing_for_a_variant_at_its_tolerance():
+    # an error sitting at the tolerance with a small spread: no seed count within the caps
+    # decides it, so it takes none (futility: stopping never makes a wrong verdict)
+    spec, names = _spec(("paper",), max_seeds=6)
+    rng = np.random.default_rng(4)
+    refs = _values(rng, 3, 1.0, 0.001)
+    groups = {(R, "paper"): _values(rng, 3, 1.15, 0.001)}
+    costs = {"reference": 8.0, (R, "paper"): 1.0}
+    adds, verdicts = _round(spec, names, groups, refs, costs)
+    assert verdicts[0]["verdict"] == "undecided" and adds == []

@@ -70,7 +70,7 @@ def test_the_rule_under_test_comes_first_at_an_equal_chance():
     # and with the order of the rules turned round, the other one does
     spec2, _ = _spec(("foil", "paper"))
     adds2, _ = _round(spec2, names, groups, refs, costs)
-    assert [a for a in adds2 if a.kind == "coarse"][0].variant == (R, "foil")
+    assert next(a for a in adds2 if a.kind == "coarse").variant == (R, "foil")
 
 
 def test_no_seed_for_a_variant_its_headline_metric_tells_apart():
@@ -83,7 +83,7 @@ def test_no_seed_for_a_variant_its_headline_metric_tells_apart():
         (R, "unscaled"): _values(rng, 3, 0.45, 0.05),  # -55 %: its strength tells it apart
     }
     costs = {"reference": 8.0, (R, "paper"): 1.0, (R, "unscaled"): 1.0}
-    adds, verdicts = _round(spec, names, groups, refs, costs)
+    adds, _ = _round(spec, names, groups, refs, costs)
     assert all(a.variant != (R, "unscaled") for a in adds), adds
     assert any(a.variant == (R, "paper") for a in adds)
 

@@ -43,7 +43,7 @@ import shutil
 import subprocess
 import sys
 import time
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -293,7 +293,7 @@ def run_probe() -> None:
         "every": PROBE_EVERY,
         "test": base.to_dict(),
         "variants": {
-            k: [type(v[0]).__name__, v[0].to_dict(), v[1]] for k, v in PROBE_VARIANTS.items()
+            k: [type(v[0]).__name__, asdict(v[0]), v[1]] for k, v in PROBE_VARIANTS.items()
         },
     }
     want = json.loads(json.dumps(want))  # as it reads back (tuples as lists)

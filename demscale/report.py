@@ -32,6 +32,22 @@ def summary_text(summary: dict) -> str:
         "side in particle diameters"
     )
     advisor = summary.get("advisor", {})
+    ref = advisor.get("reference") or {}
+    if "unconfined_strength" in ref:
+        parts = [
+            f"strength {ref['unconfined_strength'] / 1e3:.2f} ± "
+            f"{ref.get('unconfined_strength_std', 0.0) / 1e3:.2f} kPa"
+        ]
+        if "unconfined_strength_platen" in ref:
+            parts.append(f"top platen {ref['unconfined_strength_platen'] / 1e3:.2f} kPa")
+        if "self_weight_stress" in ref:
+            parts.append(
+                f"self-weight rho g H / 2 = {ref['self_weight_stress'] / 1e3:.2f} kPa beside it"
+            )
+        failed = ref.get("unconfined_failure")
+        if failed is not None:
+            parts.append(f"{failed:.0%} of the references failed at a peak")
+        lines.append("\nreference: " + "; ".join(parts))
     conf = advisor.get("confidence")
     if conf is not None:
         lines.append(f"\nverdicts at {conf:.0%} confidence (docs/PHYSICS.md section 7):")

@@ -412,6 +412,9 @@ def _reference_summary(refs: dict, names, ref_values: list[dict]) -> dict:
     out = {"seeds": sorted(refs)}
     for k in (
         "unconfined_strength",
+        "unconfined_strength_platen",
+        "unconfined_strength_interior",
+        "self_weight_stress",
         "unconfined_failure",
         "loading_stiffness",
         "unloading_stiffness",

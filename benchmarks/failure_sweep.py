@@ -46,7 +46,7 @@ LAW = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.8, mu_s=0.5, mu_r=0.001, r
 
 
 def variants() -> dict[str, engine.UniaxialTest]:
-    base = engine.preset("quick", pair_law=LAW)
+    base = engine.preset("quick", protocol="seed", pair_law=LAW)
     return {
         "base": base,
         "frictionless_platens": replace(base, wall_law=replace(base.wall_law, mu=0.0)),
@@ -67,6 +67,195 @@ def stored(name: str, test: engine.UniaxialTest):
         return None
     out = load_run(path)
     return out if isinstance(out, str) or out.test == test else None
+
+
+#: The law of the main job's default study (engine.default_study: f0 = -0.4 N at 2.5 mm),
+#: whose quick runs must fail at a peak (issue 39, item 4).
+DEFAULT_LAW = replace(LAW, f0=-0.4)
+
+#: The protocol the candidates run at, stated with each so that a stored candidate stays
+#: itself when the defaults move: the default protocol of this change
+#: (engine.uniaxial.spec.DEFAULT_PROTOCOL, docs/PROTOCOL.md).
+CANDIDATE_PROTOCOL = {
+    "dt": None,
+    "dt_fraction": 0.4,
+    "inertial_number": 5e-4,
+    "max_platen_speed": 0.05,
+    "strength_from": "interior",
+    "pour_speed": 2.0,
+}
+
+#: Candidate cells for the quick preset, in diameters of the reference's 2.5 mm particles,
+#: with the gravity [m/s^2] that sets their overburden. Chosen before any was run, from the
+#: stored runs: every paper-cell run fails (10 x 30 x 60 diameters at 2.5 mm, 5 x 15 x 30 at
+#: 5 mm, and the 5 mm controls, 5 x 15 x 30 at 2 g), every quick-cell one hardens (10 x 10 x 20,
+#: 5 x 5 x 10, at g, 2 g or 3 g), and neither the seed's cross-section nor twice the quick
+#: height alone (overburden ratio 0.12) made a quick sample fail; the failing ones share the
+#: seed's slenderness (height 6 x the thinnest side) and overburden (rho_b g H = 3.5 kPa,
+#: 0.18 of the consolidation stress). The candidates keep the 10-diameter thickness (the
+#: 5 mm variants of the default study are then 5 diameters thick, the seed's minimum) and hold
+#: the seed's overburden, raising the slenderness from the quick sample's 2 to the seed's 6.
+CANDIDATES = {
+    "h20_g1": ((0.05, 0.05, 0.10), 9.81),  # the quick cell at the candidate protocol
+    "h30_g2": ((0.05, 0.05, 0.15), 19.62),  # slenderness 3, the seed's overburden
+    "h40_g1.5": ((0.05, 0.05, 0.20), 14.715),  # slenderness 4, the seed's overburden
+    "h60_g1": ((0.05, 0.05, 0.30), 9.81),  # slenderness 6, the seed's overburden
+}
+
+
+def candidate(name: str, seed: int, law=None) -> engine.UniaxialTest:
+    """Candidate ``name`` of :data:`CANDIDATES` at packing ``seed`` with the default study's
+    law (or ``law``) at :data:`CANDIDATE_PROTOCOL`."""
+    cell, g = CANDIDATES[name]
+    return engine.preset(
+        "quick",
+        protocol="seed",
+        **CANDIDATE_PROTOCOL,
+        cell=cell,
+        gravity=g,
+        pair_law=law or DEFAULT_LAW,
+        seed=seed,
+    )
+
+
+def run_candidates(names, seeds) -> None:
+    """Run (one at a time) and store each candidate run not stored yet:
+    ``STORE/<name>-s<seed>.h5``."""
+    for seed in seeds:
+        for name in names:
+            key = f"{name}-s{seed}"
+            test = candidate(name, seed)
+            if not isinstance(stored(key, test) or "", str):
+                print(f"{key}: stored")
+                continue
+            t0 = time.perf_counter()
+            try:
+                res = engine.run_uniaxial(test)
+            except Exception as e:  # stored as the run's error, the others go on
+                res = f"{type(e).__name__}: {e}"
+            save_run(STORE / f"{key}.h5", res, keep_particles=False)
+            s = res.scalars if not isinstance(res, str) else {}
+            print(
+                f"{key}: {time.perf_counter() - t0:.0f} s, failed {s.get('unconfined_failure')}, "
+                f"strength {s.get('unconfined_strength', float('nan')):.0f} Pa at "
+                f"{100 * s.get('strain_at_peak', float('nan')):.1f} %, "
+                f"{s.get('particle_steps', float('nan')):.3g} particle-steps",
+                flush=True,
+            )
+
+
+def candidate_rows() -> list[str]:
+    """The candidates' table from the stored runs (each judged by its stored
+    ``unconfined_failure``: the documented failure of its strength curve, the interior
+    virial stress at the candidate protocol)."""
+    rows = [
+        "| candidate | cell [diameters] | gravity [m/s^2] | overburden rho_b g H [kPa] | "
+        "seeds | failed at a peak | strength [kPa] | strain at peak [%] | particles | "
+        "particle-steps | wall time [s] |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    d = 2 * 2.5e-3
+    for name, (cell, g) in CANDIDATES.items():
+        runs = []
+        for path in sorted(STORE.glob(f"{name}-s*.h5")):
+            seed = int(path.stem.rsplit("-s", 1)[1])
+            r = stored(path.stem, candidate(name, seed))
+            if r is not None and not isinstance(r, str):
+                runs.append(r)
+        dims = " x ".join(f"{c / d:.0f}" for c in cell)
+        over = 2000 * 0.6 * g * cell[2] / 1e3
+        if not runs:
+            rows.append(f"| {name} | {dims} | {g:g} | {over:.2f} | 0 | - | - | - | - | - | - |")
+            continue
+        s = [r.scalars for r in runs]
+        fails = sum(x["unconfined_failure"] == 1.0 for x in s)
+        rows.append(
+            f"| {name} | {dims} | {g:g} | {over:.2f} | {len(runs)} | {fails} of {len(runs)} | "
+            f"{np.mean([x['unconfined_strength'] for x in s]) / 1e3:.2f} | "
+            f"{100 * np.mean([x['strain_at_peak'] for x in s]):.1f} | "
+            f"{s[0]['particles']:.0f} | {np.mean([x['particle_steps'] for x in s]):.3g} | "
+            f"{np.mean([x['wall_time'] for x in s]):.0f} |"
+        )
+    return rows
+
+
+#: Reference seeds of the main job's reference run here (at least 90 % must fail), and the
+#: seeds of its paper-rule coarse runs (whose failures the main job's verdicts need too).
+MAIN_REFERENCE_SEEDS = tuple(range(1, 11))
+MAIN_COARSE_SEEDS = (1, 2, 3)
+
+
+def main_job_runs() -> dict[str, engine.UniaxialTest]:
+    """The main job's runs (engine.default_study() planned by engine.plan, its reference at
+    more seeds): key ``main-<run key>`` -> test. Stored runs count only while the default
+    study plans the same tests."""
+    spec = engine.default_study()
+    runs = {p.key: p.test for p in engine.plan(spec).runs}
+    ref = runs["ref-s1"]
+    out = {f"main-ref-s{n}": replace(ref, seed=n) for n in MAIN_REFERENCE_SEEDS}
+    for r in spec.coarse_radii:
+        stem = f"r{1e3 * r:g}mm-paper"
+        for n in MAIN_COARSE_SEEDS:
+            key = f"{stem}-s{n}"
+            base = runs.get(key) or replace(runs[f"{stem}-s1"], seed=n)
+            out[f"main-{key}"] = base
+    return out
+
+
+def run_main_job(keys=None) -> None:
+    """Run (one at a time) and store the main job's runs not stored yet."""
+    for key, test in main_job_runs().items():
+        if keys and key not in keys:
+            continue
+        if not isinstance(stored(key, test) or "", str):
+            continue
+        t0 = time.perf_counter()
+        try:
+            res = engine.run_uniaxial(test)
+        except Exception as e:  # stored as the run's error, the others go on
+            res = f"{type(e).__name__}: {e}"
+        save_run(STORE / f"{key}.h5", res, keep_particles=False)
+        s = res.scalars if not isinstance(res, str) else {}
+        print(
+            f"{key}: {time.perf_counter() - t0:.0f} s, failed {s.get('unconfined_failure')}, "
+            f"{s.get('particle_steps', float('nan')):.3g} particle-steps",
+            flush=True,
+        )
+
+
+def main_job_rows() -> list[str]:
+    """The main job's runs stored so far: per kind, how many failed at a peak, their
+    strength and cost."""
+    rows = [
+        "| runs | stored | failed at a peak | strength [kPa] (interior; platen) | "
+        "self-weight stress [kPa] | particles | steps | particle-steps | wall time [s] |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    groups: dict[str, list] = {}
+    for key, test in main_job_runs().items():
+        r = stored(key, test)
+        stem = key.rsplit("-s", 1)[0]
+        groups.setdefault(stem, [])
+        if r is not None and not isinstance(r, str):
+            groups[stem].append(r)
+    for stem, runs in groups.items():
+        if not runs:
+            rows.append(f"| {stem} | 0 | - | - | - | - | - | - | - |")
+            continue
+        sc = [r.scalars for r in runs]
+
+        def mean(k, sc=sc):
+            return float(np.mean([x[k] for x in sc]))
+
+        fails = sum(x["unconfined_failure"] == 1.0 for x in sc)
+        rows.append(
+            f"| {stem} | {len(runs)} | {fails} of {len(runs)} | "
+            f"{mean('unconfined_strength') / 1e3:.2f}; "
+            f"{mean('unconfined_strength_platen') / 1e3:.2f} | "
+            f"{mean('self_weight_stress') / 1e3:.2f} | {mean('particles'):.0f} | "
+            f"{mean('steps'):,.0f} | {mean('particle_steps'):.3g} | {mean('wall_time'):.0f} |"
+        )
+    return rows
 
 
 def run(names) -> None:
@@ -280,8 +469,19 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--report", action="store_true", help="only the report from stored runs")
     ap.add_argument("--only", nargs="*", choices=list(variants()), help="variants to run")
+    ap.add_argument(
+        "--candidates", nargs="*", choices=list(CANDIDATES), help="quick-preset candidates to run"
+    )
+    ap.add_argument("--seeds", nargs="*", type=int, default=[1, 2, 3], help="their seeds")
+    ap.add_argument(
+        "--main-job", nargs="*", help="the main job's runs (main-<key>; none named: all)"
+    )
     args = ap.parse_args(argv)
-    if not args.report:
+    if args.main_job is not None and not args.report:
+        run_main_job(args.main_job)
+    elif args.candidates is not None and not args.report:
+        run_candidates(args.candidates or list(CANDIDATES), args.seeds)
+    elif not args.report:
         run(args.only or list(variants()))
     print(f"wrote {report()}")
     return 0

@@ -49,9 +49,30 @@ SEED_PROTOCOL = {
     "pour_speed": None,
 }
 
-#: The fields a stored test may lack (added with the protocol of issue 40): read at their
-#: seed values.
-_ADDED_FIELDS = ("dt_fraction", "inertial_number", "max_platen_speed", "strength_from")
+#: The protocol of a new test: the defaults of its fields (docs/PROTOCOL.md, measured by
+#: ``python -m benchmarks.protocol``): the time step 0.4 of the critical time of the stiffest
+#: contact, each loading stage at the inertial number 5e-4 with the platen at most 0.05 m/s,
+#: the pour capped at 2 m/s, the strength from the interior virial stress. Every field
+#: of :data:`SEED_PROTOCOL`, so that a test is either.
+DEFAULT_PROTOCOL = {
+    "dt": None,
+    "dt_fraction": 0.4,
+    "platen_speed": 0.01,
+    "inertial_number": 5e-4,
+    "max_platen_speed": 0.05,
+    "strength_from": "interior",
+    "pour_speed": 2.0,
+}
+
+#: The fields a stored test may lack whose default has moved since (the protocol of issue
+#: 40, and ``pour_speed``, stored since the capped pour): read at their seed values.
+_ADDED_FIELDS = (
+    "dt_fraction",
+    "inertial_number",
+    "max_platen_speed",
+    "strength_from",
+    "pour_speed",
+)
 
 
 def _cohesionless_law() -> BilinearAdhesive:
@@ -104,8 +125,10 @@ class UniaxialTest(Record):
             particles are counted [-].
         pour_fraction: solid fraction of the poured cloud [-] (random addition jams near 0.38).
         pour_speed: largest particle speed during the fill [m/s], as a fill that rains the
-            cloud down through a sieve or a fluid would (None: free fall from the pour
-            column, which reaches sqrt(2 g H_pour), 3.4 m/s at the paper scale). A soft,
+            cloud down through a sieve or a fluid would: 2 m/s by default (a free fall from
+            20 cm), which settles in about the fewest steps and leaves the free fall's bed
+            (docs/PROTOCOL.md); None: free fall from the pour column, which reaches
+            sqrt(2 g H_pour), 3.4 m/s at the paper scale (the seed's). A soft,
             strongly adhesive law cannot absorb a cluster's impact at that speed within the
             overlap limit (experiment (b)'s b = 3 runs); the cap is applied between curve
             samples, to every particle faster than it.
@@ -184,7 +207,7 @@ class UniaxialTest(Record):
         0.3, unit="1", gt=0, le=0.32, doc="solid fraction of the poured cloud"
     )
     pour_speed: float | None = param(
-        None,
+        DEFAULT_PROTOCOL["pour_speed"],
         unit="m/s",
         gt=0,
         le=100.0,
@@ -213,10 +236,13 @@ class UniaxialTest(Record):
         20e3, unit="Pa", gt=0, doc="consolidation stress (> pre_stress)"
     )
     platen_speed: float = param(
-        0.01, unit="m/s", gt=0, doc="top platen speed when inertial_number is None"
+        DEFAULT_PROTOCOL["platen_speed"],
+        unit="m/s",
+        gt=0,
+        doc="top platen speed when inertial_number is None",
     )
     inertial_number: float | None = param(
-        None,
+        DEFAULT_PROTOCOL["inertial_number"],
         unit="1",
         gt=0,
         le=0.01,
@@ -224,7 +250,11 @@ class UniaxialTest(Record):
         doc="inertial number every loading stage holds (None: constant platen_speed)",
     )
     max_platen_speed: float = param(
-        0.1, unit="m/s", gt=0, le=1.0, doc="largest platen speed with inertial_number"
+        DEFAULT_PROTOCOL["max_platen_speed"],
+        unit="m/s",
+        gt=0,
+        le=1.0,
+        doc="largest platen speed with inertial_number",
     )
     unloaded_stress: float = param(
         0.01,
@@ -259,21 +289,21 @@ class UniaxialTest(Record):
     seed: int = param(1, unit="", kind="int", ge=0, lt=2**31, doc="packing seed")
     output_interval: float = param(1e-3, unit="s", gt=0, doc="time between curve samples")
     dt: float | None = param(
-        1e-5,
+        DEFAULT_PROTOCOL["dt"],
         unit="s",
         gt=0,
         nullable=True,
         doc="time step (None: dt_fraction of the critical time of the stiffest contact)",
     )
     dt_fraction: float = param(
-        0.2,
+        DEFAULT_PROTOCOL["dt_fraction"],
         unit="1",
         gt=0,
         le=0.5,
         doc="with dt None: time step over the critical time of the stiffest contact",
     )
     strength_from: str = param(
-        "platen",
+        DEFAULT_PROTOCOL["strength_from"],
         unit="",
         kind="str",
         choices=("interior", "platen"),
@@ -471,6 +501,22 @@ class UniaxialTest(Record):
             ) from None
         return pos.copy(), radii.copy()
 
+    @property
+    def typical_platen_speed(self) -> float:
+        """A typical speed of the top platen over the loading stages [m/s], for estimates of
+        a run's cost: ``platen_speed``, or at ``inertial_number`` the speed that holds it in
+        the cell's height at half the consolidation stress (the mean of the loading
+        branch), I* (H / d) sqrt(sigma_c / (2 rho)), at most ``max_platen_speed``."""
+        if self.inertial_number is None:
+            return self.platen_speed
+        v = (
+            self.inertial_number
+            * self.cell[2]
+            / (2 * self.radius)
+            * math.sqrt(0.5 * self.consolidation_stress / self.density)
+        )
+        return min(v, self.max_platen_speed)
+
     def resolved_dt(self) -> float:
         """The time step a run of this test takes [s]: ``dt``, or ``dt_fraction`` of the
         critical time of the stiffest contact (:meth:`time_step`)."""
@@ -527,6 +573,11 @@ def halved_protocol(test: UniaxialTest) -> UniaxialTest:
 
 #: Named tests: their cells and what each stands for.
 PRESETS = ("paper", "quick")
+#: The cell (Lx, Ly, H) [m] of each preset at each protocol (:func:`preset`).
+PRESET_CELLS = {
+    "paper": {"default": (0.05, 0.15, 0.30), "seed": (0.05, 0.15, 0.30)},
+    "quick": {"default": (0.05, 0.05, 0.30), "seed": (0.05, 0.05, 0.1)},
+}
 #: Protocols of :func:`preset`: the default, and the seed's (:data:`SEED_PROTOCOL`).
 PROTOCOLS = ("default", "seed")
 
@@ -534,32 +585,31 @@ PROTOCOLS = ("default", "seed")
 def preset(name: str, protocol: str = "default", **overrides) -> UniaxialTest:
     """A named test; keyword overrides replace fields.
 
-    ``"paper"``: the set-up of Thakur et al. (2013) as written: a 50 x 150 x 300 mm cuboid
-    (periodic in x and y) filled with R = 2.5 mm spheres of density 2000 kg/m^3, platen at
-    10 mm/s, dt = 1e-5 s, K1 = 5e3 N/m, K2 = 2.5e4 N/m, Kt = 2/7 K1, mu_s = 0.5,
-    mu_r = 0.001, Hertz-Mindlin platens with friction 0.3. Assumed where the paper is
-    silent: the cuboid is "filled" at solid fraction 0.6 (about 20,600 particles; the poured
-    cloud at 0.3 starts twice as tall and settles to about the cuboid's height), restitution
-    0.4 (the value of Thakur et al. 2014), particle E = 1e8 Pa and nu = 0.25, steel platens,
-    pre-compression to 5 kPa and consolidation to 20 kPa. About 1.2e10 particle-steps: half
-    an hour per reference run on 2 cores.
+    ``"paper"``: the set-up of Thakur et al. (2013): a 50 x 150 x 300 mm cuboid (periodic in
+    x and y) filled with R = 2.5 mm spheres of density 2000 kg/m^3, K1 = 5e3 N/m,
+    K2 = 2.5e4 N/m, Kt = 2/7 K1, mu_s = 0.5, mu_r = 0.001, Hertz-Mindlin platens with friction
+    0.3. Assumed where the paper is silent: the cuboid is "filled" at solid fraction 0.6
+    (about 20,600 particles; the poured cloud at 0.3 starts twice as tall and settles to
+    about the cuboid's height), restitution 0.4 (the value of Thakur et al. 2014), particle
+    E = 1e8 Pa and nu = 0.25, steel platens, pre-compression to 5 kPa and consolidation to
+    20 kPa. At the default protocol (:data:`DEFAULT_PROTOCOL`); with ``protocol="seed"`` at
+    the seed's (:data:`SEED_PROTOCOL`: platen at 10 mm/s, dt = 1e-5 s, free-fall fill, about
+    1.2e10 particle-steps per reference run).
 
-    ``"quick"``: the same law, speed and time step in a 50 x 50 x 100 mm cuboid (about
-    2,300 particles at R = 2.5 mm), the smoke-test scale: a few minutes per study.
-
-    ``protocol="seed"``: the seed's set-up of the preset as this project first reproduced it
-    (:data:`SEED_PROTOCOL`); the stored studies of the seed's experiments are made with it.
+    ``"quick"``: the same law in a 50 x 50 x 300 mm cuboid (10 x 10 x 60 diameters, about
+    6,900 particles at R = 2.5 mm): the seed's height, overburden and slenderness (height six
+    times the thinnest side), without which a cohesive sample hardens instead of failing at a
+    peak (docs/FAILURE.md), with a third of its cross-section. ``protocol="seed"``: the quick
+    preset as the seed's experiments were reproduced, a 50 x 50 x 100 mm cuboid (about 2,300
+    particles, whose cohesive samples harden) at the seed's protocol.
     """
     if protocol not in PROTOCOLS:
         raise ParameterError(
             "preset.protocol", protocol, "one of " + ", ".join(repr(p) for p in PROTOCOLS)
         )
-    if name == "paper":
-        base = UniaxialTest(cell=(0.05, 0.15, 0.30))
-    elif name == "quick":
-        base = UniaxialTest(cell=(0.05, 0.05, 0.1))
-    else:
+    if name not in PRESETS:
         raise ParameterError("preset", name, "one of " + ", ".join(repr(p) for p in PRESETS))
+    base = UniaxialTest(cell=PRESET_CELLS[name][protocol])
     if protocol == "seed":
         base = replace(base, **SEED_PROTOCOL)
     return replace(base, **overrides) if overrides else base

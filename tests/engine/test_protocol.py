@@ -56,7 +56,7 @@ def test_the_step_is_a_fraction_of_the_pair_unloading_limit_when_the_pour_is_slo
 def test_the_step_is_a_fraction_of_the_platen_hertz_limit_at_the_free_fall_speed():
     # a free fall from the pour column hits the platen at sqrt(2 g H_pour): the Hertz
     # stiffness at the overlap of that impact, 2 E* sqrt(R d_max), is the stiffest contact
-    t = engine.preset("paper", dt=None, dt_fraction=0.25)
+    t = engine.preset("paper", dt=None, dt_fraction=0.25, pour_speed=None)
     ts = t.time_step()
     v = math.sqrt(2 * t.gravity * t.pour_height)
     e_star = 1 / ((1 - 0.25**2) / 1e8 + (1 - 0.3**2) / 2e11)
@@ -74,8 +74,16 @@ def test_the_step_is_a_fraction_of_the_platen_hertz_limit_at_the_free_fall_speed
 
 @pytest.fixture(scope="module")
 def held():
-    """A tiny cohesive run at a stated inertial number and dt fraction."""
-    t = tiny(pair_law=COHESIVE, dt=None, dt_fraction=0.4, inertial_number=1e-3)
+    """A tiny cohesive run at a stated inertial number and dt fraction, its strength from the
+    interior virial stress."""
+    t = tiny(
+        pair_law=COHESIVE,
+        dt=None,
+        dt_fraction=0.4,
+        inertial_number=1e-3,
+        strength_from="interior",
+        interior_margin=R,
+    )
     return engine.run_uniaxial(t)
 
 
@@ -92,6 +100,30 @@ def test_a_run_records_its_step_and_the_inertial_number_it_held(held):
     assert s["inertial_number_held"] == pytest.approx(1e-3, rel=0.15)
     assert s["inertial_number_held_max"] < 3e-3
     assert all(np.all(np.isfinite(st.curves["stress_interior"])) for st in held.stages.values())
+
+
+def test_the_interior_strength_is_the_smoothed_peak_and_the_stage_ends_at_failure(held):
+    # the strength is the peak of the interior curve smoothed over failure_strain, sought one
+    # window past the stage's start; the platen's strength and the self-weight stand beside
+    # it; a failed sample's stage ends once the documented failure holds on that curve
+    from engine.uniaxial.measures import curve_failed, smoothed
+
+    s, t = held.scalars, held.test
+    u = held.stages["unconfined"].curves
+    e, si = u["strain"], u["stress_interior"]
+    sm = smoothed(e, si, t.failure_strain)
+    past = e >= e[0] + t.failure_strain
+    assert s["strength_from_interior"] == 1.0
+    assert s["unconfined_strength"] == s["unconfined_strength_interior"] == sm[past].max()
+    assert s["unconfined_strength_platen"] == u["stress_top"].max()
+    weight = t.density * t.n_particles * sphere_volume(R) * t.gravity / (2 * t.cell[0] ** 2)
+    assert s["self_weight_stress"] == pytest.approx(weight, rel=1e-9)
+    # the stage ended at the first sample where the documented failure holds, or at the
+    # strain limit (or the detector's drop) without it
+    shorter = {k: v[:-1] for k, v in u.items()}
+    assert not curve_failed(t, shorter)
+    assert curve_failed(t, u) or e[-1] >= t.max_unconfined_strain or s["unconfined_failure"]
+    assert s["unconfined_failure"] == (1.0 if curve_failed(t, u) else s["unconfined_failure"])
 
 
 def test_the_platen_speed_holds_the_inertial_number_in_closed_form():

@@ -79,7 +79,7 @@ def test_a_law_field_carries_its_type_and_a_record_field_does_not():
     assert d["pair_law"]["type"] == "BilinearAdhesive" and next(iter(d["pair_law"])) == "type"
     assert d["wall_law"]["type"] == "HertzMindlin"
     assert "type" not in d["wall_material"]
-    assert d["cell"] == [0.05, 0.05, 0.1]  # tuples as lists
+    assert d["cell"] == [0.05, 0.05, 0.3]  # tuples as lists
     # a law without its tag is the field's default kind
     del d["pair_law"]["type"]
     assert isinstance(engine.UniaxialTest.from_dict(d).pair_law, engine.BilinearAdhesive)

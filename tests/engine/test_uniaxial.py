@@ -16,8 +16,16 @@ COHESIVE = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.0
 
 
 def tiny(**kw) -> engine.UniaxialTest:
-    """About 30 particles filling a 15 x 15 x 15 mm cuboid: seconds per full test."""
-    base = {"cell": (0.015, 0.015, 0.015), "output_interval": 1e-3, "platen_speed": 0.02}
+    """About 30 particles filling a 15 x 15 x 15 mm cuboid: seconds per full test. The
+    stage driver's tests run the seed's protocol (a constant platen speed, here 20 mm/s, and
+    dt = 1e-5 s, engine.SEED_PROTOCOL), whose stage ends they count in steps;
+    tests/engine/test_protocol.py runs the default protocol."""
+    base = {
+        **engine.SEED_PROTOCOL,
+        "cell": (0.015, 0.015, 0.015),
+        "output_interval": 1e-3,
+        "platen_speed": 0.02,
+    }
     return engine.UniaxialTest(**{**base, **kw})
 
 
@@ -160,7 +168,16 @@ def test_bad_parameters_name_the_field(field, value, match):
 def test_presets_and_round_trip():
     paper = engine.preset("paper")
     assert paper.cell == (0.05, 0.15, 0.30) and paper.radius == 2.5e-3
-    assert paper.dt == 1e-5 and paper.platen_speed == 0.01
+    # the default protocol (engine.uniaxial.spec.DEFAULT_PROTOCOL), and the seed's one option
+    # away
+    assert paper.dt is None and paper.dt_fraction == 0.4 and paper.inertial_number == 5e-4
+    assert paper.strength_from == "interior" and paper.pour_speed == 2.0
+    seed = engine.preset("paper", protocol="seed")
+    assert seed.dt == 1e-5 and seed.platen_speed == 0.01 and seed.inertial_number is None
+    assert seed.pour_speed is None and seed.strength_from == "platen"
+    assert seed == engine.preset("paper", **engine.SEED_PROTOCOL)
+    # the quick sample: the seed's height and slenderness on a third of its cross-section
+    assert engine.preset("quick").cell == (0.05, 0.05, 0.30)
     # the seed's cuboid filled: 0.6 x 50 x 150 x 300 mm of 2.5 mm spheres, poured from 600 mm
     assert paper.n_particles == round(0.6 * 0.05 * 0.15 * 0.30 / (4 / 3 * math.pi * 2.5e-3**3))
     assert paper.pour_height == pytest.approx(0.6)

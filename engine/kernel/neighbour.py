@@ -250,9 +250,21 @@ def build_neighbour_list(
     for i in range(n + 1):
         nbr_start[i] = new_start[i]
 
+    reverse_list(nbr_start, nbr_j, rev_start, rev_k)
+    for i in range(n):
+        for a in range(3):
+            pos_build[i, a] = pos[i, a]
+    return total
+
+
+@njit(**NJIT)
+def reverse_list(nbr_start, nbr_j, rev_start, rev_k):
+    """Fill the reverse list of a half list (see the module doc): the entries whose second
+    particle is j, in increasing order of the first."""
+    n = nbr_start.shape[0] - 1
     for j in range(n + 1):
         rev_start[j] = 0
-    for k in range(total):
+    for k in range(nbr_start[n]):
         rev_start[nbr_j[k] + 1] += 1
     for j in range(n):
         rev_start[j + 1] += rev_start[j]
@@ -264,7 +276,64 @@ def build_neighbour_list(
             j = nbr_j[k]
             rev_k[rfill[j]] = k
             rfill[j] += 1
+
+
+@njit(**NJIT)
+def renumber_list(rank, nbr_start, nbr_j, entry, n_hist, f_slot, out_start, out_j, out_entry):
+    """The half list with particle i renumbered ``rank[i]``: each pair listed under its smaller
+    new id, every segment sorted, the ``n_hist`` history slots carried (slots 1 to
+    ``n_hist - 1``, the tangential spring of the first particle against the second [m],
+    negated where the two swap roles; slot 0, the largest overlap, kept) and the force on the
+    second particle (slots ``f_slot`` to ``f_slot + 2`` [N], negated where they swap: what
+    ``Simulation.contacts`` reads). The other slots (torque and rolling moment for the
+    second particle) are zeroed: the pair pass writes them before the gather reads them.
+    ``out_j``/``out_entry`` have the capacity of ``nbr_j``/``entry``. The same pairs, so
+    the list stays valid for the renumbered positions of its last build (its reverse list:
+    :func:`reverse_list`)."""
+    n = rank.shape[0]
+    for a in range(n + 1):
+        out_start[a] = 0
     for i in range(n):
-        for a in range(3):
-            pos_build[i, a] = pos[i, a]
-    return total
+        ri = rank[i]
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            rj = rank[nbr_j[k]]
+            out_start[min(ri, rj) + 1] += 1
+    for a in range(n):
+        out_start[a + 1] += out_start[a]
+    fill = np.empty(n, dtype=np.int64)
+    for a in range(n):
+        fill[a] = out_start[a]
+    for i in range(n):
+        ri = rank[i]
+        for k in range(nbr_start[i], nbr_start[i + 1]):
+            rj = rank[nbr_j[k]]
+            a = min(ri, rj)
+            q = fill[a]
+            fill[a] += 1
+            out_j[q] = max(ri, rj)
+            for s in range(entry.shape[1]):
+                out_entry[q, s] = 0.0
+            out_entry[q, 0] = entry[k, 0]
+            sign = 1.0 if ri < rj else -1.0
+            for h in range(1, n_hist):
+                out_entry[q, h] = sign * entry[k, h]
+            for h in range(f_slot, f_slot + 3):
+                out_entry[q, h] = sign * entry[k, h]
+    width = entry.shape[1]
+    row = np.empty(width)
+    for a in range(n):
+        s = out_start[a]
+        e = out_start[a + 1]
+        for q in range(s + 1, e):  # insertion sort: segments are short
+            v = out_j[q]
+            for h in range(width):
+                row[h] = out_entry[q, h]
+            b = q - 1
+            while b >= s and out_j[b] > v:
+                out_j[b + 1] = out_j[b]
+                for h in range(width):
+                    out_entry[b + 1, h] = out_entry[b, h]
+                b -= 1
+            out_j[b + 1] = v
+            for h in range(width):
+                out_entry[b + 1, h] = row[h]

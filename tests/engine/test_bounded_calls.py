@@ -71,6 +71,7 @@ def test_calls_that_pause_give_the_bits_of_one_call(call_steps, monkeypatch):
     cut.between_calls = lambda: calls.append(cut.steps)
     cut.run(2000)
     assert len(calls) >= 2000 // call_steps - 1  # it did return to Python that often
+    assert whole.n_renumbers == cut.n_renumbers >= 1  # at the same step, mid-run
     _same(whole, cut)
 
 

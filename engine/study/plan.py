@@ -10,6 +10,7 @@ from stored runs, finds the same runs)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -105,12 +106,25 @@ def run_key(
 
 def estimated_steps(test: UniaxialTest) -> float:
     """Rough step count of a test: fill (two free-fall times of the pour column),
-    compression of the sample by 10 % there and back, release, unconfined strain."""
+    compression of the sample by 10 % there and back, release, unconfined strain. At a
+    constant ``platen_speed`` the loading takes strain x height / speed; at an
+    ``inertial_number`` I* the strain rate is I* sqrt(p / rho) / d (at most
+    ``max_platen_speed`` / height), taken at a quarter of the consolidation stress as the
+    stages' typical stress (engine.uniaxial.measures.loading_speed)."""
     dt = test.resolved_dt()
     height = test.cell[2]
-    t = 2 * test.fall_time + 0.2 * height / test.platen_speed
+    if test.inertial_number is None:
+        rate = test.platen_speed / height
+    else:
+        d = 2.0 * test.radius
+        p = 0.25 * test.consolidation_stress
+        rate = min(
+            test.inertial_number * math.sqrt(p / test.density) / d,
+            test.max_platen_speed / height,
+        )
+    t = 2 * test.fall_time + 0.2 / rate
     if test.unconfined:
-        t += test.release_time + test.max_unconfined_strain * height / test.platen_speed
+        t += test.release_time + test.max_unconfined_strain / rate
     return t / dt
 
 
@@ -141,7 +155,8 @@ def control_test(reference: UniaxialTest, radius: float, reference_dt: float) ->
         platen_speed=reference.platen_speed * s,
         gravity=reference.gravity / s,
         interior_margin=reference.margin * s,
-        dt=reference_dt,
+        # the reference's step: the same law and radius have the same contact time
+        dt=None if reference.dt is None else reference_dt,
     )
 
 

@@ -41,7 +41,10 @@ class ScalingRule(Record):
         stiffness_exponent: a in K1, K2, Kt ~ s^a [-]; None: the reference law's stress
             similarity, a = 2 - n (1 for the bilinear law).
         adhesion_exponent: b in f0 ~ s^b [-].
-        dt: ``"fixed"`` (the reference's time step) or ``"scaled"`` (reference dt times s).
+        dt: ``"fixed"`` (the reference's time-step setting: its ``dt`` where it gives one,
+            else the same ``dt_fraction`` of each run's own critical time, so that a coarse
+            run steps at the same fraction of its contact time) or ``"scaled"`` (the
+            reference's time step times s).
         adhesive_exponent: c in kadh ~ s^c [-]; None: as the stiffness (the number a, or
             with ``stiffness_exponent=None`` the similarity value 2 - chi).
     """
@@ -100,7 +103,10 @@ class ScalingRule(Record):
         by this rule. The platen (Hertz) law is unchanged: it is already stress-similar."""
         s = radius / reference.radius
         law = reference.pair_law.scaled(s, *self.exponents(reference.pair_law))
-        dt = reference_dt * (s if self.dt == "scaled" else 1.0)
+        if self.dt == "scaled":
+            dt = reference_dt * s
+        else:  # the reference's setting: its fixed step, or its fraction of the contact time
+            dt = None if reference.dt is None else reference_dt
         return replace(reference, radius=radius, pair_law=law, dt=dt)
 
     def exponents(self, law) -> tuple[float, float, float]:

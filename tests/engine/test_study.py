@@ -17,7 +17,7 @@ from tests.engine.test_uniaxial import COHESIVE, tiny
 
 
 def test_rules_scale_the_parameters_they_promise():
-    ref = engine.preset("quick", pair_law=COHESIVE)
+    ref = engine.preset("quick", protocol="seed", pair_law=COHESIVE)  # a fixed dt of 1e-5 s
     coarse = engine.ScalingRule("p", 1.0, 2.0).apply(ref, 2 * ref.radius, 1e-5)
     assert coarse.radius == 2 * ref.radius
     assert coarse.pair_law.k1 == pytest.approx(2 * COHESIVE.k1)
@@ -33,6 +33,14 @@ def test_rules_scale_the_parameters_they_promise():
     assert cubic.dt == pytest.approx(1.5e-5)
     uns = engine.ScalingRule.named("unscaled").apply(ref, 2 * ref.radius, 1e-5)
     assert uns.pair_law.k1 == COHESIVE.k1 and uns.pair_law.f0 == COHESIVE.f0
+    # with the time step a fraction of the contact time (the default protocol), "fixed"
+    # keeps that fraction: each coarse run steps at its own critical time's fraction, which
+    # under the paper rule grows as s (sqrt(m / K), m ~ s^3, K ~ s) where the pair sets it
+    frac = engine.preset("quick", pair_law=COHESIVE)
+    assert frac.dt is None
+    own = engine.ScalingRule("p", 1.0, 2.0).apply(frac, 2 * frac.radius, frac.resolved_dt())
+    assert own.dt is None and own.dt_fraction == frac.dt_fraction
+    assert own.resolved_dt() > 1.5 * frac.resolved_dt()
 
 
 def test_nrmse_zero_for_identical_and_known_for_shifted():
@@ -387,7 +395,7 @@ def test_a_control_is_the_reference_law_in_the_coarse_cell_scaled():
     # s = R_ref / R_c, gravity over s; the law, time step and stage times kept
     from engine.study.plan import control_test
 
-    ref = engine.preset("quick", interior_margin=0.02)
+    ref = engine.preset("quick", protocol="seed", interior_margin=0.02)
     ctl = control_test(ref, 5e-3, 1e-5)
     s = 0.5
     assert ctl.cell == pytest.approx(tuple(c * s for c in ref.cell))

@@ -493,6 +493,15 @@ def report() -> str:
             "R = 2.5 mm runs (a coarse model in the user's code against the fine reference)",
             judge_runs(coarse, fine),
         )
+    for code in ("liggghts", "demscale"):
+        coarse = outcomes(code, "b_elastic_coarse")
+        fine = outcomes(code, "b_elastic")
+        if coarse and len([r for r in fine if not isinstance(r, str)]) >= 2:
+            lines += verdict_table(
+                f"b_elastic_coarse against b_elastic, both by {code}: the seed's rule judged "
+                f"within {code}",
+                judge_runs(coarse, fine),
+            )
     lines += ["### The model differences, each removed from demscale", ""]
     lig = outcomes("liggghts", "b_elastic")
     base = outcomes("demscale", "b_elastic")

@@ -156,7 +156,8 @@ CASES = {
         ),
     )
 }
-#: the order the runs are made in when all are due: the verdicts first
+#: the order the runs are made in when all are due: the verdicts and the runs that trace
+#: them first, (b) in LIGGGHTS last (each runs its fill to the stage bound, about 50 min)
 ORDER = (
     ("b_elastic", "demscale"),
     ("b_elastic", "liggghts"),
@@ -164,12 +165,12 @@ ORDER = (
     ("b_elastic_kt1_cap", "demscale"),
     ("b_elastic_coarse", "liggghts"),
     ("b_elastic_coarse", "demscale"),
-    ("b", "demscale"),
-    ("b", "liggghts"),
     ("b_elastic_kt1", "demscale"),
     ("b_elastic_cap", "demscale"),
     ("b_coarse", "liggghts"),
     ("b_coarse", "demscale"),
+    ("b", "demscale"),
+    ("b", "liggghts"),
 )
 
 

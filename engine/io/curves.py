@@ -14,7 +14,7 @@ import numpy as np
 
 from ..uniaxial.results import CURVE_UNITS
 
-__all__ = ["curves_csv", "write_curves_csv"]
+__all__ = ["curves_csv", "runs_csv", "write_curves_csv"]
 
 
 def curves_csv(result) -> str:
@@ -42,6 +42,39 @@ def curves_csv(result) -> str:
         for i in range(rows):
             w.writerow([stage, *("" if c is None else repr(float(c[i])) for c in cols)])
     return buf.getvalue()
+
+
+def runs_csv(runs: dict) -> str:
+    """The curves of several runs (run key -> an :class:`engine.UniaxialResult` or a
+    mapping stage -> curves) as one CSV text: :func:`curves_csv`'s columns after a ``run``
+    column, the runs in the order given."""
+    parts = {key: curves_csv(value).splitlines() for key, value in runs.items()}
+    heads = {lines[0] for lines in parts.values() if lines}
+    if len(heads) > 1:  # runs with other curves: one heading of them all
+        names: list[str] = []
+        for lines in parts.values():
+            names += [h for h in lines[0].split(",")[1:] if h not in names]
+        order = list(CURVE_UNITS)
+        names.sort(
+            key=lambda h: (
+                order.index(h.split(" [")[0]) if h.split(" [")[0] in order else len(order),
+                h,
+            )
+        )
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(["run", "stage", *names])
+        for key, lines in parts.items():
+            head = lines[0].split(",")[1:]
+            for row in csv.reader(lines[1:]):
+                values = dict(zip(head, row[1:]))
+                w.writerow([key, row[0], *(values.get(n, "") for n in names)])
+        return buf.getvalue()
+    head = next(iter(heads), "stage")
+    out = [f"run,{head}"]
+    for key, lines in parts.items():
+        out += [f"{key},{line}" for line in lines[1:]]
+    return "\n".join(out) + "\n"
 
 
 def write_curves_csv(result, path) -> Path:

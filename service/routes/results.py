@@ -6,7 +6,6 @@ from enum import Enum
 from typing import Annotated
 
 from fastapi import APIRouter, HTTPException, Path, Query, Response
-from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse
 
 from engine.uniaxial.driver import STAGES
@@ -130,24 +129,13 @@ def curves(
     format: Annotated[
         CurvesFormat,
         Query(
-            description="json: lists of numbers with units; csv: one run's curves (run "
-            "required), a row per sample, the stage first and each unit in its heading"
+            description="json: lists of numbers with units; csv: a row per sample, the "
+            "run (without run=) and the stage first, each unit in its heading"
         ),
     ] = CurvesFormat.json,
 ):
     """Curves of a run (or every run), of one stage or all: lists of numbers with units, or
-    one run's as CSV. 404 for a run or stage the study does not have."""
-    if format is CurvesFormat.csv and run is None:
-        raise RequestValidationError(
-            [
-                {
-                    "type": "missing",
-                    "loc": ("query", "run"),
-                    "msg": "format=csv is one run's curves: give run (e.g. ref-s1)",
-                    "input": None,
-                }
-            ]
-        )
+    CSV. 404 for a run or stage the study does not have."""
     results = get_results(study, settings)  # 409 after the query's own checks (422)
     stage = None if kind is StageKind.all else kind.value
     try:
@@ -155,13 +143,17 @@ def curves(
     except KeyError as e:
         raise HTTPException(status_code=404, detail=e.args[0]) from e
     if format is CurvesFormat.csv:
-        from engine.io.curves import curves_csv
+        from engine.io.curves import curves_csv, runs_csv
 
-        text = curves_csv(data["runs"][run]["stages"])
+        if run is not None:
+            text, name = curves_csv(data["runs"][run]["stages"]), f"{run}-curves.csv"
+        else:
+            text = runs_csv({k: v["stages"] for k, v in data["runs"].items()})
+            name = f"{study.id}-curves.csv"
         return Response(
             text,
             media_type="text/csv",
-            headers={"Content-Disposition": f'attachment; filename="{run}-curves.csv"'},
+            headers={"Content-Disposition": f'attachment; filename="{name}"'},
         )
     for entry in data["runs"].values():
         entry["stages"] = {

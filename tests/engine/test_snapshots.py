@@ -285,3 +285,9 @@ def test_the_curves_as_csv(run, tmp_path):
     np.testing.assert_array_equal(
         [float(r[col]) for r in cons], res.stages["consolidation"].curves["stress_top"]
     )
+    # several runs in one text: the run first
+    from engine.io.curves import runs_csv
+
+    both = runs_csv({"a": res, "b": res}).splitlines()
+    assert both[0] == "run," + ",".join(head) and len(both) == 2 * len(body) + 1
+    assert both[1] == "a," + ",".join(rows[1]) and both[-1] == "b," + ",".join(rows[-1])

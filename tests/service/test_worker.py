@@ -118,7 +118,9 @@ def test_study_runs_end_to_end(client, workers, settings):
     r = client.get(f"/studies/{sid}/curves", params={"run": "ref-s1", "format": "csv"})
     assert r.status_code == 200 and r.headers["content-type"].startswith("text/csv")
     assert r.text.startswith("stage,time [s],strain [1],stress_top [Pa]")
-    assert client.get(f"/studies/{sid}/curves", params={"format": "csv"}).status_code == 422
+    r = client.get(f"/studies/{sid}/curves", params={"format": "csv", "kind": "fill"})
+    assert r.status_code == 200 and r.text.startswith("run,stage,time [s]")
+    assert {line.split(",")[0] for line in r.text.splitlines()[1:]} == set(table)
     assert client.get(f"/studies/{sid}/runs/ref-s1/snapshots/other.png").status_code == 404
     assert client.get(f"/studies/{sid}/runs/ref-s1/snapshots/..%2Fresults.h5").status_code in (
         404,

@@ -118,6 +118,7 @@ RULES: list[tuple[str, str, str]] = [
     (r"^uvicorn --factory service\.app:create_app", "manual", "started, answers, stopped"),
     (r"^python -m benchmarks\.", "never", "a benchmark (minutes to hours; benchmarks/README)"),
     (r"^\(cd deck/s1 && liggghts", "never", "LIGGGHTS 3.8 (tests/test_liggghts_deck*.py)"),
+    (r"^for s in .*liggghts -in", "never", "LIGGGHTS 3.8 (tests/test_liggghts_deck*.py)"),
     (r"^demscale study spec\.json .*--backend cuda", "never", "an NVIDIA GPU (gpu_bench.sh)"),
     (r"^DEMSCALE_BACKEND=cuda", "never", "an NVIDIA GPU (scripts/gpu_bench.sh)"),
     (r"^engine\.", "never", "an NVIDIA GPU (scripts/gpu_bench.sh); names checked by ruff"),

@@ -142,9 +142,16 @@ def run_study(workers: int) -> None:
 
 
 def run_keys(keys: list[str], workers: int) -> None:
-    """Only these planned runs of :func:`capped_study` (a share to run where a whole study
-    would not finish), each stored as it ends; keys already stored are skipped."""
-    tests = {p.key: p.test for p in plan(capped_study()).runs}
+    """Only these runs of :func:`capped_study`, planned or added by its design given the
+    runs stored so far (a share to run where a whole study would not finish), each stored
+    as it ends; keys already stored are skipped."""
+    from benchmarks.reproduce import all_stored_runs
+    from engine.study.plan import plan_runs
+
+    spec = capped_study()
+    stored = all_stored_runs(spec, STUDY_STORE) if STUDY_STORE.is_dir() else {}
+    tests = {p.key: p.test for p in plan(spec).runs}
+    tests.update({p.key: p.test for p in plan_runs(spec, stored)[0]})
     unknown = sorted(set(keys) - set(tests))
     if unknown:
         raise SystemExit(f"--runs: the capped study has no run {', '.join(unknown)}")

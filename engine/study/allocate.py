@@ -140,8 +140,8 @@ def next_runs(
     # futility, and variants whose next look decides them with the seeds they have
     for k in list(comps):
         cs = comps[k]
-        if any(not c.known for c in cs.values()):
-            continue
+        if any(not c.known for c in cs.values()) or seeds_of[k] < WELCH_MIN_SEEDS:
+            continue  # a spread of its own first: two seeds say too little to give up on
         most_c = spec.max_seeds - tried_c[k]
         most_r = spec.max_reference_seeds - tried_r
         proj = [c.projected(c.nc + most_c, c.nr + most_r, alpha_e, alpha_d) for c in cs.values()]

@@ -106,6 +106,7 @@ NOT_CODE = [
 #: kind: "cli" (parsed in CI; run in the manual set), "help" (run in CI), "manual" (run
 #: in the manual set only), "never" (not run by these tests: why).
 RULES: list[tuple[str, str, str]] = [
+    (r"^demscale study my_study\.json", "never", "the user's own spec (a placeholder)"),
     (r"^demscale (study|run|calibrate|export) ", "cli", "parsed; run in the manual set"),
     (r"^demscale (export-test|judge-liggghts) ", "cli", "parsed; LIGGGHTS runs them (manual)"),
     (r"^demscale (serve|worker)\b", "manual", "started, answers /healthz, stopped"),
@@ -122,7 +123,6 @@ RULES: list[tuple[str, str, str]] = [
     (r"^demscale study spec\.json .*--backend cuda", "never", "an NVIDIA GPU (gpu_bench.sh)"),
     (r"^DEMSCALE_BACKEND=cuda", "never", "an NVIDIA GPU (scripts/gpu_bench.sh)"),
     (r"^engine\.", "never", "an NVIDIA GPU (scripts/gpu_bench.sh); names checked by ruff"),
-    (r"^demscale study my_study\.json", "never", "the user's own spec (a placeholder)"),
 ]
 
 

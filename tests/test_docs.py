@@ -107,6 +107,7 @@ NOT_CODE = [
 #: in the manual set only), "never" (not run by these tests: why).
 RULES: list[tuple[str, str, str]] = [
     (r"^demscale study my_study\.json", "never", "the user's own spec (a placeholder)"),
+    (r"^demscale study spec\.json .*--backend cuda", "never", "an NVIDIA GPU (gpu_bench.sh)"),
     (r"^demscale (study|run|calibrate|export) ", "cli", "parsed; run in the manual set"),
     (r"^demscale (export-test|judge-liggghts) ", "cli", "parsed; LIGGGHTS runs them (manual)"),
     (r"^demscale (serve|worker)\b", "manual", "started, answers /healthz, stopped"),
@@ -120,7 +121,6 @@ RULES: list[tuple[str, str, str]] = [
     (r"^python -m benchmarks\.", "never", "a benchmark (minutes to hours; benchmarks/README)"),
     (r"^\(cd deck/s1 && liggghts", "never", "LIGGGHTS 3.8 (tests/test_liggghts_deck*.py)"),
     (r"^for s in .*liggghts -in", "never", "LIGGGHTS 3.8 (tests/test_liggghts_deck*.py)"),
-    (r"^demscale study spec\.json .*--backend cuda", "never", "an NVIDIA GPU (gpu_bench.sh)"),
     (r"^DEMSCALE_BACKEND=cuda", "never", "an NVIDIA GPU (scripts/gpu_bench.sh)"),
     (r"^engine\.", "never", "an NVIDIA GPU (scripts/gpu_bench.sh); names checked by ruff"),
 ]
@@ -166,6 +166,12 @@ def test_every_block_and_command_is_accounted_for():
 
 def _cli_commands() -> list[tuple[Block, str]]:
     return [(b, c) for b in shell_blocks() for c in commands(b) if rule(c)[0] == "cli"]
+
+
+def test_a_rule_that_never_runs_comes_before_the_rule_that_would():
+    # the specific "never" rules of demscale commands are matched before the general one
+    assert rule("demscale study spec.json --out results/s --backend cuda")[0] == "never"
+    assert rule("demscale study my_study.json --out results/mine --workers 4")[0] == "never"
 
 
 @pytest.mark.parametrize(

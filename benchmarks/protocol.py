@@ -1,16 +1,17 @@
 """The run protocol: a time step from the contact time and quasi-static loading at a stated
 inertial number, measured against the seed's (issue 40, items 1, 2 and 4).
 
-    python -m benchmarks.protocol fill      # the fill: steps to settle and blow-ups (paper scale)
-    python -m benchmarks.protocol quick     # the default dt fraction and I*: halving checks
-    python -m benchmarks.protocol paper     # the paper-scale benchmark (hours; resumable)
+    python -m benchmarks.protocol fill      # the fill: steps to settle, blow-ups (paper scale)
+    python -m benchmarks.protocol paper     # halving checks and the benchmark (hours; resumable)
     python -m benchmarks.protocol --report  # docs/PROTOCOL.md from the stored runs only
 
-Every run is stored at once as ``benchmarks/results/<scale>/protocol/<group>-s<seed>.h5``
-(:mod:`engine.io.store`), one at a time on one engine thread, with a checkpoint beside it
-(``.checkpoints/``, not tracked) so that a run cut off resumes bit for bit; a rerun makes only
-what is not stored (a stored run made with another test is made again). ``paper`` also commits
-each run it stores (``--commit``). The report recomputes everything from the stored runs.
+Every run is stored at once as ``benchmarks/results/paper/protocol/<sample>-<tag>-s<seed>.h5``
+(:mod:`engine.io.store`; the fill cases as JSON in ``fill/``), one at a time on one engine
+thread, with a checkpoint beside it (``.checkpoints/``, not tracked) so that a run cut off
+resumes bit for bit; a rerun makes only what is not stored (a stored run made with another
+test is made again). ``paper --only <sample>-<tag>-s<seed> ...`` runs a share of it
+(``ref-default-s1``, ``ref-half-s2``, ``b2-I5e-4-f0.4-s3``, ``b2-seed-s4``); ``--commit``
+commits each run it stores. The report recomputes everything from the stored runs.
 
 What is measured, and why each candidate (stated before any was run):
 
@@ -21,9 +22,10 @@ What is measured, and why each candidate (stated before any was run):
   the law whose free-fall fill blew up on two seeds). A capped pour lasts at least H_pour /
   v_cap but lowers the impact speed that sets the platen Hertz limit of the time step, for
   the whole run (critical time ~ v^-1/5).
-- **The time step** (``quick``): ``dt_fraction`` 0.4 against 0.2 of the critical time of the
-  stiffest contact (the damped-oscillator limit 2/w (sqrt(1 + z^2) - z) of the platen Hertz
-  contact at the impact speed, or of the pair unloading stiffness K2). A contact lasts
+- **The time step** (``paper``, on the 5 mm b = 2 run): ``dt_fraction`` 0.4 against 0.2 of
+  the critical time of the stiffest contact (the damped-oscillator limit
+  2/w (sqrt(1 + z^2) - z) of the platen Hertz contact at the impact speed, or of the pair
+  unloading stiffness K2). A contact lasts
   pi / w, 1.57 critical times: at a fraction f it is resolved by 1.57 / f steps (3.9 at 0.4,
   7.9 at 0.2, 15.7 at 0.1), and velocity Verlet's frequency error is (w dt)^2 / 24 = f^2 / 6
   (2.7 % at 0.4, 0.7 % at 0.2). A quasi-static bulk property depends on the contact forces,
@@ -31,16 +33,21 @@ What is measured, and why each candidate (stated before any was run):
   collisions (the fill's packing: the density); 0.2 is about the seed's dt = 1e-5 s
   (0.18 of the quick cell's critical time, 0.20 of the paper cell's). The default is the
   largest fraction whose halving leaves every verdict metric equivalent.
-- **The inertial number** (``quick``, then ``paper``): I* = 1e-3, the upper end of the
-  quasi-static regime (GDR MiDi 2004; da Cruz et al. 2005: the friction of a sheared bed
-  departs from its static value by (mu_2 - mu_s) I / I_0, about 0.1 % at I = 1e-3), against
-  5e-4 and 2.5e-4; the seed held 5-9e-5 at the paper scale and up to 8e-4 at the quick scale
-  (by the recorded definition). The default is the largest I* whose halving leaves every
-  metric equivalent on samples that fail.
+- **The inertial number** (``paper``, on the 5 mm run, then the reference): I* = 1e-3, the
+  upper end of the quasi-static regime (GDR MiDi 2004; da Cruz et al. 2005: the friction of
+  a sheared bed departs from its static value by (mu_2 - mu_s) I / I_0, about 0.1 % at I =
+  1e-3), against 5e-4 and 2.5e-4; the seed held 5-9e-5 at the paper scale and up to 8e-4 at
+  the quick scale (by the recorded definition). The default is the largest I* whose halving
+  leaves every metric equivalent on samples that fail. The platen's bound, first a fixed 0.1
+  m/s, became 100 I* m/s (:data:`CANDIDATES`) after the first 5 mm runs showed the unloading
+  stiffness following the platen's speed rather than I*: a bound fixed in m/s would have
+  left the reference's unloading at 0.1 m/s whatever I*, and no halving of I* would have
+  halved it.
 - **The benchmark** (``paper``): the seed's protocol (its stored cohesive references of
   experiment (b) and its 5 mm b = 2 runs, and one more seed of the latter) against the new
-  default on the same tests (3 seeds each), each metric judged by the verdict rule
-  (engine.study.advisor.judge_groups at the study's tolerances and confidence), and the
+  default on the same tests (3 seeds each), each metric judged by the verdict rule of a
+  study's protocol check (engine.study.judge.judge_protocol: the study's tolerances and
+  confidence, paired by seed where that pays), and the
   default against its halved inertial number on the references (the paper-scale check of
   I*). The strength of the seed comparison is the top platen's on both sides (the seed's runs
   have no interior curve); the interior strength is reported beside it.
@@ -109,11 +116,21 @@ def protocol(
 
 
 # ---------------------------------------------------------------------------- the fill
-#: Fill cases: name -> (the test's run key in experiment (b), pour speed [m/s] or None).
+#: Fill cases: name -> (the test's run key in experiment (b), pour speed [m/s] or None): the
+#: reference's seed 1 and the b = 3 law's seed 1 at 5 mm in the three pours, and the 2 m/s
+#: pour on the other b = 3 seeds, those whose free fall blew up at the seed's protocol
+#: (r3.75mm-b3-s1, r5mm-b3-s1) or were left out of the free-fall study (s2, s4).
+_POURS = {"free": None, "cap1": 1.0, "cap2": 2.0}
 FILLS = {
-    f"{key}-{name}": (key, v)
-    for key in ("ref-s1", "r5mm-b3-s1", "r5mm-b3-s2", "r5mm-b3-s4", "r3.75mm-b3-s1")
-    for name, v in (("free", None), ("cap1", 1.0), ("cap2", 2.0))
+    f"{key}-{name}": (key, _POURS[name])
+    for key, names in (
+        ("ref-s1", ("free", "cap1", "cap2")),
+        ("r5mm-b3-s1", ("free", "cap1", "cap2")),
+        ("r5mm-b3-s2", ("cap2",)),
+        ("r5mm-b3-s4", ("cap2",)),
+        ("r3.75mm-b3-s1", ("free", "cap2")),
+    )
+    for name in names
 }
 #: The time step of the fill cases: the fraction of each case's own critical time.
 FILL_DT_FRACTION = 0.4
@@ -247,7 +264,7 @@ def run_path(sample: str, tag: str, seed: int) -> Path:
 #: What the ``paper`` part runs, in order: the checks on the 5 mm sample first (they choose
 #: the default), then the benchmark: the reference at the default and at its halved I*, the
 #: 5 mm sample's third seed-protocol seed.
-CHECK_SEEDS = (1, 2, 3, 4, 5)
+CHECK_SEEDS = (1, 2, 3, 4, 5, 6, 7, 8)
 BENCHMARK = (
     [("b2", tag, s) for s in CHECK_SEEDS for tag in ("I5e-4-f0.4", "I5e-4-f0.2", "I2.5e-4-f0.4")]
     + [("b2", tag, s) for s in CHECK_SEEDS for tag in ("I1e-3-f0.4", "I1e-3-f0.2")]
@@ -400,11 +417,13 @@ def cost_row(label: str, runs: list) -> str:
         return f"| {label} | - | - | - | - | - | - |"
     s = [r.scalars for r in runs]
     ps = np.mean([x["particle_steps"] for x in s])
+    # a run stored before the fraction was recorded: its step over its test's critical time
+    fractions = [x.get("dt_fraction", r.test.time_step().fraction) for x, r in zip(s, runs)]
     return (
         f"| {label} | {len(runs)} | {np.mean([x['particles'] for x in s]):.0f} | "
         f"{np.mean([x['steps'] for x in s]):,.0f} | {ps:.3g} | "
         f"{np.mean([x['wall_time'] for x in s]):.0f} | "
-        f"{np.mean([x['dt'] for x in s]):.3g} s ({np.mean([x.get('dt_fraction', np.nan) for x in s]):.2f}) |"  # noqa: E501
+        f"{np.mean([x['dt'] for x in s]):.3g} s ({np.mean(fractions):.2f}) |"
     )
 
 
@@ -502,9 +521,22 @@ def report() -> str:
         "of the per-level error in per cent.",
         "",
         f"The engine's defaults of a new test: dt = {t.dt_fraction:g} of the critical time "
-        f"of the stiffest contact, I* = {t.inertial_number}, at most "
-        f"{t.max_platen_speed:g} m/s, the pour capped at {t.pour_speed} m/s, the strength "
-        f"from the {t.strength_from} curve.",
+        f"of the stiffest contact, I* = {t.inertial_number:g}, at most "
+        f"{t.max_platen_speed:g} m/s, the pour capped at {t.pour_speed:g} m/s, the strength "
+        f"from the {t.strength_from} curve (engine.uniaxial.spec.DEFAULT_PROTOCOL). The "
+        'seed\'s protocol stays one option away: `preset(name, protocol="seed")`, '
+        "`engine.SEED_PROTOCOL` (dt = 1e-5 s, the platen at 10 mm/s, free fall, the top "
+        "platen's strength).",
+        "",
+        "How the defaults were chosen: the fill is the pour of the three candidates that "
+        "settles in about the fewest steps and leaves the free fall's bed (the table below); "
+        "the time step and the inertial number are the largest candidates whose halving "
+        "leaves every verdict metric equivalent on a failing sample at the seed's scale "
+        "(the halving checks below, on experiment (b)'s 5 mm b = 2 run, whose every run "
+        "fails at a peak), the inertial number then checked on the reference itself (the "
+        "benchmark's last row). A metric judged `undecided` needs more seeds; the verdicts "
+        "are the study's protocol check (engine.study.judge.judge_protocol), paired by seed "
+        "where that pays.",
         "",
         "## The fill (paper scale)",
         "",

@@ -3,6 +3,7 @@
     python -m benchmarks.engine_speed            # full run (a few minutes)
     python -m benchmarks.engine_speed --quick    # 2k beds only, shorter runs
     python -m benchmarks.engine_speed --profile  # also a profile of the hot loop per pass
+    python -m benchmarks.engine_speed --pairs 3 [--baseline REV]  # against LIGGGHTS, interleaved
     python -m benchmarks.engine_speed --backend cuda  # the GPU targets (benchmarks/gpu_speed.py)
 
 Scene (issue 2): R = 2.5 mm spheres, density 2000, periodic x and y, bottom platen and a top platen
@@ -18,6 +19,7 @@ LIGGGHTS 3.8 deck in the same session, as the baseline of the targets.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 import platform
@@ -323,9 +325,90 @@ def profile(name: str, pos, rad, lengths, threads: int, steps: int) -> None:
     )
 
 
+#: One engine measurement in a fresh process (argv: threads, steps): particle-steps per
+#: second of the full law on the anchor bed (the engine of the tree it runs in).
+_ANCHOR_CHILD = """
+import json, sys
+import numba
+from benchmarks.engine_speed import FULL, anchor_bed, time_run
+threads, steps = int(sys.argv[1]), int(sys.argv[2])
+pos, rad, lengths = anchor_bed()
+time_run(pos, rad, lengths, FULL, threads, 10, 1)  # compiled (or loaded) before timing
+print(json.dumps(time_run(pos, rad, lengths, FULL, threads, steps, 1)[0]))
+"""
+
+
+def liggghts_pairs(pairs: int, steps: int, threads: int, baseline: str | None) -> int:
+    """``--pairs``: the engine against LIGGGHTS 3.8 on the anchor bed, ``threads`` engine
+    threads against as many MPI ranks, in ``pairs`` interleaved pairs (the engine first in
+    odd pairs, LIGGGHTS first in even ones, so that a slow spell of a shared machine falls on
+    both); with ``baseline``, the engine at that git revision runs in each pair too. Each
+    engine runs in a fresh process of its own tree. The figure: the median over pairs of each
+    pair's ratio (particle-steps per second, engine / LIGGGHTS)."""
+    import tempfile
+
+    from benchmarks.checks import ROOT, run_child, worktree
+
+    if shutil.which("liggghts") is None:
+        print("LIGGGHTS is not installed (apt-get install -y liggghts)")
+        return 1
+    with contextlib.ExitStack() as stack:
+        tmp = Path(stack.enter_context(tempfile.TemporaryDirectory()))
+        engines = {"this": ROOT}
+        if baseline:
+            engines["baseline " + baseline] = stack.enter_context(worktree(baseline))
+        ratios: dict[str, list[float]] = {e: [] for e in engines}
+        for k in range(pairs):
+            rates = {}
+            order = [*engines, "LIGGGHTS"]
+            for who in order if k % 2 == 0 else order[::-1]:
+                if who == "LIGGGHTS":
+                    rates[who] = liggghts(threads, steps)
+                else:
+                    rates[who] = run_child(
+                        engines[who],
+                        _ANCHOR_CHILD,
+                        (threads, steps),
+                        NUMBA_NUM_THREADS=threads,
+                        DEMSCALE_CACHE_DIR=tmp / who.replace(" ", "_"),
+                    )
+            lig = rates["LIGGGHTS"]
+            if not lig:
+                print(f"pair {k + 1}: LIGGGHTS failed")
+                continue
+            for e in engines:
+                ratios[e].append(rates[e] / lig)
+            print(
+                f"pair {k + 1}: LIGGGHTS {lig:.3e}; "
+                + "; ".join(f"{e} {rates[e]:.3e} ({rates[e] / lig:.2f}x)" for e in engines),
+                flush=True,
+            )
+    print(
+        f"\nanchor bed, full law, {threads} engine thread(s) against {threads} LIGGGHTS "
+        f"rank(s), {steps} steps, median of {pairs} interleaved pairs; load at the end "
+        + " ".join(f"{x:.2f}" for x in os.getloadavg())
+    )
+    for e, r in ratios.items():
+        if r:
+            print(
+                f"  {e}: {statistics.median(r):.2f}x LIGGGHTS (pairs: "
+                + " ".join(f"{x:.2f}" for x in r)
+                + ")"
+            )
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="2k beds only, shorter runs")
+    ap.add_argument(
+        "--pairs",
+        type=int,
+        default=0,
+        help="only the engine against LIGGGHTS on the anchor bed, in this many interleaved pairs",
+    )
+    ap.add_argument("--threads", type=int, default=2, help="with --pairs: threads and ranks")
+    ap.add_argument("--baseline", default=None, help="with --pairs: also this git revision")
     ap.add_argument("--profile", action="store_true", help="profile of the hot loop per pass")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument(
@@ -348,6 +431,8 @@ def main(argv=None) -> int:
         return 0
     if rest:
         ap.error(f"unrecognised arguments: {' '.join(rest)}")
+    if args.pairs:
+        return liggghts_pairs(args.pairs, 10_000, args.threads, args.baseline)
     steps2k = 4000 if args.quick else 10_000
     steps16k = 1500
 

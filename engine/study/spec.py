@@ -380,13 +380,20 @@ class StudySpec(Record):
 
 def default_study() -> StudySpec:
     """The study the main job runs: the ``quick`` cohesive reference (R = 2.5 mm,
-    f0 = -0.4 N) against R = 3.75 and 5 mm with the paper's rule and with unscaled
-    parameters. A two-stage design (docs/PHYSICS.md section 7.2): a pilot of three reference
-    seeds and three seeds per variant (three on each side let the intervals take
-    Welch-Satterthwaite-type degrees of freedom; a coarse bed of fewer particles scatters
-    more than the reference, so its own spread is measured), then one round of the seeds the
-    pilot's spreads say each variant not told apart needs (up to eight per variant and four
-    reference seeds, within 1.5e9 particle-steps: about the planned runs' cost)."""
+    f0 = -0.4 N, a 50 x 50 x 300 mm column: 10 x 10 x 60 diameters, which fails at a peak in
+    unconfined compression where the seed's 10 x 10 x 20 hardens, docs/FAILURE.md) at the
+    default protocol (a time step from the contact time, loading at an inertial number,
+    docs/PROTOCOL.md) against R = 3.75 and 5 mm with the paper's rule and with unscaled
+    parameters, each with its resolution control. A two-stage design (docs/PHYSICS.md section
+    7.2): a pilot of three reference seeds and three seeds per variant (three on each side
+    let every group's own spread have two degrees of freedom, and the groups at a radius pool
+    theirs), then one round of the runs that raise the chance of a verdict most per
+    particle-step (up to eight seeds per variant and four reference seeds, within 2e9
+    particle-steps: about two thirds of the pilot's cost). Without the protocol check of
+    section 7.6 (on by default for a new study): at this scale it would cost as much as the
+    pilot's coarse runs and controls together, and the main job is sized to run in about a
+    quarter of an hour on two cores; the default protocol's halving checks are stored
+    (docs/PROTOCOL.md)."""
     ref = preset(
         "quick",
         pair_law=BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001, restitution=0.4),
@@ -401,5 +408,6 @@ def default_study() -> StudySpec:
         rounds=1,
         max_seeds=8,
         max_reference_seeds=4,
-        budget=1.5e9,
+        budget=2e9,
+        protocol_check=False,
     )

@@ -144,8 +144,8 @@ def test_too_many_particles_is_refused(client, settings):
 
 @pytest.mark.timeout(60)
 def test_too_many_particle_steps_is_refused(client, settings):
-    body = {
-        "reference": {"preset": "quick"},
+    body = {  # the quick preset in its former 50 x 50 x 100 mm cell: within the test's cap
+        "reference": {"preset": "quick", "cell": [0.05, 0.05, 0.1]},
         "coarse_radii": [5e-3],
         "rules": ["paper"],
         "seeds": [1, 2, 3, 4, 5],

@@ -21,6 +21,10 @@ CALIBRATION = {
 }
 
 
+#: The quick preset in a cell within the test settings' particle cap.
+SMALL_QUICK = {"preset": "quick", "cell": [0.05, 0.05, 0.1]}
+
+
 def changed(body: dict, path: tuple, value) -> dict:
     """``body`` with ``value`` at ``path`` (the key removed where ``value`` is ...)."""
     out = copy.deepcopy(body)
@@ -75,7 +79,8 @@ UNPROCESSABLE = [
     (
         "k1 = 1e300",
         "/studies",
-        changed(TINY, ("reference", "pair_law"), law(k1=1e300)),
+        # at a fixed time step (with dt left to the laws, K1 = 1e300 N/m breaks only k2 >= k1)
+        changed(changed(TINY, ("reference", "pair_law"), law(k1=1e300)), ("reference", "dt"), 1e-5),
         ["reference", "pair_law", "BilinearAdhesive", "k1"],
         "time step",
     ),
@@ -83,14 +88,14 @@ UNPROCESSABLE = [
     (
         "pre_stress above the preset's consolidation stress",
         "/studies",
-        {"reference": {"preset": "quick", "pre_stress": 3e4}, "coarse_radii": [5e-3]},
+        {"reference": {**SMALL_QUICK, "pre_stress": 3e4}, "coarse_radii": [5e-3]},
         ["reference", "pre_stress"],
         "consolidation_stress",
     ),
     (
         "a platen speed the preset's output_interval cannot sample",
         "/studies",
-        {"reference": {"preset": "quick", "platen_speed": 100.0}, "coarse_radii": [5e-3]},
+        {"reference": {**SMALL_QUICK, "platen_speed": 100.0}, "coarse_radii": [5e-3]},
         ["reference", "platen_speed"],
         "output_interval",
     ),

@@ -358,6 +358,7 @@ def run(args) -> int:
     from engine.io.figures import section_figure
     from engine.io.vtkhdf import SnapshotWriter
     from engine.uniaxial.results import SCALAR_UNITS
+    from engine.uniaxial.spec import uniaxial_from_json
 
     console = Console(stderr=True)
     path = Path(args.test)
@@ -365,9 +366,7 @@ def run(args) -> int:
         fields = json.loads(path.read_text())
         if not isinstance(fields, dict):
             raise ValueError("the file must hold a JSON object of the test's fields")
-        name = fields.pop("preset", None)
-        base = engine.preset(name).to_dict() if name is not None else {}
-        test = engine.UniaxialTest.from_dict({**base, **fields})
+        test = uniaxial_from_json(fields)
         if args.snapshot_interval is not None and not args.snapshot_interval > 0:
             raise ValueError("--snapshot-interval must be a time > 0 s")
     except (OSError, json.JSONDecodeError) as e:
@@ -829,13 +828,12 @@ def calibrate_cmd(args) -> int:
     from engine.calibration import LabTargets, calibrate
     from engine.core.records import to_dict
     from engine.io.liggghts import to_liggghts
+    from engine.uniaxial.spec import uniaxial_from_json
 
     try:
         targets = LabTargets.from_dict(json.loads(Path(args.targets).read_text()))
         fields = json.loads(Path(args.test).read_text())
-        name = fields.pop("preset", None) if isinstance(fields, dict) else None
-        base = engine.preset(name).to_dict() if name is not None else {}
-        test = engine.UniaxialTest.from_dict({**base, **fields})
+        test = uniaxial_from_json(fields)
         boxes = dict(_param_box(p) for p in args.param)
         if not boxes:
             raise ValueError("give the parameters to calibrate: --param k1=3e3:2e4 ...")

@@ -1,7 +1,7 @@
 """``demscale export-test`` and ``demscale judge-liggghts``: a uniaxial test out as a LIGGGHTS
 3.8 deck, and LIGGGHTS' runs of it back, judged against demscale's own (docs/LIGGGHTS_DECK.md).
 
-    demscale export-test --preset quick --law law.json --seeds 1 2 3 --out deck/
+    demscale export-test --preset quick --protocol seed --law law.json --seeds 1 2 3 --out deck/
     (cd deck/s1 && liggghts -in in.demscale)       # and s2, s3
     demscale judge-liggghts deck/s1 deck/s2 deck/s3 --reference results/quick/results.h5
 
@@ -21,8 +21,9 @@ axes, demscale's own poured cloud (read_data), the pair law (edinburgh/stiffness
 bilinear and EEPA laws, hertz for Hertz-Mindlin), Hertz platens, every stage with demscale's
 targets and stopping rules, the time step and the output demscale's reader needs.
 
-The test comes from a JSON file (an engine.UniaxialTest; "preset": "quick" with overrides
-as for `demscale run`), from --preset with --law, or from a study (--study SPEC.json --run
+The test comes from a JSON file (an engine.UniaxialTest; "preset": "quick" and
+"protocol": "seed" with overrides as for `demscale run`), from --preset with --law and
+--protocol, or from a study (--study SPEC.json --run
 KEY: any reference, coarse run or control of its plan). --seeds writes one deck per packing
 seed (folders s1, s2, ... under --out). Run each unmodified in its folder:
 
@@ -30,7 +31,9 @@ seed (folders s1, s2, ... under --out). Run each unmodified in its folder:
 
 and read it back with `demscale judge-liggghts OUT --reference ...`. The deck's comments say
 what LIGGGHTS does differently; what it cannot express (an adhesive branch kadh > 0, a
-platen speed held to an inertial number) is refused, naming the field."""
+platen speed held to an inertial number, as the default protocol loads) is refused, naming
+the field: export a test at the seed's protocol (--protocol seed) or one whose
+"inertial_number" is null."""
 
 JUDGE_HELP = """\
 Read LIGGGHTS runs of exported decks back into demscale's run record (curves and scalars in
@@ -47,6 +50,7 @@ that stopped at a stage's bound counts as a failed run and is left out of the ve
 
 def _read_test(args):
     import engine
+    from engine.uniaxial.spec import uniaxial_from_json
 
     if args.study is not None:
         from engine.study.plan import plan
@@ -62,12 +66,10 @@ def _read_test(args):
         fields = json.loads(Path(args.test).read_text())
         if not isinstance(fields, dict):
             raise ValueError("the test file must hold a JSON object of the test's fields")
-        name = fields.pop("preset", None)
-        base = engine.preset(name).to_dict() if name is not None else {}
-        return engine.UniaxialTest.from_dict({**base, **fields})
+        return uniaxial_from_json(fields)
     if args.preset is None:
         raise ValueError("give a test: TEST.json, --preset NAME [--law LAW.json] or --study")
-    fields = engine.preset(args.preset).to_dict()
+    fields = engine.preset(args.preset, args.protocol).to_dict()
     if args.law is not None:  # {"type": ..., fields}: the law as a test's JSON holds it
         fields["pair_law"] = json.loads(Path(args.law).read_text())
     return engine.UniaxialTest.from_dict(fields)
@@ -192,6 +194,13 @@ def add_commands(sub, fmt) -> None:
     p.add_argument("--preset", help="a named test (quick, paper) instead of TEST.json")
     p.add_argument(
         "--law", metavar="LAW.json", help='with --preset: {"type": "BilinearAdhesive", ...}'
+    )
+    p.add_argument(
+        "--protocol",
+        choices=("default", "seed"),
+        default="default",
+        help="with --preset: the preset's protocol (the deck needs a constant platen speed: "
+        "seed, or a TEST.json with \"inertial_number\": null)",
     )
     p.add_argument("--study", metavar="SPEC.json", help="a study spec; with --run KEY")
     p.add_argument("--run", metavar="KEY", help="the study's run (ref-s1, r5mm-paper-s2, ...)")

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import engine
 from engine.contact.registry import LAWS
 from engine.contact.wall import WallMaterial
-from engine.uniaxial.spec import PRESETS
+from engine.uniaxial.spec import PRESETS, PROTOCOLS
 
 #: Bounds on the knobs that set work, as the admission enforces them (docs/SERVICE.md).
 BOUNDS = {
@@ -45,9 +45,9 @@ STAGE_TIME_FACTOR = 10.0
 SAMPLE_STRAIN = 0.01
 
 
-def _preset_fields() -> dict[str, dict]:
-    """The presets' fields (each built once, when this module is imported)."""
-    return {name: engine.preset(name).to_dict() for name in PRESETS}
+def _preset_fields() -> dict[tuple[str, str], dict]:
+    """The presets' fields at each protocol (each built once, when this module is imported)."""
+    return {(n, p): engine.preset(n, p).to_dict() for n in PRESETS for p in PROTOCOLS}
 
 
 _PRESETS = _preset_fields()
@@ -58,13 +58,17 @@ def reference_fields(data: dict) -> dict:
     when no reference is given) or the record's defaults, overridden by the request."""
     given = dict(data.get("reference", {"preset": "quick"}))
     name = given.pop("preset", None)
+    protocol = given.pop("protocol", "default")
+    protocol = protocol if protocol in PROTOCOLS else "default"  # the schema refuses others
     if name is not None:
-        base = dict(_PRESETS[name])
+        base = dict(_PRESETS[(name, protocol)])
     else:
         base = {
             f.name: f.default if f.default_factory is dataclasses.MISSING else f.default_factory()
             for f in dataclasses.fields(engine.UniaxialTest)
         }
+        if protocol == "seed":
+            base.update(engine.SEED_PROTOCOL)
     return {**base, **given}
 
 

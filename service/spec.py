@@ -41,7 +41,7 @@ from engine.calibration.calibrate import CORRECTED_BY
 from engine.calibration.targets import UNCERTAINTY_OF
 from engine.core.records import ParamInfo, describe
 from engine.study.spec import NAMED_RULES
-from engine.uniaxial.spec import PRESETS
+from engine.uniaxial.spec import PRESETS, PROTOCOLS
 
 from .cost import MIN_SETTLE_KE
 from .models import NAME_MAX_LENGTH
@@ -301,6 +301,15 @@ ReferenceIn = create_model(
     preset=(
         Literal[tuple(PRESETS)] | None,
         Field(None, description="a named test (engine.preset) whose fields the others override"),
+    ),
+    protocol=(
+        Literal[tuple(PROTOCOLS)],
+        Field(
+            "default",
+            description="the protocol of the preset (or of the record's defaults): 'default' "
+            "(dt from the contact time, loading at an inertial number) or 'seed' (the seed's "
+            "dt = 1e-5 s and 10 mm/s platen); given fields override it",
+        ),
     ),
     **{
         name: (

@@ -53,7 +53,7 @@ def tiny_test(**changes) -> engine.UniaxialTest:
         output_interval=2e-3,
         max_stage_time=2.0,
     )
-    return engine.preset("quick", **{**fields, **changes})
+    return engine.preset("quick", protocol="seed", **{**fields, **changes})
 
 
 def plastic_test() -> engine.UniaxialTest:
@@ -328,6 +328,8 @@ def test_export_test_and_judge_liggghts_commands(tmp_path, capsys):
                 "export-test",
                 "--preset",
                 "quick",
+                "--protocol",
+                "seed",
                 "--law",
                 str(law),
                 "--seeds",
@@ -344,7 +346,7 @@ def test_export_test_and_judge_liggghts_commands(tmp_path, capsys):
         assert t["seed"] == s and t["pair_law"]["f0"] == -0.2
         assert (tmp_path / "deck" / f"s{s}" / ld.DECK).exists()
     test = tmp_path / "test.json"
-    test.write_text(json.dumps({"preset": "quick", "radius": 5e-3}))
+    test.write_text(json.dumps({"preset": "quick", "protocol": "seed", "radius": 5e-3}))
     assert main(["export-test", str(test), "--out", str(tmp_path / "one")]) == 0
     assert json.loads((tmp_path / "one" / ld.TEST).read_text())["radius"] == 5e-3
     bad = tmp_path / "bad.json"
@@ -354,6 +356,11 @@ def test_export_test_and_judge_liggghts_commands(tmp_path, capsys):
         == 2
     )
     assert "kadh" in capsys.readouterr().err
+    # the default protocol loads at an inertial number, which a deck cannot hold: refused,
+    # naming the field, with nothing written
+    args = ["export-test", "--preset", "quick", "--law", str(law), "--out", str(tmp_path / "y")]
+    assert main(args) == 2
+    assert "inertial_number" in capsys.readouterr().err and not (tmp_path / "y").exists()
     folder = tmp_path / "ran"
     shutil.copytree(TINY, folder)
     refs = [str(DATA / f"demscale-s{s}.h5") for s in (1, 2)]
@@ -387,7 +394,11 @@ def test_export_test_from_a_study_run(tmp_path):
     from demscale.cli import main
 
     spec = tmp_path / "spec.json"
-    body = {"reference": {"preset": "quick"}, "coarse_radii": [5e-3], "reference_seeds": [1, 2]}
+    body = {
+        "reference": {"preset": "quick", "protocol": "seed"},
+        "coarse_radii": [5e-3],
+        "reference_seeds": [1, 2],
+    }
     spec.write_text(json.dumps(body))
     plan = engine.plan(engine.StudySpec.from_dict(json.loads(spec.read_text())))
     key = next(p.key for p in plan.runs if p.rule is not None)

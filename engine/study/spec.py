@@ -14,7 +14,7 @@ from ..contact.bilinear import BilinearAdhesive
 from ..contact.registry import adhesive_laws, law_names
 from ..core.errors import ParameterError
 from ..core.records import Record, check_fields, from_dict, param
-from ..uniaxial.spec import UniaxialTest, preset
+from ..uniaxial.spec import UniaxialTest, preset, uniaxial_from_json
 from .metrics import DEFAULT_TOLERANCES, METRICS
 
 DT_POLICIES = ("fixed", "scaled")
@@ -136,11 +136,7 @@ def _reference_from_json(raw):
     with overrides of some of them."""
     if not isinstance(raw, dict):
         return raw
-    raw = dict(raw)
-    name = raw.pop("preset", None)
-    if name is not None:
-        raw = {**preset(name).to_dict(), **raw}
-    return from_dict(UniaxialTest, raw)
+    return uniaxial_from_json(raw, "StudySpec.reference")
 
 
 def _rules_from_json(raw):

@@ -20,7 +20,7 @@ from ..contact.registry import law_names, pair_laws, wall_laws
 from ..contact.wall import WallMaterial
 from ..core.config import MAX_OVERLAP_FRACTION
 from ..core.errors import ParameterError
-from ..core.records import Record, check_fields, param
+from ..core.records import Record, check_fields, from_dict, param
 from ..simulation.packing import draw_radii, loose_packing, sphere_volume
 from ..simulation.scene import Plane, Scene
 from ..simulation.timestep import adhesion_overlap, critical_time_step
@@ -613,3 +613,25 @@ def preset(name: str, protocol: str = "default", **overrides) -> UniaxialTest:
     if protocol == "seed":
         base = replace(base, **SEED_PROTOCOL)
     return replace(base, **overrides) if overrides else base
+
+
+def uniaxial_from_json(raw: dict, owner: str = "UniaxialTest") -> UniaxialTest:
+    """A test given as JSON: its fields, optionally on a named base, ``"preset": "quick"``
+    (or ``"paper"``), and ``"protocol": "seed"`` (or ``"default"``) for the preset's (or,
+    without a preset, the record's defaults') protocol fields; given fields override both.
+    The one reader of a test's JSON for the command line, a study's reference and the
+    service's cost estimate."""
+    if not isinstance(raw, dict):
+        raise ParameterError(owner, type(raw).__name__, "a JSON object of the test's fields")
+    fields = dict(raw)
+    name = fields.pop("preset", None)
+    protocol = fields.pop("protocol", "default")
+    if protocol not in PROTOCOLS:
+        raise ParameterError(
+            f"{owner}.protocol", protocol, "one of " + ", ".join(repr(p) for p in PROTOCOLS)
+        )
+    if name is not None:
+        base = preset(name, protocol).to_dict()
+    else:
+        base = dict(SEED_PROTOCOL if protocol == "seed" else {})
+    return from_dict(UniaxialTest, {**base, **fields}, owner)

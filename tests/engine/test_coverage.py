@@ -482,15 +482,21 @@ def test_pairing_is_chosen_by_counts_and_pays_where_correlated():
 
 def test_the_pairing_ratios_are_those_the_stored_runs_show():
     # advisor.PAIRING_VARIANCE_RATIO is measured by benchmarks.pairing on the stored runs;
-    # runs stored since may move it a little, not across 1 (paired or not)
+    # runs stored since may move it a little, and not across 1 (paired or not) where the
+    # stored runs decide the side: the ratio is 1 - rho, and the correlation rho of n pairs
+    # has a standard error of about 1 / sqrt(n), so a ratio within two of them of 1
+    # (strength's, +0.02 on 50 degrees of freedom) says nothing about the side
     from benchmarks.pairing import centred_pairs, pooled
 
     for name, rows in centred_pairs().items():
         if not rows:
             continue
-        measured = pooled(rows)["variance_ratio"]
+        p = pooled(rows)
+        measured = p["variance_ratio"]
         fixed = advisor.PAIRING_VARIANCE_RATIO[name]
-        assert abs(measured - fixed) < 0.15 and (measured < 1) == (fixed < 1), (name, measured)
+        assert abs(measured - fixed) < 0.15, (name, measured)
+        if abs(measured - 1.0) > 2.0 / math.sqrt(p["dof"]):
+            assert (measured < 1) == (fixed < 1), (name, measured)
 
 
 # ------------------------------------------------------------------------ pooled spreads

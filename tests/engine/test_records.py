@@ -14,6 +14,7 @@ import pytest
 import engine
 from engine.contact.registry import LAWS
 from engine.core.records import from_dict, to_dict
+from engine.uniaxial.spec import uniaxial_from_json
 
 from . import toy_law
 from .test_uniaxial import tiny
@@ -111,6 +112,15 @@ def test_study_json_takes_a_preset_and_rule_names_and_refuses_the_wrong_shapes()
     )
     assert spec.reference == engine.preset("quick", radius=2e-3)
     assert [r.name for r in spec.rules] == ["paper", "unscaled"]
+    seed = engine.StudySpec.from_dict({"reference": {"preset": "quick", "protocol": "seed"}})
+    assert seed.reference == engine.preset("quick", protocol="seed")
+    # a protocol without a preset: the record's defaults at that protocol, fields over both
+    law = {"type": "BilinearAdhesive", "k1": 5e3, "k2": 2.5e4}
+    t = uniaxial_from_json({"protocol": "seed", "pair_law": law, "dt": 2e-5})
+    assert t.inertial_number is None and t.dt == 2e-5 and t.strength_from == "platen"
+    with pytest.raises(engine.ParameterError) as e:
+        engine.StudySpec.from_dict({"reference": {"preset": "quick", "protocol": "fast"}})
+    assert e.value.field == "StudySpec.reference.protocol", e.value
     ref = {"reference": {"preset": "quick"}}
     for bad, field in (
         ({"rules": ["paper"]}, "StudySpec.reference"),  # no silent default for the physics

@@ -153,6 +153,7 @@ def test_a_costly_body_within_the_run_count_is_refused_before_any_packing(
     }
     body = {**body, "reference": {"preset": "quick"}}
     settings.max_runs = 64
+    settings.max_particles_per_run = 50_000  # the service's default: the quick preset's 6,875 pass
     t0 = time.perf_counter()
     r = client.post("/studies", json=body)
     assert r.status_code == 422 and "particle-steps" in r.text, r.text
@@ -446,3 +447,22 @@ def test_a_law_too_soft_to_carry_the_stress_is_refused_by_name(client):
     r = client.post("/studies", json=body)
     assert r.status_code == 422, r.text
     assert "pair_law" in r.text and "k1" in r.text and "overlap" in r.text, r.text
+
+
+def test_a_reference_at_the_seeds_protocol_is_costed_at_it(client, settings):
+    """``"protocol": "seed"`` gives the preset's seed fields (dt = 1e-5 s, 10 mm/s) to the
+    cost estimate and to the engine alike; an unknown protocol is refused naming the field."""
+    from service.cost import reference_fields
+
+    fields = reference_fields({"reference": {"preset": "quick", "protocol": "seed"}})
+    assert fields == engine.preset("quick", protocol="seed").to_dict()
+    body = {k: v for k, v in MANY_RUNS.items() if k not in ("rules", "coarse_radii")}
+    body = {
+        **body,
+        "reference": {"preset": "quick", "protocol": "fast"},
+        "reference_seeds": [1, 2],
+        "seeds": [1, 2],
+        "coarse_radii": [5e-3],
+    }
+    r = client.post("/studies", json=body)
+    assert r.status_code == 422 and "protocol" in r.text, r.text

@@ -19,7 +19,7 @@ from service.app import create_app
 from service.spec import SERVICE_LIMITS, SERVICE_REQUIRED, TAGGED, StudyCreate, jsonable
 
 #: Fields the API adds to a record's own: the study's label, the reference's preset.
-SERVICE_FIELDS = {"StudySpec": {"name"}, "UniaxialTest": {"preset"}}
+SERVICE_FIELDS = {"StudySpec": {"name"}, "UniaxialTest": {"preset", "protocol"}}
 
 
 @pytest.fixture(scope="module")

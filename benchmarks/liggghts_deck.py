@@ -407,7 +407,8 @@ def verdict_table(title: str, judged: dict) -> list[str]:
     if not judged["metrics"]:
         return [*out, f"- {judged['reason']}", ""]
     out += [
-        "| metric | error | 95 % interval | tolerance | verdict |",
+        "| metric | signed error | 95 % interval (at the metric's worst stress level) | "
+        "tolerance | verdict |",
         "|---|---:|---:|---:|---|",
     ]
     for m in judged["metrics"]:

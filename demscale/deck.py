@@ -200,7 +200,7 @@ def add_commands(sub, fmt) -> None:
         choices=("default", "seed"),
         default="default",
         help="with --preset: the preset's protocol (the deck needs a constant platen speed: "
-        "seed, or a TEST.json with \"inertial_number\": null)",
+        'seed, or a TEST.json with "inertial_number": null)',
     )
     p.add_argument("--study", metavar="SPEC.json", help="a study spec; with --run KEY")
     p.add_argument("--run", metavar="KEY", help="the study's run (ref-s1, r5mm-paper-s2, ...)")

@@ -1,9 +1,9 @@
 """``demscale export-test`` and ``demscale judge-liggghts``: a uniaxial test out as a LIGGGHTS
 3.8 deck, and LIGGGHTS' runs of it back, judged against demscale's own (docs/LIGGGHTS_DECK.md).
 
-    demscale export-test --preset quick --protocol seed --law law.json --seeds 1 2 3 --out deck/
+    demscale export-test --study my_study.json --run r5mm-paper-s1 --seeds 1 2 3 --out deck/
     (cd deck/s1 && liggghts -in in.demscale)       # and s2, s3
-    demscale judge-liggghts deck/s1 deck/s2 deck/s3 --reference results/quick/results.h5
+    demscale judge-liggghts deck/s1 deck/s2 deck/s3 --reference results/mine/results.h5
 
 The engine side is engine.io.liggghts_deck (the deck) and engine.io.liggghts_read (the
 reader and the verdict); this module parses the command lines and prints.
@@ -12,6 +12,7 @@ reader and the verdict); this module parses the command lines and prints.
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -44,8 +45,45 @@ unconfined strength), each with its error, its interval at the study's confidenc
 verdict, equivalent, differs or undecided.
 
 --reference takes demscale runs: run files (.h5, engine.io.store layout), folders of them,
-or a study's results.h5 (its reference runs, or those named by --runs). A LIGGGHTS deck
-that stopped at a stage's bound counts as a failed run and is left out of the verdict."""
+or a study's results.h5 (its reference runs, or those named by --runs). They must be runs of
+the test the decks were exported from: the same in every field but the seed, the radius and
+the pair law (a coarse model judged against the fine reference), the time step, the
+sampling interval and the stage time bound; otherwise the command refuses, naming the
+fields that differ. A LIGGGHTS deck that stopped at a stage's bound counts as a failed run
+and is left out of the verdict."""
+
+#: Fields of a test in which LIGGGHTS' runs may differ from demscale's references: the
+#: coarse model (radius, pair law), numerics (time step, sampling) and the stage bound.
+FREE_FIELDS = ("seed", "radius", "pair_law", "dt", "dt_fraction", "output_interval")
+FREE_FIELDS += ("max_stage_time",)
+
+
+def _differences(want, got, free=FREE_FIELDS) -> list[str]:
+    """The fields of test ``got`` that differ from ``want``'s, but ``free``, as
+    ``field X (want Y)``."""
+    a, b = want.to_dict(), got.to_dict()
+    return [f"{k} {b[k]} (want {a[k]})" for k in a if k not in free and a[k] != b[k]]
+
+
+def _check_same_test(runs, refs) -> None:
+    """Refuse (ValueError naming --reference) references that are not runs of one test, or
+    LIGGGHTS runs of another test than theirs (but for :data:`FREE_FIELDS`)."""
+    tests = [r.test for r in refs if not isinstance(r, str)]
+    if not tests:
+        return
+    base = tests[0]
+    for t in tests[1:]:
+        if diff := _differences(base, t, ("seed",)):
+            raise ValueError(f"--reference: its runs are not of one test: {'; '.join(diff)}")
+    for r in runs:
+        if isinstance(r, str):
+            continue
+        if diff := _differences(base, r.test):
+            raise ValueError(
+                "--reference: demscale's runs are of another test than the LIGGGHTS runs "
+                f"(deck {'; '.join(diff)}): judge against runs of the deck's test, e.g. a "
+                "study's results.h5 and a deck exported from it (--study SPEC --run KEY)"
+            )
 
 
 def _read_test(args):
@@ -71,7 +109,19 @@ def _read_test(args):
         raise ValueError("give a test: TEST.json, --preset NAME [--law LAW.json] or --study")
     fields = engine.preset(args.preset, args.protocol).to_dict()
     if args.law is not None:  # {"type": ..., fields}: the law as a test's JSON holds it
-        fields["pair_law"] = json.loads(Path(args.law).read_text())
+        law = json.loads(Path(args.law).read_text())
+        if isinstance(law, dict) and "reference_radius" in law:  # demscale calibrate's law.json
+            law = dict(law)
+            radius = law.pop("reference_radius")
+            if radius is not None and not (
+                isinstance(radius, (int, float)) and math.isclose(radius, fields["radius"])
+            ):
+                raise ValueError(
+                    f"--law {args.law}: the law is for R = {radius} m (its reference_radius), "
+                    f"the test's particles are R = {fields['radius']:g} m: give a TEST.json "
+                    'with that "radius" and the law as its "pair_law"'
+                )
+        fields["pair_law"] = law
     return engine.UniaxialTest.from_dict(fields)
 
 
@@ -153,6 +203,7 @@ def judge_liggghts(args) -> int:
             runs.append(load_run(path))
             print(f"read {folder} -> {path}")
         refs = _references(args.reference, set(args.runs))
+        _check_same_test(runs, refs)
         result = judge_runs(runs, refs, tolerances, args.confidence)
     except (OSError, OutputError) as e:
         print(f"cannot read: {e}", file=sys.stderr)

@@ -390,6 +390,60 @@ def test_export_test_and_judge_liggghts_commands(tmp_path, capsys):
     assert "at least 2" in capsys.readouterr().err
 
 
+def test_judge_liggghts_refuses_references_of_another_test(tmp_path, capsys):
+    """A verdict compares LIGGGHTS' runs with demscale's runs of the same test: references
+    of another cell (or protocol, or interior margin) are refused before anything is judged,
+    naming --reference and the field; a coarse model (radius, pair law, time step) is not."""
+    from demscale.cli import main
+    from engine.io.store import save_run
+
+    folder = tmp_path / "ran"
+    shutil.copytree(TINY, folder)
+    refs = [load_run(DATA / f"demscale-s{s}.h5") for s in (1, 2)]
+    other = []
+    for r in refs:
+        path = tmp_path / f"other-s{r.test.seed}.h5"
+        save_run(path, replace(r, test=replace(r.test, cell=(0.025, 0.025, 0.04))))
+        other.append(str(path))
+    out = tmp_path / "v.json"
+    assert main(["judge-liggghts", str(folder), "--reference", *other, "--json", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "--reference" in err and "cell" in err and err.count("\n") == 1, err
+    assert not out.exists()
+    mixed = [str(DATA / "demscale-s1.h5"), other[1]]
+    assert main(["judge-liggghts", str(folder), "--reference", *mixed]) == 2
+    assert "not of one test" in capsys.readouterr().err
+    # LIGGGHTS' run of the test at another radius, law and time step (as a coarse model is;
+    # smaller here: the tiny cell is as narrow as a periodic cell may be)
+    base = refs[0].test
+    law = replace(base.pair_law, k1=4e3, k2=4e3)
+    moved = replace(base, radius=0.8 * base.radius, dt=0.8e-5, pair_law=law)
+    from demscale.deck import _check_same_test
+
+    _check_same_test([replace(refs[0], test=moved)], refs)  # no error
+    with pytest.raises(ValueError, match="interior_margin"):
+        _check_same_test([replace(refs[0], test=replace(moved, interior_margin=0.01))], refs)
+
+
+def test_export_test_takes_a_calibrated_law_at_its_radius(tmp_path, capsys):
+    """demscale calibrate's law.json records its reference_radius: export-test takes it for
+    a test of that radius and refuses it, naming --law, for another."""
+    from demscale.cli import main
+
+    law = {"type": "BilinearAdhesive", "k1": 5e3, "k2": 5e3, "f0": -0.2}
+    ok, bad = tmp_path / "law.json", tmp_path / "law5.json"
+    ok.write_text(json.dumps({**law, "reference_radius": 2.5e-3}))
+    bad.write_text(json.dumps({**law, "reference_radius": 5e-3}))
+    argv = ["export-test", "--preset", "quick", "--protocol", "seed", "--law"]
+    assert main([*argv, str(ok), "--out", str(tmp_path / "d")]) == 0
+    assert json.loads((tmp_path / "d" / ld.TEST).read_text())["pair_law"]["k1"] == 5e3
+    capsys.readouterr()
+    assert main([*argv, str(bad), "--out", str(tmp_path / "e")]) == 2
+    err = capsys.readouterr().err
+    assert "--law" in err and "reference_radius" in err and err.count("\n") == 1, err
+    assert not (tmp_path / "e").exists()
+
+
 def test_export_test_from_a_study_run(tmp_path):
     from demscale.cli import main
 

@@ -219,7 +219,8 @@ def _field_type(owner: type, info: ParamInfo, hint: Any) -> Any:
 def _description(owner: type, info: ParamInfo) -> str:
     unit = f" [{info.unit}]" if info.unit else ""
     text = f"{info.doc}{unit}"
-    if info.kind in ("float", "int", "str", "bool") or _bounds(info):
+    # free text (a str without choices) has no limit to state
+    if info.kind in ("float", "int", "bool") or info.choices or _bounds(info):
         text += f"; allowed: {info.limit_text()}"
     rule = CROSS_FIELD_RULES.get((owner.__name__, info.name))
     return f"{text}; also: {rule}" if rule else text
@@ -430,7 +431,10 @@ class CalibrationCreate(BaseModel):
         ...,
         min_length=1,
         max_length=len(CALIBRATED),
-        description="law parameters to calibrate and their (low, high) boxes",
+        description="law parameters to calibrate and their (low, high) boxes; also: each a "
+        "parameter of the test's pair law, low < high, each end a value some law of the box "
+        "takes within the law's own bounds (e.g. k2 >= k1), and, where the test fixes dt, "
+        "each end runnable at that time step (a 422 at parameters.<name> names the limit)",
     )
     runs: int = Field(
         25,

@@ -176,3 +176,20 @@ def test_a_study_and_a_calibration_need_their_test():
 def test_a_field_the_engine_does_not_declare_is_refused():
     with pytest.raises(ValueError, match="extra"):
         StudyCreate.model_validate({"reference": {"fill_fraction": 0.3}})
+
+
+def test_cross_field_rules_are_stated_in_the_document(components):
+    """Issue 42 item 6: a rule between fields is in the schema where JSON Schema can state
+    it (a preset or a pair law; a target's sd with it) and in the field's description where
+    it cannot; free text states no numeric limit."""
+    assert components["ReferenceIn"]["anyOf"] == [
+        {"required": ["preset"]},
+        {"required": ["pair_law"]},
+    ]
+    dep = components["LabTargetsIn"]["dependentRequired"]
+    assert dep["loading_stiffness"] == ["loading_stiffness_sd"]
+    study = components["StudyCreate"]["properties"]
+    assert "> reference.radius" in study["coarse_radii"]["description"]
+    box = components["CalibrationCreate"]["properties"]["parameters"]["description"]
+    assert "low < high" in box and "time step" in box and "parameters.<name>" in box
+    assert "allowed" not in components["LabTargetsIn"]["properties"]["material"]["description"]

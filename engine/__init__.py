@@ -9,6 +9,7 @@ Public API (stable names)::
     Simulation                                      run it
     critical_time_step                              time-step limits of a scene
     UniaxialTest, preset, run_uniaxial              the uniaxial test and its stages
+    ShearTest, run_shear, ShearResult               the Jenike-type shear test (docs/SHEAR.md)
     SEED_PROTOCOL                                   the seed's protocol (preset protocol="seed")
     Checkpoint                                      resume a killed run where it was
     ScalingRule, StudySpec, run_study               scaling studies, errors and costs
@@ -34,6 +35,9 @@ from .core.errors import (
 )
 from .io.vtkhdf import SnapshotWriter
 from .kernel.specialise import FEATURES
+from .shear.driver import run_shear
+from .shear.results import ShearResult
+from .shear.spec import ShearTest
 from .simulation.scene import Plane, Scene
 from .simulation.simulation import Contacts, Simulation, StabilityWarning
 from .simulation.snapshot import Snapshot
@@ -78,6 +82,8 @@ __all__ = [
     "RunResult",
     "ScalingRule",
     "Scene",
+    "ShearResult",
+    "ShearTest",
     "Simulation",
     "Snapshot",
     "SnapshotWriter",
@@ -101,6 +107,7 @@ __all__ = [
     "flow_function",
     "plan",
     "preset",
+    "run_shear",
     "run_study",
     "run_uniaxial",
 ]

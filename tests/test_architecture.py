@@ -86,6 +86,7 @@ LAYERS = (
     "simulation",
     "cuda",
     "uniaxial",
+    "shear",
     "study",
     "io",
     "calibration",

@@ -663,6 +663,36 @@ class Simulation:
             target[:] = a[self._order]
         self._compute_forces()
 
+    def set_driven(self, ids, velocity) -> None:
+        """Move particles ``ids`` (scene ids) at ``velocity`` [m/s] (3 numbers, the same for
+        all) from now on, whatever the forces on them: the glued grains of a rough platen
+        moved as one body (:mod:`engine.shear`). Their inverse mass and inverse moment of
+        inertia become zero, so the kick leaves their velocity as set and their angular
+        velocity (set to zero) at zero; the forces on them are still computed
+        (:attr:`forces`, gravity included) and their masses still enter the contact damping.
+        Called again with particles already driven, it sets their new velocity. Forces are
+        not evaluated again (the kick of the next step uses those of the last evaluation; no
+        contact history advances), so a driven velocity changed between two runs changes
+        nothing else. A particle once driven stays driven. The CPU backend only."""
+        if self.backend != "cpu":
+            raise ParameterError(
+                "Simulation.set_driven", self.backend, "the cpu backend (driven particles)"
+            )
+        idx = np.asarray(ids)
+        if idx.ndim != 1 or idx.size == 0 or not np.issubdtype(idx.dtype, np.integer):
+            raise ParameterError("Simulation.set_driven.ids", ids, "a non-empty list of ids")
+        if idx.min() < 0 or idx.max() >= self.n:
+            raise ParameterError("Simulation.set_driven.ids", "out of range", f"in [0, {self.n})")
+        v = np.asarray(velocity, dtype=np.float64)
+        if v.shape != (3,) or not np.all(np.isfinite(v)):
+            raise ParameterError("Simulation.set_driven.velocity", velocity, "3 finite numbers")
+        k = self._rank[idx]  # internal ids
+        p = self._particles
+        p.inv_mass[k] = 0.0
+        p.inv_inertia[k] = 0.0
+        p.vel[k] = v
+        p.omg[k] = 0.0
+
     def rebuild_neighbour_list(self) -> None:
         """Rebuild the neighbour list now (it is rebuilt automatically when needed); the
         contact history is carried over unchanged."""
@@ -837,7 +867,11 @@ class Simulation:
         whole step."""
         p = self._particles
         trans = 0.5 * float(np.sum(p.mass * np.sum(p.vel**2, axis=1)))
-        rot = 0.5 * float(np.sum(np.sum(p.omg**2, axis=1) / p.inv_inertia))
+        w2 = np.sum(p.omg**2, axis=1)
+        # driven particles (inverse inertia zero, see set_driven) do not spin
+        rot = 0.5 * float(
+            np.sum(np.divide(w2, p.inv_inertia, out=np.zeros_like(w2), where=p.inv_inertia > 0))
+        )
         return trans + rot
 
     def memory_bytes(self) -> int:

@@ -1,0 +1,525 @@
+"""The shear test's stages (docs/SHEAR.md): the uniaxial test's fill and consolidation under
+a flat lid, the glued platens, the pre-shear to steady flow, then per shear point (each from
+the stored pre-sheared state) the lid reversed to zero shear stress, the normal stress set,
+and the shear to failure; the yield locus and its Mohr circles from the points.
+
+The lid is a layer of glued grains moved as one rigid body (:meth:`Simulation.set_driven`):
+along x at the stage's shear speed, along z by a normal-stress servo updated every
+``SERVO_STEPS`` steps. Its normal and shear stresses are the summed contact forces on its
+grains over the cross-section; the base's are read the same way (quasi-statically the two
+shear stresses agree). Curves are sampled every ``output_interval`` of simulated time, each
+sample the mean of the servo's readings within it.
+"""
+
+from __future__ import annotations
+
+import math
+import pickle
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from ..core.errors import StopRequested
+from ..simulation.packing import sphere_volume
+from ..uniaxial.driver import StageError, _Driver
+from ..uniaxial.measures import interior_measures, secant_slope
+from ..uniaxial.results import Progress, ProgressCallback
+from .locus import yield_locus
+from .results import SHEAR_CURVE_UNITS, ShearPoint, ShearResult, ShearStage
+from .spec import ShearTest
+
+#: Steps between two updates of the lid's servo (its force reading and its velocity).
+SERVO_STEPS = 10
+#: Shear strain over which the shear stress is smoothed when its peak is sought and the
+#: pre-shear point is read [-] (a tenth of the pre-shear's default steady window).
+SMOOTHING_STRAIN = 0.01
+#: Servo relaxation time in bed wave-transit times h sqrt(rho_b / E) [-]: slower than the
+#: bed's own response, so the lid does not chase its stress waves.
+SERVO_TRANSITS = 4.0
+#: Integral time of the servo over its relaxation time [-] (removes the lag a steadily
+#: dilating bed would otherwise keep).
+SERVO_INTEGRAL = 5.0
+#: The share of the overall progress taken by the fill and the consolidation [-].
+_CONSOLIDATION_SHARE = 0.3
+
+
+class _Cell:
+    """The shear cell on one :class:`Simulation`: glued base and lid, servo, curve rows."""
+
+    def __init__(self, test: ShearTest, sim, base: np.ndarray, lid: np.ndarray, servo: dict):
+        self.test = test
+        self.sim = sim
+        self.base = base
+        self.lid = lid
+        self.free = np.setdiff1d(np.arange(sim.n), np.concatenate([base, lid]))
+        self.area = test.area
+        self.servo = servo
+        self.vx = 0.0
+        self.vz = 0.0
+        self.integral = 0.0
+        self.x = 0.0  # lid displacement along x since the start of the shear [m]
+        m = sim.masses
+        self.m_free = m[self.free]
+        self.i_free = 0.4 * m[self.free] * sim.radii[self.free] ** 2
+        self.solid_volume = float(sphere_volume(sim.radii).sum())
+
+    # ------------------------------------------------------------------ readings
+    def stresses(self) -> tuple[float, float, float, float]:
+        """(tau, sigma) of the lid and of the base at the last force evaluation [Pa]: the
+        contact forces of the bed on each glued layer (gravity is off) over the
+        cross-section; tau positive against the lid's forward (+x) motion."""
+        f = self.sim.forces
+        fl = f[self.lid].sum(axis=0)
+        fb = f[self.base].sum(axis=0)
+        a = self.area
+        return -fl[0] / a, fl[2] / a, fb[0] / a, -fb[2] / a
+
+    def heights(self) -> tuple[float, float]:
+        """(z of the base's plane, gap between the base's and the lid's planes) [m]: the
+        mean centre heights of their glued grains."""
+        z = self.sim.positions[:, 2]
+        zb = float(z[self.base].mean())
+        return zb, float(z[self.lid].mean()) - zb
+
+    def bulk_density(self) -> float:
+        """Bulk density of the bed between the glued layers [kg/m^3]: particle density times
+        the solid fraction of the slab that leaves out 1.5 mean diameters next to each
+        glued layer's plane (:func:`engine.uniaxial.measures.interior_measures`)."""
+        zb, gap = self.heights()
+        sim = self.sim
+        por, _ = interior_measures(
+            sim.positions[:, 2] - zb,
+            sim.radii,
+            np.zeros(sim.n),
+            gap,
+            3.0 * self.test.radius,
+            self.area,
+        )
+        return self.test.density * (1.0 - por)
+
+    def kinetic_energy(self) -> float:
+        """Kinetic energy of the free grains, translation and rotation [J]."""
+        v = self.sim.velocities[self.free]
+        w = self.sim.angular_velocities[self.free]
+        return 0.5 * float(
+            np.sum(self.m_free * np.einsum("ij,ij->i", v, v))
+            + np.sum(self.i_free * np.einsum("ij,ij->i", w, w))
+        )
+
+    # ------------------------------------------------------------------ motion
+    def set_lid(self) -> None:
+        self.sim.set_driven(self.lid, (self.vx, 0.0, self.vz))
+
+    def advance(self, steps: int, target: float, stop=None) -> tuple[np.ndarray, bool]:
+        """Run ``steps`` steps with the servo holding the lid's normal stress at ``target``
+        [Pa]: every ``SERVO_STEPS`` steps the lid's stresses are read and its vertical speed
+        set, vz = g (e + (1 / T_i) integral of e dt), e = sigma - target, at most the
+        servo's speed limit. Returns the mean of the readings (tau, sigma, tau_base,
+        sigma_base) and whether ``stop`` (a function of one reading) held at a reading (the
+        run then stops there)."""
+        g, ti, vmax = self.servo["gain"], self.servo["integral_time"], self.servo["max_speed"]
+        dt = self.sim.dt
+        acc = np.zeros(4)
+        n = 0
+        done = 0
+        hit = False
+        while done < steps:
+            k = min(SERVO_STEPS, steps - done)
+            self.sim.run(k)
+            done += k
+            self.x += self.vx * k * dt
+            r = self.stresses()
+            acc += r
+            n += 1
+            e = r[1] - target
+            self.integral += e * k * dt
+            # anti-windup: the integral term alone never asks for more than the speed limit
+            lim = vmax * ti / g
+            self.integral = min(max(self.integral, -lim), lim)
+            self.vz = min(max(g * (e + self.integral / ti), -vmax), vmax)
+            self.set_lid()
+            if stop is not None and stop(r):
+                hit = True
+                break
+        return acc / n, hit
+
+
+class _Shear:
+    """Runs the shear stages of one test (after the fill and consolidation)."""
+
+    def __init__(self, test: ShearTest, progress: ProgressCallback | None):
+        self.test = test
+        self.progress = progress
+        self.t_wall = time.perf_counter()
+        self.stages: dict[str, ShearStage] = {}
+        self.d = 2.0 * test.radius
+
+    # ------------------------------------------------------------------ progress
+    def report(self, stage: str, fraction: float, sim, share: tuple[float, float]) -> None:
+        if self.progress is None:
+            return
+        f = min(max(fraction, 0.0), 1.0)
+        lo, hi = share
+        answer = self.progress(
+            Progress(lo + (hi - lo) * f, stage, f, sim.time, sim.steps, "running")
+        )
+        if answer is False:
+            raise StopRequested(f"stopped by the progress callback during {stage}")
+
+    # ------------------------------------------------------------------ set-up
+    def consolidate(self):
+        """The uniaxial test's fill and pre-compression (to the pre-shear stress, gravity off
+        after the fill): the consolidated bed under a flat lid."""
+        ut = self.test.consolidation_test()
+        share = _CONSOLIDATION_SHARE / 0.5  # the two stages are half the uniaxial's weights
+
+        def prog(p: Progress):
+            if self.progress is None:
+                return None
+            return self.progress(replace(p, fraction=min(1.0, p.fraction) * share * 0.5))
+
+        d = _Driver(ut, prog if self.progress is not None else None)
+        for stage in ("fill", "pre_compression"):
+            d.begin(stage)
+            d.loop()
+            d.end(stage)
+        self.setup_time = d.setup_time
+        return d
+
+    def glue(self, d) -> _Cell:
+        """Glue the grains within ``platen_layer`` mean diameters of the floor and of the
+        flat lid, move the flat walls out of reach (the floor a quarter radius below the
+        base's lowest grain, the lid far above) and size the servo from the consolidation's
+        loading curve."""
+        t = self.test
+        sim = d.sim
+        z = sim.positions[:, 2]
+        r = sim.radii
+        floor = float(sim.wall_positions[0, 2])
+        top = float(sim.wall_positions[1, 2])
+        layer = t.platen_layer * self.d
+        base = np.nonzero(z - floor < layer)[0]
+        lid = np.nonzero(top - z < layer)[0]
+        if base.size == 0 or lid.size == 0 or base.size + lid.size >= sim.n:
+            raise StageError(
+                f"gluing the platens: {base.size} base and {lid.size} lid grains of {sim.n}: "
+                "the consolidated bed is too thin for its glued layers (a taller cell)",
+                "glue",
+                0,
+            )
+        sim.set_driven(base, (0.0, 0.0, 0.0))
+        sim.set_driven(lid, (0.0, 0.0, 0.0))
+        low = float(np.min(z[base] - r[base]))
+        sim.set_wall_position(0, (0.0, 0.0, low - 0.25 * t.radius))
+        sim.set_wall_position(1, (0.0, 0.0, top + 1e3 * t.radius))
+        # the servo: the bed's stiffness E from the consolidation's loading curve (the secant
+        # over its upper half), times K2 / K1 for its stiffer unloading branch; its relaxation
+        # time SERVO_TRANSITS wave transits h sqrt(rho_b / E), at least 4 servo updates
+        cons = d.stages["pre_compression"].curves
+        e_load = secant_slope(cons["strain"], cons["stress_top"], 0.5, 1.0)
+        law = t.pair_law
+        ratio = max(1.0, getattr(law, "k2", 1.0) / getattr(law, "k1", 1.0))
+        stiff = e_load * ratio
+        cell = _Cell(t, sim, base, lid, {})
+        _, gap = cell.heights()
+        rho_b = cell.bulk_density()
+        if not (math.isfinite(stiff) and stiff > 0):
+            raise StageError(
+                f"the consolidation's loading stiffness is {e_load:.4g} Pa: no servo gain",
+                "glue",
+                0,
+            )
+        transit = gap * math.sqrt(rho_b / stiff)
+        relax = max(SERVO_TRANSITS * transit, 4 * SERVO_STEPS * sim.dt)
+        cell.servo = {
+            "gain": gap / (stiff * relax),
+            "integral_time": SERVO_INTEGRAL * relax,
+            "max_speed": t.max_shear_speed,
+            "relaxation_time": relax,
+        }
+        return cell
+
+    # ------------------------------------------------------------------ stages
+    def shear_speed(self, gap: float, sigma: float) -> float:
+        """The lid's shear speed [m/s] for the gap [m] at the normal stress [Pa]: the
+        ``inertial_number`` over the gap, at most ``max_shear_speed``."""
+        t = self.test
+        v = t.inertial_number * gap / self.d * math.sqrt(sigma / t.density)
+        return min(v, t.max_shear_speed)
+
+    def stage(self, cell: _Cell, name: str, target: float, vx: float, done, share, fraction):
+        """Run one stage: the lid at shear speed ``vx`` [m/s] and its servo at ``target``
+        [Pa], a curve sample every ``output_interval`` until ``done(rows)`` holds (or, with
+        an instant criterion, ``done.instant`` at a servo reading); StageError past
+        ``max_stage_time``."""
+        t = self.test
+        sim = cell.sim
+        cell.vx = vx
+        cell.set_lid()
+        sample = max(SERVO_STEPS, round(t.output_interval / sim.dt))
+        max_steps = round(t.max_stage_time / sim.dt)
+        x0 = cell.x
+        _, h0 = cell.heights()
+        rows: list[tuple] = []
+        steps0 = sim.steps
+        instant = getattr(done, "instant", None)
+
+        def row(means) -> tuple:
+            _, gap = cell.heights()
+            p = max(target, 1e-9)
+            return (
+                sim.time,
+                cell.x - x0,
+                (cell.x - x0) / h0,
+                means[0],
+                means[2],
+                means[1],
+                means[3],
+                gap,
+                cell.bulk_density(),
+                cell.kinetic_energy(),
+                abs(vx) / gap * self.d * math.sqrt(t.density / p),
+            )
+
+        rows.append(row(np.array(cell.stresses())))
+        while True:
+            if sim.steps - steps0 >= max_steps:
+                r = rows[-1]
+                raise StageError(
+                    f"stage {name} did not end within {sim.steps - steps0} steps "
+                    f"({t.max_stage_time:g} s, max_stage_time); now: shear stress "
+                    f"{r[3]:.4g} Pa, normal stress {r[5]:.4g} Pa (target {target:.4g} Pa), "
+                    f"shear strain {r[2]:.4g}",
+                    name,
+                    sim.steps - steps0,
+                )
+            means, hit = cell.advance(sample, target, instant)
+            rows.append(row(means))
+            self.report(name, fraction(rows), sim, share)
+            if hit or done(rows):
+                break
+        a = np.array(rows, dtype=float)
+        curves = {k: a[:, i].copy() for i, k in enumerate(SHEAR_CURVE_UNITS)}
+        for k, v in curves.items():
+            if not np.all(np.isfinite(v)):
+                raise FloatingPointError(f"stage {name}: non-finite values in the {k} curve")
+        self.stages[name] = ShearStage(name, curves, sim.steps - steps0)
+        return curves
+
+    def preshear(self, cell: _Cell, share) -> dict:
+        """Shear at the pre-shear stress until two consecutive windows of ``steady_window``
+        shear strain have mean shear stresses within ``steady_tolerance`` (and the mean
+        normal stress of the last is within ``servo_tolerance`` of the target); StageError
+        at ``preshear_strain`` without it."""
+        t = self.test
+        _, gap = cell.heights()
+        v = self.shear_speed(gap, t.preshear_stress)
+        w = t.steady_window
+        state = {"drift": math.inf}
+
+        def windows(rows):
+            a = np.array(rows)
+            g = a[:, 2]
+            last = g >= g[-1] - w
+            prev = (g >= g[-1] - 2 * w) & ~last
+            return a, last, prev
+
+        def done(rows) -> bool:
+            g = rows[-1][2]
+            if g < 2 * w:
+                return False
+            a, last, prev = windows(rows)
+            t1, t0 = a[last, 3].mean(), a[prev, 3].mean()
+            s1 = a[last, 5].mean()
+            state["drift"] = abs(t1 - t0) / max(abs(t1), 1e-300)
+            steady = state["drift"] < t.steady_tolerance and (
+                abs(s1 - t.preshear_stress) < t.servo_tolerance * t.preshear_stress
+            )
+            if steady:
+                return True
+            if g >= t.preshear_strain:
+                raise StageError(
+                    f"the pre-shear did not reach steady flow within {t.preshear_strain:g} "
+                    f"shear strain: its mean shear stress changed by {state['drift']:.1%} "
+                    f"over the last window of {w:g} (steady_tolerance "
+                    f"{t.steady_tolerance:g}), its mean normal stress is {s1:.4g} Pa "
+                    f"(target {t.preshear_stress:.4g} Pa)",
+                    "preshear",
+                    0,
+                )
+            return False
+
+        c = self.stage(
+            cell,
+            "preshear",
+            t.preshear_stress,
+            v,
+            done,
+            share,
+            lambda rows: rows[-1][2] / t.preshear_strain,
+        )
+        last = c["shear_strain"] >= c["shear_strain"][-1] - w
+        return {
+            "sigma": float(c["normal_stress"][last].mean()),
+            "tau": float(c["shear_stress"][last].mean()),
+            "strain": float(c["shear_strain"][-1]),
+            "drift": state["drift"],
+            "bulk_density": float(c["bulk_density"][last].mean()),
+        }
+
+    def point(self, cell: _Cell, k: int, target: float, share) -> ShearPoint:
+        """One shear point from the pre-sheared state: reverse the lid until the shear
+        stress is zero, set the normal stress, shear to failure."""
+        t = self.test
+        _, gap = cell.heights()
+        v_pre = self.shear_speed(gap, t.preshear_stress)
+        lo, hi = share
+        parts = [(lo, lo + 0.1 * (hi - lo)), (lo + 0.1 * (hi - lo), lo + 0.3 * (hi - lo))]
+        parts.append((parts[1][1], hi))
+
+        def zero(rows):
+            return False
+
+        zero.instant = lambda r: r[0] <= 0.0
+        self.stage(
+            cell,
+            f"point{k}_reverse",
+            t.preshear_stress,
+            -v_pre,
+            zero,
+            parts[0],
+            lambda rows: 0.5,
+        )
+        cell.integral = 0.0  # a new target: the old integral is the old target's lag
+        tol = t.servo_tolerance * target
+        relax = cell.servo["relaxation_time"]
+
+        def held(rows) -> bool:
+            return (
+                rows[-1][0] - rows[0][0] >= 3 * relax
+                and len(rows) >= 3
+                and all(abs(r[5] - target) < tol for r in rows[-2:])
+            )
+
+        self.stage(
+            cell,
+            f"point{k}_normal",
+            target,
+            0.0,
+            held,
+            parts[1],
+            lambda rows: min(1.0, abs(rows[0][5] - target) / max(abs(rows[-1][5] - target), 1)),
+        )
+        _, gap = cell.heights()
+        v = self.shear_speed(gap, target)
+        state = {"peaked": False}
+
+        def failed(rows) -> bool:
+            a = np.array(rows)
+            g = a[:, 2]
+            sm = _smoothed(g, a[:, 3], SMOOTHING_STRAIN)
+            i = int(np.argmax(sm))
+            if sm[-1] < (1 - t.failure_drop) * sm[i] and g[-1] - g[i] >= SMOOTHING_STRAIN:
+                state["peaked"] = True
+                return True
+            return g[-1] >= t.failure_strain
+
+        c = self.stage(
+            cell,
+            f"point{k}_shear",
+            target,
+            v,
+            failed,
+            parts[2],
+            lambda rows: rows[-1][2] / t.failure_strain,
+        )
+        g = c["shear_strain"]
+        tau = _smoothed(g, c["shear_stress"], SMOOTHING_STRAIN)
+        sig = _smoothed(g, c["normal_stress"], SMOOTHING_STRAIN)
+        i = int(np.argmax(tau))
+        return ShearPoint(target, float(sig[i]), float(tau[i]), float(g[i]), state["peaked"])
+
+    def run(self) -> ShearResult:
+        t = self.test
+        d = self.consolidate()
+        cell = self.glue(d)
+        sim = cell.sim
+        n = len(t.normal_stresses)
+        span = 1.0 - _CONSOLIDATION_SHARE
+        pre_share = (_CONSOLIDATION_SHARE, _CONSOLIDATION_SHARE + span / (n + 1))
+        pre = self.preshear(cell, pre_share)
+        stored = pickle.dumps(cell)
+        points = []
+        steps = sim.steps  # every step run: the fill, consolidation, pre-shear, each branch
+        for k, target in enumerate(t.normal_stresses):
+            branch = pickle.loads(stored)
+            lo = pre_share[1] + span / (n + 1) * k
+            points.append(self.point(branch, k, target, (lo, lo + span / (n + 1))))
+            steps += branch.sim.steps - sim.steps
+        try:
+            locus = yield_locus(
+                [p.sigma for p in points], [p.tau for p in points], pre["sigma"], pre["tau"]
+            )
+        except ValueError as e:
+            raise StageError(f"the yield locus: {e}", "locus", 0) from None
+        s = {
+            "preshear_sigma": pre["sigma"],
+            "preshear_tau": pre["tau"],
+            "preshear_strain": pre["strain"],
+            "preshear_drift": pre["drift"],
+            "cohesion": locus.cohesion,
+            "cohesion_se": locus.cohesion_se,
+            "friction_angle": locus.friction_angle,
+            "effective_friction_angle": locus.effective_friction_angle,
+            "sigma_c": locus.sigma_c,
+            "sigma_1": locus.sigma_1,
+            "sigma_2": locus.sigma_2,
+            "ffc": locus.ffc,
+            "preshear_above": locus.preshear_above,
+            "bulk_density": pre["bulk_density"],
+            "bulk_density_consolidated": float(self.stages["preshear"].curves["bulk_density"][0]),
+            "height_diameters": float(self.stages["preshear"].curves["lid_height"][0]) / self.d,
+            "glued_base": float(cell.base.size),
+            "glued_lid": float(cell.lid.size),
+            "particles": float(sim.n),
+            "servo_time": cell.servo["relaxation_time"],
+            "servo_gain": cell.servo["gain"],
+            "steps": float(steps),
+            "dt": sim.dt,
+            "wall_time": time.perf_counter() - self.t_wall - self.setup_time,
+        }
+        bad = [k for k, v in s.items() if math.isnan(v) or (math.isinf(v) and k != "ffc")]
+        if bad:
+            raise FloatingPointError(f"non-finite scalars {bad}: the shear test is not usable")
+        return ShearResult(t, dict(d.stages), self.stages, tuple(points), locus, s)
+
+
+def _smoothed(strain: np.ndarray, values: np.ndarray, window: float) -> np.ndarray:
+    """Centred moving average of ``values`` over ``window`` of shear strain [-]
+    (truncated at the ends)."""
+    c = np.concatenate([[0.0], np.cumsum(values)])
+    lo = np.searchsorted(strain, strain - 0.5 * window)
+    hi = np.searchsorted(strain, strain + 0.5 * window, side="right")
+    return (c[hi] - c[lo]) / np.maximum(hi - lo, 1)
+
+
+def run_shear(test: ShearTest, progress: ProgressCallback | None = None) -> ShearResult:
+    """Run the shear test (docs/SHEAR.md): fill, consolidation to ``preshear_stress`` under a
+    flat lid, glued platens, pre-shear to steady flow, then each shear point from the
+    stored pre-sheared state (lid reversed to zero shear stress, normal stress set, shear
+    to failure), and the yield locus with its Mohr circles.
+
+    Args:
+        test: the parameters (:class:`engine.ShearTest`).
+        progress: called after every curve sample with a :class:`engine.Progress`;
+            returning ``False`` stops the run with :class:`engine.StopRequested`.
+    Raises: :class:`engine.StageError` when a stage misses its criterion within its bound
+        (a pre-shear that does not reach steady flow, a normal stress not held), or when
+        the shear points give no yield locus (a slope <= 0); FloatingPointError for a
+        non-finite curve or scalar; :class:`engine.InstabilityError` when the integration
+        blows up. The CPU backend.
+    """
+    if not isinstance(test, ShearTest):
+        raise TypeError(f"run_shear takes an engine.ShearTest, not {type(test).__name__}")
+    return _Shear(test, progress).run()

@@ -1,0 +1,278 @@
+"""Parameters of the simulated Jenike-type shear test (docs/SHEAR.md).
+
+:class:`ShearTest` holds every parameter of one test, declared with its unit and bounds
+(:mod:`engine.core.records`) and validated once on construction. The fill and the
+consolidation under a flat lid are the uniaxial test's first two stages
+(:meth:`ShearTest.consolidation_test`), so the packing, the time step and the law checks are
+the uniaxial test's own; the shear stages are :mod:`engine.shear.driver`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+from ..contact.bilinear import BilinearAdhesive
+from ..contact.eepa import EEPA
+from ..contact.hertz import HertzMindlin
+from ..contact.registry import pair_laws, wall_laws
+from ..contact.wall import WallMaterial
+from ..core.errors import ParameterError
+from ..core.records import Record, check_fields, param
+from ..uniaxial.spec import DEFAULT_PROTOCOL, GRAVITY, UniaxialTest
+
+#: Most shear points (normal stresses) one test takes.
+MAX_POINTS = 8
+
+
+def _cohesionless_law() -> BilinearAdhesive:
+    return BilinearAdhesive(k1=5e3, k2=2.5e4, f0=0.0, mu_s=0.5, mu_r=0.001, restitution=0.4)
+
+
+def _platen_law() -> HertzMindlin:
+    return HertzMindlin(E=1e8, nu=0.25, restitution=0.4, mu=0.3)
+
+
+@dataclass(frozen=True)
+class ShearTest(Record):
+    """Parameters of one simulated Jenike-type shear test (SI units; docs/SHEAR.md).
+
+    A bed is poured into the cuboid ``cell`` = (Lx, Ly, H), periodic in x and y, and
+    consolidated to ``preshear_stress`` by a flat lid (the uniaxial test's fill and
+    pre-compression, gravity switched off after the fill so that the stress is uniform in
+    height). The grains within ``platen_layer`` diameters of the floor and of the lid are
+    then glued (moved as rigid bodies, :meth:`engine.Simulation.set_driven`): the rough
+    base, fixed, and the rough lid, moved along x at the shear speed and along z by a
+    normal-stress servo. The bed is pre-sheared at ``preshear_stress`` to steady flow; from
+    that stored state each shear point reverses the lid until the shear stress is zero, sets
+    its normal stress ``normal_stresses[i]`` and shears to failure (the peak shear stress).
+
+    Attributes:
+        cell: (Lx, Ly, H) [m]: periodic cross-section (x the shear direction) and the
+            height the bed fills at ``solid_fraction``.
+        radius, polydispersity, density, gravity, solid_fraction, pour_fraction,
+        pour_speed, pair_law, wall_law, wall_material, settle_ke, seed, output_interval,
+        dt, dt_fraction, max_stage_time: as :class:`engine.UniaxialTest` (gravity acts in
+        the fill only).
+        preshear_stress: normal stress of the pre-shear, sigma_pre [Pa].
+        normal_stresses: normal stresses of the shear points, each < ``preshear_stress``
+            [Pa]; at least two different ones (a yield locus is a line fitted through them).
+        inertial_number: the shear rate as an inertial number over the whole gap,
+            I = (v / h) d sqrt(rho / sigma) [-], with v the lid's speed, h the gap, d = 2R,
+            rho the particle density and sigma the stage's normal stress; the same I in the
+            lid's descent of the consolidation (the uniaxial test's ``inertial_number``).
+        max_shear_speed: the lid's shear speed at most [m/s].
+        platen_layer: grains whose centres lie within this many mean diameters of the floor
+            (or of the lid) are glued to it [-].
+        preshear_strain: the pre-shear ends at this shear strain (lid displacement over the
+            gap) at the latest [-].
+        steady_window: the pre-shear's steady-state check compares the mean shear stress
+            over the last two windows of this much shear strain [-] ...
+        steady_tolerance: ... which must differ by less than this fraction [-]; a pre-shear
+            that has not reached it by ``preshear_strain`` fails the test (StageError).
+        failure_strain: a shear to failure ends at this shear strain at the latest [-].
+        failure_drop: a shear to failure ends once its shear stress (mean of three curve
+            samples) has fallen this fraction below its peak [-].
+        servo_tolerance: the normal stress before a shear to failure is held within this
+            fraction of its target [-].
+    """
+
+    cell: tuple[float, float, float] = param(
+        (0.05, 0.025, 0.05),
+        unit="m",
+        kind="list",
+        max_items=3,
+        doc="(Lx, Ly, H): periodic cross-section (x the shear direction) and bed height",
+    )
+    radius: float = param(2.5e-3, unit="m", doc="particle radius", gt=0, le=0.05)
+    polydispersity: float = param(
+        0.0, unit="1", doc="radii uniform in [R(1-p), R(1+p)]", ge=0, lt=0.5
+    )
+    density: float = param(2000.0, unit="kg/m^3", doc="particle density", gt=0)
+    gravity: float = param(GRAVITY, unit="m/s^2", gt=0, le=1e4, doc="gravity of the fill")
+    solid_fraction: float = param(
+        0.6, unit="1", gt=0, le=0.74, doc="solid fraction assumed for the settled bed"
+    )
+    pour_fraction: float = param(
+        0.3, unit="1", gt=0, le=0.32, doc="solid fraction of the poured cloud"
+    )
+    pour_speed: float | None = param(
+        DEFAULT_PROTOCOL["pour_speed"],
+        unit="m/s",
+        gt=0,
+        le=100.0,
+        nullable=True,
+        doc="largest particle speed during the fill (None: free fall)",
+    )
+    pair_law: BilinearAdhesive | EEPA | HertzMindlin = param(
+        unit="",
+        kind="record",
+        types=pair_laws,
+        default_factory=_cohesionless_law,
+        doc="particle-particle contact law",
+    )
+    wall_law: HertzMindlin = param(
+        unit="",
+        kind="record",
+        types=wall_laws,
+        default_factory=_platen_law,
+        doc="law of the flat floor and of the flat lid of the consolidation",
+    )
+    wall_material: WallMaterial = param(
+        unit="", kind="record", default_factory=WallMaterial, doc="floor and lid material"
+    )
+    preshear_stress: float = param(10e3, unit="Pa", gt=0, doc="normal stress of the pre-shear")
+    normal_stresses: tuple[float, ...] = param(
+        (2.5e3, 5e3, 7.5e3),
+        unit="Pa",
+        kind="list",
+        max_items=MAX_POINTS,
+        doc="normal stresses of the shear points (each < preshear_stress)",
+    )
+    inertial_number: float = param(
+        1e-3, unit="1", gt=0, le=0.05, doc="inertial number of the shear over the gap"
+    )
+    max_shear_speed: float = param(
+        0.05, unit="m/s", gt=0, le=1.0, doc="largest shear speed of the lid"
+    )
+    platen_layer: float = param(
+        1.0, unit="1", gt=0, le=3.0, doc="glued layer thickness in mean diameters"
+    )
+    preshear_strain: float = param(
+        1.0, unit="1", gt=0, le=10.0, doc="longest pre-shear, in shear strain"
+    )
+    steady_window: float = param(
+        0.1, unit="1", gt=0, le=1.0, doc="shear strain of each steady-state window"
+    )
+    steady_tolerance: float = param(
+        0.05, unit="1", gt=0, lt=1, doc="steady: two windows' mean shear stresses this close"
+    )
+    failure_strain: float = param(
+        0.3, unit="1", gt=0, le=5.0, doc="longest shear to failure, in shear strain"
+    )
+    failure_drop: float = param(
+        0.05, unit="1", gt=0, lt=1, doc="drop below the peak that ends a shear to failure"
+    )
+    servo_tolerance: float = param(
+        0.02, unit="1", gt=0, lt=0.5, doc="normal stress held this close before shearing"
+    )
+    settle_ke: float = param(
+        1e-4, unit="1", gt=0, doc="settled below this kinetic energy / (N m g R)"
+    )
+    seed: int = param(1, unit="", kind="int", ge=0, lt=2**31, doc="packing seed")
+    output_interval: float = param(1e-3, unit="s", gt=0, doc="time between curve samples")
+    dt: float | None = param(
+        None,
+        unit="s",
+        gt=0,
+        nullable=True,
+        doc="time step (None: dt_fraction of the critical time of the stiffest contact)",
+    )
+    dt_fraction: float = param(
+        DEFAULT_PROTOCOL["dt_fraction"],
+        unit="1",
+        gt=0,
+        le=0.5,
+        doc="with dt None: time step over the critical time of the stiffest contact",
+    )
+    max_stage_time: float = param(5.0, unit="s", gt=0, doc="bound on any stage's time")
+
+    def __post_init__(self) -> None:
+        o = "ShearTest"
+        try:
+            stresses = tuple(float(s) for s in self.normal_stresses)
+        except (TypeError, ValueError):
+            raise ParameterError(
+                f"{o}.normal_stresses", self.normal_stresses, "a list of stresses [Pa]"
+            ) from None
+        object.__setattr__(self, "normal_stresses", stresses)
+        check_fields(self, o)
+        if not 2 <= len(stresses) <= MAX_POINTS:
+            raise ParameterError(
+                f"{o}.normal_stresses",
+                list(stresses),
+                f"2 to {MAX_POINTS} stresses",
+                "a yield locus is a line fitted through the shear points",
+            )
+        for k, s in enumerate(stresses):
+            if not (math.isfinite(s) and 0 < s < self.preshear_stress):
+                raise ParameterError(
+                    f"{o}.normal_stresses[{k}]",
+                    s,
+                    f"> 0 and < preshear_stress = {self.preshear_stress:g} Pa",
+                )
+        if len(set(stresses)) < 2:
+            raise ParameterError(
+                f"{o}.normal_stresses", list(stresses), "at least two different stresses"
+            )
+        if self.steady_window * 2 > self.preshear_strain:
+            raise ParameterError(
+                f"{o}.steady_window",
+                self.steady_window,
+                f"<= preshear_strain / 2 = {self.preshear_strain / 2:g}",
+                "the steady-state check compares two windows",
+            )
+        # the fill, the consolidation and the law checks are the uniaxial test's: its errors
+        # are given back under this record's field names
+        try:
+            ut = self.consolidation_test()
+        except ParameterError as e:
+            name = e.field.split(".", 1)[1] if "." in e.field else e.field
+            if name == "consolidation_stress":
+                name = "preshear_stress"
+            raise ParameterError(f"{o}.{name}", e.value, e.limit, e.why) from None
+        object.__setattr__(self, "cell", ut.cell)
+        if self.cell[2] < 4 * self.platen_layer * 2 * self.radius:
+            raise ParameterError(
+                f"{o}.cell",
+                f"{self.cell[2]:g} m along z",
+                f">= {8 * self.platen_layer * self.radius:.4g} m (four glued layers' "
+                "thickness: two glued layers and a sheared bed between them)",
+            )
+        del ut
+
+    def consolidation_test(self) -> UniaxialTest:
+        """The uniaxial test whose fill and pre-compression (to ``preshear_stress``, gravity
+        off after the fill) are this test's fill and consolidation; its other stages are
+        not run."""
+        shared = {
+            f.name: getattr(self, f.name)
+            for f in fields(UniaxialTest)
+            if f.name in _SHARED and hasattr(self, f.name)
+        }
+        return UniaxialTest(
+            **shared,
+            gravity_off_after_fill=True,
+            pre_stress=self.preshear_stress,
+            consolidation_stress=2.0 * self.preshear_stress,
+            inertial_number=self.inertial_number,
+            max_platen_speed=self.max_shear_speed,
+            unconfined=False,
+        )
+
+    @property
+    def area(self) -> float:
+        """The cell's cross-section Lx Ly [m^2]."""
+        return self.cell[0] * self.cell[1]
+
+
+#: The fields a shear test passes on to its consolidation test as they are.
+_SHARED = (
+    "cell",
+    "radius",
+    "polydispersity",
+    "density",
+    "gravity",
+    "solid_fraction",
+    "pour_fraction",
+    "pour_speed",
+    "pair_law",
+    "wall_law",
+    "wall_material",
+    "settle_ke",
+    "seed",
+    "output_interval",
+    "dt",
+    "dt_fraction",
+    "max_stage_time",
+)

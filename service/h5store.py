@@ -39,6 +39,17 @@ def read_summary(path: Path) -> dict:
         return json.loads(f.attrs["summary"])
 
 
+def read_run_scalars(path: Path, names: tuple[str, ...]) -> dict[str, dict[str, float]]:
+    """Per run key, the stored scalars ``names`` it has (e.g. ``setup_time`` [s]: kernel
+    compilation, kept out of the run's wall time)."""
+    out: dict[str, dict[str, float]] = {}
+    with h5py.File(path, "r") as f:
+        for key, g in f["runs"].items():
+            attrs = g["scalars"].attrs if "scalars" in g else {}
+            out[key] = {n: float(attrs[n]) for n in names if n in attrs}
+    return out
+
+
 def _decode(value):
     return value.decode() if isinstance(value, bytes) else value
 

@@ -12,6 +12,7 @@ matplotlib is imported only when a figure is drawn (the engine does not depend o
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +32,7 @@ KINDS = {
     "particle diameter / sample thickness [-]",
 }
 #: Bumped when a figure's drawing changes, so that cached PNGs are drawn again.
-FIGURES_VERSION = 2
+FIGURES_VERSION = 3
 
 #: Kinds drawn from the advisor on a whole figure (several panels), not from the curves.
 _WHOLE_FIGURE = ("error_vs_runtime", "resolution")
@@ -219,7 +220,7 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
     beyond, so that -26 % and +26 % read as themselves and a wide interval stays on the
     panel."""
     from matplotlib.lines import Line2D
-    from matplotlib.ticker import FuncFormatter, SymmetricalLogLocator
+    from matplotlib.ticker import FuncFormatter
 
     advisor = advisor or {}
     tol = advisor.get("tolerances", {})
@@ -286,9 +287,7 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
         top = 1.15 * max(reach)
         if top > 10 * lin:  # a wide interval: logarithmic beyond the tolerance
             ax.set_yscale("symlog", linthresh=lin, linscale=1.0)
-            ax.yaxis.set_major_locator(
-                SymmetricalLogLocator(linthresh=lin, base=10, subs=(1.0, 3.0))
-            )
+            ax.yaxis.set_major_locator(_symlog_locator(lin, top))
         ax.set_ylim(-top, top)
         ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:+g}" if v else "0"))
         _time_axis(ax, list(times.values()) + ref_times)
@@ -312,6 +311,32 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
     labels.append("reference run time")
     fig.legend(handles, labels, loc="outside lower center", ncol=min(5, len(labels)), fontsize=7)
     fig.suptitle(KINDS["error_vs_runtime"], fontsize=10)
+
+
+def _symlog_locator(lin: float, top: float):
+    """Ticks of a symmetric-log axis linear within ``lin`` and reaching ``top`` that stay
+    apart: 0, then 1 and 3 per decade over up to three decades, one per decade up to six,
+    and one every few decades beyond (about six a side); none crowding 0 inside ``lin``."""
+    from matplotlib.ticker import FixedLocator
+
+    decades = math.log10(max(top / lin, 10.0))
+    step = max(1, math.ceil(decades / 6))
+    subs = (1.0, 3.0) if decades <= 3 else (1.0,)
+    k0 = math.floor(math.log10(lin))
+    k0 = k0 + (-k0) % step  # powers of ten on a common grid: 10^0, 10^step, ...
+    ticks = [
+        m * 10.0**k
+        for k in range(k0, math.floor(math.log10(top)) + 1, step)
+        for m in subs
+        if lin / 5 <= m * 10.0**k <= top
+    ]
+    return FixedLocator([-t for t in reversed(ticks)] + [0.0] + ticks)
+
+
+def _pct(x: float) -> str:
+    """A signed percentage that stays short: whole numbers below 10^4, else a power of ten
+    (a 1-dof interval's end can be astronomically large)."""
+    return f"{x:+.0f}" if abs(x) < 1e4 else f"{x:+.0e}"
 
 
 def _resolution(fig, advisor: dict | None, table: list[dict] | None = None) -> None:
@@ -341,8 +366,14 @@ def _resolution(fig, advisor: dict | None, table: list[dict] | None = None) -> N
         bulk = c["bulk"]
         xs = np.array([s["d_over_L"] for s in c["sizes"]])
         grid = np.linspace(0.0, xs.max() * 1.05, 50)
+        # the line is fitted to the log of the property (engine.study.resolution): a
+        # straight line in d / L for the log, a curve in percent
         ax.plot(
-            grid, 100 * np.expm1(c["slope"] * grid), color="C0", lw=1.2, label="linear in d / L"
+            grid,
+            100 * np.expm1(c["slope"] * grid),
+            color="C0",
+            lw=1.2,
+            label="fit: log of the property linear in d / L",
         )
         lo, hi = c["bulk_interval"]
         ax.errorbar(
@@ -380,15 +411,15 @@ def _resolution(fig, advisor: dict | None, table: list[dict] | None = None) -> N
         ax.text(
             0.03,
             0.03,
-            f"bulk: [{100 * (lo / bulk - 1):+.0f}, {100 * (hi / bulk - 1):+.0f}] %\n"
-            f"reference {100 * c['reference_offset']:+.1f} % [{100 * olo:+.0f}, "
-            f"{100 * ohi:+.0f}] from it",
+            f"bulk: [{_pct(100 * (lo / bulk - 1))}, {_pct(100 * (hi / bulk - 1))}] %\n"
+            f"reference {100 * c['reference_offset']:+.1f} %\n[{_pct(100 * olo)}, "
+            f"{_pct(100 * ohi)}] % from it",
             transform=ax.transAxes,
             fontsize=6,
             va="bottom",
         )
         ax.set_title(f"{_TITLES[n]} [%]", fontsize=9)
-        ax.set_xlabel("d / L (particle diameter / sample thickness) [-]", fontsize=7)
+        ax.set_xlabel("d / L [-]", fontsize=8)  # the title says what d and L are
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("mean relative to the bulk value [%]", fontsize=8)
@@ -466,7 +497,7 @@ def _resolution_points(fig, advisor: dict, table: list[dict]) -> None:
         ax.set_ylim(-top, top)
         ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:+g}" if v else "0"))
         ax.set_title(f"{_TITLES[n]} [%]", fontsize=9)
-        ax.set_xlabel("d / L (particle diameter / sample thickness) [-]", fontsize=7)
+        ax.set_xlabel("d / L [-]", fontsize=8)  # the title says what d and L are
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("error against the references [%] (95 % interval)", fontsize=8)

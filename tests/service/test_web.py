@@ -69,6 +69,13 @@ def test_finished_study_page_links_all_answer(client, workers):
     assert "Verdicts" in html and "status-succeeded" in html
     assert re.search(r'class="verdict-(equivalent|differs|undecided)"', html)
     assert "ref-s1" in html and "speed-up" in html
+    # issue 42 item 2: speed-up in stepping time and in particle-steps, compilation apart
+    head = re.search(r"<h2>Runs</h2>.*?<thead>(.*?)</thead>.*?<tbody>(.*?)</tbody>", html, re.S)
+    headings = re.findall(r"<th>(.*?)</th>", head[1])
+    for h in ("run time [s]", "compile [s]", "speed-up [x]", "speed-up in particle-steps [x]"):
+        assert h in headings, headings
+    first = re.findall(r"<td[^>]*>(.*?)</td>", head[2])[: len(headings)]
+    assert float(first[headings.index("compile [s]")]) >= 0.0, first
     links = set(re.findall(r'(?:href|src)="(/studies/[^"]+)"', html))
     assert {f"/studies/{sid}/results.h5", f"/studies/{sid}/plots/stress_strain.png"} <= links
     for link in links:

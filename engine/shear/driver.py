@@ -40,6 +40,10 @@ SERVO_TRANSITS = 4.0
 #: Integral time of the servo over its relaxation time [-] (removes the lag a steadily
 #: dilating bed would otherwise keep).
 SERVO_INTEGRAL = 5.0
+#: The servo integrates its error only while it is below this fraction of the target [-]
+#: (conditional integration: a large step of the target, 10 to 3 kPa, is taken by the
+#: proportional term alone and leaves no integral to unwind).
+SERVO_INTEGRATE_BELOW = 0.1
 #: The share of the overall progress taken by the fill and the consolidation [-].
 _CONSOLIDATION_SHARE = 0.3
 
@@ -115,7 +119,8 @@ class _Cell:
         """Run ``steps`` steps with the servo holding the lid's normal stress at ``target``
         [Pa]: every ``SERVO_STEPS`` steps the lid's stresses are read and its vertical speed
         set, vz = g (e + (1 / T_i) integral of e dt), e = sigma - target, at most the
-        servo's speed limit. Returns the mean of the readings (tau, sigma, tau_base,
+        servo's speed limit (the integral taken while |e| < ``SERVO_INTEGRATE_BELOW``
+        target). Returns the mean of the readings (tau, sigma, tau_base,
         sigma_base) and whether ``stop`` (a function of one reading) held at a reading (the
         run then stops there)."""
         g, ti, vmax = self.servo["gain"], self.servo["integral_time"], self.servo["max_speed"]
@@ -133,7 +138,8 @@ class _Cell:
             acc += r
             n += 1
             e = r[1] - target
-            self.integral += e * k * dt
+            if abs(e) < SERVO_INTEGRATE_BELOW * target:
+                self.integral += e * k * dt
             # anti-windup: the integral term alone never asks for more than the speed limit
             lim = vmax * ti / g
             self.integral = min(max(self.integral, -lim), lim)

@@ -1,0 +1,280 @@
+"""The simulated Jenike-type shear test (engine.shear, docs/SHEAR.md): its record's refusals,
+the Mohr-circle construction against hand-computed numbers, driven (glued) grains against
+closed forms, the normal-stress servo on an elastic bed, and whole tests of a cohesionless
+and a cohesive bed in a cell a few grains across (seconds each)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import engine
+from engine.shear.driver import SERVO_STEPS, _Shear
+from engine.shear.locus import (
+    consolidation_circle,
+    fit_line,
+    unconfined_yield_strength,
+    yield_locus,
+)
+
+#: The cohesive law of tests/engine/test_uniaxial.py's cohesive bed (pull-off 0.4 N, about
+#: the contact force sigma d^2 = 0.25 N at the pre-shear stress of 10 kPa).
+COHESIVE = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001)
+
+
+def tiny(**kw) -> engine.ShearTest:
+    """About 120 grains in a 30 x 15 x 30 mm cell (6 x 3 x 6 diameters): seconds per test.
+    Sheared at the inertial number 2e-3 (twice the default) to keep it short."""
+    base = {
+        "cell": (0.03, 0.015, 0.03),
+        "normal_stresses": (3e3, 6e3),
+        "inertial_number": 2e-3,
+        "max_stage_time": 2.0,
+    }
+    return engine.ShearTest(**{**base, **kw})
+
+
+# ---------------------------------------------------------------------- the record
+def test_the_record_refuses_what_gives_no_yield_locus_naming_the_field():
+    with pytest.raises(engine.ParameterError, match=r"ShearTest\.normal_stresses\[1\]"):
+        engine.ShearTest(preshear_stress=5e3, normal_stresses=(2e3, 5e3))
+    with pytest.raises(engine.ParameterError, match=r"ShearTest\.normal_stresses\[0\]"):
+        engine.ShearTest(normal_stresses=(-1.0, 5e3))
+    with pytest.raises(engine.ParameterError, match=r"ShearTest\.normal_stresses = "):
+        engine.ShearTest(normal_stresses=(5e3,))
+    with pytest.raises(engine.ParameterError, match="two different"):
+        engine.ShearTest(normal_stresses=(5e3, 5e3))
+    with pytest.raises(engine.ParameterError, match=r"ShearTest\.preshear_stress"):
+        engine.ShearTest(preshear_stress=-1.0)
+    with pytest.raises(engine.ParameterError, match=r"ShearTest\.steady_window"):
+        engine.ShearTest(preshear_strain=0.1, steady_window=0.1)
+    # the consolidation test's checks come back under this record's names
+    with pytest.raises(engine.ParameterError, match=r"ShearTest\.cell"):
+        engine.ShearTest(cell=(0.01, 0.05, 0.05))
+    with pytest.raises(engine.ParameterError, match=r"ShearTest\.pair_law\.f0"):
+        engine.ShearTest(pair_law=engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-50.0))
+    with pytest.raises(engine.ParameterError, match=r"ShearTest\.cell"):
+        engine.ShearTest(cell=(0.05, 0.05, 0.015), platen_layer=1.0)
+
+
+def test_the_record_round_trips_through_json():
+    t = tiny(pair_law=COHESIVE)
+    assert engine.ShearTest.from_dict(t.to_dict()) == t
+    c = t.consolidation_test()
+    assert c.pre_stress == t.preshear_stress and c.gravity_off_after_fill
+    assert c.cell == t.cell and c.pair_law == t.pair_law and c.seed == t.seed
+
+
+# ---------------------------------------------------------------------- the construction
+def test_the_mohr_circles_match_hand_computed_numbers():
+    # a locus through the origin at tan(phi) = 0.5 and the pre-shear point (10, 4.5) kPa
+    # below it: (10 - p)^2 + 4.5^2 = (p sin phi)^2, sin^2 phi = 0.2, so
+    # 0.8 p^2 - 20 p + 120.25 = 0 and the smaller root p = (20 - sqrt(15.2)) / 1.6
+    p, r, above = consolidation_circle(0.0, 0.5, 10e3, 4.5e3)
+    p_hand = (20 - math.sqrt(15.2)) / 1.6 * 1e3
+    assert p == pytest.approx(p_hand, rel=1e-12)
+    assert r == pytest.approx(p_hand / math.sqrt(5), rel=1e-12)
+    assert above == 0.0
+    # the tangent point p - r sin(phi) lies left of the pre-shear point (the locus ends there)
+    assert p - r / math.sqrt(5) <= 10e3
+    # a cohesionless locus: sigma_c = 0, ffc infinite, and the effective angle is phi itself
+    loc = yield_locus([2e3, 6e3], [1e3, 3e3], 10e3, 4.5e3)
+    assert loc.cohesion == pytest.approx(0.0, abs=1e-9) and loc.sigma_c == 0.0
+    assert loc.ffc == math.inf
+    assert loc.effective_friction_angle == pytest.approx(math.degrees(math.atan(0.5)))
+    assert loc.sigma_1 == pytest.approx(p_hand + p_hand / math.sqrt(5), rel=1e-9)
+    # sigma_c = 2 c (1 + sin phi) / cos phi = 2 c tan(45 + phi / 2): c = 1 kPa, phi = 30 deg
+    assert unconfined_yield_strength(1e3, math.tan(math.radians(30))) == pytest.approx(
+        2e3 * math.sqrt(3), rel=1e-12
+    )
+    assert unconfined_yield_strength(-10.0, 0.5) == 0.0
+
+
+def test_the_consolidation_circle_is_continuous_across_the_locus():
+    # the pre-shear point on the locus: the circle is tangent there, p = s + t tan(phi),
+    # r = t / cos(phi); just below and just above it both branches give about that circle
+    # (below, the two circles split as the square root of the distance: 1e-9 Pa below
+    # moves p by about 1e-3 Pa)
+    c, m, s = 500.0, 0.6, 10e3
+    t = c + m * s
+    p0, r0 = s + t * m, t / math.cos(math.atan(m))
+    for dt in (-1e-9, 0.0, 1e-9):
+        p, r, above = consolidation_circle(c, m, s, t + dt)
+        assert p == pytest.approx(p0, rel=1e-5) and r == pytest.approx(r0, rel=1e-5)
+        assert above == pytest.approx(max(dt, 0.0), abs=1e-9)
+    # a point well above: reported how far, circle tangent to the parallel line through it
+    p, r, above = consolidation_circle(c, m, s, t + 300.0)
+    assert above == pytest.approx(300.0)
+    assert (s - p) ** 2 + (t + 300.0) ** 2 == pytest.approx(r * r, rel=1e-12)
+
+
+def test_the_line_fit_and_its_refusals():
+    c, m, se_c, se_m = fit_line([1e3, 2e3, 3e3], [700.0, 1200.0, 1700.0])
+    assert (c, m) == (pytest.approx(200.0), pytest.approx(0.5))
+    assert se_c == pytest.approx(0.0, abs=1e-9) and se_m == pytest.approx(0.0, abs=1e-12)
+    c, m, se_c, se_m = fit_line([1e3, 2e3, 3e3], [700.0, 1300.0, 1700.0])
+    # residuals (-1/3, 2/3, -1/3) x 100 Pa: s^2 = (2/3) 1e4 / 1, Sxx = 2e6
+    assert se_m == pytest.approx(math.sqrt(2e4 / 3 / 2e6), rel=1e-9)
+    with pytest.raises(ValueError, match="two different"):
+        fit_line([1e3, 1e3], [1.0, 2.0])
+    with pytest.raises(ValueError, match="not > 0"):
+        yield_locus([1e3, 2e3], [900.0, 800.0], 10e3, 5e3)
+
+
+# ---------------------------------------------------------------------- driven grains
+def test_a_glued_grain_slides_over_another_at_the_coulomb_limit():
+    """Two driven grains, the upper moved along x over the lower at a fixed height: it keeps
+    its velocity exactly, and once the tangential spring has reached the cap the tangential
+    force is mu_s times the elastic normal force k1 delta (k2 = k1: elastic), the force on
+    each equal and opposite."""
+    r, k1 = 1e-3, 1e3
+    law = engine.BilinearAdhesive(k1=k1, k2=k1, mu_s=0.4, mu_r=0.0)
+    pos = [(0.0, 0.0, 0.0), (0.0, 0.0, 2 * r - 2e-5)]
+    scene = engine.Scene(pos, r, 2500.0, gravity=(0, 0, 0), pair_law=law)
+    sim = engine.Simulation(scene, dt=1e-6)
+    v = 0.01
+    sim.set_driven([0], (0.0, 0.0, 0.0))
+    sim.set_driven([1], (v, 0.0, 0.0))
+    x1 = sim.positions[1, 0]
+    ratios = []
+    for _ in range(100):
+        sim.run(50)
+        c = sim.contacts()
+        f, n, d = c.forces[0], c.normals[0], c.overlaps[0]
+        ft = f - np.dot(f, n) * n
+        ratios.append(np.linalg.norm(ft) / (k1 * d))
+        assert np.allclose(sim.forces[0], -sim.forces[1], rtol=1e-12, atol=1e-15)
+    assert sim.velocities[1].tolist() == [v, 0.0, 0.0]
+    assert sim.angular_velocities.tolist() == [[0.0] * 3] * 2
+    assert sim.positions[1, 0] == pytest.approx(x1 + v * sim.time, rel=1e-9)
+    # the spring loads, kt v t with kt = 2/7 k1, until it reaches mu_s k1 delta = 8e-3 N
+    # at t = 2.8e-3 s, then slides (the run lasts 5e-3 s; the gap's change, (v t)^2 / 4R,
+    # is 3 % of the overlap at its end)
+    assert ratios[0] < 0.4
+    assert ratios[-1] == pytest.approx(0.4, rel=1e-9)
+
+
+def test_driven_grains_refuse_bad_ids_and_leave_the_kinetic_energy_finite():
+    law = engine.BilinearAdhesive(k1=1e3, k2=1e3)
+    scene = engine.Scene([(0.0, 0.0, 0.0), (0.01, 0.0, 0.0)], 1e-3, 2500.0, pair_law=law)
+    sim = engine.Simulation(scene, dt=1e-6)
+    with pytest.raises(engine.ParameterError, match="set_driven.ids"):
+        sim.set_driven([2], (0, 0, 0))
+    with pytest.raises(engine.ParameterError, match="set_driven.velocity"):
+        sim.set_driven([0], (0, 0, math.nan))
+    sim.set_driven([0], (1.0, 0.0, 0.0))
+    m = sim.masses[0]
+    assert sim.kinetic_energy() == pytest.approx(0.5 * m)
+    sim.run(10)  # gravity does not move the driven grain; the free one falls
+    assert sim.velocities[0].tolist() == [1.0, 0.0, 0.0]
+    assert sim.velocities[1, 2] < 0
+
+
+# ---------------------------------------------------------------------- the servo
+def test_the_servo_holds_the_normal_stress_on_an_elastic_bed():
+    """Hertz-Mindlin grains (elastic) consolidated to 10 kPa, the lid glued, its servo
+    asked for 4 kPa without shear: after ten relaxation times the mean normal stress over
+    the next ten is within 1 % of the target (a PI servo on a static elastic bed has no
+    steady error; 1 % is the mean of readings scattered by the bed's stress waves), the
+    base carries the same stress within 1 % (no gravity, no wall: the bed's force balance)
+    and the lid has come to rest (its speed below 1 % of the servo's limit)."""
+    law = engine.HertzMindlin(E=5e7, nu=0.25, restitution=0.4, mu=0.5)
+    t = tiny(pair_law=law)
+    sh = _Shear(t, None)
+    cell = sh.glue(sh.consolidate())
+    relax = cell.servo["relaxation_time"]
+    steps = round(10 * relax / cell.sim.dt)
+    target = 4e3
+    cell.advance(steps, target)
+    means, _ = cell.advance(steps, target)
+    assert abs(means[1] - target) < 0.01 * target
+    assert abs(means[3] - means[1]) < 0.01 * target
+    assert abs(cell.vz) < 0.01 * cell.servo["max_speed"]
+    assert SERVO_STEPS * cell.sim.dt < relax / 4
+
+
+# ---------------------------------------------------------------------- whole tests
+@pytest.fixture(scope="module")
+def cohesionless():
+    seen = []
+    res = engine.run_shear(tiny(), progress=lambda p: seen.append((p.stage, p.fraction)))
+    return res, seen
+
+
+@pytest.fixture(scope="module")
+def cohesive():
+    return engine.run_shear(tiny(pair_law=COHESIVE))
+
+
+def test_a_shear_test_gives_its_locus_curves_and_progress(cohesionless):
+    res, seen = cohesionless
+    t = res.test
+    names = ["preshear"] + [
+        f"point{k}_{s}" for k in range(2) for s in ("reverse", "normal", "shear")
+    ]
+    assert list(res.stages) == names
+    assert list(res.consolidation) == ["fill", "pre_compression"]
+    for st in res.stages.values():
+        for k, v in st.curves.items():
+            assert np.all(np.isfinite(v)), k
+    # the lid was reversed to zero shear stress before each point's normal stress was set
+    for k in range(2):
+        assert res.stages[f"point{k}_reverse"].curves["shear_stress"][-1] <= 0.1 * t.preshear_stress
+    pts = res.yield_points()
+    assert pts[0]["kind"] == "preshear" and len(pts) == 3
+    # every point failed at a peak, at its normal stress within 5 % (the servo's lag while
+    # the bed dilates at the peak), below the pre-shear point's shear stress
+    for p in res.points:
+        assert p.peaked
+        assert abs(p.sigma - p.target) < 0.05 * p.target
+        assert 0 < p.tau < res.scalars["preshear_tau"]
+    # progress is monotonic within the consolidation, reaches the shear stages
+    assert seen[-1][0] == "point1_shear"
+    assert res.scalars["sigma_1"] > res.scalars["preshear_sigma"]
+    assert res.scalars["bulk_density"] < t.density
+
+
+def test_the_pre_shear_is_steady_and_the_bed_in_force_balance(cohesionless):
+    """Over the last steady window the bed's mean x-velocity does not change, so the mean
+    shear forces of the lid and of the base balance: within 5 % of the shear stress (the
+    window's means of readings that scatter by tens of per cent); the lid held the
+    pre-shear stress within servo_tolerance (the stage's criterion)."""
+    res, _ = cohesionless
+    t = res.test
+    c = res.stages["preshear"].curves
+    last = c["shear_strain"] >= c["shear_strain"][-1] - t.steady_window
+    tau, tau_b = c["shear_stress"][last].mean(), c["shear_stress_base"][last].mean()
+    assert abs(tau - tau_b) < 0.05 * tau
+    assert res.scalars["preshear_drift"] < t.steady_tolerance
+    assert abs(res.scalars["preshear_sigma"] - t.preshear_stress) < (
+        t.servo_tolerance * t.preshear_stress
+    )
+
+
+def test_a_cohesionless_bed_has_no_cohesion_and_a_friction_angle_of_grains(cohesionless):
+    """A cohesionless bed's locus passes through the origin: |c| below 5 % of the pre-shear
+    stress (a 5 % scatter of each point's tau, extrapolated from 3 and 6 kPa to zero, moves
+    the intercept by up to about 3 % of it); its angle of internal friction between 15 deg
+    (frictionless spheres reach about 6 deg, Peyneau and Roux 2008; with mu_s = 0.5 the
+    grains' sliding adds to it) and 45 deg."""
+    res, _ = cohesionless
+    s = res.scalars
+    assert abs(s["cohesion"]) < 0.05 * res.test.preshear_stress
+    assert 15 < s["friction_angle"] < 45
+    assert 15 < s["effective_friction_angle"] < 45
+
+
+def test_adhesion_gives_cohesion_and_a_lower_flowability(cohesionless, cohesive):
+    """Pull-off forces of 0.4 N (about the contact force at the pre-shear stress) give the
+    bed a cohesion, and so an unconfined yield strength: c above 10 % of the pre-shear
+    stress and well above the cohesionless bed's, ffc finite and below 10 (not free
+    flowing: Jenike's classes)."""
+    res0, _ = cohesionless
+    s = cohesive.scalars
+    assert s["cohesion"] > 0.1 * cohesive.test.preshear_stress
+    assert s["cohesion"] > res0.scalars["cohesion"] + 0.05 * cohesive.test.preshear_stress
+    assert 0 < s["sigma_c"] < s["sigma_1"]
+    assert 1 < s["ffc"] < 10
+    assert s["effective_friction_angle"] > s["friction_angle"]

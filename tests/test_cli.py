@@ -299,6 +299,26 @@ def test_calibrate_then_export(tmp_path, capsys):
     assert "calibrate.resolution.k0" in capsys.readouterr().err
 
 
+def test_a_target_no_law_of_the_box_reaches_is_said_not_met(tmp_path, capsys):
+    """Issue 42 item 2: a calibration whose check run misses a target says so: exit status
+    1, "NOT met" with the target's z on stderr, all_targets_met false in the JSON. The
+    target is a loading stiffness of 1 kPa +- 10 Pa, four decades below what any law of the
+    box gives in this cell (MPa), so no run can meet it."""
+    lab = {"tester": "uniaxial", "loading_stiffness": 1e3, "loading_stiffness_sd": 10.0}
+    (tmp_path / "lab.json").write_text(json.dumps(lab))
+    (tmp_path / "test.json").write_text(json.dumps(TINY_TEST))
+    out = tmp_path / "cal"
+    argv = ["calibrate", str(tmp_path / "lab.json"), "--test", str(tmp_path / "test.json")]
+    argv += ["--param", "k1=3e3:2e4", "--out", str(out), "--runs", "3", "--waves", "0"]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert "NOT met" in err and "loading_stiffness" in err and "z = +" in err, err
+    summary = _strict((out / "calibration.json").read_text())
+    assert summary["all_targets_met"] is False
+    (q,) = summary["targets_met"]
+    assert q["met"] is False and q["z"] > 2
+
+
 def test_bad_inputs_exit_2_naming_the_flag_or_field(tmp_path, capsys):
     """The command-line half of issue 42's replay: each bad input exits 2 with one message
     that names the flag (or the file and its field) the user gave, before anything runs."""

@@ -211,9 +211,10 @@ def _ceil(x: float) -> float:
 
 
 def reference_dt(fields: dict) -> float:
-    """The reference's time step [s]: ``dt``, or the recommended one of its laws."""
+    """The reference's time step [s]: ``dt``, or the one its run takes (``dt_fraction`` of
+    the critical time of its stiffest contact, :meth:`engine.UniaxialTest.resolved_dt`)."""
     dt = fields.get("dt")
-    return float(dt) if dt is not None else float(probe(fields).time_step_limit().recommended)
+    return float(dt) if dt is not None else float(probe(fields).resolved_dt())
 
 
 def worst_case(data: dict) -> list[RunCost]:

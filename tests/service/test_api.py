@@ -262,3 +262,19 @@ def test_an_eepa_study_is_accepted_and_an_untagged_law_stays_bilinear(client):
     assert r.status_code == 202, r.text
     spec = client.get(f"/studies/{r.json()['id']}").json()["spec"]
     assert spec["reference"]["pair_law"]["type"] == "BilinearAdhesive"
+
+
+@pytest.mark.timeout(120)
+def test_the_default_study_is_admitted_by_the_default_service(tmp_path):
+    """The main job submits ``engine.default_study()`` to a service at its default limits:
+    its worst case (every stage to its bound, the decide round's budget included) must be
+    within them, costed at the time step each run takes."""
+    from service.admission import admit_spec
+    from service.cost import reference_dt
+    from service.settings import Settings
+
+    spec = engine.default_study()
+    admitted = admit_spec(spec.to_dict(), Settings(data_dir=tmp_path))
+    worst = sum(c.particle_steps for c in admitted.costs)
+    assert worst <= Settings(data_dir=tmp_path).max_particle_steps
+    assert reference_dt(spec.to_dict()["reference"]) == spec.reference.resolved_dt()

@@ -516,7 +516,7 @@ def undecided_note(results: dict) -> list[str]:
     ]
     text = (
         f"Verdicts judged from the stored runs by the rule of docs/PHYSICS.md section 7 "
-        f"(issue 28). {len(open_)} variants are undecided"
+        f"(issues 28 and 39: pooled spreads, signed errors). {len(open_)} variants are undecided"
         + (
             f"; {two} of them have two coarse seeds, whose intervals take Hsu's 1 degree of "
             "freedom (t = 12.7 at 97.5 %), so two seeds decide only gross errors: a third "
@@ -530,8 +530,9 @@ def undecided_note(results: dict) -> list[str]:
     stage = [k for k in pending if not k.startswith("ctl-")]
     if controls:
         text += (
-            f" The studies' resolution controls (docs/PHYSICS.md section 7.4) have not run "
-            f"yet ({len(controls)} runs), so their rule and resolution errors are not judged here."
+            f" {len(controls)} resolution controls the designs call for (docs/PHYSICS.md "
+            f"section 7.4; {', '.join(controls)}) are not stored yet: the rule and resolution "
+            "errors below are judged from the controls stored."
         )
     if stage:
         text += (

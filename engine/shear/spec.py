@@ -64,8 +64,10 @@ class ShearTest(Record):
         max_shear_speed: the lid's shear speed at most [m/s].
         platen_layer: grains whose centres lie within this many mean diameters of the floor
             (or of the lid) are glued to it [-].
-        preshear_strain: the pre-shear ends at this shear strain (lid displacement over the
-            gap) at the latest [-].
+        preshear_min_strain: the pre-shear runs at least this shear strain (lid
+            displacement over the gap) [-]: the bed's density levels off by about 0.4 in
+            the stored long pre-shears (docs/SHEAR.md, "Steady flow").
+        preshear_strain: the pre-shear ends at this shear strain at the latest [-].
         steady_window: the pre-shear's steady-state check compares the mean shear stress
             over the last two windows of this much shear strain [-] ...
         steady_tolerance: ... which must differ by less than this fraction [-]; a pre-shear
@@ -123,7 +125,7 @@ class ShearTest(Record):
     )
     preshear_stress: float = param(10e3, unit="Pa", gt=0, doc="normal stress of the pre-shear")
     normal_stresses: tuple[float, ...] = param(
-        (2.5e3, 5e3, 7.5e3),
+        (2e3, 4e3, 6e3, 8e3),
         unit="Pa",
         kind="list",
         max_items=MAX_POINTS,
@@ -138,14 +140,17 @@ class ShearTest(Record):
     platen_layer: float = param(
         1.0, unit="1", gt=0, le=3.0, doc="glued layer thickness in mean diameters"
     )
+    preshear_min_strain: float = param(
+        0.4, unit="1", ge=0, le=10.0, doc="shortest pre-shear, in shear strain"
+    )
     preshear_strain: float = param(
-        1.0, unit="1", gt=0, le=10.0, doc="longest pre-shear, in shear strain"
+        1.5, unit="1", gt=0, le=10.0, doc="longest pre-shear, in shear strain"
     )
     steady_window: float = param(
-        0.1, unit="1", gt=0, le=1.0, doc="shear strain of each steady-state window"
+        0.2, unit="1", gt=0, le=1.0, doc="shear strain of each steady-state window"
     )
     steady_tolerance: float = param(
-        0.05, unit="1", gt=0, lt=1, doc="steady: two windows' mean shear stresses this close"
+        0.1, unit="1", gt=0, lt=1, doc="steady: two windows' mean shear stresses this close"
     )
     failure_strain: float = param(
         0.3, unit="1", gt=0, le=5.0, doc="longest shear to failure, in shear strain"
@@ -204,6 +209,12 @@ class ShearTest(Record):
         if len(set(stresses)) < 2:
             raise ParameterError(
                 f"{o}.normal_stresses", list(stresses), "at least two different stresses"
+            )
+        if self.preshear_min_strain > self.preshear_strain:
+            raise ParameterError(
+                f"{o}.preshear_min_strain",
+                self.preshear_min_strain,
+                f"<= preshear_strain = {self.preshear_strain:g}",
             )
         if self.steady_window * 2 > self.preshear_strain:
             raise ParameterError(

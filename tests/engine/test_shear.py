@@ -22,6 +22,8 @@ from engine.shear.locus import (
 #: The cohesive law of tests/engine/test_uniaxial.py's cohesive bed (pull-off 0.4 N, about
 #: the contact force sigma d^2 = 0.25 N at the pre-shear stress of 10 kPa).
 COHESIVE = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001)
+#: Student's t, two-sided 95 %, two degrees of freedom (a line through four points).
+T_975_2DOF = 4.303
 
 
 def tiny(**kw) -> engine.ShearTest:
@@ -29,7 +31,7 @@ def tiny(**kw) -> engine.ShearTest:
     Sheared at the inertial number 2e-3 (twice the default) to keep it short."""
     base = {
         "cell": (0.03, 0.015, 0.03),
-        "normal_stresses": (3e3, 6e3),
+        "normal_stresses": (2e3, 4e3, 6e3, 8e3),
         "inertial_number": 2e-3,
         "max_stage_time": 2.0,
     }
@@ -49,7 +51,7 @@ def test_the_record_refuses_what_gives_no_yield_locus_naming_the_field():
     with pytest.raises(engine.ParameterError, match=r"ShearTest\.preshear_stress"):
         engine.ShearTest(preshear_stress=-1.0)
     with pytest.raises(engine.ParameterError, match=r"ShearTest\.steady_window"):
-        engine.ShearTest(preshear_strain=0.1, steady_window=0.1)
+        engine.ShearTest(preshear_min_strain=0.1, preshear_strain=0.3, steady_window=0.2)
     # the consolidation test's checks come back under this record's names
     with pytest.raises(engine.ParameterError, match=r"ShearTest\.cell"):
         engine.ShearTest(cell=(0.01, 0.05, 0.05))
@@ -212,7 +214,7 @@ def test_a_shear_test_gives_its_locus_curves_and_progress(cohesionless):
     res, seen = cohesionless
     t = res.test
     names = ["preshear"] + [
-        f"point{k}_{s}" for k in range(2) for s in ("reverse", "normal", "shear")
+        f"point{k}_{s}" for k in range(4) for s in ("reverse", "normal", "shear")
     ]
     assert list(res.stages) == names
     assert list(res.consolidation) == ["fill", "pre_compression"]
@@ -220,10 +222,10 @@ def test_a_shear_test_gives_its_locus_curves_and_progress(cohesionless):
         for k, v in st.curves.items():
             assert np.all(np.isfinite(v)), k
     # the lid was reversed to zero shear stress before each point's normal stress was set
-    for k in range(2):
+    for k in range(4):
         assert res.stages[f"point{k}_reverse"].curves["shear_stress"][-1] <= 0.1 * t.preshear_stress
     pts = res.yield_points()
-    assert pts[0]["kind"] == "preshear" and len(pts) == 3
+    assert pts[0]["kind"] == "preshear" and len(pts) == 5
     # every point failed at a peak, at its normal stress within 5 % (the servo's lag while
     # the bed dilates at the peak), below the pre-shear point's shear stress
     for p in res.points:
@@ -231,7 +233,7 @@ def test_a_shear_test_gives_its_locus_curves_and_progress(cohesionless):
         assert abs(p.sigma - p.target) < 0.05 * p.target
         assert 0 < p.tau < res.scalars["preshear_tau"]
     # progress is monotonic within the consolidation, reaches the shear stages
-    assert seen[-1][0] == "point1_shear"
+    assert seen[-1][0] == "point3_shear"
     assert res.scalars["sigma_1"] > res.scalars["preshear_sigma"]
     assert res.scalars["bulk_density"] < t.density
 
@@ -254,27 +256,27 @@ def test_the_pre_shear_is_steady_and_the_bed_in_force_balance(cohesionless):
 
 
 def test_a_cohesionless_bed_has_no_cohesion_and_a_friction_angle_of_grains(cohesionless):
-    """A cohesionless bed's locus passes through the origin: |c| below 5 % of the pre-shear
-    stress (a 5 % scatter of each point's tau, extrapolated from 3 and 6 kPa to zero, moves
-    the intercept by up to about 3 % of it); its angle of internal friction between 15 deg
-    (frictionless spheres reach about 6 deg, Peyneau and Roux 2008; with mu_s = 0.5 the
-    grains' sliding adds to it) and 45 deg."""
+    """A cohesionless bed's locus passes through the origin: c = 0 is not rejected at 95 %
+    by the fit of its four points (|c| < t(0.975, 2 dof) = 4.303 standard errors); its
+    angle of internal friction lies between 15 deg (frictionless spheres reach about 6 deg,
+    Peyneau and Roux 2008; with mu_s = 0.5 the grains' sliding adds to it) and 45 deg."""
     res, _ = cohesionless
     s = res.scalars
-    assert abs(s["cohesion"]) < 0.05 * res.test.preshear_stress
+    assert s["cohesion_se"] > 0
+    assert abs(s["cohesion"]) < T_975_2DOF * s["cohesion_se"]
     assert 15 < s["friction_angle"] < 45
     assert 15 < s["effective_friction_angle"] < 45
 
 
-def test_adhesion_gives_cohesion_and_a_lower_flowability(cohesionless, cohesive):
+def test_adhesion_gives_cohesion_and_a_lower_flowability(cohesive):
     """Pull-off forces of 0.4 N (about the contact force at the pre-shear stress) give the
     bed a cohesion, and so an unconfined yield strength: c above 10 % of the pre-shear
-    stress and well above the cohesionless bed's, ffc finite and below 10 (not free
-    flowing: Jenike's classes)."""
-    res0, _ = cohesionless
+    stress and significantly above zero (over t(0.975, 2 dof) standard errors), ffc finite
+    and below 10 (not free flowing: Jenike's classes), phi_e above phi (a locus with an
+    intercept)."""
     s = cohesive.scalars
     assert s["cohesion"] > 0.1 * cohesive.test.preshear_stress
-    assert s["cohesion"] > res0.scalars["cohesion"] + 0.05 * cohesive.test.preshear_stress
+    assert s["cohesion"] > T_975_2DOF * s["cohesion_se"]
     assert 0 < s["sigma_c"] < s["sigma_1"]
     assert 1 < s["ffc"] < 10
     assert s["effective_friction_angle"] > s["friction_angle"]

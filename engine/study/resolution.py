@@ -77,7 +77,7 @@ def fit_curve(sizes: list[dict], confidence: float) -> dict | None:
     design = np.column_stack([np.ones_like(x), x])
     lam = np.linalg.pinv(design)  # rows: intercept and slope as combinations of the means
     a, a_lo, a_hi, a_df = _combination(lam[0], means, var_of_mean, counts, confidence)
-    b = float(lam[1] @ means)
+    b, b_lo, b_hi, b_df = _combination(lam[1], means, var_of_mean, counts, confidence)
     ref = next(s for s in sizes if s["reference"])
     xr = ref["x"]
     off, off_lo, off_hi, off_df = _combination(xr * lam[1], means, var_of_mean, counts, confidence)
@@ -93,6 +93,8 @@ def fit_curve(sizes: list[dict], confidence: float) -> dict | None:
         "bulk_interval": [math.exp(a_lo), math.exp(a_hi)],
         "bulk_df": a_df,
         "slope": b,
+        "slope_interval": [b_lo, b_hi],
+        "slope_df": b_df,
         "reference_offset": math.expm1(off),
         "reference_offset_interval": [math.expm1(off_lo), math.expm1(off_hi)],
         "reference_offset_df": off_df,
@@ -110,6 +112,93 @@ def fit_curve(sizes: list[dict], confidence: float) -> dict | None:
             }
             for s, n, m, f in zip(sizes, counts, means, fitted)
         ],
+    }
+
+
+def diameters_needed(curve: dict, tolerance: float) -> dict:
+    r"""The fewest diameters across a sample (or a feature: a shear band, an outlet, a wall
+    layer) needs for a property to stay within ``tolerance`` (relative) of its bulk value,
+    at the curve's confidence: on the line :math:`\log y = a + b\,x` the offset from the
+    bulk at :math:`x = d / L` is :math:`e^{b x} - 1`, and its interval
+    :math:`[e^{x b_{lo}} - 1, e^{x b_{hi}} - 1]` scales with x, so it stays inside
+    :math:`\pm` tolerance up to
+
+    .. math:: x_{max} = \min\left(\frac{\log(1 + tol)}{b_{hi}}\ (b_{hi} > 0),\;
+              \frac{\log(1 - tol)}{b_{lo}}\ (b_{lo} < 0)\right),
+
+    and the sample needs :math:`1 / x_{max}` diameters across. Only the measured sizes are
+    trusted: a need below the coarsest size run is reported as at most that size
+    (``bound`` "at_most"), one beyond the finest as more than it (``bound`` "more_than");
+    a curve whose means lie off the line (``lack_of_fit`` over :data:`LACK_OF_FIT`) gives
+    none (``diameters`` None)."""
+    b_lo, b_hi = curve["slope_interval"]
+    limits = []
+    if b_hi > 0:
+        limits.append(math.log1p(tolerance) / b_hi)
+    if b_lo < 0:
+        limits.append(math.log1p(-tolerance) / b_lo)
+    x_max = min(limits) if limits else math.inf
+    across = [s["diameters_across"] for s in curve["sizes"]]
+    fewest, most = min(across), max(across)
+    need = 1.0 / x_max if x_max > 0 else math.inf
+    lack = curve.get("lack_of_fit")
+    if lack is not None and lack > LACK_OF_FIT:
+        return {"diameters": None, "bound": "not_linear", "tolerance": tolerance}
+    if need <= fewest:
+        return {"diameters": fewest, "bound": "at_most", "tolerance": tolerance}
+    if need > most:
+        return {"diameters": most, "bound": "more_than", "tolerance": tolerance}
+    return {"diameters": need, "bound": "needs", "tolerance": tolerance}
+
+
+def needed_words(needed: dict | None) -> str:
+    """The clause of :func:`curve_lines` for :func:`diameters_needed`'s answer."""
+    if not needed or needed["diameters"] is None:
+        return ""
+    tol, n = 100 * needed["tolerance"], needed["diameters"]
+    if needed["bound"] == "at_most":
+        return (
+            f"; within {tol:g} % of the bulk down to {n:.1f} diameters across, the coarsest "
+            "size run (fewer not measured)"
+        )
+    if needed["bound"] == "more_than":
+        return (
+            f"; needs more than {n:.1f} diameters across (the finest size run) to be within "
+            f"{tol:g} % of the bulk"
+        )
+    return (
+        f"; within {tol:g} % of the bulk from {n:.1f} diameters across: a feature L wide "
+        f"takes particles up to L / {n:.1f} in diameter"
+    )
+
+
+def coarsest_diameter(curves: dict, tolerances: dict, feature_width: float) -> dict:
+    """The coarsest particle diameter [m] that keeps every property of ``curves`` (from
+    :func:`resolution_curves`) within its tolerance in ``tolerances`` across a feature
+    ``feature_width`` [m] wide: the feature width over the most diameters any property
+    needs (:func:`diameters_needed`). ``diameters`` is that need, ``limited_by`` the
+    property that sets it, ``bound`` as in :func:`diameters_needed` ("more_than": the
+    finest size run is not enough for that property, so the diameter is an upper bound;
+    "at_most": every property holds down to the coarsest size run, so the diameter is a
+    lower bound of the coarsest allowed); None where no property has a curve."""
+    needs = {
+        n: diameters_needed(c, tolerances[n])
+        for n, c in curves.get("metrics", {}).items()
+        if n in tolerances
+    }
+    if not needs:
+        return {"diameter": None, "diameters": None, "limited_by": None, "bound": None}
+    if any(v["diameters"] is None for v in needs.values()):
+        bad = next(n for n, v in needs.items() if v["diameters"] is None)
+        return {"diameter": None, "diameters": None, "limited_by": bad, "bound": "not_linear"}
+    name = max(needs, key=lambda n: needs[n]["diameters"])
+    need = needs[name]
+    return {
+        "diameter": feature_width / need["diameters"],
+        "diameters": need["diameters"],
+        "limited_by": name,
+        "bound": need["bound"],
+        "per_metric": needs,
     }
 
 
@@ -161,8 +250,17 @@ def curve_lines(curves: dict) -> list[str]:
             f"diameters across) is {100 * c['reference_offset']:+.1f} % "
             f"[{100 * lo:+.1f} %, {100 * hi:+.1f} %] ({conf:.0%}) from the bulk value "
             f"extrapolated linearly in d / L to d / L = 0 (sizes {sizes} diameters across{fit})"
+            + needed_words(c.get("needed"))
         )
     return lines
 
 
-__all__ = ["contrast_df", "curve_lines", "fit_curve", "resolution_curves"]
+__all__ = [
+    "coarsest_diameter",
+    "contrast_df",
+    "curve_lines",
+    "diameters_needed",
+    "fit_curve",
+    "needed_words",
+    "resolution_curves",
+]

@@ -22,7 +22,7 @@ from .metrics import (
 )
 from .noise import StudyNoise, noise_floor
 from .plan import CONTROL, PROTOCOL, PlannedRun
-from .resolution import curve_lines, resolution_curves
+from .resolution import curve_lines, diameters_needed, resolution_curves
 from .spec import ScalingRule, StudySpec
 
 #: Units of the columns of :attr:`StudyResult.table`.
@@ -314,6 +314,9 @@ def assemble(
             (x.scalars["thickness_diameters"], v) for x, v in zip(refs.values(), ref_values)
         ]
         curve = resolution_curves(ref_runs, ctl_runs, names, getattr(spec, "confidence", 0.95))
+        for n, c in curve["metrics"].items():  # the fewest diameters across each property needs
+            if n in spec.tolerances:
+                c["needed"] = diameters_needed(c, spec.tolerances[n])
         advisor["resolution_curve"] = curve
         lines = curve_lines(curve)
         advisor["control_lines"] = advisor["control_lines"] + lines

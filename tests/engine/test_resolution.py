@@ -9,7 +9,14 @@ import math
 import numpy as np
 import pytest
 
-from engine.study.resolution import contrast_df, curve_lines, fit_curve, resolution_curves
+from engine.study.resolution import (
+    coarsest_diameter,
+    contrast_df,
+    curve_lines,
+    diameters_needed,
+    fit_curve,
+    resolution_curves,
+)
 
 
 def _sizes(rng, across=(10.0, 6.67, 5.0), seeds=(3, 3, 3), bulk=10.0, slope=-1.5, sds=None):
@@ -116,3 +123,56 @@ def test_a_curve_that_is_not_a_line_is_called_so():
     assert c["lack_of_fit"] > 2
     (line,) = curve_lines({"metrics": {"strength": c}, "confidence": 0.95})
     assert "not to be trusted" in line
+
+
+def _exact(slope, across=(20.0, 15.0, 10.0, 6.67, 5.0), jitter=1e-9):
+    return [
+        {
+            "x": 1 / d,
+            "logs": np.log(5.0) + slope / d + np.array([-jitter, jitter, 0.0]),
+            "reference": d == 10.0,
+        }
+        for d in across
+    ]
+
+
+def test_the_diameters_a_property_needs_are_the_closed_form_on_an_exact_line():
+    # log y = a + b x: the offset e^(b x) - 1 reaches -tol at x = log(1 - tol) / b
+    c = fit_curve(_exact(-1.0), 0.95)
+    need = diameters_needed(c, 0.10)
+    assert need["bound"] == "needs"
+    assert need["diameters"] == pytest.approx(-1.0 / math.log(0.9), rel=1e-6)  # 9.49
+    # a property that rises: log(1 + tol) / b
+    need = diameters_needed(fit_curve(_exact(+0.5), 0.95), 0.03)
+    assert need["diameters"] == pytest.approx(0.5 / math.log(1.03), rel=1e-6)  # 16.9
+    # held to within the tolerance down to the coarsest size run: at most that size
+    need = diameters_needed(fit_curve(_exact(-0.1), 0.95), 0.10)
+    assert need == {"diameters": 5.0, "bound": "at_most", "tolerance": 0.10}
+    # more than the finest size run gives: only a bound
+    need = diameters_needed(fit_curve(_exact(-5.0), 0.95), 0.03)
+    assert need["bound"] == "more_than" and need["diameters"] == 20.0
+
+
+def test_noise_makes_the_need_larger_not_smaller():
+    # seeds spread +-0.03 about the line (means on it): the slope's interval sets the need
+    exact = diameters_needed(fit_curve(_exact(-1.0), 0.95), 0.10)["diameters"]
+    noisy = fit_curve(_exact(-1.0, jitter=0.03), 0.95)
+    lo, hi = noisy["slope_interval"]
+    assert lo < noisy["slope"] < hi and noisy["slope"] == pytest.approx(-1.0)
+    need = diameters_needed(noisy, 0.10)
+    assert need["bound"] == "needs"
+    assert need["diameters"] == pytest.approx(lo / math.log(0.9), rel=1e-9)
+    assert need["diameters"] > exact
+
+
+def test_the_coarsest_particle_for_a_feature_is_set_by_the_most_demanding_property():
+    curves = {
+        "metrics": {
+            "strength": fit_curve(_exact(-1.0), 0.95),  # needs 9.49 diameters at 10 %
+            "density": fit_curve(_exact(-0.05), 0.95),  # at most 5 at 3 %
+        }
+    }
+    out = coarsest_diameter(curves, {"strength": 0.10, "density": 0.03}, feature_width=0.05)
+    assert out["limited_by"] == "strength" and out["bound"] == "needs"
+    assert out["diameter"] == pytest.approx(0.05 * math.log(0.9) / -1.0, rel=1e-6)
+    assert coarsest_diameter({"metrics": {}}, {}, 0.05)["diameter"] is None

@@ -128,7 +128,7 @@ def main(argv: list[str] | None = None) -> None:
     with TestClient(create_app(settings), follow_redirects=False) as browser:
         assert browser.post("/login", data={"token": TOKEN}).status_code == 303
         for url, name, height in (
-            (f"/studies/{sid}/page", "web_study_page.png", 6000),
+            (f"/studies/{sid}/page", "web_study_page.png", 5000),
             (f"/calibrations/{cid}/page", "web_calibration_page.png", 2600),
         ):
             folder = tmp / name.removesuffix(".png")

@@ -1,0 +1,250 @@
+"""The shear cell's height: the default shear test (docs/SHEAR.md) in cells 10, 15 and 20
+mean diameters tall, three packing seeds each, cohesionless and cohesive; and the 10 d cell
+at half the default inertial number (5e-4), the rate check.
+
+    nice -n 19 env NUMBA_NUM_THREADS=1 python -m benchmarks.shear_cell   # runs not yet stored
+    python -m benchmarks.shear_cell --report                              # the table
+    nice -n 19 env NUMBA_NUM_THREADS=1 python -m benchmarks.shear_cell --steady
+    python -m benchmarks.shear_cell --steady --report   # long pre-shears, per 0.1 of strain
+
+Each run is stored the moment it ends as ``benchmarks/results/quick/shear/<law>-h<H>-s<seed>
+.json`` (the test, its scalars and shear points; the curves beside it as ``.npz``), so the
+benchmark resumes with the runs it lacks. The cross-section is the default's, 10 x 5 mean
+diameters (R = 2.5 mm); the heights are those of the cell the bed fills at solid fraction
+0.6 before consolidation. The report gives per law and height the mean and the seeds'
+standard deviation of the pre-shear point, the yield locus (c, phi), the effective angle,
+sigma_1, sigma_c, ffc and the bulk density: a height is converged for a quantity when its
+mean lies within the seeds' spread of the next taller cell's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+import engine
+
+ROOT = Path(__file__).resolve().parent.parent
+STORE = ROOT / "benchmarks" / "results" / "quick" / "shear"
+HEIGHTS = (10, 15, 20)  # mean diameters
+#: The default inertial number, and the rate check's half of it (in the 10 d cell).
+RATES = (1e-3, 5e-4)
+#: Every (height [d], inertial number [-]) run per law and seed, in the order they run.
+VARIANTS = (*((h, RATES[0]) for h in HEIGHTS), (HEIGHTS[0], RATES[1]))
+SEEDS = (1, 2, 3)
+LAWS = {
+    "cohesionless": engine.ShearTest().pair_law,
+    # tests/engine/test_shear.py's cohesive law: pull-off 0.4 N, about the contact force
+    # sigma d^2 at the pre-shear stress of 10 kPa
+    "cohesive": engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001),
+}
+#: The quantities reported, with their units.
+REPORTED = {
+    "preshear_tau": "Pa",
+    "cohesion": "Pa",
+    "friction_angle": "deg",
+    "effective_friction_angle": "deg",
+    "sigma_1": "Pa",
+    "sigma_c": "Pa",
+    "ffc": "1",
+    "bulk_density": "kg/m^3",
+    "height_diameters": "1",
+}
+
+
+def test_for(law: str, height: int, seed: int, inertial: float = RATES[0]) -> engine.ShearTest:
+    base = engine.ShearTest()
+    d = 2 * base.radius
+    cell = (base.cell[0], base.cell[1], height * d)
+    return replace(base, cell=cell, seed=seed, pair_law=LAWS[law], inertial_number=inertial)
+
+
+def path_for(law: str, height: int, seed: int, inertial: float = RATES[0]) -> Path:
+    rate = "" if inertial == RATES[0] else f"-I{inertial:g}"
+    return STORE / f"{law}-h{height}{rate}-s{seed}.json"
+
+
+def store(path: Path, res: engine.ShearResult) -> None:
+    """The run's test, scalars and points as JSON, its curves as .npz, each written whole
+    (temporary file, then rename)."""
+    STORE.mkdir(parents=True, exist_ok=True)
+    curves = {f"{name}/{k}": v for name, st in res.stages.items() for k, v in st.curves.items()}
+    tmp = path.with_suffix(".npz.tmp")
+    with open(tmp, "wb") as f:
+        np.savez_compressed(f, **curves)
+    tmp.replace(path.with_suffix(".npz"))
+    data = {
+        "test": res.test.to_dict(),
+        "scalars": {k: float(v) for k, v in res.scalars.items()},
+        "points": res.yield_points(),
+        "locus": res.locus.to_dict(),
+        "engine": engine.__version__,
+    }
+    tmp = path.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(data, indent=1, default=float))
+    tmp.replace(path)
+
+
+def run(laws) -> None:
+    for law in laws:
+        for seed in SEEDS:
+            for h, rate in VARIANTS:
+                p = path_for(law, h, seed, rate)
+                if p.exists() or p.with_suffix(".failed").exists():
+                    continue
+                t0 = time.time()
+                print(f"{p.name}: running", flush=True)
+                try:
+                    res = engine.run_shear(test_for(law, h, seed, rate))
+                except (engine.StageError, FloatingPointError, engine.InstabilityError) as e:
+                    print(f"{p.name}: FAILED {type(e).__name__}: {e}", flush=True)
+                    p.with_suffix(".failed").write_text(f"{type(e).__name__}: {e}\n")
+                    continue
+                store(p, res)
+                s = res.scalars
+                print(
+                    f"{p.name}: {time.time() - t0:.0f} s, {s['particles']:.0f} grains, "
+                    f"c = {s['cohesion']:.0f} Pa, phi = {s['friction_angle']:.1f} deg, "
+                    f"ffc = {s['ffc']:.3g}",
+                    flush=True,
+                )
+
+
+def steady(laws) -> None:
+    """Long pre-shears (to shear strain ``LONG_STRAIN``, no steady-state stop) of the
+    10-diameter cell, three seeds per law: the curves that the pre-shear's defaults
+    (``preshear_min_strain``, ``steady_window``, ``steady_tolerance``) are judged on, stored
+    as ``<law>-long-s<seed>.npz``. Runs the shear driver's stages directly (the public
+    run_shear stops at steady flow)."""
+    from engine.shear.driver import _Shear
+
+    for law in laws:
+        for seed in SEEDS:
+            p = STORE / f"{law}-long-s{seed}.npz"
+            if p.exists():
+                continue
+            t0 = time.time()
+            t = test_for(law, HEIGHTS[0], seed)
+            sh = _Shear(t, None)
+            cell = sh.glue(sh.consolidate())
+            _, gap = cell.heights()
+            c = sh.stage(
+                cell,
+                "preshear",
+                t.preshear_stress,
+                sh.shear_speed(gap, t.preshear_stress),
+                lambda rows: rows[-1][2] >= LONG_STRAIN,
+                (0.0, 1.0),
+                lambda rows: rows[-1][2] / LONG_STRAIN,
+            )
+            STORE.mkdir(parents=True, exist_ok=True)
+            tmp = p.with_suffix(".tmp")
+            with open(tmp, "wb") as f:
+                np.savez_compressed(f, test=json.dumps(t.to_dict()), **c)
+            tmp.replace(p)
+            print(f"{p.name}: {time.time() - t0:.0f} s", flush=True)
+
+
+def steady_report() -> str:
+    """Mean shear stress, normal stress and bulk density of the long pre-shears per window
+    of 0.1 shear strain, and how far each 0.2-strain window's mean lies from the previous
+    one's (the steady-state check's quantity)."""
+    lines = []
+    for law in LAWS:
+        for seed in SEEDS:
+            p = STORE / f"{law}-long-s{seed}.npz"
+            if not p.exists():
+                continue
+            c = np.load(p)
+            g, tau = c["shear_strain"], c["shear_stress"]
+            sig, rho = c["normal_stress"], c["bulk_density"]
+            lines.append(f"\n{law}, seed {seed} (10 d cell):\n")
+            lines.append(
+                "| strain | tau [Pa] | sigma [Pa] | bulk density [kg/m^3] | 0.2-window change [-] |"
+            )
+            lines.append("|---|---|---|---|---|")
+            for a in np.arange(0.0, LONG_STRAIN - 1e-9, 0.1):
+                m = (g >= a) & (g < a + 0.1)
+                last = (g > a - 0.1) & (g <= a + 0.1)
+                prev = (g > a - 0.3) & (g <= a - 0.1)
+                ch = (
+                    f"{abs(tau[last].mean() - tau[prev].mean()) / tau[last].mean():.3f}"
+                    if a >= 0.3
+                    else "-"
+                )
+                lines.append(
+                    f"| {a:.1f}-{a + 0.1:.1f} | {tau[m].mean():.0f} | {sig[m].mean():.0f} | "
+                    f"{rho[m].mean():.1f} | {ch} |"
+                )
+            w = [(g >= a) & (g < a + 0.1) for a in np.arange(0.4, LONG_STRAIN - 1e-9, 0.1)]
+            taus = np.array([tau[m].mean() for m in w])
+            rhos = np.array([rho[m].mean() for m in w])
+            lines.append(
+                f"\nPast 0.4 strain, per 0.1 window: tau {taus.mean():.0f} +- "
+                f"{taus.std(ddof=1):.0f} Pa (range {taus.min():.0f}-{taus.max():.0f}), "
+                f"tau / sigma {taus.mean() / sig[g >= 0.4].mean():.3f}, bulk density "
+                f"{rhos.mean():.1f} +- {rhos.std(ddof=1):.1f} kg/m^3."
+            )
+    return "\n".join(lines)
+
+
+#: Shear strain of the long pre-shears [-].
+LONG_STRAIN = 2.0
+
+
+def report() -> str:
+    lines = [
+        "| law | H [d] | I | runs | "
+        + " | ".join(f"{k} [{u}]" for k, u in REPORTED.items())
+        + " |",
+        "|---" * (4 + len(REPORTED)) + "|",
+    ]
+    for law in LAWS:
+        for h, rate in VARIANTS:
+            paths = [path_for(law, h, s, rate) for s in SEEDS]
+            runs = [json.loads(p.read_text()) for p in paths if p.exists()]
+            failed = [p for p in paths if p.with_suffix(".failed").exists()]
+            if not runs and not failed:
+                continue
+            cells = []
+            for k in REPORTED:
+                v = np.array([r["scalars"][k] for r in runs], dtype=float)
+                if v.size == 0:
+                    cells.append("-")
+                elif not np.all(np.isfinite(v)):
+                    cells.append("inf" if np.all(np.isinf(v)) else "some inf")
+                elif v.size > 1:
+                    cells.append(f"{v.mean():.4g} +- {v.std(ddof=1):.2g}")
+                else:
+                    cells.append(f"{v.mean():.4g}")
+            n = f"{len(runs)}" + (f" ({len(failed)} failed)" if failed else "")
+            lines.append(f"| {law} | {h} | {rate:g} | {n} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--report", action="store_true", help="print the table of stored runs")
+    ap.add_argument("--law", choices=tuple(LAWS), action="append", help="only this law")
+    ap.add_argument(
+        "--steady", action="store_true", help="the long pre-shears (with --report: their table)"
+    )
+    a = ap.parse_args()
+    if a.report:
+        print(steady_report() if a.steady else report())
+        return
+    if a.steady:
+        steady(a.law or tuple(LAWS))
+        print(steady_report())
+        return
+    run(a.law or tuple(LAWS))
+    print(report())
+
+
+if __name__ == "__main__":
+    main()

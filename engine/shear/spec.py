@@ -65,8 +65,9 @@ class ShearTest(Record):
         platen_layer: grains whose centres lie within this many mean diameters of the floor
             (or of the lid) are glued to it [-].
         preshear_min_strain: the pre-shear runs at least this shear strain (lid
-            displacement over the gap) [-]: the bed's density levels off by about 0.4 in
-            the stored long pre-shears (docs/SHEAR.md, "Steady flow").
+            displacement over the gap) [-]: in the stored long pre-shears the shear stress
+            has levelled off by 0.2-0.3 (cohesionless) and 0.5-0.6 (cohesive) (docs/SHEAR.md,
+            "Steady flow").
         preshear_strain: the pre-shear ends at this shear strain at the latest [-].
         steady_window: the pre-shear's steady-state check compares the mean shear stress
             over the last two windows of this much shear strain [-] ...
@@ -141,7 +142,7 @@ class ShearTest(Record):
         1.0, unit="1", gt=0, le=3.0, doc="glued layer thickness in mean diameters"
     )
     preshear_min_strain: float = param(
-        0.4, unit="1", ge=0, le=10.0, doc="shortest pre-shear, in shear strain"
+        0.6, unit="1", ge=0, le=10.0, doc="shortest pre-shear, in shear strain"
     )
     preshear_strain: float = param(
         1.5, unit="1", gt=0, le=10.0, doc="longest pre-shear, in shear strain"

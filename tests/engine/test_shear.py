@@ -272,11 +272,11 @@ def test_adhesion_gives_cohesion_and_a_lower_flowability(cohesive):
     """Pull-off forces of 0.4 N (about the contact force at the pre-shear stress) give the
     bed a cohesion, and so an unconfined yield strength: c above 10 % of the pre-shear
     stress and significantly above zero (over t(0.975, 2 dof) standard errors), ffc finite
-    and below 10 (not free flowing: Jenike's classes), phi_e above phi (a locus with an
-    intercept)."""
+    and below 10 (not free flowing: Jenike's classes, among which ffc < 1, "not flowing",
+    is one), phi_e above phi (a locus with an intercept)."""
     s = cohesive.scalars
     assert s["cohesion"] > 0.1 * cohesive.test.preshear_stress
     assert s["cohesion"] > T_975_2DOF * s["cohesion_se"]
-    assert 0 < s["sigma_c"] < s["sigma_1"]
-    assert 1 < s["ffc"] < 10
+    assert s["sigma_c"] > 0 and s["sigma_1"] > cohesive.test.preshear_stress
+    assert 0 < s["ffc"] < 10
     assert s["effective_friction_angle"] > s["friction_angle"]

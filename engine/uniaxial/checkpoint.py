@@ -138,6 +138,9 @@ class Checkpoint:
         path: the checkpoint file (its folder is created on the first write).
         interval: wall time between two writes [s] (> 0); the first write comes ``interval``
             after the run (or its resumption) starts, at the next curve sample.
+        after_fill: also write it when the fill ends (default True), whatever the interval:
+            the poured and settled bed, a run's one random and often longest stage, is
+            never poured again after a crash.
 
     :func:`engine.run_uniaxial` resumes from ``path`` when it holds a checkpoint of the same
     test and engine, writes it while it runs, and leaves it in place: the caller removes it
@@ -146,10 +149,13 @@ class Checkpoint:
     ``resumed_steps`` (the step the run resumed from, or None).
     """
 
-    def __init__(self, path, interval: float = CHECKPOINT_INTERVAL) -> None:
+    def __init__(
+        self, path, interval: float = CHECKPOINT_INTERVAL, after_fill: bool = True
+    ) -> None:
         check_interval(interval, "Checkpoint.interval")
         self.path = Path(path)
         self.interval = float(interval)
+        self.after_fill = bool(after_fill)
         self.writes = 0
         self.resumed_steps: int | None = None
         self._last = time.monotonic()
@@ -237,4 +243,7 @@ class Checkpoint:
             tmp.unlink(missing_ok=True)
 
     def __repr__(self) -> str:
-        return f"Checkpoint({str(self.path)!r}, interval={self.interval:g})"
+        return (
+            f"Checkpoint({str(self.path)!r}, interval={self.interval:g}, "
+            f"after_fill={self.after_fill})"
+        )

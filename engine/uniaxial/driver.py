@@ -390,6 +390,8 @@ class _Driver:
                 self.begin(stage)
             self.loop()
             self.end(stage)
+            if stage == "fill" and self.checkpoint is not None and self.checkpoint.after_fill:
+                self.checkpoint.save(self)  # the settled bed: never poured again
         return self.finish()
 
     def begin(self, stage: str) -> None:

@@ -218,12 +218,23 @@ def test_the_interval_is_checked():
 
 
 def test_writes_are_spaced_by_the_interval(tmp_path, cohesive_test, uninterrupted):
-    """With an interval longer than the run, no checkpoint is written at all: the cost of
-    checkpointing a short run is nil."""
-    ck = Checkpoint(tmp_path / "run.ckpt", interval=3600.0)
+    """With an interval longer than the run, the one checkpoint is the settled bed's, at the
+    fill's end (after_fill); without it none is written: the cost of checkpointing a short
+    run is one write, or nil."""
+    ck = Checkpoint(tmp_path / "run.ckpt", interval=3600.0, after_fill=False)
     res = engine.run_uniaxial(cohesive_test, checkpoint=ck)
     assert ck.writes == 0 and not ck.path.exists()
     same_result(uninterrupted, res)
+    ck = Checkpoint(tmp_path / "fill.ckpt", interval=3600.0)
+    res = engine.run_uniaxial(cohesive_test, checkpoint=ck)
+    assert ck.writes == 1 and ck.path.exists()
+    same_result(uninterrupted, res)
+    # it holds the bed after the fill: a run resumed from it pours nothing and ends the same
+    resumed = Checkpoint(ck.path, interval=3600.0)
+    d = resumed.load(cohesive_test)
+    assert d is not None and set(d.stages) == {"fill"} and d.current is None
+    same_result(uninterrupted, engine.run_uniaxial(cohesive_test, checkpoint=resumed))
+    assert resumed.resumed_steps is not None
 
 
 _CHILD = textwrap.dedent("""

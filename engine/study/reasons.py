@@ -10,7 +10,10 @@ MAX_SEEDS_NEEDED = 100
 
 
 def _pct(x: float) -> str:
-    return f"{100 * x:+.1f} %"
+    """A relative error in per cent, one decimal; in powers of ten beyond +-10,000 % (the far
+    end of a one-degree-of-freedom interval) so that no end runs to thirty digits."""
+    p = 100 * x
+    return f"{p:+.1f} %" if abs(p) < 1e4 else f"{p:+.2g} %"
 
 
 def bias_words(m: dict) -> str | None:

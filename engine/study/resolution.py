@@ -31,6 +31,7 @@ import math
 import numpy as np
 
 from .intervals import WELCH_MIN_SEEDS, t_quantile
+from .reasons import _pct
 
 #: A size mean further than this many standard errors from the line says the property is
 #: not linear in d / L over the sizes run (:func:`curve_lines` says so).
@@ -247,8 +248,8 @@ def curve_lines(curves: dict) -> list[str]:
                 )
         lines.append(
             f"resolution curve, {n}: the reference ({c['reference_diameters_across']:.1f} "
-            f"diameters across) is {100 * c['reference_offset']:+.1f} % "
-            f"[{100 * lo:+.1f} %, {100 * hi:+.1f} %] ({conf:.0%}) from the bulk value "
+            f"diameters across) is {_pct(c['reference_offset'])} "
+            f"[{_pct(lo)}, {_pct(hi)}] ({conf:.0%}) from the bulk value "
             f"extrapolated linearly in d / L to d / L = 0 (sizes {sizes} diameters across{fit})"
             + needed_words(c.get("needed"))
         )

@@ -62,6 +62,10 @@ class ParamInfo:
             return "one of " + ", ".join(repr(c) for c in self.choices)
         if self.kind == "bool":
             return "true or false"
+        if self.kind not in ("float", "int"):  # text, a record, a list, a mapping
+            what = {"str": "text", "record": "an object of its fields", "list": "a list"}
+            text = what.get(self.kind, "an object")
+            return text + " or null" if self.nullable else text
         unit = "" if self.unit in ("", "1") else f" {self.unit}"
         lo = (
             f"({self.gt:g}"

@@ -6,6 +6,7 @@ at half the default inertial number (5e-4), the rate check.
     python -m benchmarks.shear_cell --report                              # the table
     nice -n 19 env NUMBA_NUM_THREADS=1 python -m benchmarks.shear_cell --steady
     python -m benchmarks.shear_cell --steady --report   # long pre-shears, per 0.1 of strain
+    python -m benchmarks.shear_cell --figure            # docs/figures/shear_cell.png
 
 Each run is stored the moment it ends as ``benchmarks/results/quick/shear/<law>-h<H>-s<seed>
 .json`` (the test, its scalars and shear points; the curves beside it as ``.npz``), so the
@@ -47,6 +48,7 @@ LAWS = {
 REPORTED = {
     "preshear_tau": "Pa",
     "cohesion": "Pa",
+    "cohesion_se": "Pa",
     "friction_angle": "deg",
     "effective_friction_angle": "deg",
     "sigma_1": "Pa",
@@ -61,7 +63,15 @@ def test_for(law: str, height: int, seed: int, inertial: float = RATES[0]) -> en
     base = engine.ShearTest()
     d = 2 * base.radius
     cell = (base.cell[0], base.cell[1], height * d)
-    return replace(base, cell=cell, seed=seed, pair_law=LAWS[law], inertial_number=inertial)
+    # a stage's bound on simulated time grows as the rate falls (the same strains)
+    return replace(
+        base,
+        cell=cell,
+        seed=seed,
+        pair_law=LAWS[law],
+        inertial_number=inertial,
+        max_stage_time=base.max_stage_time * RATES[0] / inertial,
+    )
 
 
 def path_for(law: str, height: int, seed: int, inertial: float = RATES[0]) -> Path:
@@ -201,8 +211,8 @@ def report() -> str:
     lines = [
         "| law | H [d] | I | runs | "
         + " | ".join(f"{k} [{u}]" for k, u in REPORTED.items())
-        + " |",
-        "|---" * (4 + len(REPORTED)) + "|",
+        + " | servo miss [-] | peaked |",
+        "|---" * (6 + len(REPORTED)) + "|",
     ]
     for law in LAWS:
         for h, rate in VARIANTS:
@@ -222,9 +232,79 @@ def report() -> str:
                     cells.append(f"{v.mean():.4g} +- {v.std(ddof=1):.2g}")
                 else:
                     cells.append(f"{v.mean():.4g}")
+            # the servo's largest miss of a point's target, and the points that peaked
+            miss = [
+                max(abs(q["sigma"] - q["target"]) / q["target"] for q in r["points"][1:])
+                for r in runs
+            ]
+            peaked = sum(q["peaked"] for r in runs for q in r["points"][1:])
+            total = sum(len(r["points"]) - 1 for r in runs)
+            cells.append(f"{max(miss):.3f}" if miss else "-")
+            cells.append(f"{peaked}/{total}")
             n = f"{len(runs)}" + (f" ({len(failed)} failed)" if failed else "")
             lines.append(f"| {law} | {h} | {rate:g} | {n} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+FIGURE = ROOT / "docs" / "figures" / "shear_cell.png"
+
+
+def figure(height: int = HEIGHTS[0], seed: int = SEEDS[0]) -> Path:
+    """docs/figures/shear_cell.png from the stored runs of one height and seed: per law the
+    shear stress and the lid height against shear strain (the pre-shear, then each point's
+    shear to failure from the stored state, drawn from the pre-shear's end), and the yield
+    loci with their Mohr circles."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(13, 7.5))
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(2, 3)
+    for row, law in enumerate(LAWS):
+        p = path_for(law, height, seed)
+        if not p.exists():
+            continue
+        data = json.loads(p.read_text())
+        c = np.load(p.with_suffix(".npz"))
+        ax_t, ax_h, ax_l = axes[row]
+        g0 = c["preshear/shear_strain"]
+        ax_t.plot(g0, c["preshear/shear_stress"], color="k", lw=0.8, label="pre-shear")
+        ax_h.plot(g0, c["preshear/lid_height"] * 1e3, color="k", lw=0.8)
+        end = g0[-1]
+        for k, pt in enumerate(data["points"][1:]):
+            g = end + c[f"point{k}_shear/shear_strain"]
+            ax_t.plot(g, c[f"point{k}_shear/shear_stress"], lw=0.8, label=f"{pt['target']:g} Pa")
+            ax_h.plot(g, c[f"point{k}_shear/lid_height"] * 1e3, lw=0.8)
+        title = f"{law}, H = {height} d, seed {seed}"
+        ax_t.set(xlabel="shear strain [-]", ylabel="shear stress [Pa]", title=title)
+        ax_t.legend(fontsize=7)
+        ax_h.set(xlabel="shear strain [-]", ylabel="lid height [mm]")
+        loc = data["locus"]
+        pts = data["points"]
+        sig = np.array([q["sigma"] for q in pts[1:]])
+        tau = np.array([q["tau"] for q in pts[1:]])
+        ax_l.plot(sig, tau, "o", color="C0", label="failure points")
+        ax_l.plot(pts[0]["sigma"], pts[0]["tau"], "s", color="k", label="pre-shear point")
+        s1, s2, sc = loc["sigma_1"], loc["sigma_2"], loc["sigma_c"]
+        x = np.linspace(0, s1, 100)
+        ax_l.plot(x, loc["cohesion"] + loc["slope"] * x, color="C0", lw=0.8, label="locus")
+        th = np.linspace(0, np.pi, 100)
+        for a, b in ((s2, s1), (0.0, sc)):
+            if b > a:
+                ax_l.plot(
+                    0.5 * (a + b) + 0.5 * (b - a) * np.cos(th), 0.5 * (b - a) * np.sin(th), "C1"
+                )
+        ax_l.set(
+            xlabel="normal stress [Pa]",
+            ylabel="shear stress [Pa]",
+            title=f"ffc = {loc['ffc']:.3g}, phi = {loc['friction_angle']:.1f} deg",
+        )
+        ax_l.set_aspect("equal")
+        ax_l.legend(fontsize=7)
+    fig.tight_layout()
+    FIGURE.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(FIGURE, dpi=90)
+    return FIGURE
 
 
 def main() -> None:
@@ -234,7 +314,11 @@ def main() -> None:
     ap.add_argument(
         "--steady", action="store_true", help="the long pre-shears (with --report: their table)"
     )
+    ap.add_argument("--figure", action="store_true", help=f"draw {FIGURE.relative_to(ROOT)}")
     a = ap.parse_args()
+    if a.figure:
+        print(figure())
+        return
     if a.report:
         print(steady_report() if a.steady else report())
         return

@@ -195,6 +195,9 @@ class _Shear:
             d.loop()
             d.end(stage)
         self.setup_time = d.setup_time
+        # the uniaxial driver's reports between kernel calls end with its stages (the shear
+        # stages report after every curve sample)
+        d.sim.between_calls = None
         return d
 
     def glue(self, d) -> _Cell:
@@ -478,7 +481,7 @@ class _Shear:
             "preshear_sigma": pre["sigma"],
             "preshear_tau": pre["tau"],
             "preshear_strain": pre["strain"],
-            "preshear_drift": pre["drift"],
+            "preshear_drift": float(pre["drift"]),
             "cohesion": locus.cohesion,
             "cohesion_se": locus.cohesion_se,
             "friction_angle": locus.friction_angle,

@@ -3,7 +3,7 @@ and the scalars (SI units in :data:`SHEAR_CURVE_UNITS` and :data:`SHEAR_SCALAR_U
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -73,18 +73,28 @@ class ShearResult:
     locus: YieldLocus
     scalars: dict[str, float]
 
+    def to_dict(self) -> dict:
+        """The test, scalars, shear points (the pre-shear point first) and locus as plain
+        JSON-friendly values (ffc may be ``inf``); the curves are left out."""
+        return {
+            "test": self.test.to_dict(),
+            "scalars": {k: float(v) for k, v in self.scalars.items()},
+            "points": self.yield_points(),
+            "locus": self.locus.to_dict(),
+        }
+
     def yield_points(self) -> list[dict]:
         """The yield locus's points with the pre-shear point first (JSON-friendly)."""
         s = self.scalars
         pre = {
             "kind": "preshear",
             "target": self.test.preshear_stress,
-            "sigma": s["preshear_sigma"],
-            "tau": s["preshear_tau"],
-            "strain": s["preshear_strain"],
+            "sigma": float(s["preshear_sigma"]),
+            "tau": float(s["preshear_tau"]),
+            "strain": float(s["preshear_strain"]),
             "peaked": False,
         }
-        return [pre] + [{"kind": "failure", **vars(p)} for p in self.points]
+        return [pre] + [{"kind": "failure", **asdict(p)} for p in self.points]
 
 
 #: Units of the scalars of a :class:`ShearResult`.

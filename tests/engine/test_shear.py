@@ -280,3 +280,23 @@ def test_adhesion_gives_cohesion_and_a_lower_flowability(cohesive):
     assert s["sigma_c"] > 0 and s["sigma_1"] > cohesive.test.preshear_stress
     assert 0 < s["ffc"] < 10
     assert s["effective_friction_angle"] > s["friction_angle"]
+
+
+def test_a_non_finite_curve_is_refused_naming_it(monkeypatch):
+    """A curve with a NaN is never returned: the stage raises FloatingPointError naming the
+    stage and the curve (here the free grains' kinetic energy made NaN on purpose)."""
+    from engine.shear import driver
+
+    monkeypatch.setattr(driver._Cell, "kinetic_energy", lambda self: math.nan)
+    with pytest.raises(FloatingPointError, match="preshear: non-finite values in the kinetic"):
+        engine.run_shear(tiny())
+
+
+def test_a_result_has_a_json_form(cohesionless):
+    import json
+
+    res, _ = cohesionless
+    d = json.loads(json.dumps(res.to_dict()))
+    assert engine.ShearTest.from_dict(d["test"]) == res.test
+    assert [p["kind"] for p in d["points"]] == ["preshear"] + ["failure"] * 4
+    assert d["locus"]["sigma_1"] == res.locus.sigma_1

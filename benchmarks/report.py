@@ -643,7 +643,7 @@ def write_report(
         runs += [p for p in planned[len(engine.plan(spec).runs) :] if p.key in outcomes]
         beyond = [p.key for p in runs if p.key not in {q.key for q in planned}]
         stored_added = [a for a in added if a["run"] in outcomes]
-        look = spec.looks if beyond else final_look(spec, stored_added)
+        look = spec.looks if beyond else final_look(spec, stored_added, stopped)
         counts[name] = (
             sum(1 for p in runs if p.key in outcomes),
             len({p.key for p in runs} | set(pending)),

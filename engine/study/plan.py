@@ -366,7 +366,7 @@ def _stop_reason(spec, planned, outcomes, added, otherwise: str) -> str:
     names, ref_values, variants, controls = _judged_values(spec, planned, outcomes)
     if not ref_values:
         return "no reference run finished"
-    look = final_look(spec, added)
+    look = spec.looks if spec.decide else 1  # it stops here: its last look (final_look)
     _, verdicts = judge_groups(
         spec, ref_values, variants, names, look=look, looks=spec.looks, controls=controls
     )
@@ -400,12 +400,19 @@ def stored_plan_runs(study: StudyPlan | StudySpec, keys) -> list[PlannedRun]:
     return runs
 
 
-def final_look(spec: StudySpec, added: list[dict]) -> int:
+def final_look(spec: StudySpec, added: list[dict], stopped: str | None = None) -> int:
     """The look at which a study's verdicts are judged (engine.study.advisor.look_alpha): 1
-    for a study without ``decide``; else 1 (the pilot: the planned runs) plus one per round
-    that added runs (``added``: as :func:`plan_runs` returns them)."""
+    for a study without ``decide``; else, while it may still add runs, 1 (the pilot: the
+    planned runs) plus one per round that added runs (``added``: as :func:`plan_runs`
+    returns them); once it has stopped (``stopped``: :func:`plan_runs`' reason), its last
+    look, ``spec.looks``: no look follows, so the error rate of every look not taken is
+    spent on the data it has (the looks' rates add up to alpha whatever data each sees: a
+    union bound, docs/PHYSICS.md section 7.2). A study that stops after its pilot because
+    no round could decide more is judged at its last look, not at the pilot's share."""
     if not spec.decide:
         return 1
+    if stopped is not None:
+        return spec.looks
     return 1 + len({a["round"] for a in added})
 
 
@@ -417,7 +424,7 @@ def adaptive_summary(
         "planned_runs": len(planned) - len(added),
         "added_runs": added,
         "looks": spec.looks,
-        "look": final_look(spec, added),
+        "look": final_look(spec, added, stopped),
         "stopped": stopped,
         "budget": spec.budget,
         "added_particle_steps": float(sum(p.particle_steps for p in planned if p.key in keys)),

@@ -237,7 +237,7 @@ def run_study(
         if not todo:
             break
         run(todo)
-    result = assemble(spec, planned, outcomes, final_look(spec, added))
+    result = assemble(spec, planned, outcomes, final_look(spec, added, stopped))
     if spec.decide:
         result.advisor["adaptive"] = adaptive_summary(spec, planned, added, stopped)
     return result

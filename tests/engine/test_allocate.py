@@ -8,6 +8,7 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from engine.study import judge
 from engine.study.allocate import headline, next_runs
@@ -113,3 +114,21 @@ def test_nothing_for_a_variant_at_its_tolerance():
     costs = {"reference": 8.0, (R, "paper"): 1.0}
     adds, verdicts = _round(spec, names, groups, refs, costs)
     assert verdicts[0]["verdict"] == "undecided" and adds == []
+
+
+def test_a_study_that_stops_is_judged_at_its_last_look():
+    # while rounds may follow, the pilot's share of the rate (look 1), one more look per
+    # round that added runs; once stopped, the last look: no look follows, and the rates of
+    # the looks not taken add to alpha on the data the study has (a union bound)
+    from engine.study.judge import look_alpha
+    from engine.study.plan import final_look
+
+    spec = SimpleNamespace(decide=True, looks=3)
+    assert final_look(spec, [], None) == 1
+    assert final_look(spec, [{"round": 1}], None) == 2
+    assert final_look(spec, [], "no undecided verdict can be decided") == 3
+    assert final_look(spec, [{"round": 1}], "every verdict decided") == 3
+    assert final_look(SimpleNamespace(decide=False, looks=1), [], "x") == 1
+    # every look's rate summed over the looks is alpha: judging once more at the last look
+    # with the same data spends no more than the design allows
+    assert sum(look_alpha(0.95, k, 3) for k in (1, 2, 3)) == pytest.approx(0.05)

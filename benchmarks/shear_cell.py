@@ -1,6 +1,6 @@
 """The shear cell's height: the default shear test (docs/SHEAR.md) in cells 10, 15 and 20
-mean diameters tall, three packing seeds each, cohesionless and cohesive; and the 10 d cell
-at half the default inertial number (5e-4), the rate check.
+mean diameters tall, three packing seeds each, cohesionless and cohesive; and the 10 and
+15 d cells at half the default inertial number (5e-4), the rate check.
 
     nice -n 19 env NUMBA_NUM_THREADS=1 python -m benchmarks.shear_cell   # runs not yet stored
     python -m benchmarks.shear_cell --report                              # the table
@@ -21,7 +21,9 @@ mean lies within the seeds' spread of the next taller cell's.
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
+import math
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -33,10 +35,10 @@ import engine
 ROOT = Path(__file__).resolve().parent.parent
 STORE = ROOT / "benchmarks" / "results" / "quick" / "shear"
 HEIGHTS = (10, 15, 20)  # mean diameters
-#: The default inertial number, and the rate check's half of it (in the 10 d cell).
+#: The default inertial number, and the rate check's half of it (in the 10 and 15 d cells).
 RATES = (1e-3, 5e-4)
 #: Every (height [d], inertial number [-]) run per law and seed, in the order they run.
-VARIANTS = (*((h, RATES[0]) for h in HEIGHTS), (HEIGHTS[0], RATES[1]))
+VARIANTS = (*((h, RATES[0]) for h in HEIGHTS), (HEIGHTS[0], RATES[1]), (HEIGHTS[1], RATES[1]))
 SEEDS = (1, 2, 3)
 LAWS = {
     "cohesionless": engine.ShearTest().pair_law,
@@ -307,6 +309,52 @@ def figure(height: int = HEIGHTS[0], seed: int = SEEDS[0]) -> Path:
     return FIGURE
 
 
+def convergence() -> str:
+    """Per law, each height against the next taller one (and the 10 d cell at half the rate
+    against the default rate): per quantity the difference of the seeds' means, relative to
+    the compared cell's mean, its Welch t, and OUT where it lies beyond the standard
+    deviation of the compared cell's seeds (the docstring's criterion, stated before the
+    runs; with three seeds a side it flags a difference of pure noise about a third of the
+    time, so the t is the better guide: |t| > 2.78 is a difference at 95 %); a quantity
+    with an infinite value is left out."""
+    keys = [k for k in REPORTED if k not in ("height_diameters", "cohesion_se")]
+    lines = [
+        "| law | cell | against | " + " | ".join(keys) + " |",
+        "|---" * (3 + len(keys)) + "|",
+    ]
+    pairs = [((h, RATES[0]), (h2, RATES[0])) for h, h2 in itertools.pairwise(HEIGHTS)]
+    pairs += [((h, RATES[1]), (h, RATES[0])) for h in HEIGHTS[:2]]
+    for law in LAWS:
+        for a, b in pairs:
+            va, vb = (
+                [json.loads(path_for(law, x[0], s, x[1]).read_text())["scalars"] for s in SEEDS]
+                for x in (a, b)
+            )
+            cells = []
+            for k in keys:
+                xa = np.array([r[k] for r in va], dtype=float)
+                xb = np.array([r[k] for r in vb], dtype=float)
+                if not (np.all(np.isfinite(xa)) and np.all(np.isfinite(xb))):
+                    cells.append("-")
+                    continue
+                diff = xa.mean() - xb.mean()
+                sd = xb.std(ddof=1)
+                # Welch's t of the difference (three seeds a side: |t| > 2.78, about 4
+                # degrees of freedom, is a difference at 95 %)
+                se = math.sqrt(xa.var(ddof=1) / xa.size + xb.var(ddof=1) / xb.size)
+                t = diff / se if se > 0 else math.inf
+                cells.append(
+                    f"{diff:+.3g} ({diff / abs(xb.mean()):+.1%}, t {t:+.1f}"
+                    f"{', OUT' if abs(diff) > sd else ''})"
+                )
+            lines.append(
+                f"| {law} | {a[0]} d, I {a[1]:g} | {b[0]} d, I {b[1]:g} | "
+                + " | ".join(cells)
+                + " |"
+            )
+    return "\n".join(lines)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--report", action="store_true", help="print the table of stored runs")
@@ -320,7 +368,7 @@ def main() -> None:
         print(figure())
         return
     if a.report:
-        print(steady_report() if a.steady else report())
+        print(steady_report() if a.steady else report() + "\n\n" + convergence())
         return
     if a.steady:
         steady(a.law or tuple(LAWS))

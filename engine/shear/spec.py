@@ -49,7 +49,9 @@ class ShearTest(Record):
 
     Attributes:
         cell: (Lx, Ly, H) [m]: periodic cross-section (x the shear direction) and the
-            height the bed fills at ``solid_fraction``.
+            height the bed fills at ``solid_fraction``; by default 10 x 5 x 15 diameters at
+            R = 2.5 mm, about 860 grains: the height at which the stored cells of 15 and 20
+            diameters agree and 10 does not (docs/SHEAR.md, "Cell height").
         radius, polydispersity, density, gravity, solid_fraction, pour_fraction,
         pour_speed, pair_law, wall_law, wall_material, settle_ke, seed, output_interval,
         dt, dt_fraction, max_stage_time: as :class:`engine.UniaxialTest` (gravity acts in
@@ -81,7 +83,7 @@ class ShearTest(Record):
     """
 
     cell: tuple[float, float, float] = param(
-        (0.05, 0.025, 0.05),
+        (0.05, 0.025, 0.075),
         unit="m",
         kind="list",
         max_items=3,

@@ -323,14 +323,15 @@ class _Shear:
     def preshear(self, cell: _Cell, share) -> dict:
         """Shear at the pre-shear stress, at least ``preshear_min_strain``, until two
         consecutive windows of ``steady_window`` shear strain have mean shear stresses
-        within ``steady_tolerance`` (and the mean normal stress of the last is within
-        ``servo_tolerance`` of the target); StageError at ``preshear_strain`` without it.
+        within ``steady_tolerance`` and mean lid heights within ``steady_height_tolerance``
+        (and the mean normal stress of the last is within ``servo_tolerance`` of the
+        target); StageError at ``preshear_strain`` without it.
         The pre-shear point is the mean (sigma, tau) over the last window."""
         t = self.test
         _, gap = cell.heights()
         v = self.shear_speed(gap, t.preshear_stress)
         w = t.steady_window
-        state = {"drift": math.inf}
+        state = {"drift": math.inf, "height_drift": math.inf}
 
         def windows(rows):
             a = np.array(rows)
@@ -345,10 +346,14 @@ class _Shear:
                 return False
             a, last, prev = windows(rows)
             t1, t0 = a[last, 3].mean(), a[prev, 3].mean()
+            h1, h0 = a[last, 7].mean(), a[prev, 7].mean()
             s1 = a[last, 5].mean()
             state["drift"] = abs(t1 - t0) / max(abs(t1), 1e-300)
-            steady = state["drift"] < t.steady_tolerance and (
-                abs(s1 - t.preshear_stress) < t.servo_tolerance * t.preshear_stress
+            state["height_drift"] = abs(h1 - h0) / h1
+            steady = (
+                state["drift"] < t.steady_tolerance
+                and state["height_drift"] < t.steady_height_tolerance
+                and abs(s1 - t.preshear_stress) < t.servo_tolerance * t.preshear_stress
             )
             if steady:
                 return True
@@ -357,7 +362,9 @@ class _Shear:
                     f"the pre-shear did not reach steady flow within {t.preshear_strain:g} "
                     f"shear strain: its mean shear stress changed by {state['drift']:.1%} "
                     f"over the last window of {w:g} (steady_tolerance "
-                    f"{t.steady_tolerance:g}), its mean normal stress is {s1:.4g} Pa "
+                    f"{t.steady_tolerance:g}), its mean lid height by "
+                    f"{state['height_drift']:.2%} (steady_height_tolerance "
+                    f"{t.steady_height_tolerance:g}), its mean normal stress is {s1:.4g} Pa "
                     f"(target {t.preshear_stress:.4g} Pa)",
                     "preshear",
                     0,
@@ -379,6 +386,7 @@ class _Shear:
             "tau": float(c["shear_stress"][last].mean()),
             "strain": float(c["shear_strain"][-1]),
             "drift": state["drift"],
+            "height_drift": state["height_drift"],
             "bulk_density": float(c["bulk_density"][last].mean()),
         }
 
@@ -482,6 +490,7 @@ class _Shear:
             "preshear_tau": pre["tau"],
             "preshear_strain": pre["strain"],
             "preshear_drift": float(pre["drift"]),
+            "preshear_height_drift": float(pre["height_drift"]),
             "cohesion": locus.cohesion,
             "cohesion_se": locus.cohesion_se,
             "friction_angle": locus.friction_angle,

@@ -103,6 +103,7 @@ SHEAR_SCALAR_UNITS = {
     "preshear_tau": "Pa",
     "preshear_strain": "1",
     "preshear_drift": "1",
+    "preshear_height_drift": "1",
     "cohesion": "Pa",
     "cohesion_se": "Pa",
     "friction_angle": "deg",

@@ -73,8 +73,12 @@ class ShearTest(Record):
         preshear_strain: the pre-shear ends at this shear strain at the latest [-].
         steady_window: the pre-shear's steady-state check compares the mean shear stress
             over the last two windows of this much shear strain [-] ...
-        steady_tolerance: ... which must differ by less than this fraction [-]; a pre-shear
-            that has not reached it by ``preshear_strain`` fails the test (StageError).
+        steady_tolerance: ... which must differ by less than this fraction [-], and their
+            mean lid heights by less than ``steady_height_tolerance`` [-] (a bed still
+            compacting is not in steady flow: the stored long pre-shears' window-to-window
+            height changes are within 0.7 % once steady, 1.3-3.8 % while a cohesive bed
+            compacts); a pre-shear that has not reached both by ``preshear_strain`` fails
+            the test (StageError).
         failure_strain: a shear to failure ends at this shear strain at the latest [-].
         failure_drop: a shear to failure ends once its shear stress (mean of three curve
             samples) has fallen this fraction below its peak [-].
@@ -160,6 +164,9 @@ class ShearTest(Record):
     )
     failure_drop: float = param(
         0.05, unit="1", gt=0, lt=1, doc="drop below the peak that ends a shear to failure"
+    )
+    steady_height_tolerance: float = param(
+        0.01, unit="1", gt=0, lt=1, doc="steady: two windows' mean lid heights this close"
     )
     servo_tolerance: float = param(
         0.02, unit="1", gt=0, lt=0.5, doc="normal stress held this close before shearing"

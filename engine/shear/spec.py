@@ -76,7 +76,7 @@ class ShearTest(Record):
         steady_tolerance: ... which must differ by less than this fraction [-], and their
             mean lid heights by less than ``steady_height_tolerance`` [-] (a bed still
             compacting is not in steady flow: the stored long pre-shears' window-to-window
-            height changes are within 0.7 % once steady, 1.3-3.8 % while a cohesive bed
+            height changes are within 0.75 % once steady, 1.2-3.8 % while a cohesive bed
             compacts); a pre-shear that has not reached both by ``preshear_strain`` fails
             the test (StageError).
         failure_strain: a shear to failure ends at this shear strain at the latest [-].

@@ -164,6 +164,7 @@ class _Shear:
         self.t_wall = time.perf_counter()
         self.stages: dict[str, ShearStage] = {}
         self.d = 2.0 * test.radius
+        self.last_fraction = 0.0
 
     # ------------------------------------------------------------------ progress
     def report(self, stage: str, fraction: float, sim, share: tuple[float, float]) -> None:
@@ -171,8 +172,10 @@ class _Shear:
             return
         f = min(max(fraction, 0.0), 1.0)
         lo, hi = share
+        # stresses fluctuate: never report less progress than before
+        self.last_fraction = max(self.last_fraction, lo + (hi - lo) * f)
         answer = self.progress(
-            Progress(lo + (hi - lo) * f, stage, f, sim.time, sim.steps, "running")
+            Progress(self.last_fraction, stage, f, sim.time, sim.steps, "running")
         )
         if answer is False:
             raise StopRequested(f"stopped by the progress callback during {stage}")

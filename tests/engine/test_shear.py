@@ -234,7 +234,9 @@ def test_a_shear_test_gives_its_locus_curves_and_progress(cohesionless):
         assert p.peaked
         assert abs(p.sigma - p.target) < 0.05 * p.target
         assert 0 < p.tau < res.scalars["preshear_tau"]
-    # progress is monotonic within the consolidation, reaches the shear stages
+    # progress never goes back and reaches the last shear stage
+    fractions = [f for _, f in seen]
+    assert fractions == sorted(fractions) and 0 <= fractions[0] and fractions[-1] <= 1
     assert seen[-1][0] == "point3_shear"
     assert res.scalars["sigma_1"] > res.scalars["preshear_sigma"]
     assert res.scalars["bulk_density"] < t.density

@@ -54,7 +54,7 @@ class Settings(BaseSettings):
     # admission limits of a study
     max_particles_per_run: int = Field(50_000, gt=0, description="Largest run allowed [-].")
     max_particle_steps: float = Field(
-        1e11, gt=0, description="Largest worst-case particle-steps of a whole study [-]."
+        2e11, gt=0, description="Largest worst-case particle-steps of a whole study [-]."
     )
     max_calibration_particle_steps: float = Field(
         3e11,

@@ -44,6 +44,11 @@ SERVO_TRANSITS = 2.0
 #: Integral time of the servo over its relaxation time [-] (removes the lag a steadily
 #: dilating bed would otherwise keep).
 SERVO_INTEGRAL = 5.0
+#: Updates in a row with the lid at its speed limit, each the other way, after which the
+#: servo's gain is halved (a period-2 oscillation: the bed stiffer than estimated; an EEPA
+#: bed, n = 1.5, oscillated so after a reversal at 2 kPa, in development). A servo that
+#: works never saturates both ways in a row.
+SERVO_FLIPS = 4
 #: The servo integrates its error only while it is below this fraction of the target [-]
 #: (conditional integration: a large step of the target, 10 to 3 kPa, is taken by the
 #: proportional term alone and leaves no integral to unwind).
@@ -66,6 +71,8 @@ class _Cell:
         self.vx = 0.0
         self.vz = 0.0
         self.integral = 0.0
+        self.flips = 0  # consecutive updates at the speed limit, each the other way
+        self.last_sign = 0
         self.x = 0.0  # lid displacement along x since the start of the shear [m]
         m = sim.masses
         self.m_free = m[self.free]
@@ -147,7 +154,23 @@ class _Cell:
             # anti-windup: the integral term alone never asks for more than the speed limit
             lim = vmax * ti / g
             self.integral = min(max(self.integral, -lim), lim)
-            self.vz = min(max(g * (e + self.integral / ti), -vmax), vmax)
+            v = g * (e + self.integral / ti)
+            self.vz = min(max(v, -vmax), vmax)
+            # the guard: the lid at its speed limit, the other way at each update, for
+            # SERVO_FLIPS updates in a row, is the period-2 oscillation of a gain too high
+            # for this bed (its stiffness underestimated): halve the gain, start again
+            sign = 0 if abs(v) < vmax else (1 if v > 0 else -1)
+            self.flips = self.flips + 1 if sign != 0 and sign == -self.last_sign else 0
+            self.last_sign = sign
+            if self.flips >= SERVO_FLIPS:
+                self.servo["gain"] *= 0.5
+                self.servo["relaxation_time"] *= 2.0
+                self.servo["integral_time"] *= 2.0
+                self.servo["halvings"] += 1
+                g, ti = self.servo["gain"], self.servo["integral_time"]
+                self.integral = 0.0
+                self.flips = 0
+                self.vz = 0.0
             self.set_lid()
             if stop is not None and stop(r):
                 hit = True
@@ -230,13 +253,12 @@ class _Shear:
         sim.set_wall_position(0, (0.0, 0.0, low - 0.25 * t.radius))
         sim.set_wall_position(1, (0.0, 0.0, top + 1e3 * t.radius))
         # the servo: the bed's stiffness E from the consolidation's loading curve (the secant
-        # over its upper half), times K2 / K1 for its stiffer unloading branch; its relaxation
-        # time SERVO_TRANSITS wave transits h sqrt(rho_b / E), at least 4 servo updates
+        # over its upper half), times the law's unloading stiffness over its loading secant
+        # (unloading_ratio); its relaxation time SERVO_TRANSITS wave transits
+        # h sqrt(rho_b / E), at least 4 servo updates
         cons = d.stages["pre_compression"].curves
         e_load = secant_slope(cons["strain"], cons["stress_top"], 0.5, 1.0)
-        law = t.pair_law
-        ratio = max(1.0, getattr(law, "k2", 1.0) / getattr(law, "k1", 1.0))
-        stiff = e_load * ratio
+        stiff = e_load * unloading_ratio(t.pair_law)
         cell = _Cell(t, sim, base, lid, {})
         _, gap = cell.heights()
         rho_b = cell.bulk_density()
@@ -253,6 +275,7 @@ class _Shear:
             "integral_time": SERVO_INTEGRAL * relax,
             "max_speed": t.max_shear_speed,
             "relaxation_time": relax,
+            "halvings": 0,
         }
         return cell
 
@@ -273,7 +296,7 @@ class _Shear:
         sim = cell.sim
         cell.vx = vx
         cell.set_lid()
-        sample = max(SERVO_STEPS, round(t.output_interval / sim.dt))
+        sample = SERVO_STEPS * max(1, round(t.output_interval / sim.dt / SERVO_STEPS))
         max_steps = round(t.max_stage_time / sim.dt)
         x0 = cell.x
         _, h0 = cell.heights()
@@ -477,11 +500,13 @@ class _Shear:
         stored = pickle.dumps(cell)
         points = []
         steps = sim.steps  # every step run: the fill, consolidation, pre-shear, each branch
+        halvings = cell.servo["halvings"]
         for k, target in enumerate(t.normal_stresses):
             branch = pickle.loads(stored)
             lo = pre_share[1] + span / (n + 1) * k
             points.append(self.point(branch, k, target, (lo, lo + span / (n + 1))))
             steps += branch.sim.steps - sim.steps
+            halvings = max(halvings, branch.servo["halvings"])
         try:
             locus = yield_locus(
                 [p.sigma for p in points], [p.tau for p in points], pre["sigma"], pre["tau"]
@@ -511,6 +536,7 @@ class _Shear:
             "particles": float(sim.n),
             "servo_time": cell.servo["relaxation_time"],
             "servo_gain": cell.servo["gain"],
+            "servo_halvings": float(halvings),
             "steps": float(steps),
             "dt": sim.dt,
             "wall_time": time.perf_counter() - self.t_wall - self.setup_time,
@@ -519,6 +545,17 @@ class _Shear:
         if bad:
             raise FloatingPointError(f"non-finite scalars {bad}: the shear test is not usable")
         return ShearResult(t, dict(d.stages), self.stages, tuple(points), locus, s)
+
+
+def unloading_ratio(law) -> float:
+    """A contact's unloading tangent stiffness over its loading secant stiffness [-], the
+    factor from the bed's loading secant to the stiffness the servo sizes its gain by: for
+    a law f = K1 d^n on loading and K2 (d^n - d_p^n) on unloading (the bilinear law, n = 1;
+    EEPA, its n), n K2 / K1; for Hertz (f ~ d^1.5, elastic), 1.5."""
+    k1, k2 = getattr(law, "k1", None), getattr(law, "k2", None)
+    if k1 is None or k2 is None:
+        return 1.5
+    return max(1.0, float(getattr(law, "n", 1.0)) * k2 / k1)
 
 
 def _smoothed(strain: np.ndarray, values: np.ndarray, window: float) -> np.ndarray:

@@ -121,6 +121,7 @@ SHEAR_SCALAR_UNITS = {
     "particles": "1",
     "servo_time": "s",
     "servo_gain": "m/(s Pa)",
+    "servo_halvings": "1",
     "steps": "1",
     "dt": "s",
     "wall_time": "s",

@@ -199,6 +199,22 @@ def test_the_servo_holds_the_normal_stress_on_an_elastic_bed():
     assert SERVO_STEPS * cell.sim.dt < relax / 4
 
 
+def test_the_servo_guard_tames_a_gain_far_too_high():
+    """The same bed with the servo's gain made 64 times its design value: the lid swings
+    between its speed limits, the guard halves the gain until it stops (at least once), and
+    the normal stress then settles within 1 % of the target as in the test above."""
+    law = engine.HertzMindlin(E=5e7, nu=0.25, restitution=0.4, mu=0.5)
+    sh = _Shear(tiny(pair_law=law), None)
+    cell = sh.glue(sh.consolidate())
+    g0 = cell.servo["gain"]
+    steps = round(10 * cell.servo["relaxation_time"] / cell.sim.dt)
+    cell.servo["gain"] = 64 * g0
+    cell.advance(steps, 4e3)
+    means, _ = cell.advance(steps, 4e3)
+    assert cell.servo["halvings"] >= 1 and cell.servo["gain"] < 64 * g0
+    assert abs(means[1] - 4e3) < 0.01 * 4e3
+
+
 # ---------------------------------------------------------------------- whole tests
 @pytest.fixture(scope="module")
 def cohesionless():
@@ -304,3 +320,15 @@ def test_a_result_has_a_json_form(cohesionless):
     assert engine.ShearTest.from_dict(d["test"]) == res.test
     assert [p["kind"] for p in d["points"]] == ["preshear"] + ["failure"] * 4
     assert d["locus"]["sigma_1"] == res.locus.sigma_1
+
+
+def test_an_eepa_bed_gives_a_yield_locus():
+    """The non-linear EEPA law (n = 1.5, pull-off 0.1 N): every point peaked at its normal
+    stress within 5 % (its servo gain from n K2 / K1; an EEPA bed's servo once failed to
+    settle here) and the bed has a cohesion significantly above zero."""
+    law = engine.EEPA(k1=5e5, k2=2.5e6, f0=-0.1, n=1.5, chi=1.5)
+    res = engine.run_shear(tiny(pair_law=law))
+    for p in res.points:
+        assert p.peaked and abs(p.sigma - p.target) < 0.05 * p.target
+    s = res.scalars
+    assert s["cohesion"] > T_975_2DOF * s["cohesion_se"] > 0

@@ -50,8 +50,9 @@ class ShearTest(Record):
     Attributes:
         cell: (Lx, Ly, H) [m]: periodic cross-section (x the shear direction) and the
             height the bed fills at ``solid_fraction``; by default 10 x 5 x 15 diameters at
-            R = 2.5 mm, about 860 grains: the height at which the stored cells of 15 and 20
-            diameters agree and 10 does not (docs/SHEAR.md, "Cell height").
+            R = 2.5 mm, about 860 grains: of the stored cells 10, 15 and 20 diameters tall,
+            the lowest that agrees with the next within about a standard error on every
+            reported quantity (docs/SHEAR.md, "Cell height and rate").
         radius, polydispersity, density, gravity, solid_fraction, pour_fraction,
         pour_speed, pair_law, wall_law, wall_material, settle_ke, seed, output_interval,
         dt, dt_fraction, max_stage_time: as :class:`engine.UniaxialTest` (gravity acts in
@@ -68,7 +69,7 @@ class ShearTest(Record):
             (or of the lid) are glued to it [-].
         preshear_min_strain: the pre-shear runs at least this shear strain (lid
             displacement over the gap) [-]: in the stored long pre-shears the shear stress
-            has levelled off by 0.2-0.3 (cohesionless) and 0.5-0.6 (cohesive) (docs/SHEAR.md,
+            has levelled off by 0.1-0.2 (cohesionless) and 0.5-0.6 (cohesive) (docs/SHEAR.md,
             "Steady flow").
         preshear_strain: the pre-shear ends at this shear strain at the latest [-].
         steady_window: the pre-shear's steady-state check compares the mean shear stress
@@ -80,8 +81,8 @@ class ShearTest(Record):
             compacts); a pre-shear that has not reached both by ``preshear_strain`` fails
             the test (StageError).
         failure_strain: a shear to failure ends at this shear strain at the latest [-].
-        failure_drop: a shear to failure ends once its shear stress (mean of three curve
-            samples) has fallen this fraction below its peak [-].
+        failure_drop: a shear to failure ends once its shear stress (smoothed over 0.01
+            shear strain) has fallen this fraction below its peak [-].
         servo_tolerance: the normal stress before a shear to failure is held within this
             fraction of its target [-].
     """

@@ -1,6 +1,7 @@
 """The shear cell's height: the default shear test (docs/SHEAR.md) in cells 10, 15 and 20
-mean diameters tall, three packing seeds each, cohesionless and cohesive; and the 10 and
-15 d cells at half the default inertial number (5e-4), the rate check.
+mean diameters tall, six packing seeds each (1-3 first, then 4-6), cohesionless and
+cohesive; and the 10 and 15 d cells at half the default inertial number (5e-4), the rate
+check.
 
     nice -n 19 env NUMBA_NUM_THREADS=1 python -m benchmarks.shear_cell   # runs not yet stored
     python -m benchmarks.shear_cell --report                              # the table
@@ -39,7 +40,9 @@ HEIGHTS = (10, 15, 20)  # mean diameters
 RATES = (1e-3, 5e-4)
 #: Every (height [d], inertial number [-]) run per law and seed, in the order they run.
 VARIANTS = (*((h, RATES[0]) for h in HEIGHTS), (HEIGHTS[0], RATES[1]), (HEIGHTS[1], RATES[1]))
-SEEDS = (1, 2, 3)
+SEEDS = (1, 2, 3, 4, 5, 6)
+#: The seeds of the long pre-shears (--steady).
+LONG_SEEDS = (1, 2, 3)
 LAWS = {
     "cohesionless": engine.ShearTest().pair_law,
     # tests/engine/test_shear.py's cohesive law: pull-off 0.4 N, about the contact force
@@ -129,14 +132,14 @@ def run(laws) -> None:
 
 def steady(laws) -> None:
     """Long pre-shears (to shear strain ``LONG_STRAIN``, no steady-state stop) of the
-    10-diameter cell, three seeds per law: the curves that the pre-shear's defaults
+    10-diameter cell, seeds 1-3 per law: the curves that the pre-shear's defaults
     (``preshear_min_strain``, ``steady_window``, ``steady_tolerance``) are judged on, stored
     as ``<law>-long-s<seed>.npz``. Runs the shear driver's stages directly (the public
     run_shear stops at steady flow)."""
     from engine.shear.driver import _Shear
 
     for law in laws:
-        for seed in SEEDS:
+        for seed in LONG_SEEDS:
             p = STORE / f"{law}-long-s{seed}.npz"
             if p.exists():
                 continue
@@ -168,7 +171,7 @@ def steady_report() -> str:
     one's (the steady-state check's quantity)."""
     lines = []
     for law in LAWS:
-        for seed in SEEDS:
+        for seed in LONG_SEEDS:
             p = STORE / f"{law}-long-s{seed}.npz"
             if not p.exists():
                 continue
@@ -313,10 +316,12 @@ def convergence() -> str:
     """Per law, each height against the next taller one (and the 10 d cell at half the rate
     against the default rate): per quantity the difference of the seeds' means, relative to
     the compared cell's mean, its Welch t, and OUT where it lies beyond the standard
-    deviation of the compared cell's seeds (the docstring's criterion, stated before the
-    runs; with three seeds a side it flags a difference of pure noise about a third of the
-    time, so the t is the better guide: |t| > 2.78 is a difference at 95 %); a quantity
-    with an infinite value is left out."""
+    deviation of the compared cell's seeds (the module docstring's criterion, stated before
+    the runs; it flags a difference of pure noise about a third of the time), and SIG where
+    Welch's test finds a difference at 95 % (two-sided, Welch-Satterthwaite degrees of
+    freedom); a quantity with an infinite value in any run is left out."""
+    from scipy.stats import t as student_t
+
     keys = [k for k in REPORTED if k not in ("height_diameters", "cohesion_se")]
     lines = [
         "| law | cell | against | " + " | ".join(keys) + " |",
@@ -327,9 +332,15 @@ def convergence() -> str:
     for law in LAWS:
         for a, b in pairs:
             va, vb = (
-                [json.loads(path_for(law, x[0], s, x[1]).read_text())["scalars"] for s in SEEDS]
+                [
+                    json.loads(p.read_text())["scalars"]
+                    for p in (path_for(law, x[0], s, x[1]) for s in SEEDS)
+                    if p.exists()
+                ]
                 for x in (a, b)
             )
+            if len(va) < 2 or len(vb) < 2:
+                continue
             cells = []
             for k in keys:
                 xa = np.array([r[k] for r in va], dtype=float)
@@ -339,13 +350,15 @@ def convergence() -> str:
                     continue
                 diff = xa.mean() - xb.mean()
                 sd = xb.std(ddof=1)
-                # Welch's t of the difference (three seeds a side: |t| > 2.78, about 4
-                # degrees of freedom, is a difference at 95 %)
-                se = math.sqrt(xa.var(ddof=1) / xa.size + xb.var(ddof=1) / xb.size)
+                # Welch's t of the difference and its two-sided 95 % critical value
+                ea, eb = xa.var(ddof=1) / xa.size, xb.var(ddof=1) / xb.size
+                se = math.sqrt(ea + eb)
                 t = diff / se if se > 0 else math.inf
+                df = (ea + eb) ** 2 / (ea**2 / (xa.size - 1) + eb**2 / (xb.size - 1) or 1e-300)
+                sig = abs(t) > student_t.ppf(0.975, df)
                 cells.append(
                     f"{diff:+.3g} ({diff / abs(xb.mean()):+.1%}, t {t:+.1f}"
-                    f"{', OUT' if abs(diff) > sd else ''})"
+                    f"{', SIG' if sig else ''}{', OUT' if abs(diff) > sd else ''})"
                 )
             lines.append(
                 f"| {law} | {a[0]} d, I {a[1]:g} | {b[0]} d, I {b[1]:g} | "

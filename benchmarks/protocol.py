@@ -271,7 +271,7 @@ BENCHMARK = (
     + [("ref", "default", s) for s in (1, 2, 3)]
     + [("ref", "half", s) for s in (1, 2, 3)]
     + [("b2", "seed", 4)]
-    + [("b2_375", "default", s) for s in (1, 2, 3)]
+    + [("b2_375", "default", s) for s in (1, 2, 3, 4, 5)]
 )
 
 

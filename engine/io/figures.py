@@ -32,7 +32,7 @@ KINDS = {
     "particle diameter / sample thickness [-]",
 }
 #: Bumped when a figure's drawing changes, so that cached PNGs are drawn again.
-FIGURES_VERSION = 3
+FIGURES_VERSION = 4
 
 #: Kinds drawn from the advisor on a whole figure (several panels), not from the curves.
 _WHOLE_FIGURE = ("error_vs_runtime", "resolution")
@@ -108,6 +108,21 @@ def _mean_band(
     grid = np.linspace(lo, hi, n)
     a = np.array([np.interp(grid, px, py) for px, py in parts])
     return grid, a.mean(axis=0), a.std(axis=0, ddof=1)
+
+
+def _unconfined_stress(runs: dict) -> str:
+    """The unconfined curve to draw: ``stress_interior`` (the interior's axial contact-virial
+    stress [Pa], which a test at the default protocol reads its strength from) where every
+    run's unconfined stage has it finite, else ``stress_top`` (the seed's protocol, and runs
+    stored before the interior curve existed)."""
+    for r in runs.values():
+        c = r["stages"].get("unconfined")
+        if c is None:
+            continue
+        v = c.get("stress_interior")
+        if v is None or not np.all(np.isfinite(np.asarray(v, dtype=float))):
+            return "stress_top"
+    return "stress_interior"
 
 
 def _plot_groups(
@@ -542,16 +557,23 @@ def draw(ax, kind: str, runs: dict, table: list[dict]) -> None:
         ax.set_xlabel("top platen stress [kPa]")
         ax.set_ylabel("coordination number [-]")
     elif kind == "unconfined":
+        # the curve a strength is read from: the interior's contact-virial stress where every
+        # run has it (the default protocol's strength_from), else the top platen's
+        key = _unconfined_stress(runs)
         _plot_groups(
             ax,
             runs,
             table,
-            lambda c: (np.asarray(c["strain"]) * 100, np.asarray(c["stress_top"]) * 1e-3),
+            lambda c: (np.asarray(c["strain"]) * 100, np.asarray(c[key]) * 1e-3),
             (("unconfined", True),),
             ("-",),
         )
         ax.set_xlabel("axial strain since release [%]")
-        ax.set_ylabel("top platen stress [kPa]")
+        ax.set_ylabel(
+            "interior axial stress (contact virial) [kPa]"
+            if key == "stress_interior"
+            else "top platen stress [kPa]"
+        )
     else:
         raise ValueError(f"{kind} is drawn on a whole figure: use figure()")
     if ax.get_legend_handles_labels()[0]:

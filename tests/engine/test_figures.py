@@ -124,3 +124,19 @@ def test_the_sd_band_stops_at_zero_stress(tmp_path):
     assert all(any(u in t for u in ("[kPa]", "[%]", "[-]", "[s]")) for t in KINDS.values()), (
         "units in every title"
     )
+
+
+def test_the_unconfined_plot_draws_the_curve_the_strength_is_read_from():
+    # the default protocol reads a strength from the interior's virial stress: drawn where
+    # every run has it; a run without it (the seed's protocol) makes it the top platen's
+    from engine.io.figures import _unconfined_stress
+
+    def run(interior):
+        c = {"strain": [0.0, 0.01], "stress_top": [0.0, 1.0]}
+        if interior is not None:
+            c["stress_interior"] = interior
+        return {"stages": {"unconfined": c}}
+
+    assert _unconfined_stress({"a": run([0.0, 2.0]), "b": run([1.0, 3.0])}) == "stress_interior"
+    assert _unconfined_stress({"a": run([0.0, 2.0]), "b": run(None)}) == "stress_top"
+    assert _unconfined_stress({"a": run([0.0, float("nan")])}) == "stress_top"

@@ -50,9 +50,10 @@ class ShearTest(Record):
     Attributes:
         cell: (Lx, Ly, H) [m]: periodic cross-section (x the shear direction) and the
             height the bed fills at ``solid_fraction``; by default 10 x 5 x 15 diameters at
-            R = 2.5 mm, about 860 grains: of the stored cells 10, 15 and 20 diameters tall,
-            the lowest that agrees with the next within about a standard error on every
-            reported quantity (docs/SHEAR.md, "Cell height and rate").
+            R = 2.5 mm, about 860 grains: of the stored cells 10, 15 and 20 diameters tall
+            none differs significantly from the next (six seeds), and halving the rate
+            changed the 10 d cell's results significantly, the 15 d cell's not
+            (docs/SHEAR.md, "Cell height and rate").
         radius, polydispersity, density, gravity, solid_fraction, pour_fraction,
         pour_speed, pair_law, wall_law, wall_material, settle_ke, seed, output_interval,
         dt, dt_fraction, max_stage_time: as :class:`engine.UniaxialTest` (gravity acts in
@@ -76,10 +77,10 @@ class ShearTest(Record):
             over the last two windows of this much shear strain [-] ...
         steady_tolerance: ... which must differ by less than this fraction [-], and their
             mean lid heights by less than ``steady_height_tolerance`` [-] (a bed still
-            compacting is not in steady flow: the stored long pre-shears' window-to-window
-            height changes are within 0.75 % once steady, 1.2-3.8 % while a cohesive bed
-            compacts); a pre-shear that has not reached both by ``preshear_strain`` fails
-            the test (StageError).
+            compacting is not in steady flow: in the stored long pre-shears the
+            window-to-window height changes reach about 1 % in steady flow, 2.6-3.6 % while
+            a cohesive bed compacts at 0.2-0.4 strain); a pre-shear that has not reached
+            both by ``preshear_strain`` fails the test (StageError).
         failure_strain: a shear to failure ends at this shear strain at the latest [-].
         failure_drop: a shear to failure ends once its shear stress (smoothed over 0.01
             shear strain) has fallen this fraction below its peak [-].

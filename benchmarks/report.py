@@ -696,6 +696,12 @@ def write_report(
                 "The smoke-test scale of the same experiments (`--scale quick`, 2,292 particles "
                 "per reference) is in [VALIDATION_quick.md](VALIDATION_quick.md).",
                 "",
+                "These experiments run at the seed's protocol (dt = 1e-5 s, 10 mm/s). The seed's "
+                "rule re-judged at the default protocol (experiment (b)'s b = 2 at both radii "
+                "against a default-protocol reference) is in [PROTOCOL.md](PROTOCOL.md); the "
+                "resolution curve of the main job's reference law, how many diameters across "
+                "each property needs, in [RESOLUTION.md](RESOLUTION.md).",
+                "",
             ]
             if scale == "paper"
             else [

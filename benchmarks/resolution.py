@@ -13,10 +13,10 @@ preset's 10 x 10 x 60-diameter column of R = 2.5 mm spheres, f0 = -0.4 N, at the
 protocol) scaled as a study's resolution control scales it
 (:func:`engine.study.plan.control_test`): the cell by s, gravity by 1 / s, so that the
 aspect (height six times the side) and the overburden rho g H stay, and the law, particle
-and loading at the same inertial number stay too. Sizes 5, 6.7, 10, 15 and 20 diameters
-across (s = 0.5, 0.67, 1, 1.5, 2: 859 to 55,004 particles), seeds 1 to 3 each. Sizes 5, 6.7
-and 10 are the main job's controls and references, the same tests, which ``--import`` takes
-from a main job's results file instead of running them again.
+and loading at the same inertial number stay too. Sizes 5, 6.7, 8, 10, 15 and 20 diameters
+across (s = 0.5 to 2: 859 to 55,004 particles), seeds 1 to 3 each. Sizes 6.7, 8 and 10 are
+the main job's controls (R = 3.75 and 3.125 mm) and references, the same tests, which
+``--import`` takes from a main job's results file instead of running them again.
 
 What decides, fixed before any run (docs/PHYSICS.md section 7.5): per property, the line of
 log value against d / L through the sizes' means (:func:`engine.study.resolution.fit_curve`)
@@ -29,8 +29,8 @@ sets the coarsest particle for a feature L wide, d = L / n.
 Every run is stored at once as ``benchmarks/results/quick/resolution/d<size>-s<seed>.h5``
 (:mod:`engine.io.store`), one at a time on one engine thread, with a checkpoint beside it
 (``.checkpoints/``, not tracked) from which a run cut off resumes bit for bit; ``--commit``
-commits each stored run. The interior margin is the main job's (20 mm at 10 diameters,
-scaled with the cell: 4 reference diameters at every size).
+commits each stored run. The interior margin is the main job's (15 mm at 10 diameters,
+scaled with the cell: 3 reference diameters at every size).
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ ROOT = Path(__file__).resolve().parent.parent
 STORE = ROOT / "benchmarks" / "results" / "quick" / "resolution"
 REPORT = ROOT / "docs" / "RESOLUTION.md"
 #: Sample sizes [diameters across]; the reference's is 10.
-SIZES = (5.0, 20.0 / 3.0, 10.0, 15.0, 20.0)
+SIZES = (5.0, 20.0 / 3.0, 8.0, 10.0, 15.0, 20.0)
 REFERENCE_SIZE = 10.0
 SEEDS = (1, 2, 3)
 #: Wall time between two checkpoints of a run in flight [s].
@@ -74,12 +74,16 @@ def size_label(size: float) -> str:
     return f"d{size:.3g}"
 
 
-def reference() -> engine.UniaxialTest:
-    """The main job's reference run as its study plans it (the interior margin of two
-    diameters of the study's coarsest particle, 20 mm, included)."""
-    from engine.study.plan import plan
+#: The interior margin of the 10-diameter sample [m]: the main job's (two diameters of its
+#: coarsest particle, R = 3.75 mm), fixed here so that the stored runs stay this
+#: benchmark's whatever the default study becomes; scaled with the cell at other sizes.
+INTERIOR_MARGIN = 0.015
 
-    return plan(engine.default_study()).runs[0].test
+
+def reference() -> engine.UniaxialTest:
+    """The main job's reference test (``engine.default_study().reference``) with the interior
+    margin :data:`INTERIOR_MARGIN`: the test its study plans for ``ref-s<seed>``."""
+    return replace(engine.default_study().reference, interior_margin=INTERIOR_MARGIN)
 
 
 def size_test(size: float, seed: int) -> engine.UniaxialTest:

@@ -57,7 +57,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -66,7 +65,8 @@ from types import SimpleNamespace
 import numpy as np
 
 import engine
-from engine.io.store import load_run, save_run
+from benchmarks.checks import run_and_store
+from engine.io.store import load_run
 from engine.study.metrics import metric_names, metric_values
 from engine.uniaxial.measures import failed_by_curve
 
@@ -290,33 +290,6 @@ def _stored(path: Path, test: engine.UniaxialTest):
     return out if isinstance(out, str) or out.test == test else None
 
 
-def _run_and_store(test: engine.UniaxialTest, path: Path, commit: bool) -> str:
-    import numba
-
-    from engine.uniaxial.checkpoint import Checkpoint
-
-    numba.set_num_threads(1)
-    ckpt = Checkpoint(path.parent / ".checkpoints" / f"{path.stem}.ckpt", CHECKPOINT_INTERVAL)
-    t0 = time.perf_counter()
-    try:
-        outcome = engine.run_uniaxial(test, checkpoint=ckpt)
-    except Exception as e:  # stored as the run's error, as the studies store it
-        outcome = f"{type(e).__name__}: {e}"
-    save_run(path, outcome, keep_particles=False)
-    ckpt.remove()
-    resumed = "" if ckpt.resumed_steps is None else f", resumed at step {ckpt.resumed_steps}"
-    if commit:
-        rel = str(path.relative_to(ROOT))
-        for _ in range(30):  # another engineer's commit may hold the index for a moment
-            if not (ROOT / ".git" / "index.lock").exists():
-                break
-            time.sleep(2)
-        subprocess.call(["git", "add", rel], cwd=ROOT)
-        msg = f"Protocol benchmark: {path.stem} stored ({time.perf_counter() - t0:.0f} s)"
-        subprocess.call(["git", "commit", "-q", "-m", msg, "--", rel], cwd=ROOT)
-    return f"{path.stem}: {time.perf_counter() - t0:.0f} s{resumed}"
-
-
 def job(sample: str, tag: str, seed: int) -> tuple[engine.UniaxialTest, Path]:
     if tag == "half":
         t = half_test(sample, seed)
@@ -331,7 +304,11 @@ def run_paper(jobs, commit: bool = False) -> None:
         if _stored(path, test) is not None:
             continue
         print(time.strftime("%H:%M"), "running", path.stem, flush=True)
-        print("  stored", _run_and_store(test, path, commit), flush=True)
+        print(
+            "  stored",
+            run_and_store(test, path, "Protocol benchmark", commit, CHECKPOINT_INTERVAL),
+            flush=True,
+        )
 
 
 # ---------------------------------------------------------------------------- judging

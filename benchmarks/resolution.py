@@ -37,14 +37,13 @@ from __future__ import annotations
 
 import argparse
 import math
-import subprocess
-import time
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 import engine
+from benchmarks.checks import commit_stored, run_and_store
 from engine.io.store import load_run, save_run
 from engine.study.metrics import DEFAULT_TOLERANCES, metric_values
 from engine.study.plan import control_test
@@ -116,36 +115,14 @@ def stored(size: float, seed: int):
     return out if isinstance(out, str) or out.test == size_test(size, seed) else None
 
 
-def _commit(path: Path, message: str) -> None:
-    rel = str(path.relative_to(ROOT))
-    for _ in range(30):  # another engineer's commit may hold the index for a moment
-        if not (ROOT / ".git" / "index.lock").exists():
-            break
-        time.sleep(2)
-    subprocess.call(["git", "add", rel], cwd=ROOT)
-    subprocess.call(["git", "commit", "-q", "-m", message, "--", rel], cwd=ROOT)
-
-
 def run_one(size: float, seed: int, commit: bool = False) -> str:
-    import numba
-
-    from engine.uniaxial.checkpoint import Checkpoint
-
-    numba.set_num_threads(1)
-    path = run_path(size, seed)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    ckpt = Checkpoint(path.parent / ".checkpoints" / f"{path.stem}.ckpt", CHECKPOINT_INTERVAL)
-    t0 = time.perf_counter()
-    try:
-        outcome = engine.run_uniaxial(size_test(size, seed), checkpoint=ckpt)
-    except Exception as e:  # stored as the run's error, as the studies store it
-        outcome = f"{type(e).__name__}: {e}"
-    save_run(path, outcome, keep_particles=False)
-    ckpt.remove()
-    took = time.perf_counter() - t0
-    if commit:
-        _commit(path, f"Resolution benchmark: {path.stem} stored ({took:.0f} s)")
-    return f"{path.stem}: {took:.0f} s"
+    return run_and_store(
+        size_test(size, seed),
+        run_path(size, seed),
+        "Resolution benchmark",
+        commit,
+        CHECKPOINT_INTERVAL,
+    )
 
 
 def import_study(results: Path, commit: bool = False) -> list[str]:
@@ -169,7 +146,9 @@ def import_study(results: Path, commit: bool = False) -> list[str]:
             path.parent.mkdir(parents=True, exist_ok=True)
             save_run(path, run, keep_particles=False)
             if commit:
-                _commit(path, f"Resolution benchmark: {path.stem} stored (the main job's {key})")
+                commit_stored(
+                    path, f"Resolution benchmark: {path.stem} stored (the main job's {key})"
+                )
             done.append(f"{path.stem} <- {key}")
     return done
 

@@ -366,7 +366,7 @@ def _stop_reason(spec, planned, outcomes, added, otherwise: str) -> str:
     names, ref_values, variants, controls = _judged_values(spec, planned, outcomes)
     if not ref_values:
         return "no reference run finished"
-    look = spec.looks if spec.decide else 1  # it stops here: its last look (final_look)
+    look = final_look(spec, added, stopped=otherwise)  # it stops here: its last look
     _, verdicts = judge_groups(
         spec, ref_values, variants, names, look=look, looks=spec.looks, controls=controls
     )

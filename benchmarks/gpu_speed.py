@@ -349,7 +349,10 @@ def main(argv=None) -> int:
                     False,
                 ),
                 (f"experiment (b)'s 15 runs <= {TARGET_BATCH_S:.0f} s: {why}: not measured", False),
-                (f"GPU and CPU bulk curves within the noise floor: {why}: not measured", False),
+                (
+                    f"GPU and CPU bulk curves within a second seed's bound: {why}: not measured",
+                    False,
+                ),
             ]
         )
     from numba import cuda

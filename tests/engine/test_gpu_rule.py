@@ -37,3 +37,25 @@ def test_a_gross_bias_on_every_metric_is_caught():
 def test_the_bound_needs_two_seeds():
     with pytest.raises(ValueError, match="2 seeds"):
         same_physics_bound(0.01, 1, 5)
+
+
+def test_the_reference_item_times_stores_and_checks_a_run(monkeypatch, tmp_path, capsys):
+    """The benchmark's reference item end to end without a GPU: the stored CPU run stands in
+    for the GPU's (a difference of zero passes), the run is stored and timed against the
+    target; a stored run of another test is not compared."""
+    from benchmarks import gpu_speed
+    from engine.io.store import load_run
+
+    paths = [gpu_speed.STORED_REF / f"ref-s{s}.h5" for s in (1, 2, 3)]
+    cpu = load_run(paths[0])
+    monkeypatch.setattr(gpu_speed, "run_reference", lambda test, cap: (cpu, 1.0))
+    monkeypatch.setattr(gpu_speed, "GPU_STORE", tmp_path)
+    checks = []
+    gpu_speed.reference_item(cpu.test, paths, "ref", 60.0, 2e7, checks)
+    assert (tmp_path / "ref-s1.h5").exists()
+    timing, *curves = checks
+    assert timing == (f"ref <= 120 s on the GPU: {cpu.scalars['wall_time']:.1f} s", False)
+    assert len(curves) == 5 and all(ok for _, ok in curves), curves
+    assert "projected" in capsys.readouterr().out
+    other = gpu_speed.curve_check(load_run(paths[1]), paths, "ref")
+    assert other == [("GPU and CPU ref: not measured (stored CPU run of another test)", None)]

@@ -33,9 +33,12 @@ import numpy as np
 from .intervals import WELCH_MIN_SEEDS, t_quantile
 from .reasons import _pct
 
-#: A size mean further than this many standard errors from the line says the property is
-#: not linear in d / L over the sizes run (:func:`curve_lines` says so).
-LACK_OF_FIT = 2.0
+#: The false-alarm rate [-] of the linearity check (:func:`linearity`): the chance that a
+#: property truly linear in d / L is called not linear, jointly over the sizes (Bonferroni).
+LINEARITY_ALPHA = 0.05
+#: The fewest sizes a fit keeps when :func:`asymptotic_curve` leaves out the smallest
+#: samples: three, so that linearity can still be checked.
+MIN_SIZES = 3
 
 
 def contrast_df(counts, shares) -> float:
@@ -83,12 +86,7 @@ def fit_curve(sizes: list[dict], confidence: float) -> dict | None:
     xr = ref["x"]
     off, off_lo, off_hi, off_df = _combination(xr * lam[1], means, var_of_mean, counts, confidence)
     fitted = a + b * x
-    se = np.sqrt(var_of_mean)
-    lack = None
-    if len(sizes) > 2:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            z = np.where(se > 0, np.abs(means - fitted) / se, 0.0)
-        lack = float(z.max())
+    lack, limit = linearity(design, means, var_of_mean, counts)
     return {
         "bulk": math.exp(a),
         "bulk_interval": [math.exp(a_lo), math.exp(a_hi)],
@@ -101,6 +99,9 @@ def fit_curve(sizes: list[dict], confidence: float) -> dict | None:
         "reference_offset_df": off_df,
         "reference_diameters_across": 1.0 / xr,
         "lack_of_fit": lack,
+        "lack_of_fit_limit": limit,
+        "linear": None if lack is None else bool(lack <= limit),
+        "left_out": [],
         "sizes": [
             {
                 "diameters_across": 1.0 / s["x"],
@@ -116,6 +117,68 @@ def fit_curve(sizes: list[dict], confidence: float) -> dict | None:
     }
 
 
+def linearity(design: np.ndarray, means, var_of_mean, counts) -> tuple:
+    r"""How far the size means lie from the fitted line: the largest standardised residual
+    :math:`\max_g |r_g| / \hat\sigma(r_g)` and the limit it is held to, or (None, None)
+    with fewer than three sizes (the line goes through two).
+
+    The residuals are :math:`r = (I - H)\,\bar y` with :math:`H` the least-squares hat
+    matrix, so :math:`\mathrm{var}(r_g) = \sum_h (I - H)_{gh}^2\, s_h^2 / n_h`, estimated
+    from the seeds' spreads; each standardised residual is held to Student's t at
+    :math:`1 - \alpha / (2 G)` (:data:`LINEARITY_ALPHA`, Bonferroni over the G sizes), on
+    the degrees of freedom of :func:`contrast_df`. A property linear in d / L is called not
+    linear at most :data:`LINEARITY_ALPHA` of the time (simulated in
+    tests/engine/test_resolution.py); with three seeds a size the check sees only large
+    departures, which is what three seeds can tell."""
+    means = np.asarray(means, dtype=float)
+    var_of_mean = np.asarray(var_of_mean, dtype=float)
+    g = len(means)
+    if g < 3:
+        return None, None
+    m = np.eye(g) - design @ np.linalg.pinv(design)
+    r = m @ means
+    worst, limit = 0.0, 0.0
+    for i in range(g):
+        parts = m[i] ** 2 * var_of_mean
+        v = float(parts.sum())
+        df = contrast_df(counts, parts / v if v > 0 else np.zeros_like(parts))
+        q = t_quantile(1.0 - LINEARITY_ALPHA / (2 * g), df) if math.isfinite(df) else None
+        if v > 0:
+            z = abs(float(r[i])) / math.sqrt(v)
+            if z >= worst:
+                worst, limit = z, q
+        elif abs(float(r[i])) > 1e-12:
+            return math.inf, q if q is not None else 0.0
+    if limit == 0.0:  # no residual carries noise and every one is zero
+        limit = t_quantile(1.0 - LINEARITY_ALPHA / (2 * g), float(min(counts) - 1))
+    return worst, limit
+
+
+def asymptotic_curve(sizes: list[dict], confidence: float) -> dict | None:
+    """:func:`fit_curve` over the sizes where the leading term, linear in d / L, holds: while
+    the means lie off the line (:func:`linearity`), the smallest sample is left out, as long
+    as :data:`MIN_SIZES` sizes and the references' size remain. Samples a few diameters
+    across leave the asymptotic regime (a column that buckles or collapses after its
+    release, a wall layer that is most of the sample); the fit then answers only for the
+    sizes it kept (``left_out`` lists the others, in diameters across), and a curve still off
+    its line keeps ``linear`` False."""
+    kept = sorted(sizes, key=lambda s: s["x"])
+    curve = fit_curve(kept, confidence)
+    left_out = []
+    while (
+        curve is not None
+        and curve["linear"] is False
+        and len(kept) > MIN_SIZES
+        and not kept[-1]["reference"]
+    ):
+        left_out.append(1.0 / kept[-1]["x"])
+        kept = kept[:-1]
+        curve = fit_curve(kept, confidence)
+    if curve is not None:
+        curve["left_out"] = left_out
+    return curve
+
+
 def diameters_needed(curve: dict, tolerance: float) -> dict:
     r"""The fewest diameters across a sample (or a feature: a shear band, an outlet, a wall
     layer) needs for a property to stay within ``tolerance`` (relative) of its bulk value,
@@ -128,9 +191,9 @@ def diameters_needed(curve: dict, tolerance: float) -> dict:
               \frac{\log(1 - tol)}{b_{lo}}\ (b_{lo} < 0)\right),
 
     and the sample needs :math:`1 / x_{max}` diameters across. Only the measured sizes are
-    trusted: a need below the coarsest size run is reported as at most that size
+    trusted: a need below the coarsest size fitted is reported as at most that size
     (``bound`` "at_most"), one beyond the finest as more than it (``bound`` "more_than");
-    a curve whose means lie off the line (``lack_of_fit`` over :data:`LACK_OF_FIT`) gives
+    a curve whose means lie off the line (``linear`` False, :func:`linearity`) gives
     none (``diameters`` None)."""
     b_lo, b_hi = curve["slope_interval"]
     limits = []
@@ -142,8 +205,7 @@ def diameters_needed(curve: dict, tolerance: float) -> dict:
     across = [s["diameters_across"] for s in curve["sizes"]]
     fewest, most = min(across), max(across)
     need = 1.0 / x_max if x_max > 0 else math.inf
-    lack = curve.get("lack_of_fit")
-    if lack is not None and lack > LACK_OF_FIT:
+    if curve.get("linear") is False:
         return {"diameters": None, "bound": "not_linear", "tolerance": tolerance}
     if need <= fewest:
         return {"diameters": fewest, "bound": "at_most", "tolerance": tolerance}
@@ -224,7 +286,7 @@ def resolution_curves(
                 break
             across = float(np.mean([d for d, _ in runs]))
             sizes.append({"x": 1.0 / across, "logs": np.log(vals), "reference": is_ref})
-        curve = fit_curve(sizes, confidence) if sizes else None
+        curve = asymptotic_curve(sizes, confidence) if sizes else None
         if curve is not None:
             out[n] = curve
     return {"metrics": out, "confidence": confidence}
@@ -239,12 +301,21 @@ def curve_lines(curves: dict) -> list[str]:
         lo, hi = c["reference_offset_interval"]
         sizes = ", ".join(f"{s['diameters_across']:.1f}" for s in c["sizes"])
         fit = ""
+        if c.get("left_out"):
+            fit += (
+                "; left out: "
+                + ", ".join(f"{d:.1f}" for d in c["left_out"])
+                + " diameters across, off the line with the larger sizes"
+            )
         if c["lack_of_fit"] is not None:
-            fit = f"; the size means lie within {c['lack_of_fit']:.1f} standard errors of the line"
-            if c["lack_of_fit"] > LACK_OF_FIT:
+            fit += (
+                f"; the size means lie within {c['lack_of_fit']:.1f} standard errors of the "
+                f"line (limit {c['lack_of_fit_limit']:.1f})"
+            )
+            if c["linear"] is False:
                 fit += (
-                    f", more than {LACK_OF_FIT:g}: the property is not linear in d / L over "
-                    "these sizes, and the extrapolation is not to be trusted"
+                    ": the property is not linear in d / L over these sizes, and the "
+                    "extrapolation is not to be trusted"
                 )
         lines.append(
             f"resolution curve, {n}: the reference ({c['reference_diameters_across']:.1f} "
@@ -257,11 +328,13 @@ def curve_lines(curves: dict) -> list[str]:
 
 
 __all__ = [
+    "asymptotic_curve",
     "coarsest_diameter",
     "contrast_df",
     "curve_lines",
     "diameters_needed",
     "fit_curve",
+    "linearity",
     "needed_words",
     "resolution_curves",
 ]

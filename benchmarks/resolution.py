@@ -212,6 +212,13 @@ def report() -> str:
         "reference (the `quick` preset, R = 2.5 mm, f0 = -0.4 N, default protocol) scaled to "
         "each size with its aspect and overburden held (cell x s, gravity / s).",
         "",
+        "How the rule came to be: the linearity check and the asymptotic window "
+        '(`linearity`, `asymptotic_curve`) replaced "any size mean beyond 2 of its '
+        'standard errors" on 2026-12-04, after sizes 5 to 15 diameters (3 seeds) had been '
+        "seen and before the 20-diameter runs and seeds 4 to 6 of the smaller sizes: the old "
+        "check called linear properties not linear far more often than its stated rate "
+        "(docs/PHYSICS.md section 7.5 gives both rules' simulated rates).",
+        "",
         "| size [diameters across] | particles | seeds stored | failed at a peak | "
         "interior density | loading stiffness [MPa] | unloading stiffness [MPa] | "
         "coordination | strength [kPa] | particle-steps | wall time [s] |",
@@ -256,9 +263,11 @@ def report() -> str:
     sizes_run = sorted({z for z, rs in runs.items() if rs})
     lines.append(
         f"Sizes stored: {', '.join(f'{z:.3g}' for z in sizes_run)} diameters across. The "
-        "most demanding property sets the answer; a bound 'at most' means every property held "
-        "down to the coarsest size run (coarser not measured), 'more than' that the finest "
-        "size run was not enough for that property."
+        "most demanding property sets the answer. 'more than n' diameters across: the finest "
+        "size run was not enough for that property, so a particle must be finer than L / n "
+        "(how much finer is not measured); 'at most n': every property held down to the "
+        "coarsest size fitted, so L / n is a particle that is coarse enough to be safe "
+        "(coarser not measured)."
     )
     lines.append("")
     lines.append(
@@ -274,9 +283,10 @@ def report() -> str:
                 f"| {1e3 * width:g} | not decided | | {a['limited_by']} | {a['bound']} | |"
             )
             continue
+        rel = {"more_than": "below ", "at_most": "at least "}.get(a["bound"], "")
         lines.append(
-            f"| {1e3 * width:g} | {1e3 * a['diameter']:.2f} | {a['diameters']:.1f} | "
-            f"{a['limited_by']} | {a['bound']} | {a['diameter'] / d_ref:.2f} |"
+            f"| {1e3 * width:g} | {rel}{1e3 * a['diameter']:.2f} | {a['diameters']:.1f} | "
+            f"{a['limited_by']} | {a['bound']} | {rel}{a['diameter'] / d_ref:.2f} |"
         )
     return "\n".join(lines) + "\n"
 

@@ -214,7 +214,14 @@ CHECKS = (
     ("I5e-4-f0.4", "I2.5e-4-f0.4", "I* halved from 5e-4"),
 )
 #: The samples: name -> experiment (b)'s run key stem (its test at the paper scale).
-SAMPLES = {"ref": "ref", "b2": "r5mm-b2", "b2_375": "r3.75mm-b2"}
+SAMPLES = {
+    "ref": "ref",
+    "b2": "r5mm-b2",
+    "b2_375": "r3.75mm-b2",
+    # the controls: the reference law at the coarse radius (docs/PHYSICS.md section 7.4)
+    "ctl": "ctl-r5mm",
+    "ctl_375": "ctl-r3.75mm",
+}
 
 
 def tag_of(t: engine.UniaxialTest) -> str:
@@ -272,6 +279,9 @@ BENCHMARK = (
     + [("ref", "half", s) for s in (1, 2, 3)]
     + [("b2", "seed", 4)]
     + [("b2_375", "default", s) for s in (1, 2, 3, 4, 5)]
+    # the controls of the rule's runs, seed for seed (paired by packing)
+    + [("ctl", "default", s) for s in CHECK_SEEDS]
+    + [("ctl_375", "default", s) for s in (1, 2, 3, 4, 5)]
 )
 
 
@@ -573,6 +583,10 @@ def report() -> str:
         "5 mm b = 2": load_group("b2", "default", ALL_SEEDS),
         "3.75 mm b = 2": load_group("b2_375", "default", ALL_SEEDS),
     }
+    controls = {
+        "5 mm b = 2": load_group("ctl", "default", ALL_SEEDS),
+        "3.75 mm b = 2": load_group("ctl_375", "default", ALL_SEEDS),
+    }
     lines += [
         "## The seed's rule re-judged at the default protocol (paper scale)",
         "",
@@ -585,6 +599,21 @@ def report() -> str:
         *[
             verdict_row(f"{label} against the reference, default protocol", g[1], runs)[0]
             for label, runs in rule.items()
+        ],
+        "",
+        "Against its control (the reference law in the coarse run's own packing and cell, "
+        "seed for seed): the rule's own error, with the resolution error of the coarse sample "
+        "taken out (docs/PHYSICS.md section 7.4); the control against the reference is that "
+        "resolution error.",
+        "",
+        HEADER,
+        *[
+            verdict_row(f"{label} against its control, default protocol", controls[label], runs)[0]
+            for label, runs in rule.items()
+        ],
+        *[
+            verdict_row(f"control of {lb} against the reference, default protocol", g[1], c)[0]
+            for lb, c in controls.items()
         ],
         "",
     ]

@@ -43,6 +43,18 @@ from ..io.store import load_run, save_run
 from ..study.channel import wait_tasks
 from ..uniaxial.flow import flow_function
 from ..uniaxial.spec import UniaxialTest
+from .forward import (
+    SHEAR,
+    SHEAR_UNITS,
+    Forward,
+    check_shear_cell,
+    load_shear,
+    measure_shear,
+    run_shear_tests,
+    save_shear,
+    shear_curves,
+    shear_tests,
+)
 from .gp import GP
 from .targets import LabTargets
 
@@ -98,14 +110,32 @@ def _law(base_law, axes: list[_Axis], u: np.ndarray):
     return replace(base_law, **{a.name: a.value(float(x)) for a, x in zip(axes, u)})
 
 
-def _test(base_test: UniaxialTest, axes: list[_Axis], u) -> UniaxialTest | str:
+def _test(
+    base_test: UniaxialTest,
+    axes: list[_Axis],
+    u,
+    shear: tuple = (),
+    uniaxial: bool = True,
+) -> UniaxialTest | Forward | str:
     """The test of parameter set ``u``, or the reason it cannot be made (a law the test
     refuses, e.g. too soft to carry the consolidation stress within the overlap limit: left
-    out like a run that failed, at no cost)."""
+    out like a run that failed, at no cost). With shear targets (``shear``: the base shear
+    tests, one per locus) a :class:`~engine.calibration.forward.Forward` of the uniaxial
+    test (where ``uniaxial``) and the shear tests with the parameter set's law."""
     try:
-        return replace(base_test, pair_law=_law(base_test.pair_law, axes, u))
+        law = _law(base_test.pair_law, axes, u)
+        return _forward(base_test, law, shear, uniaxial)
     except ParameterError as e:
         return f"ParameterError: {e}"
+
+
+def _forward(base_test: UniaxialTest, law, shear: tuple, uniaxial: bool):
+    """The tests of ``law``: the base test with it (no shear targets), else a
+    :class:`Forward` of it (where ``uniaxial``) and each base shear test with it."""
+    test = replace(base_test, pair_law=law)
+    if not shear:
+        return test
+    return Forward(test if uniaxial else None, tuple(replace(t, pair_law=law) for t in shear))
 
 
 def _feasible(base_law, axes, u) -> bool:
@@ -142,9 +172,10 @@ def _maximin(rng, n: int, d: int, ok, tries: int = 40) -> np.ndarray:
 def branch_stresses(base: UniaxialTest, targets: LabTargets) -> tuple[float, ...]:
     """Consolidation stresses the runs need [Pa]: every strength target's and, for the
     compression curve, stiffness and K0 targets (read on the highest branch), the base
-    test's or the highest compression target's where no strength branch reaches it."""
+    test's or the highest compression target's where no strength branch reaches it; none
+    where the targets are a shear tester's alone (the uniaxial test is not run)."""
     s = {p.consolidation_stress for p in targets.strength}
-    if set(targets.names()) - {"strength"}:
+    if set(targets.uniaxial_names()) - {"strength"}:
         need = max([base.consolidation_stress, *[p.stress for p in targets.compression]])
         if not s or max(s) < need:  # the highest branch is where those are read
             s.add(need)
@@ -158,15 +189,28 @@ TARGET_UNITS = {
     "unloading_stiffness": "Pa",
     "k0": "1",
     "strength": "Pa",
+    **SHEAR_UNITS,
 }
+
+
+def _uniaxial(results: dict) -> dict:
+    """The uniaxial branches of a run's outcome (consolidation stress -> result)."""
+    return {s: r for s, r in results.items() if s != SHEAR}
 
 
 def measure(results: dict, base: UniaxialTest, targets: LabTargets) -> list[dict]:
     """Each target quantity of ``targets`` read from a run's ``results`` (consolidation
-    stress -> :class:`engine.UniaxialResult`): name, lab value, lab sd and the run's value.
-    The compression curve, the stiffnesses and K0 are read from the branch at the highest
-    consolidation stress (a tester's one consolidation), each strength from its own."""
+    stress -> :class:`engine.UniaxialResult`, and under ``"shear"`` the shear tests'
+    results: :func:`engine.calibration.forward.measure_shear`): name, lab value, lab sd and
+    the run's value. The compression curve, the stiffnesses and K0 are read from the branch
+    at the highest consolidation stress (a tester's one consolidation), each strength from
+    its own."""
     out = []
+    if targets.shear:
+        shear = measure_shear(results[SHEAR], targets)
+    results = _uniaxial(results)
+    if not targets.uniaxial_names():
+        return shear
     top = results[max(results)]
     for p in targets.compression:
         if p.branch == "loading":
@@ -212,7 +256,7 @@ def measure(results: dict, base: UniaxialTest, targets: LabTargets) -> list[dict
                 "unit": "Pa",
             }
         )
-    return out
+    return out + shear if targets.shear else out
 
 
 #: The resolution-curve property (engine.study.resolution) that corrects each kind of target
@@ -296,7 +340,7 @@ def _corrected(quantities: list[dict], corrections: dict) -> list[dict]:
 
 
 def _run_point(
-    test: UniaxialTest,
+    test: UniaxialTest | Forward,
     stresses: tuple[float, ...],
     key: str = "",
     channel=None,
@@ -311,7 +355,12 @@ def _run_point(
     the calibration. ``progress`` (in this process) or ``channel`` (a task elsewhere:
     :class:`engine.FileChannel`) hears the run and may stop it
     (:class:`engine.StopRequested`, not caught); ``limit``: (max_wall_time [s], the
-    setting's name); ``threads``: engine threads of a task."""
+    setting's name); ``threads``: engine threads of a task. A :class:`Forward` runs its
+    uniaxial test (if any) and then its shear tests (:func:`engine.run_shear`, on the CPU
+    whatever ``backend``; the wall-time limit checked at each curve sample), their results
+    under ``"shear"``; a shear test that misses a stage's criterion, blows up or gives a
+    non-finite curve (FloatingPointError) leaves the parameter set out, as a failed uniaxial
+    run does."""
     from ..core.errors import InstabilityError, StopRequested, WallTimeExceeded
     from ..study.channel import task_progress
     from ..uniaxial.driver import StageError, run_uniaxial
@@ -327,23 +376,74 @@ def _run_point(
     how = {"progress": progress, "backend": backend}
     if limit is not None and limit[0] is not None:
         how.update(max_wall_time=limit[0], wall_time_setting=limit[1])
-    try:
+
+    def uniaxial(test: UniaxialTest, how: dict) -> dict:
         if test.unconfined:
             ff = flow_function(test, stresses, **how)
             return dict(zip(ff.consolidation_stresses, ff.results))
         return {stresses[-1]: run_uniaxial(replace(test, consolidation_stress=stresses[-1]), **how)}
+
+    try:
+        if not isinstance(test, Forward):
+            return uniaxial(test, how)
+        parts = int(test.uniaxial is not None) + int(bool(test.shear))
+        out = {}
+        if test.uniaxial is not None:
+            out.update(uniaxial(test.uniaxial, {**how, "progress": _share(progress, 0, parts)}))
+        if test.shear:
+            heard = _wall_limited(_share(progress, parts - 1, parts), limit)
+            out[SHEAR] = run_shear_tests(test.shear, heard)
+        return out
     except (StageError, InstabilityError, WallTimeExceeded) as e:
         return f"{type(e).__name__}: {e}"
+    except FloatingPointError as e:  # a shear test's non-finite curve (docs/SHEAR.md)
+        if not isinstance(test, Forward):
+            raise
+        return f"{type(e).__name__}: {e}"
+
+
+def _share(progress, i: int, n: int):
+    """``progress`` hearing part ``i`` of ``n`` of a run as that share of the whole."""
+    if progress is None or n <= 1:
+        return progress
+    return lambda p: progress(replace(p, fraction=(i + p.fraction) / n))
+
+
+def _wall_limited(progress, limit: tuple | None):
+    """``progress`` that also stops the run with :class:`engine.WallTimeExceeded` once it
+    has run longer than ``limit`` = (seconds, the setting's name) from now (checked at each
+    curve sample: :func:`engine.run_shear` takes no limit of its own)."""
+    import time
+
+    from ..core.errors import WallTimeExceeded
+
+    if limit is None or limit[0] is None:
+        return progress
+    start = time.monotonic()
+
+    def heard(p):
+        elapsed = time.monotonic() - start
+        if elapsed > limit[0]:
+            raise WallTimeExceeded(limit[0], elapsed, limit[1])
+        return None if progress is None else progress(p)
+
+    return heard
 
 
 def _curves(results: dict | str) -> dict:
     """The check run's curves as the page and the API show them: porosity against the top
     platen's stress on loading (pre-compression and consolidation) and unloading of the
-    highest branch [Pa, -], and the flow function (one row per branch)."""
+    highest branch [Pa, -], the flow function (one row per branch) and, with shear targets,
+    the yield loci (:func:`engine.calibration.forward.shear_curves`)."""
     if isinstance(results, str):
         return {}
-    top = results[max(results)]
     out = {}
+    if SHEAR in results:
+        out["yield_loci"] = shear_curves(results[SHEAR])
+    results = _uniaxial(results)
+    if not results:
+        return out
+    top = results[max(results)]
     for part, stages in (
         ("loading", ("pre_compression", "consolidation")),
         ("unloading", ("unloading",)),
@@ -383,7 +483,8 @@ class Calibration:
     -> (factor, sd of its log); the quantities then carry ``cell_value``), ``posterior``
     (:func:`_posterior`: samples in the law's units and the parameters' correlation, which
     shows pairs the data determine only together), ``test`` (the calibrated test: the base
-    test with :attr:`law`)."""
+    test with :attr:`law`), ``shear_test`` (the shear cell of shear targets, with the base
+    law; None without)."""
 
     law: object
     parameters: dict
@@ -395,6 +496,7 @@ class Calibration:
     resolution: dict = field(default_factory=dict)
     posterior: dict = field(default_factory=dict)
     test: UniaxialTest | None = None
+    shear_test: object | None = None
 
     @property
     def all_met(self) -> bool:
@@ -429,6 +531,7 @@ class Calibration:
             "curves": self.curves,
             "resolution": {k: list(v) for k, v in self.resolution.items()},
             "posterior": self.posterior,
+            "shear_test": None if self.shear_test is None else self.shear_test.to_dict(),
         }
 
 
@@ -456,13 +559,20 @@ def _floor_log(values: np.ndarray, lab: np.ndarray) -> np.ndarray:
 
 
 def check_request(
-    base_test: UniaxialTest, targets: LabTargets, parameters: dict, runs: int
+    base_test: UniaxialTest,
+    targets: LabTargets,
+    parameters: dict,
+    runs: int,
+    shear_test=None,
 ) -> tuple[float, ...]:
     """Check a calibration request without running anything; returns the consolidation
-    stresses its runs branch at [Pa]. Raises :class:`engine.ParameterError` naming the
-    field: targets that are not a :class:`LabTargets`, a parameter the law has not or a bad
-    box, too few design runs, strength targets from a test without the unconfined stage, a
-    consolidation stress at or below the test's ``pre_stress``."""
+    stresses its runs branch at [Pa] (none where the targets are a shear tester's alone).
+    Raises :class:`engine.ParameterError` naming the field: targets that are not a
+    :class:`LabTargets`, a parameter the law has not or a bad box, too few design runs,
+    strength targets from a test without the unconfined stage, a consolidation stress at or
+    below the test's ``pre_stress``; with shear targets, a ``shear_test`` of another particle
+    radius, a locus the shear test cannot be set up for with the base law
+    (``LabTargets.shear[i]...``: :func:`engine.calibration.forward.shear_tests`)."""
     if not isinstance(targets, LabTargets):
         raise ParameterError("calibrate.targets", type(targets).__name__, "an engine LabTargets")
     law = base_test.pair_law
@@ -502,6 +612,12 @@ def check_request(
                 p.consolidation_stress,
                 f"> the test's pre_stress = {base_test.pre_stress:g} Pa",
             )
+    if targets.shear:
+        shear_tests(check_shear_cell(base_test, shear_test), targets)
+    elif shear_test is not None:
+        raise ParameterError(
+            "calibrate.shear_test", "a shear test", "given with shear targets only (shear)"
+        )
     return stresses
 
 
@@ -619,6 +735,7 @@ def calibrate(
     progress=None,
     options=None,
     resolution: dict | None = None,
+    shear_test=None,
 ) -> Calibration:
     """Calibrate ``base_test``'s pair law to ``targets`` over ``parameters`` ({name: (low,
     high)} in the law's units) with ``runs`` design runs and ``waves`` waves of ``wave_runs``
@@ -643,13 +760,26 @@ def calibrate(
             :func:`resolution_corrections` of a study's resolution curve in the same cell
             (docs/CALIBRATION.md); each run's value is corrected before it meets the
             laboratory's, and the correction's sd adds to the laboratory's.
+        shear_test: the shear cell (:class:`engine.ShearTest`) of shear targets
+            (``targets.shear``), its particle radius the base test's; each yield locus runs
+            it at its sigma_pre and sigma_n with the parameter set's law. None: docs/SHEAR.md's
+            default cell, 10 x 5 x 15 diameters, of the base test's material
+            (:func:`engine.calibration.forward.shear_cell`).
+
+    Uniaxial targets run the uniaxial test (its branches), shear targets one shear test
+    per locus (:mod:`engine.calibration.forward`); a data set with both runs both for every
+    parameter set, and every target is met against its own data and sd.
 
     Raises :class:`engine.ParameterError` naming a parameter it cannot set or a bad box."""
     from ..core.errors import StopRequested
     from ..study.run import RunOptions, StudyProgress
 
-    stresses = check_request(base_test, targets, parameters, runs)
+    stresses = check_request(base_test, targets, parameters, runs, shear_test)
     corrections = check_corrections(resolution)
+    # the shear tests of the base law, one per locus (none without shear targets)
+    cell = check_shear_cell(base_test, shear_test) if targets.shear else None
+    shear = shear_tests(cell, targets) if cell is not None else ()
+    uniaxial = bool(stresses)
     options = options if options is not None else RunOptions()
     if executor is not None:
         options = replace(options, executor=executor)
@@ -726,7 +856,7 @@ def calibrate(
         return out
 
     def run_wave(us: np.ndarray, wave: int) -> None:
-        tests = [_test(base_test, axes, x) for x in us]
+        tests = [_test(base_test, axes, x, shear, uniaxial) for x in us]
         start = len(done) + len(failed)
         keys = [f"cal-{start + i:03d}" for i in range(len(us))]
         outcomes: dict[int, dict | str] = {}
@@ -828,9 +958,13 @@ def calibrate(
     posterior = _posterior(samples, axes)
     sens = _sobol(gps, quantities, axes, rng)
     check_test = replace(base_test, pair_law=law)
-    checked = _load_point(folder, "check", stresses, check_test)
-    if checked is None:
-        checked = execute([check_test], ["check"], total - 1)[0]
+    check_run = _test(base_test, axes, med, shear, uniaxial)
+    if isinstance(check_run, str):  # a law a shear test refuses: the check is not run
+        checked = check_run
+    else:
+        checked = _load_point(folder, "check", stresses, check_run)
+        if checked is None:
+            checked = execute([check_run], ["check"], total - 1)[0]
     if isinstance(checked, str):
         check = [{**q, "value": math.nan} for q in quantities]
     else:
@@ -872,6 +1006,7 @@ def calibrate(
         dict(corrections),
         posterior,
         check_test,
+        cell,
     )
 
 
@@ -962,7 +1097,7 @@ def _setup_progress():
     return Progress(0.0, "setup", 0.0, 0.0, 0, "building the packing")
 
 
-def _digest(test: UniaxialTest) -> str:
+def _digest(test: UniaxialTest | Forward) -> str:
     """A short digest of a test (a failed run's file names its test: an error text cannot)."""
     import hashlib
     import json
@@ -970,23 +1105,38 @@ def _digest(test: UniaxialTest) -> str:
     return hashlib.sha1(json.dumps(test.to_dict(), sort_keys=True).encode()).hexdigest()[:10]
 
 
-def _save_point(folder: Path | None, key: str, results: dict | str, test: UniaxialTest) -> None:
+def _save_point(
+    folder: Path | None, key: str, results: dict | str, test: UniaxialTest | Forward
+) -> None:
     if folder is None:
         return
     if isinstance(results, str):
         save_run(folder / f"{key}-failed-{_digest(test)}.h5", results)
         return
-    for s, r in results.items():
+    for s, r in _uniaxial(results).items():
         save_run(folder / f"{key}-{s:g}Pa.h5", r, keep_particles=False)
+    if SHEAR in results:
+        save_shear(folder, key, results[SHEAR])
 
 
-def _load_point(folder: Path | None, key: str, stresses, test: UniaxialTest) -> dict | None:
+def _load_point(
+    folder: Path | None, key: str, stresses, test: UniaxialTest | Forward
+) -> dict | None:
     if folder is None:
         return None
     bad = folder / f"{key}-failed-{_digest(test)}.h5"
     if bad.exists():  # the parameter set is the design's: the same key, the same test
         return load_run(bad)
     out = {}
+    if isinstance(test, Forward):
+        if test.shear:
+            shear = load_shear(folder, key, test.shear)
+            if shear is None:
+                return None
+            out[SHEAR] = shear
+        if test.uniaxial is None:
+            return out
+        test = test.uniaxial
     for s in stresses:
         p = folder / f"{key}-{s:g}Pa.h5"
         if not p.exists():

@@ -1,0 +1,297 @@
+"""The shear side of a calibration's forward model (docs/CALIBRATION.md, "Shear data").
+
+A parameter set whose targets hold a shear tester's yield loci (``LabTargets.shear``) runs,
+besides the uniaxial test of its uniaxial targets (if any), one shear test per locus
+(:func:`engine.run_shear`): the calibration's shear cell (:func:`shear_cell`, or the one
+given) with the locus's pre-shear stress as ``preshear_stress`` and its points' normal
+stresses as ``normal_stresses``, in the data's order, and the parameter set's law. Each run
+is compared with the data per target, with the data's sd, like every other target:
+
+- ``tau@<sigma_n>Pa:<sigma_pre>Pa``: the shear stress at failure at the laboratory's sigma_n
+  [Pa], the run's point read at the lab's normal stress along the run's own locus,
+  tau + tan(phi) (sigma_n - sigma) (the servo holds a point's normal stress within a few
+  per cent of its target, docs/SHEAR.md; the slope carries the point to the target); the
+  sd: the lab's tau_sd with its sigma_n_sd carried along the lab's locus
+  (:meth:`ShearLocus.tau_sd`);
+- ``tau_pre@<sigma_pre>Pa`` (where the lab gives tau_pre): the pre-shear's steady shear
+  stress [Pa], read at sigma_pre as tau_pre sigma_pre / sigma (steady flow holds the stress
+  ratio; the servo holds sigma within 2 % of sigma_pre);
+- ``bulk_density@<sigma_pre>Pa`` (where the lab gives it): the run's bulk density over the
+  pre-shear's last window [kg/m^3].
+
+ffc, sigma_1 and sigma_c are not targets: they are functions of the same points (the
+locus's line and Mohr circles), so counting them too would weigh those points twice.
+
+A run's shear results are kept in its outcome under :data:`SHEAR` as their JSON form
+(:meth:`engine.ShearResult.to_dict`: the test, scalars, points and locus), stored per
+locus as ``<key>-shear-<sigma_pre>Pa.json`` and found again on a rerun when the stored test
+is the same test.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from ..core.errors import ParameterError
+from ..shear.spec import ShearTest
+from ..uniaxial.spec import UniaxialTest
+from .targets import LabTargets
+
+#: The key of a run outcome's shear results (sigma_pre [Pa] -> the result's JSON form).
+SHEAR = "shear"
+#: The default shear cell in mean diameters (Lx, Ly, H): docs/SHEAR.md's default, 10 x 5 x
+#: 15 (no difference from 20 diameters tall seen with six seeds, no rate effect at half the
+#: rate; the cross-section not varied).
+CELL_DIAMETERS = (10.0, 5.0, 15.0)
+#: The uniaxial test's fields a derived shear cell takes as they are (the material and the
+#: numerics; the cell and the shear procedure are the shear test's defaults).
+FROM_UNIAXIAL = (
+    "radius",
+    "polydispersity",
+    "density",
+    "pair_law",
+    "seed",
+    "dt",
+    "dt_fraction",
+    "output_interval",
+)
+#: Units of the shear targets (a quantity's name up to its "@").
+SHEAR_UNITS = {"tau": "Pa", "tau_pre": "Pa", "bulk_density": "kg/m^3"}
+
+
+@dataclass(frozen=True)
+class Forward:
+    """The tests one parameter set runs: ``uniaxial`` (None where the targets have no
+    uniaxial target) and ``shear``, one :class:`engine.ShearTest` per yield locus, in the
+    order of ``LabTargets.shear``."""
+
+    uniaxial: UniaxialTest | None
+    shear: tuple[ShearTest, ...] = ()
+
+    def to_dict(self) -> dict:
+        """JSON form (a failed run's file names its tests by a digest of it)."""
+        return {
+            "uniaxial": None if self.uniaxial is None else self.uniaxial.to_dict(),
+            "shear": [t.to_dict() for t in self.shear],
+        }
+
+
+def shear_cell(base: UniaxialTest) -> ShearTest:
+    """The shear test of a calibration whose base test is ``base``: its material and
+    numerics (:data:`FROM_UNIAXIAL`) in docs/SHEAR.md's default cell,
+    :data:`CELL_DIAMETERS` mean diameters 2R, and the shear test's defaults for the
+    rest (its pre-shear and normal stresses are replaced per locus)."""
+    d = 2.0 * base.radius
+    return ShearTest(
+        cell=tuple(n * d for n in CELL_DIAMETERS),
+        **{name: getattr(base, name) for name in FROM_UNIAXIAL},
+    )
+
+
+def _renamed(e: ParameterError, i: int, sigma_pre: float) -> ParameterError:
+    """An error of locus ``i``'s shear test named where the request holds it: its pre-shear
+    and normal stresses are the data's (``LabTargets.shear[i]...``), the rest the shear
+    cell's (``calibrate.shear_test.<field>``); a law the test refuses at this locus (too
+    soft to carry its consolidation within the overlap limit) names its sigma_pre [Pa]."""
+    field = e.field.split(".", 1)[1] if "." in e.field else ""
+    if field.startswith("pair_law."):  # e.g. too soft for this locus's consolidation
+        return ParameterError(
+            f"LabTargets.shear[{i}].sigma_pre",
+            sigma_pre,
+            "a pre-shear stress the test's law can be consolidated to",
+            f"{e}",
+        )
+    if field == "preshear_stress":
+        where = f"LabTargets.shear[{i}].sigma_pre"
+    elif field.startswith("normal_stresses["):
+        k = field[len("normal_stresses[") : field.index("]")]
+        where = f"LabTargets.shear[{i}].points[{k}].sigma_n"
+    else:
+        where = "calibrate.shear_test" + (f".{field}" if field else "")
+    return ParameterError(where, e.value, e.limit, e.why)
+
+
+def shear_tests(cell: ShearTest, targets: LabTargets, law=None) -> tuple[ShearTest, ...]:
+    """One shear test per yield locus of ``targets``: ``cell`` at the locus's sigma_pre and
+    its points' sigma_n, with ``law`` (None: the cell's own). Raises
+    :class:`engine.ParameterError` named where the request holds the value
+    (:func:`_renamed`): e.g. a law too soft to carry a locus's sigma_pre within the
+    overlap limit names ``LabTargets.shear[i].sigma_pre``."""
+    out = []
+    for i, locus in enumerate(targets.shear):
+        changes = {
+            "preshear_stress": locus.sigma_pre,
+            "normal_stresses": tuple(p.sigma_n for p in locus.points),
+        }
+        if law is not None:
+            changes["pair_law"] = law
+        try:
+            out.append(replace(cell, **changes))
+        except ParameterError as e:
+            raise _renamed(e, i, locus.sigma_pre) from None
+    return tuple(out)
+
+
+def check_shear_cell(base: UniaxialTest, cell: ShearTest | None) -> ShearTest:
+    """The shear cell of a calibration: ``cell`` (its law replaced by the base test's, the
+    one calibrated), or :func:`shear_cell` of ``base``. Raises
+    :class:`engine.ParameterError` at ``calibrate.shear_test.radius`` where ``cell``'s
+    particle radius is not the base test's (the law is calibrated for one radius: the
+    result's ``reference_radius``)."""
+    if cell is None:
+        return shear_cell(base)
+    if not isinstance(cell, ShearTest):
+        raise ParameterError("calibrate.shear_test", type(cell).__name__, "an engine ShearTest")
+    if cell.radius != base.radius:
+        raise ParameterError(
+            "calibrate.shear_test.radius",
+            cell.radius,
+            f"the test's radius = {base.radius:g} m",
+            "the law is calibrated for one particle radius",
+        )
+    return replace(cell, pair_law=base.pair_law)
+
+
+def run_shear_tests(tests: tuple[ShearTest, ...], progress=None) -> dict[float, dict]:
+    """Run each test (:func:`engine.run_shear`); sigma_pre [Pa] -> the result's JSON form.
+    ``progress`` hears each as a share of the whole (its stage named with the locus's
+    sigma_pre); its errors (a stage that misses its criterion, ...) are raised."""
+    from ..shear.driver import run_shear
+
+    out = {}
+    n = len(tests)
+    for i, t in enumerate(tests):
+        here = None
+        if progress is not None:
+
+            def here(p, i=i, s=t.preshear_stress):
+                return progress(
+                    replace(p, fraction=(i + p.fraction) / n, stage=f"shear@{s:g}Pa {p.stage}")
+                )
+
+        out[t.preshear_stress] = run_shear(t, progress=here).to_dict()
+    return out
+
+
+def measure_shear(shear: dict[float, dict], targets: LabTargets) -> list[dict]:
+    """Each shear target of ``targets`` read from a run's shear results (sigma_pre -> the
+    result's JSON form): name, lab value, lab sd, the run's value and unit (module
+    docstring)."""
+    out = []
+    for locus in targets.shear:
+        s = locus.sigma_pre
+        res = shear[s]
+        slope = float(res["locus"]["slope"])
+        failures = {p["target"]: p for p in res["points"] if p["kind"] == "failure"}
+        for k, p in enumerate(locus.points):
+            run = failures[p.sigma_n]
+            value = float(run["tau"]) + slope * (p.sigma_n - float(run["sigma"]))
+            out.append(
+                {
+                    "name": f"tau@{p.sigma_n:g}Pa:{s:g}Pa",
+                    "lab": p.tau,
+                    "sd": locus.tau_sd(k),
+                    "value": value,
+                    "unit": "Pa",
+                }
+            )
+        sc = res["scalars"]
+        if locus.tau_pre is not None:
+            sigma = float(sc["preshear_sigma"])
+            value = float(sc["preshear_tau"]) * s / sigma if sigma > 0 else math.nan
+            out.append(
+                {
+                    "name": f"tau_pre@{s:g}Pa",
+                    "lab": locus.tau_pre,
+                    "sd": locus.tau_pre_sd,
+                    "value": value,
+                    "unit": "Pa",
+                }
+            )
+        if locus.bulk_density is not None:
+            out.append(
+                {
+                    "name": f"bulk_density@{s:g}Pa",
+                    "lab": locus.bulk_density,
+                    "sd": locus.bulk_density_sd,
+                    "value": float(sc["bulk_density"]),
+                    "unit": "kg/m^3",
+                }
+            )
+    return out
+
+
+def shear_curves(shear: dict[float, dict]) -> list[dict]:
+    """The check run's yield loci as the result shows them: per sigma_pre [Pa] the
+    pre-shear point and the points of failure (sigma, tau [Pa]), the fitted locus (c [Pa],
+    tan(phi)), sigma_1, sigma_c [Pa], ffc and the bulk density [kg/m^3]."""
+    out = []
+    for s in sorted(shear):
+        res = shear[s]
+        loc = res["locus"]
+        pts = res["points"]
+        out.append(
+            {
+                "sigma_pre": float(s),
+                "preshear": {"sigma": pts[0]["sigma"], "tau": pts[0]["tau"]},
+                "points": [
+                    {"target": p["target"], "sigma": p["sigma"], "tau": p["tau"]} for p in pts[1:]
+                ],
+                "cohesion": loc["cohesion"],
+                "slope": loc["slope"],
+                "sigma_1": loc["sigma_1"],
+                "sigma_c": loc["sigma_c"],
+                # inf (no unconfined strength) as null: JSON has no infinity
+                "ffc": loc["ffc"] if math.isfinite(loc["ffc"]) else None,
+                "bulk_density": res["scalars"]["bulk_density"],
+            }
+        )
+    return out
+
+
+def _shear_file(folder: Path, key: str, sigma_pre: float) -> Path:
+    return folder / f"{key}-shear-{sigma_pre:g}Pa.json"
+
+
+def save_shear(folder: Path, key: str, shear: dict[float, dict]) -> None:
+    """Store each locus's result of run ``key`` (written to a temporary file and renamed:
+    a file found is whole)."""
+    for s, res in shear.items():
+        path = _shear_file(folder, key, s)
+        tmp = path.with_suffix(".json.tmp")
+        tmp.write_text(json.dumps(res))
+        tmp.replace(path)
+
+
+def load_shear(folder: Path, key: str, tests: tuple[ShearTest, ...]) -> dict[float, dict] | None:
+    """The stored results of run ``key`` for ``tests``, or None where one is missing or was
+    stored for another test."""
+    out = {}
+    for t in tests:
+        path = _shear_file(folder, key, t.preshear_stress)
+        if not path.exists():
+            return None
+        res = json.loads(path.read_text())
+        if res.get("test") != json.loads(json.dumps(t.to_dict())):
+            return None
+        out[t.preshear_stress] = res
+    return out
+
+
+__all__ = [
+    "CELL_DIAMETERS",
+    "SHEAR",
+    "SHEAR_UNITS",
+    "Forward",
+    "check_shear_cell",
+    "load_shear",
+    "measure_shear",
+    "run_shear_tests",
+    "save_shear",
+    "shear_cell",
+    "shear_curves",
+    "shear_tests",
+]

@@ -34,17 +34,26 @@ EEPA_COARSE_RADII = {"quick": (1.5 * R, 2 * R), "paper": (2 * R,)}
 DECIDE = {"decide": True, "rounds": 2, "max_seeds": 10, "max_reference_seeds": 5, "budget": 8e10}
 
 
-def experiments(scale: str) -> dict[str, engine.StudySpec]:
+#: The protocols the experiments are run at: the seed's (the stored reproduction) and the
+#: default of new studies (issue 40: the seed's claims re-judged at it).
+PROTOCOLS = ("seed", "default")
+
+
+def experiments(scale: str, protocol: str = "seed") -> dict[str, engine.StudySpec]:
     """The experiments of the seed at ``scale`` ("paper" or "quick"); at the paper scale
-    each adds seeds until decided, within :data:`DECIDE`. Every run is made with the seed's
-    protocol (``engine.preset(scale, protocol="seed")``: dt = 1e-5 s, the platen at a constant
-    10 mm/s, the free-fall fill, the strength read from the top platen, and at the quick scale
-    the 50 x 50 x 100 mm cell), as the stored runs were: the defaults of new studies moved on
-    (docs/PROTOCOL.md) and these studies judge the runs they stored."""
-    plain = replace(engine.preset(scale, protocol="seed"), unconfined=False)  # f0 = 0
+    each adds seeds until decided, within :data:`DECIDE`. With ``protocol="seed"`` every run
+    is made with the seed's protocol (``engine.preset(scale, protocol="seed")``: dt = 1e-5
+    s, the platen at a constant 10 mm/s, the free-fall fill, the strength read from the top
+    platen, and at the quick scale the 50 x 50 x 100 mm cell), as the stored reproduction
+    was; with ``protocol="default"`` at the default of new studies (docs/PROTOCOL.md: each
+    run's time step a fraction of its own contact time, loading at a stated inertial
+    number, the capped pour, the interior strength), the same laws, radii and rules."""
+    if protocol not in PROTOCOLS:
+        raise ValueError(f"protocol {protocol!r}: one of {', '.join(PROTOCOLS)}")
+    plain = replace(engine.preset(scale, protocol=protocol), unconfined=False)  # f0 = 0
     cohesive = engine.preset(
         scale,
-        protocol="seed",
+        protocol=protocol,
         pair_law=engine.BilinearAdhesive(
             k1=5e3, k2=2.5e4, f0=-0.8, mu_s=0.5, mu_r=0.001, restitution=0.4
         ),
@@ -53,8 +62,8 @@ def experiments(scale: str) -> dict[str, engine.StudySpec]:
     common = {
         "reference_seeds": REFERENCE_SEEDS,
         "seeds": COARSE_SEEDS,
-        # the stored experiments were planned before a study proved its own protocol
-        # (issue 40): their protocol is the seed's, judged by benchmarks.protocol instead
+        # no I*/2 reference per study: the seed's protocol was judged by benchmarks.protocol,
+        # and so was the default's halving on the paper-scale reference itself (docs/PROTOCOL.md)
         "protocol_check": False,
         **(DECIDE if scale == "paper" else {}),
     }
@@ -77,13 +86,13 @@ def experiments(scale: str) -> dict[str, engine.StudySpec]:
             **common,
         ),
         "c_eepa_cohesionless": engine.StudySpec(
-            reference=engine.preset(scale, protocol="seed", pair_law=eepa, unconfined=False),
+            reference=engine.preset(scale, protocol=protocol, pair_law=eepa, unconfined=False),
             coarse_radii=(2 * R,),
             rules=eepa_rules,
             **eepa_common,
         ),
         "d_eepa_cohesive": engine.StudySpec(
-            reference=engine.preset(scale, protocol="seed", pair_law=replace(eepa, f0=-0.8)),
+            reference=engine.preset(scale, protocol=protocol, pair_law=replace(eepa, f0=-0.8)),
             coarse_radii=eepa_radii,
             rules=eepa_rules,
             **eepa_common,
@@ -109,16 +118,29 @@ def capped_study() -> engine.StudySpec:
     return replace(spec, reference=replace(spec.reference, pour_speed=POUR_SPEED))
 
 
-def judged_experiments(scale: str) -> dict[str, engine.StudySpec]:
-    """The experiments the report of ``scale`` judges: :func:`experiments`, and at the paper
-    scale, once its store exists, (b) with the capped pour right after (b)."""
+def judged_experiments(scale: str, protocol: str = "seed") -> dict[str, engine.StudySpec]:
+    """The experiments the report of ``scale`` at ``protocol`` judges: :func:`experiments`,
+    and at the paper scale and the seed's protocol, once its store exists, (b) with the
+    capped pour right after (b) (the default protocol's fill is a capped pour already)."""
     out = {}
-    for name, spec in experiments(scale).items():
+    for name, spec in experiments(scale, protocol).items():
         out[name] = spec
-        if name == "b_cohesive" and scale == "paper" and store_dir(scale, CAPPED).is_dir():
+        if (
+            name == "b_cohesive"
+            and scale == "paper"
+            and protocol == "seed"
+            and store_dir(scale, CAPPED).is_dir()
+        ):
             out[CAPPED] = capped_study()
     return out
 
 
-def store_dir(scale: str, name: str) -> Path:
-    return STORE / scale / name
+def label(scale: str, protocol: str = "seed") -> str:
+    """The name of a reproduction: the scale at the seed's protocol, ``<scale>_default`` at
+    the default one (its store folder, report and figures)."""
+    return scale if protocol == "seed" else f"{scale}_{protocol}"
+
+
+def store_dir(scale: str, name: str, protocol: str = "seed") -> Path:
+    """Where the runs of experiment ``name`` at ``scale`` and ``protocol`` are stored."""
+    return STORE / label(scale, protocol) / name

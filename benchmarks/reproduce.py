@@ -3,6 +3,8 @@
     python -m benchmarks.reproduce --scale paper --workers 2   # the seed's scale (hours)
     python -m benchmarks.reproduce --scale paper --report      # report from stored runs only
     python -m benchmarks.reproduce --scale quick               # smoke run (minutes)
+    python -m benchmarks.reproduce --scale paper --protocol default --adopt \
+        benchmarks/results/paper/protocol                      # the claims at the default protocol
 
 (a) cohesionless bed: R_ref = 2.5 mm against 2 R_ref, stiffness unscaled (a = 0) against
     linearly scaled (a = 1); confined stages only (a cohesionless sample has no unconfined
@@ -25,10 +27,15 @@ cell as thick, 5 diameters, but 3 times as wide and tall), so two seeds per vari
 n = 1.5 step costs 1.34x a bilinear one (benchmarks/eepa_cost.py), a cohesive paper-scale
 reference about 1e10 particle-steps, and a 3.75 mm coarse run 3e9.
 Every finished run is stored at once as ``benchmarks/results/<scale>/<experiment>/<run>.h5``
-(:mod:`engine.io.store`); a rerun resumes with the runs not yet stored, and ``--report``
+(:mod:`engine.io.store`); a rerun resumes with the runs not yet stored (a run cut off
+resumes from its checkpoint in ``.checkpoints/`` beside them), and ``--report``
 recomputes every metric, verdict and figure from the stored curves. ``--scale paper`` writes
 docs/VALIDATION.md and docs/figures/; ``--scale quick`` writes docs/VALIDATION_quick.md (the
-smoke-test scale).
+smoke-test scale). ``--protocol default`` runs the same experiments at the default protocol
+of new studies (docs/PROTOCOL.md), stored in ``benchmarks/results/<scale>_default/`` and
+reported in docs/VALIDATION_<scale>_default.md; ``--adopt DIR`` first copies into the store
+every run stored in DIR whose test is a run of the study (the protocol benchmark's runs of
+experiment (b) at the default protocol), so that none is run twice.
 """
 
 from __future__ import annotations
@@ -39,6 +46,7 @@ import multiprocessing as mp
 import time
 from pathlib import Path
 
+import benchmarks.experiments as _experiments
 import engine
 from benchmarks.experiments import (  # noqa: F401  (names of this module before the split)
     COARSE_SEEDS,
@@ -46,12 +54,14 @@ from benchmarks.experiments import (  # noqa: F401  (names of this module before
     EEPA_COARSE_RADII,
     EEPA_COARSE_SEEDS,
     EXPERIMENTS,
+    PROTOCOLS,
     REFERENCE_SEEDS,
     ROOT,
     STORE,
     R,
     experiments,
     judged_experiments,
+    label,
     store_dir,
 )
 from engine.io.store import completed_runs, load_all, save_run, stored_code, stored_machine
@@ -121,11 +131,41 @@ def machines_of(directory: Path) -> dict:
     return {p.stem: stored_machine(p) for p in sorted(directory.glob("*.h5"))}
 
 
-def run(scale: str, workers: int, only: list[str] | None, runs: list[str] | None = None) -> None:
-    specs = experiments(scale)
+def adopt(spec: engine.StudySpec, directory: Path, sources: list[Path]) -> list[str]:
+    """Copy into ``directory`` each run stored under ``sources`` whose test is a run of the
+    study (a planned run, or one of its variants or its reference with another seed, up to
+    :data:`DECIDE`'s ``max_seeds``) and is not stored there yet, named by its run key."""
+    import shutil
+
+    from engine.io.store import load_run
+
+    stems = {p.key.rpartition("-s")[0] for p in engine.plan(spec).runs}
+    keys = [f"{st}-s{k}" for st in sorted(stems) for k in range(1, DECIDE["max_seeds"] + 1)]
+    by_test = {p.test: p.key for p in stored_plan_runs(spec, keys)}
+    done = []
+    for src in sources:
+        for path in sorted(Path(src).glob("*.h5")):
+            run = load_run(path)
+            key = None if isinstance(run, str) else by_test.get(run.test)
+            if key is None or (directory / f"{key}.h5").exists():
+                continue
+            directory.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(path, directory / f"{key}.h5")
+            done.append(f"{key} <- {path}")
+    return done
+
+
+def run(
+    scale: str,
+    workers: int,
+    only: list[str] | None,
+    runs: list[str] | None = None,
+    protocol: str = "seed",
+) -> None:
+    specs = experiments(scale, protocol)
     for name in only or specs:
         spec = specs[name]
-        d = store_dir(scale, name)
+        d = store_dir(scale, name, protocol)
         stored = stored_runs(spec, d)
         if runs:
             unknown = set(runs) - {p.key for p in plan_runs(spec, stored)[0]}
@@ -138,6 +178,7 @@ def run(scale: str, workers: int, only: list[str] | None, runs: list[str] | None
         if not todo:
             continue
         t0 = time.perf_counter()
+        ckpt = d / ".checkpoints"  # a run cut off resumes there (not tracked)
 
         def on_run(key, outcome, d=d, t0=t0):
             save_run(d / f"{key}.h5", outcome, keep_particles=False)
@@ -153,9 +194,11 @@ def run(scale: str, workers: int, only: list[str] | None, runs: list[str] | None
             if workers > 1:
                 ctx = mp.get_context("spawn")
                 with cf.ProcessPoolExecutor(workers, mp_context=ctx) as pool:
-                    engine.run_study(spec, executor=pool, completed=done, on_run=on_run)
+                    engine.run_study(
+                        spec, executor=pool, completed=done, on_run=on_run, checkpoints=ckpt
+                    )
             else:
-                engine.run_study(spec, _Ticker(), completed=done, on_run=on_run)
+                engine.run_study(spec, _Ticker(), completed=done, on_run=on_run, checkpoints=ckpt)
         except engine.RunFailed:
             if not runs:
                 raise
@@ -164,9 +207,22 @@ def run(scale: str, workers: int, only: list[str] | None, runs: list[str] | None
 
 
 def main(argv=None) -> int:
-    global STORE
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scale", choices=("paper", "quick"), default="quick")
+    ap.add_argument(
+        "--protocol",
+        choices=PROTOCOLS,
+        default="seed",
+        help="the seed's protocol (the stored reproduction) or the default of new studies",
+    )
+    ap.add_argument(
+        "--adopt",
+        nargs="*",
+        type=Path,
+        default=[],
+        metavar="DIR",
+        help="folders of stored runs to take instead of running them where the test matches",
+    )
     ap.add_argument(
         "--workers",
         type=int,
@@ -197,11 +253,17 @@ def main(argv=None) -> int:
         help="folder of the stored runs (default: benchmarks/results)",
     )
     args = ap.parse_args(argv)
-    if args.store is not None:
-        STORE = args.store
+    if args.store is not None:  # where experiments.store_dir looks
+        _experiments.STORE = args.store
     t0 = time.perf_counter()
+    if args.adopt:
+        for name, spec in experiments(args.scale, args.protocol).items():
+            if not args.only or name in args.only:
+                d = store_dir(args.scale, name, args.protocol)
+                for line in adopt(spec, d, args.adopt):
+                    print(f"{name}: adopted {line}", flush=True)
     if not args.report:
-        run(args.scale, args.workers, args.only, args.runs)
+        run(args.scale, args.workers, args.only, args.runs, args.protocol)
         if args.runs:  # a share of a study: the report waits for all of its runs
             print(
                 f"stored the runs asked for ({time.perf_counter() - t0:.0f} s); no report written"
@@ -209,15 +271,14 @@ def main(argv=None) -> int:
             return 0
     from benchmarks.report import write_report
 
-    specs = judged_experiments(args.scale)
+    specs = judged_experiments(args.scale, args.protocol)
+    dirs = {name: store_dir(args.scale, name, args.protocol) for name in specs}
     path = write_report(
         args.scale,
-        {
-            name: (spec, all_stored_runs(spec, store_dir(args.scale, name)))
-            for name, spec in specs.items()
-        },
-        machines={name: machines_of(store_dir(args.scale, name)) for name in specs},
-        codes={name: codes_of(store_dir(args.scale, name)) for name in specs},
+        {name: (spec, all_stored_runs(spec, dirs[name])) for name, spec in specs.items()},
+        machines={name: machines_of(d) for name, d in dirs.items()},
+        codes={name: codes_of(d) for name, d in dirs.items()},
+        protocol=args.protocol,
     )
     print(f"wrote {path} ({time.perf_counter() - t0:.0f} s)")
     return 0

@@ -189,3 +189,30 @@ def test_the_capped_study_is_experiment_b_with_only_the_pour_changed():
     for p, q in zip(runs_b, runs_c, strict=True):
         assert p.test.pour_speed is None and q.test.pour_speed == POUR_SPEED
         assert replace(q.test, pour_speed=None) == p.test
+
+
+def test_the_experiments_at_the_default_protocol_adopt_the_protocol_benchmarks_runs(tmp_path):
+    """--protocol default: the same experiments at the default protocol, stored apart; a run
+    the protocol benchmark stored for the same test is taken under its run key, once."""
+    import shutil
+
+    from benchmarks.experiments import ROOT, experiments, label, store_dir
+    from benchmarks.reproduce import adopt
+
+    seed, new = experiments("paper"), experiments("paper", "default")
+    assert seed["b_cohesive"].reference.dt == 1e-5 and new["b_cohesive"].reference.dt is None
+    assert new["b_cohesive"].coarse_radii == seed["b_cohesive"].coarse_radii
+    assert label("paper", "default") == "paper_default" and label("paper") == "paper"
+    assert store_dir("paper", "b_cohesive", "default").parent.name == "paper_default"
+    with pytest.raises(ValueError, match="protocol"):
+        experiments("paper", "fast")
+    src = tmp_path / "src"
+    src.mkdir()
+    stored = ROOT / "benchmarks" / "results" / "paper" / "protocol"
+    for name in ("ref-I5e-4-f0.4-s2.h5", "ref-I2.5e-4-f0.4-s1.h5"):  # default; I* halved
+        shutil.copyfile(stored / name, src / name)
+    dest = tmp_path / "dest"
+    assert adopt(new["b_cohesive"], dest, [src]) == [f"ref-s2 <- {src / 'ref-I5e-4-f0.4-s2.h5'}"]
+    assert sorted(p.name for p in dest.iterdir()) == ["ref-s2.h5"]
+    assert adopt(new["b_cohesive"], dest, [src]) == []  # once
+    assert adopt(seed["b_cohesive"], tmp_path / "seed", [src]) == []  # another protocol

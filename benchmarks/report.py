@@ -432,7 +432,7 @@ def claim_eepa(res) -> list[str]:
     return out
 
 
-def adaptive_lines(res) -> list[str]:
+def adaptive_lines(res, beyond_why: str | None = None) -> list[str]:
     """What a study that adds seeds until decided added, what its rule would still run, and
     why it stopped."""
     a = res.advisor.get("adaptive")
@@ -468,9 +468,12 @@ def adaptive_lines(res) -> list[str]:
     ]
     if beyond:
         out += [
-            f"Stored beyond that design and judged with the rest: {', '.join(beyond)} (added "
-            "by the rule before issue 28, which sized a round from the observed means; the "
-            "verdicts treat them as the study's last look).",
+            f"Stored beyond that design and judged with the rest: {', '.join(beyond)} ("
+            + (
+                beyond_why
+                or "added by the rule before issue 28, which sized a round from the observed means"
+            )
+            + "; the verdicts treat them as the study's last look).",
             "",
         ]
     out += [f"- added {x['run']} ({x['kind']}): {x['reason']}" for x in a["added_runs"]]
@@ -708,7 +711,9 @@ def write_report(
                 "",
                 "These experiments run at the seed's protocol (dt = 1e-5 s, 10 mm/s). The seed's "
                 "rule re-judged at the default protocol (experiment (b)'s b = 2 at both radii "
-                "against a default-protocol reference) is in [PROTOCOL.md](PROTOCOL.md); the "
+                "against a default-protocol reference) is in [PROTOCOL.md](PROTOCOL.md), the four "
+                "experiments re-run at the default protocol in "
+                "[VALIDATION_paper_default.md](VALIDATION_paper_default.md); the "
                 "resolution curve of the main job's reference law, how many diameters across "
                 "each property needs, in [RESOLUTION.md](RESOLUTION.md).",
                 "",
@@ -798,7 +803,13 @@ def write_report(
             continue
         fig = f"figures/{name_of_run}_{name}"
         lines += [noise_line(res), "", verdict_table(res), ""]
-        lines += adaptive_lines(res)
+        lines += adaptive_lines(
+            res,
+            None
+            if protocol == "seed"
+            else "runs of the protocol benchmark, benchmarks/protocol.py, for the same tests, "
+            "taken by --adopt",
+        )
         lines += ["Reasons:", ""]
         lines += [
             f"- R = {v['radius'] * 1e3:g} mm, {v['rule']}: {v['verdict']}: {v['reason']}"

@@ -538,6 +538,8 @@ class _Shear:
             "servo_gain": cell.servo["gain"],
             "servo_halvings": float(halvings),
             "steps": float(steps),
+            "particle_steps": float(sim.n) * float(steps),
+            "thickness_diameters": t.thickness_diameters,
             "dt": sim.dt,
             "wall_time": time.perf_counter() - self.t_wall - self.setup_time,
         }

@@ -123,6 +123,60 @@ SHEAR_SCALAR_UNITS = {
     "servo_gain": "m/(s Pa)",
     "servo_halvings": "1",
     "steps": "1",
+    "particle_steps": "1",
+    "thickness_diameters": "1",
     "dt": "s",
     "wall_time": "s",
 }
+
+
+def save_shear(path, res: ShearResult, **extra) -> None:
+    """Store ``res`` as ``path`` (.json: its test, scalars, shear points, locus and the
+    ``extra`` keys) and its shear stages' curves beside it (.npz, ``<stage>/<curve>``),
+    each written whole (a temporary file, then a rename), the curves first: a .json
+    present means a complete run. The consolidation's stages are not stored."""
+    import json
+    from pathlib import Path
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    curves = {f"{name}/{k}": v for name, st in res.stages.items() for k, v in st.curves.items()}
+    tmp = path.with_suffix(".npz.tmp")
+    with open(tmp, "wb") as f:
+        np.savez_compressed(f, **curves)
+    tmp.replace(path.with_suffix(".npz"))
+    data = {**res.to_dict(), **extra}
+    tmp = path.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(data, indent=1, default=float))
+    tmp.replace(path)
+
+
+def load_shear(path, curves: bool = False) -> ShearResult:
+    """A run stored by :func:`save_shear` (or ``benchmarks/shear_cell.py``'s store, the same
+    layout): its test, scalars, points and locus; with ``curves`` its shear stages' curves
+    from the .npz beside it (else no stages). The consolidation's stages are not stored
+    (``consolidation`` is empty). Scalars that a run stored before they existed lacks
+    (``particle_steps``, ``thickness_diameters``) are computed from its test and scalars."""
+    import json
+    from pathlib import Path
+
+    from .locus import YieldLocus
+
+    path = Path(path)
+    d = json.loads(path.read_text())
+    test = ShearTest.from_dict(d["test"])
+    s = {k: float(v) for k, v in d["scalars"].items()}
+    s.setdefault("particle_steps", s["particles"] * s["steps"])
+    s.setdefault("thickness_diameters", test.thickness_diameters)
+    points = tuple(
+        ShearPoint(p["target"], p["sigma"], p["tau"], p["strain"], bool(p["peaked"]))
+        for p in d["points"]
+        if p["kind"] == "failure"
+    )
+    stages: dict[str, ShearStage] = {}
+    if curves:
+        with np.load(path.with_suffix(".npz")) as z:
+            for key in z.files:
+                name, _, curve = key.partition("/")
+                stages.setdefault(name, ShearStage(name, {}, 0)).curves[curve] = z[key]
+    return ShearResult(test, {}, stages, points, YieldLocus(**d["locus"]), s)

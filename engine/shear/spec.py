@@ -10,7 +10,7 @@ the uniaxial test's own; the shear stages are :mod:`engine.shear.driver`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 from ..contact.bilinear import BilinearAdhesive
 from ..contact.eepa import EEPA
@@ -277,6 +277,63 @@ class ShearTest(Record):
     def area(self) -> float:
         """The cell's cross-section Lx Ly [m^2]."""
         return self.cell[0] * self.cell[1]
+
+    @property
+    def consolidation_stress(self) -> float:
+        """The normal stress the bed is consolidated and pre-sheared at, sigma_pre [Pa]: a
+        scaling study's stress scale (the floor of a strength's error, engine.study)."""
+        return self.preshear_stress
+
+    @property
+    def n_particles(self) -> int:
+        """Number of particles: solid_fraction x cell volume / mean particle volume."""
+        return self.consolidation_test().n_particles
+
+    @property
+    def thickness_diameters(self) -> float:
+        """Thinnest side of the cell's periodic cross-section (Lx, Ly) in diameters of the
+        largest particle [-] (as :attr:`engine.UniaxialTest.thickness_diameters`)."""
+        return min(self.cell[:2]) / (2 * self.radius * (1 + self.polydispersity))
+
+    def resolved_dt(self) -> float:
+        """The time step a run of this test takes [s]: ``dt``, or ``dt_fraction`` of the
+        critical time of the stiffest contact (its consolidation test's)."""
+        return self.consolidation_test().resolved_dt()
+
+
+def halved_protocol(test: ShearTest) -> ShearTest:
+    """``test`` at half its shear rate and half its time step, everything else equal: the
+    inertial number halved (the lid's descent and every shear stage), ``dt`` halved where
+    given, else ``dt_fraction``, and ``max_stage_time`` doubled (the same strains take
+    twice the time). A run of it against ``test``'s shows whether the shear is
+    quasi-static and its step converged (docs/PHYSICS.md section 7.6)."""
+    step = {"dt": test.dt / 2} if test.dt is not None else {"dt_fraction": test.dt_fraction / 2}
+    return replace(
+        test,
+        inertial_number=test.inertial_number / 2,
+        max_stage_time=test.max_stage_time * 2,
+        **step,
+    )
+
+
+def control_test(reference: ShearTest, radius: float, reference_dt: float) -> ShearTest:
+    """The resolution control of coarse radius ``radius`` [m] for a shear study
+    (docs/PHYSICS.md sections 7.4 and 11.1): the ``reference`` law unscaled in the
+    reference cell scaled by s = R_ref / radius (as many of its diameters across as a
+    coarse run is of its own, the same particle count), gravity over s (the fill's
+    overburden rho g H kept; gravity is off from the consolidation on), the inertial number,
+    the law, the time step (``reference_dt`` [s] where the reference gives one) and the
+    stage bounds kept. At the same inertial number a coarse run under K ~ R, f0 ~ R^2 is
+    this test scaled by 1/s in length and 1/s^2 in force, its clock too (times scale as
+    1/s, shear speeds are the same), but for the curve samples, fixed in seconds
+    (``output_interval``)."""
+    s = reference.radius / radius
+    return replace(
+        reference,
+        cell=tuple(c * s for c in reference.cell),
+        gravity=reference.gravity / s,
+        dt=None if reference.dt is None else reference_dt,
+    )
 
 
 #: The fields a shear test passes on to its consolidation test as they are.

@@ -37,7 +37,7 @@ from .judge import (
     verdict,
     what_decides,
 )
-from .metrics import METRICS
+from .metrics import METRICS, is_shear
 from .noise import noise_floor
 from .reasons import _pct
 
@@ -121,7 +121,13 @@ def resolution_lines(resolution: list[dict], rule_errors: list[dict], spec) -> l
             f"{v['rule']} at R = {v['radius'] * 1e3:g} mm: the rule {says[v['verdict']]} "
             f"against its resolution control (the rule's own error: {parts})"
         )
-        if v["rule"] in exact:
+        if v["rule"] in exact and is_shear(spec.reference):
+            text += (
+                "; for this law the rule is an exact similarity of the shear test at the "
+                "same inertial number, so this error measures only the curve samples' "
+                "clock (output_interval, fixed in seconds) and the runs' chaos"
+            )
+        elif v["rule"] in exact:
             text += (
                 "; for this law the rule is an exact similarity, so this error measures "
                 "only the clock: the inertial number at the same strain rate and the time "
@@ -299,7 +305,7 @@ def adhesion_advice(
     coarse runs match the fine law in a sample as many diameters across: the rule's own
     mismatch, free of the sample's resolution loss), else against the references
     (``fitted_against`` says which; ``fitted_reference`` is always the latter)."""
-    if not spec.reference.unconfined:
+    if not getattr(spec.reference, "unconfined", False):
         return None
     families: dict[tuple, set] = {}
     for rule in spec.rules:
@@ -382,6 +388,33 @@ __all__ = [
     "pairing_pays",
     "resolution_lines",
     "seeds_needed",
+    "side_by_side",
     "verdict",
     "what_decides",
 ]
+
+
+def side_by_side(verdicts: dict[str, list[dict]]) -> list[dict]:
+    """One rule judged on several tests (docs/PHYSICS.md section 11.1): ``verdicts`` maps a
+    test's name (``"uniaxial"``, ``"shear"``) to its study's verdicts (``advisor
+    ["verdicts"]``, studies with the same rules and radii: engine.study.spec.on_test).
+    Returns per (radius, rule) its verdict on each test and the combined one:
+    ``equivalent`` where every test's is (an intersection-union test, at each study's
+    confidence with no correction), ``differs`` where any test's is (a wrong ``differs``
+    on some test has up to the sum of the studies' rates), else ``undecided``; a test
+    without the variant counts as ``undecided`` ("not run")."""
+    keys = sorted({(v["radius"], v["rule"]) for vs in verdicts.values() for v in vs})
+    out = []
+    for radius, rule in keys:
+        per = {}
+        for test, vs in verdicts.items():
+            v = next((v for v in vs if (v["radius"], v["rule"]) == (radius, rule)), None)
+            per[test] = "not run" if v is None else v["verdict"]
+        if all(x == "equivalent" for x in per.values()):
+            both = "equivalent"
+        elif any(x == "differs" for x in per.values()):
+            both = "differs"
+        else:
+            both = "undecided"
+        out.append({"radius": radius, "rule": rule, "tests": per, "verdict": both})
+    return out

@@ -54,9 +54,11 @@ class Addition:
 
 
 def headline(names) -> str:
-    """The metric a user reads first: the unconfined strength where judged, else the
-    loading stiffness."""
-    return "strength" if "strength" in names else "loading_stiffness"
+    """The metric a user reads first: the unconfined strength where judged, the flowability
+    ffc in a shear study, else the loading stiffness."""
+    if "strength" in names:
+        return "strength"
+    return "ffc" if "ffc" in names else "loading_stiffness"
 
 
 def _combine(chances) -> float:

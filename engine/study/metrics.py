@@ -30,6 +30,7 @@ divided by the range the reference curve covers.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -88,6 +89,66 @@ METRICS = {
     )
 }
 
+#: The shear test's verdict metrics (engine.ShearTest; docs/PHYSICS.md section 11.1): each
+#: quantity gets the tolerance of the uniaxial quantity of its kind, so that one rule is
+#: judged by one yardstick on both tests. Fixed before any coarse shear run was made.
+SHEAR_METRICS = {
+    m.name: m
+    for m in (
+        Metric(
+            "yield_locus",
+            "Pa",
+            0.15,
+            "the shear stress of incipient failure at each of the test's normal stresses "
+            "(the fitted locus c + sigma_n tan(phi)) is the strength a silo or hopper design "
+            "reads off a shear tester; shear-cell strengths of cohesive powders repeat to "
+            "10-20 % between laboratory samples, the reason of the uniaxial strength's 15 %",
+        ),
+        Metric(
+            "sigma_1",
+            "Pa",
+            0.15,
+            "the major consolidation stress places a flow function's point along its axis; "
+            "it is read from the same shear-cell measurements as the strengths, with their "
+            "repeatability",
+        ),
+        Metric(
+            "sigma_c",
+            "Pa",
+            0.15,
+            "the unconfined yield strength sets the critical outlet width of a hopper "
+            "(proportional to it); shear-cell strengths repeat to 10-20 % between laboratory "
+            "samples, as the uniaxial strength's",
+        ),
+        Metric(
+            "ffc",
+            "1",
+            0.15,
+            "the flowability sigma_1 / sigma_c is what a user classes a powder by (Jenike's "
+            "classes change at ffc 1, 2, 4, 10, factors of 2 to 2.5 apart); 15 % keeps a "
+            "powder in its class but within 15 % of a boundary, the strengths' tolerance",
+        ),
+        Metric(
+            "bulk_density",
+            "kg/m^3",
+            0.03,
+            "the bulk density of the pre-sheared bed is what a shear tester reports beside "
+            "its locus and a calibration matches first; laboratory bulk densities of one "
+            "powder differ by a few per cent between fill methods (the uniaxial density's 3 %)",
+        ),
+    )
+}
+
+#: Default tolerance per shear verdict metric [-].
+SHEAR_TOLERANCES = {k: m.tolerance for k, m in SHEAR_METRICS.items()}
+
+#: Column of each shear verdict metric's per-run error in a study table.
+SHEAR_METRIC_COLUMNS = {k: f"err_{k}" for k in SHEAR_METRICS}
+
+#: Metrics whose difference is divided by max(reference, STRENGTH_FLOOR x the consolidation
+#: stress): strengths, which a cohesionless bed has near 0.
+FLOORED = frozenset({"strength", "sigma_c"})
+
 #: Column of each verdict metric's per-run error in a study table.
 METRIC_COLUMNS = {
     "density": "err_density",
@@ -113,6 +174,59 @@ STRENGTH_FLOOR = 0.05
 def metric_names(unconfined: bool) -> tuple[str, ...]:
     """The verdict metrics a study of tests with (or without) the unconfined stage has."""
     return tuple(k for k in METRICS if unconfined or k != "strength")
+
+
+def is_shear(test) -> bool:
+    """Whether ``test`` (a test record) is the shear test (engine.ShearTest)."""
+    from ..shear.spec import ShearTest
+
+    return isinstance(test, ShearTest)
+
+
+def metrics_of(test) -> dict[str, Metric]:
+    """The verdict metrics of a study whose reference is ``test``: :data:`SHEAR_METRICS`
+    for a shear test, else :data:`METRICS`."""
+    return SHEAR_METRICS if is_shear(test) else METRICS
+
+
+def metric_names_of(test) -> tuple[str, ...]:
+    """The verdict metrics a study of ``test`` judges: the shear test's, or the uniaxial
+    test's with (or without) the unconfined stage (:func:`metric_names`)."""
+    if is_shear(test):
+        return tuple(SHEAR_METRICS)
+    return metric_names(test.unconfined)
+
+
+def shape_names_of(test) -> tuple[str, ...]:
+    """The shape measures of a study of ``test``: :data:`SHAPE_NAMES`, none for a shear
+    test (:func:`shape_errors`)."""
+    return () if is_shear(test) else SHAPE_NAMES
+
+
+def metric_column(name: str) -> str:
+    """The table column of a verdict metric's per-run error."""
+    return METRIC_COLUMNS.get(name) or SHEAR_METRIC_COLUMNS[name]
+
+
+def shear_metric_values(result) -> dict[str, np.ndarray]:
+    """Values of every shear verdict metric of one :class:`engine.ShearResult`:
+    ``yield_locus``, the fitted locus's shear stress c + sigma_n tan(phi) at each of the
+    test's normal stresses sigma_n [Pa] (every run of a study is read at the same stresses,
+    whatever its servo measured); ``sigma_1``, ``sigma_c`` [Pa]; ``ffc`` as
+    sigma_1 / max(sigma_c, STRENGTH_FLOOR x sigma_pre) [-] (the flowability wherever it is
+    below sigma_1 / (0.05 sigma_pre), about 30 here, far into "free flowing"; finite for a
+    cohesionless bed); ``bulk_density``, the pre-shear's [kg/m^3]."""
+    t, s = result.test, result.scalars
+    sigma_n = np.asarray(t.normal_stresses, dtype=float)
+    slope = math.tan(math.radians(s["friction_angle"]))
+    floor = STRENGTH_FLOOR * t.preshear_stress
+    return {
+        "yield_locus": s["cohesion"] + slope * sigma_n,
+        "sigma_1": np.array([s["sigma_1"]]),
+        "sigma_c": np.array([s["sigma_c"]]),
+        "ffc": np.array([s["sigma_1"] / max(s["sigma_c"], floor)]),
+        "bulk_density": np.array([s["bulk_density"]]),
+    }
 
 
 def stress_levels(test) -> tuple[np.ndarray, np.ndarray]:
@@ -154,7 +268,10 @@ def metric_values(result) -> dict[str, np.ndarray]:
     """Values of every verdict metric of one :class:`engine.UniaxialResult` (see the module
     docstring), plus ``density_whole`` and ``coordination_whole`` (whole-sample values at the
     same levels, reported next to the interior ones) and, with a strength, ``failed`` (1.0
-    when the sample failed at a peak, 0.0 when it hardened)."""
+    when the sample failed at a peak, 0.0 when it hardened). A shear test's result: its
+    :func:`shear_metric_values`."""
+    if is_shear(result.test):
+        return shear_metric_values(result)
     test = result.test
     names = ("porosity_interior", "coordination_interior", "porosity", "coordination")
     parts: dict[str, list] = {n: [] for n in names}
@@ -183,10 +300,10 @@ def metric_values(result) -> dict[str, np.ndarray]:
 
 
 def reference_scale(name: str, ref: np.ndarray, consolidation_stress: float) -> np.ndarray:
-    """What a metric's difference is divided by: the reference values, or for the strength
-    max(reference, 5 % of the consolidation stress)."""
+    """What a metric's difference is divided by: the reference values, or for a strength
+    (:data:`FLOORED`) max(reference, 5 % of the consolidation stress)."""
     ref = np.abs(np.asarray(ref, dtype=float))
-    if name == "strength":
+    if name in FLOORED:
         return np.maximum(ref, STRENGTH_FLOOR * consolidation_stress)
     return np.where(ref > 0, ref, 1.0)
 
@@ -236,7 +353,10 @@ def _common_levels(a: np.ndarray, b: np.ndarray, loading: bool, n: int = 40) -> 
 def shape_errors(run, ref) -> dict[str, float]:
     """Shape measures of ``run`` against ``ref`` (both :class:`engine.UniaxialResult`): the
     normalised RMS of strain, porosity and coordination on the common stress range of each
-    branch, divided by the reference curve's range."""
+    branch, divided by the reference curve's range. None for shear tests (their curves are
+    against shear strain, and every run's stress path differs in its own steps)."""
+    if is_shear(run.test):
+        return {}
     parts_run: dict[str, list] = {"strain": [], "porosity": [], "coordination": []}
     parts_ref: dict[str, list] = {"strain": [], "porosity": [], "coordination": []}
     for stage, loading in (("consolidation", True), ("unloading", False)):

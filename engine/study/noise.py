@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .metrics import STRENGTH_FLOOR, reference_scale
+from .metrics import FLOORED, STRENGTH_FLOOR, reference_scale
 from .pooling import SCREEN_LEVEL, Spread, group_spreads, own_spread
 
 #: The key of the references among a study's groups.
@@ -77,7 +77,7 @@ def choose_space(name: str, arrays: list[np.ndarray], ref_mean: np.ndarray, cons
     """The :class:`Space` of metric ``name`` for the ``arrays`` compared (the references
     and every group at one radius)."""
     ref_mean = np.asarray(ref_mean, dtype=float)
-    if name == "strength" and ref_mean.size == 1:
+    if name in FLOORED and ref_mean.size == 1:
         if abs(float(ref_mean[0])) < STRENGTH_FLOOR * cons:
             return Space("difference", STRENGTH_FLOOR * cons)
     if all(np.all(a > 0) for a in arrays if a.size):

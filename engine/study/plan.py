@@ -16,10 +16,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..core.errors import ParameterError
+from ..shear import spec as shear_spec
+from ..shear.spec import ShearTest
 from ..uniaxial.spec import UniaxialTest, halved_protocol
 from .allocate import Addition, next_runs
 from .judge import error_rates, judge_group, judge_groups
-from .metrics import metric_names, metric_values, shape_errors
+from .metrics import is_shear, metric_names_of, metric_values, shape_errors
 from .noise import StudyNoise
 from .spec import ScalingRule, StudySpec
 
@@ -41,7 +43,7 @@ class PlannedRun:
     radius: float
     rule: ScalingRule | None
     seed: int
-    test: UniaxialTest
+    test: UniaxialTest | ShearTest
     control: bool = False
     protocol: bool = False
 
@@ -104,13 +106,16 @@ def run_key(
     return f"r{radius * 1e3:g}mm-{rule.name}-s{seed}"
 
 
-def estimated_steps(test: UniaxialTest) -> float:
-    """Rough step count of a test: fill (two free-fall times of the pour column),
-    compression of the sample by 10 % there and back, release, unconfined strain. At a
-    constant ``platen_speed`` the loading takes strain x height / speed; at an
+def estimated_steps(test: UniaxialTest | ShearTest) -> float:
+    """Rough step count of a test (a shear test's: :func:`estimated_shear_steps`): fill
+    (two free-fall times of the pour column), compression of the sample by 10 % there and
+    back, release, unconfined strain. At a constant ``platen_speed`` the loading takes
+    strain x height / speed; at an
     ``inertial_number`` I* the strain rate is I* sqrt(p / rho) / d (at most
     ``max_platen_speed`` / height), taken at a quarter of the consolidation stress as the
     stages' typical stress (engine.uniaxial.measures.loading_speed)."""
+    if is_shear(test):
+        return estimated_shear_steps(test)
     dt = test.resolved_dt()
     height = test.cell[2]
     if test.inertial_number is None:
@@ -128,16 +133,45 @@ def estimated_steps(test: UniaxialTest) -> float:
     return t / dt
 
 
-def reference_test(spec: StudySpec) -> UniaxialTest:
+#: Shear strain a shear point's stages take, as estimated: the reverse to zero shear stress
+#: and the shear to its peak and 5 % past it (the stored points peak at a few hundredths of
+#: strain, docs/SHEAR.md) [-].
+POINT_STRAIN = 0.1
+
+
+def estimated_shear_steps(test: ShearTest) -> float:
+    """Rough step count of a shear test: its consolidation test's fill and lid descent
+    (:func:`estimated_steps`), the pre-shear over ``preshear_min_strain`` and one
+    ``steady_window`` more, and :data:`POINT_STRAIN` per shear point, each at the shear
+    rate the inertial number gives at its normal stress, I sqrt(sigma / rho) / d (at most
+    ``max_shear_speed`` over the gap, taken as the cell's height)."""
+    cons = test.consolidation_test()
+    d = 2.0 * test.radius
+
+    def rate(sigma: float) -> float:
+        return min(
+            test.inertial_number * math.sqrt(sigma / test.density) / d,
+            test.max_shear_speed / test.cell[2],
+        )
+
+    t = (test.preshear_min_strain + test.steady_window) / rate(test.preshear_stress)
+    t += sum(POINT_STRAIN / rate(s) for s in test.normal_stresses)
+    return estimated_steps(cons) + t / cons.resolved_dt()
+
+
+def reference_test(spec: StudySpec) -> UniaxialTest | ShearTest:
     """The study's reference test: the spec's reference with the study's interior window, a
     layer of ``interior_diameters`` diameters of the study's largest particle at each platen,
-    the same for every run."""
+    the same for every run (a shear reference as it is: its bulk density's window is in
+    each run's own diameters)."""
     ref = spec.reference
+    if is_shear(ref):
+        return ref
     margin = spec.interior_diameters * 2 * max((*spec.coarse_radii, ref.radius))
     return replace(ref, interior_margin=margin * (1 + ref.polydispersity))
 
 
-def control_test(reference: UniaxialTest, radius: float, reference_dt: float) -> UniaxialTest:
+def control_test(reference, radius: float, reference_dt: float):
     """The resolution control of coarse radius ``radius`` [m]: the ``reference`` law unscaled
     in the reference test scaled by s = R_ref / radius (docs/PHYSICS.md section 7.4): the
     cell, and so the pour column, and the interior margin times s (the control is as many of
@@ -147,7 +181,10 @@ def control_test(reference: UniaxialTest, radius: float, reference_dt: float) ->
     f0 ~ R^2 with Hertz platens a coarse run is this test scaled up by 1/s in length and
     1/s^2 in force, all but its clock; so a coarse run against its control measures what
     the rule changes (and the clock), the control against the reference what the sample's
-    size in diameters changes."""
+    size in diameters changes. A shear reference's control:
+    :func:`engine.shear.spec.control_test`."""
+    if is_shear(reference):
+        return shear_spec.control_test(reference, radius, reference_dt)
     s = reference.radius / radius
     return replace(
         reference,
@@ -222,7 +259,7 @@ class StudyPlan:
                 float(r["radius"]),
                 None if r["rule"] is None else rules[r["rule"]],
                 int(r["seed"]),
-                UniaxialTest.from_dict(r["test"]),
+                type(spec.reference).from_dict(r["test"]),
                 bool(r.get("control", False)),
                 bool(r.get("protocol", False)),
             )
@@ -271,7 +308,7 @@ def plan(spec: StudySpec) -> StudyPlan:
     ]
     if spec.protocol_check:
         try:
-            half = halved_protocol(ref)
+            half = shear_spec.halved_protocol(ref) if is_shear(ref) else halved_protocol(ref)
         except ParameterError as e:
             raise ParameterError(
                 "StudySpec.protocol_check",
@@ -435,7 +472,7 @@ def _judged_values(spec: StudySpec, planned: list[PlannedRun], outcomes: dict):
     """Metric values of the finished references, of every variant's finished seeds and of
     each radius's finished controls that :func:`assemble` judges (a run whose curves cannot
     be compared is left out there too): (names, reference values, variants, controls)."""
-    names = metric_names(spec.reference.unconfined)
+    names = metric_names_of(spec.reference)
     ok = [p for p in planned if p.key in outcomes and not isinstance(outcomes[p.key], str)]
     refs = {p.seed: outcomes[p.key] for p in ok if p.is_reference}
     ref_values = [metric_values(r) for r in refs.values()]

@@ -15,10 +15,14 @@ from .judge import error_rates, judge_group, judge_protocol, judge_rule_error
 from .metrics import (
     METRIC_COLUMNS,
     SHAPE_NAMES,
-    metric_names,
+    SHEAR_METRIC_COLUMNS,
+    is_shear,
+    metric_column,
+    metric_names_of,
     metric_values,
     relative_error,
     shape_errors,
+    shape_names_of,
 )
 from .noise import StudyNoise, noise_floor
 from .plan import CONTROL, PROTOCOL, PlannedRun
@@ -47,6 +51,36 @@ TABLE_UNITS = {
     **dict.fromkeys(METRIC_COLUMNS.values(), "1"),
     **dict.fromkeys(SHAPE_NAMES, "1"),
 }
+
+#: The shear test's scalars a shear study's table carries beside its errors.
+SHEAR_TABLE_SCALARS = {
+    "cohesion": "Pa",
+    "friction_angle": "deg",
+    "preshear_tau": "Pa",
+    "sigma_1": "Pa",
+    "sigma_c": "Pa",
+    "ffc": "1",
+    "bulk_density": "kg/m^3",
+}
+
+#: Units of the columns of a shear study's :attr:`StudyResult.table`.
+SHEAR_TABLE_UNITS = {
+    **{
+        k: v
+        for k, v in TABLE_UNITS.items()
+        if k not in METRIC_COLUMNS.values()
+        and k not in SHAPE_NAMES
+        and not k.startswith("unconfined_")
+    },
+    **SHEAR_TABLE_SCALARS,
+    **dict.fromkeys(SHEAR_METRIC_COLUMNS.values(), "1"),
+}
+
+
+def table_units(spec: StudySpec) -> dict:
+    """Units of the columns of a study's table: :data:`TABLE_UNITS`, or for a shear study
+    :data:`SHEAR_TABLE_UNITS`."""
+    return SHEAR_TABLE_UNITS if is_shear(spec.reference) else TABLE_UNITS
 
 
 @dataclass
@@ -86,7 +120,8 @@ class RunResult:
         return "reference" if self.rule is None else self.rule.name
 
     def row(self) -> dict:
-        """The run's row of the study table."""
+        """The run's row of the study table (a shear run's: its locus's scalars in place of
+        the uniaxial strength; no overburden: gravity is off from its consolidation on)."""
         s = self.result.scalars
         row = {
             "run": self.key,
@@ -103,8 +138,13 @@ class RunResult:
             "speedup_steps": self.speedup_steps,
             "thickness_diameters": s["thickness_diameters"],
             "height_diameters": s["height_diameters"],
-            "overburden_ratio": overburden_ratio(self.result),
         }
+        if is_shear(self.result.test):
+            row["overburden_ratio"] = 0.0
+            row.update({k: s[k] for k in SHEAR_TABLE_SCALARS})
+            row.update(self.errors)
+            return row
+        row["overburden_ratio"] = overburden_ratio(self.result)
         if "unconfined_strength" in s:
             row["unconfined_failure"] = s["unconfined_failure"]
             row["unconfined_strength"] = s["unconfined_strength"]
@@ -134,7 +174,7 @@ class StudyResult:
             "groups": self.groups,
             "advisor": self.advisor,
             "failed": self.failed,
-            "units": TABLE_UNITS,
+            "units": table_units(self.spec),
         }
 
     def figure(self, kind: str):
@@ -182,7 +222,9 @@ def assemble(
     if not refs:
         key = next(p.key for p in planned if p.is_reference)
         raise RunFailed(key, failed.get(key, "no reference run succeeded"))
-    names = metric_names(spec.reference.unconfined)
+    names = metric_names_of(spec.reference)
+    shapes = shape_names_of(spec.reference)
+    unconfined = getattr(spec.reference, "unconfined", False)
     ref_values = [metric_values(r) for r in refs.values()]
     ref_wall = float(np.median([r.scalars["wall_time"] for r in refs.values()]))
     ref_steps = float(np.median([r.scalars["particle_steps"] for r in refs.values()]))
@@ -200,13 +242,13 @@ def assemble(
             continue
         values = metric_values(res)
         errors = {
-            METRIC_COLUMNS[n]: (
+            metric_column(n): (
                 0.0 if p.is_reference else relative_error(n, values[n], floor_mean[n], cons)
             )
             for n in names
         }
         if p.is_reference:
-            errors.update(dict.fromkeys(SHAPE_NAMES, 0.0))
+            errors.update(dict.fromkeys(shapes, 0.0))
             runs[p.key] = RunResult(p.key, p.radius, None, p.seed, res, errors, 1.0, 1.0)
             continue
         try:
@@ -263,7 +305,7 @@ def assemble(
             thickness_diameters=g["thickness_diameters"],
             height_diameters=g["height_diameters"],
         )
-    if spec.reference.unconfined:
+    if unconfined:
         _note_failure_kinds(refs, runs, verdicts)
     judged = {(v["radius"], v["rule"]) for v in verdicts}
     for variant, keys in keys_of.items():
@@ -284,13 +326,13 @@ def assemble(
             v["missing_runs"] = lost
             v["reason"] += "; missing: " + "; ".join(f"{k} ({t})" for k, t in lost.items())
     ref_strength = None
-    if spec.reference.unconfined:
+    if unconfined:
         ref_strength = float(np.mean([r.scalars["unconfined_strength"] for r in refs.values()]))
     resolution, rule_errors = judge_controls(
         spec, pooled, variants, controls, names, look, runs, seeds_of
     )
     strengths = None
-    if spec.reference.unconfined:
+    if unconfined:
         strengths = {"reference": [r.scalars["unconfined_strength"] for r in refs.values()]}
         strengths["variants"], strengths["controls"] = {}, {}
         for r in runs.values():
@@ -331,7 +373,7 @@ def assemble(
         advisor["control_lines"] = [*advisor["control_lines"], line]
         advisor["message"] = "; ".join([advisor["message"], line])
     advisor["noise_floor"] = noise
-    advisor["reference"] = _reference_summary(refs, names, ref_values)
+    advisor["reference"] = _reference_summary(refs, names, ref_values, is_shear(spec.reference))
     return StudyResult(spec, runs, table, groups, advisor, failed)
 
 
@@ -410,21 +452,43 @@ def _note_failure_kinds(refs: dict, runs: dict[str, RunResult], verdicts: list[d
             )
 
 
-def _reference_summary(refs: dict, names, ref_values: list[dict]) -> dict:
+#: The shear test's scalars a study's reference summary quotes.
+SHEAR_SUMMARY = (
+    "preshear_sigma",
+    "preshear_tau",
+    "cohesion",
+    "cohesion_se",
+    "friction_angle",
+    "effective_friction_angle",
+    "sigma_1",
+    "sigma_c",
+    "ffc",
+    "bulk_density",
+    "height_diameters",
+    "wall_time",
+    "particles",
+)
+
+
+def _reference_summary(refs: dict, names, ref_values: list[dict], shear: bool = False) -> dict:
     """Mean and spread over reference seeds of the scalars a user quotes."""
     out = {"seeds": sorted(refs)}
     for k in (
-        "unconfined_strength",
-        "unconfined_strength_platen",
-        "unconfined_strength_interior",
-        "self_weight_stress",
-        "unconfined_failure",
-        "loading_stiffness",
-        "unloading_stiffness",
-        "consolidated_porosity",
-        "consolidated_porosity_interior",
-        "wall_time",
-        "particles",
+        SHEAR_SUMMARY
+        if shear
+        else (
+            "unconfined_strength",
+            "unconfined_strength_platen",
+            "unconfined_strength_interior",
+            "self_weight_stress",
+            "unconfined_failure",
+            "loading_stiffness",
+            "unloading_stiffness",
+            "consolidated_porosity",
+            "consolidated_porosity_interior",
+            "wall_time",
+            "particles",
+        )
     ):
         v = [r.scalars[k] for r in refs.values() if k in r.scalars]
         if v:
@@ -437,7 +501,7 @@ def _groups(spec: StudySpec, runs: dict[str, RunResult], names) -> list[dict]:
     """Mean and spread (sample standard deviation; 0 with one seed) over seeds of the
     errors, wall time and speed-up of every (radius, rule) with at least one run."""
     out = []
-    cols_err = [METRIC_COLUMNS[n] for n in names] + list(SHAPE_NAMES)
+    cols_err = [metric_column(n) for n in names] + list(shape_names_of(spec.reference))
     for r in spec.coarse_radii:
         for rule in spec.rules:
             members = [x for x in runs.values() if x.rule == rule and x.radius == r]
@@ -460,7 +524,7 @@ def _groups(spec: StudySpec, runs: dict[str, RunResult], names) -> list[dict]:
                 cols[k] = [m.result.scalars[k] for m in members]
             cols["speedup"] = [m.speedup for m in members]
             cols["speedup_steps"] = [m.speedup_steps for m in members]
-            if spec.reference.unconfined:
+            if getattr(spec.reference, "unconfined", False):
                 cols["unconfined_strength"] = [
                     m.result.scalars["unconfined_strength"] for m in members
                 ]

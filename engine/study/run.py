@@ -18,12 +18,14 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from ..core.errors import StopRequested
+from ..core.errors import ParameterError, StopRequested
+from ..shear.driver import run_shear
 from ..simulation.backend import check_backend
 from ..uniaxial.checkpoint import CHECKPOINT_INTERVAL, Checkpoint, check_interval
 from ..uniaxial.driver import run_uniaxial
 from ..uniaxial.results import Progress, UniaxialResult
 from .channel import task_progress, wait_tasks
+from .metrics import is_shear
 from .plan import (
     PlannedRun,
     StudyPlan,
@@ -73,13 +75,44 @@ def _execute(
         numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
     if channel is not None and channel.stop_requested():
         raise StopRequested(f"run {key} not started: the study was stopped")
-    return run_uniaxial(
+    return run_test(
         test,
-        progress=None if channel is None else task_progress(channel, key),
-        checkpoint=checkpoint,
-        backend=backend,
-        **_limit_args(limit),
+        None if channel is None else task_progress(channel, key),
+        checkpoint,
+        backend,
+        limit,
     )
+
+
+def run_test(test, progress=None, checkpoint=None, backend=None, limit=None):
+    """One run of a study's test: :func:`engine.run_uniaxial` (with its ``checkpoint``,
+    ``backend`` and wall-time ``limit``), or for an :class:`engine.ShearTest`
+    :func:`engine.run_shear` (the CPU, no checkpoint: a shear run resumed after a crash
+    starts again; :func:`run_study` refuses a wall-time limit and another backend for a
+    shear study before any run starts)."""
+    if is_shear(test):
+        return run_shear(test, progress=progress)
+    return run_uniaxial(
+        test, progress=progress, checkpoint=checkpoint, backend=backend, **_limit_args(limit)
+    )
+
+
+def check_shear_options(spec: StudySpec, options: RunOptions) -> None:
+    """A shear study's runs take neither a wall-time limit nor a backend other than the CPU
+    (:func:`engine.run_shear` has neither): :class:`engine.ParameterError` naming the
+    option, before any run starts."""
+    if not is_shear(spec.reference):
+        return
+    if options.max_run_wall_time is not None:
+        raise ParameterError(
+            "RunOptions.max_run_wall_time",
+            options.max_run_wall_time,
+            "None for a shear study (engine.run_shear has no wall-time limit)",
+        )
+    if options.backend not in (None, "cpu", "auto"):
+        raise ParameterError(
+            "RunOptions.backend", options.backend, "'cpu' for a shear study (engine.run_shear)"
+        )
 
 
 def _limit_args(limit: tuple | None) -> dict:
@@ -185,6 +218,7 @@ def run_study(
     limit = (options.max_run_wall_time, options.wall_time_setting)
     study = as_plan(study)  # planned once
     spec = study.spec
+    check_shear_options(spec, options)
     outcomes: dict[str, UniaxialResult | str] = dict(completed or {})
     progress = _monotone_progress(progress)
 
@@ -309,13 +343,7 @@ def _run_here(
         if report(Progress(0.0, "setup", 0.0, 0.0, 0, "building the packing")) is False:
             raise StopRequested(f"stopped by the progress callback before run {p.key}")
         try:
-            outcome = run_uniaxial(
-                p.test,
-                progress=report,
-                checkpoint=checkpoint(p),
-                backend=backend,
-                **_limit_args(limit),
-            )
+            outcome = run_test(p.test, report, checkpoint(p), backend, limit)
         except StopRequested:
             raise
         except Exception as e:

@@ -14,8 +14,9 @@ from ..contact.bilinear import BilinearAdhesive
 from ..contact.registry import adhesive_laws, law_names
 from ..core.errors import ParameterError
 from ..core.records import Record, check_fields, from_dict, param
+from ..shear.spec import ShearTest
 from ..uniaxial.spec import UniaxialTest, preset, uniaxial_from_json
-from .metrics import DEFAULT_TOLERANCES, METRICS
+from .metrics import is_shear, metrics_of
 
 DT_POLICIES = ("fixed", "scaled")
 
@@ -98,15 +99,27 @@ class ScalingRule(Record):
         a, b, _ = NAMED_RULES[name]
         return cls(name, a, b, dt)
 
-    def apply(self, reference: UniaxialTest, radius: float, reference_dt: float) -> UniaxialTest:
-        """The test of ``reference`` with particles of ``radius`` [m] and the pair law scaled
-        by this rule. The platen (Hertz) law is unchanged: it is already stress-similar."""
+    def apply(self, reference, radius: float, reference_dt: float):
+        """The test of ``reference`` (an :class:`engine.UniaxialTest` or an
+        :class:`engine.ShearTest`) with particles of ``radius`` [m] and the pair law scaled
+        by this rule. The platen (Hertz) law is unchanged: it is already stress-similar. A
+        shear test's ``max_stage_time`` [s], a bound on each stage's simulated time, grows
+        by s: at the same inertial number a coarse bed shears at 1/s the strain rate, so the
+        same strains take s times as long."""
         s = radius / reference.radius
         law = reference.pair_law.scaled(s, *self.exponents(reference.pair_law))
         if self.dt == "scaled":
             dt = reference_dt * s
         else:  # the reference's setting: its fixed step, or its fraction of the contact time
             dt = None if reference.dt is None else reference_dt
+        if is_shear(reference):
+            return replace(
+                reference,
+                radius=radius,
+                pair_law=law,
+                dt=dt,
+                max_stage_time=reference.max_stage_time * max(s, 1.0),
+            )
         return replace(reference, radius=radius, pair_law=law, dt=dt)
 
     def exponents(self, law) -> tuple[float, float, float]:
@@ -131,11 +144,22 @@ def _seed_list(owner: str, seeds) -> tuple[int, ...]:
     return seeds
 
 
+#: The reference tests a study takes, by the ``"type"`` its JSON form names (none: uniaxial).
+TEST_TYPES = {"UniaxialTest": UniaxialTest, "ShearTest": ShearTest}
+
+
 def _reference_from_json(raw):
-    """A reference given as JSON: a test's fields, or ``"preset": "quick"`` (or ``"paper"``)
-    with overrides of some of them."""
+    """A reference given as JSON: a uniaxial test's fields, or ``"preset": "quick"`` (or
+    ``"paper"``) with overrides of some of them; a shear test's fields with
+    ``"type": "ShearTest"``."""
     if not isinstance(raw, dict):
         return raw
+    raw = dict(raw)
+    kind = raw.pop("type", "UniaxialTest")
+    if kind not in TEST_TYPES:
+        raise ParameterError("StudySpec.reference.type", kind, f"one of {sorted(TEST_TYPES)}")
+    if kind == "ShearTest":
+        return from_dict(ShearTest, raw, "StudySpec.reference")
     return uniaxial_from_json(raw, "StudySpec.reference")
 
 
@@ -165,16 +189,22 @@ class StudySpec(Record):
     Attributes:
         reference: the fine reference test (its radius is R_ref and its pair law the
             reference parameters; a :class:`engine.BilinearAdhesive` or :class:`engine.EEPA`
-            law).
+            law): an :class:`engine.UniaxialTest`, or an :class:`engine.ShearTest` (the
+            study then runs the shear test and judges the shear metrics,
+            :data:`engine.study.metrics.SHEAR_METRICS`; its JSON form names it with
+            ``"type": "ShearTest"``).
         coarse_radii: radii of the coarse variants [m], each != the reference radius.
         rules: scaling rules applied to every coarse radius (names unique).
         seeds: packing seeds of every coarse variant (default: the reference seeds).
         reference_seeds: packing seeds of the reference runs (default: ``seeds``, or the
             reference's own seed). Two or more give the noise floor the verdicts need.
         tolerances: per verdict metric, the largest accepted relative error [-]; metrics
-            left out keep :data:`engine.study.metrics.DEFAULT_TOLERANCES`.
+            left out keep :data:`engine.study.metrics.DEFAULT_TOLERANCES` (a shear study:
+            :data:`engine.study.metrics.SHEAR_TOLERANCES`).
         interior_diameters: the layer next to each platen left out of the interior porosity
-            and coordination of every run, in diameters of the study's largest particle [-].
+            and coordination of every run, in diameters of the study's largest particle [-]
+            (uniaxial; a shear test's bulk density leaves out 1.5 of each run's own mean
+            diameters next to each glued layer, docs/SHEAR.md).
         confidence: of every verdict: a wrong ``equivalent`` or a wrong ``differs`` is said
             in at most 1 - confidence of studies [-] (engine.study.advisor).
         controls: per coarse radius and seed, a resolution control
@@ -202,6 +232,9 @@ class StudySpec(Record):
             most the reference seeds there are; two or more give the check a spread).
     """
 
+    # the hint names what the job service takes (service/spec.py derives its schema from
+    # it); an engine.ShearTest is accepted here as well (_reference_from_json, __post_init__)
+    # but not by the service yet
     reference: UniaxialTest = param(
         unit="",
         kind="record",
@@ -296,8 +329,10 @@ class StudySpec(Record):
 
     def __post_init__(self) -> None:
         o = "StudySpec"
-        if not isinstance(self.reference, UniaxialTest):
-            raise ParameterError(f"{o}.reference", self.reference, "an engine.UniaxialTest")
+        if not isinstance(self.reference, (UniaxialTest, ShearTest)):
+            raise ParameterError(
+                f"{o}.reference", self.reference, "an engine.UniaxialTest or engine.ShearTest"
+            )
         if not getattr(self.reference.pair_law, "adhesive", False):
             raise ParameterError(
                 f"{o}.reference.pair_law",
@@ -345,10 +380,11 @@ class StudySpec(Record):
         seeds = seeds or ref_seeds
         object.__setattr__(self, "reference_seeds", ref_seeds)
         object.__setattr__(self, "seeds", seeds)
-        tol = dict(DEFAULT_TOLERANCES)
+        metrics = metrics_of(self.reference)
+        tol = {k: m.tolerance for k, m in metrics.items()}
         for k, v in (self.tolerances or {}).items():
-            if k not in METRICS:
-                raise ParameterError(f"{o}.tolerances", k, f"a metric among {sorted(METRICS)}")
+            if k not in metrics:
+                raise ParameterError(f"{o}.tolerances", k, f"a metric among {sorted(metrics)}")
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v <= 1:
                 raise ParameterError(f"{o}.tolerances.{k}", v, "in (0, 1]")
             tol[k] = float(v)
@@ -365,8 +401,16 @@ class StudySpec(Record):
             )
         # the interior window is the study's (interior_diameters, engine.study.plan), not the
         # reference's own: its JSON form leaves it out
-        if self.reference.interior_margin is not None:
+        if not is_shear(self.reference) and self.reference.interior_margin is not None:
             object.__setattr__(self, "reference", replace(self.reference, interior_margin=None))
+
+    def to_dict(self) -> dict:
+        """JSON form (inverse :meth:`from_dict`); a shear reference names its type,
+        ``"type": "ShearTest"`` (a uniaxial one, the default, does not)."""
+        d = super().to_dict()
+        if is_shear(self.reference):
+            d["reference"] = {"type": "ShearTest", **d["reference"]}
+        return d
 
     @property
     def looks(self) -> int:
@@ -414,3 +458,19 @@ def default_study() -> StudySpec:
         budget=2e9,
         protocol_check=False,
     )
+
+
+def on_test(spec: StudySpec, reference) -> StudySpec:
+    """The study ``spec`` on another reference test (an :class:`engine.UniaxialTest` or
+    :class:`engine.ShearTest` with the same radius): the same rules, coarse radii, seeds,
+    confidence and design, each metric at its default tolerance for that test. Two such
+    studies judge one rule on both tests (engine.study.advisor.side_by_side;
+    docs/PHYSICS.md section 11.1)."""
+    if getattr(reference, "radius", None) != spec.reference.radius:
+        raise ParameterError(
+            "on_test.reference.radius",
+            getattr(reference, "radius", None),
+            f"the study's reference radius {spec.reference.radius:g} m (its coarse radii "
+            "and rules are relative to it)",
+        )
+    return replace(spec, reference=reference, tolerances=None)

@@ -173,14 +173,18 @@ def report() -> str:
     lines = []
     ad = adv.get("adaptive") or {}
     lines.append(
-        f"Runs stored: {len(res.runs)} (failed: {len(res.failed)}); look {ad.get('look')} of "
+        f"Runs stored: {len(res.runs)} (failed: "
+        f"{sum(t != 'not run' for t in res.failed.values())}); look {ad.get('look')} of "
         f"{ad.get('looks')}; stopped: {ad.get('stopped')}; added runs: "
         f"{len(ad.get('added_runs') or [])}"
     )
-    if res.failed:
-        lines.append("")
-        for k, t in res.failed.items():
-            lines.append(f"- {k}: {t[:200]}")
+    missing = [k for k, t in res.failed.items() if t == "not run"]
+    if missing:
+        lines.append(f"Not run yet: {len(missing)} planned runs.")
+    for k, t in res.failed.items():
+        if t != "not run":
+            lines.append(f"- {k} failed: {t[:300]}")
+    lines.append(reproduced(res))
     head = "| R [mm] | against | verdict | seeds | " + " | ".join(names) + " |"
     lines += ["", head, "|" + "---|" * (4 + len(names))]
 
@@ -244,6 +248,31 @@ def report() -> str:
     lines.append("")
     lines.append("Advisor: " + adv["message"])
     return "\n".join(lines)
+
+
+def reproduced(res: engine.StudyResult) -> str:
+    """Whether each reference run's scalars (but its wall time and those added since) equal
+    those of the same test stored by benchmarks/shear_cell.py (cohesive-h15-s<seed>: the same
+    law, cell, rate and seed): a run of the study is the shear test as it was measured."""
+    from benchmarks.shear_cell import path_for
+
+    same, differ = [], []
+    for key, r in res.runs.items():
+        if not r.is_reference:
+            continue
+        p = path_for("cohesive", 15, r.seed)
+        if not p.exists():
+            continue
+        old = load_shear(p)
+        if old.test != r.result.test:
+            continue
+        skip = {"wall_time", "particle_steps", "thickness_diameters"}
+        new = {k: v for k, v in r.result.scalars.items() if k not in skip}
+        (same if new == {k: old.scalars[k] for k in new} else differ).append(key)
+    return (
+        f"References equal to the stored shear_cell runs of the same test in every scalar but "
+        f"the wall time: {', '.join(same) or 'none'}; differing: {', '.join(differ) or 'none'}."
+    )
 
 
 def estimate() -> str:

@@ -14,8 +14,8 @@ host, in one call:
 3. its bulk curves against the stored CPU run of the same test
    (benchmarks/results/paper/b_cohesive/ref-s1.h5): each verdict metric's relative
    difference against the bound a second seed of the same reference would keep
-   (:func:`same_physics_bound`; the GPU's rounding, fused multiply-adds, makes a long run
-   another realisation of the same packing, not a copy of the CPU's); the same for the
+   (:func:`same_physics_bound`; the GPU's last bits differ, which makes a long run another
+   realisation of the same packing, not a copy of the CPU's); the same for the
    reference at the default protocol (``benchmarks/results/paper/protocol/ref-I5e-4-f0.4``,
    the test new studies run), which is timed first. The GPU runs are stored under
    benchmarks/results/gpu/ so that their metrics can be recomputed;
@@ -196,8 +196,8 @@ def same_physics_bound(sd: float, seeds: int, metrics: int, alpha: float = 0.05)
     jointly over ``metrics`` metrics (Bonferroni), given the seed-to-seed standard deviation
     ``sd`` [-] estimated from ``seeds`` stored reference seeds.
 
-    A long GPU run is not a copy of the CPU's: the GPU fuses multiply-adds, the last bits
-    differ, and a granular packing amplifies them until the run is another realisation of
+    A long GPU run is not a copy of the CPU's: its last bits differ (NVVM may fuse
+    multiply-adds), and a granular packing amplifies them until the run is another realisation of
     the same packing (the simulator's short runs are bit-identical, tests/engine/test_cuda.py).
     The difference of two realisations has standard deviation sqrt(2) sd, and with ``sd``
     estimated from ``seeds`` seeds the bound is Student's t quantile on seeds - 1 degrees of

@@ -626,6 +626,13 @@ def parser() -> argparse.ArgumentParser:
         help="correct the cell's values to the bulk by the resolution curve of a study whose "
         "reference is this test (its summary.json), or by {kind: [factor, sd of log]}",
     )
+    p.add_argument(
+        "--shear-test",
+        metavar="SHEAR.json",
+        help="with shear data: the shear cell (an engine.ShearTest; its law and stresses are "
+        "replaced by the calibrated law and the data's; default: docs/SHEAR.md's cell, 10 x 5 "
+        "x 15 diameters of the test's particles)",
+    )
     p.set_defaults(func=calibrate_cmd)
 
     p = sub.add_parser(
@@ -713,10 +720,14 @@ def parser() -> argparse.ArgumentParser:
 CALIBRATE_HELP = """\
 Calibrate the pair law of TEST.json to the laboratory data in TARGETS.json (an
 engine.calibration.LabTargets: porosity against stress, loading and unloading stiffness,
-K0, unconfined strength at one or several consolidation stresses, each with its 1-sd
-uncertainty and the tester named) over the law parameters given with --param, with
-Gaussian-process emulators, history-matching waves and a posterior (docs/CALIBRATION.md).
-Every run is stored in DIR/runs as it finishes, and a rerun finds them. Writes:
+K0, unconfined strength at one or several consolidation stresses, and a shear tester's
+yield loci ("shear": sigma_pre, points of sigma_n and tau, tau_pre, bulk density), each
+with its 1-sd uncertainty and the tester named) over the law parameters given with --param,
+with Gaussian-process emulators, history-matching waves and a posterior
+(docs/CALIBRATION.md).
+Uniaxial data are matched by TEST.json's uniaxial test, each yield locus by a shear test of
+its material (--shear-test SHEAR.json, else the default shear cell). Every run is stored
+in DIR/runs as it finishes, and a rerun finds them. Writes:
 
   calibration.json      the calibrated law, each parameter (median, 90 % interval,
                         determined or free), every target met or not, the Sobol indices,
@@ -777,6 +788,7 @@ _CALIBRATE_FLAGS = {
     "calibrate.runs": "--runs",
     "calibrate.resolution": "--resolution",
     "calibrate.targets": "TARGETS.json",
+    "calibrate.shear_test": "--shear-test",
 }
 
 
@@ -790,8 +802,10 @@ def _calibrate_where(field: str, args) -> str:
     for prefix, flag in _CALIBRATE_FLAGS.items():
         if field.startswith(prefix):
             return flag
-    if head in ("LabTargets", "CompressionPoint", "StrengthPoint"):
+    if head in ("LabTargets", "CompressionPoint", "StrengthPoint", "ShearLocus", "LocusPoint"):
         return f"{args.targets} ({field})"
+    if head == "ShearTest":
+        return f"--shear-test {args.shear_test} ({field})"
     return f"--test {args.test} ({field})"
 
 
@@ -826,6 +840,7 @@ def calibrate_cmd(args) -> int:
 
     import engine
     from engine.calibration import LabTargets, calibrate
+    from engine.calibration.calibrate import check_request
     from engine.core.records import to_dict
     from engine.io.liggghts import to_liggghts
     from engine.uniaxial.spec import uniaxial_from_json
@@ -840,6 +855,11 @@ def calibrate_cmd(args) -> int:
         resolution = None
         if args.resolution:
             resolution = _resolution(json.loads(Path(args.resolution).read_text()))
+        shear_test = None
+        if args.shear_test:
+            shear_test = engine.ShearTest.from_dict(json.loads(Path(args.shear_test).read_text()))
+        # the whole request checked before anything is written
+        check_request(test, targets, boxes, args.runs, shear_test)
     except (OSError, json.JSONDecodeError) as e:
         print(f"cannot read the input: {e}", file=sys.stderr)
         return 2
@@ -878,6 +898,7 @@ def calibrate_cmd(args) -> int:
             executor=pool,
             on_run=on_run,
             resolution=resolution,
+            shear_test=shear_test,
         )
     except engine.ParameterError as e:
         print(f"{_calibrate_where(e.field, args)}: not valid: {e}", file=sys.stderr)

@@ -467,20 +467,22 @@ def calibration_loc(field: str) -> tuple:
     if head == "calibrate":
         parts = rest.split(".")
         return tuple(parts) if parts != [""] else ()
-    if head in ("LabTargets", "CompressionPoint", "StrengthPoint"):
+    if head in ("LabTargets", "CompressionPoint", "StrengthPoint", "ShearLocus", "LocusPoint"):
         loc = engine_loc(field.replace(head, "StudySpec", 1))
         return ("targets", *loc) if head == "LabTargets" else ("targets",)
     loc = engine_loc(field)
     return ("test", *loc[1:]) if loc[:1] == ("reference",) else ("test", *loc)
 
 
-def calibration_costs(test, stresses, total: int) -> list[cost.RunCost]:
+def calibration_costs(test, stresses, total: int, shear=()) -> list[cost.RunCost]:
     """Worst case of every run: each of ``total`` parameter sets runs a branch per
-    consolidation stress, each counted as a whole run (the fill they share included)."""
+    consolidation stress, each counted as a whole run (the fill they share included), and a
+    shear test per yield locus (``shear``: :func:`shear_cost`)."""
     dt = test.dt if test.dt is not None else test.time_step_limit().recommended
     branches = [
         cost.run_cost(f"{s:g}Pa", replace(test, consolidation_stress=s), dt) for s in stresses
     ]
+    branches += [shear_cost(t) for t in shear]
     one = cost.RunCost(
         "calibration run",
         max(b.particles for b in branches),
@@ -488,6 +490,46 @@ def calibration_costs(test, stresses, total: int) -> list[cost.RunCost]:
         sum(b.samples for b in branches),
     )
     return [one] * total
+
+
+def shear_cost(test) -> cost.RunCost:
+    """The worst case of one shear test (an :class:`engine.ShearTest`, docs/SHEAR.md): its
+    fill and consolidation as the uniaxial test's stages (:func:`service.cost.run_cost` of
+    its consolidation test, those two stages), the pre-shear and each shear to failure at
+    their strain bounds (``preshear_strain``, ``failure_strain`` of the gap at the shear
+    speed of the stage's stress, at most ``max_shear_speed``: t = strain x max(d / (I
+    sqrt(sigma / rho)), H / v_max)) or ``max_stage_time`` where that is shorter, and each
+    point's reversal and normal-stress stage at ``max_stage_time`` (they end on a reading,
+    not a distance); a curve sample every ``output_interval`` and one at each stage's start."""
+    ct = test.consolidation_test()
+    dt = ct.dt if ct.dt is not None else ct.time_step_limit().recommended
+    cap = test.max_stage_time
+    consol = cost.worst_stage_times(ct)
+    times = [consol["fill"], consol["pre_compression"]]
+    d, h = 2.0 * test.radius, test.cell[2]
+
+    def strain_time(strain: float, sigma: float) -> float:
+        rate = test.inertial_number * math.sqrt(sigma / test.density)
+        return min(cap, strain * max(d / rate, h / test.max_shear_speed))
+
+    times.append(strain_time(test.preshear_strain, test.preshear_stress))
+    for s in test.normal_stresses:
+        times += [cap, cap, strain_time(test.failure_strain, s)]
+    steps = [max(1.0, float(math.ceil(t / dt))) for t in times]
+    per_sample = max(1.0, float(round(test.output_interval / dt)))
+    samples = sum(1 + math.ceil(n / per_sample) for n in steps)
+    return cost.RunCost(
+        f"shear@{test.preshear_stress:g}Pa", float(ct.n_particles), sum(steps), float(samples)
+    )
+
+
+def calibration_shear_tests(test, targets) -> tuple:
+    """The shear tests a calibration's parameter set runs, one per yield locus of
+    ``targets`` (the service's shear cell: :func:`engine.calibration.forward.shear_cell`
+    of the test, the docs/SHEAR.md default in diameters); none without shear targets."""
+    from engine.calibration.forward import shear_cell, shear_tests
+
+    return shear_tests(shear_cell(test), targets) if targets.shear else ()
 
 
 def admit_calibration(body, settings: Settings) -> AdmittedCalibration:
@@ -531,7 +573,7 @@ def admit_calibration(body, settings: Settings) -> AdmittedCalibration:
         corrections = check_corrections(data.get("resolution"))
         for sv in stresses:  # each branch a test the engine can run
             replace(test, consolidation_stress=sv)
-        costs = calibration_costs(test, stresses, total)
+        costs = calibration_costs(test, stresses, total, calibration_shear_tests(test, targets))
     except SpecRejected:
         raise
     except engine.ParameterError as e:

@@ -83,9 +83,11 @@ def calibration_bytes(request: dict) -> float:
     from engine.calibration import LabTargets, calibration_runs
     from engine.calibration.calibrate import branch_stresses
 
-    from .admission import calibration_costs
+    from .admission import calibration_costs, calibration_shear_tests
 
     test = engine.UniaxialTest.from_dict(request["test"])
-    stresses = branch_stresses(test, LabTargets.from_dict(request["targets"]))
+    targets = LabTargets.from_dict(request["targets"])
+    stresses = branch_stresses(test, targets)
     total = calibration_runs(request["runs"], request["waves"], request["wave_runs"])
-    return output_bytes(calibration_costs(test, stresses, total))
+    shear = calibration_shear_tests(test, targets)
+    return output_bytes(calibration_costs(test, stresses, total, shear))

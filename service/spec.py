@@ -38,7 +38,7 @@ from pydantic_core import PydanticCustomError
 import engine
 from engine.calibration import CALIBRATED, LabTargets
 from engine.calibration.calibrate import CORRECTED_BY
-from engine.calibration.targets import UNCERTAINTY_OF
+from engine.calibration.targets import LOCUS_UNCERTAINTY_OF, UNCERTAINTY_OF, ShearLocus
 from engine.core.records import ParamInfo, describe
 from engine.study.spec import NAMED_RULES
 from engine.uniaxial.spec import PRESETS, PROTOCOLS
@@ -82,6 +82,11 @@ CROSS_FIELD_RULES: dict[tuple[str, str], str] = {
     "enough to carry the consolidation stress within that overlap",
     ("BilinearAdhesive", "k2"): ">= k1",
     ("EEPA", "k2"): ">= k1",
+    ("LabTargets", "shear"): "one locus per sigma_pre (all different)",
+    ("LabTargets", "shear_tester"): "required with shear where tester is not a shear tester; "
+    "given with shear only",
+    ("ShearLocus", "points"): "at least 2 (a yield locus is a line fitted through them), each "
+    "sigma_n < sigma_pre, no two at one sigma_n, their fitted line rising (tan(phi) > 0)",
 }
 #: Longest list or object the API takes where the engine declares no ``max_items``.
 MAX_ITEMS = 32
@@ -260,8 +265,10 @@ def record_model(cls: type) -> type[BaseModel]:
         fields = {"type": (Literal[name], Field(name, description="the record's kind")), **fields}
     doc = (cls.__doc__ or cls.__name__).strip().split("\n\n")[0]
     config = _forbid
-    if cls is LabTargets:  # a target needs its uncertainty: JSON Schema states that much
-        depends = {v: [sd] for v, sd in UNCERTAINTY_OF.items()}
+    # a target needs its uncertainty: JSON Schema states that much
+    uncertainty = {LabTargets: UNCERTAINTY_OF, ShearLocus: LOCUS_UNCERTAINTY_OF}.get(cls)
+    if uncertainty is not None:
+        depends = {v: [sd] for v, sd in uncertainty.items()}
         config = ConfigDict(extra="forbid", json_schema_extra={"dependentRequired": depends})
     model = create_model(f"{cls.__name__}In", __config__=config, __doc__=doc, **fields)
     _MODELS[cls] = model

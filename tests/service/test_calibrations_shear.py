@@ -1,0 +1,147 @@
+"""Shear-tester data through POST /calibrations (issue 41): the request takes yield loci the
+way it takes uniaxial data, in the same ``targets``; bad shear data gets a 422 naming the
+field, and a refused request leaves no job, row or file behind; the shear tests count in the
+calibration's worst case."""
+
+from __future__ import annotations
+
+import copy
+
+import pytest
+from fastapi.testclient import TestClient
+
+from service.app import create_app
+from service.settings import Settings
+
+from .conftest import AUTH
+from .test_calibrations import CALIBRATION
+
+
+def _pt(sigma_n, tau):
+    return {"sigma_n": sigma_n, "sigma_n_sd": 50.0, "tau": tau, "tau_sd": 150.0}
+
+
+#: A ring-shear flow function of two loci (made-up numbers: a format example).
+SHEAR = [
+    {
+        "sigma_pre": 5e3,
+        "tau_pre": 3.2e3,
+        "tau_pre_sd": 200.0,
+        "points": [_pt(1e3, 1.3e3), _pt(2.5e3, 2.0e3), _pt(4e3, 2.7e3)],
+        "bulk_density": 1150.0,
+        "bulk_density_sd": 15.0,
+    },
+    {"sigma_pre": 1e4, "points": [_pt(2e3, 2.3e3), _pt(6e3, 4.2e3)]},
+]
+RING = {**CALIBRATION, "targets": {"tester": "ring_shear", "shear": SHEAR}}
+MIXED = {
+    **CALIBRATION,
+    "targets": {**CALIBRATION["targets"], "shear_tester": "jenike", "shear": SHEAR[:1]},
+}
+
+
+def _files(settings: Settings) -> list:
+    return sorted(p for p in settings.data_dir.rglob("*") if p.is_file())
+
+
+@pytest.mark.parametrize("body", [RING, MIXED], ids=["ring_shear", "mixed"])
+def test_shear_data_is_taken_like_uniaxial_data(client, body):
+    r = client.post("/calibrations", json=body)
+    assert r.status_code == 202, r.text
+    job = client.get(f"/calibrations/{r.json()['id']}").json()
+    # the normalised request keeps the loci as given, with the engine's names and nulls
+    shear = job["request"]["targets"]["shear"]
+    assert [s["sigma_pre"] for s in shear] == [s["sigma_pre"] for s in body["targets"]["shear"]]
+    assert shear[0]["points"][2] == SHEAR[0]["points"][2]
+    assert job["status"] == "queued" and job["n_runs"] == 4
+
+
+def test_the_shear_tests_count_in_the_worst_case(client, settings):
+    # each parameter set runs a shear test per locus: two loci cost far more than TINIEST's
+    # uniaxial runs alone
+    ids = [client.post("/calibrations", json=b).json()["id"] for b in (CALIBRATION, RING)]
+    steps = [client.get(f"/calibrations/{i}").json()["estimated_particle_steps"] for i in ids]
+    assert steps[1] > 10 * steps[0], steps
+    # a cap below that worst case refuses it: the shear tests are what exceeds it
+    cap = {"max_calibration_particle_steps": 0.5 * steps[1]}
+    with TestClient(create_app(settings.model_copy(update=cap)), headers=AUTH) as c:
+        r = c.post("/calibrations", json=RING)
+        assert r.status_code == 422 and "particle-steps" in r.text, r.text
+        assert c.get("/calibrations").json()["count"] == 2  # the two above, nothing more
+
+
+def _changed(change) -> dict:
+    body = copy.deepcopy(RING)
+    change(body["targets"])
+    return body
+
+
+@pytest.mark.parametrize(
+    ("change", "loc", "words"),
+    [
+        # the issue's three: sigma_n above sigma_pre, a locus with one point, negative tau
+        (
+            lambda t: t["shear"][0]["points"].__setitem__(1, _pt(6e3, 2e3)),
+            ["body", "targets", "shear", 0, "points", 1, "sigma_n"],
+            "below sigma_pre = 5000 Pa",
+        ),
+        (
+            lambda t: t["shear"][1].__setitem__("points", [_pt(2e3, 2.3e3)]),
+            ["body", "targets", "shear", 1, "points"],
+            "a yield locus is a line",
+        ),
+        (
+            lambda t: t["shear"][0]["points"].__setitem__(0, _pt(1e3, -1.3e3)),
+            ["body", "targets", "shear", 0, "points", 0, "tau"],
+            "greater than 0",
+        ),
+        (
+            lambda t: t["shear"][0]["points"][0].pop("sigma_n_sd"),
+            ["body", "targets", "shear", 0, "points", 0, "sigma_n_sd"],
+            "Field required",
+        ),
+        (
+            lambda t: t["shear"][0].pop("tau_pre_sd"),
+            ["body", "targets", "shear", 0, "tau_pre_sd"],
+            "uncertainty",
+        ),
+        (
+            lambda t: t["shear"][1].__setitem__("sigma_pre", 5e3),
+            ["body", "targets", "shear", 1, "points", 1, "sigma_n"],
+            "below sigma_pre",
+        ),
+        (
+            lambda t: t.__setitem__("tester", "lambda"),
+            ["body", "targets", "shear_tester"],
+            "not one",
+        ),
+        (
+            lambda t: t.__setitem__("shear_tester", "shear box"),
+            ["body", "targets", "shear_tester"],
+            "ring_shear",
+        ),
+    ],
+)
+def test_bad_shear_data_gets_a_422_naming_the_field(client, settings, change, loc, words):
+    before = _files(settings)
+    r = client.post("/calibrations", json=_changed(change))
+    assert r.status_code == 422, r.text
+    errors = r.json()["detail"]
+    assert any(e["loc"] == loc and words in e["msg"] for e in errors), errors
+    # nothing half-written: no job, no row, no file
+    assert client.get("/calibrations").json()["count"] == 0
+    assert _files(settings) == before
+
+
+def test_the_schema_states_the_shear_datas_units_and_rules(client):
+    schema = client.get("/openapi.json").json()["components"]["schemas"]
+    point = schema["LocusPointIn"]["properties"]
+    assert point["tau"]["exclusiveMinimum"] == 0 and point["tau"]["x-unit"] == "Pa"
+    assert set(schema["LocusPointIn"]["required"]) == {"sigma_n", "sigma_n_sd", "tau", "tau_sd"}
+    locus = schema["ShearLocusIn"]
+    assert locus["dependentRequired"] == {
+        "tau_pre": ["tau_pre_sd"],
+        "bulk_density": ["bulk_density_sd"],
+    }
+    assert "at least 2" in locus["properties"]["points"]["description"]
+    assert locus["properties"]["bulk_density"]["x-unit"] == "kg/m^3"

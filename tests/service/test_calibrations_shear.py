@@ -145,3 +145,45 @@ def test_the_schema_states_the_shear_datas_units_and_rules(client):
     }
     assert "at least 2" in locus["properties"]["points"]["description"]
     assert locus["properties"]["bulk_density"]["x-unit"] == "kg/m^3"
+
+
+def test_a_shear_calibrations_result_page_and_figure(client, settings, monkeypatch):
+    # a finished calibration to shear data, its result made by engine.calibrate with the
+    # shear test's closed-form stand-in (tests/engine/test_calibrate_shear.py), stored
+    # where the worker stores it: the API, the page and the figure show it
+    import importlib
+    import json
+    import uuid
+
+    import engine
+    from engine.calibration import calibrate
+    from service.db import session_scope
+    from service.models import Status, Study
+    from tests.engine.test_calibrate_shear import _lab, _locus, _stand_in_shear
+
+    cal_module = importlib.import_module("engine.calibration.calibrate")
+    monkeypatch.setattr(cal_module, "run_shear_tests", _stand_in_shear)
+    targets = {"tester": "ring_shear", "shear": [_locus(1e4, (2e3, 7e3), bulk=True)]}
+    body = {**RING, "targets": targets, "parameters": {"mu_s": [0.2, 0.8]}}
+    r = client.post("/calibrations", json=body)
+    assert r.status_code == 202, r.text
+    cid = r.json()["id"]
+    request = client.get(f"/calibrations/{cid}").json()["request"]
+    test = engine.UniaxialTest.from_dict(request["test"])
+    cal = calibrate(test, _lab(mixed=False), {"mu_s": (0.2, 0.8)}, runs=4, waves=0)
+    path = settings.calibration_path(cid)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(cal.to_summary()))
+    for session in session_scope(settings):
+        job = session.get(Study, uuid.UUID(cid))
+        job.status = Status.succeeded
+        session.add(job)
+        session.commit()
+    res = client.get(f"/calibrations/{cid}").json()["result"]
+    assert [q["name"] for q in res["targets_met"]][-1] == "bulk_density@10000Pa"
+    page = client.get(f"/calibrations/{cid}/page")
+    assert page.status_code == 200
+    assert "yield loci from a ring_shear tester" in page.text
+    assert "The check run's yield loci" in page.text and "kg/m^3" in page.text
+    png = client.get(f"/calibrations/{cid}/plot.png")
+    assert png.status_code == 200 and png.content[:8] == b"\x89PNG\r\n\x1a\n"

@@ -510,6 +510,8 @@ def shear_cost(test) -> cost.RunCost:
 
     def strain_time(strain: float, sigma: float) -> float:
         rate = test.inertial_number * math.sqrt(sigma / test.density)
+        if not rate > 0:  # a stress so small its rate underflows: the stage's time bound
+            return cap
         return min(cap, strain * max(d / rate, h / test.max_shear_speed))
 
     times.append(strain_time(test.preshear_strain, test.preshear_stress))

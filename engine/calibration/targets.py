@@ -49,6 +49,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..core.errors import ParameterError
 from ..core.records import Record, check_fields, from_dict, param
 
@@ -185,7 +187,7 @@ class ShearLocus(Record):
                     "at one sigma_n as their mean and sd",
                 )
             seen[p.sigma_n] = k
-        if self.slope() <= 0:
+        if not self.slope() > 0:
             raise ParameterError(
                 f"{o}.points",
                 self.slope(),
@@ -222,7 +224,16 @@ class ShearLocus(Record):
         linearised yield locus)."""
         from ..shear.locus import fit_line
 
-        return fit_line([p.sigma_n for p in self.points], [p.tau for p in self.points])[1]
+        # in units of sigma_pre (the slope is the same): no overflow or underflow of the sums
+        # for stresses of any magnitude the bounds admit; nan where no line fits
+        s = self.sigma_pre
+        try:
+            with np.errstate(all="ignore"):
+                m = fit_line([p.sigma_n / s for p in self.points], [p.tau / s for p in self.points])
+            m = m[1]
+        except (ValueError, ZeroDivisionError):
+            return math.nan
+        return m if math.isfinite(m) else math.nan
 
     def tau_sd(self, k: int) -> float:
         """The uncertainty (1 sd) of the shear stress at failure of point ``k`` with that of

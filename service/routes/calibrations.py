@@ -173,16 +173,30 @@ def read_calibration(
 @router.get("/{calibration_id}/curves", responses=answers(404, 409))
 def curves(job: CalibrationDep, settings: SettingsDep) -> dict:
     """The fitted curves against the laboratory points: the check run's compression curve
-    (porosity against the top platen's stress, loading and unloading) and flow function,
-    the laboratory points with their 1-sd uncertainties, and what every run measured."""
+    (porosity against the top platen's stress, loading and unloading), flow function and
+    yield loci (with shear targets), the laboratory points with their 1-sd uncertainties,
+    and what every run measured."""
     result = _result(job, settings)
     targets = job.spec["targets"]
     return {
-        "units": {"stress": "Pa", "porosity": "1", "strength": "Pa", "consolidation_stress": "Pa"},
+        "units": {
+            "stress": "Pa",
+            "porosity": "1",
+            "strength": "Pa",
+            "consolidation_stress": "Pa",
+            # yield loci: stresses (sigma_pre, sigma_n, sigma, tau, cohesion, sigma_1,
+            # sigma_c) in Pa, slope tan(phi) and ffc [-], bulk density
+            "sigma_pre": "Pa",
+            "tau": "Pa",
+            "slope": "1",
+            "ffc": "1",
+            "bulk_density": "kg/m^3",
+        },
         "check_run": result.get("curves", {}),
         "laboratory": {
             "compression": targets.get("compression", []),
             "strength": targets.get("strength", []),
+            "shear": targets.get("shear", []),
         },
         "targets": result["targets_met"],
         "runs": result["runs"],

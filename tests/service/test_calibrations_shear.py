@@ -185,5 +185,9 @@ def test_a_shear_calibrations_result_page_and_figure(client, settings, monkeypat
     assert page.status_code == 200
     assert "yield loci from a ring_shear tester" in page.text
     assert "The check run's yield loci" in page.text and "kg/m^3" in page.text
+    curves = client.get(f"/calibrations/{cid}/curves").json()
+    assert curves["laboratory"]["shear"][0]["sigma_pre"] == 1e4
+    assert curves["check_run"]["yield_loci"][0]["sigma_pre"] == 1e4
+    assert curves["units"]["bulk_density"] == "kg/m^3"
     png = client.get(f"/calibrations/{cid}/plot.png")
     assert png.status_code == 200 and png.content[:8] == b"\x89PNG\r\n\x1a\n"

@@ -20,7 +20,7 @@ from engine.uniaxial.spec import uniaxial_from_json
 
 pytest.importorskip("rich")  # the cli extra
 from demscale.cli import main
-from tests.engine.test_calibrate_shear import _lab, _stand_in_shear
+from tests.engine.test_calibrate_shear import _lab, _stand_in_shear, quicker_posterior
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "calibration"
@@ -82,6 +82,7 @@ def test_a_calibration_to_shear_data_through_the_command(tmp_path, capsys, monke
         return _stand_in_shear(tests, progress)
 
     monkeypatch.setattr(cal_module, "run_shear_tests", shear)
+    quicker_posterior(monkeypatch)
     lab = copy.deepcopy(_lab(mixed=False).to_dict())
     argv = _argv(tmp_path, lab, "--runs", "4", "--waves", "0")
     assert main(argv) == 0, capsys.readouterr().err

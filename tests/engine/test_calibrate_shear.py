@@ -265,9 +265,18 @@ def _lab(mixed: bool) -> LabTargets:
     )
 
 
+def quicker_posterior(monkeypatch) -> None:
+    """The posterior sampled with 1000 Metropolis steps a chain, not 4000: the stand-ins'
+    posteriors have one or two parameters, and most of these tests' time went into
+    sampling them."""
+    real = cal_module._metropolis
+    monkeypatch.setattr(cal_module, "_metropolis", lambda *a, **k: real(*a, **{**k, "steps": 1000}))
+
+
 @pytest.fixture
 def stand_ins(monkeypatch):
     """Both tests replaced by their closed forms; what each was asked to run recorded."""
+    quicker_posterior(monkeypatch)
     ran = {"shear": [], "uniaxial": []}
 
     def shear(tests, progress=None):
@@ -333,6 +342,7 @@ def test_a_failed_shear_run_is_left_out(monkeypatch):
         return _stand_in_shear(tests, progress)
 
     monkeypatch.setattr(cal_module, "run_shear_tests", shear)
+    quicker_posterior(monkeypatch)
     cal = calibrate(BASE, _lab(mixed=False), {"mu_s": (0.2, 0.8)}, runs=5, waves=0, seed=1)
     errors = [r for r in cal.runs if "error" in r]
     assert len(errors) == 1 and errors[0]["error"].startswith("StageError")

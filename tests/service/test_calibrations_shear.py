@@ -159,10 +159,11 @@ def test_a_shear_calibrations_result_page_and_figure(client, settings, monkeypat
     from engine.calibration import calibrate
     from service.db import session_scope
     from service.models import Status, Study
-    from tests.engine.test_calibrate_shear import _lab, _locus, _stand_in_shear
+    from tests.engine.test_calibrate_shear import _lab, _locus, _stand_in_shear, quicker_posterior
 
     cal_module = importlib.import_module("engine.calibration.calibrate")
     monkeypatch.setattr(cal_module, "run_shear_tests", _stand_in_shear)
+    quicker_posterior(monkeypatch)
     targets = {"tester": "ring_shear", "shear": [_locus(1e4, (2e3, 7e3), bulk=True)]}
     body = {**RING, "targets": targets, "parameters": {"mu_s": [0.2, 0.8]}}
     r = client.post("/calibrations", json=body)

@@ -131,11 +131,12 @@ def _test(
 
 def _forward(base_test: UniaxialTest, law, shear: tuple, uniaxial: bool):
     """The tests of ``law``: the base test with it (no shear targets), else a
-    :class:`Forward` of it (where ``uniaxial``) and each base shear test with it."""
-    test = replace(base_test, pair_law=law)
+    :class:`Forward` of it (where ``uniaxial``: shear data alone never build the uniaxial
+    test, whose consolidation a law may be refused for) and each base shear test with it."""
     if not shear:
-        return test
-    return Forward(test if uniaxial else None, tuple(replace(t, pair_law=law) for t in shear))
+        return replace(base_test, pair_law=law)
+    test = replace(base_test, pair_law=law) if uniaxial else None
+    return Forward(test, tuple(replace(t, pair_law=law) for t in shear))
 
 
 def _feasible(base_law, axes, u) -> bool:
@@ -521,7 +522,9 @@ class Calibration:
         return {
             "law": {"type": type(self.law).__name__, **to_dict(self.law)},
             # the particle radius the law is calibrated for [m]: scaling it elsewhere needs it
-            "reference_radius": None if self.test is None else self.test.radius,
+            "reference_radius": next(
+                (t.radius for t in (self.test, self.shear_test) if t is not None), None
+            ),
             "all_targets_met": self.all_met,
             "parameters": self.parameters,
             "targets_met": self.targets_met,
@@ -957,7 +960,10 @@ def calibrate(
         }
     posterior = _posterior(samples, axes)
     sens = _sobol(gps, quantities, axes, rng)
-    check_test = replace(base_test, pair_law=law)
+    try:
+        check_test = replace(base_test, pair_law=law)
+    except ParameterError:  # shear data alone: a law the uniaxial test refuses, never run
+        check_test = None
     check_run = _test(base_test, axes, med, shear, uniaxial)
     if isinstance(check_run, str):  # a law a shear test refuses: the check is not run
         checked = check_run

@@ -192,3 +192,14 @@ def test_a_shear_calibrations_result_page_and_figure(client, settings, monkeypat
     assert curves["units"]["bulk_density"] == "kg/m^3"
     png = client.get(f"/calibrations/{cid}/plot.png")
     assert png.status_code == 200 and png.content[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("name", ["LabTargets", "ShearLocus", "LocusPoint"])
+def test_the_shear_records_fields_units_and_bounds_are_the_engines(client, name):
+    # the request's schema is derived from the engine's declarations (engine.core.records
+    # param): the agreement check of tests/service/test_spec_agreement.py on these records
+    from engine.calibration import targets
+
+    from .test_spec_agreement import test_fields_units_bounds_defaults_agree as agree
+
+    agree(client.get("/openapi.json").json()["components"]["schemas"], getattr(targets, name))

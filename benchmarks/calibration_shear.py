@@ -30,7 +30,12 @@ import numpy as np
 
 import engine
 from engine.calibration import LabTargets, calibrate
-from engine.calibration.forward import measure_shear, run_shear_tests, shear_tests
+from engine.calibration.forward import (
+    check_shear_cell,
+    measure_shear,
+    run_shear_tests,
+    shear_tests,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 STORE = ROOT / "benchmarks" / "results" / "calibration_shear_tiny"
@@ -93,7 +98,7 @@ def lab() -> LabTargets:
         if path.exists():
             shear = {float(k): v for k, v in json.loads(path.read_text()).items()}
         else:
-            tests = shear_tests(shear_cell(seed), draft, TRUTH)
+            tests = shear_tests(check_shear_cell(base_test(), shear_cell(seed)), draft, TRUTH)
             shear = run_shear_tests(tests)
             STORE.mkdir(parents=True, exist_ok=True)
             path.write_text(json.dumps({str(k): v for k, v in shear.items()}))

@@ -629,9 +629,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--shear-test",
         metavar="SHEAR.json",
-        help="with shear data: the shear cell (an engine.ShearTest; its law and stresses are "
-        "replaced by the calibrated law and the data's; default: docs/SHEAR.md's cell, 10 x 5 "
-        "x 15 diameters of the test's particles)",
+        help="with shear data: the shear cell (engine.ShearTest's fields but pair_law, "
+        "preshear_stress and normal_stresses, which are the calibrated law and the data's; "
+        "default: docs/SHEAR.md's cell, 10 x 5 x 15 diameters of the test's particles)",
     )
     p.set_defaults(func=calibrate_cmd)
 
@@ -804,8 +804,6 @@ def _calibrate_where(field: str, args) -> str:
             return flag
     if head in ("LabTargets", "CompressionPoint", "StrengthPoint", "ShearLocus", "LocusPoint"):
         return f"{args.targets} ({field})"
-    if head == "ShearTest":
-        return f"--shear-test {args.shear_test} ({field})"
     return f"--test {args.test} ({field})"
 
 
@@ -855,9 +853,9 @@ def calibrate_cmd(args) -> int:
         resolution = None
         if args.resolution:
             resolution = _resolution(json.loads(Path(args.resolution).read_text()))
-        shear_test = None
+        shear_test = None  # the shear cell's fields (judged with each locus's stresses)
         if args.shear_test:
-            shear_test = engine.ShearTest.from_dict(json.loads(Path(args.shear_test).read_text()))
+            shear_test = json.loads(Path(args.shear_test).read_text())
         # the whole request checked before anything is written
         check_request(test, targets, boxes, args.runs, shear_test)
     except (OSError, json.JSONDecodeError) as e:

@@ -525,13 +525,17 @@ def shear_cost(test) -> cost.RunCost:
     )
 
 
-def calibration_shear_tests(test, targets) -> tuple:
+def calibration_shear_tests(test, targets, shear_test: dict | None = None) -> tuple:
     """The shear tests a calibration's parameter set runs, one per yield locus of
-    ``targets`` (the service's shear cell: :func:`engine.calibration.forward.shear_cell`
-    of the test, the docs/SHEAR.md default in diameters); none without shear targets."""
-    from engine.calibration.forward import shear_cell, shear_tests
+    ``targets``, with the test's law: in the cell ``shear_test`` (the request's fields of
+    an :class:`engine.ShearTest` but the law and stresses), else the default cell
+    (:func:`engine.calibration.forward.shear_cell` of the test, the docs/SHEAR.md default
+    in diameters); none without shear targets."""
+    from engine.calibration.forward import check_shear_cell, shear_tests
 
-    return shear_tests(shear_cell(test), targets) if targets.shear else ()
+    if not targets.shear:
+        return ()
+    return shear_tests(check_shear_cell(test, shear_test), targets, test.pair_law)
 
 
 def admit_calibration(body, settings: Settings) -> AdmittedCalibration:
@@ -546,6 +550,7 @@ def admit_calibration(body, settings: Settings) -> AdmittedCalibration:
         check_corrections,
         check_request,
     )
+    from engine.calibration.forward import cell_summary
 
     data = body.engine_dict()
     total = calibration_runs(data["runs"], data["waves"], data["wave_runs"])
@@ -571,11 +576,13 @@ def admit_calibration(body, settings: Settings) -> AdmittedCalibration:
         _check_bounds(fields, "test", data)
         targets = LabTargets.from_dict(data["targets"])
         params = {k: tuple(v) for k, v in data["parameters"].items()}
-        stresses = check_request(test, targets, params, data["runs"])
+        shear_test = data.get("shear_test")
+        stresses = check_request(test, targets, params, data["runs"], shear_test)
         corrections = check_corrections(data.get("resolution"))
         for sv in stresses:  # each branch a test the engine can run
             replace(test, consolidation_stress=sv)
-        costs = calibration_costs(test, stresses, total, calibration_shear_tests(test, targets))
+        shear = calibration_shear_tests(test, targets, shear_test)
+        costs = calibration_costs(test, stresses, total, shear)
     except SpecRejected:
         raise
     except engine.ParameterError as e:
@@ -595,6 +602,8 @@ def admit_calibration(body, settings: Settings) -> AdmittedCalibration:
         **{k: data[k] for k in ("runs", "waves", "wave_runs", "seed")},
         "resolution": {k: list(v) for k, v in corrections.items()} or None,
         "then_study": None,
+        # the shear cell with every field (the defaults filled in), as the result states it
+        "shear_test": cell_summary(shear[0]) if shear else None,
     }
     then_costs: list[cost.RunCost] = []
     then = data.get("then_study")

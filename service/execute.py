@@ -308,6 +308,7 @@ class CalibrationExecution(StudyExecution):
         req = self.spec_dict
         self.test = engine.UniaxialTest.from_dict(req["test"])
         targets = LabTargets.from_dict(req["targets"])
+        shear_test = req.get("shear_test")  # the shear cell's fields, or None
         with run_executor(self.settings) as pool:
             cal = engine.calibrate(
                 self.test,
@@ -322,6 +323,7 @@ class CalibrationExecution(StudyExecution):
                 progress=self.progress,
                 on_run=self.on_point,
                 options=self.settings.run_options(self.study_id, pool, self.channel(pool)),
+                shear_test=shear_test,
             )
         summary = cal.to_summary()
         if req.get("then_study") is not None:

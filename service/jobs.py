@@ -89,5 +89,5 @@ def calibration_bytes(request: dict) -> float:
     targets = LabTargets.from_dict(request["targets"])
     stresses = branch_stresses(test, targets)
     total = calibration_runs(request["runs"], request["waves"], request["wave_runs"])
-    shear = calibration_shear_tests(test, targets)
+    shear = calibration_shear_tests(test, targets, request.get("shear_test"))
     return output_bytes(calibration_costs(test, stresses, total, shear))

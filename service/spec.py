@@ -38,6 +38,7 @@ from pydantic_core import PydanticCustomError
 import engine
 from engine.calibration import CALIBRATED, LabTargets
 from engine.calibration.calibrate import CORRECTED_BY
+from engine.calibration.forward import SET_BY_CALIBRATION
 from engine.calibration.targets import LOCUS_UNCERTAINTY_OF, UNCERTAINTY_OF, ShearLocus
 from engine.core.records import ParamInfo, describe
 from engine.study.spec import NAMED_RULES
@@ -401,6 +402,15 @@ ThenStudyIn = create_model(
     **_then_fields,
 )
 
+ShearCellIn = create_model(
+    "ShearCellIn",
+    __config__=_forbid,
+    __doc__="The shear cell a calibration's yield loci run in: engine.ShearTest's fields but "
+    "the pair law (the calibrated one) and the stresses (each locus's sigma_pre and sigma_n); "
+    "its radius must be the test's.",
+    **{k: v for k, v in fields_of(engine.ShearTest).items() if k not in SET_BY_CALIBRATION},
+)
+
 CALIBRATION_EXAMPLE = {
     "name": "my powder",
     "test": {"preset": "quick"},
@@ -476,6 +486,13 @@ class CalibrationCreate(BaseModel):
         None,
         description="a scaling study of the calibrated law, submitted when the calibration "
         "succeeds (its reference: the test with the calibrated law)",
+    )
+    shear_test: ShearCellIn | None = Field(  # type: ignore[valid-type]
+        None,
+        description="with shear targets (targets.shear): the shear cell each yield locus runs "
+        "in (engine.ShearTest's fields; its particle radius the test's); null: the default "
+        "cell, 10 x 5 x 15 diameters of the test's particles with the test's material and "
+        "time step (docs/CALIBRATION.md, Shear data)",
     )
 
     def engine_dict(self) -> dict:

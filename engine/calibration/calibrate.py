@@ -47,6 +47,7 @@ from .forward import (
     SHEAR,
     SHEAR_UNITS,
     Forward,
+    cell_summary,
     check_shear_cell,
     load_shear,
     measure_shear,
@@ -484,8 +485,8 @@ class Calibration:
     -> (factor, sd of its log); the quantities then carry ``cell_value``), ``posterior``
     (:func:`_posterior`: samples in the law's units and the parameters' correlation, which
     shows pairs the data determine only together), ``test`` (the calibrated test: the base
-    test with :attr:`law`), ``shear_test`` (the shear cell of shear targets, with the base
-    law; None without)."""
+    test with :attr:`law`), ``shear_test`` (the shear cell of shear targets: a shear test's
+    fields but the law and stresses, JSON; None without)."""
 
     law: object
     parameters: dict
@@ -497,7 +498,7 @@ class Calibration:
     resolution: dict = field(default_factory=dict)
     posterior: dict = field(default_factory=dict)
     test: UniaxialTest | None = None
-    shear_test: object | None = None
+    shear_test: dict | None = None
 
     @property
     def all_met(self) -> bool:
@@ -522,9 +523,9 @@ class Calibration:
         return {
             "law": {"type": type(self.law).__name__, **to_dict(self.law)},
             # the particle radius the law is calibrated for [m]: scaling it elsewhere needs it
-            "reference_radius": next(
-                (t.radius for t in (self.test, self.shear_test) if t is not None), None
-            ),
+            "reference_radius": self.test.radius
+            if self.test is not None
+            else (None if self.shear_test is None else self.shear_test["radius"]),
             "all_targets_met": self.all_met,
             "parameters": self.parameters,
             "targets_met": self.targets_met,
@@ -534,7 +535,7 @@ class Calibration:
             "curves": self.curves,
             "resolution": {k: list(v) for k, v in self.resolution.items()},
             "posterior": self.posterior,
-            "shear_test": None if self.shear_test is None else self.shear_test.to_dict(),
+            "shear_test": self.shear_test,
         }
 
 
@@ -616,7 +617,7 @@ def check_request(
                 f"> the test's pre_stress = {base_test.pre_stress:g} Pa",
             )
     if targets.shear:
-        shear_tests(check_shear_cell(base_test, shear_test), targets)
+        shear_tests(check_shear_cell(base_test, shear_test), targets, base_test.pair_law)
     elif shear_test is not None:
         raise ParameterError(
             "calibrate.shear_test", "a shear test", "given with shear targets only (shear)"
@@ -763,10 +764,11 @@ def calibrate(
             :func:`resolution_corrections` of a study's resolution curve in the same cell
             (docs/CALIBRATION.md); each run's value is corrected before it meets the
             laboratory's, and the correction's sd adds to the laboratory's.
-        shear_test: the shear cell (:class:`engine.ShearTest`) of shear targets
-            (``targets.shear``), its particle radius the base test's; each yield locus runs
-            it at its sigma_pre and sigma_n with the parameter set's law. None: docs/SHEAR.md's
-            default cell, 10 x 5 x 15 diameters, of the base test's material
+        shear_test: the shear cell of shear targets (``targets.shear``): an
+            :class:`engine.ShearTest` (its law and stresses left out) or its fields but those
+            as a dict, its particle radius the base test's; each yield locus runs it at its
+            sigma_pre and sigma_n with the parameter set's law. None: docs/SHEAR.md's default
+            cell, 10 x 5 x 15 diameters, of the base test's material
             (:func:`engine.calibration.forward.shear_cell`).
 
     Uniaxial targets run the uniaxial test (its branches), shear targets one shear test
@@ -781,7 +783,7 @@ def calibrate(
     corrections = check_corrections(resolution)
     # the shear tests of the base law, one per locus (none without shear targets)
     cell = check_shear_cell(base_test, shear_test) if targets.shear else None
-    shear = shear_tests(cell, targets) if cell is not None else ()
+    shear = shear_tests(cell, targets, base_test.pair_law) if cell is not None else ()
     uniaxial = bool(stresses)
     options = options if options is not None else RunOptions()
     if executor is not None:
@@ -1012,7 +1014,7 @@ def calibrate(
         dict(corrections),
         posterior,
         check_test,
-        cell,
+        cell_summary(shear[0]) if shear else None,
     )
 
 

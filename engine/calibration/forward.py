@@ -30,6 +30,7 @@ is the same test.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass, replace
@@ -52,12 +53,14 @@ FROM_UNIAXIAL = (
     "radius",
     "polydispersity",
     "density",
-    "pair_law",
     "seed",
     "dt",
     "dt_fraction",
     "output_interval",
 )
+#: The shear test's fields a calibration sets itself: the law (each parameter set's) and the
+#: stresses (each locus's sigma_pre and sigma_n). A shear cell is the other fields.
+SET_BY_CALIBRATION = ("pair_law", "preshear_stress", "normal_stresses")
 #: Units of the shear targets (a quantity's name up to its "@").
 SHEAR_UNITS = {"tau": "Pa", "tau_pre": "Pa", "bulk_density": "kg/m^3"}
 
@@ -79,16 +82,56 @@ class Forward:
         }
 
 
-def shear_cell(base: UniaxialTest) -> ShearTest:
-    """The shear test of a calibration whose base test is ``base``: its material and
-    numerics (:data:`FROM_UNIAXIAL`) in docs/SHEAR.md's default cell,
-    :data:`CELL_DIAMETERS` mean diameters 2R, and the shear test's defaults for the
-    rest (its pre-shear and normal stresses are replaced per locus)."""
+def shear_cell(base: UniaxialTest) -> dict:
+    """The shear cell of a calibration whose base test is ``base``, as the fields of an
+    :class:`engine.ShearTest` but :data:`SET_BY_CALIBRATION`: ``base``'s material and
+    numerics (:data:`FROM_UNIAXIAL`) in docs/SHEAR.md's default cell, :data:`CELL_DIAMETERS`
+    mean diameters 2R; the shear test's defaults for the rest."""
     d = 2.0 * base.radius
-    return ShearTest(
-        cell=tuple(n * d for n in CELL_DIAMETERS),
+    return {
+        "cell": [n * d for n in CELL_DIAMETERS],
         **{name: getattr(base, name) for name in FROM_UNIAXIAL},
-    )
+    }
+
+
+def check_shear_cell(base: UniaxialTest, cell: ShearTest | dict | None) -> dict:
+    """The shear cell of a calibration (the fields of an :class:`engine.ShearTest` but
+    :data:`SET_BY_CALIBRATION`): ``cell`` (a ShearTest, whose law and stresses are left
+    out, or those fields as a dict: its JSON form), or :func:`shear_cell` of ``base``. No
+    shear test is built here: a cell is judged with each locus's stresses and a law
+    (:func:`shear_tests`), not with the shear test's default stresses and law. Raises
+    :class:`engine.ParameterError` at ``calibrate.shear_test...``: a field the calibration
+    sets, a particle radius not the base test's (the law is calibrated for one radius:
+    the result's ``reference_radius``)."""
+    if cell is None:
+        return shear_cell(base)
+    if isinstance(cell, ShearTest):
+        fields = {k: v for k, v in cell.to_dict().items() if k not in SET_BY_CALIBRATION}
+    elif isinstance(cell, dict):
+        fields = dict(cell)
+        for k in SET_BY_CALIBRATION:
+            if k in fields:
+                raise ParameterError(
+                    f"calibrate.shear_test.{k}",
+                    fields[k],
+                    "left out (the calibration sets it: the calibrated law, each locus's stresses)",
+                )
+    else:
+        raise ParameterError(
+            "calibrate.shear_test", type(cell).__name__, "an engine ShearTest or its fields"
+        )
+    radius = fields.get("radius", _RADIUS_DEFAULT)
+    if radius != base.radius:
+        raise ParameterError(
+            "calibrate.shear_test.radius",
+            radius,
+            f"the test's radius = {base.radius:g} m",
+            "the law is calibrated for one particle radius",
+        )
+    return fields
+
+
+_RADIUS_DEFAULT = next(f.default for f in dataclasses.fields(ShearTest) if f.name == "radius")
 
 
 def _renamed(e: ParameterError, i: int, sigma_pre: float) -> ParameterError:
@@ -97,7 +140,7 @@ def _renamed(e: ParameterError, i: int, sigma_pre: float) -> ParameterError:
     cell's (``calibrate.shear_test.<field>``); a law the test refuses at this locus (too
     soft to carry its consolidation within the overlap limit) names its sigma_pre [Pa]."""
     field = e.field.split(".", 1)[1] if "." in e.field else ""
-    if field.startswith("pair_law."):  # e.g. too soft for this locus's consolidation
+    if field.startswith("pair_law"):  # e.g. too soft for this locus's consolidation
         return ParameterError(
             f"LabTargets.shear[{i}].sigma_pre",
             sigma_pre,
@@ -114,45 +157,31 @@ def _renamed(e: ParameterError, i: int, sigma_pre: float) -> ParameterError:
     return ParameterError(where, e.value, e.limit, e.why)
 
 
-def shear_tests(cell: ShearTest, targets: LabTargets, law=None) -> tuple[ShearTest, ...]:
-    """One shear test per yield locus of ``targets``: ``cell`` at the locus's sigma_pre and
-    its points' sigma_n, with ``law`` (None: the cell's own). Raises
-    :class:`engine.ParameterError` named where the request holds the value
-    (:func:`_renamed`): e.g. a law too soft to carry a locus's sigma_pre within the
-    overlap limit names ``LabTargets.shear[i].sigma_pre``."""
+def shear_tests(cell: dict, targets: LabTargets, law) -> tuple[ShearTest, ...]:
+    """One shear test per yield locus of ``targets``: the shear cell ``cell``
+    (:func:`check_shear_cell`) at the locus's sigma_pre and its points' sigma_n, with
+    ``law``. Raises :class:`engine.ParameterError` named where the request holds the value
+    (:func:`_renamed`): e.g. a law too soft to carry a locus's sigma_pre within the overlap
+    limit names ``LabTargets.shear[i].sigma_pre``."""
     out = []
     for i, locus in enumerate(targets.shear):
-        changes = {
+        fields = {
+            **cell,
+            "pair_law": law,
             "preshear_stress": locus.sigma_pre,
-            "normal_stresses": tuple(p.sigma_n for p in locus.points),
+            "normal_stresses": [p.sigma_n for p in locus.points],
         }
-        if law is not None:
-            changes["pair_law"] = law
         try:
-            out.append(replace(cell, **changes))
+            out.append(ShearTest.from_dict(fields))
         except ParameterError as e:
             raise _renamed(e, i, locus.sigma_pre) from None
     return tuple(out)
 
 
-def check_shear_cell(base: UniaxialTest, cell: ShearTest | None) -> ShearTest:
-    """The shear cell of a calibration: ``cell`` (its law replaced by the base test's, the
-    one calibrated), or :func:`shear_cell` of ``base``. Raises
-    :class:`engine.ParameterError` at ``calibrate.shear_test.radius`` where ``cell``'s
-    particle radius is not the base test's (the law is calibrated for one radius: the
-    result's ``reference_radius``)."""
-    if cell is None:
-        return shear_cell(base)
-    if not isinstance(cell, ShearTest):
-        raise ParameterError("calibrate.shear_test", type(cell).__name__, "an engine ShearTest")
-    if cell.radius != base.radius:
-        raise ParameterError(
-            "calibrate.shear_test.radius",
-            cell.radius,
-            f"the test's radius = {base.radius:g} m",
-            "the law is calibrated for one particle radius",
-        )
-    return replace(cell, pair_law=base.pair_law)
+def cell_summary(test: ShearTest) -> dict:
+    """A shear cell as a result states it: the fields of a locus's test but those the
+    calibration sets (:data:`SET_BY_CALIBRATION`)."""
+    return {k: v for k, v in test.to_dict().items() if k not in SET_BY_CALIBRATION}
 
 
 def run_shear_tests(tests: tuple[ShearTest, ...], progress=None) -> dict[float, dict]:
@@ -283,9 +312,11 @@ def load_shear(folder: Path, key: str, tests: tuple[ShearTest, ...]) -> dict[flo
 
 __all__ = [
     "CELL_DIAMETERS",
+    "SET_BY_CALIBRATION",
     "SHEAR",
     "SHEAR_UNITS",
     "Forward",
+    "cell_summary",
     "check_shear_cell",
     "load_shear",
     "measure_shear",

@@ -303,7 +303,8 @@ def test_shear_targets_are_routed_to_the_shear_test_and_recovered(stand_ins):
         assert [t.preshear_stress for t in tests] == [5e3, 1e4]
         assert [t.normal_stresses for t in tests] == [(1e3, 3e3), (2e3, 7e3)]
         assert all(t.pair_law == ut.pair_law for t in tests)
-        assert tests[0].cell == fw.shear_cell(BASE).cell  # the default cell, 10 x 5 x 15 d
+        # the default cell, 10 x 5 x 15 diameters, with the test's time step
+        assert tests[0].cell == tuple(fw.shear_cell(BASE)["cell"]) and tests[0].dt == BASE.dt
     names = [q["name"] for q in cal.targets_met]
     assert names[0] == "loading_stiffness" and "tau@7000Pa:10000Pa" in names
     assert "tau_pre@5000Pa" in names and len(names) == 1 + 2 + 1 + 2
@@ -316,7 +317,8 @@ def test_shear_targets_are_routed_to_the_shear_test_and_recovered(stand_ins):
     assert max(s["loading_stiffness"], key=s["loading_stiffness"].get) == "k1"
     assert max(s["tau@7000Pa:10000Pa"], key=s["tau@7000Pa:10000Pa"].get) == "mu_s"
     summary = cal.to_summary()
-    assert summary["shear_test"]["cell"] == list(fw.shear_cell(BASE).cell)
+    assert summary["shear_test"]["cell"] == fw.shear_cell(BASE)["cell"]
+    assert "pair_law" not in summary["shear_test"]
     assert [c["sigma_pre"] for c in summary["curves"]["yield_loci"]] == [5e3, 1e4]
 
 

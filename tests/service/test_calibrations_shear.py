@@ -203,3 +203,50 @@ def test_the_shear_records_fields_units_and_bounds_are_the_engines(client, name)
     from .test_spec_agreement import test_fields_units_bounds_defaults_agree as agree
 
     agree(client.get("/openapi.json").json()["components"]["schemas"], getattr(targets, name))
+
+
+#: The tests' 120-grain shear cell (tests/engine/test_shear.py), as a request gives it.
+SMALL_CELL = {"cell": [0.03, 0.015, 0.03], "inertial_number": 2e-3, "max_stage_time": 2.0}
+
+
+def test_a_shear_cell_of_its_own_is_taken_and_stated(client):
+    ids = [
+        client.post("/calibrations", json={**RING, **extra}).json()["id"]
+        for extra in ({}, {"shear_test": SMALL_CELL})
+    ]
+    jobs = [client.get(f"/calibrations/{i}").json() for i in ids]
+    default, small = (j["request"]["shear_test"] for j in jobs)
+    # the normalised request states the whole cell (defaults filled in), not the law or the
+    # stresses, which the calibration sets
+    assert default["cell"] == pytest.approx([0.05, 0.025, 0.075]) and default["dt"] == 3e-5
+    assert small["cell"] == SMALL_CELL["cell"] and small["max_stage_time"] == 2.0
+    assert not {"pair_law", "preshear_stress", "normal_stresses"} & set(small)
+    # a smaller cell with shorter stages costs less
+    steps = [j["estimated_particle_steps"] for j in jobs]
+    assert steps[1] < steps[0] / 4, steps
+
+
+@pytest.mark.parametrize(
+    ("body", "loc", "words"),
+    [
+        ({**RING, "shear_test": {"radius": 2e-3}}, ["body", "shear_test", "radius"], "radius"),
+        (
+            {**RING, "shear_test": {**SMALL_CELL, "pair_law": {"k1": 5e3}}},
+            ["body", "shear_test", "pair_law"],
+            "Extra inputs",
+        ),
+        (
+            {**RING, "shear_test": {"cell": [0.03, 0.015, 0.01]}},
+            ["body", "shear_test", "cell"],
+            "four glued layers",
+        ),
+        ({**CALIBRATION, "shear_test": SMALL_CELL}, ["body", "shear_test"], "shear targets only"),
+    ],
+)
+def test_a_bad_shear_cell_gets_a_422_naming_the_field(client, settings, body, loc, words):
+    before = _files(settings)
+    r = client.post("/calibrations", json=body)
+    assert r.status_code == 422, r.text
+    errors = r.json()["detail"]
+    assert any(e["loc"] == loc and words in e["msg"] for e in errors), errors
+    assert client.get("/calibrations").json()["count"] == 0 and _files(settings) == before

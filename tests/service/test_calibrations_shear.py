@@ -34,6 +34,8 @@ SHEAR = [
     {"sigma_pre": 1e4, "points": [_pt(2e3, 2.3e3), _pt(6e3, 4.2e3)]},
 ]
 RING = {**CALIBRATION, "targets": {"tester": "ring_shear", "shear": SHEAR}}
+#: The tests' 120-grain shear cell (tests/engine/test_shear.py), as a request gives it.
+SMALL_CELL = {"cell": [0.03, 0.015, 0.03], "inertial_number": 2e-3, "max_stage_time": 2.0}
 MIXED = {
     **CALIBRATION,
     "targets": {**CALIBRATION["targets"], "shear_tester": "jenike", "shear": SHEAR[:1]},
@@ -147,39 +149,38 @@ def test_the_schema_states_the_shear_datas_units_and_rules(client):
     assert locus["properties"]["bulk_density"]["x-unit"] == "kg/m^3"
 
 
-def test_a_shear_calibrations_result_page_and_figure(client, settings, monkeypatch):
-    # a finished calibration to shear data, its result made by engine.calibrate with the
-    # shear test's closed-form stand-in (tests/engine/test_calibrate_shear.py), stored
-    # where the worker stores it: the API, the page and the figure show it
+def test_a_shear_calibration_runs_in_the_worker_and_shows_its_loci(client, settings, monkeypatch):
+    # the worker (in this process, its runs in process: run_workers 1) runs a calibration
+    # to shear data in a shear cell of the request's, with the shear test replaced by its
+    # closed-form stand-in (tests/engine/test_calibrate_shear.py); the API, the page, the
+    # curves and the figure show the result
     import importlib
-    import json
-    import uuid
 
-    import engine
-    from engine.calibration import calibrate
-    from service.db import session_scope
-    from service.models import Status, Study
-    from tests.engine.test_calibrate_shear import _lab, _locus, _stand_in_shear, quicker_posterior
+    from service.worker import Worker
+    from tests.engine.test_calibrate_shear import _locus, _stand_in_shear, quicker_posterior
 
     cal_module = importlib.import_module("engine.calibration.calibrate")
-    monkeypatch.setattr(cal_module, "run_shear_tests", _stand_in_shear)
+    ran = []
+    monkeypatch.setattr(
+        cal_module, "run_shear_tests", lambda t, p=None: ran.append(t) or _stand_in_shear(t, p)
+    )
     quicker_posterior(monkeypatch)
     targets = {"tester": "ring_shear", "shear": [_locus(1e4, (2e3, 7e3), bulk=True)]}
-    body = {**RING, "targets": targets, "parameters": {"mu_s": [0.2, 0.8]}}
+    body = {
+        **RING,
+        "targets": targets,
+        "parameters": {"mu_s": [0.2, 0.8]},
+        "runs": 4,
+        "shear_test": SMALL_CELL,
+    }
     r = client.post("/calibrations", json=body)
     assert r.status_code == 202, r.text
     cid = r.json()["id"]
-    request = client.get(f"/calibrations/{cid}").json()["request"]
-    test = engine.UniaxialTest.from_dict(request["test"])
-    cal = calibrate(test, _lab(mixed=False), {"mu_s": (0.2, 0.8)}, runs=4, waves=0)
-    path = settings.calibration_path(cid)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(cal.to_summary()))
-    for session in session_scope(settings):
-        job = session.get(Study, uuid.UUID(cid))
-        job.status = Status.succeeded
-        session.add(job)
-        session.commit()
+    Worker(settings.model_copy(update={"run_workers": 1}), once=True).run()
+    job = client.get(f"/calibrations/{cid}").json()
+    assert job["status"] == "succeeded", job["error"]
+    assert len(ran) == 5 and all(t[0].cell == tuple(SMALL_CELL["cell"]) for t in ran)
+    assert [r["key"] for r in job["runs"]] == ["cal-000", "cal-001", "cal-002", "cal-003", "check"]
     res = client.get(f"/calibrations/{cid}").json()["result"]
     assert [q["name"] for q in res["targets_met"]][-1] == "bulk_density@10000Pa"
     page = client.get(f"/calibrations/{cid}/page")
@@ -203,10 +204,6 @@ def test_the_shear_records_fields_units_and_bounds_are_the_engines(client, name)
     from .test_spec_agreement import test_fields_units_bounds_defaults_agree as agree
 
     agree(client.get("/openapi.json").json()["components"]["schemas"], getattr(targets, name))
-
-
-#: The tests' 120-grain shear cell (tests/engine/test_shear.py), as a request gives it.
-SMALL_CELL = {"cell": [0.03, 0.015, 0.03], "inertial_number": 2e-3, "max_stage_time": 2.0}
 
 
 def test_a_shear_cell_of_its_own_is_taken_and_stated(client):

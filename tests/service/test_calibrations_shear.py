@@ -147,6 +147,15 @@ def test_the_schema_states_the_shear_datas_units_and_rules(client):
     }
     assert "at least 2" in locus["properties"]["points"]["description"]
     assert locus["properties"]["bulk_density"]["x-unit"] == "kg/m^3"
+    # the shear cell: engine.ShearTest's declared fields but those the calibration sets
+    import engine
+    from engine.calibration.forward import SET_BY_CALIBRATION
+    from engine.core.records import describe
+
+    cell = schema["ShearCellIn"]["properties"]
+    declared = {i.name: i for i in describe(engine.ShearTest)}
+    assert set(cell) == set(declared) - set(SET_BY_CALIBRATION)
+    assert all(cell[n].get("x-unit") == declared[n].unit for n in cell if declared[n].unit)
 
 
 def test_a_shear_calibration_runs_in_the_worker_and_shows_its_loci(client, settings, monkeypatch):

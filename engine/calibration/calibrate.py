@@ -49,12 +49,12 @@ from .forward import (
     Forward,
     cell_summary,
     check_shear_cell,
-    load_shear,
     measure_shear,
     run_shear_tests,
-    save_shear,
     shear_curves,
     shear_tests,
+    store_loci,
+    stored_loci,
 )
 from .gp import GP
 from .targets import LabTargets
@@ -1124,7 +1124,7 @@ def _save_point(
     for s, r in _uniaxial(results).items():
         save_run(folder / f"{key}-{s:g}Pa.h5", r, keep_particles=False)
     if SHEAR in results:
-        save_shear(folder, key, results[SHEAR])
+        store_loci(folder, key, results[SHEAR])
 
 
 def _load_point(
@@ -1138,7 +1138,7 @@ def _load_point(
     out = {}
     if isinstance(test, Forward):
         if test.shear:
-            shear = load_shear(folder, key, test.shear)
+            shear = stored_loci(folder, key, test.shear)
             if shear is None:
                 return None
             out[SHEAR] = shear

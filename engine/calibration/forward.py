@@ -285,9 +285,11 @@ def _shear_file(folder: Path, key: str, sigma_pre: float) -> Path:
     return folder / f"{key}-shear-{sigma_pre:g}Pa.json"
 
 
-def save_shear(folder: Path, key: str, shear: dict[float, dict]) -> None:
+def store_loci(folder: Path, key: str, shear: dict[float, dict]) -> None:
     """Store each locus's result of run ``key`` (written to a temporary file and renamed:
-    a file found is whole)."""
+    a file found is whole): the JSON form alone, no curves (a calibration reads only the
+    points, locus and scalars; :func:`engine.shear.results.save_shear` keeps the curves
+    too)."""
     for s, res in shear.items():
         path = _shear_file(folder, key, s)
         tmp = path.with_suffix(".json.tmp")
@@ -295,7 +297,7 @@ def save_shear(folder: Path, key: str, shear: dict[float, dict]) -> None:
         tmp.replace(path)
 
 
-def load_shear(folder: Path, key: str, tests: tuple[ShearTest, ...]) -> dict[float, dict] | None:
+def stored_loci(folder: Path, key: str, tests: tuple[ShearTest, ...]) -> dict[float, dict] | None:
     """The stored results of run ``key`` for ``tests``, or None where one is missing or was
     stored for another test."""
     out = {}
@@ -318,11 +320,11 @@ __all__ = [
     "Forward",
     "cell_summary",
     "check_shear_cell",
-    "load_shear",
     "measure_shear",
     "run_shear_tests",
-    "save_shear",
     "shear_cell",
     "shear_curves",
     "shear_tests",
+    "store_loci",
+    "stored_loci",
 ]

@@ -774,7 +774,71 @@ _TARGET_UNITS = {
     "unloading_stiffness": "Pa",
     "k0": "-",
     "strength": "Pa",
+    "tau_pre": "Pa",
+    "bulk_density": "kg/m^3",
 }
+
+
+def _locus_of(name: str) -> float:
+    """The pre-shear normal stress [Pa] of a shear point target (``tau@<sn>Pa:<sp>Pa``)."""
+    return float(name.split(":", 1)[1].split("Pa", 1)[0])
+
+
+def _locus_panel(ax, checks: list, runs: list, curves: dict) -> None:
+    """Yield loci: shear stress against normal stress [kPa], per pre-shear normal stress the
+    laboratory points (1 sd), the check run at the laboratory's normal stresses, its fitted
+    locus up to its pre-shear point, and the design and wave runs (faint)."""
+    rows = [q for q in checks if q["name"].startswith("tau@")]
+    loci = sorted({_locus_of(q["name"]) for q in rows})
+    for r in runs:
+        pts = [q for q in r.get("quantities", []) if q["name"].startswith("tau@")]
+        ax.scatter(
+            [_target_stress(q["name"]) * 1e-3 for q in pts],
+            [q["value"] * 1e-3 for q in pts],
+            s=8,
+            color="0.75",
+            zorder=1,
+        )
+    fitted = {c["sigma_pre"]: c for c in curves.get("yield_loci") or []}
+    for i, sp in enumerate(loci):
+        color = f"C{i % 10}"
+        here = [q for q in rows if _locus_of(q["name"]) == sp]
+        x = [_target_stress(q["name"]) * 1e-3 for q in here]
+        ax.errorbar(
+            x,
+            [q["lab"] * 1e-3 for q in here],
+            yerr=[q["sd"] * 1e-3 for q in here],
+            fmt="o",
+            color=color,
+            capsize=3,
+            zorder=3,
+            label=f"laboratory, pre-shear {sp * 1e-3:g} kPa (1 sd)",
+        )
+        ax.scatter(
+            x, [q["value"] * 1e-3 for q in here], marker="s", color=color, zorder=4, alpha=0.6
+        )
+        c = fitted.get(sp)
+        if c is not None:
+            top = max(c["preshear"]["sigma"], max(x) * 1e3)
+            sig = np.linspace(0.0, top, 50)
+            ax.plot(sig * 1e-3, (c["cohesion"] + c["slope"] * sig) * 1e-3, "-", color=color, lw=1)
+            ax.scatter(
+                [c["preshear"]["sigma"] * 1e-3],
+                [c["preshear"]["tau"] * 1e-3],
+                marker="^",
+                color=color,
+                zorder=4,
+            )
+    ax.scatter([], [], marker="s", color="0.3", label="calibrated law (check run)")
+    ax.plot([], [], "-", color="0.3", lw=1, label="its yield locus; triangle: pre-shear")
+    ax.scatter([], [], s=8, color="0.75", label="design and wave runs")
+    ax.set_xlabel("normal stress [kPa]")
+    ax.set_ylabel("shear stress [kPa]")
+    ax.set_title("yield loci: shear stress [kPa] against normal stress [kPa]", fontsize=9)
+    ax.set_xlim(left=0)
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
 
 
 def calibration_status(summary: dict) -> str:
@@ -795,8 +859,10 @@ def calibration_figure(summary: dict):
     """The calibration (engine.Calibration.to_summary()) against the laboratory, one panel
     per kind of target it has (no empty panel): the compression curve, porosity against
     vertical stress on a log stress axis (compressibility is read against log stress); the
-    flow function, strength against consolidation stress; and the scalar targets (stiffness,
-    K0) as the check run over the laboratory value. The laboratory points with their 1-sd
+    flow function, strength against consolidation stress; a shear tester's yield loci,
+    shear against normal stress (:func:`_locus_panel`); and the scalar targets (stiffness,
+    K0, a locus's pre-shear stress and bulk density) as the check run over the laboratory
+    value. The laboratory points with their 1-sd
     bars, the check run of the calibrated law and every run of the design and waves
     (faint); the title says whether every target was met."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -810,8 +876,14 @@ def calibration_figure(summary: dict):
         for prefix, sy in (("porosity@", 1.0), ("strength@", 1e-3))
         if any(q["name"].startswith(prefix) for q in checks)
     ]
-    scalars = [q for q in checks if "@" not in q["name"]]
-    n = len(kinds) + bool(scalars)
+    loci = any(q["name"].startswith("tau@") for q in checks)
+    # scalar targets: those without a stress, and a locus's pre-shear stress and density
+    scalars = [
+        q
+        for q in checks
+        if "@" not in q["name"] or q["name"].split("@", 1)[0] in ("tau_pre", "bulk_density")
+    ]
+    n = len(kinds) + loci + bool(scalars)
     fig = Figure(figsize=(max(5.5, 4.6 * n), 4.6), dpi=100, layout="constrained")
     FigureCanvasAgg(fig)
     axes = list(fig.subplots(1, max(n, 1), squeeze=False)[0])
@@ -889,10 +961,14 @@ def calibration_figure(summary: dict):
             ax.set_ylim(bottom=0)
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=7)
+    if loci:
+        _locus_panel(axes[len(kinds)], checks, runs, summary.get("curves") or {})
     if scalars:
-        ax = axes[len(kinds)]
+        ax = axes[len(kinds) + loci]
         names = [
-            f"{q['name']}\n{q['lab']:.3g} [{_TARGET_UNITS.get(q['name'], '-')}]" for q in scalars
+            q["name"].replace("@", "\n@")
+            + f"\n{q['lab']:.3g} [{_TARGET_UNITS.get(q['name'].split('@', 1)[0], '-')}]"
+            for q in scalars
         ]
         xs = np.arange(len(scalars))
         ax.errorbar(

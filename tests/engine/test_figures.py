@@ -140,3 +140,28 @@ def test_the_unconfined_plot_draws_the_curve_the_strength_is_read_from():
     assert _unconfined_stress({"a": run([0.0, 2.0]), "b": run([1.0, 3.0])}) == "stress_interior"
     assert _unconfined_stress({"a": run([0.0, 2.0]), "b": run(None)}) == "stress_top"
     assert _unconfined_stress({"a": run([0.0, float("nan")])}) == "stress_top"
+
+
+def test_a_shear_calibration_draws_its_yield_loci_and_its_scalar_targets():
+    """A calibration to a shear tester's data (the stored twin benchmark): a yield-locus
+    panel with the laboratory points and the check run's loci, and the pre-shear stresses
+    and bulk densities over their laboratory values; no empty panel."""
+    import json
+    from pathlib import Path
+
+    from engine.io.figures import calibration_figure
+
+    stored = Path(__file__).resolve().parents[2] / "benchmarks" / "results"
+    summary = json.loads((stored / "calibration_shear_tiny" / "result.json").read_text())
+    fig = calibration_figure(summary)
+    locus, other = fig.axes
+    assert locus.get_title().startswith("yield loci")
+    assert other.get_title().startswith("other targets")
+    lab = [c for c in locus.containers if c.get_label().startswith("laboratory")]
+    assert [c.get_label() for c in lab] == [
+        "laboratory, pre-shear 10 kPa (1 sd)",
+        "laboratory, pre-shear 20 kPa (1 sd)",
+    ]
+    assert len(locus.get_lines()) >= 2  # a fitted locus per pre-shear stress
+    ticks = [t.get_text() for t in other.get_xticklabels()]
+    assert len(ticks) == 4 and ticks[0].startswith("tau_pre\n@10000Pa")

@@ -188,6 +188,7 @@ def report() -> str:
         if t != "not run":
             lines.append(f"- {k} failed: {t[:300]}")
     lines.append(reproduced(res))
+    lines.append(similarity(res))
     head = "| R [mm] | against | verdict | seeds | " + " | ".join(names) + " |"
     lines += ["", head, "|" + "---|" * (4 + len(names))]
 
@@ -276,6 +277,36 @@ def reproduced(res: engine.StudyResult) -> str:
         f"References equal to the stored shear_cell runs of the same test in every scalar but "
         f"the wall time: {', '.join(same) or 'none'}; differing: {', '.join(differ) or 'none'}."
     )
+
+
+def similarity(res: engine.StudyResult) -> str:
+    """How alike a paper-rule run and the control of its seed are before the shear (a coarse
+    run under K ~ R, f0 ~ R^2 is its control scaled, clock included, docs/PHYSICS.md 11.1):
+    per radius the largest relative difference of the bulk density when the platens were
+    glued, and the ratio of their time steps (s = R_c / R_ref where the similarity holds)."""
+    out = []
+    for radius in SPEC.coarse_radii:
+        pairs = [
+            (r.result.scalars, c.result.scalars)
+            for r in res.runs.values()
+            if r.rule is not None and r.rule.name == "paper" and r.radius == radius
+            for c in res.runs.values()
+            if c.control and c.radius == radius and c.seed == r.seed
+        ]
+        if not pairs:
+            continue
+        dens = [
+            abs(a["bulk_density_consolidated"] / b["bulk_density_consolidated"] - 1)
+            for a, b in pairs
+        ]
+        dts = [a["dt"] / b["dt"] for a, b in pairs]
+        out.append(
+            f"{radius * 1e3:g} mm ({len(pairs)} pairs): consolidated bulk density within "
+            f"{100 * max(dens):.2f} % (median {100 * float(np.median(dens)):.3f} %), time steps "
+            f"{min(dts):.4g}-{max(dts):.4g} x the control's "
+            f"(s = {radius / SPEC.reference.radius:g})"
+        )
+    return "Paper runs against the controls of their seeds: " + "; ".join(out) + "."
 
 
 def estimate() -> str:

@@ -120,9 +120,10 @@ def yield_locus(sigma, tau, sigma_pre: float, tau_pre: float) -> YieldLocus:
     stress (phi <= 0: no Mohr construction), naming its slope."""
     c, m, se_c, se_m = fit_line(sigma, tau)
     if not m > 0:
+        points = ", ".join(f"({float(s):.1f}, {float(t):.1f})" for s, t in zip(sigma, tau))
         raise ValueError(
             f"the yield locus's slope tan(phi) = {m:.4g} is not > 0: the shear points "
-            f"(sigma_n, tau) = {list(zip(np.round(sigma, 1), np.round(tau, 1)))} Pa do not "
+            f"(sigma_n, tau) = {points} Pa do not "
             "rise with the normal stress (noise larger than the locus's rise: a larger cell "
             "or normal stresses further apart)"
         )

@@ -65,6 +65,12 @@ CALIBRATED = ("k1", "k2", "f0", "kadh", "mu_s", "mu_r", "n", "chi", "restitution
 IMPLAUSIBLE = 3.0
 #: Posterior spread / prior spread (scaled box) under which a parameter is determined.
 DETERMINED = 0.5
+#: Largest adhesive-branch stiffness a box may reach, as a multiple of the unloading
+#: stiffness K2 [-] (:func:`check_kadh_box`): a contact unloaded from dmax leaves the K2
+#: branch for the adhesive branch f0 - kadh d^chi where they meet, and its pull-off force,
+#: |f0| + kadh K2 / (K2 + kadh) dp^n (chi = n), saturates at |f0| + K2 dp^n as kadh grows,
+#: within 1 / (1 + kadh / K2) of it: above 10 K2 no force of the law moves by more than 9 %.
+KADH_MAX_RATIO = 10.0
 
 
 @dataclass(frozen=True)
@@ -604,6 +610,7 @@ def check_request(
             "calibrate.parameters", parameters, "a box holding laws the law accepts (K2 >= K1)"
         )
     _check_box_ends(base_test, axes, u)
+    check_kadh_box(base_test, targets, axes)
     if targets.strength and not base_test.unconfined:
         raise ParameterError(
             "UniaxialTest.unconfined", False, "True (strength targets need the unconfined stage)"
@@ -623,6 +630,64 @@ def check_request(
             "calibrate.shear_test", "a shear test", "given with shear targets only (shear)"
         )
     return stresses
+
+
+def consolidation_overlap(base_test: UniaxialTest, targets: LabTargets, law=None) -> float:
+    """The overlap [m] at which ``law``'s (default: the base test's) virgin loading branch
+    carries the contact force of the highest stress the targets consolidate to, sigma (2R)^2
+    (one contact per particle diameter squared of a plane; sigma [Pa] the highest uniaxial
+    branch's or locus's sigma_pre, R the test's radius [m]): the overlap scale at which
+    :func:`check_kadh_box` compares kadh d^chi with K2 d^n when chi != n."""
+    law = base_test.pair_law if law is None else law
+    sigma = max([*branch_stresses(base_test, targets), *(c.sigma_pre for c in targets.shear)])
+    return law.load_overlap(sigma * (2.0 * base_test.radius) ** 2, base_test.radius)[0]
+
+
+def check_kadh_box(base_test: UniaxialTest, targets: LabTargets, axes: list[_Axis]) -> None:
+    """A box for kadh, the adhesive branch's stiffness [N/m^chi], may reach at most
+    :data:`KADH_MAX_RATIO` times the unloading stiffness K2 (the box's highest K2 where K2 is
+    calibrated too): beyond it the pull-off force |f0| + kadh K2 / (K2 + kadh) dp^n of a
+    contact unloaded from a plastic overlap dp is within 9 % of its limit |f0| + K2 dp^n,
+    so the data cannot tell such laws apart and the posterior would lean on the box's end.
+    With chi = n (the bilinear law; an EEPA law with chi = n) kadh and K2 share a unit and
+    the bound is 10 K2; with chi != n it is 10 K2 d_c^(n - chi), kadh d^chi against K2 d^n
+    at the overlap d_c of the targets' highest stress (:func:`consolidation_overlap`), the
+    most permissive over the ends of n's and chi's boxes where they are calibrated. Raises
+    :class:`engine.ParameterError` at ``calibrate.parameters.kadh``."""
+    box = {a.name: a for a in axes}
+    if "kadh" not in box:
+        return
+    law0 = base_test.pair_law
+    k2 = box["k2"].hi if "k2" in box else law0.k2
+    fields = {f.name for f in dataclasses.fields(law0)}
+    ns = (box["n"].lo, box["n"].hi) if "n" in box else (law0.n,)
+    chis = (box["chi"].lo, box["chi"].hi) if "chi" in box else (law0.chi,)
+    bound, at = -math.inf, ""
+    for n in ns:
+        law = replace(law0, n=n) if "n" in fields else law0
+        d_c = consolidation_overlap(base_test, targets, law)
+        for chi in chis:
+            b = KADH_MAX_RATIO * k2 * d_c ** (n - chi)
+            if b > bound:
+                bound = b
+                at = (
+                    ""
+                    if n == chi
+                    else f" at the overlap d_c = {d_c:.3g} m, n = {n:g}, chi = {chi:g}"
+                )
+    a = box["kadh"]
+    if a.hi > bound:
+        unit = describe_unit(law0, "kadh")
+        raise ParameterError(
+            "calibrate.parameters.kadh",
+            [a.lo, a.hi],
+            f"a box whose high end is at most {bound:.4g} {unit}: {KADH_MAX_RATIO:g} K2 "
+            f"(K2 = {k2:g} {describe_unit(law0, 'k2')}){at}",
+            "a contact unloaded from a plastic overlap dp pulls off at |f0| + kadh K2 / "
+            "(K2 + kadh) dp^n, which saturates at |f0| + K2 dp^n: beyond 10 K2 no force of the "
+            "law moves by more than 9 %, the data cannot tell such kadh apart and the "
+            "posterior would lean on the box's end",
+        )
 
 
 def _box_points(d: int, n: int = 256) -> np.ndarray:

@@ -27,7 +27,7 @@ calibration's cell seed) is reported beside it. **Criterion, stated before the r
 fourth locus is predicted within its uncertainty when every one of its quantities (tau at
 its three sigma_n, tau_pre, bulk density) has |z| <= 2, z = (mean of the predictions - lab
 mean) / sqrt(sd of the predictions^2 + lab sd^2), the lab sd being the five seeds' sd as for
-every fitted target. :data:`EXTRA` (sigma_pre = 60 kPa, 1.5 times the highest fitted) is an
+every fitted target. :data:`EXTRA` (sigma_pre = 50 kPa, 1.25 times the highest fitted) is an
 extrapolation predicted and judged the same way, reported beside it and not part of the
 done-when.
 
@@ -80,8 +80,9 @@ BOX = {"mu_s": (0.2, 0.8), "f0": (-0.4, -0.05), "kadh": (0.0, 1e4)}
 FITTED = {1e4: (3e3, 5e3, 7e3), 2e4: (6e3, 1e4, 1.4e4), 4e4: (1.2e4, 2e4, 2.8e4)}
 #: the fourth locus, not fitted: predicted (the done-when's)
 HELD_OUT = {3e4: (9e3, 1.5e4, 2.1e4)}
-#: an extrapolation, not fitted: predicted and reported
-EXTRA = {6e4: (1.8e4, 3e4, 4.2e4)}
+#: an extrapolation, not fitted: predicted and reported (at 60 kPa a truth's run at one
+#: seed of two stopped on a 0.5 R overlap: K1 = 5e3 N/m is soft for it)
+EXTRA = {5e4: (1.5e4, 2.5e4, 3.5e4)}
 LAB_SEEDS = (101, 102, 103, 104, 105)
 RUNS, WAVES, WAVE_RUNS = 15, 2, 6
 PREDICT_SAMPLES = 10
@@ -121,9 +122,6 @@ def _draft(loci: dict) -> LabTargets:
     )
 
 
-ALL = {**FITTED, **HELD_OUT, **EXTRA}
-
-
 def _run_loci(path: Path, loci: dict, law, seed: int) -> dict | str:
     """The shear results of ``law`` at ``loci`` (sigma_pre -> JSON form), stored at
     ``path`` as they end (a failed run: its error text, stored too)."""
@@ -149,48 +147,61 @@ def _run_loci(path: Path, loci: dict, law, seed: int) -> dict | str:
     return out
 
 
-def _as_targets(loci: dict, mean, sd, material: str) -> LabTargets:
-    it = iter(zip(mean, sd))
-    out = []
-    for s, sn in loci.items():
-        pts = []
-        for x in sn:
-            m, d = next(it)
-            pts.append({"sigma_n": x, "sigma_n_sd": 0.0, "tau": float(m), "tau_sd": float(d)})
-        (tp, tps), (bd, bds) = next(it), next(it)
-        out.append(
-            {
-                "sigma_pre": s,
-                "points": pts,
-                "tau_pre": float(tp),
-                "tau_pre_sd": float(tps),
-                "bulk_density": float(bd),
-                "bulk_density_sd": float(bds),
-            }
-        )
-    return LabTargets.from_dict({"tester": "ring_shear", "material": material, "shear": out})
+def _locus_targets(s: float, sn: tuple, values: np.ndarray) -> dict:
+    """A locus's targets from runs' values (a row per run, measure_shear's columns: its
+    points' tau, tau_pre, bulk density): their mean and sd (ddof 1)."""
+    mean, sd = values.mean(axis=0), values.std(axis=0, ddof=1)
+    k = len(sn)
+    return {
+        "sigma_pre": s,
+        "points": [
+            {"sigma_n": x, "sigma_n_sd": 0.0, "tau": float(mean[i]), "tau_sd": float(sd[i])}
+            for i, x in enumerate(sn)
+        ],
+        "tau_pre": float(mean[k]),
+        "tau_pre_sd": float(sd[k]),
+        "bulk_density": float(mean[k + 1]),
+        "bulk_density_sd": float(sd[k + 1]),
+    }
 
 
-def lab() -> dict[str, LabTargets]:
-    """The truth's loci (fitted, held out, extra) at :data:`LAB_SEEDS`, each seed stored as
-    it is made; per group the targets: the seeds' mean and sd of each quantity."""
-    out = {}
-    results = []
-    for seed in LAB_SEEDS:
-        r = _run_loci(STORE / f"lab-s{seed}.json", ALL, TRUTH, seed)
-        if isinstance(r, str):
-            raise RuntimeError(f"the truth's run at seed {seed} failed: {r}")
-        results.append(r)
+#: fewest seeds whose runs of a locus must have finished for its targets (a failed test
+#: is repeated in a laboratory, not averaged in)
+MIN_LAB_SEEDS = 3
+
+
+def lab() -> tuple[dict[str, LabTargets], dict]:
+    """The truth's loci (fitted, held out, extra) at :data:`LAB_SEEDS`, each run stored as
+    it ends (one file per seed and locus); per group the targets, each locus's the mean and
+    sd over the seeds whose run of it finished (at least :data:`MIN_LAB_SEEDS`), and the
+    seeds that failed, per locus, with their errors."""
+    material = (
+        f"synthetic: engine.run_shear of mu_s = {TRUTH.mu_s}, f0 = {TRUTH.f0} N, kadh = "
+        f"{TRUTH.kadh} N/m in a 6 x 3 x 6 diameter cell, mean and sd of seeds "
+        f"{list(LAB_SEEDS)} (less any listed as failed)"
+    )
+    out, failed = {}, {}
     for name, loci in (("fitted", FITTED), ("held_out", HELD_OUT), ("extra", EXTRA)):
-        draft = _draft(loci)
-        v = np.array([[q["value"] for q in measure_shear(r, draft)] for r in results])
-        material = (
-            f"synthetic: engine.run_shear of mu_s = {TRUTH.mu_s}, f0 = {TRUTH.f0} N, kadh = "
-            f"{TRUTH.kadh} N/m in a 6 x 3 x 6 diameter cell, mean and sd of seeds "
-            f"{list(LAB_SEEDS)}"
+        rows = []
+        for s, sn in loci.items():
+            draft = _draft({s: sn})
+            values = []
+            for seed in LAB_SEEDS:
+                r = _run_loci(STORE / "lab" / f"s{seed}-{s:g}Pa.json", {s: sn}, TRUTH, seed)
+                if isinstance(r, str):
+                    failed.setdefault(f"{s:g}", []).append({"seed": seed, "error": r})
+                else:
+                    values.append([q["value"] for q in measure_shear(r, draft)])
+            if len(values) < MIN_LAB_SEEDS:
+                raise RuntimeError(
+                    f"the truth's locus at {s:g} Pa finished at {len(values)} seeds of "
+                    f"{len(LAB_SEEDS)}: {failed.get(f'{s:g}')}"
+                )
+            rows.append(_locus_targets(s, sn, np.array(values)))
+        out[name] = LabTargets.from_dict(
+            {"tester": "ring_shear", "material": material, "shear": rows}
         )
-        out[name] = _as_targets(loci, v.mean(axis=0), v.std(axis=0, ddof=1), material)
-    return out
+    return out, failed
 
 
 def run_calibration(targets: LabTargets) -> dict:
@@ -318,7 +329,7 @@ def _lab_loci(targets: LabTargets) -> list[dict]:
     return out
 
 
-def report(summary: dict, groups: dict, predictions: dict) -> dict:
+def report(summary: dict, groups: dict, predictions: dict, lab_failed: dict) -> dict:
     """Each parameter against the truth (inside its 90 % interval?), each target met, the
     loci (lab and check run), each prediction (module docstring's criterion)."""
     out = {"parameters": {}, "targets": [], "failed_runs": []}
@@ -350,6 +361,7 @@ def report(summary: dict, groups: dict, predictions: dict) -> dict:
     out["correlation"] = summary["posterior"]["correlation"]
     out["sensitivity"] = summary["sensitivity"]
     out["predictions"] = predictions
+    out["lab_failed"] = lab_failed
     out["criterion"] = (
         f"each quantity of a predicted locus within {Z_MAX:g} combined sd: |mean of the "
         "posterior-sample runs - lab mean| <= 2 sqrt(sd of those runs^2 + lab sd^2)"
@@ -362,7 +374,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--report", action="store_true", help="report what is stored; run nothing")
     args = ap.parse_args()
-    groups = lab()
+    groups, lab_failed = lab()
     if args.report:
         summary = json.loads(RESULT.read_text())
     else:
@@ -378,7 +390,7 @@ def main() -> None:
         "held_out": predict(summary, "held_out", HELD_OUT, groups["held_out"]),
         "extra": predict(summary, "extra", EXTRA, groups["extra"]),
     }
-    rep = report(summary, groups, predictions)
+    rep = report(summary, groups, predictions, lab_failed)
     for name, p in rep["parameters"].items():
         lo, hi = p["interval"]
         print(

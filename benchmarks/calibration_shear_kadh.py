@@ -370,11 +370,50 @@ def report(summary: dict, groups: dict, predictions: dict, lab_failed: dict) -> 
     return out
 
 
+def diagnose(groups: dict) -> dict:
+    """After the verdict, not part of it: the truth's own runs in the calibration's cell
+    (packing seed 1, the seed of every calibration run) against the lab's targets, beside
+    the check run's values: whether one packing's offset from the five seeds' mean is what
+    the calibration read as a lower mu_s (``diagnosis.json``)."""
+    targets = groups["fitted"]
+    rows = []
+    check = {q["name"]: q for q in json.loads(RESULT.read_text())["targets_met"]}
+    for s, sn in FITTED.items():
+        r = _run_loci(STORE / "diagnosis" / f"truth-s1-{s:g}Pa.json", {s: sn}, TRUTH, 1)
+        if isinstance(r, str):
+            rows.append({"sigma_pre": s, "error": r})
+            continue
+        lab_values = {n: (v, sd) for n, v, sd in _lab_values(targets)}
+        for q in measure_shear(r, _draft({s: sn})):
+            v, sd = lab_values[q["name"]]
+            rows.append(
+                {
+                    "name": q["name"],
+                    "lab": v,
+                    "lab_sd": sd,
+                    "truth_seed1": q["value"],
+                    "z_truth_seed1": (q["value"] - v) / sd if sd > 0 else None,
+                    "check_run": check[q["name"]]["value"],
+                }
+            )
+    (STORE / "diagnosis.json").write_text(json.dumps(rows, indent=1))
+    return {"rows": rows}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--report", action="store_true", help="report what is stored; run nothing")
+    ap.add_argument(
+        "--diagnose",
+        action="store_true",
+        help="after the report: the truth at the calibration's packing seed against the lab",
+    )
     args = ap.parse_args()
     groups, lab_failed = lab()
+    if args.diagnose:
+        for row in diagnose(groups)["rows"]:
+            print(row)
+        return
     if args.report:
         summary = json.loads(RESULT.read_text())
     else:

@@ -379,8 +379,13 @@ def claim_d(res, machines: dict | None = None) -> str:
     k = float(np.mean(np.log(list(ps.values())) / np.log(s)))
     at = (3.75 / 2.0) ** k
     state = "agrees" if abs(at - 9.0) <= 0.25 * 9.0 else "differs"
+    step = (
+        "fixed dt"
+        if res.spec.reference.dt is not None
+        else "each run at its own dt (a fraction of its contact time)"
+    )
     text = (
-        f"**{state}**. Paper rule, fixed dt: particle-steps fall "
+        f"**{state}**. Paper rule, {step}: particle-steps fall "
         + ", ".join(f"{v:.1f}x at R = {rad * 1e3:g} mm" for rad, v in ps.items())
         + f", as s^{k:.2f}, which gives {at:.1f}x at the seed's 2 -> 3.75 mm (s = 1.875); "
         "particle-steps, unlike wall time, do not depend on the machine, its load or the "

@@ -32,7 +32,7 @@ def _m(name, signed, verdict):
 
 
 def _res(verdicts, radii=(2 * R,), runs=None, groups=()):
-    spec = SimpleNamespace(coarse_radii=radii, reference=SimpleNamespace(radius=R))
+    spec = SimpleNamespace(coarse_radii=radii, reference=SimpleNamespace(radius=R, dt=1e-5))
     return SimpleNamespace(
         spec=spec, advisor={"verdicts": verdicts}, runs=runs or {}, groups=list(groups)
     )

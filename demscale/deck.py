@@ -31,10 +31,10 @@ seed (folders s1, s2, ... under --out). Run each unmodified in its folder:
     cd OUT && liggghts -in in.demscale
 
 and read it back with `demscale judge-liggghts OUT --reference ...`. The deck's comments say
-what LIGGGHTS does differently; what it cannot express (an adhesive branch kadh > 0, a
-platen speed held to an inertial number, as the default protocol loads) is refused, naming
-the field: export a test at the seed's protocol (--protocol seed) or one whose
-"inertial_number" is null."""
+what LIGGGHTS does differently; what it cannot express (an adhesive branch kadh > 0 with n
+or chi != 1, a platen speed held to an inertial number, as the default protocol loads) is
+refused, naming the field: export a test at the seed's protocol (--protocol seed) or one
+whose "inertial_number" is null."""
 
 JUDGE_HELP = """\
 Read LIGGGHTS runs of exported decks back into demscale's run record (curves and scalars in

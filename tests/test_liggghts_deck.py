@@ -173,6 +173,19 @@ def test_the_deck_refuses_what_liggghts_cannot_take():
         ld.deck(tiny_test(), skin=-1.0)
 
 
+def test_an_adhesive_branch_goes_on_liggghts_fixkc_path_for_n_one():
+    # kadh > 0 with n = chi = 1: coefficientAdhesionStiffness = kadh / K1 with fixKc on and
+    # limitForce off (engine.io.liggghts module docstring); the plastic-reload difference
+    # named in the deck's comments
+    law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.2, kadh=2.5e3)
+    text = ld.deck(tiny_test(pair_law=law))
+    assert numbers(one(text, "fix m12 "))[-4:] == [0.5] * 4
+    assert one(text, "pair_style").endswith("fixKc on limitForce off")
+    assert "adhesive branch: LIGGGHTS' is plastic" in text
+    plain = ld.deck(tiny_test())
+    assert "fixKc" not in one(plain, "pair_style")
+
+
 @pytest.mark.parametrize("field", ["inertial_number"])
 def test_a_platen_speed_held_to_an_inertial_number_is_refused(field):
     t = tiny_test()

@@ -13,6 +13,7 @@ k2                 ``UnloadingStiffness`` = K2 / K1 (a ratio)
 n, chi             ``overlapExponent``, ``adhesionExponent`` (scalar)
 f0                 ``pullOffForce`` [N]
 kadh = 0           ``surfaceEnergy`` 0 with ``fixKc`` off
+kadh > 0 (n=chi=1) ``coefficientAdhesionStiffness`` = kadh / K1, ``fixKc on limitForce off``
 restitution        ``coefficientRestitution``
 mu_s, mu_r         ``coefficientFriction``, ``coefficientRollingFriction``
 =================  ===========================================
@@ -21,11 +22,43 @@ What LIGGGHTS cannot take is said, not hidden: its tangential stiffness is K1 wh
 law's ``kt_ratio``, its Coulomb cap is mu |F_n| (EEPA's ``friction_cap="normal"``), and for
 n != 1 its damping at a given restitution differs from demscale's (constant, from K1, against
 demscale's from the tangent stiffness: :func:`matched_restitution`). Those go into the
-fragment's comments and :func:`differences`. An adhesive branch (kadh > 0) is refused:
-LIGGGHTS' ``fixKc`` path resets the plastic overlap with the n = 1 formula, and no mapping of
-it has been checked. :func:`from_liggghts` reads such a fragment back into a law (LIGGGHTS'
-conventions, or the bilinear law for n = chi = 1), and :func:`law_table` lists a law's
-parameters with units (JSON or CSV).
+fragment's comments and :func:`differences`.
+
+**The adhesive branch (kadh > 0).** LIGGGHTS 3.8 (CFDEMproject/LIGGGHTS-PUBLIC, tag 3.8.0,
+``src/normal_model_edinburgh_stiffness.h``) has two paths:
+
+- ``fixKc off`` (its default, lines 207-258) has no kadh parameter: at every step it
+  computes one per contact from ``surfaceEnergy`` gamma and the contact's geometry
+  (``calculate_k_adh``, lines 154-170): a pull-off f_min = 1.5 pi gamma a, a the contact
+  radius from the two radii and the centre distance (line 158), capped at K2 dp^n / 2,
+  and k_adh = f_min / delta_min^chi, delta_min where the unloading branch reaches -f_min.
+  Its branch ends at a JKR-like force of the contact's size; no surfaceEnergy gives
+  demscale's constant kadh. Not used.
+- ``fixKc on`` (lines 259-290): k_adh = ``coefficientAdhesionStiffness`` x K1 (line 260),
+  and the force is f0 + min(K1 d^n, max(K2 (d^n - dmax^n) + K1 dmax^n, -k_adh d^chi))
+  (lines 275-285), demscale's f_hys exactly (K2 (d^n - dmax^n) + K1 dmax^n = K2 (d^n -
+  dp^n)). On the adhesive branch it sets dmax = (K2 + k_adh) / (K2 - K1) d at every step
+  (line 286): for n = chi = 1 the K2 branch then passes through the current point, so
+  a contact that unloads monotonically follows demscale's force exactly, and one that
+  closes again from the branch reloads along K2 from where it is, its old dmax forgotten
+  (demscale's branch is reversible: back along f0 - kadh d to the old K2 branch). For
+  n != 1 or chi != 1 the reset uses d, not d^n and d^chi, so the moved K2 branch misses
+  the point and the force jumps at every step on the branch: such a law is refused.
+  ``limitForce off`` is written with it: LIGGGHTS clips a negative normal force where
+  f0 = 0 and "k_adh == 0" (line 296), but that k_adh is the one declared at line 205,
+  which the fixKc-on path shadows (line 260) and leaves 0, so with f0 = 0 the clip would
+  remove the adhesive branch; demscale clips nothing.
+
+So a law with kadh > 0 and n = chi = 1 is exported on the ``fixKc on`` path
+(:func:`adhesive_branch`), its remaining difference (the plastic reload from the branch)
+in the fragment's comments; checked against LIGGGHTS on a head-on impact (the rebound
+speed the same within 1e-6, tests/engine/test_calibration.py) and on one packing
+(benchmarks/liggghts_kadh, docs/LIGGGHTS_DECK.md "The adhesive branch": the platen-stress
+curves 2.76 % apart with kadh, 2.70 % without, within the 5 % criterion; kadh moves that
+loading curve by only 4-5 %, and the reload from the branch is not measured there). A
+law with kadh > 0 and n or chi != 1 is refused with the reason. :func:`from_liggghts`
+reads such a fragment back into a law (LIGGGHTS' conventions, or the bilinear law for
+n = chi = 1), and :func:`law_table` lists a law's parameters with units (JSON or CSV).
 """
 
 from __future__ import annotations
@@ -72,9 +105,10 @@ def _meanings(law, n: float, chi: float) -> dict[str, str]:
         "adhesionExponent": f"adhesion exponent chi [-] of the adhesive branch; {chi:g}",
         "pullOffForce": "constant pull-off (adhesion) force f0 [N], <= 0 (0: none)",
         "surfaceEnergy": "surface energy [J/m^2] from which LIGGGHTS computes the adhesive "
-        "branch's stiffness kadh (fixKc off); 0: kadh = 0, no adhesive branch",
-        "coefficientAdhesionStiffness": "adhesive branch stiffness kadh [N/m] for fixKc on; "
-        "0, and not read with fixKc off",
+        "branch's stiffness per contact with fixKc off; 0 here, not read with fixKc on",
+        "coefficientAdhesionStiffness": "RATIO kadh / K1 [-] of the adhesive branch's "
+        f"stiffness to K1 (read with fixKc on): kadh = {law.kadh!r} {k_unit}"
+        + ("" if law.kadh else "; 0: no adhesive branch (fixKc off)"),
     }
 
 
@@ -84,6 +118,28 @@ def _exponents(law) -> tuple[float, float]:
     if isinstance(law, BilinearAdhesive):
         return 1.0, 1.0
     raise ParameterError("law", type(law).__name__, "an engine.BilinearAdhesive or engine.EEPA")
+
+
+def adhesive_branch(law, field: str | None = None) -> tuple[float, str]:
+    """LIGGGHTS' ``coefficientAdhesionStiffness`` (kadh / K1 [-]) and the pair style's
+    settings for ``law``'s adhesive branch: (0, "") for kadh = 0 (``fixKc`` off,
+    ``surfaceEnergy`` 0: no branch); (kadh / K1, " fixKc on limitForce off") for kadh > 0
+    with n = chi = 1 (module docstring). Raises :class:`engine.ParameterError` at ``field``
+    (default ``<law>.kadh``) for kadh > 0 with n or chi != 1."""
+    n, chi = _exponents(law)
+    if law.kadh == 0.0:
+        return 0.0, ""
+    if n != 1.0 or chi != 1.0:
+        raise ParameterError(
+            field or f"{type(law).__name__}.kadh",
+            law.kadh,
+            f"0 to export to LIGGGHTS with n = {n:g}, chi = {chi:g} (kadh > 0 needs n = chi = 1)",
+            "on its adhesive branch LIGGGHTS 3.8 resets dmax = (K2 + kadh) / (K2 - K1) d "
+            "(normal_model_edinburgh_stiffness.h line 286), the n = chi = 1 formula: for "
+            "other exponents the moved K2 branch misses the contact's point and the force "
+            "jumps at every step on the branch",
+        )
+    return law.kadh / law.k1, " fixKc on limitForce off"
 
 
 def differences(law) -> list[str]:
@@ -106,6 +162,14 @@ def differences(law) -> list[str]:
             "separation: with f0 = kadh = 0 LIGGGHTS clips the total normal force, damping "
             "included, at zero (limitForce); this law lets damping pull on a separating "
             "contact, so a pair leaves an impact slower"
+        )
+    if law.kadh > 0.0:
+        out.append(
+            "adhesive branch: LIGGGHTS' is plastic, this law's reversible; on it LIGGGHTS "
+            "resets dmax = (K2 + kadh) / (K2 - K1) d every step, so a contact that closes "
+            "again from the branch reloads along K2 from where it is, its old dmax "
+            "forgotten; this law's goes back along f0 - kadh d to its K2 branch (the same "
+            "force while the contact only opens)"
         )
     if n != 1.0:
         out.append(
@@ -132,16 +196,11 @@ def to_liggghts(law, atom_type: int = 1, note: str = "", radius: float | None = 
     and the ``pair_style``/``pair_coeff``, SI units, each value's meaning and unit in a
     comment line above it, with what LIGGGHTS does differently in its comments; ``radius``
     [m], where known, the particle radius the law is for (a law is calibrated, or scaled,
-    for one size). Raises :class:`engine.ParameterError` for kadh > 0 (module docstring)."""
+    for one size). An adhesive branch (kadh > 0) goes on LIGGGHTS' ``fixKc on`` path for
+    n = chi = 1 (:func:`adhesive_branch`); raises :class:`engine.ParameterError` for kadh > 0
+    with n or chi != 1 (module docstring)."""
     n, chi = _exponents(law)
-    if law.kadh != 0.0:
-        raise ParameterError(
-            f"{type(law).__name__}.kadh",
-            law.kadh,
-            "0 to export to LIGGGHTS",
-            "LIGGGHTS' adhesive branch (fixKc) resets the plastic overlap with the n = 1 "
-            "formula and has no checked mapping here",
-        )
+    ratio, settings = adhesive_branch(law)
     if atom_type != 1:
         raise ParameterError("atom_type", atom_type, "1 (one particle type per fragment)")
     values = {
@@ -154,13 +213,14 @@ def to_liggghts(law, atom_type: int = 1, note: str = "", radius: float | None = 
         "adhesionExponent": chi,
         "pullOffForce": law.f0,
         "surfaceEnergy": 0.0,
-        "coefficientAdhesionStiffness": 0.0,
+        "coefficientAdhesionStiffness": ratio,
     }
     unit = "N/m" if n == 1.0 else f"N/m^{n:g}"
     lines = [
         f"# demscale {type(law).__name__} as LIGGGHTS edinburgh/stiffness (engine.io.liggghts)",
         f"# K1 = {law.k1!r} {unit}, K2 = {law.k2!r} {unit}, n = {n:g}, chi = {chi:g}, "
-        f"f0 = {law.f0!r} N, kadh = 0",
+        f"f0 = {law.f0!r} N, kadh = {law.kadh!r} {unit}"
+        + (" (fixKc on: coefficientAdhesionStiffness = kadh / K1)" if ratio else ""),
     ]
     if radius is not None:
         lines.append(
@@ -177,7 +237,8 @@ def to_liggghts(law, atom_type: int = 1, note: str = "", radius: float | None = 
         lines.append(f"# {name}: {meaning[name]}")
         lines.append(f"fix dsl{k} all property/global {name} {how} {values[name]!r}")
     lines += [
-        "pair_style gran model edinburgh/stiffness tangential history rolling_friction cdt",
+        "pair_style gran model edinburgh/stiffness tangential history rolling_friction cdt"
+        + settings,
         "pair_coeff * *",
     ]
     return "\n".join(lines) + "\n"
@@ -196,8 +257,9 @@ def from_liggghts(text: str, bilinear: bool = False):
     stiffness K1 exactly for n = 1; for n != 1 LIGGGHTS keeps K1 where EEPA follows the
     loading tangent). With ``bilinear`` and n = chi = 1, an :class:`engine.BilinearAdhesive`
     instead (the seed's law, whose cap is the adhesion-aware one). Raises
-    :class:`engine.ParameterError` naming a missing property, a non-zero adhesive branch, or
-    another pair model."""
+    :class:`engine.ParameterError` naming a missing property, a ``surfaceEnergy`` branch
+    (fixKc off), a ``coefficientAdhesionStiffness`` without ``fixKc on``, or another pair
+    model. With ``fixKc on`` kadh = coefficientAdhesionStiffness x K1."""
     found: dict[str, float] = {}
     style = None
     for raw in text.splitlines():
@@ -217,18 +279,29 @@ def from_liggghts(text: str, bilinear: bool = False):
     need = [p for p in PROPERTIES[:8] if p not in found]
     if need:
         raise ParameterError("liggghts", ", ".join(need), "set by fix property/global")
-    if found.get("surfaceEnergy", 0.0) != 0.0 or found.get("coefficientAdhesionStiffness", 0.0):
+    fix_kc = (
+        style is not None and "fixKc" in style and style[style.index("fixKc") + 1 :][:1] == ["on"]
+    )
+    if not fix_kc and found.get("surfaceEnergy", 0.0) != 0.0:
         raise ParameterError(
             "liggghts.surfaceEnergy",
             found.get("surfaceEnergy"),
-            "0 (an adhesive branch has no checked mapping)",
+            "0 (with fixKc off LIGGGHTS computes the adhesive branch per contact from it, "
+            "a JKR-like force of the contact's size: no constant kadh is that branch)",
+        )
+    ratio = found.get("coefficientAdhesionStiffness", 0.0)
+    if ratio and not fix_kc:
+        raise ParameterError(
+            "liggghts.coefficientAdhesionStiffness",
+            ratio,
+            "0 without 'fixKc on' in the pair style (LIGGGHTS reads it only with fixKc on)",
         )
     k1 = found["LoadingStiffness"]
     common = {
         "k1": k1,
         "k2": k1 * found["UnloadingStiffness"],
         "f0": found["pullOffForce"],
-        "kadh": 0.0,
+        "kadh": ratio * k1 if fix_kc else 0.0,
         "kt_ratio": 1.0,
         "mu_s": found["coefficientFriction"],
         "mu_r": found["coefficientRollingFriction"],
@@ -271,6 +344,7 @@ def law_table(law, fmt: str = "json", radius: float | None = None):
 
 __all__ = [
     "PROPERTIES",
+    "adhesive_branch",
     "differences",
     "from_liggghts",
     "law_table",

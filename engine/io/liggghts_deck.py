@@ -65,6 +65,7 @@ from ..contact.eepa import EEPA
 from ..contact.hertz import HertzMindlin
 from ..core.errors import ParameterError
 from ..simulation.packing import sphere_volume
+from .liggghts import adhesive_branch
 from .liggghts import differences as law_differences
 
 #: Files of a deck folder.
@@ -173,19 +174,14 @@ _PROTOCOL_DEFAULTS = {"inertial_number": None}
 def check_exportable(test) -> None:
     """Raise :class:`engine.ParameterError` naming the field of ``test`` (an
     :class:`engine.UniaxialTest`) that a LIGGGHTS 3.8 deck cannot express: a pair law other
-    than the bilinear, EEPA and Hertz-Mindlin laws, an adhesive branch (kadh > 0, see
-    :mod:`engine.io.liggghts`), a Hertz pair law whose E, nu differ from the wall law's
+    than the bilinear, EEPA and Hertz-Mindlin laws, an adhesive branch (kadh > 0) with
+    n or chi != 1 (:func:`engine.io.liggghts.adhesive_branch`; with n = chi = 1 it is written
+    on LIGGGHTS' ``fixKc on`` path), a Hertz pair law whose E, nu differ from the wall law's
     (LIGGGHTS has one E and nu per atom type), or a platen speed that is not constant."""
     law = test.pair_law
     kind = _pair_law_kind(law)
-    if kind == "edinburgh" and law.kadh != 0.0:
-        raise ParameterError(
-            "UniaxialTest.pair_law.kadh",
-            law.kadh,
-            "0 to export to LIGGGHTS",
-            "LIGGGHTS' adhesive branch (fixKc) resets the plastic overlap with the n = 1 "
-            "formula and has no checked mapping here",
-        )
+    if kind == "edinburgh":
+        adhesive_branch(law, "UniaxialTest.pair_law.kadh")
     w = test.wall_law
     if kind == "hertz" and (law.E != w.E or law.nu != w.nu):
         raise ParameterError(
@@ -373,18 +369,23 @@ def _materials(test) -> list[str]:
         def same(v: float) -> str:
             return pair(v, v)
 
+        ratio, settings = adhesive_branch(law, "UniaxialTest.pair_law.kadh")
+        branch = (
+            f"kadh = {law.kadh!r} N/m (fixKc on: coefficientAdhesionStiffness = kadh / K1)"
+            if ratio
+            else "kadh = 0 (surfaceEnergy 0, fixKc off)"
+        )
         lines += [
             f"# {type(law).__name__}: K1 = {law.k1!r} N/m^n, K2 = {law.k2!r} N/m^n, "
-            f"n = {n:g}, chi = {chi:g}, f0 = {law.f0!r} N, kadh = 0 (surfaceEnergy 0, "
-            "fixKc off)",
+            f"n = {n:g}, chi = {chi:g}, f0 = {law.f0!r} N, {branch}",
             "fix m6 all property/global LoadingStiffness " + same(k1),
             "fix m7 all property/global UnloadingStiffness " + same(law.k2 / k1),
             f"fix m8 all property/global overlapExponent scalar {_num(n)}",
             f"fix m9 all property/global adhesionExponent scalar {_num(chi)}",
             "fix m10 all property/global pullOffForce " + same(law.f0),
             "fix m11 all property/global surfaceEnergy " + same(0.0),
-            "fix m12 all property/global coefficientAdhesionStiffness " + same(0.0),
-            f"pair_style gran model edinburgh/stiffness tangential history{roll}",
+            "fix m12 all property/global coefficientAdhesionStiffness " + same(ratio),
+            f"pair_style gran model edinburgh/stiffness tangential history{roll}{settings}",
         ]
     else:
         lines.append(f"pair_style gran model hertz tangential history{roll}")

@@ -1,0 +1,1 @@
+"""demscale's adhesive branch (kadh) against LIGGGHTS' ``fixKc on``: compare.py."""

@@ -123,27 +123,30 @@ def _test(
     u,
     shear: tuple = (),
     uniaxial: bool = True,
+    seed_offset: int = 0,
 ) -> UniaxialTest | Forward | str:
     """The test of parameter set ``u``, or the reason it cannot be made (a law the test
     refuses, e.g. too soft to carry the consolidation stress within the overlap limit: left
     out like a run that failed, at no cost). With shear targets (``shear``: the base shear
     tests, one per locus) a :class:`~engine.calibration.forward.Forward` of the uniaxial
-    test (where ``uniaxial``) and the shear tests with the parameter set's law."""
+    test (where ``uniaxial``) and the shear tests with the parameter set's law; each test's
+    packing seed moved by ``seed_offset`` (``calibrate(..., vary_seed=True)``)."""
     try:
         law = _law(base_test.pair_law, axes, u)
-        return _forward(base_test, law, shear, uniaxial)
+        return _forward(base_test, law, shear, uniaxial, seed_offset)
     except ParameterError as e:
         return f"ParameterError: {e}"
 
 
-def _forward(base_test: UniaxialTest, law, shear: tuple, uniaxial: bool):
+def _forward(base_test: UniaxialTest, law, shear: tuple, uniaxial: bool, seed_offset: int = 0):
     """The tests of ``law``: the base test with it (no shear targets), else a
     :class:`Forward` of it (where ``uniaxial``: shear data alone never build the uniaxial
-    test, whose consolidation a law may be refused for) and each base shear test with it."""
+    test, whose consolidation a law may be refused for) and each base shear test with it;
+    each with its packing seed moved by ``seed_offset`` (0: the base tests' own)."""
     if not shear:
-        return replace(base_test, pair_law=law)
-    test = replace(base_test, pair_law=law) if uniaxial else None
-    return Forward(test, tuple(replace(t, pair_law=law) for t in shear))
+        return replace(base_test, pair_law=law, seed=base_test.seed + seed_offset)
+    test = replace(base_test, pair_law=law, seed=base_test.seed + seed_offset) if uniaxial else None
+    return Forward(test, tuple(replace(t, pair_law=law, seed=t.seed + seed_offset) for t in shear))
 
 
 def _feasible(base_law, axes, u) -> bool:
@@ -805,6 +808,7 @@ def calibrate(
     options=None,
     resolution: dict | None = None,
     shear_test=None,
+    vary_seed: bool = False,
 ) -> Calibration:
     """Calibrate ``base_test``'s pair law to ``targets`` over ``parameters`` ({name: (low,
     high)} in the law's units) with ``runs`` design runs and ``waves`` waves of ``wave_runs``
@@ -835,6 +839,13 @@ def calibrate(
             sigma_pre and sigma_n with the parameter set's law. None: docs/SHEAR.md's default
             cell, 10 x 5 x 15 diameters, of the base test's material
             (:func:`engine.calibration.forward.shear_cell`).
+        vary_seed: each run packs its own sample: the tests' packing seed plus the run's
+            index (0, 1, ...; the check run the next), so that the emulators' noise term
+            holds the packing-to-packing scatter and their mean is the packings' mean, as a
+            laboratory's targets (the mean of repeated tests) are. False (default): every
+            run packs with the tests' own seed, as before (stored calibrations resume); a
+            single packing's offset from the mean is then read as a change of the law
+            (docs/CALIBRATION.md, the shear twin with kadh: mu_s's miss).
 
     Uniaxial targets run the uniaxial test (its branches), shear targets one shear test
     per locus (:mod:`engine.calibration.forward`); a data set with both runs both for every
@@ -926,8 +937,11 @@ def calibrate(
         return out
 
     def run_wave(us: np.ndarray, wave: int) -> None:
-        tests = [_test(base_test, axes, x, shear, uniaxial) for x in us]
         start = len(done) + len(failed)
+        tests = [
+            _test(base_test, axes, x, shear, uniaxial, (start + i) if vary_seed else 0)
+            for i, x in enumerate(us)
+        ]
         keys = [f"cal-{start + i:03d}" for i in range(len(us))]
         outcomes: dict[int, dict | str] = {}
         measured: dict[int, list[dict]] = {}
@@ -1031,7 +1045,9 @@ def calibrate(
         check_test = replace(base_test, pair_law=law)
     except ParameterError:  # shear data alone: a law the uniaxial test refuses, never run
         check_test = None
-    check_run = _test(base_test, axes, med, shear, uniaxial)
+    check_run = _test(
+        base_test, axes, med, shear, uniaxial, len(done) + len(failed) if vary_seed else 0
+    )
     if isinstance(check_run, str):  # a law a shear test refuses: the check is not run
         checked = check_run
     else:

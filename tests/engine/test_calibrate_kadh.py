@@ -139,3 +139,22 @@ def test_the_eepa_exponents_are_calibratable_where_the_law_has_them():
     # the bilinear law has n = chi = 1 by definition: no field to calibrate
     with pytest.raises(engine.ParameterError, match=r"calibrate\.parameters\.n"):
         check_request(TEST, targets, {"n": (1.0, 1.5)}, 5)
+
+
+def test_vary_seed_packs_each_run_its_own_sample(monkeypatch, tmp_path):
+    # each run's shear tests at the cell's seed plus the run's index, the check run the
+    # next; a rerun on the store finds them all (the same seeds) and runs nothing
+    quicker_posterior(monkeypatch)
+    seeds = []
+
+    def heard(tests, progress=None):
+        seeds.append({t.seed for t in tests})
+        return stand_in(tests, progress)
+
+    monkeypatch.setattr(cal_module, "run_shear_tests", heard)
+    box = {"kadh": (0.0, 1e4)}
+    calibrate(TEST, lab(), box, runs=4, waves=0, seed=2, store=tmp_path, vary_seed=True)
+    base = engine.calibration.forward.shear_cell(TEST)["seed"]
+    assert seeds == [{base + i} for i in range(5)]
+    calibrate(TEST, lab(), box, runs=4, waves=0, seed=2, store=tmp_path, vary_seed=True)
+    assert len(seeds) == 5

@@ -411,6 +411,13 @@ def _run_point(
         if not isinstance(test, Forward):
             raise
         return f"{type(e).__name__}: {e}"
+    except ParameterError as e:
+        # a fill this run's packing seed cannot place without overlap (with vary_seed each
+        # run packs its own seed): left out like a failed run; any other refusal is the
+        # request's, checked before anything runs
+        if e.field != "UniaxialTest.pour_fraction":
+            raise
+        return f"{type(e).__name__}: {e}"
 
 
 def _share(progress, i: int, n: int):

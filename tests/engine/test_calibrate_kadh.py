@@ -158,3 +158,28 @@ def test_vary_seed_packs_each_run_its_own_sample(monkeypatch, tmp_path):
     assert seeds == [{base + i} for i in range(5)]
     calibrate(TEST, lab(), box, runs=4, waves=0, seed=2, store=tmp_path, vary_seed=True)
     assert len(seeds) == 5
+
+
+def test_a_packing_seed_that_cannot_be_placed_is_left_out(monkeypatch):
+    # with vary_seed a run's own seed may not place its fill (the engine refuses the
+    # pour_fraction for it): that run is left out; any other refusal is raised
+    quicker_posterior(monkeypatch)
+    calls = []
+
+    def shear(tests, progress=None, field="UniaxialTest.pour_fraction"):
+        calls.append(tests)
+        if len(calls) == 2:
+            raise engine.ParameterError(field, 0.3, "low enough for the fill to be placed")
+        return stand_in(tests, progress)
+
+    monkeypatch.setattr(cal_module, "run_shear_tests", shear)
+    box = {"kadh": (0.0, 1e4)}
+    cal = calibrate(TEST, lab(), box, runs=4, waves=0, seed=2, vary_seed=True)
+    errors = [r["error"] for r in cal.runs if "error" in r]
+    assert len(errors) == 1 and "pour_fraction" in errors[0]
+    calls.clear()
+    monkeypatch.setattr(
+        cal_module, "run_shear_tests", lambda t, p=None: shear(t, p, "ShearTest.cell")
+    )
+    with pytest.raises(engine.ParameterError, match=r"ShearTest\.cell"):
+        calibrate(TEST, lab(), box, runs=4, waves=0, seed=2, vary_seed=True)

@@ -103,8 +103,8 @@ def test_a_cohesion_that_grows_with_consolidation_moves_kadh_off_zero(shear_stan
 
 def test_with_kadh_held_at_zero_the_flow_function_is_not_met(shear_stand_in):
     # the same data, kadh left at the law's 0: f0 sets one cohesion for every sigma_pre, so
-    # the loci at 5 and 20 kPa cannot both be met (their cohesions differ by 1.1 kPa, each
-    # tau's sd is 3 %, about 100 to 300 Pa)
+    # the loci at 5 and 20 kPa cannot both be met (their cohesions differ by 2.2 kPa, each
+    # tau's sd is 3 %, about 100 to 250 Pa)
     box = {"f0": (-0.4, -0.05), "mu_s": (0.2, 0.8)}
     cal = calibrate(TEST, lab(), box, runs=10, waves=0, seed=2)
     assert not cal.all_met

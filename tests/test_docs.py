@@ -100,6 +100,7 @@ NOT_CODE = [
     ("docs/PHYSICS.md", "K1, K2 ~ s^(2 - n)"),
     ("docs/SERVICE.md", "/                          attrs:"),
     ("docs/VALIDATION.md", "| run | particles"),
+    ("docs/CALIBRATION.md", "F_pull ="),
 ]
 
 #: How each command is treated, first match wins: (pattern, kind, how or why).

@@ -633,6 +633,13 @@ def parser() -> argparse.ArgumentParser:
         "preshear_stress and normal_stresses, which are the calibrated law and the data's; "
         "default: docs/SHEAR.md's cell, 10 x 5 x 15 diameters of the test's particles)",
     )
+    p.add_argument(
+        "--vary-seed",
+        action="store_true",
+        help="each run packs its own sample (the test's seed plus the run's index), so that "
+        "the emulators' noise holds the packing scatter; default: every run on the test's "
+        "one packing (docs/CALIBRATION.md)",
+    )
     p.set_defaults(func=calibrate_cmd)
 
     p = sub.add_parser(
@@ -897,6 +904,7 @@ def calibrate_cmd(args) -> int:
             on_run=on_run,
             resolution=resolution,
             shear_test=shear_test,
+            vary_seed=args.vary_seed,
         )
     except engine.ParameterError as e:
         print(f"{_calibrate_where(e.field, args)}: not valid: {e}", file=sys.stderr)

@@ -604,6 +604,7 @@ def admit_calibration(body, settings: Settings) -> AdmittedCalibration:
         "then_study": None,
         # the shear cell with every field (the defaults filled in), as the result states it
         "shear_test": cell_summary(shear[0]) if shear else None,
+        "vary_seed": bool(data.get("vary_seed", False)),
     }
     then_costs: list[cost.RunCost] = []
     then = data.get("then_study")

@@ -324,6 +324,7 @@ class CalibrationExecution(StudyExecution):
                 on_run=self.on_point,
                 options=self.settings.run_options(self.study_id, pool, self.channel(pool)),
                 shear_test=shear_test,
+                vary_seed=req.get("vary_seed", False),
             )
         summary = cal.to_summary()
         if req.get("then_study") is not None:

@@ -487,6 +487,14 @@ class CalibrationCreate(BaseModel):
         description="a scaling study of the calibrated law, submitted when the calibration "
         "succeeds (its reference: the test with the calibrated law)",
     )
+    vary_seed: bool = Field(
+        False,
+        strict=True,
+        description="each run packs its own sample (the test's packing seed plus the run's "
+        "index), so that the emulators' noise holds the packing scatter; false: every run on "
+        "the test's one packing, whose own offset the calibration then absorbs into the "
+        "parameters (docs/CALIBRATION.md)",
+    )
     shear_test: ShearCellIn | None = Field(  # type: ignore[valid-type]
         None,
         description="with shear targets (targets.shear): the shear cell each yield locus runs "

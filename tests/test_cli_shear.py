@@ -86,6 +86,7 @@ def test_a_calibration_to_shear_data_through_the_command(tmp_path, capsys, monke
     lab = copy.deepcopy(_lab(mixed=False).to_dict())
     argv = _argv(tmp_path, lab, "--runs", "4", "--waves", "0")
     assert main(argv) == 0, capsys.readouterr().err
+    assert len({t[0].seed for t in ran}) == 1  # one packing unless --vary-seed
     out = tmp_path / "cal"
     summary = json.loads((out / "calibration.json").read_text())
     assert [q["name"] for q in summary["targets_met"]] == [

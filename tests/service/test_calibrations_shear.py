@@ -181,7 +181,9 @@ def test_a_shear_calibration_runs_in_the_worker_and_shows_its_loci(client, setti
         "parameters": {"mu_s": [0.2, 0.8]},
         "runs": 4,
         "shear_test": SMALL_CELL,
+        "vary_seed": True,
     }
+    assert client.post("/calibrations", json={**body, "vary_seed": "yes"}).status_code == 422
     r = client.post("/calibrations", json=body)
     assert r.status_code == 202, r.text
     cid = r.json()["id"]
@@ -189,6 +191,7 @@ def test_a_shear_calibration_runs_in_the_worker_and_shows_its_loci(client, setti
     job = client.get(f"/calibrations/{cid}").json()
     assert job["status"] == "succeeded", job["error"]
     assert len(ran) == 5 and all(t[0].cell == tuple(SMALL_CELL["cell"]) for t in ran)
+    assert len({t[0].seed for t in ran}) == 5  # vary_seed: a packing per run
     assert [r["key"] for r in job["runs"]] == ["cal-000", "cal-001", "cal-002", "cal-003", "check"]
     res = client.get(f"/calibrations/{cid}").json()["result"]
     assert [q["name"] for q in res["targets_met"]][-1] == "bulk_density@10000Pa"

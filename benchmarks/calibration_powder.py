@@ -34,9 +34,11 @@ from __future__ import annotations
 
 import argparse
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import engine
+from benchmarks.calibration_shear import shear_cell as tiny_cell
 from engine.calibration import LabTargets, calibrate
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -56,17 +58,13 @@ RUNS, WAVES, WAVE_RUNS = 10, 1, 5
 
 
 def shear_cell(name: str = "tiny", seed: int = 1) -> engine.ShearTest | None:
-    """``tiny``: tests/engine/test_shear.py's cell (about 120 grains), stages bounded at the
-    shear test's default 5 s (the cell of benchmarks/calibration_shear.py). ``default``:
-    None, the calibration's default cell (docs/SHEAR.md: 10 x 5 x 15 diameters)."""
+    """``tiny``: the cell of benchmarks/calibration_shear.py (tests/engine/test_shear.py's,
+    about 120 grains, stages bounded at the shear test's default 5 s) with this powder's
+    starting law. ``default``: None, the calibration's default cell (docs/SHEAR.md: 10 x 5 x
+    15 diameters)."""
     if name == "default":
         return None
-    return engine.ShearTest(
-        cell=(0.03, 0.015, 0.03),
-        inertial_number=2e-3,
-        pair_law=START,
-        seed=seed,
-    )
+    return replace(tiny_cell(seed), pair_law=START)
 
 
 def base_test() -> engine.UniaxialTest:

@@ -71,8 +71,9 @@ def base_test() -> engine.UniaxialTest:
     return engine.UniaxialTest(pair_law=START)
 
 
-def _draft() -> LabTargets:
-    """The loci's shape (stresses) with placeholder values: what the lab runs are read by."""
+def _draft(loci: dict | None = None) -> LabTargets:
+    """The loci's shape (stresses; :data:`LOCI` by default) with placeholder values: what
+    runs are read by (:func:`engine.calibration.forward.measure_shear`)."""
     pt = lambda s: {"sigma_n": s, "sigma_n_sd": 0.0, "tau": s, "tau_sd": 0.0}  # noqa: E731
     loci = [
         {
@@ -83,9 +84,27 @@ def _draft() -> LabTargets:
             "bulk_density": 1000.0,
             "bulk_density_sd": 0.0,
         }
-        for s, sn in LOCI.items()
+        for s, sn in (LOCI if loci is None else loci).items()
     ]
     return LabTargets.from_dict({"tester": "ring_shear", "shear": loci})
+
+
+def _locus_targets(s: float, sn: tuple, values: np.ndarray) -> dict:
+    """A locus's targets from runs' values (a row per run, measure_shear's columns: its
+    points' tau, tau_pre, bulk density): their mean and sd (ddof 1)."""
+    mean, sd = values.mean(axis=0), values.std(axis=0, ddof=1)
+    k = len(sn)
+    return {
+        "sigma_pre": s,
+        "points": [
+            {"sigma_n": x, "sigma_n_sd": 0.0, "tau": float(mean[i]), "tau_sd": float(sd[i])}
+            for i, x in enumerate(sn)
+        ],
+        "tau_pre": float(mean[k]),
+        "tau_pre_sd": float(sd[k]),
+        "bulk_density": float(mean[k + 1]),
+        "bulk_density_sd": float(sd[k + 1]),
+    }
 
 
 def lab() -> LabTargets:
@@ -104,25 +123,11 @@ def lab() -> LabTargets:
             path.write_text(json.dumps({str(k): v for k, v in shear.items()}))
         values.append([q["value"] for q in measure_shear(shear, draft)])
     v = np.array(values)
-    mean, sd = v.mean(axis=0), v.std(axis=0, ddof=1)
-    it = iter(zip(mean, sd))
-    loci = []
-    for s, sn in LOCI.items():
-        pts = []
-        for x in sn:
-            m, d = next(it)
-            pts.append({"sigma_n": x, "sigma_n_sd": 0.0, "tau": float(m), "tau_sd": float(d)})
-        (tp, tps), (bd, bds) = next(it), next(it)
-        loci.append(
-            {
-                "sigma_pre": s,
-                "points": pts,
-                "tau_pre": float(tp),
-                "tau_pre_sd": float(tps),
-                "bulk_density": float(bd),
-                "bulk_density_sd": float(bds),
-            }
-        )
+    loci, start = [], 0
+    for s, sn in LOCI.items():  # measure_shear's columns, locus by locus
+        width = len(sn) + 2
+        loci.append(_locus_targets(s, sn, v[:, start : start + width]))
+        start += width
     material = (
         f"synthetic: engine.run_shear of mu_s = {TRUTH.mu_s}, f0 = {TRUTH.f0} N in a 6 x 3 x 6 "
         f"diameter cell, mean and sd of seeds {list(LAB_SEEDS)}"

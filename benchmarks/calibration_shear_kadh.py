@@ -59,6 +59,7 @@ from pathlib import Path
 import numpy as np
 
 import engine
+from benchmarks.calibration_shear import _draft, _locus_targets
 from benchmarks.calibration_shear import shear_cell as _tiny_cell
 from engine.calibration import LabTargets, calibrate
 from engine.calibration.forward import (
@@ -110,27 +111,6 @@ def cell(seed: int = 1) -> engine.ShearTest:
     return replace(_tiny_cell(seed), pair_law=START)
 
 
-def _draft(loci: dict) -> LabTargets:
-    """The loci's stresses with placeholder values (what runs are read by)."""
-    pt = lambda s: {"sigma_n": s, "sigma_n_sd": 0.0, "tau": s, "tau_sd": 0.0}  # noqa: E731
-    return LabTargets.from_dict(
-        {
-            "tester": "ring_shear",
-            "shear": [
-                {
-                    "sigma_pre": s,
-                    "points": [pt(x) for x in sn],
-                    "tau_pre": s,
-                    "tau_pre_sd": 0.0,
-                    "bulk_density": 1000.0,
-                    "bulk_density_sd": 0.0,
-                }
-                for s, sn in loci.items()
-            ],
-        }
-    )
-
-
 def _run_loci(path: Path, loci: dict, law, seed: int) -> dict | str:
     """The shear results of ``law`` at ``loci`` (sigma_pre -> JSON form), stored at
     ``path`` as they end (a failed run: its error text, stored too)."""
@@ -154,24 +134,6 @@ def _run_loci(path: Path, loci: dict, law, seed: int) -> dict | str:
     tmp.write_text(text)
     tmp.replace(path)
     return out
-
-
-def _locus_targets(s: float, sn: tuple, values: np.ndarray) -> dict:
-    """A locus's targets from runs' values (a row per run, measure_shear's columns: its
-    points' tau, tau_pre, bulk density): their mean and sd (ddof 1)."""
-    mean, sd = values.mean(axis=0), values.std(axis=0, ddof=1)
-    k = len(sn)
-    return {
-        "sigma_pre": s,
-        "points": [
-            {"sigma_n": x, "sigma_n_sd": 0.0, "tau": float(mean[i]), "tau_sd": float(sd[i])}
-            for i, x in enumerate(sn)
-        ],
-        "tau_pre": float(mean[k]),
-        "tau_pre_sd": float(sd[k]),
-        "bulk_density": float(mean[k + 1]),
-        "bulk_density_sd": float(sd[k + 1]),
-    }
 
 
 #: fewest seeds whose runs of a locus must have finished for its targets (a failed test

@@ -67,6 +67,7 @@ def engine_loc(field: str) -> tuple:
     prefix = {
         "StudySpec": (),
         "UniaxialTest": ("reference",),
+        "ShearTest": ("reference",),
         "preset": ("reference", "preset"),
         # a contact law's errors name its type, as pydantic's tagged-union errors do
         "BilinearAdhesive": ("reference", "pair_law", "BilinearAdhesive"),
@@ -111,6 +112,11 @@ RELATED: dict[str, tuple[tuple[str, ...], ...]] = {
     ),
     "f0": (("k1",),),
     "cell": (("radius",), ("polydispersity",)),
+    # a shear reference's (engine.ShearTest.__post_init__)
+    "normal_stresses": (("preshear_stress",),),
+    "preshear_min_strain": (("preshear_strain",),),
+    "steady_window": (("preshear_strain",),),
+    "preshear_stress": (("pair_law", "f0"), ("pair_law", "k1")),
 }
 
 
@@ -139,6 +145,8 @@ def _blamed(loc: tuple, given: set[tuple], data: dict) -> tuple[tuple, str] | No
     plain = untagged(loc)
     if not plain or plain in given:
         return None
+    if isinstance(plain[-1], int) and plain[:-1] not in given:  # an item of a list left out
+        plain = plain[:-1]
     name = plain[-1]
     # the test (or law) the field belongs to: "dt" and "cell" at the test, law fields at it
     if name in ("dt", "cell", "output_interval", "max_stage_time") or plain[-2:-1] != ("pair_law",):
@@ -353,10 +361,34 @@ def check_coarse_radii(data: dict, fields: dict) -> None:
             )
 
 
+def is_shear_study(data: dict) -> bool:
+    """Whether the study's fields name a shear reference (``"type": "ShearTest"``)."""
+    ref = data.get("reference")
+    return isinstance(ref, dict) and ref.get("type") == "ShearTest"
+
+
+def _check_shear_backend(settings: Settings) -> None:
+    """A shear study's runs are engine.run_shear's, on the CPU only: a service whose runs
+    go to the GPU (DEMSCALE_BACKEND=cuda) refuses it rather than run it elsewhere."""
+    if settings.backend == "cuda":
+        raise SpecRejected(
+            [
+                _error(
+                    ("reference", "type"),
+                    "this service runs its studies on the GPU (DEMSCALE_BACKEND=cuda) and the "
+                    "shear test runs on the CPU only (engine.run_shear): a shear study needs "
+                    "a service with DEMSCALE_BACKEND=cpu or auto",
+                    "ShearTest",
+                )
+            ]
+        )
+
+
 def _check_size_first(data: dict, settings: Settings) -> None:
     """Refuse, from the raw fields before the engine builds anything, a study with too many
     runs, a run over the particle cap, a knob out of its work bounds, or a worst case over
-    the caps (the engine's own checks, and the caps once more, follow on the built spec)."""
+    the caps (the engine's own checks, and the caps once more, follow on the built spec).
+    A shear study: the runs and the particles here, its worst case on the built plan."""
     n_runs = cost.plan_counts(data)
     if n_runs > settings.max_runs:
         raise _too_many_runs(n_runs, settings)
@@ -364,6 +396,31 @@ def _check_size_first(data: dict, settings: Settings) -> None:
     if not isinstance(fields.get("radius"), (int, float)):
         return  # the engine names the bad field
     check_coarse_radii(data, fields)
+    if is_shear_study(data):
+        _check_shear_backend(settings)
+        _check_particles(data, fields, settings)
+        return
+    _check_particles(data, fields, settings)
+    try:  # the reference's own checks first (the time step, k2 >= k1, ...), then the
+        # bounds that compare its fields, then the worst case
+        engine.UniaxialTest.from_dict(fields)
+    except engine.ParameterError as e:
+        raise refused(e, engine_loc(e.field), data, fields) from e
+    except (TypeError, ValueError, KeyError, AttributeError):
+        return  # the engine's building of the spec names it
+    try:  # a field the engine will refuse may make the arithmetic fail: the engine names it
+        _check_bounds(fields, data=data)
+        costs = cost.worst_case(data)
+    except (SpecRejected, engine.ParameterError):
+        raise
+    except (ArithmeticError, TypeError, ValueError, KeyError, AttributeError):
+        return
+    check_costs(costs, settings)
+
+
+def _check_particles(data: dict, fields: dict, settings: Settings) -> None:
+    """The particles of the reference and of each coarse radius against the cap, from the
+    raw fields (:func:`particles_from_fields`)."""
     radii = [("reference", (("reference",)), fields["radius"])]
     radii += [
         (f"r{r * 1e3:g}mm", ("coarse_radii", i), r)
@@ -383,21 +440,6 @@ def _check_size_first(data: dict, settings: Settings) -> None:
                     loc,
                 )
             raise _too_many_particles(loc, key, n, settings)
-    try:  # the reference's own checks first (the time step, k2 >= k1, ...), then the
-        # bounds that compare its fields, then the worst case
-        engine.UniaxialTest.from_dict(fields)
-    except engine.ParameterError as e:
-        raise refused(e, engine_loc(e.field), data, fields) from e
-    except (TypeError, ValueError, KeyError, AttributeError):
-        return  # the engine's building of the spec names it
-    try:  # a field the engine will refuse may make the arithmetic fail: the engine names it
-        _check_bounds(fields, data=data)
-        costs = cost.worst_case(data)
-    except (SpecRejected, engine.ParameterError):
-        raise
-    except (ArithmeticError, TypeError, ValueError, KeyError, AttributeError):
-        return
-    check_costs(costs, settings)
 
 
 class Admitted(NamedTuple):
@@ -444,10 +486,57 @@ def admit_spec(data: dict, settings: Settings) -> Admitted:
             else ("coarse_radii", spec.coarse_radii.index(biggest.radius))
         )
         raise _too_many_particles(loc, biggest.key, n, settings)
-    _check_bounds(spec.reference.to_dict(), data=data)
-    costs = cost.worst_case(spec.to_dict())
+    if isinstance(spec.reference, engine.ShearTest):
+        costs = shear_study_costs(study)
+    else:
+        _check_bounds(spec.reference.to_dict(), data=data)
+        costs = cost.worst_case(spec.to_dict())
     check_costs(costs, settings)
     return Admitted(study, costs)
+
+
+def shear_study_costs(study: engine.StudyPlan) -> list[cost.RunCost]:
+    """The worst case of every run of a shear study (:func:`shear_cost` of each planned
+    run's test: references, coarse variants, controls and protocol checks) and, with
+    ``decide``, of the runs it may add: each reference and coarse variant up to its seed cap
+    (``max_reference_seeds``, ``max_seeds``), or, with a ``budget`` of estimated
+    particle-steps, that budget times the largest ratio of worst-case to estimated
+    particle-steps (and of curve samples to estimated particle-steps) of the runs they copy,
+    whichever is less (as :func:`service.cost.worst_case` does for a uniaxial study)."""
+    from engine.study.plan import estimated_steps
+
+    spec = study.spec
+    out = []
+    first: dict[object, tuple[cost.RunCost, object]] = {}
+    for p in study.runs:
+        c = shear_cost(p.test)
+        out.append(cost.RunCost(p.key, c.particles, c.steps, c.samples))
+        if p.is_reference or (p.rule is not None and not p.control and not p.protocol):
+            first.setdefault(p.variant, (c, p.test))
+    if not spec.decide:
+        return out
+    n_ref, n_seeds = len(spec.reference_seeds), len(spec.seeds)
+    extra = []
+    for variant, (c, test) in first.items():
+        cap = spec.max_reference_seeds - n_ref if variant is None else spec.max_seeds - n_seeds
+        extra += [(c, test)] * max(0, cap)
+    if not extra:
+        return out
+    particle_steps = sum(c.particle_steps for c, _ in extra)
+    samples = sum(c.samples for c, _ in extra)
+    if spec.budget is not None:
+        typical = [(c, estimated_steps(t) * t.n_particles) for c, t in first.values()]
+        ps_ratio = max(c.particle_steps / e for c, e in typical if e > 0)
+        sample_ratio = max(c.samples / e for c, e in typical if e > 0)
+        particle_steps = min(particle_steps, ps_ratio * spec.budget)
+        samples = min(samples, sample_ratio * spec.budget)
+    particles = max(c.particles for c, _ in extra)
+    out.append(
+        cost.RunCost(
+            "runs added until decided (worst case)", particles, particle_steps / particles, samples
+        )
+    )
+    return out
 
 
 # ------------------------------------------------------------------------------ calibration

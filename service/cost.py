@@ -55,21 +55,29 @@ _PRESETS = _preset_fields()
 
 def reference_fields(data: dict) -> dict:
     """The reference test's fields as the engine will build them: the preset (``quick``
-    when no reference is given) or the record's defaults, overridden by the request."""
+    when no reference is given) or the record's defaults, overridden by the request; a
+    shear reference's (``"type": "ShearTest"``): engine.ShearTest's defaults, overridden."""
     given = dict(data.get("reference", {"preset": "quick"}))
+    if given.pop("type", "UniaxialTest") == "ShearTest":  # a shear study's reference
+        return {**_defaults(engine.ShearTest), **given}
     name = given.pop("preset", None)
     protocol = given.pop("protocol", "default")
     protocol = protocol if protocol in PROTOCOLS else "default"  # the schema refuses others
     if name is not None:
         base = dict(_PRESETS[(name, protocol)])
     else:
-        base = {
-            f.name: f.default if f.default_factory is dataclasses.MISSING else f.default_factory()
-            for f in dataclasses.fields(engine.UniaxialTest)
-        }
+        base = _defaults(engine.UniaxialTest)
         if protocol == "seed":
             base.update(engine.SEED_PROTOCOL)
     return {**base, **given}
+
+
+def _defaults(cls: type) -> dict:
+    """The record ``cls``'s default field values."""
+    return {
+        f.name: f.default if f.default_factory is dataclasses.MISSING else f.default_factory()
+        for f in dataclasses.fields(cls)
+    }
 
 
 def _law(value, default: str):

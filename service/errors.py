@@ -17,6 +17,7 @@ from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 
 from engine.contact.registry import LAWS
+from engine.study.spec import TEST_TYPES
 
 
 class ErrorMessage(BaseModel):
@@ -93,7 +94,8 @@ async def validation_error(request, exc: RequestValidationError) -> JSONResponse
     (Python's JSON parser takes ``NaN`` and ``Infinity``, which JSON does not have) gets an
     error of its own at its field, type ``finite_number``, and the echoed inputs are made
     finite (:func:`finite`)."""
-    errors = jsonable_encoder(exc.errors())
+    errors = [{**e, "loc": _reference_untagged(e.get("loc", ()))} for e in exc.errors()]
+    errors = jsonable_encoder(errors)
     seen = {untagged(e.get("loc", ())) for e in errors}
     body = getattr(exc, "body", None)
     for path in _non_finite_paths(body):
@@ -110,9 +112,21 @@ async def validation_error(request, exc: RequestValidationError) -> JSONResponse
     return JSONResponse(status_code=422, content={"detail": finite(errors)})
 
 
+#: The kinds of a study's reference (``"type"``: "UniaxialTest", the default, or
+#: "ShearTest"): pydantic's tag after ``reference`` is left out of a 422's ``loc``, so that a
+#: field of the reference is at ``["body", "reference", <field>]`` whatever its kind.
+TEST_TAGS = frozenset(TEST_TYPES)
 #: The tags pydantic puts into the ``loc`` of an error inside a tagged union (the contact
 #: laws: ``["body", "reference", "pair_law", "EEPA", "n"]``), where the body has none.
-UNION_TAGS = frozenset(LAWS)
+UNION_TAGS = frozenset(LAWS) | TEST_TAGS
+
+
+def _reference_untagged(loc) -> tuple:
+    """``loc`` without the reference kind's tag right after ``reference``."""
+    loc = tuple(loc)
+    return tuple(
+        p for i, p in enumerate(loc) if not (i and p in TEST_TAGS and loc[i - 1] == "reference")
+    )
 
 
 def untagged(loc) -> tuple:

@@ -157,6 +157,8 @@ class StudyExecution:
         ``<study>/snapshots/<key>/`` (written into a temporary folder, then renamed)."""
         from engine.io.vtkhdf import save as save_snapshots
 
+        if isinstance(result, engine.ShearResult):  # its shear stages keep no snapshots
+            return
         final = self.settings.snapshots_dir(self.study_id) / key
         tmp = final.with_name(f".{key}.{self.worker_id.replace(':', '-')}.tmp")
         shutil.rmtree(tmp, ignore_errors=True)
@@ -251,7 +253,7 @@ class StudyExecution:
                 progress=self.progress,
                 completed=self.stored_runs(plan),
                 on_run=self.on_run,
-                options=self.settings.run_options(self.study_id, pool, self.channel(pool)),
+                options=self.options(plan, pool),
             )
         write_results(
             self.settings.results_path(self.study_id),
@@ -260,6 +262,16 @@ class StudyExecution:
             still_ours=self._still_ours,
         )
         return result.table
+
+    def options(self, plan: engine.StudyPlan, pool) -> engine.RunOptions:
+        """The study's run options (:meth:`Settings.run_options`); a shear study's without
+        the per-run wall-time limit and on the CPU (engine.run_shear has neither a limit nor
+        another backend; the admission refused it where the service's backend is cuda): its
+        runs are bounded by their stages' own bounds, as the admitted worst case counts."""
+        options = self.settings.run_options(self.study_id, pool, self.channel(pool))
+        if isinstance(plan.spec.reference, engine.ShearTest):
+            options = dataclasses.replace(options, max_run_wall_time=None, backend="cpu")
+        return options
 
     def channel(self, pool) -> engine.FileChannel | None:
         """Runs in other processes or hosts report and hear a cancel through files in the

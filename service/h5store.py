@@ -59,8 +59,11 @@ def read_runs(
 ) -> dict:
     """Curves of the runs (all, or ``run``) and stages (all, or ``stage``) as
     ``{key: {"label", "reference", "radius", "rule", "seed", "stages": {stage: {curve:
-    array}}}}``; with ``with_units`` also ``"units": {curve: unit}`` at the top level.
-    Raises KeyError naming what is missing."""
+    array}}}}``; a shear study's run also ``"points"`` (its yield points, the pre-shear
+    point first: kind, target, sigma, tau, strain, peaked) and ``"locus"`` (the fitted
+    yield locus: cohesion, slope, friction_angle, sigma_1, sigma_c, ffc, ...); with
+    ``with_units`` also ``"units": {curve: unit}`` at the top level. Raises KeyError
+    naming what is missing."""
     out: dict = {}
     units: dict = {}
     with h5py.File(path, "r") as f:
@@ -80,6 +83,9 @@ def read_runs(
                 "seed": int(g.attrs["seed"]),
                 "stages": {},
             }
+            if "shear_points" in g.attrs:  # a shear run (engine.io.store)
+                entry["points"] = json.loads(g.attrs["shear_points"])
+                entry["locus"] = json.loads(g.attrs["locus"])
             for s in stages:
                 if s not in present:
                     if run is not None or stage is None:

@@ -58,6 +58,9 @@ SERVICE_LIMITS: dict[tuple[str, str], dict[str, Any]] = {
     # bounds relative to dt and the stages, on output_interval and max_stage_time, are
     # checked at admission: a schema cannot state them)
     ("UniaxialTest", "settle_ke"): {"ge": MIN_SETTLE_KE},
+    # the same for a shear study's reference (and the calibration's shear cell)
+    ("ShearTest", "pair_law"): {"record": engine.contact.registry.adhesive_laws()},
+    ("ShearTest", "settle_ke"): {"ge": MIN_SETTLE_KE},
 }
 #: Rules that span fields, which JSON Schema cannot state (it compares no two values): each
 #: is written into the field's description in the OpenAPI document, and the request is
@@ -86,9 +89,27 @@ CROSS_FIELD_RULES: dict[tuple[str, str], str] = {
     ("LabTargets", "shear"): "one locus per sigma_pre (all different)",
     ("LabTargets", "shear_tester"): "required with shear where tester is not a shear tester; "
     "given with shear only",
+    ("ShearTest", "normal_stresses"): "2 to 8, each > 0 and < preshear_stress, at least two "
+    "different (a yield locus is a line fitted through them)",
+    ("ShearTest", "preshear_min_strain"): "<= preshear_strain",
+    ("ShearTest", "steady_window"): "<= preshear_strain / 2 (the steady-state check compares "
+    "two windows)",
+    ("ShearTest", "cell"): "x and y >= 4.8 largest radii, z >= 4 largest radii and >= 8 x "
+    "platen_layer x radius (two glued layers and a sheared bed between them)",
+    ("ShearTest", "dt"): "<= the stable limit of the laws for the smallest particles (the "
+    "422 names the limit)",
+    ("ShearTest", "pair_law"): "|f0| / k1 within 0.5 of the smallest radius, and stiff "
+    "enough to carry preshear_stress within that overlap",
     ("ShearLocus", "points"): "at least 2 (a yield locus is a line fitted through them), each "
     "sigma_n < sigma_pre, no two at one sigma_n, their fitted line rising (tan(phi) > 0)",
 }
+#: Fields the API requires where the engine has a default: a study's reference (the engine
+#: requires it too; kept so that the two may differ, in the API's favour, and the agreement
+#: test knows it) and a shear reference's pair law (no shear test of the record's default
+#: law: nobody chose it, and there is no shear preset to name instead).
+SERVICE_REQUIRED: frozenset[tuple[str, str]] = frozenset(
+    {("StudySpec", "reference"), ("ShearTest", "pair_law")}
+)
 #: Longest list or object the API takes where the engine declares no ``max_items``.
 MAX_ITEMS = 32
 #: Longest key of an object parameter (e.g. a metric name of ``tolerances``).
@@ -187,6 +208,8 @@ def _field_type(owner: type, info: ParamInfo, hint: Any) -> Any:
     """The pydantic type of one declared field of ``owner``."""
     extra = dict(SERVICE_LIMITS.get((owner.__name__, info.name), {}))
     narrowed = extra.pop("record", None)
+    if owner is engine.StudySpec and info.name == "reference":
+        return Any  # the reference models below (ReferenceIn, ShearTestIn) stand here
     if info.kind == "record":
         classes = tuple(narrowed) if narrowed else _record_classes(hint)
         models = [record_model(c) for c in classes]
@@ -244,7 +267,7 @@ def fields_of(cls: type) -> dict[str, tuple[Any, Any]]:
             "description": _description(cls, info),
             "json_schema_extra": {"x-unit": info.unit} if info.unit else None,
         }
-        if info.required:
+        if info.required or (cls.__name__, info.name) in SERVICE_REQUIRED:
             out[info.name] = (kind, Field(..., **field_kwargs))
         else:
             out[info.name] = (kind, Field(jsonable(info.default), **field_kwargs))
@@ -307,6 +330,14 @@ ReferenceIn = create_model(
     __doc__="The fine reference test: a preset, and/or the pair law and any other fields of "
     "engine.UniaxialTest; the preset's values (or the record's defaults) fill in what is "
     "left out. A preset or a pair_law is required.",
+    type=(
+        Literal["UniaxialTest"],
+        Field(
+            "UniaxialTest",
+            description="the reference's kind: the uniaxial test (the default); a shear test "
+            'is given with "type": "ShearTest" (ShearTestIn)',
+        ),
+    ),
     preset=(
         Literal[tuple(PRESETS)] | None,
         Field(None, description="a named test (engine.preset) whose fields the others override"),
@@ -330,18 +361,39 @@ ReferenceIn = create_model(
         for name, (kind, spec) in _reference_fields.items()
     },
 )
+#: A shear study's reference (``"type": "ShearTest"``): engine.ShearTest's declared fields,
+#: from its records as the calibration's shear cell's (:data:`ShearCellIn`); the pair law
+#: required (:data:`SERVICE_REQUIRED`).
+ShearTestIn = record_model(engine.ShearTest)
+#: The reference kinds a study takes, by their ``type`` (engine.study.spec.TEST_TYPES).
+REFERENCE_MODELS = {"UniaxialTest": ReferenceIn, "ShearTest": ShearTestIn}
+
+
+def _reference_kind(value: Any) -> str:
+    """The reference's ``type``: "UniaxialTest" where none is given (existing requests)."""
+    if isinstance(value, dict):
+        return value.get("type", "UniaxialTest")
+    return getattr(value, "type", "UniaxialTest")
+
+
+Reference = Annotated[
+    Union[tuple(Annotated[m, Tag(k)] for k, m in REFERENCE_MODELS.items())],  # noqa: UP007
+    Discriminator(
+        _reference_kind,
+        custom_error_type="reference_type",
+        custom_error_message=f"the reference's type must be one of {list(REFERENCE_MODELS)}",
+    ),
+]
 _study_fields = fields_of(engine.StudySpec)
-#: Fields the API requires where the engine has a default (none now: the engine requires
-#: a study's reference too; kept so that the two may differ, in the API's favour, and the
-#: agreement test knows it).
-SERVICE_REQUIRED: frozenset[tuple[str, str]] = frozenset({("StudySpec", "reference")})
 _reference_doc = next(i.doc for i in describe(engine.StudySpec) if i.name == "reference")
 _study_fields["reference"] = (
-    ReferenceIn,
+    Reference,
     Field(
         ...,
-        description=f"{_reference_doc}: a preset named, e.g. "
-        '{"preset": "quick"}, or the pair law with the other fields of the test',
+        description=f"{_reference_doc}: a uniaxial test, a preset named, e.g. "
+        '{"preset": "quick"}, or the pair law with the other fields of the test; or a shear '
+        'test, "type": "ShearTest" with its pair law and any other fields of '
+        "engine.ShearTest (docs/SHEAR.md)",
     ),
 )
 
@@ -355,10 +407,29 @@ EXAMPLE = {
     "reference_seeds": [1, 2],
     "tolerances": {"density": 0.03, "strength": 0.15},
 }
+#: A shear study (docs/SERVICE.md): the tests' smallest shear cell (about 120 grains, 6 x 3 x
+#: 6 diameters) against one coarse radius.
+SHEAR_EXAMPLE = {
+    "name": "shear",
+    "reference": {
+        "type": "ShearTest",
+        "cell": [0.03, 0.015, 0.03],
+        "pair_law": {"k1": 5e3, "k2": 2.5e4, "f0": -0.4, "mu_s": 0.5, "mu_r": 0.001},
+        "normal_stresses": [3e3, 7e3],
+        "inertial_number": 2e-3,
+        "max_stage_time": 2.0,
+    },
+    "coarse_radii": [3.1e-3],
+    "rules": ["paper"],
+    "reference_seeds": [1, 2],
+    "protocol_check": False,
+}
 
 
 class _StudyBase(BaseModel):
-    model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [EXAMPLE]})
+    model_config = ConfigDict(
+        extra="forbid", json_schema_extra={"examples": [EXAMPLE, SHEAR_EXAMPLE]}
+    )
 
     def engine_dict(self) -> dict:
         """The spec as :meth:`engine.StudySpec.from_dict` takes it (what the client set;

@@ -24,7 +24,7 @@ from fastapi.templating import Jinja2Templates
 from sqlmodel import select
 
 from engine.calibration.calibrate import TARGET_UNITS
-from engine.io.figures import KINDS, has_controls
+from engine.io.figures import KINDS, is_shear_table, kinds_of
 
 from . import h5store, transitions
 from .deps import CalibrationDep, OwnerDep, SessionDep, SettingsDep, StudyDep
@@ -55,7 +55,23 @@ RUN_COLUMNS = (
     ("err_unloading_stiffness", "unloading stiffness err [%]", 100.0, "{:.1f}"),
     ("err_coordination_interior", "coordination err [%]", 100.0, "{:.1f}"),
     ("err_strength", "strength err [%]", 100.0, "{:.1f}"),
+    # a shear study's: its run's yield locus, flow function point and bulk density, then
+    # the errors of the shear metrics (engine.study.metrics.SHEAR_METRICS)
+    ("cohesion", "cohesion [kPa]", 1e-3, "{:.3g}"),
+    ("friction_angle", "friction angle [deg]", 1.0, "{:.1f}"),
+    ("sigma_1", "sigma_1 [kPa]", 1e-3, "{:.3g}"),
+    ("sigma_c", "sigma_c [kPa]", 1e-3, "{:.3g}"),
+    ("ffc", "ffc [-]", 1.0, "{:.2f}"),
+    ("bulk_density", "bulk density [kg/m^3]", 1.0, "{:.0f}"),
+    ("err_yield_locus", "yield locus err [%]", 100.0, "{:.1f}"),
+    ("err_sigma_1", "sigma_1 err [%]", 100.0, "{:.1f}"),
+    ("err_sigma_c", "sigma_c err [%]", 100.0, "{:.1f}"),
+    ("err_ffc", "ffc err [%]", 100.0, "{:.1f}"),
+    ("err_bulk_density", "bulk density err [%]", 100.0, "{:.1f}"),
 )
+#: Columns a shear study's page leaves out: its runs have no self-weight stress (gravity is
+#: off from the consolidation on: the column reads 0 for every run).
+SHEAR_HIDDEN = frozenset({"overburden_ratio"})
 
 
 def cell(value, scale: float | None, fmt: str) -> str:
@@ -120,6 +136,20 @@ def calibration_page(
     )
 
 
+def _plots(table: list[dict]) -> dict[str, str]:
+    """The plots a study's page shows, kind -> title: a shear study's, or a uniaxial
+    study's with the unconfined plot only where it has that stage; the resolution plot
+    only for a study with resolution controls (a line to the bulk, or the controls' points)."""
+    if is_shear_table(table):
+        return {k: KINDS[k] for k in kinds_of(table)}
+    return {
+        k: t
+        for k, t in KINDS.items()
+        if k in kinds_of(table)
+        and (k != "unconfined" or any("unconfined_strength" in row for row in table))
+    }
+
+
 @router.get("/studies/{study_id}/page", response_class=HTMLResponse)
 def study_page(
     request: Request, study: StudyDep, session: SessionDep, settings: SettingsDep
@@ -138,7 +168,8 @@ def study_page(
         # each run's kernel compilation (set-up), kept out of its run time and speed-up
         setup = h5store.read_run_scalars(path, ("setup_time",))
         rows = [{**row, **setup.get(row.get("run"), {})} for row in summary["table"]]
-        cols = [c for c in RUN_COLUMNS if any(c[0] in row for row in rows)]
+        hidden = SHEAR_HIDDEN if is_shear_table(rows) else frozenset()
+        cols = [c for c in RUN_COLUMNS if c[0] not in hidden and any(c[0] in row for row in rows)]
         table = [[cell(row.get(k), s, f) for k, _, s, f in cols] for row in rows]
         headings = [h for _, h, _, _ in cols]
     else:
@@ -155,15 +186,7 @@ def study_page(
             "table": table,
             # the unconfined plot only for a study with that stage, the resolution plot only
             # for one with resolution controls (a line to the bulk, or the controls' points)
-            "plots": {
-                k: t
-                for k, t in KINDS.items()
-                if (
-                    k != "unconfined"
-                    or any("unconfined_strength" in row for row in (summary or {}).get("table", []))
-                )
-                and (k != "resolution" or has_controls((summary or {}).get("table", [])))
-            },
+            "plots": _plots((summary or {}).get("table", [])),
             "terminal": TERMINAL,
             "fmt": cell,
             "snapshots": settings.snapshot_files(study.id) if summary is not None else {},

@@ -12,17 +12,23 @@ from pathlib import Path
 
 import numpy as np
 
+from ..shear.results import SHEAR_CURVE_UNITS
 from ..uniaxial.results import CURVE_UNITS
+
+#: Units of every curve a run has: the uniaxial test's, then the shear test's stages'.
+_UNITS = {**CURVE_UNITS, **{k: v for k, v in SHEAR_CURVE_UNITS.items() if k not in CURVE_UNITS}}
 
 __all__ = ["curves_csv", "runs_csv", "write_curves_csv"]
 
 
 def curves_csv(result) -> str:
-    """The curves of every stage of ``result`` (an :class:`engine.UniaxialResult`, or a
-    mapping stage -> {curve: 1-D array} in the order the stages ran) as CSV text: a
-    heading ``stage,<curve> [<unit>],...`` (in :data:`engine.uniaxial.results.CURVE_UNITS`
-    order, then any others), then a row per sample. Values are written in full precision
-    (``repr``); a stage that lacks a curve another has leaves it empty."""
+    """The curves of every stage of ``result`` (an :class:`engine.UniaxialResult`, an
+    :class:`engine.ShearResult`: its shear stages, or a mapping stage -> {curve: 1-D array}
+    in the order the stages ran) as CSV text: a heading ``stage,<curve> [<unit>],...`` (in
+    :data:`engine.uniaxial.results.CURVE_UNITS` order, then the shear test's
+    :data:`engine.shear.results.SHEAR_CURVE_UNITS`, then any others), then a row per
+    sample. Values are written in full precision (``repr``); a stage that lacks a curve
+    another has leaves it empty."""
     stages = (
         {name: st.curves for name, st in result.stages.items()}
         if hasattr(result, "stages")
@@ -31,11 +37,11 @@ def curves_csv(result) -> str:
     names: list[str] = []
     for curves in stages.values():
         names += [n for n in curves if n not in names]
-    order = list(CURVE_UNITS)
+    order = list(_UNITS)
     names.sort(key=lambda n: (order.index(n) if n in order else len(order), n))
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["stage", *(f"{n} [{CURVE_UNITS.get(n, '1')}]" for n in names)])
+    w.writerow(["stage", *(f"{n} [{_UNITS.get(n, '1')}]" for n in names)])
     for stage, curves in stages.items():
         cols = [np.asarray(curves[n]) if n in curves else None for n in names]
         rows = max((len(c) for c in cols if c is not None), default=0)
@@ -54,7 +60,7 @@ def runs_csv(runs: dict) -> str:
         names: list[str] = []
         for lines in parts.values():
             names += [h for h in lines[0].split(",")[1:] if h not in names]
-        order = list(CURVE_UNITS)
+        order = list(_UNITS)
         names.sort(
             key=lambda h: (
                 order.index(h.split(" [")[0]) if h.split(" [")[0] in order else len(order),

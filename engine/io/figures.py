@@ -4,6 +4,8 @@ Every function works on plain data so that a live :class:`engine.StudyResult` an
 back from its HDF5 file draw the same pictures:
 
 ``runs``  key -> {"label": str, "reference": bool, "stages": {stage: {curve: 1-D array}}}
+          (a shear run's also "points": its yield points, the pre-shear point first, as
+          :meth:`engine.ShearResult.yield_points` gives them, and "locus": its fitted locus)
 ``table`` one dict per run with the columns of :data:`engine.study.results.TABLE_UNITS`
 ``advisor`` the study's advisor (tolerances, noise floor, verdicts), or None
 
@@ -18,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..simulation.snapshot import Snapshot, particle_fields
-from ..study.metrics import METRIC_COLUMNS
+from ..study.metrics import METRIC_COLUMNS, SHEAR_METRIC_COLUMNS
 
 #: Plot kinds and their titles (with the units of their axes).
 KINDS = {
@@ -30,9 +32,21 @@ KINDS = {
     "error_vs_runtime": "Signed error against the reference [%] and run time [s]",
     "resolution": "Resolution: each property [% from the bulk or the reference] against "
     "particle diameter / sample thickness [-]",
+    "yield_locus": "Shear test: yield loci, shear stress [kPa] against normal stress [kPa]",
+    "preshear": "Shear test: pre-shear, shear stress [kPa] against shear strain [-]",
 }
+#: The kinds of a uniaxial study and of a shear study (:func:`kinds_of`).
+UNIAXIAL_KINDS = (
+    "stress_strain",
+    "stress_porosity",
+    "coordination",
+    "unconfined",
+    "error_vs_runtime",
+    "resolution",
+)
+SHEAR_KINDS = ("yield_locus", "preshear", "error_vs_runtime", "resolution")
 #: Bumped when a figure's drawing changes, so that cached PNGs are drawn again.
-FIGURES_VERSION = 4
+FIGURES_VERSION = 5
 
 #: Kinds drawn from the advisor on a whole figure (several panels), not from the curves.
 _WHOLE_FIGURE = ("error_vs_runtime", "resolution")
@@ -45,22 +59,42 @@ _TITLES = {
     "unloading_stiffness": "unloading stiffness",
     "coordination": "coordination (interior)",
     "strength": "unconfined strength",
+    # a shear study's (engine.study.metrics.SHEAR_METRICS)
+    "yield_locus": "yield locus tau(sigma_n)",
+    "sigma_1": "sigma_1 (consolidation)",
+    "sigma_c": "sigma_c (strength)",
+    "ffc": "flowability ffc",
+    "bulk_density": "bulk density",
 }
-_METRIC_PANELS = {n: (METRIC_COLUMNS[n], t) for n, t in _TITLES.items()}
+_METRIC_PANELS = {n: ({**METRIC_COLUMNS, **SHEAR_METRIC_COLUMNS}[n], t) for n, t in _TITLES.items()}
 _MARKERS = "osD^vP*X"
 
 
 def study_plot_data(result) -> tuple[dict, list[dict], dict]:
     """``(runs, table, advisor)`` of a live :class:`engine.StudyResult`."""
-    runs = {
-        key: {
+    runs = {}
+    for key, r in result.runs.items():
+        runs[key] = {
             "label": key,
             "reference": r.is_reference,
             "stages": {name: st.curves for name, st in r.result.stages.items()},
         }
-        for key, r in result.runs.items()
-    }
+        if hasattr(r.result, "yield_points"):  # a shear run (engine.ShearResult)
+            runs[key]["points"] = r.result.yield_points()
+            runs[key]["locus"] = r.result.locus.to_dict()
     return runs, result.table, result.advisor
+
+
+def is_shear_table(table: list[dict]) -> bool:
+    """Whether a study's table is a shear study's (its rows carry the shear metrics' errors)."""
+    return any(SHEAR_METRIC_COLUMNS["yield_locus"] in r for r in table)
+
+
+def kinds_of(table: list[dict]) -> tuple[str, ...]:
+    """The plot kinds a study has: a shear study's :data:`SHEAR_KINDS` or a uniaxial
+    study's :data:`UNIAXIAL_KINDS`; ``resolution`` only with resolution controls."""
+    kinds = SHEAR_KINDS if is_shear_table(table) else UNIAXIAL_KINDS
+    return tuple(k for k in kinds if k != "resolution" or has_controls(table))
 
 
 def _style(i: int, ref: bool) -> dict:
@@ -188,6 +222,87 @@ def _confined(
         ("-", "--"),
         along_y=y is None,
     )
+
+
+def _sd(values: np.ndarray) -> float:
+    """Sample standard deviation over seeds; 0 for one seed."""
+    return float(np.std(values, ddof=1)) if len(values) > 1 else 0.0
+
+
+def _yield_loci(ax, runs: dict, table: list[dict]) -> None:
+    """The yield locus of every group of runs (the references, each coarse variant, each
+    resolution control, the protocol check): the points of incipient failure (circles) and
+    the pre-shear point (triangle), each the mean over the group's seeds with 1 sd bars in
+    both stresses, and the mean of the seeds' fitted lines c + sigma tan(phi) from sigma = 0
+    to the pre-shear point with a band of 1 sd of the lines over the seeds."""
+    kpa = 1e-3
+    for i, (label, keys) in enumerate(_groups(runs, table).items()):
+        members = [runs[k] for k in keys if runs[k].get("points")]
+        if not members:
+            continue
+        st = _style(i, members[0]["reference"])
+        colour = st["color"]
+        n = len(members)
+        name = label if n == 1 else f"{label} (mean of {n} seeds ± 1 sd)"
+        marker = _MARKERS[i % len(_MARKERS)]
+        failure = [[p for p in m["points"] if p["kind"] == "failure"] for m in members]
+        pre = [next(p for p in m["points"] if p["kind"] == "preshear") for m in members]
+        n_pts = min(len(f) for f in failure)
+        for j in range(n_pts):  # the j-th normal stress of every seed's test
+            sig = np.array([f[j]["sigma"] for f in failure]) * kpa
+            tau = np.array([f[j]["tau"] for f in failure]) * kpa
+            ax.errorbar(
+                sig.mean(),
+                tau.mean(),
+                xerr=_sd(sig),
+                yerr=_sd(tau),
+                fmt=marker,
+                color=colour,
+                ms=6 if st.get("zorder") else 5,
+                capsize=2,
+                elinewidth=0.8,
+                zorder=st.get("zorder", 3),
+            )
+        sp = np.array([p["sigma"] for p in pre]) * kpa
+        tp = np.array([p["tau"] for p in pre]) * kpa
+        ax.errorbar(
+            sp.mean(),
+            tp.mean(),
+            xerr=_sd(sp),
+            yerr=_sd(tp),
+            fmt="^",
+            mfc="none",
+            color=colour,
+            ms=7,
+            capsize=2,
+            elinewidth=0.8,
+            zorder=st.get("zorder", 3),
+        )
+        grid = np.linspace(0.0, float(sp.max()), 60)
+        lines = np.array(
+            [
+                (m["locus"]["cohesion"] + m["locus"]["slope"] * grid / kpa) * kpa
+                for m in members
+                if m.get("locus")
+            ]
+        )
+        if len(lines):
+            mean = lines.mean(axis=0)
+            ax.plot(grid, mean, label=name, **{k: v for k, v in st.items() if k != "alpha"})
+            if len(lines) > 1:
+                band = lines.std(axis=0, ddof=1)
+                ax.fill_between(grid, mean - band, mean + band, color=colour, alpha=0.15, lw=0)
+    if not any(r.get("points") for r in runs.values()):
+        ax.text(
+            0.5, 0.5, "no run of this study is a shear test", ha="center", transform=ax.transAxes
+        )
+        return
+    ax.errorbar([], [], fmt="o", color="0.3", label="incipient failure (mean ± 1 sd)")
+    ax.errorbar([], [], fmt="^", mfc="none", color="0.3", label="pre-shear (steady flow)")
+    ax.set_xlim(left=0)
+    ax.set_ylim(bottom=min(0.0, ax.get_ylim()[0]))
+    ax.set_xlabel("normal stress sigma [kPa]")
+    ax.set_ylabel("shear stress tau [kPa]")
 
 
 def _metric_bias(m: dict | None) -> tuple[float, float, float] | None:
@@ -574,12 +689,30 @@ def draw(ax, kind: str, runs: dict, table: list[dict]) -> None:
             if key == "stress_interior"
             else "top platen stress [kPa]"
         )
+    elif kind == "yield_locus":
+        _yield_loci(ax, runs, table)
+    elif kind == "preshear":
+        _plot_groups(
+            ax,
+            runs,
+            table,
+            lambda c: (np.asarray(c["shear_strain"]), np.asarray(c["shear_stress"]) * 1e-3),
+            (("preshear", True),),
+            ("-",),
+        )
+        ax.set_xlabel("shear strain (lid displacement / gap) [-]")
+        ax.set_ylabel("shear stress on the lid [kPa]")
     else:
         raise ValueError(f"{kind} is drawn on a whole figure: use figure()")
+    titles = {
+        "unconfined": None,
+        "preshear": "at the pre-shear normal stress, to steady flow",
+        "yield_locus": "lines: each seed's fitted locus, mean ± 1 sd",
+    }
     if ax.get_legend_handles_labels()[0]:
         ax.legend(
             fontsize=8,
-            title="solid: loading, dashed: unloading" if kind != "unconfined" else None,
+            title=titles.get(kind, "solid: loading, dashed: unloading"),
             title_fontsize=7,
         )
     else:
@@ -616,14 +749,13 @@ def has_controls(table: list[dict]) -> bool:
 
 
 def save_all(directory, runs: dict, table: list[dict], advisor: dict | None = None) -> list[Path]:
-    """Write ``<kind>.png`` for every kind into ``directory`` (``resolution`` only for a
+    """Write ``<kind>.png`` for every kind of the study into ``directory``
+    (:func:`kinds_of`: a uniaxial study's or a shear study's; ``resolution`` only for a
     study with resolution controls); returns the paths."""
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
     out = []
-    for kind in KINDS:
-        if kind == "resolution" and not has_controls(table):
-            continue  # a study without resolution controls has no resolution plot
+    for kind in kinds_of(table):  # a study without resolution controls has no resolution plot
         path = d / f"{kind}.png"
         figure(kind, runs, table, advisor).savefig(path, format="png")
         out.append(path)

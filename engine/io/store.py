@@ -16,6 +16,13 @@ recorded); group ``scalars`` (attrs, with
 ``<name>_units``); one group ``stages/<name>`` per stage (attrs ``steps``, ``position``) with
 one dataset per curve (attr ``units``) and, when kept, a group ``particles`` (``positions``
 (N, 3), ``radii`` (N,) at the stage's end [m]).
+
+A shear test's run (:class:`engine.ShearResult`, a shear study's) has the same layout: its
+``test`` names its kind (``"type": "ShearTest"``), its stages are the consolidation's (attr
+``part`` "consolidation", with particles) and then the shear stages (``part`` "shear", the
+curves of :data:`engine.shear.results.SHEAR_CURVE_UNITS`), and the attrs ``shear_points``
+(JSON: the pre-shear point, then each point of incipient failure) and ``locus`` (JSON: the
+fitted yield locus) hold what the curves were read into.
 """
 
 from __future__ import annotations
@@ -68,27 +75,81 @@ def stored_code(path: Path) -> dict | None:
 
 
 def write_run_group(g, outcome, keep_particles: bool = True) -> None:
-    """Write ``outcome`` (a UniaxialResult or an error text) into the h5py group (or file)
+    """Write ``outcome`` (a UniaxialResult, a ShearResult or an error text) into the h5py
+    group (or file)
     ``g``: the one layout of a run, in its own file and inside a study's file alike."""
     if isinstance(outcome, str):
         g.attrs["error"] = outcome
         return
-    g.attrs["test"] = json.dumps(outcome.test.to_dict())
+    shear = _is_shear_result(outcome)
+    curve_units, scalar_units = CURVE_UNITS, SCALAR_UNITS
+    if shear:
+        from ..shear.results import SHEAR_CURVE_UNITS, SHEAR_SCALAR_UNITS
+
+        curve_units = {**CURVE_UNITS, **SHEAR_CURVE_UNITS}
+        scalar_units = {**SCALAR_UNITS, **SHEAR_SCALAR_UNITS}
+        g.attrs["test"] = json.dumps({"type": "ShearTest", **outcome.test.to_dict()})
+        g.attrs["shear_points"] = json.dumps(outcome.yield_points())
+        g.attrs["locus"] = json.dumps(outcome.locus.to_dict())
+        stages = [(n, st, "consolidation") for n, st in outcome.consolidation.items()]
+        stages += [(n, st, "shear") for n, st in outcome.stages.items()]
+    else:
+        g.attrs["test"] = json.dumps(outcome.test.to_dict())
+        stages = [(n, st, None) for n, st in outcome.stages.items()]
     sc = g.create_group("scalars")
     for k, v in outcome.scalars.items():
         sc.attrs[k] = float(v)
-        sc.attrs[f"{k}_units"] = SCALAR_UNITS.get(k, "")
-    for i, (name, st) in enumerate(outcome.stages.items()):
+        sc.attrs[f"{k}_units"] = scalar_units.get(k, "")
+    for i, (name, st, part) in enumerate(stages):
         sg = g.create_group(f"stages/{name}")
         sg.attrs.update({"steps": int(st.steps), "position": i})
+        if part is not None:
+            sg.attrs["part"] = part
         for c, v in st.curves.items():
             ds = sg.create_dataset(c, data=np.asarray(v), compression="gzip", shuffle=True)
-            ds.attrs["units"] = CURVE_UNITS.get(c, "")
-        if keep_particles and st.positions is not None:
+            ds.attrs["units"] = curve_units.get(c, "")
+        if keep_particles and getattr(st, "positions", None) is not None:
             p = sg.create_group("particles")
             for pname, v in (("positions", st.positions), ("radii", st.radii)):
                 ds = p.create_dataset(pname, data=np.asarray(v), compression="gzip")
                 ds.attrs["units"] = "m"
+
+
+def _is_shear_result(outcome) -> bool:
+    from ..shear.results import ShearResult
+
+    return isinstance(outcome, ShearResult)
+
+
+def _read_shear_group(g, test: dict):
+    """The :class:`engine.ShearResult` stored in the group ``g`` (its test's JSON ``test``)."""
+    from ..shear.locus import YieldLocus
+    from ..shear.results import ShearPoint, ShearResult, ShearStage
+    from ..shear.spec import ShearTest
+
+    scalars = {k: float(v) for k, v in g["scalars"].attrs.items() if not k.endswith("_units")}
+    consolidation, stages = {}, {}
+    for name in stage_names(g):
+        sg = g["stages"][name]
+        curves = {c: sg[c][()] for c in sg if c != "particles"}
+        if sg.attrs.get("part") == "consolidation":
+            p = sg.get("particles")
+            consolidation[name] = StageResult(
+                name,
+                curves,
+                None if p is None else p["positions"][()],
+                None if p is None else p["radii"][()],
+                int(sg.attrs["steps"]),
+            )
+        else:
+            stages[name] = ShearStage(name, curves, int(sg.attrs["steps"]))
+    points = tuple(
+        ShearPoint(p["target"], p["sigma"], p["tau"], p["strain"], bool(p["peaked"]))
+        for p in json.loads(g.attrs["shear_points"])
+        if p["kind"] == "failure"
+    )
+    locus = YieldLocus(**json.loads(g.attrs["locus"]))
+    return ShearResult(ShearTest.from_dict(test), consolidation, stages, points, locus, scalars)
 
 
 def stage_names(g) -> list[str]:
@@ -97,11 +158,14 @@ def stage_names(g) -> list[str]:
 
 
 def read_run_group(g):
-    """The outcome stored in the group (or file) ``g``: a :class:`engine.UniaxialResult` or
-    the error text."""
+    """The outcome stored in the group (or file) ``g``: a :class:`engine.UniaxialResult`,
+    an :class:`engine.ShearResult` or the error text."""
     if "error" in g.attrs:
         return str(g.attrs["error"])
-    test = UniaxialTest.from_stored(json.loads(g.attrs["test"]))
+    stored = json.loads(g.attrs["test"])
+    if stored.get("type") == "ShearTest":
+        return _read_shear_group(g, {k: v for k, v in stored.items() if k != "type"})
+    test = UniaxialTest.from_stored(stored)
     scalars = {k: float(v) for k, v in g["scalars"].attrs.items() if not k.endswith("_units")}
     stages = {}
     for name in stage_names(g):
@@ -226,7 +290,7 @@ def save_study(path: Path, study_id: object, result, before_rename=lambda: True)
 
     import h5py
 
-    from ..study.results import TABLE_UNITS
+    from ..study.results import table_units
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -279,12 +343,13 @@ def save_study(path: Path, study_id: object, result, before_rename=lambda: True)
                     g.attrs[name] = float(value)
                     g.attrs[f"{name}_units"] = "1"
             summary = f.create_group("summary", track_order=True)
-            columns = [c for c in TABLE_UNITS if c in result.table[0]]
+            units = table_units(result.spec)
+            columns = [c for c in units if c in result.table[0]]
             columns += [c for c in result.table[0] if c not in columns]
             summary.attrs["columns"] = columns
             for c in columns:
                 ds = summary.create_dataset(c, data=_column([row[c] for row in result.table], text))
-                ds.attrs["units"] = TABLE_UNITS.get(c, "")
+                ds.attrs["units"] = units.get(c, "")
         with open(tmp, "rb+") as fh:
             os.fsync(fh.fileno())
         if not before_rename():

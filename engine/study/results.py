@@ -177,26 +177,16 @@ class StudyResult:
             "units": table_units(self.spec),
         }
 
-    def _uniaxial_only(self) -> None:
-        if is_shear(self.spec.reference):
-            raise ValueError(
-                "a shear study's figures are not drawn: engine.io.figures draws the uniaxial "
-                "test's curves and metrics (a shear study's table and advisor hold its "
-                "results; benchmarks/shear_study.py --report)"
-            )
-
     def figure(self, kind: str):
         """A matplotlib Figure (no pyplot) of ``kind`` in :data:`engine.io.figures.KINDS`
-        (a uniaxial study's; a shear study's raises ValueError)."""
-        self._uniaxial_only()
+        (a shear study's: :data:`engine.io.figures.SHEAR_KINDS`)."""
         from ..io.figures import figure, study_plot_data
 
         return figure(kind, *study_plot_data(self))
 
     def save_plots(self, directory) -> list:
-        """Write every plot kind as PNG into ``directory``; returns the paths (a uniaxial
-        study's; a shear study's raises ValueError)."""
-        self._uniaxial_only()
+        """Write every plot kind of the study as PNG into ``directory``
+        (:func:`engine.io.figures.kinds_of`); returns the paths."""
         from ..io.figures import save_all, study_plot_data
 
         return save_all(directory, *study_plot_data(self))

@@ -233,9 +233,8 @@ class StudySpec(Record):
     """
 
     # the hint names what the job service takes (service/spec.py derives its schema from
-    # it); an engine.ShearTest is accepted here as well (_reference_from_json, __post_init__)
-    # but not by the service yet
-    reference: UniaxialTest = param(
+    # it: a uniaxial test, or a shear test tagged "type": "ShearTest" in JSON)
+    reference: UniaxialTest | ShearTest = param(
         unit="",
         kind="record",
         parse=_reference_from_json,

@@ -8,6 +8,7 @@ from typing import Annotated
 from fastapi import APIRouter, HTTPException, Path, Query, Response
 from fastapi.responses import FileResponse
 
+from engine.shear.spec import MAX_POINTS
 from engine.uniaxial.driver import STAGES
 
 from .. import h5store
@@ -19,8 +20,15 @@ router = APIRouter(prefix="/studies/{study_id}", tags=["results"], responses=ans
 
 #: The plots the API draws (engine.io.figures.KINDS).
 PlotKind = Enum("PlotKind", {k: k for k in KINDS}, type=str)
-#: A stage of the uniaxial test (engine.uniaxial.driver.STAGES), or every stage.
-StageKind = Enum("StageKind", {s: s for s in (*STAGES, "all")}, type=str)
+#: The shear test's stages (engine.shear.driver): the pre-shear, then per shear point k the
+#: reversal, the normal-stress stage and the shear to failure.
+SHEAR_STAGES = (
+    "preshear",
+    *(f"point{k}_{part}" for k in range(MAX_POINTS) for part in ("reverse", "normal", "shear")),
+)
+#: A stage of the uniaxial test (engine.uniaxial.driver.STAGES; a shear test's fill and
+#: consolidation are among them) or of the shear test, or every stage.
+StageKind = Enum("StageKind", {s: s for s in (*STAGES, *SHEAR_STAGES, "all")}, type=str)
 #: How the curves are sent.
 CurvesFormat = Enum("CurvesFormat", {k: k for k in ("json", "csv")}, type=str)
 #: Longest run key accepted [characters].
@@ -172,9 +180,11 @@ def plot(
     study: StudyDep,
     settings: SettingsDep,
 ) -> Response:
-    """A PNG plot: stress_strain, stress_porosity, coordination, unconfined,
-    error_vs_runtime or resolution (the resolution curve of a study with controls). An
-    unknown kind is a 422 whatever the study's status; a known one of a study that has not
+    """A PNG plot: of a uniaxial study stress_strain, stress_porosity, coordination,
+    unconfined, error_vs_runtime or resolution (the resolution curve of a study with
+    controls); of a shear study yield_locus, preshear, error_vs_runtime or resolution (a
+    kind of the other test is drawn as a panel that says the study has none). An unknown
+    kind is a 422 whatever the study's status; a known one of a study that has not
     succeeded a 409."""
     results = get_results(study, settings)
     return Response(plot_png(results, kind.value), media_type="image/png")

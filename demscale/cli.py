@@ -52,6 +52,14 @@ examples/quick_study.json is one (7 runs of at most 286 particles: two reference
 each again at half the time step and loading rate as the protocol check, two coarse
 variants and their resolution control).
 
+A shear study (docs/SHEAR.md): a "reference" with "type": "ShearTest" and the fields of an
+engine.ShearTest (its pair law required), or --shear TEST.json: the shear test in TEST.json
+becomes the reference of the study in SPEC.json (same radii, rules and seeds, each shear
+metric at its default tolerance; a reference in SPEC.json must have the shear test's
+radius). It judges the yield locus, sigma_1, sigma_c, ffc and bulk density; plots/ then
+holds yield_locus, preshear, error_vs_runtime (and resolution), curves/ the shear stages,
+and no snapshots are written (the shear stages keep none). It runs on the CPU.
+
 Exit status: 0 every run finished; 1 some run failed (what finished is written; the
 failures are in summary.json) or no reference run finished; 2 the spec is not valid."""
 
@@ -211,6 +219,11 @@ class StudyBars:
         self.progress.update(task, completed=1.0, stage="done")
         strength = s.get("unconfined_strength")
         extra = f", unconfined strength {strength:.4g} Pa" if strength is not None else ""
+        if "cohesion" in s:  # a shear run: its yield locus
+            extra = (
+                f", cohesion {s['cohesion']:.4g} Pa, friction angle "
+                f"{s['friction_angle']:.3g} deg, ffc {s['ffc']:.3g}"
+            )
         self.console.print(
             f"{key} done: {s['particles']:.0f} particles, {s['steps']:.0f} steps, "
             f"{s['wall_time']:.1f} s{extra}"
@@ -227,14 +240,34 @@ def study(args) -> int:
     from rich.console import Console
 
     import engine
+    import engine.study.spec
     from engine.io.curves import write_curves_csv
     from engine.io.store import save_study
     from engine.io.vtkhdf import save as save_snapshots
 
     console = Console(stderr=True)
     spec_path = Path(args.spec)
+    shear = None
+    if args.shear is not None:
+        try:
+            shear = _shear_test(Path(args.shear))
+        except (OSError, json.JSONDecodeError) as e:
+            console.print(f"--shear: cannot read {args.shear}: {e}", **_ERROR)
+            return 2
+        except (engine.ParameterError, TypeError, ValueError) as e:
+            console.print(f"--shear {args.shear} is not a valid shear test: {e}", **_ERROR)
+            return 2
     try:
         body = json.loads(spec_path.read_text())
+        if isinstance(body, dict) and shear is not None and "reference" not in body:
+            body["reference"] = {"type": "ShearTest", **shear.to_dict()}
+            shear = None  # the study's own reference now
+        ref = body.get("reference") if isinstance(body, dict) else None
+        if isinstance(ref, dict) and ref.get("type") == "ShearTest" and "pair_law" not in ref:
+            raise ValueError(
+                "reference.pair_law: required for a shear reference (no study runs the "
+                "record's default law, which nobody chose)"
+            )
         if isinstance(body, dict) and "reference" not in body:
             raise ValueError(
                 'reference: required (a preset named, e.g. {"preset": "quick"}, or the '
@@ -245,7 +278,10 @@ def study(args) -> int:
             body["decide"] = True
         if args.budget is not None and isinstance(body, dict):
             body["budget"] = args.budget
-        study = engine.plan(engine.StudySpec.from_dict(body))  # planned once
+        spec = engine.StudySpec.from_dict(body)
+        if shear is not None:  # the same study on the shear test (engine.study.spec.on_test)
+            spec = engine.study.spec.on_test(spec, shear)
+        study = engine.plan(spec)  # planned once
     except (OSError, json.JSONDecodeError) as e:
         console.print(f"cannot read the spec {spec_path}: {e}", **_ERROR)
         return 2
@@ -273,7 +309,7 @@ def study(args) -> int:
             if isinstance(outcome, str):
                 return
             curve_paths[key] = write_curves_csv(outcome, out / "curves" / f"{key}.csv")
-            if args.snapshots:
+            if args.snapshots and not isinstance(outcome, engine.ShearResult):
                 snapshot_paths[key] = save_snapshots(outcome, out / "snapshots" / key, key)
 
         try:
@@ -294,6 +330,9 @@ def study(args) -> int:
         except engine.RunFailed as e:
             console.print(f"[red]{e}[/red]: no reference run finished, nothing to compare")
             return 1
+        except engine.ParameterError as e:  # e.g. a shear study on --backend cuda
+            console.print(f"the study cannot run: {e}", **_ERROR)
+            return 2
 
     h5 = save_study(out / "results.h5", spec_path.stem, result)
     plots = result.save_plots(out / "plots")
@@ -344,6 +383,26 @@ def study(args) -> int:
         )
         return 1
     return 0
+
+
+def _shear_test(path: Path):
+    """The :class:`engine.ShearTest` in the JSON file ``path`` (its fields; a ``"type"``, if
+    given, must be "ShearTest")."""
+    import engine
+    from engine.core.records import from_dict
+
+    raw = json.loads(path.read_text())
+    if not isinstance(raw, dict):
+        raise ValueError("a JSON object of engine.ShearTest's fields is needed")
+    kind = raw.pop("type", "ShearTest")
+    if kind != "ShearTest":
+        raise ValueError(f'type = {kind!r}: a shear test is "ShearTest"')
+    if "pair_law" not in raw:
+        raise ValueError(
+            "pair_law: required (the shear test's particle-particle law: no study runs the "
+            "record's default law, which nobody chose)"
+        )
+    return from_dict(engine.ShearTest, raw, "ShearTest")
 
 
 def run(args) -> int:
@@ -555,6 +614,13 @@ def parser() -> argparse.ArgumentParser:
         default=None,
         metavar="PARTICLE_STEPS",
         help="with --decide: most particle-steps of the added runs",
+    )
+    p.add_argument(
+        "--shear",
+        metavar="TEST.json",
+        default=None,
+        help="judge the study on the shear test in TEST.json (engine.ShearTest's fields, its "
+        "pair_law required): it becomes the reference, with the spec's radii, rules and seeds",
     )
     p.add_argument(
         "--no-snapshots",

@@ -15,6 +15,14 @@ def summary_text(summary: dict) -> str:
         ("err_coordination_interior", "Z"),
         ("err_strength", "UCS"),
     )
+    if any("err_yield_locus" in row for row in summary["table"]):  # a shear study's metrics
+        cols = (
+            ("err_yield_locus", "locus"),
+            ("err_sigma_1", "sig_1"),
+            ("err_sigma_c", "sig_c"),
+            ("err_ffc", "ffc"),
+            ("err_bulk_density", "dens"),
+        )
     head = (
         f"{'run':<22}{'R [mm]':>7}{'rule':>10}{'N':>7}{'cell [d]':>9}{'time [s]':>9}"
         f"{'speed-up':>9}" + "".join(f"{lab:>7}" for _, lab in cols)

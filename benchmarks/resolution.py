@@ -20,12 +20,14 @@ the main job's controls (R = 3.75 and 3.125 mm) and references, the same tests, 
 ``--import`` takes from a main job's results file instead of running them again.
 
 What decides, fixed before any run (docs/PHYSICS.md section 7.5): per property, the line of
-log value against d / L through the sizes' means (:func:`engine.study.resolution.fit_curve`)
-gives the bulk value at d / L = 0 and a slope with its 95 % interval; the property is within
-its tolerance (the study's, docs/PHYSICS.md section 7) of the bulk from
+log value against d / L through the sizes' means (:func:`engine.study.resolution.fit_curve`,
+the sizes' spreads pooled since the second 20-diameter seed: the report says why) gives the
+bulk value at d / L = 0 and a slope with its 95 % interval; the property is within its
+tolerance (the study's, docs/PHYSICS.md section 7) of the bulk from
 :func:`engine.study.resolution.diameters_needed` diameters across, bounded by the sizes run
 (5 and 20). A strength counts only samples that failed at a peak. The most demanding property
-sets the coarsest particle for a feature L wide, d = L / n.
+sets the coarsest particle for a feature L wide, d = L / n (a property off its line leaves it
+undecided unless another already needs more than the finest size: since 2026-12-04).
 
 Every run is stored at once as ``benchmarks/results/quick/resolution/d<size>-s<seed>.h5``
 (:mod:`engine.io.store`), one at a time on one engine thread, with a checkpoint beside it
@@ -195,7 +197,7 @@ def curves(runs: dict[float, list]) -> dict:
     controls = {z: rs for z, rs in controls.items() if len(rs) >= 2}
     every = refs + [x for rs in controls.values() for x in rs]
     names = [n for n in NAMES if all(n in v for _, v in every)]
-    out = resolution_curves(refs, controls, names, 0.95)
+    out = resolution_curves(refs, controls, names, 0.95, pooled=True)
     for n, c in out["metrics"].items():
         c["needed"] = diameters_needed(c, DEFAULT_TOLERANCES[n])
     return out
@@ -217,7 +219,16 @@ def report() -> str:
         'standard errors" on 2026-12-04, after sizes 5 to 15 diameters (3 seeds) had been '
         "seen and before the 20-diameter runs and seeds 4 to 6 of the smaller sizes: the old "
         "check called linear properties not linear far more often than its stated rate "
-        "(docs/PHYSICS.md section 7.5 gives both rules' simulated rates).",
+        "(docs/PHYSICS.md section 7.5 gives both rules' simulated rates). The sizes' "
+        "spreads are pooled (`pooled=True`, `engine.study.resolution.size_noise`) since "
+        "2026-12-04, after the second 20-diameter seed: with each size on its own spread, "
+        "a size of two seeds set every interval's t quantile to one degree of freedom (the "
+        "linearity limit rose from about 3 to 76 and every interval widened several-fold), "
+        "so a size more made every answer worse. The pool's size scaling (variance as "
+        "(d / L)^2, never below a size's own spread) was chosen for a physical reason "
+        "stated in the module, after the sizes' own spreads had been seen and before the "
+        "pooled report was first made; its coverage was simulated for true scalings from "
+        "(d / L)^0 to (d / L)^5 (docs/PHYSICS.md section 7.5).",
         "",
         "| size [diameters across] | particles | seeds stored | failed at a peak | "
         "interior density | loading stiffness [MPa] | unloading stiffness [MPa] | "
@@ -267,26 +278,30 @@ def report() -> str:
         "size run was not enough for that property, so a particle must be finer than L / n "
         "(how much finer is not measured); 'at most n': every property held down to the "
         "coarsest size fitted, so L / n is a particle that is coarse enough to be safe "
-        "(coarser not measured)."
+        "(coarser not measured). A property off its line has no need of its own; it leaves "
+        "the answer undecided unless another property already needs more than the finest "
+        "size, an upper bound on the diameter that holds whatever it needs (listed as "
+        "'not linear')."
     )
     lines.append("")
     lines.append(
         "| feature width L [mm] | coarsest diameter [mm] | diameters across | set by | "
-        "bound | coarse-graining factor over the 5 mm reference diameter |"
+        "bound | coarse-graining factor over the 5 mm reference diameter | not linear |"
     )
-    lines.append("|---:|---:|---:|---|---|---:|")
+    lines.append("|---:|---:|---:|---|---|---:|---|")
     d_ref = 2 * reference().radius
     for width in FEATURES:
         a = coarsest_diameter(c, DEFAULT_TOLERANCES, width)
+        off = ", ".join(a.get("unresolved") or []) or "none"
         if a["diameter"] is None:
             lines.append(
-                f"| {1e3 * width:g} | not decided | | {a['limited_by']} | {a['bound']} | |"
+                f"| {1e3 * width:g} | not decided | | {a['limited_by']} | {a['bound']} | | {off} |"
             )
             continue
         rel = {"more_than": "below ", "at_most": "at least "}.get(a["bound"], "")
         lines.append(
             f"| {1e3 * width:g} | {rel}{1e3 * a['diameter']:.2f} | {a['diameters']:.1f} | "
-            f"{a['limited_by']} | {a['bound']} | {rel}{a['diameter'] / d_ref:.2f} |"
+            f"{a['limited_by']} | {a['bound']} | {rel}{a['diameter'] / d_ref:.2f} | {off} |"
         )
     return "\n".join(lines) + "\n"
 

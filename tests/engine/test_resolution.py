@@ -18,6 +18,7 @@ from engine.study.resolution import (
     diameters_needed,
     fit_curve,
     resolution_curves,
+    sources_df,
 )
 
 
@@ -180,6 +181,23 @@ def test_the_coarsest_particle_for_a_feature_is_set_by_the_most_demanding_proper
     assert coarsest_diameter({"metrics": {}}, {}, 0.05)["diameter"] is None
 
 
+def test_a_property_off_its_line_leaves_the_answer_open_unless_another_needs_more():
+    bent = fit_curve(_noisy_sizes(np.random.default_rng(13), -60.0, sd=1e-3), 0.95)
+    assert bent["linear"] is False
+    # density holds at every size run: the bent property leaves the answer undecided
+    curves = {"metrics": {"bent": bent, "density": fit_curve(_exact(-0.05), 0.95)}}
+    tol = {"bent": 0.15, "density": 0.03, "strength": 0.01}
+    out = coarsest_diameter(curves, tol, 0.05)
+    assert out["diameter"] is None and out["bound"] == "not_linear"
+    assert out["unresolved"] == ["bent"]
+    # strength needs more than the finest size (20 diameters): below L / 20 whatever the
+    # bent property needs
+    curves["metrics"]["strength"] = fit_curve(_exact(-1.0), 0.95)
+    out = coarsest_diameter(curves, tol, 0.05)
+    assert out["limited_by"] == "strength" and out["bound"] == "more_than"
+    assert out["diameter"] == pytest.approx(0.05 / 20.0) and out["unresolved"] == ["bent"]
+
+
 def _noisy_sizes(rng, curvature=0.0, across=(20.0, 15.0, 10.0, 6.67, 5.0), sd=0.05, seeds=3):
     """Sizes of a property log y = log 5 - 0.8 x + curvature x^2 (x = d / L) with normal
     seed noise ``sd`` in the logs."""
@@ -227,3 +245,64 @@ def test_the_smallest_samples_off_the_line_are_left_out_down_to_three_sizes():
     c = asymptotic_curve(ref_first, 0.95)
     assert c["left_out"] == [] and c["linear"] is False
     assert diameters_needed(c, 0.1)["bound"] == "not_linear"
+
+
+# the resolution benchmark's layout: the finest sizes have the fewest seeds
+_POOL_ACROSS, _POOL_SEEDS = (20.0, 15.0, 10.0, 8.0, 6.67, 5.0), (2, 3, 6, 6, 6, 6)
+
+
+def _scaled_sizes(rng, fall, slope=-1.5, sd_ref=0.03):
+    """Sizes on a line whose seed spread falls as (d / L)^(fall / 2) in sd."""
+    return [
+        {
+            "x": 1.0 / d,
+            "logs": math.log(10.0)
+            + slope / d
+            + rng.normal(0, sd_ref * (10.0 / d) ** (fall / 2), n),
+            "reference": d == 10.0,
+        }
+        for d, n in zip(_POOL_ACROSS, _POOL_SEEDS)
+    ]
+
+
+@pytest.mark.parametrize("fall", [0.0, 2.0, 4.0])
+def test_pooled_spreads_hold_their_level_whatever_the_true_size_scaling(fall):
+    # simulated (docs/PHYSICS.md section 7.5): the pool assumes a variance falling as
+    # (d / L)^2; truths that fall slower (0), as assumed (2) and faster (4, what the stored
+    # unloading stiffness and strength show) keep the bulk and offset intervals' 95 % and
+    # the linearity check's 5 % false alarms
+    rng = np.random.default_rng(int(fall) + 21)
+    n = 800
+    hit_bulk = hit_off = alarms = 0
+    for _ in range(n):
+        c = fit_curve(_scaled_sizes(rng, fall), 0.95, pooled=True)
+        lo, hi = c["bulk_interval"]
+        hit_bulk += lo <= 10.0 <= hi
+        lo, hi = c["reference_offset_interval"]
+        hit_off += lo <= math.expm1(-0.15) <= hi
+        alarms += c["linear"] is False
+    floor = 0.95 - 3 * math.sqrt(0.05 * 0.95 / n)
+    assert hit_bulk / n >= floor and hit_off / n >= floor, (hit_bulk / n, hit_off / n)
+    assert alarms / n <= LINEARITY_ALPHA + 3 * math.sqrt(0.05 * 0.95 / n), alarms / n
+
+
+def test_pooled_spreads_buy_power_that_a_two_seed_size_takes_away():
+    # with own spreads a size of two seeds sets every interval's t to one degree of freedom;
+    # pooled, the reference's offset interval is several times narrower (simulated widths)
+    rng = np.random.default_rng(31)
+    own, pooled = [], []
+    for _ in range(300):
+        sizes = _scaled_sizes(rng, 2.0)
+        for out, p in ((own, False), (pooled, True)):
+            lo, hi = fit_curve(sizes, 0.95, pooled=p)["reference_offset_interval"]
+            out.append(hi - lo)
+    assert np.median(pooled) < 0.4 * np.median(own), (np.median(pooled), np.median(own))
+    c = fit_curve(_scaled_sizes(rng, 2.0), 0.95, pooled=True)
+    assert c["pooled"] and len(c["pooled_sizes"]) >= 2
+    assert c["reference_offset_df"] > 5  # the pool's, not the two-seed size's one
+
+
+def test_sources_df_reduces_to_the_groups_rule():
+    assert sources_df([1.0, 4.0], [0.5, 0.5]) == 1  # a source of one dof: its own
+    assert sources_df([12.0, 5.0], [0.5, 0.5]) == pytest.approx(10.0)
+    assert contrast_df([6, 6], [0.5, 0.5]) == sources_df([5, 5], [0.5, 0.5])

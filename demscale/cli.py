@@ -1035,6 +1035,7 @@ def calibrate_cmd(args) -> int:
         snapshots=False,
         quiet=False,
         backend=None,
+        shear=None,
     )
     return max(code, study(ns))
 

@@ -117,7 +117,8 @@ def yield_locus(sigma, tau, sigma_pre: float, tau_pre: float) -> YieldLocus:
     """The yield locus through the shear points (``sigma``, ``tau``) [Pa] and its Mohr
     circles with the pre-shear point (``sigma_pre``, ``tau_pre``) [Pa] (the module's
     construction). Raises ValueError for a locus that does not rise with the normal
-    stress (phi <= 0: no Mohr construction), naming its slope."""
+    stress (phi <= 0: no Mohr construction), naming its slope, and for a pre-shear point so
+    far below the locus that its consolidation circle would be centred at p <= 0."""
     c, m, se_c, se_m = fit_line(sigma, tau)
     if not m > 0:
         points = ", ".join(f"({float(s):.1f}, {float(t):.1f})" for s, t in zip(sigma, tau))
@@ -129,6 +130,15 @@ def yield_locus(sigma, tau, sigma_pre: float, tau_pre: float) -> YieldLocus:
         )
     sc = unconfined_yield_strength(c, m)
     p, r, above = consolidation_circle(c, m, sigma_pre, tau_pre)
+    if not p > 0:
+        below = c + m * sigma_pre - tau_pre
+        raise ValueError(
+            f"no consolidation circle: the pre-shear point (sigma_pre, tau_pre) = "
+            f"({sigma_pre:.1f}, {tau_pre:.1f}) Pa lies {below:.1f} Pa below the yield locus "
+            f"tau = {c:.1f} Pa + {m:.4g} sigma, so far that the Mohr circle through it tangent "
+            f"to the locus is centred at p = {p:.1f} Pa <= 0 (a pre-shear short of steady "
+            "flow, or a locus whose cohesion its pre-shear stress cannot carry)"
+        )
     s1, s2 = p + r, p - r
     return YieldLocus(
         cohesion=c,

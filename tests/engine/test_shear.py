@@ -123,6 +123,12 @@ def test_the_line_fit_and_its_refusals():
         fit_line([1e3, 1e3], [1.0, 2.0])
     with pytest.raises(ValueError, match="not > 0"):
         yield_locus([1e3, 2e3], [900.0, 800.0], 10e3, 5e3)
+    # the helper's wet-bead run: cohesion 3922 Pa, tan(phi) 0.281, pre-shear point (1959,
+    # 2482) Pa far below the locus: the circle would be centred at p < 0 (was a bare "math
+    # domain error" from asin)
+    sig = [500.0, 1000.0, 1500.0]
+    with pytest.raises(ValueError, match="no consolidation circle.*centred at p = -"):
+        yield_locus(sig, [3922.0 + 0.281 * x for x in sig], 1959.0, 2482.0)
 
 
 # ---------------------------------------------------------------------- driven grains

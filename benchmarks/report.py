@@ -59,6 +59,14 @@ _COLS = (
 )
 
 
+def resolution_answer() -> str:
+    """The resolution benchmark's coarsest-particle sentence from its stored runs
+    (:func:`benchmarks.resolution.answer`)."""
+    from benchmarks.resolution import answer
+
+    return answer()
+
+
 def _pct(x, signed=False):
     if x is None:
         return "-"
@@ -720,7 +728,9 @@ def write_report(
                 "experiments re-run at the default protocol in "
                 "[VALIDATION_paper_default.md](VALIDATION_paper_default.md); the "
                 "resolution curve of the main job's reference law, how many diameters across "
-                "each property needs, in [RESOLUTION.md](RESOLUTION.md).",
+                "each property needs, in [RESOLUTION.md](RESOLUTION.md): "
+                + resolution_answer()
+                + ".",
                 "",
             ]
             if seed_paper

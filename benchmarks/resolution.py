@@ -203,6 +203,35 @@ def curves(runs: dict[float, list]) -> dict:
     return out
 
 
+def answer() -> str:
+    """One sentence: the coarsest particle for a feature L wide from the stored runs (what
+    docs/VALIDATION.md quotes), or why there is none yet."""
+    runs = groups()
+    c = curves(runs)
+    a = coarsest_diameter(c, DEFAULT_TOLERANCES, 1.0)
+    if a["diameters"] is None:
+        return (
+            f"the coarsest particle is not decided yet ({a['limited_by']}: {a['bound']}; "
+            "docs/RESOLUTION.md)"
+        )
+    n, name = a["diameters"], a["limited_by"]
+    tol = 100 * DEFAULT_TOLERANCES[name]
+    if a["bound"] == "more_than":
+        what = (
+            f"{name} needs more than {n:.0f} diameters across (the finest size run) to be "
+            f"within {tol:g} % of the bulk, so a feature L wide takes particles below L / {n:.0f}"
+        )
+    elif a["bound"] == "at_most":
+        what = f"every property holds down to {n:.0f} diameters across, the coarsest size run"
+    else:
+        what = f"{name} sets it: a feature L wide takes particles up to L / {n:.1f}"
+    off = a.get("unresolved") or []
+    if off:
+        what += f" ({', '.join(off)} not linear in d / L: no need of its own)"
+    sizes = ", ".join(f"{z:.3g}" for z in sorted(runs))
+    return f"from sizes {sizes} diameters across, {what}"
+
+
 def report() -> str:
     runs = groups()
     lines = [

@@ -25,6 +25,12 @@ engine):
 6. **check**: the posterior median is run once more, and each target is *met* when the run is
    within two standard deviations (laboratory and seed scatter together); a target not met
    is named with how far off it is.
+
+Two guards for real data (issue 41 item 4): a strength is read only from a sample that
+failed at a peak (one that hardened to the strain limit gives no value, and a target most
+design runs give no value for is refused, naming it); and where the model at its best is
+further from the data than their errors allow, the posterior's variances are widened by the
+Birge ratio (:func:`model_discrepancy`), stated in the result.
 """
 
 from __future__ import annotations
@@ -258,15 +264,19 @@ def measure(results: dict, base: UniaxialTest, targets: LabTargets) -> list[dict
             )
     for p in targets.strength:
         r = results[p.consolidation_stress]
-        out.append(
-            {
-                "name": f"strength@{p.consolidation_stress:g}Pa",
-                "lab": p.strength,
-                "sd": p.sd,
-                "value": float(r.scalars["unconfined_strength"]),
-                "unit": "Pa",
-            }
-        )
+        # a strength is the peak of a sample that failed; one that hardened to the strain
+        # limit has a stress there, not a strength (docs/FAILURE.md): no value
+        peaked = bool(r.scalars.get("unconfined_failure", 1.0))
+        row = {
+            "name": f"strength@{p.consolidation_stress:g}Pa",
+            "lab": p.strength,
+            "sd": p.sd,
+            "value": float(r.scalars["unconfined_strength"]) if peaked else math.nan,
+            "unit": "Pa",
+        }
+        if not peaked:
+            row["no_peak"] = True
+        out.append(row)
     return out + shear if targets.shear else out
 
 
@@ -502,7 +512,9 @@ class Calibration:
     (:func:`_posterior`: samples in the law's units and the parameters' correlation, which
     shows pairs the data determine only together), ``test`` (the calibrated test: the base
     test with :attr:`law`), ``shear_test`` (the shear cell of shear targets: a shear test's
-    fields but the law and stresses, JSON; None without)."""
+    fields but the law and stresses, JSON; None without), ``discrepancy`` (the model's
+    distance from the data at its best and the inflation applied:
+    :func:`model_discrepancy`)."""
 
     law: object
     parameters: dict
@@ -515,6 +527,7 @@ class Calibration:
     posterior: dict = field(default_factory=dict)
     test: UniaxialTest | None = None
     shear_test: dict | None = None
+    discrepancy: dict | None = None
 
     @property
     def all_met(self) -> bool:
@@ -552,11 +565,32 @@ class Calibration:
             "resolution": {k: list(v) for k, v in self.resolution.items()},
             "posterior": self.posterior,
             "shear_test": self.shear_test,
+            "discrepancy": self.discrepancy,
         }
 
 
 def _emulators(u: np.ndarray, ys: np.ndarray) -> list[GP]:
-    return [GP(u, ys[:, j], seed=j) for j in range(ys.shape[1])]
+    """One GP per quantity, each on the runs that gave it a value (a strength only from
+    samples that failed at a peak: :func:`measure`)."""
+    out = []
+    for j in range(ys.shape[1]):
+        ok = np.isfinite(ys[:, j])
+        out.append(GP(u[ok], ys[ok, j], seed=j))
+    return out
+
+
+def _short_quantities(quantities: list[dict], ys: np.ndarray, d: int) -> list[str]:
+    """Quantities too few runs gave a value to emulate (fewer than d + 2: a strength where
+    most samples hardened instead of failing), in words."""
+    short = []
+    for j, q in enumerate(quantities):
+        n = int(np.isfinite(ys[:, j]).sum())
+        if n < d + 2:
+            short.append(
+                f"{q['name']}: {n} of {len(ys)} runs gave a value (a strength only from a "
+                "sample that failed at a peak; docs/FAILURE.md)"
+            )
+    return short
 
 
 def _predict(gps: list[GP], u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -816,6 +850,7 @@ def calibrate(
     resolution: dict | None = None,
     shear_test=None,
     vary_seed: bool = False,
+    discrepancy: bool = True,
 ) -> Calibration:
     """Calibrate ``base_test``'s pair law to ``targets`` over ``parameters`` ({name: (low,
     high)} in the law's units) with ``runs`` design runs and ``waves`` waves of ``wave_runs``
@@ -853,6 +888,11 @@ def calibrate(
             run packs with the tests' own seed, as before (stored calibrations resume); a
             single packing's offset from the mean is then read as a change of the law
             (docs/CALIBRATION.md, the shear twin with kadh: mu_s's miss).
+        discrepancy: where the model at its best misses the data by more than their stated
+            errors (Birge ratio S > 1, :func:`model_discrepancy`), widen the laboratory and
+            seed variances by S^2 before the posterior is sampled (default). False: the
+            posterior as if the model could match the data exactly (a twin experiment, whose
+            data the same model made); the ratio is reported either way.
 
     Uniaxial targets run the uniaxial test (its branches), shear targets one shear test
     per locus (:mod:`engine.calibration.forward`); a data set with both runs both for every
@@ -1006,6 +1046,16 @@ def calibrate(
         y = np.array([[q["value"] for q in qs] for _, qs, _ in done])
         return u, _floor_log(y, lab)
 
+    short = _short_quantities(quantities, data()[1], d)
+    if short:
+        raise ParameterError(
+            "calibrate.targets",
+            "strength",
+            "targets the design runs give values for",
+            "; ".join(short)
+            + ": a strength target needs a consolidation stress and a law whose samples fail",
+        )
+
     for wave in range(1, waves + 1):
         u, y = data()
         gps = _emulators(u, y)
@@ -1032,6 +1082,14 @@ def calibrate(
     u, y = data()
     gps = _emulators(u, y)
     samples = _metropolis(gps, z, lab_var, d, rng)
+    fit = model_discrepancy(gps, z, lab_var, samples, quantities, d)
+    if discrepancy and fit["scale"] > 1.0:
+        # the model cannot match the data within their stated errors: widen them by the
+        # Birge ratio, so that the posterior claims no more than the model can match
+        s2 = fit["scale"] ** 2
+        noise_q = np.array([g.noise for g in gps])
+        samples = _metropolis(gps, z, s2 * lab_var + (s2 - 1.0) * noise_q, d, rng)
+        fit["applied"] = True
     med = np.median(samples, axis=0)
     law = _law(law0, axes, med)
     params = {}
@@ -1072,9 +1130,15 @@ def calibrate(
         corr = q.get("correction_sd", 0.0) * q["lab"]
         sd = math.sqrt(q["sd"] ** 2 + noise[j] * q["lab"] ** 2 + corr**2)
         zscore = (q["value"] - q["lab"]) / sd if sd > 0 else math.inf
-        if not math.isfinite(q["value"]):  # the check run failed
+        if not math.isfinite(q["value"]):  # the check run failed, or its sample hardened
             met.append({**q, "seed_sd": math.sqrt(noise[j]) * q["lab"], "z": None, "met": False})
-            missed.append(f"{q['name']}: the check run failed ({checked})")
+            if q.get("no_peak"):
+                missed.append(
+                    f"{q['name']}: the check run's sample did not fail at a peak (it hardened "
+                    "to the strain limit: no strength; docs/FAILURE.md)"
+                )
+            else:
+                missed.append(f"{q['name']}: the check run failed ({checked})")
             continue
         row = {**q, "seed_sd": math.sqrt(noise[j]) * q["lab"], "z": zscore, "met": abs(zscore) <= 2}
         met.append(row)
@@ -1103,7 +1167,43 @@ def calibrate(
         posterior,
         check_test,
         cell_summary(shear[0]) if shear else None,
+        fit,
     )
+
+
+def model_discrepancy(gps, z, lab_var, samples, quantities, d: int) -> dict:
+    r"""How far the model, at its best, is from the data: the Birge ratio (Birge 1932; the
+    Particle Data Group's scale factor) of the emulators' means at the posterior median,
+
+    .. math:: S^2 = \frac{1}{m - d} \sum_j \frac{(\mu_j - z_j)^2}{V_j + \sigma_j^2 +
+              \nu_j},
+
+    over the m targets (logs) with d parameters. A model that can match the data within
+    their stated errors (laboratory sd, seed scatter, emulator variance) gives S near 1; a
+    real powder a sphere model cannot match gives S > 1, and :func:`calibrate` then widens
+    the laboratory and seed variances by S^2 (``scale`` S) and samples the posterior again,
+    so that its intervals claim no more than the model can match (an inflation stated in the
+    result, in place of a model-discrepancy term whose size nobody knows before the fit).
+    With no more targets than parameters (m <= d) S cannot be estimated: ``scale`` 1.
+    Returns ``ratio`` (S^2 or None), ``dof`` (m - d), ``scale`` (max(1, S)), ``applied``
+    (False here; :func:`calibrate` sets it), and ``worst`` (the three targets that
+    contribute most, name and standardised residual)."""
+    med = np.median(samples, axis=0)[None]
+    mu, var, noise = _predict(gps, med)
+    r = (mu[0] - z) / np.sqrt(var[0] + lab_var + noise)
+    dof = len(z) - d
+    order = np.argsort(-np.abs(r))[:3]
+    worst = [{"name": quantities[j]["name"], "z": float(r[j])} for j in order]
+    if dof < 1:
+        return {"ratio": None, "dof": dof, "scale": 1.0, "applied": False, "worst": worst}
+    ratio = float(np.sum(r**2) / dof)
+    return {
+        "ratio": ratio,
+        "dof": dof,
+        "scale": max(1.0, math.sqrt(ratio)),
+        "applied": False,
+        "worst": worst,
+    }
 
 
 #: Posterior samples kept in the result (evenly thinned).

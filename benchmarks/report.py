@@ -45,6 +45,7 @@ import numpy as np
 
 import engine
 from benchmarks.experiments import CAPPED
+from engine.io.figures import UNIAXIAL_KINDS
 from engine.study.plan import adaptive_summary, final_look, plan_runs, stored_plan_runs
 from engine.study.results import assemble
 from engine.uniaxial.measures import overburden_ratio
@@ -860,14 +861,7 @@ def write_report(
             ]
         lines += [
             f"![{k}]({fig}/{k}.png)"
-            for k in (
-                "stress_strain",
-                "stress_porosity",
-                "coordination",
-                "unconfined",
-                "error_vs_runtime",
-                "resolution",
-            )
+            for k in UNIAXIAL_KINDS
             if (k != "unconfined" or res.spec.reference.unconfined)
             and (k != "resolution" or res.advisor.get("resolution_curve"))
         ]

@@ -273,9 +273,23 @@ _STEPS_CAP = {
 }
 
 
-def check_costs(costs: list[cost.RunCost], settings: Settings, kind: str = "study") -> None:
+#: What bounds each stage of a test in the worst case (the refusal names them).
+UNIAXIAL_BOUNDS = "max_stage_time, the platen travel, release_time, max_unconfined_strain"
+SHEAR_BOUNDS = (
+    "the fill and consolidation's max_stage_time and platen travel, preshear_strain, "
+    "failure_strain, and max_stage_time for each reversal and normal-stress stage"
+)
+
+
+def check_costs(
+    costs: list[cost.RunCost],
+    settings: Settings,
+    kind: str = "study",
+    bounds: str = UNIAXIAL_BOUNDS,
+) -> None:
     """The job's worst-case particle-steps and curve samples against their caps (``kind``:
-    a ``study`` or a ``calibration``, each with its particle-steps cap)."""
+    a ``study`` or a ``calibration``, each with its particle-steps cap; ``bounds``: what
+    bounds its stages, :data:`UNIAXIAL_BOUNDS` or a shear study's :data:`SHEAR_BOUNDS`)."""
     attr, env, advice = _STEPS_CAP[kind]
     cap = getattr(settings, attr)
     where = "reference" if kind == "study" else "test"
@@ -287,8 +301,7 @@ def check_costs(costs: list[cost.RunCost], settings: Settings, kind: str = "stud
                 _error(
                     (),
                     f"the {kind} could take {steps:.3g} particle-steps at worst (every stage "
-                    f"to its bound: max_stage_time, the platen travel, release_time, "
-                    f"max_unconfined_strain; the largest run {worst.key}: "
+                    f"to its bound: {bounds}; the largest run {worst.key}: "
                     f"{worst.particle_steps:.3g}); the limit is {cap:.3g} ({env}): {advice}",
                     steps,
                 )
@@ -488,9 +501,10 @@ def admit_spec(data: dict, settings: Settings) -> Admitted:
         raise _too_many_particles(loc, biggest.key, n, settings)
     if isinstance(spec.reference, engine.ShearTest):
         costs = shear_study_costs(study)
-    else:
-        _check_bounds(spec.reference.to_dict(), data=data)
-        costs = cost.worst_case(spec.to_dict())
+        check_costs(costs, settings, bounds=SHEAR_BOUNDS)
+        return Admitted(study, costs)
+    _check_bounds(spec.reference.to_dict(), data=data)
+    costs = cost.worst_case(spec.to_dict())
     check_costs(costs, settings)
     return Admitted(study, costs)
 

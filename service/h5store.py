@@ -9,7 +9,14 @@ from pathlib import Path
 
 import h5py
 
-from engine.io.store import SCHEMA, SCHEMA_VERSION, StoreRefused, save_study, stage_names
+from engine.io.store import (
+    SCHEMA,
+    SCHEMA_VERSION,
+    StoreRefused,
+    save_study,
+    stage_names,
+    strict_json,
+)
 
 __all__ = [
     "SCHEMA",
@@ -61,7 +68,8 @@ def read_runs(
     ``{key: {"label", "reference", "radius", "rule", "seed", "stages": {stage: {curve:
     array}}}}``; a shear study's run also ``"points"`` (its yield points, the pre-shear
     point first: kind, target, sigma, tau, strain, peaked) and ``"locus"`` (the fitted
-    yield locus: cohesion, slope, friction_angle, sigma_1, sigma_c, ffc, ...); with
+    yield locus: cohesion, slope, friction_angle, sigma_1, sigma_c, ffc (null where
+    sigma_c = 0: infinite), ...); with
     ``with_units`` also ``"units": {curve: unit}`` at the top level. Raises KeyError
     naming what is missing."""
     out: dict = {}
@@ -84,8 +92,10 @@ def read_runs(
                 "stages": {},
             }
             if "shear_points" in g.attrs:  # a shear run (engine.io.store)
-                entry["points"] = json.loads(g.attrs["shear_points"])
-                entry["locus"] = json.loads(g.attrs["locus"])
+                # strict JSON: an infinite ffc (sigma_c = 0) as null, also in a file stored
+                # before engine.io.store wrote it so (Python's json wrote Infinity)
+                entry["points"] = json.loads(strict_json(json.loads(g.attrs["shear_points"])))
+                entry["locus"] = json.loads(strict_json(json.loads(g.attrs["locus"])))
             for s in stages:
                 if s not in present:
                     if run is not None or stage is None:

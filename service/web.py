@@ -75,12 +75,15 @@ SHEAR_HIDDEN = frozenset({"overburden_ratio"})
 
 
 def cell(value, scale: float | None, fmt: str) -> str:
-    """One table cell: scaled and formatted; a dash for a missing or non-finite number."""
+    """One table cell: scaled and formatted; a dash for a missing number or NaN, the sign
+    of infinity for an infinite one (a shear run's ffc where sigma_c = 0)."""
     if value is None:
         return "-"
     if isinstance(value, (int, float)) and not isinstance(value, bool):
-        if not math.isfinite(value):
+        if math.isnan(value):
             return "-"
+        if math.isinf(value):
+            return "∞" if value > 0 else "-∞"
         if scale is not None:
             value = value * scale
     return fmt.format(value)
@@ -165,10 +168,12 @@ def study_page(
             missing = "the results file of this study is gone"
     table = []
     if summary is not None:
-        # each run's kernel compilation (set-up), kept out of its run time and speed-up
-        setup = h5store.read_run_scalars(path, ("setup_time",))
-        rows = [{**row, **setup.get(row.get("run"), {})} for row in summary["table"]]
-        hidden = SHEAR_HIDDEN if is_shear_table(rows) else frozenset()
+        # each run's kernel compilation (set-up), kept out of its run time and speed-up; a
+        # shear run's ffc as stored (the summary's JSON has null where it is infinite)
+        shear = is_shear_table(summary["table"])
+        stored = h5store.read_run_scalars(path, ("setup_time", "ffc") if shear else ("setup_time",))
+        rows = [{**row, **stored.get(row.get("run"), {})} for row in summary["table"]]
+        hidden = SHEAR_HIDDEN if shear else frozenset()
         cols = [c for c in RUN_COLUMNS if c[0] not in hidden and any(c[0] in row for row in rows)]
         table = [[cell(row.get(k), s, f) for k, _, s, f in cols] for row in rows]
         headings = [h for _, h, _, _ in cols]

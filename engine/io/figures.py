@@ -46,7 +46,7 @@ UNIAXIAL_KINDS = (
 )
 SHEAR_KINDS = ("yield_locus", "preshear", "error_vs_runtime", "resolution")
 #: Bumped when a figure's drawing changes, so that cached PNGs are drawn again.
-FIGURES_VERSION = 5
+FIGURES_VERSION = 6
 
 #: Kinds drawn from the advisor on a whole figure (several panels), not from the curves.
 _WHOLE_FIGURE = ("error_vs_runtime", "resolution")
@@ -234,7 +234,8 @@ def _yield_loci(ax, runs: dict, table: list[dict]) -> None:
     resolution control, the protocol check): the points of incipient failure (circles) and
     the pre-shear point (triangle), each the mean over the group's seeds with 1 sd bars in
     both stresses, and the mean of the seeds' fitted lines c + sigma tan(phi) from sigma = 0
-    to the pre-shear point with a band of 1 sd of the lines over the seeds."""
+    to the pre-shear point with a band of 1 sd of the lines over the seeds; the references'
+    Mohr circles (:func:`_mohr_circles`)."""
     kpa = 1e-3
     for i, (label, keys) in enumerate(_groups(runs, table).items()):
         members = [runs[k] for k in keys if runs[k].get("points")]
@@ -297,12 +298,47 @@ def _yield_loci(ax, runs: dict, table: list[dict]) -> None:
             0.5, 0.5, "no run of this study is a shear test", ha="center", transform=ax.transAxes
         )
         return
+    _mohr_circles(ax, [r["locus"] for r in runs.values() if r["reference"] and r.get("locus")])
     ax.errorbar([], [], fmt="o", color="0.3", label="incipient failure (mean ± 1 sd)")
     ax.errorbar([], [], fmt="^", mfc="none", color="0.3", label="pre-shear (steady flow)")
     ax.set_xlim(left=0)
     ax.set_ylim(bottom=min(0.0, ax.get_ylim()[0]))
     ax.set_xlabel("normal stress sigma [kPa]")
     ax.set_ylabel("shear stress tau [kPa]")
+
+
+def _mohr_circles(ax, loci: list[dict]) -> None:
+    """The references' two Mohr circles (upper halves, dashed) from their loci's means over
+    seeds: the unconfined yield circle through 0 and sigma_c, and the consolidation circle
+    through sigma_2 and sigma_1 (tangent to the locus, through the pre-shear point), their
+    stresses [kPa] in the legend; the unconfined circle is left out where sigma_c = 0 (no
+    cohesion)."""
+    if not loci:
+        return
+    kpa = 1e-3
+    mean = {k: float(np.mean([lo[k] for lo in loci])) * kpa for k in ("sigma_1", "sigma_2")}
+    sigma_c = float(np.mean([lo["sigma_c"] for lo in loci])) * kpa
+    theta = np.linspace(0.0, np.pi, 90)
+    circles = [(mean["sigma_2"], mean["sigma_1"])]
+    label = f"reference's Mohr circles: sigma_1 {mean['sigma_1']:.3g} kPa"
+    if sigma_c > 0:
+        circles.insert(0, (0.0, sigma_c))
+        label = (
+            f"reference's Mohr circles: sigma_c {sigma_c:.3g}, sigma_1 {mean['sigma_1']:.3g} kPa"
+        )
+    else:
+        label += " (sigma_c = 0)"
+    for i, (lo, hi) in enumerate(circles):
+        p, r = 0.5 * (lo + hi), 0.5 * (hi - lo)
+        ax.plot(
+            p + r * np.cos(theta),
+            r * np.sin(theta),
+            color="black",
+            ls="--",
+            lw=0.9,
+            zorder=2,
+            label=label if i == 0 else None,
+        )
 
 
 def _metric_bias(m: dict | None) -> tuple[float, float, float] | None:
@@ -714,6 +750,15 @@ def draw(ax, kind: str, runs: dict, table: list[dict]) -> None:
             fontsize=8,
             title=titles.get(kind, "solid: loading, dashed: unloading"),
             title_fontsize=7,
+        )
+    elif kind in UNIAXIAL_KINDS and is_shear_table(table):
+        ax.text(
+            0.5,
+            0.5,
+            "a shear study: this plot is of the uniaxial test's stages\n"
+            f"(its plots: {', '.join(kinds_of(table))})",
+            ha="center",
+            transform=ax.transAxes,
         )
     else:
         ax.text(

@@ -22,7 +22,9 @@ A shear test's run (:class:`engine.ShearResult`, a shear study's) has the same l
 ``part`` "consolidation", with particles) and then the shear stages (``part`` "shear", the
 curves of :data:`engine.shear.results.SHEAR_CURVE_UNITS`), and the attrs ``shear_points``
 (JSON: the pre-shear point, then each point of incipient failure) and ``locus`` (JSON: the
-fitted yield locus) hold what the curves were read into.
+fitted yield locus) hold what the curves were read into. Both are strict JSON (RFC 8259):
+the ffc of a locus without cohesion (sigma_c = 0), infinite, is stored as null and read
+back as infinity.
 """
 
 from __future__ import annotations
@@ -89,8 +91,8 @@ def write_run_group(g, outcome, keep_particles: bool = True) -> None:
         curve_units = {**CURVE_UNITS, **SHEAR_CURVE_UNITS}
         scalar_units = {**SCALAR_UNITS, **SHEAR_SCALAR_UNITS}
         g.attrs["test"] = json.dumps({"type": "ShearTest", **outcome.test.to_dict()})
-        g.attrs["shear_points"] = json.dumps(outcome.yield_points())
-        g.attrs["locus"] = json.dumps(outcome.locus.to_dict())
+        g.attrs["shear_points"] = strict_json(outcome.yield_points())
+        g.attrs["locus"] = strict_json(outcome.locus.to_dict())
         stages = [(n, st, "consolidation") for n, st in outcome.consolidation.items()]
         stages += [(n, st, "shear") for n, st in outcome.stages.items()]
     else:
@@ -148,7 +150,10 @@ def _read_shear_group(g, test: dict):
         for p in json.loads(g.attrs["shear_points"])
         if p["kind"] == "failure"
     )
-    locus = YieldLocus(**json.loads(g.attrs["locus"]))
+    locus = json.loads(g.attrs["locus"])
+    if locus.get("ffc") is None:  # stored as null: sigma_c = 0, ffc infinite
+        locus["ffc"] = float("inf")
+    locus = YieldLocus(**locus)
     return ShearResult(ShearTest.from_dict(test), consolidation, stages, points, locus, scalars)
 
 

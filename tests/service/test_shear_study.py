@@ -46,7 +46,7 @@ def _files(settings) -> list:
     return sorted(p for p in settings.data_dir.rglob("*") if p.is_file())
 
 
-def test_a_shear_study_runs_in_the_worker_and_shows_its_loci(client, settings):
+def test_a_shear_study_runs_in_the_worker_and_shows_its_loci(client, settings, tmp_path):
     from service.worker import Worker
 
     r = client.post("/studies", json=SHEAR_STUDY)
@@ -93,6 +93,59 @@ def test_a_shear_study_runs_in_the_worker_and_shows_its_loci(client, settings):
     ref = load_run(settings.runs_dir(sid) / "ref-s1.h5")
     assert isinstance(ref, engine.ShearResult) and ref.test.normal_stresses == (3e3, 7e3)
     assert ref.scalars["cohesion"] == pytest.approx(rows["ref-s1"]["cohesion"])
+    # the yield-locus figure has the references' Mohr circles (sigma_c, sigma_1 judged);
+    # a uniaxial plot of a shear study says what the study's plots are
+    from engine.io.figures import figure
+    from service.h5store import read_plot_data
+
+    data = read_plot_data(settings.results_path(sid))
+    labels = figure("yield_locus", *data).axes[0].get_legend_handles_labels()[1]
+    assert any(lb.startswith("reference's Mohr circles: sigma_c") for lb in labels), labels
+    texts = [x.get_text() for x in figure("stress_strain", *data).axes[0].texts]
+    assert any("a shear study" in x and "yield_locus" in x for x in texts), texts
+    _cohesionless_and_failed(client, settings, sid, tmp_path)
+
+
+def _cohesionless_and_failed(client, settings, sid: str, tmp_path) -> None:
+    """A locus without cohesion has sigma_c = 0 and an infinite ffc (a cohesionless
+    material's coarse run did in a trial): stored as strict JSON and read back as infinity;
+    a file with Python's ``Infinity`` (stored before) still gives finite JSON curves, not a
+    500; the page shows ffc as infinite and lists a failed run with its reason. The study
+    ``sid`` is the worker test's, its file edited here (no second worker run)."""
+    import dataclasses
+    import json
+    import math
+
+    import h5py
+
+    from engine.io.store import load_run, read_run_group, write_run_group
+
+    ref = load_run(settings.runs_dir(sid) / "ref-s1.h5")
+    free = dataclasses.replace(ref, locus=dataclasses.replace(ref.locus, ffc=math.inf))
+
+    def strict(text: str):
+        return json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in stored JSON"))
+
+    with h5py.File(tmp_path / "free.h5", "w") as f:
+        write_run_group(f, free)
+        assert strict(f.attrs["locus"])["ffc"] is None
+        strict(f.attrs["shear_points"])
+        assert read_run_group(f).locus.ffc == math.inf
+    path = settings.results_path(sid)
+    reason = "StageError: the yield locus: the yield locus's slope tan(phi) = -0.58 is not > 0"
+    with h5py.File(path, "r+") as f:
+        g = f["runs/ref-s1"]
+        g.attrs["locus"] = json.dumps(free.locus.to_dict())  # Infinity, as stored before
+        g["scalars"].attrs["ffc"] = math.inf
+        summary = json.loads(f.attrs["summary"])
+        summary["failed"] = {"ref-s9": reason}
+        f.attrs["summary"] = json.dumps(summary)
+    r = client.get(f"/studies/{sid}/curves")
+    assert r.status_code == 200, r.text
+    assert r.json()["runs"]["ref-s1"]["locus"]["ffc"] is None
+    page = client.get(f"/studies/{sid}/page").text
+    assert '<td class="num">∞</td>' in page
+    assert "Failed runs" in page and "ref-s9" in page and "slope tan(phi) = -0.58" in page
 
 
 def _changed(change) -> dict:
@@ -187,6 +240,8 @@ def test_a_shear_studys_worst_case_counts_against_the_caps(client, settings):
     with TestClient(create_app(settings.model_copy(update=cap)), headers=AUTH) as c:
         r = c.post("/studies", json=SHEAR_STUDY)
         assert r.status_code == 422 and "DEMSCALE_MAX_PARTICLE_STEPS" in r.text, r.text
+        # the bounds named are the shear test's, not the uniaxial test's
+        assert "preshear_strain, failure_strain" in r.text and "release_time" not in r.text
         # decide adds seeds: its worst case grows with the caps on them
         more = {**SHEAR_STUDY, "decide": True, "max_seeds": 6, "max_reference_seeds": 6}
         r = c.post("/studies", json={**more, "name": "decide"})

@@ -388,6 +388,8 @@ def study(args) -> int:
 def _shear_test(path: Path):
     """The :class:`engine.ShearTest` in the JSON file ``path`` (its fields; a ``"type"``, if
     given, must be "ShearTest")."""
+    import dataclasses
+
     import engine
     from engine.core.records import from_dict
 
@@ -397,6 +399,13 @@ def _shear_test(path: Path):
     kind = raw.pop("type", "ShearTest")
     if kind != "ShearTest":
         raise ValueError(f'type = {kind!r}: a shear test is "ShearTest"')
+    study_fields = sorted(set(raw) & {f.name for f in dataclasses.fields(engine.StudySpec)})
+    if study_fields:  # e.g. the study's own spec given twice
+        raise ValueError(
+            f"it has the study fields {study_fields}: --shear takes one shear test's fields "
+            "(engine.ShearTest's: cell, pair_law, normal_stresses, ...), the study's design "
+            "is SPEC.json"
+        )
     if "pair_law" not in raw:
         raise ValueError(
             "pair_law: required (the shear test's particle-particle law: no study runs the "

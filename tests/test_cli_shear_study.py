@@ -96,6 +96,10 @@ def test_the_shear_reference_in_the_spec_and_its_errors(tmp_path, capsys):
     assert "the study's reference radius 0.0025 m" in capsys.readouterr().err
     assert main(["study", spec, "--shear", str(tmp_path / "missing.json"), "-o", out]) == 2
     assert "cannot read" in capsys.readouterr().err
+    # a study spec given as the shear test: said so, not "pair_law: required"
+    assert main(["study", spec, "--shear", spec, "-o", out]) == 2
+    err = capsys.readouterr().err
+    assert "the study fields ['coarse_radii'" in err and "required" not in err
     # a spec's uniaxial reference with --shear: the same design on the shear test (its
     # radius); the shear test runs on the CPU only
     same = _write(tmp_path / "same.json", SHEAR)

@@ -14,6 +14,7 @@ from fastapi.testclient import TestClient
 import engine
 from engine.core.records import describe
 from service.app import create_app
+from service.routes.results import StageKind
 from service.spec import SHEAR_EXAMPLE
 
 from .conftest import AUTH
@@ -74,6 +75,9 @@ def test_a_shear_study_runs_in_the_worker_and_shows_its_loci(client, settings, t
         assert [p["target"] for p in run["points"][1:]] == [3e3, 7e3]
         assert run["locus"]["cohesion"] == pytest.approx(rows[key]["cohesion"])
         assert "preshear" in run["stages"] and "point1_shear" in run["stages"]
+        # every stage the engine stored can be asked for by name (the service's list of the
+        # shear stages is its own copy of engine.shear.driver's names)
+        assert set(run["stages"]) <= {s.value for s in StageKind}, key
     assert curves["units"]["shear_stress"] == "Pa"
     one = client.get(f"/studies/{sid}/curves", params={"run": "ref-s1", "kind": "preshear"})
     assert one.status_code == 200 and set(one.json()["runs"]["ref-s1"]["stages"]) == {"preshear"}

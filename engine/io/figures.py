@@ -15,6 +15,7 @@ matplotlib is imported only when a figure is drawn (the engine does not depend o
 from __future__ import annotations
 
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -1026,7 +1027,9 @@ def calibration_status(summary: dict) -> str:
     if not missed:
         return f"all {len(checks)} targets met (check run within 2 sd)"
     words = ", ".join(
-        f"{q['name']} (z = {q['z']:+.1f})" if q.get("z") is not None else f"{q['name']} (failed)"
+        f"{q['name']} (z = {q['z']:+.1f})"
+        if q.get("z") is not None
+        else f"{q['name']} ({'no peak' if q.get('no_peak') else 'failed'})"
         for q in missed
     )
     return f"{len(missed)} of {len(checks)} targets NOT met: {words}"
@@ -1183,5 +1186,9 @@ def calibration_figure(summary: dict):
         ax.set_title("other targets: check run over the laboratory value [-]", fontsize=9)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-    fig.suptitle(f"Calibration against the laboratory: {calibration_status(summary)}", fontsize=9)
+    # wrapped to the figure's width (about 12 characters an inch at 9 points), so that a
+    # long list of targets not met is read whole, not cut at the edges
+    title = f"Calibration against the laboratory: {calibration_status(summary)}"
+    width = int(12 * fig.get_figwidth())
+    fig.suptitle(textwrap.fill(title, width), fontsize=9)
     return fig

@@ -357,3 +357,21 @@ def test_sobol_indices_of_a_known_function_far_from_zero():
     s = cal_module._sobol([Exact()], [{"name": "y"}], axes, np.random.default_rng(3))["y"]
     assert s["k1"] == pytest.approx(1 / 1.01, abs=0.05)
     assert s["k2"] < 0.05 and s["f0"] < 0.05
+
+
+def test_the_figure_title_wraps_a_long_list_of_targets_not_met():
+    # the calcium carbonate's four unmet loci ran off both edges of its figure; the title is
+    # now wrapped to the figure's width, and a strength with no peak says so
+    from engine.io.figures import calibration_figure
+
+    checks = [
+        {"name": f"tau@{s}Pa:2949Pa", "value": 600.0, "lab": 900.0, "sd": 100.0, "z": -3.0}
+        for s in (1317, 1857, 2456, 2600)
+    ] + [{"name": "strength@8000Pa", "value": math.nan, "lab": 2e3, "sd": 2e2, "no_peak": True}]
+    for c in checks:
+        c["met"] = False
+    fig = calibration_figure({"targets_met": checks, "runs": []})
+    title = fig._suptitle.get_text()
+    assert "5 of 5 targets NOT met" in title and "strength@8000Pa (no peak)" in title
+    assert "\n" in title
+    assert max(len(line) for line in title.splitlines()) <= 12 * fig.get_figwidth()

@@ -92,7 +92,14 @@ def test_deck_geometry_servo_and_law():
     assert float(k[0]) == 5e3
     point = ring.point_deck(0, 0.07)
     assert "read_restart preshear.restart" in point
-    assert "(v_gain*(v_fzl/v_area-2000.0))" in point
+    assert "(v_gain*(v_fzl/v_area-2000.0))" in point  # proportional without servo_time
+    # demscale's PI servo: T_i = 5 T, the integral only within 10 % of the target
+    pi = _ring(servo_time=3e-3).point_deck(0, 0.07)
+    assert "variable e_vzs equal v_fzl/v_area-2000.0" in pi
+    assert "variable ein_vzs equal v_e_vzs*(abs(v_e_vzs)<200.0)" in pi
+    assert "fix ish all ave/time 1 1 1 v_ein_vzs ave running" in pi
+    assert "(v_gain*(v_e_vzs+f_ish*step*2.26e-05/0.015))" in pi
+    assert "fix servo lid move variable NULL NULL NULL v_zero v_zero v_vzs" in pi
     assert "fix rev base move rotate 0.0 0.0 0.0 0.0 0.0 -1 ${period_rev}" in point
     vn = ring.speed(2000.0, 0.07)
     assert vn == pytest.approx(1e-3 * 0.07 / 5e-3 * math.sqrt(2000.0 / 2000.0))
@@ -105,6 +112,7 @@ def test_tiny_ring_runs(tmp_path):
     ring = _ring(
         mean_radius=0.03, width=0.015, height=0.025, settle_time=0.01, consolidation_time=0.01,
         preshear_strain=0.004, normal_time=0.003, failure_strain=0.01, chunk_strain=0.002,
+        servo_time=3e-3,
     )  # fmt: skip
     (tmp_path / "ring.data").write_text(ring.data_file())
     (tmp_path / "plate.stl").write_text(ring.plate())

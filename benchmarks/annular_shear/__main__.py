@@ -59,12 +59,14 @@ def liggghts() -> str | None:
 
 def ring(**over) -> Ring:
     """The ring of this benchmark: demscale's test's radius, density, law and time step,
-    its servo's gain (mean of the stored demscale runs' ``servo_gain``)."""
+    its servo's gain and relaxation time (means of the stored demscale runs'
+    ``servo_gain``, ``servo_time``)."""
     t = ds.test_for(1)
     runs = ds.load_all()
     if not runs:
         raise SystemExit("run the demscale side first (--demscale): the ring takes its servo gain")
     gain = float(np.mean([r.scalars["servo_gain"] for r in runs]))
+    servo_time = float(np.mean([r.scalars["servo_time"] for r in runs]))
     d = 2 * t.radius
     kw = dict(
         law=t.pair_law,
@@ -75,6 +77,7 @@ def ring(**over) -> Ring:
         height=HEIGHT_D * d,
         dt=resolved_dt(t),
         servo_gain=gain,
+        servo_time=servo_time,
         preshear_stress=t.preshear_stress,
         normal_stresses=tuple(t.normal_stresses),
         inertial_number=t.inertial_number,
@@ -402,6 +405,10 @@ def report() -> str:
         json.loads((STORE / "cost.json").read_text()) if (STORE / "cost.json").exists() else None
     )
     runs = ring_cost()
+    dem = ds.load_all()
+    dem_n = np.mean([x.scalars["particles"] for x in dem])
+    dem_steps = np.mean([x.scalars["steps"] for x in dem])
+    dem_t = (min(x.scalars["wall_time"] for x in dem), max(x.scalars["wall_time"] for x in dem))
     lines = [
         MARK,
         "",
@@ -431,7 +438,8 @@ def report() -> str:
             "The ring's runs (LIGGGHTS loop times, niced on the shared 2-core machine): "
             + ", ".join(f"{k} {x['steps']} steps {x['seconds']:.0f} s" for k, x in runs.items())
             + f"; {tot_steps} steps, {tot_secs / 60:.1f} min in all. demscale: "
-            f"{v['seeds']} seeds of about 860 grains, 30-45 s each.",
+            f"{v['seeds']} seeds of {dem_n:.0f} grains, {dem_steps:.0f} steps and "
+            f"{dem_t[0]:.0f}-{dem_t[1]:.0f} s each.",
             "",
         ]
     pre = v["preshear"]

@@ -61,8 +61,10 @@ class Ring:
 
     ``width`` and ``height`` are the annulus' radial width and the bed's fill height at
     ``solid_fraction`` (as demscale's cell: particles = solid_fraction x volume / sphere
-    volume); ``mean_radius`` (Ri + Ro) / 2. ``dt`` and ``servo_gain`` [m / (Pa s)] are
-    demscale's for the same test (its resolved step, its servo's proportional gain);
+    volume); ``mean_radius`` (Ri + Ro) / 2. ``dt``, ``servo_gain`` [m / (Pa s)] and
+    ``servo_time`` [s] are demscale's for the same test (its resolved step, its servo's
+    proportional gain and relaxation time: the points' servo is PI with T_i = 5
+    ``servo_time``; the pre-shear's is proportional only, as it was run);
     ``law`` the pair law (an ``engine.EEPA``/``BilinearAdhesive`` exportable by
     ``engine.io.liggghts.to_liggghts``); the wall law's Hertz constants are demscale's
     default shear test's (E, nu of the particle side and the wall material)."""
@@ -75,6 +77,7 @@ class Ring:
     height: float
     dt: float
     servo_gain: float
+    servo_time: float | None = None
     preshear_stress: float = 10e3
     normal_stresses: tuple = (2e3, 4e3, 8e3)
     inertial_number: float = 1e-3
@@ -261,13 +264,27 @@ class Ring:
             f"variable vcap equal {self.max_speed!r}",
         ]
 
-    def _servo(self, name: str, target: float) -> list[str]:
-        """The lid's vertical speed g (sigma - target) clipped to +-vcap, sigma = F_z / A;
-        a new variable per target (a variable a fix reads is never redefined)."""
-        e = f"(v_gain*(v_fzl/v_area-{target!r}))"
-        return [
-            f"variable {name} equal {e}+({e}<-v_vcap)*(-v_vcap-{e})+({e}>v_vcap)*(v_vcap-{e})",
+    def _servo(self, name: str, target: float, integral: str | None = None) -> list[str]:
+        """The lid's vertical speed [m/s], a new variable ``name`` per stage (a variable a
+        fix reads is never redefined): g (e + (1 / T_i) int e dt) clipped to +-vcap, e =
+        F_z / A - target [Pa], demscale's PI servo with T_i = 5 ``servo_time``, the
+        integral taken only while |e| < 10 % of the target (from the stage's start: the
+        running mean of that e, fix ``integral``, times the stage's time; the stage starts
+        at step 0). Without ``integral`` (or ``servo_time``) proportional only."""
+        if not (integral and self.servo_time):
+            e = f"(v_gain*(v_fzl/v_area-{target!r}))"
+            return [
+                f"variable {name} equal {e}+({e}<-v_vcap)*(-v_vcap-{e})+({e}>v_vcap)*(v_vcap-{e})",
+            ]
+        ti = 5.0 * self.servo_time
+        out = [
+            f"variable e_{name} equal v_fzl/v_area-{target!r}",
+            f"variable ein_{name} equal v_e_{name}*(abs(v_e_{name})<{0.1 * target!r})",
+            f"fix {integral} all ave/time 1 1 1 v_ein_{name} ave running",
         ]
+        e = f"(v_gain*(v_e_{name}+f_{integral}*step*{self.dt!r}/{ti!r}))"
+        clip = f"{e}+({e}<-v_vcap)*(-v_vcap-{e})+({e}>v_vcap)*(v_vcap-{e})"
+        return [*out, f"variable {name} equal {clip}"]
 
     def _out(self, path: str) -> str:
         s = self.sample_steps
@@ -398,13 +415,12 @@ class Ring:
                 *self._probes(),
                 f"variable vpre equal {vpre!r}",
                 f"variable vn equal {vn!r}",
-                *self._servo("vzpre", self.preshear_stress),
-                *self._servo("vzn", sn),
                 "# reverse until the lid's torque is <= 0 (run 0: the restart's data taken up",
                 "# first; LIGGGHTS refuses reset_timestep after a restart otherwise)",
                 "run 0",
                 "reset_timestep 0",
-                "fix servo lid move variable NULL NULL NULL v_zero v_zero v_vzpre",
+                *self._servo("vzr", self.preshear_stress, "ir"),
+                "fix servo lid move variable NULL NULL NULL v_zero v_zero v_vzr",
                 *self._rotate("rev", -1, "vpre"),
                 self._out(f"reverse_{k}.txt"),
                 "# flags, not values, go into if: its Boolean parser reads no 1e-05 notation",
@@ -419,18 +435,22 @@ class Ring:
                 "unfix out",
                 "unfix rev",
                 "unfix servo",
+                *(["unfix ir"] if self.servo_time else []),
                 "velocity base set 0.0 0.0 0.0",
                 "set group base omegax 0.0 omegay 0.0 omegaz 0.0",
                 "# normal stage: the servo to sigma_n, the base at rest",
                 "reset_timestep 0",
+                *self._servo("vzn", sn, "inn"),
                 "fix servo lid move variable NULL NULL NULL v_zero v_zero v_vzn",
                 self._out(f"normal_{k}.txt"),
                 f"run {nnorm}",
                 "unfix out",
                 "unfix servo",
+                *(["unfix inn"] if self.servo_time else []),
                 "# shear forward to failure",
                 "reset_timestep 0",
-                "fix servo lid move variable NULL NULL NULL v_zero v_zero v_vzn",
+                *self._servo("vzs", sn, "ish"),
+                "fix servo lid move variable NULL NULL NULL v_zero v_zero v_vzs",
                 *self._rotate("fwd", 1, "vn"),
                 self._out(f"shear_{k}.txt"),
                 f"fix chunk all ave/time 1 {chunk} {chunk} c_tql",

@@ -417,14 +417,20 @@ def report() -> str:
         f"The ring: Ri = {r.ri * 1e3:.1f} mm, Ro = {r.ro * 1e3:.1f} mm (width {WIDTH_D:g} d, mean "
         f"radius {MEAN_RADIUS_D:g} d: Ro / Ri = {r.ro / r.ri:.2f}, the shear rate "
         f"+-{100 * r.width / 2 / r.mean_radius:.0f} % about its mean across the width), fill "
-        f"height {HEIGHT_D:g} d, {r.particles} spheres; dt = {r.dt:.4g} s and the servo's "
-        f"gain {r.servo_gain:.4g} m/(Pa s) demscale's (proportional only: no integral term).",
+        f"height {HEIGHT_D:g} d, {r.particles} spheres; dt = {r.dt:.4g} s, the servo's gain "
+        f"{r.servo_gain:.4g} m/(Pa s) and relaxation time T = {1e3 * r.servo_time:.2f} ms "
+        "demscale's (means of its runs); the servo proportional in the pre-shear (as it was "
+        "run), PI with T_i = 5 T in the points (demscale's, without its gain-halving guard). "
+        "A first point at 2 kPa with the proportional servo alone held the lid 15 % above "
+        "sigma_n while the bed dilated (an invalid point by the rule above); it was stopped, "
+        "kept in `liggghts_p_servo_point0/`, and the points rerun with the PI servo.",
         "",
     ]
     if cost_rec:
         lines += [
-            f"Cost (`--cost`, one short run of the fill, consolidation and 0.02 pre-shear "
-            f"strain, load average {cost_rec['load_average']:.1f}): "
+            f"Cost (`--cost`, measured first: one short run of the fill, consolidation and "
+            f"0.02 pre-shear strain in a ring of mean radius {cost_rec['mean_radius_d']:g} d, "
+            f"load average {cost_rec['load_average']:.1f}): "
             f"{cost_rec['particles']} spheres, {cost_rec['steps']} steps in "
             f"{cost_rec['wall_seconds']:.0f} s, "
             f"{cost_rec['preshear_seconds_per_particle_step'] * 1e6:.2f} us per particle-step "
@@ -449,13 +455,15 @@ def report() -> str:
         f"gap; normal stress {100 * pre['servo_miss']:.1f} % off sigma_pre; steady by "
         f"demscale's rule: {'yes' if pre['steady'] else 'no'}. Its points:",
         "",
-        "| sigma_n [Pa] | sigma [Pa] | tau [Pa] | strain at peak | peaked | servo miss |",
-        "|---|---|---|---|---|---|",
+        "| sigma_n [Pa] | sigma [Pa] | tau [Pa] | strain at peak | peaked | servo miss | "
+        "sheared to strain | normal stage's end off sigma_n |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for p in v["points"]:
         lines.append(
             f"| {p['target']:g} | {p['sigma']:.0f} | {p['tau']:.0f} | {p['strain']:.3f} | "
-            f"{'yes' if p['peaked'] else 'no'} | {100 * p['servo_miss']:.1f} % |"
+            f"{'yes' if p['peaked'] else 'no'} | {100 * p['servo_miss']:.1f} % | "
+            f"{p['run_strain']:.3f} | {100 * p['normal_stage_miss']:.1f} % |"
         )
     lines += [
         "",

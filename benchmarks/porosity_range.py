@@ -268,11 +268,11 @@ def decide_range(runs: dict) -> dict:
     values, lo_at, hi_at = [], None, None
     var, dof = 0.0, 0
     for point in points():
-        seeds = [runs.get(key(point, s)) for s in SEEDS]
+        seeds = [runs[key(point, s)] for s in SEEDS if key(point, s) in runs]
         for reading in READINGS:
             for branch in ("loading", "unloading"):
-                for stress in seeds[0][reading][branch] if seeds[0] else ():
-                    v = [r[reading][branch][stress] for r in seeds if r is not None]
+                for stress in seeds[0][reading][branch] if seeds else ():
+                    v = [r[reading][branch][stress] for r in seeds]
                     for x in v:
                         where = f"{'-'.join(point)} {reading} {branch} {stress} Pa"
                         if lo_at is None or x < lo_at[0]:
@@ -334,7 +334,7 @@ def summary() -> dict:
         "runs": runs,
         "failed": failed,
         "missing": missing,
-        "range": decide_range(runs) if runs and not missing and not failed else None,
+        "range": decide_range(runs) if runs and not missing else None,
     }
 
 

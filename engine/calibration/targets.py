@@ -15,8 +15,9 @@ target the test cannot reproduce is refused with the field and the reason:
   uniaxial test must not be fitted to it (a shear tester's yield loci go in ``shear``, the
   shear test's targets, below);
 - K0 without a lateral sensor (only a ``"lambda"`` tester measures it);
-- a porosity that spheres cannot reach (:data:`POROSITY_RANGE`): a calibration would
-  distort every other parameter trying;
+- a porosity outside what this engine's sphere packings were measured to reach in
+  confined compression (:data:`POROSITY_RANGE`, ``python -m benchmarks.porosity_range``):
+  a calibration would distort every other parameter trying;
 - a negative uncertainty, a non-positive stress (the declared bounds);
 - a value without its uncertainty (``sd`` of every point, ``<name>_sd`` of every scalar
   target given): it would be taken as exact.
@@ -68,10 +69,17 @@ MAX_LOCUS_POINTS = 8
 #: calibration run.
 MAX_LOCI = 6
 
-#: Porosities spheres of this engine's size spread reach in confined compression [-]: from
-#: about 0.34 (a polydisperse bed near random close packing) to about 0.50 (a loose cohesive
-#: bed at low stress); monodisperse beds stay in about 0.36-0.46.
-POROSITY_RANGE = (0.34, 0.50)
+#: Porosities this engine's sphere packings reach in confined compression [-], measured, not
+#: assumed (``python -m benchmarks.porosity_range``; stored in
+#: benchmarks/results/porosity_range/summary.json; docs/CALIBRATION.md "The porosity
+#: range"): 40 runs (4 failed), Bond number 0-1e4 (and kadh = K2), mu_s 0.1-1 with mu_r
+#: 0-0.3, size spread p = 0 and 0.49, at 0.5-20 kPa on loading and unloading, whole sample
+#: and interior:
+#: lowest 0.330 (no adhesion, low friction, p = 0.49, interior at 20 kPa), highest 0.585
+#: (Bo = 1e4, high friction, p = 0.49, whole sample at 0.5 kPa), each widened by two pooled
+#: seed sd (0.0055) and rounded outward to 0.01. tests/engine/test_porosity_range.py holds
+#: it equal to the stored measurement.
+POROSITY_RANGE = (0.31, 0.60)
 
 
 @dataclass(frozen=True)
@@ -347,9 +355,12 @@ class LabTargets(Record):
                     f"LabTargets.compression[{k}].porosity",
                     p.porosity,
                     f"in [{lo:g}, {hi:g}]",
-                    "spheres do not reach it in confined compression; a calibration would "
-                    "distort the other parameters trying (a powder this loose needs "
-                    "non-spherical particles or another law)",
+                    "spheres do not reach it in confined compression: the range this "
+                    "engine's packings were measured to reach at 0.5-20 kPa with adhesion, "
+                    "friction and polydispersity from none to strong (python -m "
+                    "benchmarks.porosity_range); a calibration would distort the other "
+                    "parameters trying (such a powder needs non-spherical particles, "
+                    "another law or another fill)",
                 )
         if self.strength and self.tester in SHEAR_TESTERS:
             raise ParameterError(

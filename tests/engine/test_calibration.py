@@ -47,7 +47,7 @@ def test_targets_read_from_json_and_back():
         ({"tester": "ring_shear"}, "LabTargets.strength", "ring-shear"),
         ({"tester": "uniaxial"}, "LabTargets.k0", "lateral stress sensor"),
         (
-            {"compression": [{"stress": 5e3, "porosity": 0.6, "sd": 0.01}]},
+            {"compression": [{"stress": 5e3, "porosity": 0.7, "sd": 0.01}]},
             "LabTargets.compression[0].porosity",
             "spheres do not reach it",
         ),

@@ -174,7 +174,7 @@ def test_cancel_a_queued_and_a_running_calibration(client, workers):
             {
                 "targets": {
                     "tester": "uniaxial",
-                    "compression": [{"stress": 1e4, "porosity": 0.6, "sd": 0.01}],
+                    "compression": [{"stress": 1e4, "porosity": 0.7, "sd": 0.01}],
                 }
             },
             ["body", "targets", "compression", 0, "porosity"],

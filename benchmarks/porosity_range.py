@@ -81,6 +81,8 @@ from pathlib import Path
 
 import numpy as np
 
+from engine.calibration.calibrate import compression_branch
+
 ROOT = Path(__file__).resolve().parent.parent
 STORE = ROOT / "benchmarks" / "results" / "porosity_range"
 SUMMARY = STORE / "summary.json"
@@ -232,22 +234,6 @@ def run(only: str | None = None) -> None:
 
 
 # ------------------------------------------------------------------ what a run reaches
-def _branch(result, branch: str, curve: str) -> tuple[np.ndarray, np.ndarray]:
-    """(top platen stress [Pa], porosity [-]) of the loading or unloading branch as the
-    calibration reads a compression target (engine.calibration.calibrate.measures): the
-    stress made monotonic, its first sample at each value kept."""
-    if branch == "loading":
-        parts = [result.stages[s].curves for s in ("pre_compression", "consolidation")]
-        sig = np.concatenate([c["stress_top"] for c in parts])
-        por = np.concatenate([c[curve] for c in parts])
-    else:
-        c = result.stages["unloading"].curves
-        sig, por = c["stress_top"][::-1], c[curve][::-1]
-    sig = np.maximum.accumulate(sig)
-    _, idx = np.unique(sig, return_index=True)
-    return sig[idx], por[idx]
-
-
 def readings(result) -> dict:
     """A run's porosities: per reading, per branch, per stress [-]; and the poured bed's
     (the first sample of the pre-compression, the platen just above the bed)."""
@@ -255,7 +241,7 @@ def readings(result) -> dict:
     for name, curve in READINGS.items():
         out[name] = {}
         for branch, stresses in (("loading", LOADING_STRESSES), ("unloading", UNLOADING_STRESSES)):
-            sig, por = _branch(result, branch, curve)
+            sig, por = compression_branch(result, branch, curve)
             out[name][branch] = {f"{s:g}": float(np.interp(s, sig, por)) for s in stresses}
         out[name]["poured"] = float(result.stages["pre_compression"].curves[curve][0])
     return out

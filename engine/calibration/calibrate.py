@@ -215,6 +215,23 @@ def _uniaxial(results: dict) -> dict:
     return {s: r for s, r in results.items() if s != SHEAR}
 
 
+def compression_branch(result, branch: str, curve: str = "porosity"):
+    """(top platen stress [Pa], ``curve`` [-]) of a uniaxial run's ``branch`` ("loading":
+    pre-compression and consolidation; "unloading") as a compression target is read: the
+    stress made monotonic (its running maximum, unloading read backwards) and the first
+    sample at each stress kept, so that ``np.interp`` reads the curve at a stress."""
+    if branch == "loading":
+        parts = [result.stages[s].curves for s in ("pre_compression", "consolidation")]
+        sig = np.concatenate([c["stress_top"] for c in parts])
+        por = np.concatenate([c[curve] for c in parts])
+    else:
+        c = result.stages["unloading"].curves
+        sig, por = c["stress_top"][::-1], c[curve][::-1]
+    sig = np.maximum.accumulate(sig)
+    _, idx = np.unique(sig, return_index=True)
+    return sig[idx], por[idx]
+
+
 def measure(results: dict, base: UniaxialTest, targets: LabTargets) -> list[dict]:
     """Each target quantity of ``targets`` read from a run's ``results`` (consolidation
     stress -> :class:`engine.UniaxialResult`, and under ``"shear"`` the shear tests'
@@ -230,17 +247,8 @@ def measure(results: dict, base: UniaxialTest, targets: LabTargets) -> list[dict
         return shear
     top = results[max(results)]
     for p in targets.compression:
-        if p.branch == "loading":
-            parts = [top.stages[s].curves for s in ("pre_compression", "consolidation")]
-            sig = np.concatenate([c["stress_top"] for c in parts])
-            por = np.concatenate([c["porosity"] for c in parts])
-            sig = np.maximum.accumulate(sig)
-        else:
-            c = top.stages["unloading"].curves
-            sig, por = c["stress_top"][::-1], c["porosity"][::-1]
-            sig = np.maximum.accumulate(sig)
-        _, idx = np.unique(sig, return_index=True)
-        value = float(np.interp(p.stress, sig[idx], por[idx]))
+        sig, por = compression_branch(top, p.branch)
+        value = float(np.interp(p.stress, sig, por))
         out.append(
             {
                 "name": f"porosity@{p.stress:g}Pa:{p.branch}",

@@ -219,11 +219,17 @@ def compression_branch(result, branch: str, curve: str = "porosity"):
     """(top platen stress [Pa], ``curve`` [-]) of a uniaxial run's ``branch`` ("loading":
     pre-compression and consolidation; "unloading") as a compression target is read: the
     stress made monotonic (its running maximum, unloading read backwards) and the first
-    sample at each stress kept, so that ``np.interp`` reads the curve at a stress."""
+    sample at each stress kept, so that ``np.interp`` reads the curve at a stress. On
+    loading, the samples before the platen carries any stress are left out: their
+    "porosity" counts the gap above the bed, and a target below the first loaded stress
+    would be read between it and the bed's."""
     if branch == "loading":
         parts = [result.stages[s].curves for s in ("pre_compression", "consolidation")]
         sig = np.concatenate([c["stress_top"] for c in parts])
         por = np.concatenate([c[curve] for c in parts])
+        loaded = np.flatnonzero(sig > 0)
+        if loaded.size:
+            sig, por = sig[loaded[0] :], por[loaded[0] :]
     else:
         c = result.stages["unloading"].curves
         sig, por = c["stress_top"][::-1], c[curve][::-1]

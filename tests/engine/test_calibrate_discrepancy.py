@@ -121,3 +121,25 @@ def test_a_strength_target_no_design_run_fails_for_is_refused_naming_it(monkeypa
     monkeypatch.setattr(cal, "_run_point", hardening)
     with pytest.raises(ParameterError, match=r"strength@8000Pa: 0 of 4 runs gave a value"):
         cal.calibrate(replace(BASE, unconfined=True), targets, {"k1": (3e3, 2e4)}, runs=4, waves=0)
+
+
+def test_a_compression_target_is_never_read_from_the_gap_above_the_bed():
+    # before the platen touches the bed its stress is 0 and the "porosity" counts the gap
+    # (0.70 here): a target below the first loaded stress (200 Pa) reads the bed's first
+    # loaded porosity (0.48), not a blend with the gap (0.58 before the fix)
+    from engine.calibration.calibrate import compression_branch
+
+    def stage(stress, porosity):
+        return SimpleNamespace(
+            curves={"stress_top": np.array(stress), "porosity": np.array(porosity)}
+        )
+
+    run = SimpleNamespace(
+        stages={
+            "pre_compression": stage([0.0, 0.0, 200.0, 1000.0], [0.75, 0.70, 0.48, 0.46]),
+            "consolidation": stage([2000.0, 5000.0], [0.45, 0.43]),
+        }
+    )
+    sig, por = compression_branch(run, "loading")
+    assert sig[0] == 200.0 and np.interp(100.0, sig, por) == pytest.approx(0.48)
+    assert np.interp(3500.0, sig, por) == pytest.approx(0.44)

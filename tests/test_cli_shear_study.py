@@ -12,26 +12,12 @@ import pytest
 import engine
 from demscale.cli import main
 from engine.io.store import read_run_group
+from tests.service.test_shear_study import SHEAR_STUDY
 
-#: The tests' 120-grain shear cell with a short pre-shear (tests/service/test_shear_study.py).
-SHEAR = {
-    "cell": [0.03, 0.015, 0.03],
-    "pair_law": {"k1": 5e3, "k2": 2.5e4, "f0": -0.4, "mu_s": 0.5, "mu_r": 0.001},
-    "normal_stresses": [3e3, 7e3],
-    "inertial_number": 2e-3,
-    "max_stage_time": 2.0,
-    "preshear_min_strain": 0.3,
-    "steady_window": 0.1,
-}
-#: Two reference seeds and one coarse run: three runs, seconds.
-DESIGN = {
-    "coarse_radii": [3.1e-3],
-    "rules": ["paper"],
-    "seeds": [1],
-    "reference_seeds": [1, 2],
-    "controls": False,
-    "protocol_check": False,
-}
+#: The tests' 120-grain shear cell with a short pre-shear, and its design: two reference
+#: seeds and one coarse run, three runs, seconds (tests/service/test_shear_study.py).
+SHEAR = {k: v for k, v in SHEAR_STUDY["reference"].items() if k != "type"}
+DESIGN = {k: v for k, v in SHEAR_STUDY.items() if k not in ("name", "reference")}
 
 
 def _write(path, value) -> str:

@@ -19,22 +19,13 @@ from service.spec import SHEAR_EXAMPLE
 
 from .conftest import AUTH
 
-#: The tests' 120-grain shear cell (tests/engine/test_shear.py, tiny) with a short pre-shear
-#: (tests/engine/test_shear_study.py): two reference seeds (a noise floor), one coarse run
-#: of the paper's rule: three runs, seconds.
+#: The service's documented shear example (service.spec.SHEAR_EXAMPLE: the tests' 120-grain
+#: cell) with a short pre-shear (tests/engine/test_shear_study.py): two reference seeds (a
+#: noise floor), one coarse run of the paper's rule: three runs, seconds.
 SHEAR_STUDY = {
+    **SHEAR_EXAMPLE,
     "name": "tiny shear",
-    "reference": {
-        "type": "ShearTest",
-        "cell": [0.03, 0.015, 0.03],
-        "pair_law": {"k1": 5e3, "k2": 2.5e4, "f0": -0.4, "mu_s": 0.5, "mu_r": 0.001},
-        "normal_stresses": [3e3, 7e3],
-        "inertial_number": 2e-3,
-        "max_stage_time": 2.0,
-        "preshear_min_strain": 0.3,
-        "steady_window": 0.1,
-    },
-    "coarse_radii": [3.1e-3],
+    "reference": {**SHEAR_EXAMPLE["reference"], "preshear_min_strain": 0.3, "steady_window": 0.1},
     "rules": ["paper"],
     "seeds": [1],
     "reference_seeds": [1, 2],

@@ -33,6 +33,7 @@ from .core.errors import (
     StopRequested,
     WallTimeExceeded,
 )
+from .core.similarity import similar
 from .io.vtkhdf import SnapshotWriter
 from .kernel.specialise import FEATURES
 from .shear.driver import run_shear
@@ -110,4 +111,5 @@ __all__ = [
     "run_shear",
     "run_study",
     "run_uniaxial",
+    "similar",
 ]

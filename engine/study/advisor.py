@@ -100,38 +100,38 @@ def _law_text(law: dict) -> str:
 
 
 def resolution_lines(resolution: list[dict], rule_errors: list[dict], spec) -> list[str]:
-    """The advisor's lines on the controls: per rule and radius whether the rule holds
-    against its control (its own error), and per radius what a sample that many diameters
-    across loses against the reference."""
+    """The advisor's lines on the controls: per rule and radius whether a coarse run agrees
+    with its control (for a rule that is the law's exact similarity, a check of units that
+    cannot test the rule), and per radius what a sample that many diameters across loses
+    against the reference."""
     lines = []
+    law = spec.reference.pair_law
+    similarity = getattr(law, "similarity_exponents", None)
     exact = (
-        {
-            rule.name
-            for rule in spec.rules
-            if tuple(rule.exponents(spec.reference.pair_law)) == (1.0, 2.0, 1.0)
-            and type(spec.reference.pair_law).__name__ == "BilinearAdhesive"
-        }
-        if rule_errors
+        {rule.name for rule in spec.rules if tuple(rule.exponents(law)) == tuple(similarity())}
+        if rule_errors and similarity is not None
         else set()
     )
     for v in rule_errors:
-        says = {"equivalent": "holds", "differs": "differs", "undecided": "is undecided"}
+        says = {"equivalent": "agrees", "differs": "differs", "undecided": "is undecided"}
         parts = "; ".join(_interval_words(m) for m in v["metrics"])
         text = (
-            f"{v['rule']} at R = {v['radius'] * 1e3:g} mm: the rule {says[v['verdict']]} "
-            f"against its resolution control (the rule's own error: {parts})"
+            f"{v['rule']} at R = {v['radius'] * 1e3:g} mm against its resolution control: "
+            f"{says[v['verdict']]} ({parts})"
         )
-        if v["rule"] in exact and is_shear(spec.reference):
-            text += (
-                "; for this law the rule is an exact similarity of the shear test at the "
-                "same inertial number, so this error measures only the curve samples' "
-                "clock (output_interval, fixed in seconds) and the runs' chaos"
+        if v["rule"] in exact:
+            # docs/PHYSICS.md section 5b: for this law the coarse run is its control in
+            # other units, so the comparison can only see what the rule leaves unscaled
+            fixed = (
+                "the curve samples' clock (output_interval, fixed in seconds) and the runs' chaos"
+                if is_shear(spec.reference)
+                else "the constants left in seconds (output_interval, release_time) and the "
+                "runs' chaos"
             )
-        elif v["rule"] in exact:
             text += (
-                "; for this law the rule is an exact similarity, so this error measures "
-                "only the clock: the inertial number at the same strain rate and the time "
-                "step against the contact time"
+                "; a check of units, not evidence for the rule: for this law the rule is an "
+                "exact similarity (the coarse run is its control in other units), so this "
+                f"compares only {fixed}"
             )
         lines.append(text)
     for v in resolution:
@@ -140,10 +140,9 @@ def resolution_lines(resolution: list[dict], rule_errors: list[dict], spec) -> l
         parts = "; ".join(_interval_words(m) for m in v["metrics"])
         lines.append(
             f"resolution at R = {v['radius'] * 1e3:g} mm: the reference law in a sample "
-            f"{across} against the reference: {v['verdict']} ({parts}); resolution is a "
-            "property of diameters across, not of the test cell: a process loses it too "
-            "wherever a feature (a shear band, an outlet, a wall layer) is only a few "
-            "coarse diameters wide"
+            f"{across} against the reference: {v['verdict']} ({parts}); the size effect of "
+            "this test's sample at that many diameters across (other features, a free "
+            "surface, a shear band, an outlet, need their own numbers: docs/RESOLUTION.md)"
         )
     return lines
 
@@ -222,7 +221,7 @@ def advise(
             fit = ""
             if v.get("fitted") is not None:
                 fit = f", fitted b = {v['fitted']:.2f}"
-                if v.get("fitted_against") == "control" or strengths is not None:
+                if strengths is not None:
                     iv = v.get("interval")
                     fit += (
                         f" [{iv[0]:.2f}, {iv[1]:.2f}]"
@@ -299,12 +298,12 @@ def adhesion_advice(
     strength is closest to the reference's, and the fitted one, solving
     log(strength(b)) = log(target strength) on the least-squares line of log strength
     against b (omitted with fewer than two positive strengths). With ``strengths``
-    (``variants``: (radius, rule) -> the seeds' strengths; ``reference``; ``controls``:
-    radius -> its controls' strengths) the fit is :func:`fit_exponent` with its interval,
-    against the radius's resolution controls where it has them (the exponent that makes the
-    coarse runs match the fine law in a sample as many diameters across: the rule's own
-    mismatch, free of the sample's resolution loss), else against the references
-    (``fitted_against`` says which; ``fitted_reference`` is always the latter)."""
+    (``variants``: (radius, rule) -> the seeds' strengths; ``reference``) the fit is
+    :func:`fit_exponent` with its interval, against the references only: the exponent
+    that makes a coarse run match the fine law in the user's own cell. (Against a
+    radius's resolution controls the fit would test nothing: for the bilinear law b = 2 is
+    an exact similarity, so a coarse run under it is its control in other units,
+    docs/PHYSICS.md section 5b.) ``fitted_against`` is "reference" where there is a fit."""
     if not getattr(spec.reference, "unconfined", False):
         return None
     families: dict[tuple, set] = {}
@@ -352,15 +351,14 @@ def adhesion_advice(
             }
             conf = getattr(spec, "confidence", CONFIDENCE)
             ref_fit = fit_exponent(by_b, strengths.get("reference") or [], conf)
-            ctl = (strengths.get("controls") or {}).get(r) or []
-            fit = fit_exponent(by_b, ctl, conf) if len(ctl) >= 2 else None
             if ref_fit is not None:
-                entry["fitted_reference"] = ref_fit[0]
-                entry["fitted_reference_interval"] = ref_fit[1]
-            if fit is not None:
-                entry.update(fitted=fit[0], interval=fit[1], fitted_against="control")
-            elif ref_fit is not None:
-                entry.update(fitted=ref_fit[0], interval=ref_fit[1], fitted_against="reference")
+                entry.update(
+                    fitted=ref_fit[0],
+                    interval=ref_fit[1],
+                    fitted_against="reference",
+                    fitted_reference=ref_fit[0],
+                    fitted_reference_interval=ref_fit[1],
+                )
         by_radius[f"{r:g}"] = entry
     return {"stiffness_exponent": a, "dt": dt, "by_radius": by_radius} if by_radius else None
 

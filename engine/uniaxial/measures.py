@@ -369,3 +369,94 @@ def secant_slope(strain: np.ndarray, stress: np.ndarray, lo: float, hi: float) -
     if np.count_nonzero(sel) < 2 or np.ptp(strain[sel]) == 0:
         raise FloatingPointError("the platen did not move during the stage: no stiffness")
     return float(np.polyfit(strain[sel], stress[sel], 1)[0])
+
+
+def section_profile(
+    positions: np.ndarray,
+    radii: np.ndarray,
+    pairs: np.ndarray,
+    normal_forces: np.ndarray,
+    branches: np.ndarray,
+    section: tuple[float, float],
+    window: tuple[float, float],
+    bin_width: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""The axial stress across the section of a released column, binned by distance from
+    its nearest free face (the skin measure of docs/PHYSICS.md section 7.5).
+
+    Each particle whose centre height lies in ``window`` = (z_lo, z_hi) [m] gets the normal
+    part of its Love-Weber axial stress, :math:`s_i = \sum_{c \in i} a_{c} f_{n,c}
+    n_{z,c}^2` [N m] with the lever :math:`a_c = |b_c| / 2` (the half branch: the particle's
+    radius less half the overlap for equal radii), :math:`f_n` the normal force (> 0
+    compressive) and :math:`n = b / |b|`; the tangential forces' part is left out (a
+    :class:`engine.simulation.snapshot.Snapshot` keeps normal forces only). Its distance
+    from the nearest face of the section ``section`` = (Lx, Ly) [m], the cell the column
+    filled before its release, is :math:`\delta = \min(x, L_x - x, y, L_y - y)` (at least
+    0: a grain bulged out of the section counts in the first bin). Bins of ``bin_width`` [m]
+    run from the face to the centre (the last one ends at min(Lx, Ly) / 2).
+
+    Args: ``positions`` (N, 3) [m], ``radii`` (N,) [m], ``pairs`` (M, 2), ``normal_forces``
+    (M,) [N], ``branches`` (M, 3) x_i - x_j [m].
+
+    Returns ``(edges, sums, areas)``: bin edges (K + 1,) [m] from 0, the sum of s_i over the
+    bin's particles (K,) [N m] and the bin's area in the section (K,) [m^2]: the ring
+    between distances a and b from the faces of an Lx x Ly rectangle, (Lx - 2a)(Ly - 2a)
+    - (Lx - 2b)(Ly - 2b). The bin's mean axial stress is ``sums / (areas (z_hi - z_lo))``
+    [Pa]; over all bins it is the window's stress, normal part (:func:`skin_thickness`).
+    """
+    lx, ly = (float(section[0]), float(section[1]))
+    half = 0.5 * min(lx, ly)
+    nb = max(1, math.ceil(half / bin_width - 1e-9))
+    edges = np.minimum(np.arange(nb + 1) * bin_width, half)
+    x = np.asarray(positions, dtype=float)
+    n = len(x)
+    s = np.zeros(n)
+    if len(pairs):
+        b = np.asarray(branches, dtype=float)
+        length = np.sqrt(np.einsum("ij,ij->i", b, b))
+        ok = length > 0
+        fn = np.asarray(normal_forces, dtype=float)
+        share = np.zeros(len(b))
+        share[ok] = 0.5 * fn[ok] * b[ok, 2] ** 2 / length[ok]  # a f_n n_z^2, a = |b| / 2
+        np.add.at(s, pairs[:, 0], share)
+        np.add.at(s, pairs[:, 1], share)
+    z = x[:, 2]
+    inside = (z >= window[0]) & (z <= window[1])
+    delta = np.minimum.reduce([x[:, 0], lx - x[:, 0], x[:, 1], ly - x[:, 1]])
+    delta = np.clip(delta, 0.0, half)
+    k = np.clip(np.searchsorted(edges, delta, side="right") - 1, 0, nb - 1)
+    sums = np.bincount(k[inside], weights=s[inside], minlength=nb).astype(float)
+    a, b2 = edges[:-1], edges[1:]
+    areas = (lx - 2 * a) * (ly - 2 * a) - (lx - 2 * b2) * (ly - 2 * b2)
+    return edges, sums, areas
+
+
+def skin_thickness(
+    edges: np.ndarray, sums: np.ndarray, areas: np.ndarray, core_from: float
+) -> tuple[float, float]:
+    r"""The load-free skin of a :func:`section_profile`: with :math:`\sigma(\delta)` the
+    bins' mean stress and :math:`\sigma_c` the mean over the core (distances from the face
+    of at least ``core_from`` [m]), the skin thickness [m]
+
+    .. math:: t = \int_0^{\delta_c} \left(1 - \frac{\sigma(\delta)}{\sigma_c}\right)
+              d\delta,
+
+    the depth of a stress-free layer that would carry the same deficit (a face that carries
+    no load over t and the core's stress beyond it). Returns ``(t, sigma_c)`` (NaN where no
+    bin lies in the core or the core carries no stress). The section's mean stress is then
+    :math:`\sigma_c (1 - t P / A)` to first order, P the perimeter and A the area: for a
+    square section of side L, :math:`1 - 4 t / L`."""
+    edges = np.asarray(edges, dtype=float)
+    sums = np.asarray(sums, dtype=float)
+    areas = np.asarray(areas, dtype=float)
+    core = edges[:-1] >= core_from - 1e-12
+    if not core.any() or areas[core].sum() <= 0:
+        return math.nan, math.nan
+    sigma_c = float(sums[core].sum() / areas[core].sum())
+    if not sigma_c > 0:
+        return math.nan, math.nan
+    skin = ~core
+    stress = np.divide(sums, areas, out=np.zeros_like(sums), where=areas > 0)
+    width = np.diff(edges)
+    t = float(np.sum((1.0 - stress[skin] / sigma_c) * width[skin]))
+    return t, sigma_c

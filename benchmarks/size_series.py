@@ -1,0 +1,346 @@
+"""Size series of the fine law with everything but L / d held (issue 50 item 2): how many
+particles each kind of feature needs across it, measured where the similarity leaves the
+whole error of coarse-graining (docs/PHYSICS.md section 7.5).
+
+    python -m benchmarks.size_series                       # every run not yet stored
+    python -m benchmarks.size_series --only column/bond1   # one series (or a run key)
+    python -m benchmarks.size_series --list                # the runs, stored or not, and cost
+    python -m benchmarks.size_series --report              # docs/RESOLUTION.md from the store
+
+Under the bilinear law with K ~ R and f0 ~ R^2 (docs/PHYSICS.md section 5b) a coarse run at
+factor s is the fine law in a geometry shrunk s times: the error a coarse model makes is the
+fine law's size effect in the feature, at the number of coarse particles across it. So each
+series runs one fine law (R = 2.5 mm, the main job's) in samples of growing size, holding:
+
+- the macroscopic stress: the cell x s and gravity / s (rho g H and the aspect held), and
+  the consolidation stress;
+- the inertial number: ``max_platen_speed`` at its bound (1 m/s), so that the cap never
+  binds (the capped series of ``benchmarks.resolution`` held 4.96e-4 at 6.7 diameters and
+  1.63e-4 at 20); every run records the median it held, checked against the target;
+- the protocol's constants in the law's units (the particle and the law are the same at
+  every size: output interval, release time, time step unchanged).
+
+Feature kinds (the functional form of each fit is fixed here, before the runs):
+
+- ``column``: the quick preset's released column (10 x 10 x 60 diameters at s = 1). Its
+  confined stages are the bulk in compression, never released (periodic in x and y, the
+  platen layers left out of the interior window): density, loading and unloading stiffness,
+  coordination. Its unconfined strength is the free surface's: the four released faces.
+  Fit: the log of each property linear in d / L (a load-free skin of thickness t per face
+  gives strength / bulk = 1 - 4 t / L for a square section, to first order). The skin is
+  also measured directly: the axial stress across the section at the strength's peak,
+  binned by distance from the nearest face (``engine.uniaxial.measures.section_profile``,
+  stored beside each run as ``<key>.profile.npz``), and its thickness
+  (``skin_thickness``, core beyond 3 diameters from the faces) against the fit's.
+- ``shear``: the periodic shear cell (``engine.ShearTest``, 10 x 5 x 15 diameters at
+  s = 1, the default powder's law): the bulk in shear, no free surface, glued rough layers
+  top and bottom: the locus, sigma_1, sigma_c, ffc, bulk density against d / L (L the thin
+  periodic width), the same linear form.
+
+Laws: ``bond1`` the default powder (f0 = -0.4 N, the main job's reference), ``bond3`` the
+same law three times as adhesive (f0 = -1.2 N: granular Bond number at the consolidation
+stress |f0| / (sigma_c d^2) = 2.4 against 0.8).
+
+Each run is stored at once, one at a time on one engine thread, as a compact digest in git,
+``benchmarks/results/size_series/<kind>/<law>/<size>-s<seed>.json``
+(:mod:`engine.io.digest`: the test, scalars and verdict metrics bit-exact, the full file's
+sha256), with a column's section profiles beside it (``.profile.npz``); the full HDF5 file
+(curves; :mod:`engine.io.store`) goes to ``var/size_series/`` outside git (regenerable: the
+test and the code are in the digest). A column run keeps a checkpoint there
+(``.checkpoints/``): a run cut off within a session resumes bit for bit; across sessions a
+run not stored starts again. The report reads the digests only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+import engine
+from benchmarks import resolution
+from engine.io.digest import make_digest, read_digest, write_digest
+from engine.io.store import save_run
+from engine.study.plan import control_test
+from engine.uniaxial.measures import interior_margin, section_profile
+
+ROOT = Path(__file__).resolve().parent.parent
+STORE = ROOT / "benchmarks" / "results" / "size_series"
+#: The full HDF5 files and checkpoints, outside git.
+FULL = ROOT / "var" / "size_series"
+
+#: The fine laws: name -> (f0 [N], what it stands for).
+LAWS = {
+    "bond1": (-0.4, "the default powder (the main job's reference law)"),
+    "bond3": (-1.2, "three times as adhesive (granular Bond number x 3)"),
+}
+#: The platen speed cap of every column run [m/s]: the field's bound, above any speed an
+#: inertial number of 5e-4 asks in these samples (0.24 m/s at 25 diameters, 20 kPa).
+UNCAPPED = 1.0
+#: Column sizes [diameters across] and seeds per size, per law.
+COLUMN_SIZES = {
+    "bond1": {5.0: 4, 20.0 / 3.0: 4, 8.0: 4, 10.0: 4, 15.0: 3, 20.0: 2},
+    "bond3": {5.0: 4, 20.0 / 3.0: 4, 8.0: 4, 10.0: 4, 15.0: 2},
+}
+#: Shear cell sizes [diameters across its thin periodic width] and seeds per size.
+SHEAR_SIZES = {"bond1": {2.5: 6, 10.0 / 3.0: 6, 5.0: 6, 7.5: 4, 10.0: 4, 15.0: 2}}
+SHEAR_REFERENCE_SIZE = 5.0
+#: Width of a profile bin [diameters] and the distance from the faces beyond which the
+#: section is its core [diameters].
+PROFILE_BIN = 0.25
+CORE_FROM = 3.0
+#: Simulated time between two profiles in the unconfined stage [s]: five curve samples.
+PROFILE_INTERVAL = 5e-3
+CHECKPOINT_INTERVAL = 300.0
+
+
+def law(name: str) -> engine.BilinearAdhesive:
+    f0, _ = LAWS[name]
+    return engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=f0, mu_s=0.5, mu_r=0.001, restitution=0.4)
+
+
+def column_test(law_name: str, size: float, seed: int) -> engine.UniaxialTest:
+    """The ``law_name`` law in the column ``size`` diameters across (cell x size / 10,
+    gravity x 10 / size), the platen uncapped, packing ``seed``."""
+    ref = replace(
+        resolution.reference(), seed=seed, pair_law=law(law_name), max_platen_speed=UNCAPPED
+    )
+    if size == resolution.REFERENCE_SIZE:
+        return ref
+    return control_test(ref, ref.radius * resolution.REFERENCE_SIZE / size, ref.resolved_dt())
+
+
+def shear_test(law_name: str, size: float, seed: int) -> engine.ShearTest:
+    """The default shear cell of ``law_name``'s law scaled to ``size`` diameters across its
+    thin width (cell x size / 5, gravity of the fill x 5 / size: as a study's control),
+    the lid's shear speed uncapped, packing ``seed``."""
+    ref = engine.ShearTest(pair_law=law(law_name), seed=seed, max_shear_speed=UNCAPPED)
+    if size == SHEAR_REFERENCE_SIZE:
+        return ref
+    return control_test(ref, ref.radius * SHEAR_REFERENCE_SIZE / size, ref.resolved_dt())
+
+
+def label(size: float) -> str:
+    return f"d{size:.3g}"
+
+
+def keys(only=None) -> list[tuple[str, str, float, int]]:
+    """(kind, law, size, seed) of every run, cheapest first within a kind; the column
+    series first (bond1, then bond3), then the shear series; a size's seeds in order."""
+    out = []
+    for kind, table in (("column", COLUMN_SIZES), ("shear", SHEAR_SIZES)):
+        for law_name, sizes in table.items():
+            for size, n in sorted(sizes.items()):
+                out += [(kind, law_name, size, seed) for seed in range(1, n + 1)]
+    out.sort(key=priority)
+    if only:
+        out = [k for k in out if any(o in key_name(*k) for o in only)]
+    return out
+
+
+def priority(key: tuple[str, str, float, int]) -> float:
+    """The order runs are taken in: the estimated cost, doubled for a size's seeds beyond
+    the second and for the second law's runs, so that every size of the default law gets
+    two seeds before any size gets more."""
+    _, law_name, _, seed = key
+    return estimate(*key) * (1 if seed <= 2 else 2) * (1 if law_name == "bond1" else 1.5)
+
+
+def key_name(kind: str, law_name: str, size: float, seed: int) -> str:
+    return f"{kind}/{law_name}/{label(size)}-s{seed}"
+
+
+def path_of(kind: str, law_name: str, size: float, seed: int) -> Path:
+    """The run's digest (in git)."""
+    return STORE / kind / law_name / f"{label(size)}-s{seed}.json"
+
+
+def full_path_of(kind: str, law_name: str, size: float, seed: int) -> Path:
+    """The run's full HDF5 file (outside git)."""
+    return FULL / kind / law_name / f"{label(size)}-s{seed}.h5"
+
+
+def test_of(kind: str, law_name: str, size: float, seed: int):
+    return (column_test if kind == "column" else shear_test)(law_name, size, seed)
+
+
+#: Single-core throughput of the engine on these beds [particle-steps/s] (the capped
+#: series' 20-diameter runs: 8.6e9 particle-steps in 3,800-4,900 s on a loaded core).
+THROUGHPUT = 2.0e6
+
+
+def estimate(kind: str, law_name: str, size: float, seed: int) -> float:
+    """A run's wall time on one core [s], estimated from its particle count and the
+    steps the stored runs of this size took in the capped series (column) or the stored
+    default cell (shear: 46 s at 859 grains, steps held by the inertial number)."""
+    t = test_of(kind, law_name, size, seed)
+    n = t.n_particles
+    if kind == "shear":
+        return 46.0 * n / 859
+    steps = 1.0e5 * max(1.0, size / 10.0) ** 0.5  # the fill grows with sqrt(H / g)
+    return n * steps / THROUGHPUT
+
+
+def stored(kind: str, law_name: str, size: float, seed: int):
+    """The stored run's :class:`engine.io.digest.Digest` if it was made with today's test,
+    else None."""
+    path = path_of(kind, law_name, size, seed)
+    if not path.exists():
+        return None
+    d = read_digest(path)
+    want = json.loads(json.dumps(test_of(kind, law_name, size, seed).to_dict()))
+    return d if d.test == want else None
+
+
+class _Profiles:
+    """Collects the section profiles of a column's unconfined stage (every
+    :data:`PROFILE_INTERVAL` of simulated time) into ``<key>.profile.npz``, rewritten
+    atomically after each, so that a resumed run keeps the profiles taken before the cut."""
+
+    def __init__(self, test: engine.UniaxialTest, path: Path):
+        self.test = test
+        self.path = path
+        self.rows: dict[str, list] = {"time": [], "gap": [], "sums": [], "areas": []}
+        self.edges = None
+        if path.exists():
+            with np.load(path) as f:
+                self.edges = f["edges"]
+                for k in self.rows:
+                    self.rows[k] = list(f[k])
+
+    def __call__(self, snap) -> None:
+        if snap.stage != "unconfined":
+            return
+        t = self.test
+        d = 2 * t.radius
+        bottom, top = float(snap.platens[0]), float(snap.platens[-1])
+        gap = top - bottom
+        m = interior_margin(t.margin, gap, t.radius * (1 + t.polydispersity))
+        edges, sums, areas = section_profile(
+            snap.positions,
+            snap.radii,
+            snap.pairs,
+            snap.normal_forces,
+            snap.branches,
+            t.cell[:2],
+            (bottom + m, top - m),
+            PROFILE_BIN * d,
+        )
+        self.edges = edges
+        for k, v in (("time", snap.time), ("gap", gap), ("sums", sums), ("areas", areas)):
+            self.rows[k].append(v)
+        tmp = self.path.with_name(f".{self.path.name}.tmp.npz")
+        np.savez(
+            tmp,
+            edges=self.edges,
+            **{k: np.asarray(v, dtype=float) for k, v in self.rows.items()},
+            window_margin=m,
+        )
+        tmp.replace(self.path)
+
+
+def profile_path(kind: str, law_name: str, size: float, seed: int) -> Path:
+    """The column's section profiles (in git, beside the digest)."""
+    p = path_of(kind, law_name, size, seed)
+    return p.with_name(p.stem + ".profile.npz")
+
+
+def extra_of(outcome) -> dict:
+    """What a column's report reads beyond the metrics: the unconfined stage's first curve
+    sample (time [s], platen gap [m]), against which a profile's strain is measured."""
+    stages = getattr(outcome, "stages", None)
+    if not stages or "unconfined" not in stages:
+        return {}
+    c = stages["unconfined"].curves
+    return {"unconfined_start": {"time": float(c["time"][0]), "gap": float(c["platen_gap"][0])}}
+
+
+def run_one(kind: str, law_name: str, size: float, seed: int) -> str:
+    """Run and store one run; a line for the log."""
+    import numba
+
+    from engine.uniaxial.checkpoint import Checkpoint
+
+    numba.set_num_threads(1)
+    test = test_of(kind, law_name, size, seed)
+    path = full_path_of(kind, law_name, size, seed)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    resumed = ""
+    if kind == "column":
+        ckpt = Checkpoint(path.parent / ".checkpoints" / f"{path.stem}.ckpt", CHECKPOINT_INTERVAL)
+        prof = profile_path(kind, law_name, size, seed)
+        partial = path.with_name(path.stem + ".profile.partial.npz")
+        if not ckpt.path.exists() and partial.exists():
+            partial.unlink()  # profiles of a run that starts again
+        profiles = _Profiles(test, partial)
+        try:
+            outcome = engine.run_uniaxial(
+                test,
+                checkpoint=ckpt,
+                on_snapshot=profiles,
+                snapshot_interval=PROFILE_INTERVAL,
+            )
+        except Exception as e:
+            outcome = f"{type(e).__name__}: {e}"
+        save_run(path, outcome, keep_particles=False)
+        if partial.exists():
+            prof.parent.mkdir(parents=True, exist_ok=True)
+            with np.load(partial) as f:
+                np.savez_compressed(prof, **{k: f[k] for k in f.files})
+            partial.unlink()
+        if ckpt.resumed_steps is not None:
+            resumed = f", resumed at step {ckpt.resumed_steps}"
+        ckpt.remove()
+    else:
+        try:
+            outcome = engine.run_shear(test)
+        except Exception as e:
+            outcome = f"{type(e).__name__}: {e}"
+        save_run(path, outcome, keep_particles=False)
+    write_digest(
+        path_of(kind, law_name, size, seed), make_digest(outcome, test, path, extra_of(outcome))
+    )
+    took = time.perf_counter() - t0
+    what = outcome if isinstance(outcome, str) else "stored"
+    return f"{key_name(kind, law_name, size, seed)}: {what} ({took:.0f} s{resumed})"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", nargs="*", help="runs whose key contains any of these")
+    ap.add_argument("--list", action="store_true", help="list the runs and their cost")
+    ap.add_argument("--report", action="store_true", help="only write docs/RESOLUTION.md")
+    ap.add_argument("--no-report", action="store_true", help="run, but write no report")
+    args = ap.parse_args(argv)
+    todo = keys(args.only)
+    if args.list:
+        total = 0.0
+        for k in todo:
+            s = stored(*k)
+            est = estimate(*k)
+            if s is None:
+                total += est
+            state = "stored" if s is not None else f"about {est / 60:.0f} min on one core"
+            print(f"{key_name(*k):32s} {test_of(*k).n_particles:7d} particles  {state}")
+        print(f"left to run: about {total / 3600:.1f} h on one core")
+        return 0
+    if not args.report:
+        for k in todo:
+            if stored(*k) is None:
+                print(f"running {key_name(*k)} ({test_of(*k).n_particles} particles)", flush=True)
+                print(run_one(*k), flush=True)
+    if args.no_report:
+        return 0
+    from benchmarks.size_report import write_report
+
+    print(write_report())
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

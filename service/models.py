@@ -195,9 +195,17 @@ class RunPublic(RunBase):
 
 
 class StudyDetail(StudyPublic):
-    """A study with its normalised spec (engine.StudySpec.to_dict()) and its runs."""
+    """A study with its normalised spec (engine.StudySpec.to_dict()), its plot kinds and its
+    runs."""
 
     spec: dict
+    plot_kinds: list[str] = Field(
+        [],
+        description="The plots this study has (GET /studies/{id}/plots/{kind}.png): those of "
+        "its kind of test (a uniaxial study's curves, a shear study's yield loci and "
+        "pre-shear), the unconfined one only with that stage, the resolution one only with "
+        "resolution controls; any other kind is a 404.",
+    )
     runs: list[RunPublic] = []
 
 

@@ -12,8 +12,25 @@ from engine.io import figures as engine_plots
 
 from .h5store import read_plot_data
 
-#: Plot kinds the API serves.
+#: Plot kinds the API knows (of either kind of test); a study has only those of its own
+#: kind of test (:func:`study_kinds`).
 KINDS = tuple(engine_plots.KINDS)
+
+
+def study_kinds(spec: dict) -> tuple[str, ...]:
+    """The plot kinds of the study whose stored spec (engine.StudySpec.to_dict) is
+    ``spec``: engine.io.figures.plot_kinds, asked of its kind of test."""
+    return engine_plots.plot_kinds(spec)
+
+
+def not_a_kind_of(spec: dict, kind: str) -> str | None:
+    """Why the study of ``spec`` has no plot ``kind`` (naming the kinds it has), or None
+    when it has it."""
+    kinds = study_kinds(spec)
+    if kind in kinds:
+        return None
+    test = engine_plots.TEST_NAMES[engine_plots.reference_type(spec.get("reference") or {})]
+    return f"this {test} study has no {kind} plot; its plots: {', '.join(kinds)}"
 
 
 def render_png(kind: str, runs: dict, table: list[dict], advisor: dict | None = None) -> bytes:

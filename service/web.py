@@ -24,12 +24,13 @@ from fastapi.templating import Jinja2Templates
 from sqlmodel import select
 
 from engine.calibration.calibrate import TARGET_UNITS
-from engine.io.figures import KINDS, is_shear_table, kinds_of
+from engine.io.figures import KINDS, is_shear_table
 
 from . import h5store, transitions
 from .deps import CalibrationDep, OwnerDep, SessionDep, SettingsDep, StudyDep
 from .jobs import jobs_page
 from .models import TERMINAL, Kind, Run, Status
+from .plots import study_kinds
 from .routes.calibrations import public as calibration_public
 from .routes.calibrations import read_result as read_calibration
 from .routes.studies import public
@@ -139,18 +140,11 @@ def calibration_page(
     )
 
 
-def _plots(table: list[dict]) -> dict[str, str]:
-    """The plots a study's page shows, kind -> title: a shear study's, or a uniaxial
-    study's with the unconfined plot only where it has that stage; the resolution plot
-    only for a study with resolution controls (a line to the bulk, or the controls' points)."""
-    if is_shear_table(table):
-        return {k: KINDS[k] for k in kinds_of(table)}
-    return {
-        k: t
-        for k, t in KINDS.items()
-        if k in kinds_of(table)
-        and (k != "unconfined" or any("unconfined_strength" in row for row in table))
-    }
+def _plots(spec: dict) -> dict[str, str]:
+    """The plots a study's page shows, kind -> title: those its kind of test has
+    (service.plots.study_kinds, as its links and the API): the unconfined plot only where
+    the test has that stage, the resolution plot only with resolution controls."""
+    return {k: KINDS[k] for k in study_kinds(spec)}
 
 
 @router.get("/studies/{study_id}/page", response_class=HTMLResponse)
@@ -189,9 +183,7 @@ def study_page(
             "missing": missing,
             "headings": headings,
             "table": table,
-            # the unconfined plot only for a study with that stage, the resolution plot only
-            # for one with resolution controls (a line to the bulk, or the controls' points)
-            "plots": _plots((summary or {}).get("table", [])),
+            "plots": _plots(study.spec),
             "terminal": TERMINAL,
             "fmt": cell,
             "snapshots": settings.snapshot_files(study.id) if summary is not None else {},

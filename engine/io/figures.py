@@ -46,8 +46,14 @@ UNIAXIAL_KINDS = (
     "resolution",
 )
 SHEAR_KINDS = ("yield_locus", "preshear", "error_vs_runtime", "resolution")
+#: The plot kinds of each kind of test a study's reference can be, keyed on the test
+#: record's type (its JSON form's ``"type"``): the one place that says which plots a study
+#: has (:func:`plot_kinds`). The study's links, the API and the pages ask it.
+TEST_PLOTS = {"UniaxialTest": UNIAXIAL_KINDS, "ShearTest": SHEAR_KINDS}
+#: What each kind of test is called in a figure's words.
+TEST_NAMES = {"UniaxialTest": "uniaxial", "ShearTest": "shear"}
 #: Bumped when a figure's drawing changes, so that cached PNGs are drawn again.
-FIGURES_VERSION = 6
+FIGURES_VERSION = 7
 
 #: Kinds drawn from the advisor on a whole figure (several panels), not from the curves.
 _WHOLE_FIGURE = ("error_vs_runtime", "resolution")
@@ -91,11 +97,52 @@ def is_shear_table(table: list[dict]) -> bool:
     return any(SHEAR_METRIC_COLUMNS["yield_locus"] in r for r in table)
 
 
+def reference_type(reference) -> str:
+    """The type of a study's reference test, a key of :data:`TEST_PLOTS`: the record's class
+    name, or in its JSON form the ``"type"`` (a uniaxial test's may leave it out)."""
+    if isinstance(reference, dict):
+        return str(reference.get("type") or "UniaxialTest")
+    return type(reference).__name__
+
+
+def _kinds(test_type: str, unconfined: bool, controls: bool) -> tuple[str, ...]:
+    kinds = TEST_PLOTS.get(test_type)
+    if kinds is None:
+        raise ValueError(f"no plots of a {test_type!r} reference; known: {sorted(TEST_PLOTS)}")
+    return tuple(
+        k for k in kinds if (k != "resolution" or controls) and (k != "unconfined" or unconfined)
+    )
+
+
+def plot_kinds(spec) -> tuple[str, ...]:
+    """The plot kinds of the study ``spec`` (an :class:`engine.StudySpec` or its JSON form,
+    as the service stores it): those of its reference's kind of test (:data:`TEST_PLOTS`),
+    ``unconfined`` only where the test has the unconfined stage, ``resolution`` only with
+    resolution controls. Known before any run: a study's links and the API's answers
+    follow it."""
+    if isinstance(spec, dict):
+        from ..study.spec import StudySpec
+
+        ref = spec.get("reference") or {}
+        controls = spec.get("controls", StudySpec.__dataclass_fields__["controls"].default)
+        unconfined = ref.get("unconfined", True) if isinstance(ref, dict) else True
+    else:
+        ref, controls = spec.reference, spec.controls
+        unconfined = getattr(ref, "unconfined", True)
+    return _kinds(reference_type(ref), bool(unconfined), bool(controls))
+
+
 def kinds_of(table: list[dict]) -> tuple[str, ...]:
-    """The plot kinds a study has: a shear study's :data:`SHEAR_KINDS` or a uniaxial
-    study's :data:`UNIAXIAL_KINDS`; ``resolution`` only with resolution controls."""
-    kinds = SHEAR_KINDS if is_shear_table(table) else UNIAXIAL_KINDS
-    return tuple(k for k in kinds if k != "resolution" or has_controls(table))
+    """The plot kinds of a study from its result table alone (a study read back without
+    its spec): a shear study's :data:`SHEAR_KINDS` or a uniaxial study's
+    :data:`UNIAXIAL_KINDS`, ``unconfined`` only where a run has an unconfined strength,
+    ``resolution`` only with resolution controls."""
+    unconfined = any("unconfined_strength" in r for r in table)
+    return _kinds(_table_type(table), unconfined, has_controls(table))
+
+
+def _table_type(table: list[dict]) -> str:
+    return "ShearTest" if is_shear_table(table) else "UniaxialTest"
 
 
 def _style(i: int, ref: bool) -> dict:
@@ -295,10 +342,7 @@ def _yield_loci(ax, runs: dict, table: list[dict]) -> None:
                 band = lines.std(axis=0, ddof=1)
                 ax.fill_between(grid, mean - band, mean + band, color=colour, alpha=0.15, lw=0)
     if not any(r.get("points") for r in runs.values()):
-        ax.text(
-            0.5, 0.5, "no run of this study is a shear test", ha="center", transform=ax.transAxes
-        )
-        return
+        return  # draw() says why the panel is empty
     _mohr_circles(ax, [r["locus"] for r in runs.values() if r["reference"] and r.get("locus")])
     ax.errorbar([], [], fmt="o", color="0.3", label="incipient failure (mean ± 1 sd)")
     ax.errorbar([], [], fmt="^", mfc="none", color="0.3", label="pre-shear (steady flow)")
@@ -752,21 +796,31 @@ def draw(ax, kind: str, runs: dict, table: list[dict]) -> None:
             title=titles.get(kind, "solid: loading, dashed: unloading"),
             title_fontsize=7,
         )
-    elif kind in UNIAXIAL_KINDS and is_shear_table(table):
-        ax.text(
-            0.5,
-            0.5,
-            "a shear study: this plot is of the uniaxial test's stages\n"
-            f"(its plots: {', '.join(kinds_of(table))})",
-            ha="center",
-            transform=ax.transAxes,
-        )
     else:
-        ax.text(
-            0.5, 0.5, "no run of this study has this stage", ha="center", transform=ax.transAxes
-        )
+        _placeholder(ax, _empty_words(kind, table))
     ax.set_title(KINDS[kind], fontsize=10)
     ax.grid(alpha=0.3)
+
+
+def _empty_words(kind: str, table: list[dict]) -> str:
+    """Why panel ``kind`` of the study of ``table`` is empty: a plot of the other kind of
+    test (naming the study's own plots), or no run with the stage."""
+    own = _table_type(table)
+    if kind not in TEST_PLOTS[own]:
+        other = next(t for t, kinds in TEST_PLOTS.items() if kind in kinds)
+        return (
+            f"a {TEST_NAMES[own]} study: this plot is of the {TEST_NAMES[other]} test\n"
+            f"(its plots: {', '.join(kinds_of(table))})"
+        )
+    return "no run of this study has this stage"
+
+
+def _placeholder(ax, words: str) -> None:
+    """The one message of an empty panel, in its middle: any text drawn there before is
+    removed first, so that two messages are never drawn over each other."""
+    for t in list(ax.texts):
+        t.remove()
+    ax.text(0.5, 0.5, words, ha="center", va="center", transform=ax.transAxes)
 
 
 def figure(kind: str, runs: dict, table: list[dict], advisor: dict | None = None):

@@ -14,7 +14,7 @@ from engine.uniaxial.driver import STAGES
 from .. import h5store
 from ..deps import ResultsDep, SettingsDep, StudyDep, get_results
 from ..errors import answers
-from ..plots import KINDS, plot_png
+from ..plots import KINDS, not_a_kind_of, plot_png
 
 router = APIRouter(prefix="/studies/{study_id}", tags=["results"], responses=answers(401, 404, 409))
 
@@ -180,12 +180,15 @@ def plot(
     study: StudyDep,
     settings: SettingsDep,
 ) -> Response:
-    """A PNG plot: of a uniaxial study stress_strain, stress_porosity, coordination,
-    unconfined, error_vs_runtime or resolution (the resolution curve of a study with
-    controls); of a shear study yield_locus, preshear, error_vs_runtime or resolution (a
-    kind of the other test is drawn as a panel that says the study has none). An unknown
-    kind is a 422 whatever the study's status; a known one of a study that has not
-    succeeded a 409."""
+    """A PNG plot of a kind the study has (its ``plot_kinds``): of a uniaxial study
+    stress_strain, stress_porosity, coordination, unconfined (with that stage),
+    error_vs_runtime and resolution (with resolution controls); of a shear study
+    yield_locus, preshear, error_vs_runtime and resolution. An unknown kind is a 422 and a
+    kind the study does not have a 404 naming the kinds it has, whatever its status; one of
+    its kinds of a study that has not succeeded a 409."""
+    why = not_a_kind_of(study.spec, kind.value)
+    if why is not None:
+        raise HTTPException(status_code=404, detail=f"study {study.id}: {why}")
     results = get_results(study, settings)
     return Response(plot_png(results, kind.value), media_type="image/png")
 

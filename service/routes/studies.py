@@ -27,7 +27,7 @@ from ..models import (
     StudyPublic,
     StudySubmitted,
 )
-from ..plots import KINDS
+from ..plots import study_kinds
 from ..spec import StudyCreate
 
 router = APIRouter(prefix="/studies", tags=["studies"], responses=answers(401))
@@ -38,9 +38,10 @@ MAX_OFFSET = 2**31 - 1
 MAX_LIMIT = 1000
 
 
-def links(study_id: object) -> dict[str, str]:
-    """URLs (relative to the API root) of a study and its results."""
-    base = f"/studies/{study_id}"
+def links(study: Study) -> dict[str, str]:
+    """URLs (relative to the API root) of a study and its results: a plot only of the kinds
+    its kind of test has (service.plots.study_kinds)."""
+    base = f"/studies/{study.id}"
     out = {
         "self": base,
         "summary": f"{base}/summary",
@@ -48,13 +49,13 @@ def links(study_id: object) -> dict[str, str]:
         "results": f"{base}/results.h5",
         "cancel": f"{base}/cancel",
     }
-    out.update({f"plot_{k}": f"{base}/plots/{k}.png" for k in KINDS})
+    out.update({f"plot_{k}": f"{base}/plots/{k}.png" for k in study_kinds(study.spec)})
     return out
 
 
 def public(study: Study) -> StudyPublic:
     """The API view of a study row."""
-    return StudyPublic.model_validate(study, update={"links": links(study.id)})
+    return StudyPublic.model_validate(study, update={"links": links(study)})
 
 
 def check_storage(session, settings, owner: str, new_id, new_bytes: float) -> None:
@@ -132,7 +133,7 @@ def submit_study(
     study, runs = study_rows(Admitted(plan, costs), owner, body.name)
     study = enqueue(session, settings, study, runs, output_bytes(costs))
     response.headers["Location"] = f"/studies/{study.id}"
-    return StudySubmitted(id=study.id, status=study.status, links=links(study.id))
+    return StudySubmitted(id=study.id, status=study.status, links=links(study))
 
 
 def enqueue(session, settings, job: Study, runs: list, new_bytes: float) -> Study:
@@ -175,7 +176,11 @@ def read_study(study: StudyDep, session: SessionDep) -> StudyDetail:
     runs = session.exec(select(Run).where(Run.study_id == study.id).order_by(Run.position)).all()
     return StudyDetail.model_validate(
         study,
-        update={"links": links(study.id), "runs": [RunPublic.model_validate(r) for r in runs]},
+        update={
+            "links": links(study),
+            "plot_kinds": list(study_kinds(study.spec)),
+            "runs": [RunPublic.model_validate(r) for r in runs],
+        },
     )
 
 

@@ -1,0 +1,130 @@
+"""Which plots a study has, asked of its kind of test in one place
+(engine.io.figures.plot_kinds, TEST_PLOTS), and figures whose words never overlap: an
+empty panel says one thing (a uniaxial study's yield-locus panel once drew two messages
+on top of each other, issue 53). Made-up study data, no run."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+pytest.importorskip("matplotlib")
+import engine
+from engine.io.figures import (
+    KINDS,
+    SHEAR_KINDS,
+    TEST_PLOTS,
+    UNIAXIAL_KINDS,
+    figure,
+    kinds_of,
+    plot_kinds,
+)
+from tests.engine.test_figures import study as uniaxial_study
+
+TINY_SHEAR = {"type": "ShearTest", "pair_law": {"type": "BilinearAdhesive", "k1": 5e3}}
+
+
+def shear_study() -> tuple[dict, list[dict], dict]:
+    """Two shear references and a coarse variant: yield points, fitted loci, pre-shear."""
+    strain = np.linspace(0.0, 0.3, 40)
+    runs, table = {}, []
+    for key, rule, c in (
+        ("ref-s1", "reference", 1.0e3),
+        ("ref-s2", "reference", 1.2e3),
+        ("r3mm-paper-s1", "paper", 0.8e3),
+    ):
+        runs[key] = {
+            "label": key,
+            "reference": rule == "reference",
+            "stages": {
+                "preshear": {"shear_strain": strain, "shear_stress": 4e3 * np.tanh(20 * strain)}
+            },
+            "points": [
+                {"kind": "preshear", "sigma": 10e3, "tau": 4e3},
+                {"kind": "failure", "sigma": 3e3, "tau": c + 0.5 * 3e3},
+                {"kind": "failure", "sigma": 7e3, "tau": c + 0.5 * 7e3},
+            ],
+            "locus": {"cohesion": c, "slope": 0.5, "sigma_1": 20e3, "sigma_2": 5e3, "sigma_c": 3e3},
+        }
+        table.append(
+            {
+                "run": key,
+                "rule": rule,
+                "radius": 2.5e-3 if rule == "reference" else 3e-3,
+                "wall_time": 10.0,
+                "thickness_diameters": 10.0,
+                "err_yield_locus": 0.05,
+                "err_sigma_1": 0.02,
+            }
+        )
+    return runs, table, {"tolerances": {"yield_locus": 0.1}, "verdicts": []}
+
+
+def words(fig) -> list[tuple[str, object]]:
+    """Every piece of words a person reads on ``fig`` (titles, axis labels, legends, notes;
+    tick labels aside) with its box on the canvas."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    texts = [*fig.texts]
+    if fig._suptitle is not None:
+        texts.append(fig._suptitle)
+    for legend in fig.legends:
+        texts += [legend.get_title(), *legend.get_texts()]
+    for ax in fig.axes:
+        texts += [*ax.texts, ax.title, ax._left_title, ax._right_title]
+        texts += [ax.xaxis.label, ax.yaxis.label]
+        if ax.get_legend() is not None:
+            texts += [ax.get_legend().get_title(), *ax.get_legend().get_texts()]
+    unique = {id(t): t for t in texts}.values()  # the suptitle is among fig.texts too
+    return [
+        (t.get_text(), t.get_window_extent(renderer))
+        for t in unique
+        if t.get_visible() and t.get_text().strip()
+    ]
+
+
+@pytest.mark.parametrize("which", ["uniaxial", "shear"])
+def test_no_figure_draws_words_over_words(which):
+    data = uniaxial_study() if which == "uniaxial" else shear_study()
+    for kind in KINDS:  # the study's own kinds and the other test's (a placeholder)
+        placed = words(figure(kind, *data))
+        assert placed, kind
+        for (a, box_a), (b, box_b) in itertools.combinations(placed, 2):
+            assert not box_a.overlaps(box_b), f"{which} {kind}: {a!r} over {b!r}"
+
+
+def test_an_empty_panel_says_one_thing_and_names_the_study_s_plots():
+    runs, table, advisor = uniaxial_study()
+    (ax,) = figure("yield_locus", runs, table, advisor).axes
+    (note,) = ax.texts
+    assert "a uniaxial study" in note.get_text() and "stress_strain" in note.get_text()
+    runs, table, advisor = shear_study()
+    (ax,) = figure("unconfined", runs, table, advisor).axes
+    (note,) = ax.texts
+    assert "a shear study" in note.get_text() and "yield_locus" in note.get_text()
+
+
+def test_a_study_s_plots_follow_its_kind_of_test():
+    quick = engine.StudySpec(reference=engine.preset("quick"), coarse_radii=(3.125e-3,))
+    assert plot_kinds(quick) == UNIAXIAL_KINDS
+    assert plot_kinds(quick.to_dict()) == UNIAXIAL_KINDS  # the JSON form the service keeps
+    no_ucs = {**quick.to_dict(), "controls": False}
+    no_ucs["reference"] = {**no_ucs["reference"], "unconfined": False}
+    assert plot_kinds(no_ucs) == (
+        "stress_strain",
+        "stress_porosity",
+        "coordination",
+        "error_vs_runtime",
+    )
+    shear = {"reference": TINY_SHEAR, "coarse_radii": [3e-3]}
+    assert plot_kinds(shear) == SHEAR_KINDS
+    assert not set(plot_kinds(shear)) & {"stress_strain", "unconfined"}
+    assert not set(plot_kinds(quick)) & {"yield_locus", "preshear"}
+    # the table of a stored study says the same
+    assert kinds_of(uniaxial_study()[1]) == UNIAXIAL_KINDS
+    assert kinds_of(shear_study()[1]) == ("yield_locus", "preshear", "error_vs_runtime")
+    assert set(TEST_PLOTS) == {"UniaxialTest", "ShearTest"}
+    with pytest.raises(ValueError, match="no plots"):
+        plot_kinds({"reference": {"type": "Bogus"}})

@@ -25,6 +25,7 @@ from sqlmodel import select
 
 from engine.calibration.calibrate import TARGET_UNITS
 from engine.io.figures import KINDS, is_shear_table
+from engine.study.reasons import describe, interval_words, pct, shown
 
 from . import h5store, transitions
 from .deps import CalibrationDep, OwnerDep, SessionDep, SettingsDep, StudyDep
@@ -88,6 +89,73 @@ def cell(value, scale: float | None, fmt: str) -> str:
         if scale is not None:
             value = value * scale
     return fmt.format(value)
+
+
+def verdict_table(groups: list[dict], tolerances: dict) -> dict:
+    """A table of judged groups (the advisor's ``verdicts``, ``rule_errors`` or
+    ``resolution``): a row per (radius, rule), a column per metric. Each cell holds the
+    metric's signed error and, below it, its interval (an interval with an end beyond
+    +-1000 % as unbounded, engine.study.reasons.interval_words), its verdict (the cell's
+    colour) and, on hover, how the interval was made, the tolerance and the seeds; each
+    row's reasons, a line per metric, and what would decide it go in a detail row."""
+    names: list[str] = []
+    for v in groups:
+        names += [m["metric"] for m in v.get("metrics", []) if m["metric"] not in names]
+    rows = []
+    for v in groups:
+        by_name = {m["metric"]: m for m in v.get("metrics", [])}
+        cells = []
+        for name in names:
+            m = by_name.get(name)
+            if m is None:
+                cells.append(None)
+                continue
+            err, interval, how = shown(m)
+            bounds = interval_words(interval) if interval is not None else how
+            cells.append(
+                {
+                    "verdict": m["verdict"],
+                    "error": "-" if err is None else pct(err),
+                    "interval": bounds,
+                    "title": f"{name}: {m['verdict']}; {pct(err)}, interval {bounds}"
+                    + (f" ({how})" if interval is not None else "")
+                    + f"; tolerance ± {100 * m['tolerance']:g} %; {m['seeds']} seeds against "
+                    f"{m['reference_seeds']}",
+                }
+            )
+        rows.append(
+            {
+                "radius": v["radius"],
+                "rule": v["rule"],
+                "verdict": v["verdict"],
+                "seeds": v.get("seeds"),
+                "speedup": v.get("speedup"),
+                "cells": cells,
+                "lines": [describe(m) for m in v.get("metrics", [])],
+                "to_decide": v.get("to_decide"),
+            }
+        )
+    return {"metrics": [(n, tolerances.get(n)) for n in names], "rows": rows}
+
+
+def curve_table(advisor: dict) -> list[dict]:
+    """The resolution curve per property (engine.study.resolution): how far the reference
+    is from the bulk value, with its interval (unbounded beyond +-1000 %), and the sizes
+    the line was fitted to."""
+    curve = advisor.get("resolution_curve") or {}
+    rows = []
+    for name, c in (curve.get("metrics") or {}).items():
+        rows.append(
+            {
+                "metric": name,
+                "across": c.get("reference_diameters_across"),
+                "offset": pct(c.get("reference_offset")),
+                "interval": interval_words(c.get("reference_offset_interval")),
+                "sizes": ", ".join(f"{s['diameters_across']:.1f}" for s in c.get("sizes", [])),
+                "linear": c.get("linear"),
+            }
+        )
+    return rows
 
 
 @router.get("/", response_class=HTMLResponse)
@@ -160,8 +228,15 @@ def study_page(
             summary = h5store.read_summary(path)
         else:
             missing = "the results file of this study is gone"
-    table = []
+    table, verdicts = [], {}
     if summary is not None:
+        advisor = summary.get("advisor") or {}
+        tolerances = advisor.get("tolerances") or {}
+        verdicts = {
+            key: verdict_table(advisor.get(key) or [], tolerances)
+            for key in ("verdicts", "rule_errors", "resolution")
+        }
+        verdicts["curve"] = curve_table(advisor)
         # each run's kernel compilation (set-up), kept out of its run time and speed-up; a
         # shear run's ffc as stored (the summary's JSON has null where it is infinite)
         shear = is_shear_table(summary["table"])
@@ -183,6 +258,7 @@ def study_page(
             "missing": missing,
             "headings": headings,
             "table": table,
+            "verdicts": verdicts,
             "plots": _plots(study.spec),
             "terminal": TERMINAL,
             "fmt": cell,

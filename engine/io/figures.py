@@ -550,6 +550,16 @@ def _pct(x: float) -> str:
     return f"{x:+.0f}" if abs(x) < 1e4 else f"{x:+.0e}"
 
 
+def _span(lo: float, hi: float) -> str:
+    """An interval of relative errors [-] in per cent, "[-31, -19] %", or, with an end beyond
+    +-1000 % (too few seeds), the words the reports use (engine.study.reasons)."""
+    from ..study.reasons import UNBOUNDED_WORDS, bounded
+
+    if not bounded((lo, hi)):
+        return UNBOUNDED_WORDS
+    return f"[{_pct(100 * lo)}, {_pct(100 * hi)}] %"
+
+
 def _resolution(fig, advisor: dict | None, table: list[dict] | None = None) -> None:
     """One panel per property with a resolution curve (engine.study.resolution): each sample
     size's mean relative to the extrapolated bulk value against d / L, the fitted line, and
@@ -622,9 +632,8 @@ def _resolution(fig, advisor: dict | None, table: list[dict] | None = None) -> N
         ax.text(
             0.03,
             0.03,
-            f"bulk: [{_pct(100 * (lo / bulk - 1))}, {_pct(100 * (hi / bulk - 1))}] %\n"
-            f"reference {100 * c['reference_offset']:+.1f} %\n[{_pct(100 * olo)}, "
-            f"{_pct(100 * ohi)}] % from it",
+            f"bulk: {_span(lo / bulk - 1, hi / bulk - 1)}\n"
+            f"reference {100 * c['reference_offset']:+.1f} %\n{_span(olo, ohi)} from it",
             transform=ax.transAxes,
             fontsize=6,
             va="bottom",

@@ -5,15 +5,49 @@ makes."""
 
 from __future__ import annotations
 
+import math
+
 #: Most seeds a "would need" estimate looks for (beyond it: "more than" this).
 MAX_SEEDS_NEEDED = 100
+#: Largest relative error a report prints as a number (+-1000 %): an interval end beyond
+#: it says only that the spread has too few degrees of freedom (a two-seed study's 1-dof t
+#: interval reaches +1e27 %), so such an interval is printed as :data:`UNBOUNDED_WORDS`.
+UNBOUNDED = 10.0
+#: How a report prints an interval with an end beyond +-1000 % or none at all.
+UNBOUNDED_WORDS = "unbounded (too few seeds)"
 
 
 def _pct(x: float) -> str:
-    """A relative error in per cent, one decimal; in powers of ten beyond +-10,000 % (the far
-    end of a one-degree-of-freedom interval) so that no end runs to thirty digits."""
+    """A relative error in per cent with the figures a person reads: one decimal below
+    100 %, whole per cent up to 1000 %, and beyond +-1000 % (no finite number there tells
+    anything: the far end of a one-degree-of-freedom interval) "above +1000 %"."""
+    if x is None or not math.isfinite(x):
+        return "undefined"
     p = 100 * x
-    return f"{p:+.1f} %" if abs(p) < 1e4 else f"{p:+.2g} %"
+    if abs(p) > 100 * UNBOUNDED:
+        return f"{'above +' if p > 0 else 'below -'}{100 * UNBOUNDED:.0f} %"
+    return f"{p:+.1f} %" if abs(p) < 99.95 else f"{p:+.0f} %"
+
+
+def pct(x: float | None) -> str:
+    """:func:`_pct` for other modules: a relative error [-] in per cent, readable."""
+    return _pct(x)
+
+
+def bounded(interval) -> bool:
+    """Whether ``interval`` (low, high) [-] has two finite ends within +-:data:`UNBOUNDED`."""
+    if not interval:
+        return False
+    return all(x is not None and math.isfinite(x) and abs(x) <= UNBOUNDED for x in interval)
+
+
+def interval_words(interval) -> str:
+    """ "[-13.2 %, -1.1 %]", or :data:`UNBOUNDED_WORDS` for an interval with an end beyond
+    +-1000 % or none."""
+    if not bounded(interval):
+        return UNBOUNDED_WORDS
+    lo, hi = interval
+    return f"[{_pct(lo)}, {_pct(hi)}]"
 
 
 def bias_words(m: dict) -> str | None:
@@ -27,6 +61,11 @@ def bias_words(m: dict) -> str | None:
     else:
         size, a, z = b["error"], lo, hi
     what = "" if m["level"] is None else " (mean over levels)"
+    if not bounded((a, z)):  # excludes zero, but its far end is beyond any use
+        return (
+            f"{m['metric']} biased {b['direction']} by {100 * size:.1f} %{what} (its "
+            f"{b['confidence']:.0%} interval's far end {UNBOUNDED_WORDS})"
+        )
     return (
         f"{m['metric']} biased {b['direction']} by {100 * size:.1f} "
         f"[{100 * a:.1f}, {100 * z:.1f}] %{what} ({b['confidence']:.0%} interval)"
@@ -47,18 +86,16 @@ def describe(m: dict) -> str:
     conf = 1 - m["alpha_equivalent"]
     spread = f", {m['screen']}" if m.get("screen") else ""
     if m["verdict"] == "differs":
-        lo, hi = m["differs_interval"]
         what = "summed over levels " if m["level"] is not None else ""
+        how = f"{1 - m['alpha_differs']:.1%} one-sided{spread}"
         return (
-            f"{m['metric']} {what}{_pct(m['differs_error'])} in [{_pct(lo)}, {_pct(hi)}] "
-            f"({1 - m['alpha_differs']:.1%} one-sided{spread}) against {tol}{left}"
+            f"{m['metric']} {what}{_pct(m['differs_error'])}"
+            f"{_within(m['differs_interval'], how)} against {tol}{left}"
         )
-    lo, hi = m["interval"]
     at = "" if m["level"] is None else f" at its worst level {m['level'] + 1}"
-    text = (
-        f"{m['metric']} {_pct(m['level_error'])}{at} in [{_pct(lo)}, {_pct(hi)}] "
-        f"({conf:.1%} one-sided per end, {m['df']:.1f} dof{spread}) against {tol}{left}"
-    )
+    how = f"{conf:.1%} one-sided per end, {m['df']:.1f} dof{spread}"
+    text = f"{m['metric']} {_pct(m['level_error'])}{at}{_within(m['interval'], how)}"
+    text += f" against {tol}{left}"
     if m["verdict"] == "undecided":
         b = bias_words(m)
         if b:
@@ -75,6 +112,29 @@ def describe(m: dict) -> str:
         else:
             text += f"; more than {MAX_SEEDS_NEEDED} more seeds would be needed"
     return text
+
+
+def shown(m: dict) -> tuple[float | None, list | None, str]:
+    """What a table shows of one metric's judgement, as :func:`describe` says it: (its
+    error [-], its interval [-] or None, how the interval was made). A metric that
+    differs: its error summed over levels and the one-sided interval that shows it; one
+    without an interval: its signed error and why there is none."""
+    if m.get("interval") is None:
+        why = "no failed run" if m["seeds"] == 0 or m["reference_seeds"] == 0 else "spread unknown"
+        return m.get("signed_error"), None, why
+    if m["verdict"] == "differs":
+        return m["differs_error"], m["differs_interval"], f"{1 - m['alpha_differs']:.1%} one-sided"
+    at = "" if m["level"] is None else f", at its worst level {m['level'] + 1}"
+    how = f"{1 - m['alpha_equivalent']:.1%} one-sided per end, {m['df']:.1f} dof{at}"
+    return m["level_error"], m["interval"], how
+
+
+def _within(interval, how: str) -> str:
+    """ " in [a, b] (how)", or for an interval too wide to print ", interval unbounded
+    (too few seeds: how)"."""
+    if bounded(interval):
+        return f" in {interval_words(interval)} ({how})"
+    return f", interval {UNBOUNDED_WORDS.removesuffix(')')}: {how})"
 
 
 def what_decides(metrics: list[dict]) -> str | None:
@@ -151,4 +211,16 @@ def verdict(metrics: list[dict]) -> tuple[str, str]:
     return "equivalent", "within tolerance beyond noise: " + "; ".join(describe(m) for m in metrics)
 
 
-__all__ = ["MAX_SEEDS_NEEDED", "bias_words", "describe", "verdict", "what_decides"]
+__all__ = [
+    "MAX_SEEDS_NEEDED",
+    "UNBOUNDED",
+    "UNBOUNDED_WORDS",
+    "bias_words",
+    "bounded",
+    "describe",
+    "interval_words",
+    "pct",
+    "shown",
+    "verdict",
+    "what_decides",
+]

@@ -6,7 +6,7 @@ of its bulk value, and so the coarsest particle for a feature L wide.
     python -m benchmarks.resolution                  # every run not yet stored, then the report
     python -m benchmarks.resolution --only d15-s1     # a share of the runs
     python -m benchmarks.resolution --import var/results/<id>.h5   # the main job's runs
-    python -m benchmarks.resolution --report          # docs/RESOLUTION.md from the stored runs
+    python -m benchmarks.resolution --report          # docs/RESOLUTION_capped.md from the stored runs
 
 The sample: ``engine.default_study().reference`` (the main job's reference: the ``quick``
 preset's 10 x 10 x 60-diameter column of R = 2.5 mm spheres, f0 = -0.4 N, at the default
@@ -62,7 +62,7 @@ from engine.study.resolution import (
 
 ROOT = Path(__file__).resolve().parent.parent
 STORE = ROOT / "benchmarks" / "results" / "quick" / "resolution"
-REPORT = ROOT / "docs" / "RESOLUTION.md"
+REPORT = ROOT / "docs" / "RESOLUTION_capped.md"
 #: Sample sizes [diameters across]; the reference's is 10.
 SIZES = (5.0, 20.0 / 3.0, 8.0, 10.0, 15.0, 20.0, 25.0)
 REFERENCE_SIZE = 10.0
@@ -350,7 +350,7 @@ def main(argv=None) -> int:
         help="a study's results.h5 whose runs are this benchmark's",
     )
     ap.add_argument("--commit", action="store_true", help="commit each stored run")
-    ap.add_argument("--report", action="store_true", help="only write docs/RESOLUTION.md")
+    ap.add_argument("--report", action="store_true", help="only write docs/RESOLUTION_capped.md")
     args = ap.parse_args(argv)
     for path in args.imports:
         for line in import_study(path, args.commit):

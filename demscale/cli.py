@@ -794,8 +794,10 @@ def parser() -> argparse.ArgumentParser:
     p.set_defaults(func=worker)
 
     from .deck import add_commands  # export-test, judge-liggghts (issue 43)
+    from .plan import add_commands as add_plan  # plan (issue 50)
 
     add_commands(sub, fmt)
+    add_plan(sub, fmt)
     return ap
 
 

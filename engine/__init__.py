@@ -36,6 +36,7 @@ from .core.errors import (
 from .core.similarity import similar
 from .io.vtkhdf import SnapshotWriter
 from .kernel.specialise import FEATURES
+from .process import Process, ProcessPlan, plan_process
 from .shear.driver import run_shear
 from .shear.results import ShearResult
 from .shear.spec import ShearTest
@@ -58,6 +59,9 @@ from .uniaxial.spec import SEED_PROTOCOL, UniaxialTest, preset
 __version__ = "0.1.0"
 
 __all__ = [
+    "Process",
+    "ProcessPlan",
+    "plan_process",
     "DEFAULT_TOLERANCES",
     "EEPA",
     "FEATURES",

@@ -34,7 +34,7 @@ from .guard import Guard, Tokens
 from .headers import SecurityHeaders
 from .models import Status, Study
 from .ratelimit import Buckets, SubmitRateLimit
-from .routes import calibrations, results, studies
+from .routes import calibrations, plans, results, studies
 from .settings import ConfigError, Settings, get_settings, secure_data_dir, session_secret
 from .web import router as web_router
 from .web import templates
@@ -154,6 +154,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(studies.router)
     app.include_router(calibrations.router)
     app.include_router(results.router)
+    app.include_router(plans.router)
     app.include_router(web_router)  # the studies web page at /
 
     app.add_exception_handler(RequestValidationError, validation_error)

@@ -90,6 +90,7 @@ LAYERS = (
     "study",
     "io",
     "calibration",
+    "process",
 )
 
 

@@ -21,6 +21,8 @@ import dataclasses
 import math
 import re
 
+import numpy as np
+
 from .errors import ParameterError
 from .records import describe
 
@@ -95,11 +97,18 @@ def similar(record, s: float, owner: str | None = None):
             continue
         if info.kind in ("int", "str", "bool", "dict"):
             continue
-        factor = s ** unit_exponent(info.unit, record, where)
+        try:
+            factor = s ** unit_exponent(info.unit, record, where)
+            scaled = (
+                tuple(float(v) * factor for v in value)
+                if info.kind == "list"
+                else float(value) * factor
+            )
+        except OverflowError:
+            factor, scaled = math.inf, math.inf
         if factor == 1.0:
             continue
-        if info.kind == "list":
-            changes[info.name] = tuple(float(v) * factor for v in value)
-        else:
-            changes[info.name] = float(value) * factor
+        if not all(math.isfinite(v) for v in np.atleast_1d(scaled)):
+            raise ParameterError(where, value, f"a value that stays finite at the factor {s:g}")
+        changes[info.name] = scaled
     return dataclasses.replace(record, **changes) if changes else record

@@ -277,8 +277,10 @@ def diameters_needed(curve: dict, tolerance: float) -> dict:
     trusted: a need below the coarsest size fitted is reported as at most that size
     (``bound`` "at_most"), one beyond the finest as more than it (``bound`` "more_than");
     a curve whose means lie off the line (``linear`` False, :func:`linearity`) gives
-    none (``diameters`` None)."""
+    none (``diameters`` None). ``bound95`` is 1 / x_max unclipped, ``point`` the same
+    crossing on the fitted slope itself (:func:`point_need`): the point estimate."""
     b_lo, b_hi = curve["slope_interval"]
+    point = point_need(curve["slope"], tolerance)
     limits = []
     if b_hi > 0:
         limits.append(math.log1p(tolerance) / b_hi)
@@ -289,12 +291,26 @@ def diameters_needed(curve: dict, tolerance: float) -> dict:
     fewest, most = min(across), max(across)
     need = 1.0 / x_max if x_max > 0 else math.inf
     if curve.get("linear") is False:
-        return {"diameters": None, "bound": "not_linear", "tolerance": tolerance}
+        return {"diameters": None, "bound": "not_linear", "tolerance": tolerance, "point": None}
+    out = {"tolerance": tolerance, "point": point, "bound95": need}
     if need <= fewest:
-        return {"diameters": fewest, "bound": "at_most", "tolerance": tolerance}
+        return {"diameters": fewest, "bound": "at_most", **out}
     if need > most:
-        return {"diameters": most, "bound": "more_than", "tolerance": tolerance}
-    return {"diameters": need, "bound": "needs", "tolerance": tolerance}
+        return {"diameters": most, "bound": "more_than", **out}
+    return {"diameters": need, "bound": "needs", **out}
+
+
+def point_need(slope: float, tolerance: float) -> float:
+    """The diameters across at which the fitted line log y = a + ``slope`` d / L leaves
+    +-``tolerance`` of the bulk: the point estimate of :func:`diameters_needed`'s bound
+    (1 where the slope is 0 or the tolerance holds at d / L = 1) [-]."""
+    if slope < 0:
+        x = math.log1p(-tolerance) / slope
+    elif slope > 0:
+        x = math.log1p(tolerance) / slope
+    else:
+        return 1.0
+    return max(1.0, 1.0 / x)
 
 
 def needed_words(needed: dict | None) -> str:

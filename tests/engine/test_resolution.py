@@ -150,10 +150,22 @@ def test_the_diameters_a_property_needs_are_the_closed_form_on_an_exact_line():
     assert need["diameters"] == pytest.approx(0.5 / math.log(1.03), rel=1e-6)  # 16.9
     # held to within the tolerance down to the coarsest size run: at most that size
     need = diameters_needed(fit_curve(_exact(-0.1), 0.95), 0.10)
-    assert need == {"diameters": 5.0, "bound": "at_most", "tolerance": 0.10}
-    # more than the finest size run gives: only a bound
+    assert {k: need[k] for k in ("diameters", "bound", "tolerance")} == {
+        "diameters": 5.0,
+        "bound": "at_most",
+        "tolerance": 0.10,
+    }
+    # more than the finest size run gives: only a bound, with the point estimate beyond it
     need = diameters_needed(fit_curve(_exact(-5.0), 0.95), 0.03)
     assert need["bound"] == "more_than" and need["diameters"] == 20.0
+    assert need["point"] == pytest.approx(-5.0 / math.log(0.97), rel=1e-6)  # 164
+
+
+def test_the_point_estimate_of_the_need_is_on_the_fitted_slope_and_below_the_bound():
+    noisy = fit_curve(_exact(-1.0, jitter=0.03), 0.95)
+    need = diameters_needed(noisy, 0.10)
+    assert need["point"] == pytest.approx(noisy["slope"] / math.log(0.9), rel=1e-9)
+    assert need["point"] < need["bound95"]
 
 
 def test_noise_makes_the_need_larger_not_smaller():

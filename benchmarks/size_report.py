@@ -1,0 +1,470 @@
+"""The report of the size series (``python -m benchmarks.size_series --report``):
+docs/RESOLUTION.md and the planner's evidence, engine/process/evidence.json, both from the
+stored digests only (benchmarks/results/size_series/).
+
+What decides was fixed in benchmarks/size_series.py before the runs: per feature kind and
+law, each property's log is fitted linear in d / L through the size means (the sizes'
+spreads pooled as (d / L)^2, ``engine.study.resolution.fit_curve(pooled=True)``; the smallest
+sizes off the line left out by ``asymptotic_curve``), and the property needs
+``diameters_needed`` particles across to stay within the study's tolerance of its bulk:
+a point estimate on the fitted slope and a 95 % bound from the slope's interval. A feature
+kind needs what its most demanding property needs. A strength counts only samples that
+failed at a peak.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+
+from benchmarks import size_series as S
+from engine.core.records import to_dict
+from engine.study.metrics import DEFAULT_TOLERANCES, SHEAR_TOLERANCES
+from engine.study.resolution import diameters_needed, resolution_curves
+from engine.uniaxial.measures import skin_thickness
+
+ROOT = S.ROOT
+REPORT = ROOT / "docs" / "RESOLUTION.md"
+EVIDENCE = ROOT / "engine" / "process" / "evidence.json"
+TARGET_INERTIAL = 5e-4
+#: The inertial number a size held must be within this fraction of its target (issue 50).
+INERTIAL_TOLERANCE = 0.10
+
+#: Feature kinds: (kind of run, the properties that make it, the tolerances, reference size).
+FEATURES = {
+    "bulk_compression": (
+        "column",
+        ("density", "loading_stiffness", "unloading_stiffness", "coordination"),
+        DEFAULT_TOLERANCES,
+        10.0,
+    ),
+    "free_surface": ("column", ("strength",), DEFAULT_TOLERANCES, 10.0),
+    "bulk_shear": (
+        "shear",
+        ("yield_locus", "sigma_1", "sigma_c", "ffc", "bulk_density"),
+        SHEAR_TOLERANCES,
+        5.0,
+    ),
+}
+FEATURE_WORDS = {
+    "bulk_compression": "bulk in confined compression (never released)",
+    "free_surface": "free surface (the released column's four faces)",
+    "bulk_shear": "bulk in shear (periodic shear cell between rough layers)",
+}
+
+
+def digests(kind: str, law_name: str) -> dict[float, list]:
+    """The stored digests of a series, per size (runs that ended in an error left out)."""
+    table = S.COLUMN_SIZES if kind == "column" else S.SHEAR_SIZES
+    out = {}
+    for size, n in table.get(law_name, {}).items():
+        got = [S.stored(kind, law_name, size, seed) for seed in range(1, n + 1)]
+        ok = [d for d in got if d is not None and d.ok]
+        if ok:
+            out[size] = ok
+    return out
+
+
+def failures(kind: str, law_name: str) -> list[str]:
+    table = S.COLUMN_SIZES if kind == "column" else S.SHEAR_SIZES
+    out = []
+    for size, n in table.get(law_name, {}).items():
+        for seed in range(1, n + 1):
+            d = S.stored(kind, law_name, size, seed)
+            if d is not None and not d.ok:
+                out.append(f"{S.key_name(kind, law_name, size, seed)}: {d.outcome[:160]}")
+    return out
+
+
+def _values(d, names) -> dict:
+    v = {n: d.metrics[n] for n in names if n in d.metrics}
+    if "strength" in v and float(np.mean(d.metrics.get("failed", [1.0]))) != 1.0:
+        del v["strength"]  # a strength compares failures only
+    return v
+
+
+def feature_curves(feature: str, law_name: str) -> dict:
+    """The resolution curves of a feature kind's properties for one law, with each
+    property's need (point and 95 % bound)."""
+    kind, names, tols, ref_size = FEATURES[feature]
+    runs = digests(kind, law_name)
+    if ref_size not in runs or len(runs[ref_size]) < 2:
+        return {"metrics": {}, "sizes": sorted(runs)}
+    ref = [(d.scalars["thickness_diameters"], _values(d, names)) for d in runs[ref_size]]
+    controls = {
+        z: [(d.scalars["thickness_diameters"], _values(d, names)) for d in ds]
+        for z, ds in runs.items()
+        if z != ref_size and len(ds) >= 2
+    }
+    every = ref + [x for rs in controls.values() for x in rs]
+    usable = [n for n in names if all(n in v for _, v in every)]
+    out = resolution_curves(ref, controls, usable, 0.95, pooled=True)
+    for n, c in out["metrics"].items():
+        c["needed"] = diameters_needed(c, tols[n])
+    out["sizes"] = sorted(runs)
+    out["missing"] = [n for n in names if n not in out["metrics"]]
+    return out
+
+
+def feature_need(curves: dict) -> dict | None:
+    """The need of a feature kind: its most demanding property's (point estimate and 95 %
+    bound; ``bound``: "needs", "more_than" the finest size, "at_most" the coarsest);
+    None where no property has a curve or one is off its line and none needs more than
+    the finest size."""
+    needs = {n: c["needed"] for n, c in curves.get("metrics", {}).items()}
+    if not needs:
+        return None
+    off = [n for n, v in needs.items() if v["diameters"] is None]
+    beyond = [n for n, v in needs.items() if v["bound"] == "more_than"]
+    if off and not beyond:
+        return {"limited_by": off[0], "bound": "not_linear", "not_linear": off}
+    known = {n: v for n, v in needs.items() if v["diameters"] is not None}
+    name = max(known, key=lambda n: (known[n]["bound"] == "more_than", known[n]["diameters"]))
+    v = known[name]
+    return {
+        "limited_by": name,
+        "bound": v["bound"],
+        "n_req_bound": v["diameters"],
+        # the most demanding property's point estimate (which need not be the property
+        # whose bound sets the kind's: the bounds are clipped to the sizes run)
+        "n_req_point": max(x["point"] for x in known.values()),
+        "tolerance": v["tolerance"],
+        "not_linear": off,
+        "per_property": {
+            n: {k: x.get(k) for k in ("diameters", "bound", "point", "tolerance")}
+            for n, x in needs.items()
+        },
+        "sizes": curves["sizes"],
+    }
+
+
+def profile_at_peak(law_name: str, size: float, seed: int, d) -> dict | None:
+    """The section profile of a column run nearest its strength's peak: the skin
+    thickness [diameters] and the profile (bin centres [diameters], stress over the
+    core's)."""
+    path = S.profile_path("column", law_name, size, seed)
+    start = d.extra.get("unconfined_start")
+    if not path.exists() or start is None or "strain_at_peak" not in d.scalars:
+        return None
+    with np.load(path) as f:
+        edges, sums, areas, gaps = f["edges"], f["sums"], f["areas"], f["gap"]
+    strain = (start["gap"] - gaps) / start["gap"]
+    k = int(np.argmin(np.abs(strain - d.scalars["strain_at_peak"])))
+    dia = 2 * S.column_test(law_name, size, seed).radius
+    t, core = skin_thickness(edges, sums[k], areas[k], S.CORE_FROM * dia)
+    if not math.isfinite(t):
+        return None
+    stress = np.divide(sums[k], areas[k], out=np.zeros_like(sums[k]), where=areas[k] > 0)
+    return {
+        "skin": t / dia,
+        "centres": (0.5 * (edges[:-1] + edges[1:]) / dia).tolist(),
+        "ratio": (stress / core).tolist(),
+        "strain": float(strain[k]),
+    }
+
+
+def skin_rows(law_name: str) -> list[tuple]:
+    """Per column size with a core: the mean skin thickness at the peak [diameters], its
+    standard error, and the seeds."""
+    rows = []
+    for size, ds in sorted(digests("column", law_name).items()):
+        skins = []
+        for d in ds:
+            seed = int(d.test["seed"])
+            p = profile_at_peak(law_name, size, seed, d)
+            if p is not None and float(np.mean(d.metrics.get("failed", [1.0]))) == 1.0:
+                skins.append(p["skin"])
+        if skins:
+            se = (
+                float(np.std(skins, ddof=1) / math.sqrt(len(skins))) if len(skins) > 1 else math.nan
+            )
+            rows.append((size, float(np.mean(skins)), se, len(skins)))
+    return rows
+
+
+def _fmt_need(need: dict | None) -> str:
+    if need is None:
+        return "not measured"
+    if need["bound"] == "not_linear":
+        return f"undecided ({', '.join(need['not_linear'])} off its line)"
+    b, p = need["n_req_bound"], need["n_req_point"]
+    if need["bound"] == "at_most":
+        return f"at most {b:.3g} (every property holds at the coarsest size run; point {p:.2g})"
+    if need["bound"] == "more_than":
+        return f"more than {b:.3g} (the finest size run; point estimate {p:.3g})"
+    return f"{p:.3g} (95 % bound {b:.3g})"
+
+
+def _size_table(kind: str, law_name: str) -> list[str]:
+    runs = digests(kind, law_name)
+    table = S.COLUMN_SIZES if kind == "column" else S.SHEAR_SIZES
+    if kind == "column":
+        cols = [
+            ("density", 1, ".4f"),
+            ("loading_stiffness", 1e-6, ".3f"),
+            ("unloading_stiffness", 1e-6, ".3f"),
+            ("coordination", 1, ".3f"),
+            ("strength", 1e-3, ".2f"),
+        ]
+        head = (
+            "| size [d across] | particles | seeds | failed at a peak | inertial number held "
+            "(median, max over seeds) | interior density | loading stiffness [MPa] | "
+            "unloading stiffness [MPa] | coordination | strength [kPa] | wall time [s] |"
+        )
+    else:
+        cols = [
+            ("yield_locus", 1e-3, ".2f"),
+            ("sigma_1", 1e-3, ".2f"),
+            ("sigma_c", 1e-3, ".2f"),
+            ("ffc", 1, ".3f"),
+            ("bulk_density", 1, ".0f"),
+        ]
+        head = (
+            "| size [d across] | particles | seeds | locus (mean) [kPa] | sigma_1 [kPa] | "
+            "sigma_c [kPa] | ffc | bulk density [kg/m^3] | wall time [s] |"
+        )
+    lines = [head, "|" + "---:|" * head.count(" | ") + "---:|"]
+    for size in sorted(table.get(law_name, {})):
+        n = S.test_of(kind, law_name, size, 1).n_particles
+        ds = runs.get(size, [])
+        if not ds:
+            lines.append(f"| {size:.3g} | {n} | 0 |" + " |" * (head.count(" | ") - 2))
+            continue
+        vals = []
+        for name, scale, fmt in cols:
+            xs = [float(np.mean(d.metrics[name])) for d in ds if name in d.metrics]
+            vals.append(format(np.mean(xs) * scale, fmt) if xs else "")
+        wall = float(np.mean([d.scalars.get("wall_time", math.nan) for d in ds]))
+        if kind == "column":
+            failed = sum(float(np.mean(d.metrics.get("failed", [1.0]))) == 1.0 for d in ds)
+            held = [d.scalars["inertial_number_held"] for d in ds]
+            hmax = [d.scalars["inertial_number_held_max"] for d in ds]
+            lines.append(
+                f"| {size:.3g} | {n} | {len(ds)} | {failed} of {len(ds)} | "
+                f"{np.median(held):.3g}, {max(hmax):.3g} | " + " | ".join(vals) + f" | {wall:.0f} |"
+            )
+        else:
+            lines.append(
+                f"| {size:.3g} | {n} | {len(ds)} | " + " | ".join(vals) + f" | {wall:.0f} |"
+            )
+    return lines
+
+
+def held_check(law_name: str) -> tuple[bool, str]:
+    """Whether every column size held the inertial number within INERTIAL_TOLERANCE of its
+    target (the median over each run's loading samples), and the worst size."""
+    worst = (0.0, None)
+    for size, ds in digests("column", law_name).items():
+        for d in ds:
+            dev = abs(d.scalars["inertial_number_held"] / TARGET_INERTIAL - 1.0)
+            if dev > worst[0]:
+                worst = (dev, size)
+    ok = worst[0] <= INERTIAL_TOLERANCE
+    where = (
+        ""
+        if worst[1] is None
+        else f" (largest deviation {100 * worst[0]:.1f} % at {worst[1]:.3g} d)"
+    )
+    return ok, where
+
+
+def evidence() -> dict:
+    """The planner's evidence: per law its fine law and stress, per feature kind the need."""
+    out = {
+        "generated_by": "python -m benchmarks.size_series --report",
+        "tolerances": {**DEFAULT_TOLERANCES, **SHEAR_TOLERANCES},
+        "laws": {},
+    }
+    for law_name, (_, words) in S.LAWS.items():
+        t = S.column_test(law_name, 10.0, 1)
+        features = {}
+        for feature in FEATURES:
+            kind = FEATURES[feature][0]
+            table = S.COLUMN_SIZES if kind == "column" else S.SHEAR_SIZES
+            if law_name not in table:
+                continue
+            need = feature_need(feature_curves(feature, law_name))
+            if need is not None:
+                features[feature] = need
+        out["laws"][law_name] = {
+            "about": words,
+            "pair_law": to_dict(t.pair_law),
+            "radius": t.radius,
+            "density": t.density,
+            "solid_fraction": t.solid_fraction,
+            "consolidation_stress": t.consolidation_stress,
+            "inertial_number": t.inertial_number,
+            "features": features,
+        }
+    return out
+
+
+def report() -> str:
+    lines = [
+        "# How many particles a feature needs across it",
+        "",
+        "Generated by `python -m benchmarks.size_series --report` from the stored digests "
+        "(`benchmarks/results/size_series/`); the series, what they hold and the fits are "
+        "fixed in `benchmarks/size_series.py` (stated before the runs) and docs/PHYSICS.md "
+        "section 7.5. For the bilinear law with K ~ R and f0 ~ R^2 a coarse run at factor s "
+        "is the fine law in a geometry shrunk s times (docs/PHYSICS.md section 5b, tested bit "
+        "for bit in tests/engine/test_similarity.py): the error of coarse-graining a feature "
+        "is the fine law's size effect at the number of coarse particles across it. Each "
+        "series holds the stress (cell x s, gravity / s), the inertial number (the platen "
+        "never capped) and the law, and varies L / d only.",
+        "",
+        "The earlier series of `benchmarks.resolution` (docs/RESOLUTION_capped.md) held the "
+        "platen's speed cap instead of the inertial number (4.96e-4 at 6.7 diameters, 1.63e-4 "
+        "at 20): its size effect is confounded with the loading rate.",
+        "",
+        "## The answer: particles across each feature kind",
+        "",
+        "N_req: the particles across a feature that keep every property of its kind within "
+        "its tolerance of the bulk (the study's tolerances: density 3 %, stiffnesses and "
+        "strengths 15 %, coordination 10 %; shear locus, sigma_1, sigma_c 15 %, ffc 20 %, "
+        "bulk density 3 %). Point estimate on the fitted slope; the 95 % bound from the "
+        "slope's interval, clipped to the sizes run. A coarse model of a feature L wide for a "
+        "powder of diameter d0 may coarse-grain by at most s_max = L / (N_req d0) "
+        "(`demscale plan`).",
+        "",
+        "| feature kind | law | N_req | set by | sizes stored [d across] |",
+        "|---|---|---|---|---|",
+    ]
+    ev = evidence()
+    for feature in FEATURES:
+        for law_name in S.LAWS:
+            kind = FEATURES[feature][0]
+            table = S.COLUMN_SIZES if kind == "column" else S.SHEAR_SIZES
+            if law_name not in table:
+                lines.append(
+                    f"| {FEATURE_WORDS[feature]} | {law_name} | not measured (no series "
+                    "of this law) | | |"
+                )
+                continue
+            need = ev["laws"][law_name]["features"].get(feature)
+            sizes = ", ".join(f"{z:.3g}" for z in sorted(digests(kind, law_name)))
+            lines.append(
+                f"| {FEATURE_WORDS[feature]} | {law_name} | {_fmt_need(need)} | "
+                f"{'' if need is None else need['limited_by']} | {sizes} |"
+            )
+    lines.append(
+        "| hopper outlet | any | not measured (no outlet in the engine yet: issue 52) | | |"
+    )
+    lines += [
+        "",
+        "A feature kind not in this table is not measured; none is inferred from another.",
+        "",
+    ]
+    for law_name, (f0, words) in S.LAWS.items():
+        lines += [f"## Law {law_name}: f0 = {f0:g} N, {words}", ""]
+        ok, where = held_check(law_name)
+        lines.append(
+            f"Inertial number held within {100 * INERTIAL_TOLERANCE:g} % of {TARGET_INERTIAL:g} "
+            f"at every column size: {'yes' if ok else 'NO'}{where}."
+        )
+        lines += [
+            "",
+            "### Column (confined stages: bulk in compression; released: free surface)",
+            "",
+        ]
+        lines += _size_table("column", law_name)
+        for feature in ("bulk_compression", "free_surface"):
+            c = feature_curves(feature, law_name)
+            lines += ["", f"Curves, {FEATURE_WORDS[feature]}:", ""]
+            lines += _curve_lines(c)
+        rows = skin_rows(law_name)
+        lines += ["", "### The released column's skin, measured", ""]
+        fit = feature_curves("free_surface", law_name)["metrics"].get("strength")
+        if fit is not None:
+            b, (lo, hi) = fit["slope"], fit["slope_interval"]
+            lines.append(
+                f"From the strength's fit, a load-free skin t per face of a square section "
+                f"gives strength / bulk = 1 - 4 t / L, so t / d = -slope / 4 = {-b / 4:.2f} "
+                f"[{-hi / 4:.2f}, {-lo / 4:.2f}] (95 %)."
+            )
+        if rows:
+            lines.append(
+                "Measured: the axial stress (normal-force part of the Love-Weber sum) "
+                "across the section at the strength's peak, binned by distance from the "
+                "nearest face, against its core (beyond "
+                f"{S.CORE_FROM:g} diameters); t = the integral of 1 - sigma / sigma_core "
+                "(`engine.uniaxial.measures.skin_thickness`):"
+            )
+            lines += [
+                "",
+                "| size [d across] | seeds | skin t / d (mean +- se) |",
+                "|---:|---:|---:|",
+            ]
+            for size, m, se, n in rows:
+                lines.append(f"| {size:.3g} | {n} | {m:.2f} +- {se:.2f} |")
+        else:
+            lines.append("Not measured yet: no column size with a core has a stored profile.")
+        if law_name in S.SHEAR_SIZES:
+            lines += ["", "### Shear cell (bulk in shear)", ""]
+            lines += _size_table("shear", law_name)
+            lines += ["", "Curves:", ""]
+            lines += _curve_lines(feature_curves("bulk_shear", law_name))
+        bad = failures("column", law_name) + failures("shear", law_name)
+        if bad:
+            lines += ["", "Runs that ended in an error (left out):", ""]
+            lines += [f"- {b}" for b in bad]
+        lines.append("")
+    lines += [
+        "## Not measured",
+        "",
+        "- A hopper outlet (Beverloo's annulus, arching): the engine has no bounded walls yet "
+        "(issue 52).",
+        "- A wall layer against a smooth wall, and a shear band in a free flow.",
+        "- Laws other than the bilinear law at f0 = -0.4 and -1.2 N (k1 = 5 kN/m, "
+        "mu_s = 0.5, R = 2.5 mm, 20 kPa consolidation): another law's need is not inferred "
+        "from these; `demscale plan` says which series would decide it.",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _curve_lines(c: dict) -> list[str]:
+    out = []
+    for n, v in c.get("metrics", {}).items():
+        lo, hi = v["slope_interval"]
+        need = v["needed"]
+        linear = "" if v.get("linear") is not False else " (the size means lie off the line)"
+        left = v.get("left_out") or []
+        left_t = f"; left out: {', '.join(f'{x:.3g}' for x in left)} d" if left else ""
+        sizes = ", ".join(f"{s['diameters_across']:.3g}" for s in v["sizes"])
+        if need["diameters"] is None:
+            need_t = "no need of its own"
+        elif need["bound"] == "at_most":
+            need_t = f"within tolerance down to {need['diameters']:.3g} d (the coarsest fitted)"
+        elif need["bound"] == "more_than":
+            need_t = (
+                f"needs more than {need['diameters']:.3g} d (the finest run), point estimate "
+                f"{need['point']:.3g} d"
+            )
+        else:
+            need_t = f"needs {need['point']:.3g} d (95 % bound {need['diameters']:.3g} d)"
+        out.append(
+            f"- {n}: bulk {v['bulk']:.4g} [{v['bulk_interval'][0]:.4g}, "
+            f"{v['bulk_interval'][1]:.4g}], slope of log value in d / L {v['slope']:+.2f} "
+            f"[{lo:+.2f}, {hi:+.2f}] (sizes {sizes} d{left_t}){linear}: {need_t}"
+        )
+    for n in c.get("missing", []) or []:
+        out.append(f"- {n}: no curve (too few seeds, or samples that did not fail at a peak)")
+    if not out:
+        out.append(
+            "- not measured yet (a curve needs its reference size and another, two seeds each)"
+        )
+    return out
+
+
+def write_report() -> str:
+    REPORT.write_text(report())
+    EVIDENCE.parent.mkdir(parents=True, exist_ok=True)
+    EVIDENCE.write_text(json.dumps(evidence(), indent=1, sort_keys=True, allow_nan=False) + "\n")
+    return f"wrote {REPORT.relative_to(ROOT)} and {EVIDENCE.relative_to(ROOT)}"
+
+
+if __name__ == "__main__":
+    print(write_report())

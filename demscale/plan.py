@@ -1,0 +1,175 @@
+"""``demscale plan``: how coarse a process may be coarse-grained, per feature kind, from the
+stored size series (engine.process; docs/RESOLUTION.md).
+
+    demscale plan --default-powder --diameter 50e-6 --width 0.2 --kind bulk_shear --stress 2e4
+    demscale plan --law calibration.json --diameter 80e-6 --width 0.05 --kind free_surface
+
+This module parses the command line and prints; the planner is engine.process.planner.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+PLAN_HELP = """\
+The largest coarse-graining factor s_max = L / (N_req d0) a process allows, per feature kind:
+N_req is the number of coarse particles across a feature that keeps each property of its
+kind within its tolerance of the bulk, measured for the fine law by the size series
+(docs/RESOLUTION.md; `python -m benchmarks.size_series`). For the bilinear law with K ~ R and
+f0 ~ R^2 coarse-graining is an exact similarity, so a coarse model of a feature L wide is
+the fine law in a feature L / s wide: its whole error is that size effect.
+
+The fine law: --law FILE (a law's JSON with "type", or a calibration's calibration.json;
+with "reference_radius" it is scaled by the similarity to --diameter, without it it is taken
+as the law of particles of --diameter), or --default-powder (the main job's law, R = 2.5 mm,
+f0 = -0.4 N, scaled by the similarity to --diameter: its counterpart of that size).
+
+A stored series applies when the law's dimensionless groups at the feature's stress (the
+stiffness number k1 / (sigma d), the cohesion number |f0| / (sigma d^2), K2 / K1, friction,
+restitution) match it within 10 %; otherwise the plan says "not measured" and which series
+would decide it, never a number inferred from another law, stress or feature kind.
+
+For each feature kind the plan prints N_req (point estimate and 95 % bound), s_max, and the
+coarse model at s_max: its law (scaled by the similarity), time step, inertial and Bond
+numbers, particles per cubic metre, the cost of a run of --volume for --duration, and the
+LIGGGHTS fragment (--liggghts).
+
+Exit status: 0 planned; 2 an option or the law file is not valid (the message names it)."""
+
+
+def add_commands(sub, fmt) -> None:
+    from engine.process import FEATURE_KINDS
+
+    p = sub.add_parser(
+        "plan",
+        help="how coarse a process may go, per feature kind (from the size series)",
+        description=PLAN_HELP,
+        formatter_class=fmt,
+    )
+    law = p.add_mutually_exclusive_group(required=True)
+    law.add_argument("--law", type=Path, metavar="FILE", help="the fine law (JSON)")
+    law.add_argument(
+        "--default-powder",
+        action="store_true",
+        help="the main job's powder scaled by the similarity to --diameter",
+    )
+    p.add_argument("--diameter", type=float, required=True, help="fine particle diameter d0 [m]")
+    p.add_argument("--width", type=float, required=True, help="the feature's width L [m]")
+    p.add_argument(
+        "--kind",
+        default="bulk_shear",
+        choices=tuple(FEATURE_KINDS),
+        help="the feature's kind (default bulk_shear)",
+    )
+    p.add_argument(
+        "--stress",
+        type=float,
+        default=None,
+        help="stress in the feature [Pa] (default: solid_fraction rho g L)",
+    )
+    p.add_argument("--density", type=float, default=2000.0, help="particle density [kg/m^3]")
+    p.add_argument("--velocity", type=float, default=0.1, help="velocity scale [m/s]")
+    p.add_argument("--gravity", type=float, default=9.81, help="gravity [m/s^2]")
+    p.add_argument("--volume", type=float, default=1e-3, help="material simulated [m^3]")
+    p.add_argument("--duration", type=float, default=1.0, help="process time simulated [s]")
+    p.add_argument("--json", action="store_true", help="print the plan as JSON")
+    p.add_argument("--liggghts", action="store_true", help="print the coarse law's fragments")
+    p.set_defaults(func=plan_cmd)
+
+
+def _fine_law(args):
+    """The fine law at --diameter, and where it came from."""
+    import engine
+    from engine.core.records import from_dict
+
+    d0 = args.diameter
+    if args.default_powder:
+        base = engine.default_study().reference
+        ref_d = 2 * base.radius
+        law = base.pair_law
+        return engine.similar(law, d0 / ref_d), f"the default powder scaled x {d0 / ref_d:.4g}"
+    try:
+        raw = json.loads(args.law.read_text())
+    except OSError as e:
+        raise ValueError(f"--law {args.law}: {e.strerror}") from None
+    except json.JSONDecodeError as e:
+        raise ValueError(f"--law {args.law}: not JSON ({e})") from None
+    laws = {"BilinearAdhesive": engine.BilinearAdhesive, "EEPA": engine.EEPA}
+    if isinstance(raw, dict) and isinstance(raw.get("law"), dict):  # a calibration.json
+        raw = {**raw["law"], "reference_radius": raw.get("reference_radius")}
+    if not isinstance(raw, dict) or raw.get("type") not in laws:
+        raise ValueError(
+            f'--law {args.law}: a JSON object with "type": "BilinearAdhesive" or "EEPA" '
+            "(or a calibration.json with its law)"
+        )
+    body = dict(raw)
+    radius = body.pop("reference_radius", None)
+    law = from_dict(laws[body.pop("type")], body, "law")
+    if radius is None:
+        return law, f"{args.law} (taken at d0)"
+    if not (isinstance(radius, (int, float)) and math.isfinite(radius) and radius > 0):
+        raise ValueError(f"--law {args.law}: reference_radius = {radius!r}: must be > 0 m")
+    s = d0 / (2 * radius)
+    return engine.similar(law, s), f"{args.law} (R = {radius:g} m) scaled x {s:.4g}"
+
+
+def plan_cmd(args) -> int:
+    import engine
+    from engine.process import answer_line
+
+    try:
+        law, source = _fine_law(args)
+        process = engine.Process(
+            pair_law=law,
+            diameter=args.diameter,
+            feature_width=args.width,
+            feature_kind=args.kind,
+            stress=args.stress,
+            density=args.density,
+            velocity=args.velocity,
+            gravity=args.gravity,
+            volume=args.volume,
+            duration=args.duration,
+        )
+        plan = engine.plan_process(process)
+    except (ValueError, engine.ParameterError) as e:
+        print(f"demscale plan: {e}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(plan.to_dict(), indent=1, default=float))
+        return 0
+    print(answer_line(plan))
+    print(f"fine law: {source}")
+    g = plan.groups
+    print(
+        f"groups at {process.feature_stress:.4g} Pa: stiffness number "
+        f"{g['stiffness_number']:.3g}, cohesion number {g['cohesion_number']:.3g}; "
+        + (
+            f"matches stored series {plan.matched}"
+            if plan.matched
+            else "no stored series matches ("
+            + "; ".join(f"{k}: {', '.join(v)}" for k, v in plan.mismatches.items())
+            + ")"
+        )
+    )
+    for f in plan.features:
+        print(f"- {f.kind}: {f.why}")
+        c = f.coarse
+        if c:
+            at = "at the limit " if f.bound == "more_than" else "at "
+            print(
+                f"    coarse model {at}s = {c['factor']:.4g}: d = {c['diameter']:.4g} m, "
+                f"dt = {c['time_step']:.3g} s, inertial number {c['inertial_number']:.2g}, "
+                f"Bond number {c['bond_number']:.3g}, {c['particles_per_m3']:.3g} "
+                f"particles/m^3, {c['core_hours']:.3g} core-hours for {process.volume:g} m^3 "
+                f"over {process.duration:g} s ({c['speed_up']:.3g}x fewer particle-steps "
+                "than the fine model)"
+            )
+            for w in c.get("warnings", []):
+                print(f"    note: {w}")
+            if args.liggghts:
+                print("    " + c["liggghts"].replace("\n", "\n    "))
+    return 0

@@ -45,28 +45,62 @@ def _serve(settings: Settings, host: str, port: int) -> tuple[uvicorn.Server, th
     return server, thread
 
 
-def _follow(client: httpx.Client, study_id: str) -> dict:
-    """Print a progress line whenever the status, run or stage changes or another 2 % is
-    done, until the study ends; returns its final state."""
-    last_key, last_fraction = None, -1.0
-    while True:
-        s = client.get(f"/studies/{study_id}").raise_for_status().json()
-        run = (
-            f"run {s['run_index'] + 1}/{s['n_runs']} {s['current_run']}"
-            if s["run_index"] is not None
-            else f"{s['n_runs']} runs"
-        )
-        key = (s["status"], run, s["current_stage"])
-        if key != last_key or s["progress"] - last_fraction >= 0.02:
-            print(
-                f"[{100 * s['progress']:5.1f} %] {s['status']:<9} {run}  "
-                f"stage {s['current_stage'] or '-'}",
-                flush=True,
-            )
-            last_key, last_fraction = key, s["progress"]
-        if s["status"] in _TERMINAL:
-            return s
-        time.sleep(1.0)
+#: Statuses of a run that has its outcome.
+_RUN_DONE = {"succeeded", "failed"}
+
+
+def _state(s: dict):
+    """The progress display's state of a study as the API answers it (GET /studies/{id})."""
+    from .progress import State
+
+    running = s["status"] == "running"
+    return State(
+        fraction=s["progress"],
+        runs_done=s.get("runs_done"),
+        n_runs=s["n_runs"],
+        added=s.get("runs_added", 0),
+        run=s["current_run"] if running else None,
+        stage=s["current_stage"] if running else None,
+        eta=s.get("eta"),
+        status=s["status"],
+    )
+
+
+def _follow(client: httpx.Client, study_id: str, console=None, poll: float = 1.0) -> dict:
+    """Show the study's progress until it ends (demscale.progress.StudyDisplay: a live bar
+    on a terminal, else a line per event): each run's outcome as it comes, the runs a
+    ``decide`` round adds when they are added (before they run); returns its final state."""
+    from rich.console import Console
+
+    from .progress import StudyDisplay
+
+    console = console or Console(highlight=False)
+    known: set[str] | None = None  # run keys seen so far
+    told: set[str] = set()  # runs whose outcome was said
+    with StudyDisplay(console) as display:
+        while True:
+            s = client.get(f"/studies/{study_id}").raise_for_status().json()
+            state = _state(s)
+            runs = s.get("runs", [])
+            keys = [r["key"] for r in runs]
+            new = [k for k in keys if known is not None and k not in known]
+            if new:
+                display.event(
+                    state, f"+ {len(new)} runs added until decided (not yet run): {', '.join(new)}"
+                )
+            known = set(keys)
+            for r in runs:
+                if r["status"] in _RUN_DONE and r["key"] not in told:
+                    told.add(r["key"])
+                    if r["status"] == "failed":
+                        display.event(state, f"{r['key']} failed: {r['error']}", "red")
+                    else:
+                        took = "" if r["wall_time"] is None else f" in {r['wall_time']:.1f} s"
+                        display.event(state, f"{r['key']} done{took}")
+            display.update(state)
+            if s["status"] in _TERMINAL:
+                return s
+            time.sleep(poll)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -97,6 +131,8 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"API token{where}: {token}\n  e.g. curl -H 'Authorization: Bearer {token}' {base}/studies"
     )
+    if settings.worker_log_path is not None:
+        print(f"the worker's log: {settings.worker_log_path.resolve()}")
     auth = {"Authorization": f"Bearer {token}"}
     try:
         with httpx.Client(base_url=base, timeout=60.0, headers=auth) as client:

@@ -66,6 +66,8 @@ def get_engine(url: str) -> Engine:
         "ALTER TABLE study ADD COLUMN kind VARCHAR(11) NOT NULL DEFAULT 'study'",
         "CREATE INDEX IF NOT EXISTS ix_study_kind ON study (kind)",
     )
+    # a store made before the worker wrote its expected end: unknown until the next beat
+    _add_column(engine, "finishes_at", "ALTER TABLE study ADD COLUMN finishes_at DATETIME")
     _add_column(
         engine,
         "parent_id",

@@ -51,8 +51,20 @@ class EmbeddedWorker:
 
     def _spawn(self) -> subprocess.Popen:
         cmd = [sys.executable, "-m", "service.worker", "--parent-pid", str(os.getpid())]
-        proc = subprocess.Popen(cmd, env=settings_env(self.settings), start_new_session=True)
-        log.info("embedded worker started (pid %d)", proc.pid)
+        path = self.settings.worker_log_path
+        if path is None:  # the API's own output
+            proc = subprocess.Popen(cmd, env=settings_env(self.settings), start_new_session=True)
+        else:  # a file of its own, appended across restarts (0600: the service's umask)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            with open(path, "ab") as out:
+                proc = subprocess.Popen(
+                    cmd,
+                    env=settings_env(self.settings),
+                    start_new_session=True,
+                    stdout=out,
+                    stderr=subprocess.STDOUT,
+                )
+        log.info("embedded worker started (pid %d), its log: %s", proc.pid, path or "this output")
         return proc
 
     def start(self) -> None:

@@ -13,6 +13,7 @@ import threading
 import time
 import traceback
 import uuid
+from datetime import timedelta
 
 from sqlmodel import Session
 
@@ -20,12 +21,13 @@ import engine
 from engine.io.store import completed_runs
 from engine.io.store import save_run as store_run
 from engine.study.plan import plan_runs
+from engine.study.run import ADDED, Eta
 
 from . import checkpoints, transitions
 from .db import engine_for
 from .errors import finite
 from .h5store import NotOurs, write_results
-from .models import Kind, Status, Study
+from .models import Kind, Status, Study, utcnow
 from .pools import run_executor
 from .settings import Settings
 
@@ -44,6 +46,8 @@ class StudyExecution:
         self.shutdown = shutdown
         self.db = engine_for(settings)
         self.latest: engine.StudyProgress | None = None
+        self.eta = Eta()  # this attempt's rate: its first report starts the clock
+        self.seconds_left: float | None = None
         self.current_run: str | None = None
         self.cancel = False
         self.lost = False
@@ -65,6 +69,9 @@ class StudyExecution:
                 run_index=p.run_index if p else None,
                 current_run=p.run_key if p else None,
                 current_stage=p.stage if p else None,
+                finishes_at=None
+                if self.seconds_left is None
+                else utcnow() + timedelta(seconds=self.seconds_left),
             )
         if not b.owned and not self.lost:
             log.warning("study %s is no longer ours (heartbeat missed?): stopping", self.study_id)
@@ -81,12 +88,21 @@ class StudyExecution:
     # --------------------------------------------------------------------- engine thread
     def progress(self, p: engine.StudyProgress) -> bool:
         """The engine's progress callback: returns False to stop the study. The fraction
-        shown never goes back (pool runs report as they come, out of step) except when a
-        ``decide`` study has added runs: then it is the share of the larger whole."""
+        shown never goes back (pool runs report as they come, out of step; a ``decide``
+        study's added runs come out of the work it reserved for them, engine.StudyProgress);
+        the time left is this attempt's rate applied to the work not done."""
         latest = self.latest
-        if latest is not None and p.fraction < latest.fraction and p.n_runs <= latest.n_runs:
+        if latest is not None and p.fraction < latest.fraction:
             p = dataclasses.replace(p, fraction=latest.fraction)
         self.latest = p
+        self.seconds_left = self.eta(p.fraction)
+        if p.stage == ADDED:  # a decide round's runs: their rows before any of them runs
+            log.info("study %s: %s", self.study_id, p.message)
+            try:
+                self.ensure_row(p.run_key)
+            except Exception:  # bookkeeping only: the run's own report tries again
+                log.exception("study %s: could not add rows for %s", self.study_id, p.message)
+            return not (self.cancel or self.lost or self.shutdown.is_set())
         if p.run_key != self.current_run:
             self.current_run = p.run_key
             try:  # an added run gets its row (and the study its run count) before it starts

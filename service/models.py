@@ -15,7 +15,7 @@ import uuid
 from datetime import datetime, timezone
 from enum import Enum
 
-from pydantic import field_validator
+from pydantic import computed_field, field_validator
 from sqlalchemy import JSON, Column, ForeignKey, Uuid
 from sqlmodel import Field, SQLModel
 
@@ -100,6 +100,13 @@ class Study(StudyBase, table=True):
     error: str | None = None
     max_particles: int = 0
     estimated_particle_steps: float = 0.0
+    #: When the worker expects the job to end, at the rate of its progress so far (written
+    #: with each heartbeat; None while unknown, reset by a claim).
+    finishes_at: datetime | None = None
+
+
+def _runs_done(runs) -> int:
+    return sum(1 for r in runs if r.status in (Status.succeeded, Status.failed))
 
 
 class StudyPublic(StudyBase):
@@ -119,11 +126,29 @@ class StudyPublic(StudyBase):
     finished_at: datetime | None
     heartbeat_at: datetime | None
     run_time: float | None = Field(description="Seconds the last attempt ran.")
+    finishes_at: datetime | None = Field(
+        None,
+        description="While running: when the worker expects the job to end, at the rate its "
+        "progress has moved since it was claimed (null while unknown).",
+    )
+    runs_added: int = Field(
+        0, description="Runs a decide study has added to its plan so far (counted in n_runs)."
+    )
 
-    @field_validator("created_at", "started_at", "finished_at", "heartbeat_at")
+    @field_validator("created_at", "started_at", "finished_at", "heartbeat_at", "finishes_at")
     @classmethod
     def _utc(cls, v: datetime | None) -> datetime | None:
         return _as_utc(v)
+
+    @computed_field(
+        description="While running: seconds the job has left at the rate of its progress so "
+        "far (finishes_at less now); null while unknown or when not running."
+    )
+    @property
+    def eta(self) -> float | None:
+        if self.status is not Status.running or self.finishes_at is None:
+            return None
+        return max(0.0, (self.finishes_at - utcnow()).total_seconds())
 
     error: str | None
     max_particles: int
@@ -208,6 +233,11 @@ class StudyDetail(StudyPublic):
     )
     runs: list[RunPublic] = []
 
+    @computed_field(description="Runs with an outcome (succeeded or failed) of the n_runs.")
+    @property
+    def runs_done(self) -> int:
+        return _runs_done(self.runs)
+
 
 # ------------------------------------------------------------------------------ calibration
 class CalibrationPublic(StudyPublic):
@@ -245,3 +275,8 @@ class CalibrationDetail(CalibrationPublic):
     request: dict
     runs: list[RunPublic] = []
     result: dict | None = None
+
+    @computed_field(description="Runs with an outcome (succeeded or failed) so far.")
+    @property
+    def runs_done(self) -> int:
+        return _runs_done(self.runs)

@@ -168,6 +168,12 @@ class Settings(BaseSettings):
     embedded_worker: bool = Field(
         True, description="The API starts one worker subprocess (single-machine default)."
     )
+    worker_log: str | None = Field(
+        None,
+        description="Where the embedded worker's log goes: a file (appended), '-' for the "
+        "API's own output; default <data_dir>/logs/worker.log (a progress display on the "
+        "terminal is not interleaved with it).",
+    )
     host: str = Field("127.0.0.1", description="Address `python -m service api` listens on.")
     port: int = Field(8000, ge=1, le=65535, description="Its port.")
     api_token: SecretStr | None = Field(
@@ -227,6 +233,13 @@ class Settings(BaseSettings):
                 "print(secrets.token_urlsafe(32))'`"
             )
         return tuple(dict.fromkeys(out))
+
+    @property
+    def worker_log_path(self) -> Path | None:
+        """The embedded worker's log file (None: the API's own output)."""
+        if self.worker_log == "-":
+            return None
+        return Path(self.worker_log) if self.worker_log else self.data_dir / "logs" / "worker.log"
 
     @property
     def studies_dir(self) -> Path:

@@ -35,6 +35,7 @@ _FRESH = {
     "current_run": None,
     "current_stage": None,
     "error": None,
+    "finishes_at": None,
 }
 
 
@@ -188,8 +189,9 @@ class Beat:
 
 
 def heartbeat(session: Session, study_id: uuid.UUID, worker_id: str, **progress) -> Beat:
-    """Record liveness and ``progress`` (progress, run_index, current_run, current_stage) of
-    the study ``worker_id`` runs. Not a status change, but owner-checked the same way."""
+    """Record liveness and ``progress`` (progress, run_index, current_run, current_stage,
+    finishes_at) of the study ``worker_id`` runs. Not a status change, but owner-checked the
+    same way."""
     stmt = update(Study).where(
         Study.id == study_id, Study.status == R, Study.worker_id == worker_id
     )

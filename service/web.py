@@ -26,6 +26,7 @@ from sqlmodel import select
 from engine.calibration.calibrate import TARGET_UNITS
 from engine.io.figures import KINDS, is_shear_table
 from engine.study.reasons import describe, interval_words, pct, shown
+from engine.study.run import duration_words
 
 from . import h5store, transitions
 from .deps import CalibrationDep, OwnerDep, SessionDep, SettingsDep, StudyDep
@@ -38,6 +39,8 @@ from .routes.studies import public
 
 router = APIRouter(include_in_schema=False)
 templates = Jinja2Templates(directory=Path(__file__).parent / "templates")
+#: "3 min 20 s": the time left and the run time as demscale job and demscale study say them
+templates.env.filters["duration"] = duration_words
 
 #: Columns of the run table on a study page: key in the summary table, heading, scale, format.
 RUN_COLUMNS = (

@@ -213,19 +213,10 @@ class StudyPlan:
         runs, and with ``decide`` the most its added runs may cost (the ``budget``, or every
         variant and the reference filled to their seed caps, whichever is less)."""
         spec = self.spec
-        cost = {}
-        for p in self.runs:  # a control follows the added coarse seeds of its radius
-            cost.setdefault(p.variant, p.particle_steps)
         total = float(sum(p.particle_steps for p in self.runs))
         if not spec.decide:
             return total
-        worst = sum(
-            c * (spec.max_reference_seeds - len(spec.reference_seeds))
-            if k is None
-            else c * (spec.max_seeds - len(spec.seeds))
-            for k, c in cost.items()
-            if k is None or k[1] != PROTOCOL
-        )
+        worst = _to_seed_caps(spec, self.runs)
         return total + float(worst if spec.budget is None else min(worst, spec.budget))
 
     def to_dict(self) -> dict:
@@ -266,6 +257,45 @@ class StudyPlan:
             for r in d["runs"]
         )
         return cls(spec, runs)
+
+
+def _to_seed_caps(spec: StudySpec, runs) -> float:
+    """Particle-steps of the runs that would fill the reference and every variant of
+    ``runs`` up to their seed caps (``max_reference_seeds``, ``max_seeds``; a control
+    follows the added coarse seeds of its radius; the protocol check adds none)."""
+    cost: dict = {}
+    count: dict = {}
+    for p in runs:
+        cost.setdefault(p.variant, p.particle_steps)
+        count[p.variant] = count.get(p.variant, 0) + 1
+    return float(
+        sum(
+            c * max(0, (spec.max_reference_seeds if k is None else spec.max_seeds) - count[k])
+            for k, c in cost.items()
+            if k is None or k[1] != PROTOCOL
+        )
+    )
+
+
+def most_added(
+    spec: StudySpec, planned: list[PlannedRun], added: list[dict], stopped: str | None
+) -> float:
+    """The most particle-steps the rounds still to come of a ``decide`` study may add to
+    its runs so far (``planned``, ``added`` and ``stopped`` as :func:`plan_runs` returns
+    them): none without ``decide``, once it has stopped adding or once each of its
+    ``rounds`` has added runs; else the budget not yet spent or every variant and the
+    reference filled to their seed caps, whichever is less (for the plan's own runs the
+    admitted worst case, :meth:`StudyPlan.estimated_particle_steps`). A round's runs come
+    out of it, so the study's known runs plus this never grow: its progress, counted
+    against that sum, never goes back when a round adds runs (engine.run_study)."""
+    if not spec.decide or stopped is not None or len({a["round"] for a in added}) >= spec.rounds:
+        return 0.0
+    worst = _to_seed_caps(spec, planned)
+    if spec.budget is None:
+        return worst
+    keys = {a["run"] for a in added}
+    spent = sum(p.particle_steps for p in planned if p.key in keys)
+    return float(max(0.0, min(worst, spec.budget - spent)))
 
 
 def plan(spec: StudySpec) -> StudyPlan:
@@ -343,10 +373,11 @@ def as_plan(study: StudyPlan | StudySpec) -> StudyPlan:
     return study if isinstance(study, StudyPlan) else plan(study)
 
 
-def cost_weights(planned: list[PlannedRun]) -> np.ndarray:
-    """Each run's share of the runs' estimated particle-steps [-]."""
+def cost_weights(planned: list[PlannedRun], reserve: float = 0.0) -> np.ndarray:
+    """Each run's share of the runs' estimated particle-steps plus ``reserve`` (the most a
+    ``decide`` study may still add, :func:`most_added`) [-]."""
     cost = np.array([p.particle_steps for p in planned])
-    return cost / cost.sum()
+    return cost / (cost.sum() + reserve)
 
 
 def plan_runs(

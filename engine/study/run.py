@@ -33,16 +33,31 @@ from .plan import (
     as_plan,
     cost_weights,
     final_look,
+    most_added,
     plan_runs,
 )
 from .results import RunFailed, StudyResult, assemble
 from .spec import StudySpec
 
+#: The ``stage`` of the report that announces the runs a ``decide`` round has added (its
+#: ``message`` names them), made before any of them runs.
+ADDED = "added"
+
 
 @dataclass(frozen=True)
 class StudyProgress:
     """What a study progress callback receives: overall ``fraction`` in [0, 1], the run
-    (``run_index`` of ``n_runs``, ``run_key``), its ``stage`` and simulated ``time`` [s]."""
+    (``run_index`` of ``n_runs``, ``run_key``), its ``stage`` and simulated ``time`` [s].
+
+    ``fraction`` is the share of the study's work done (its runs' estimated particle-steps)
+    and never goes back: a ``decide`` study counts the most its later rounds may add as
+    work still to do (:func:`engine.study.plan.most_added`), so a round's added runs take
+    their share from that reserve, and whatever a round does not add is a step forward.
+    ``runs_done`` runs have an outcome (finished or failed) of the ``n_runs`` known so far,
+    ``added`` of which a ``decide`` study has added; ``run_fraction`` is the run's own
+    fraction (None in a report on the study as a whole). A round's runs are announced by a
+    report with ``stage`` :data:`ADDED` before any of them runs (its ``message`` names
+    them, ``run_key`` the first)."""
 
     fraction: float
     run_index: int
@@ -51,6 +66,53 @@ class StudyProgress:
     stage: str
     time: float
     message: str = ""
+    runs_done: int | None = None
+    added: int = 0
+    run_fraction: float | None = None
+
+
+class Eta:
+    """Seconds a job (a study, a calibration) has left, from its progress fraction: the
+    mean rate since the first fraction it was given, (1 - f) (t - t0) / (f - f0), once the
+    fraction has moved :attr:`min_fraction` and :attr:`min_seconds` have passed (None
+    before: no rate yet). A study's fraction is a share of its estimated particle-steps
+    (StudyProgress), so this is its remaining work at the rate measured so far (the first
+    run's kernel compilation counted in). ``clock``: seconds, monotonic."""
+
+    min_fraction = 0.005
+    min_seconds = 5.0
+
+    def __init__(self, clock: Callable[[], float] | None = None):
+        import time
+
+        self.clock = clock or time.monotonic
+        self.start: tuple[float, float] | None = None
+
+    def __call__(self, fraction: float) -> float | None:
+        """The seconds left at ``fraction`` (None while unknown)."""
+        now = self.clock()
+        if self.start is None:
+            self.start = (now, fraction)
+            return None
+        t0, f0 = self.start
+        if fraction >= 1.0:
+            return 0.0
+        moved, waited = fraction - f0, now - t0
+        if moved < self.min_fraction or waited < self.min_seconds:
+            return None
+        return (1.0 - fraction) * waited / moved
+
+
+def duration_words(seconds: float | None) -> str:
+    """A duration as a person reads it: "45 s", "3 min 20 s", "1 h 05 min"; "-" for None."""
+    if seconds is None:
+        return "-"
+    s = max(0, round(seconds))
+    if s < 60:
+        return f"{s} s"
+    if s < 3600:
+        return f"{s // 60} min {s % 60:02d} s"
+    return f"{s // 3600} h {s % 3600 // 60:02d} min"
 
 
 StudyCallback = Callable[[StudyProgress], object]
@@ -242,18 +304,14 @@ def run_study(
     if executor is not None and channel is not None:
         channel.reset()
 
-    def run(todo: list[int]) -> None:
+    def run(todo: list[int], tally: _Tally) -> None:
         if executor is None:
-            _run_here(
-                planned, todo, weights, outcomes, progress, record, checkpoint, limit, backend
-            )
+            _run_here(tally, todo, progress, record, checkpoint, limit, backend)
         else:
             _run_on(
                 executor,
-                planned,
+                tally,
                 todo,
-                weights,
-                outcomes,
                 progress,
                 record,
                 task_threads,
@@ -264,13 +322,19 @@ def run_study(
                 backend,
             )
 
+    announced = 0
     while True:  # with decide, each pass may add the runs of the next round
         planned, added, stopped = plan_runs(study, outcomes)
-        weights = cost_weights(planned)
         todo = [i for i, p in enumerate(planned) if p.key not in outcomes]
         if not todo:
             break
-        run(todo)
+        # the work still to come counts in: the fraction never goes back (StudyProgress)
+        weights = cost_weights(planned, most_added(spec, planned, added, stopped))
+        tally = _Tally(planned, weights, outcomes, len(added))
+        if len(added) > announced:
+            _announce(tally, added[announced:], progress)
+            announced = len(added)
+        run(todo, tally)
     result = assemble(spec, planned, outcomes, final_look(spec, added, stopped))
     if spec.decide:
         result.advisor["adaptive"] = adaptive_summary(spec, planned, added, stopped)
@@ -278,23 +342,66 @@ def run_study(
 
 
 def _monotone_progress(progress: StudyCallback | None) -> StudyCallback | None:
-    """The callback with a fraction that never goes backwards while the study's runs stay
-    the same (runs of other processes report out of order); when an adaptive study adds
-    runs the fraction is the share of the larger whole, so it may drop once (a bar held at
-    100 % while the added runs run would say nothing)."""
+    """The callback with a fraction that never goes backwards: runs of other processes
+    report out of order, and a ``decide`` round that adds more than its reserve (a budget
+    overrun by an estimate) would lower it; the fraction shown is held instead."""
     if progress is None:
         return None
-    last = [0.0, 0]
+    last = [0.0]
 
     def call(report: StudyProgress):
-        if report.n_runs > last[1]:
-            last[:] = [report.fraction, report.n_runs]
-        last[0] = max(last[0], report.fraction)
         if report.fraction < last[0]:
             report = replace(report, fraction=last[0])
+        last[0] = report.fraction
         return progress(report)
 
     return call
+
+
+@dataclass
+class _Tally:
+    """A pass's runs (``planned``, each with its share ``weights`` of the study's work) and
+    the ``outcomes`` so far; ``added``: how many of them a ``decide`` study added."""
+
+    planned: list
+    weights: object
+    outcomes: dict
+    added: int
+
+    def done_weight(self) -> float:
+        """The share of the study's work already done (runs with an outcome)."""
+        return _done_weight(self.planned, self.weights, self.outcomes)
+
+    def report(self, fraction, i, stage, time, message="", run_fraction=None) -> StudyProgress:
+        return StudyProgress(
+            float(min(fraction, 1.0)),
+            i,
+            len(self.planned),
+            self.planned[i].key,
+            stage,
+            time,
+            message,
+            sum(1 for p in self.planned if p.key in self.outcomes),
+            self.added,
+            run_fraction,
+        )
+
+
+def _announce(tally: _Tally, new: list[dict], progress) -> None:
+    """The :data:`ADDED` report of the runs a round has just added (``new``, as
+    :func:`engine.study.plan.plan_runs` lists them), before any of them runs."""
+    if progress is None:
+        return
+    keys = [a["run"] for a in new]
+    i = next(i for i, p in enumerate(tally.planned) if p.key == keys[0])
+    rounds = sorted({a["round"] for a in new})
+    which = ", ".join(str(r) for r in rounds)
+    message = (
+        f"round {which} adds {len(keys)} run{'s' if len(keys) > 1 else ''} until decided: "
+        + ", ".join(keys)
+    )
+    if progress(tally.report(tally.done_weight(), i, ADDED, 0.0, message)) is False:
+        raise StopRequested(f"stopped by the progress callback before run {keys[0]}")
 
 
 def check_executor(executor: cf.Executor | None) -> None:
@@ -321,22 +428,17 @@ def _done_weight(planned, weights, outcomes) -> float:
     return float(sum(w for p, w in zip(planned, weights) if p.key in outcomes))
 
 
-def _run_here(
-    planned, todo, weights, outcomes, progress, record, checkpoint, limit, backend=None
-) -> None:
-    done_weight = _done_weight(planned, weights, outcomes)
+def _run_here(tally, todo, progress, record, checkpoint, limit, backend=None) -> None:
+    planned, weights = tally.planned, tally.weights
+    done_weight = tally.done_weight()
     for i in todo:
         p = planned[i]
 
-        def report(pr: Progress, i=i, p=p, base=done_weight):
+        def report(pr: Progress, i=i, base=done_weight):
             if progress is None:
                 return None
             frac = base + weights[i] * pr.fraction
-            return progress(
-                StudyProgress(
-                    float(min(frac, 1.0)), i, len(planned), p.key, pr.stage, pr.time, pr.message
-                )
-            )
+            return progress(tally.report(frac, i, pr.stage, pr.time, pr.message, pr.fraction))
 
         # a first report names the run before its packing and kernels are built, so a run
         # that fails there is not blamed on the previous one
@@ -354,10 +456,8 @@ def _run_here(
 
 def _run_on(
     executor,
-    planned,
+    tally,
     todo,
-    weights,
-    outcomes,
     progress,
     record,
     threads,
@@ -367,6 +467,7 @@ def _run_on(
     limit,
     backend=None,
 ) -> None:
+    planned, weights = tally.planned, tally.weights
     # in planned order: the references first (the longest runs, needed by every comparison)
     futures = {
         executor.submit(
@@ -381,7 +482,7 @@ def _run_on(
         ): i
         for i in todo
     }
-    done_weight = _done_weight(planned, weights, outcomes)
+    done_weight = tally.done_weight()
 
     def ask(report: StudyProgress) -> None:
         if progress is not None and progress(report) is False:
@@ -404,37 +505,20 @@ def _run_on(
             outcome = f"{type(e).__name__}: {e}"
         record(p, outcome)
         done_weight += weights[i]
-        ask(
-            StudyProgress(
-                float(min(done_weight, 1.0)),
-                i,
-                len(planned),
-                p.key,
-                "done",
-                0.0,
-                "run finished" if not isinstance(outcome, str) else outcome,
-            )
-        )
+        message = "run finished" if not isinstance(outcome, str) else outcome
+        ask(tally.report(done_weight, i, "done", 0.0, message, 1.0))
 
     def running(reports) -> None:
-        _report_running(planned, weights, reports, done_weight, ask)
+        _report_running(tally, reports, done_weight, ask)
 
     wait_tasks(futures, [p.key for p in planned], channel, poll_interval, done, running)
 
 
-def _report_running(planned, weights, running, done_weight, ask) -> None:
+def _report_running(tally, running, done_weight, ask) -> None:
     """One progress report of the ``running`` runs ((planned index, channel report) each):
     the study's fraction summed over the runs, named after the least advanced one."""
+    weights = tally.weights
     frac = done_weight + sum(weights[i] * min(max(r["fraction"], 0.0), 1.0) for i, r in running)
     i, r = min(running, key=lambda ir: ir[1]["fraction"])
-    ask(
-        StudyProgress(
-            float(min(frac, 1.0)),
-            i,
-            len(planned),
-            planned[i].key,
-            r["stage"],
-            float(r["time"]),
-            f"{len(running)} runs in progress",
-        )
-    )
+    message = f"{len(running)} runs in progress"
+    ask(tally.report(frac, i, r["stage"], float(r["time"]), message, float(r["fraction"])))

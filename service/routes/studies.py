@@ -53,9 +53,16 @@ def links(study: Study) -> dict[str, str]:
     return out
 
 
+def runs_added(study: Study) -> int:
+    """Runs a ``decide`` study has added to its stored plan so far."""
+    return max(0, study.n_runs - len(study.plan["runs"])) if study.plan else 0
+
+
 def public(study: Study) -> StudyPublic:
     """The API view of a study row."""
-    return StudyPublic.model_validate(study, update={"links": links(study)})
+    return StudyPublic.model_validate(
+        study, update={"links": links(study), "runs_added": runs_added(study)}
+    )
 
 
 def check_storage(session, settings, owner: str, new_id, new_bytes: float) -> None:
@@ -178,6 +185,7 @@ def read_study(study: StudyDep, session: SessionDep) -> StudyDetail:
         study,
         update={
             "links": links(study),
+            "runs_added": runs_added(study),
             "plot_kinds": list(study_kinds(study.spec)),
             "runs": [RunPublic.model_validate(r) for r in runs],
         },

@@ -1022,6 +1022,10 @@ def calibrate_cmd(args) -> int:
         )
     except engine.ParameterError as e:
         print(f"no LIGGGHTS fragment: {e}", file=sys.stderr)
+    # first, whether the data determine the parameters, and which target would determine
+    # a free one (engine.calibration.calibrate.determination)
+    for line in summary["determination"]["lines"]:
+        print(line)
     print(f"parameters (calibrated for R = {test.radius:g} m):")
     for n, p in cal.parameters.items():
         lo, hi = p["interval"]

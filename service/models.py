@@ -252,10 +252,18 @@ class CalibrationPublic(StudyPublic):
         "laboratory target within 2 sd (false: the calibration finished, but its law misses "
         "a target: result.not_met says which and by how much); null before.",
     )
+    all_free: bool | None = Field(
+        None,
+        description="Once succeeded: true when the data determine none of the calibrated "
+        "parameters (each free: its 90 % interval spans most of its box), so that any law of "
+        "the box meets the targets met; result.determination says which target would "
+        "determine each. Null before.",
+    )
     outcome: str | None = Field(
         None,
         description="Once succeeded, in words: 'all N targets met' or 'k of N targets NOT "
-        "met: <target> (z = ...)'; null before.",
+        "met: <target> (z = ...)', after 'the data determine none of its parameters (...)' "
+        "where they are all free; null before.",
     )
 
 

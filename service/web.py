@@ -23,7 +23,7 @@ from fastapi.responses import HTMLResponse
 from fastapi.templating import Jinja2Templates
 from sqlmodel import select
 
-from engine.calibration.calibrate import TARGET_UNITS
+from engine.calibration.calibrate import TARGET_UNITS, determination
 from engine.io.figures import KINDS, is_shear_table
 from engine.study.reasons import describe, interval_words, pct, shown
 from engine.study.run import duration_words
@@ -201,6 +201,10 @@ def calibration_page(
             "asked": job.spec,  # the calibration as submitted ("request" is the page's)
             "runs": runs,
             "result": result,
+            # whether the data determine the parameters, said first (stored results of
+            # earlier versions: from their parameters and Sobol indices)
+            "determination": (result or {}).get("determination")
+            or (determination(result) if result else {}),
             "missing": missing,
             "study_id": transitions.child_of(session, job.id),
             "terminal": TERMINAL,

@@ -560,10 +560,11 @@ class Calibration:
         return replace(spec if spec is not None else default_study(), reference=self.test)
 
     def to_summary(self) -> dict:
-        """JSON-friendly form."""
+        """JSON-friendly form; ``determination``: :func:`determination` of it (whether the
+        data determine the parameters, and which target would determine a free one)."""
         from ..core.records import to_dict
 
-        return {
+        out = {
             "law": {"type": type(self.law).__name__, **to_dict(self.law)},
             # the particle radius the law is calibrated for [m]: scaling it elsewhere needs it
             "reference_radius": self.test.radius
@@ -581,6 +582,78 @@ class Calibration:
             "shear_test": self.shear_test,
             "discrepancy": self.discrepancy,
         }
+        out["determination"] = determination(out)
+        return out
+
+
+#: First-order Sobol index under which no target of a calibration is said to move a
+#: parameter (a tighter measurement of that target would not determine it).
+MOVES = 0.2
+
+
+def determination(summary: dict) -> dict:
+    """Whether the data determine the calibration's parameters, in words to say first, and
+    for each free parameter which target would determine it (from the Sobol indices: the
+    target whose variance over the box that parameter explains most).
+
+    ``summary``: :meth:`Calibration.to_summary` (or a stored ``calibration.json``). Returns
+    ``{"all_free": bool, "free": [names], "lines": [...], "parameters": {name: {"status",
+    "target", "sobol", "lab_sd"}}}``: ``target`` None where no target's index reaches
+    :data:`MOVES` (no target here moves it: one that does must be added), ``lab_sd`` the
+    target's laboratory sd relative to its value. A calibration whose parameters are all
+    free meets its targets with any law of the box: its first line says so."""
+    params = summary.get("parameters") or {}
+    sens = summary.get("sensitivity") or {}
+    labs = {q["name"]: q for q in summary.get("targets_met") or []}
+    free = [n for n, p in params.items() if p.get("status") == "free"]
+    out: dict = {}
+    for name, p in params.items():
+        ranked = sorted(
+            ((row.get(name, 0.0), target) for target, row in sens.items()), reverse=True
+        )
+        index, target = ranked[0] if ranked else (0.0, None)
+        lab = labs.get(target) or {}
+        rel = abs(lab["sd"] / lab["lab"]) if lab.get("lab") and lab.get("sd") is not None else None
+        out[name] = {
+            "status": p.get("status"),
+            "target": target if index >= MOVES else None,
+            "sobol": float(index),
+            "lab_sd": rel,
+        }
+    lines = []
+    if params and len(free) == len(params):
+        names = ", ".join(free)
+        lines.append(
+            f"The data determine none of the parameters: {names} "
+            f"{'is' if len(free) == 1 else 'are all'} free (each 90 % interval spans most of "
+            "its box), so a target met here says only that some law in the box meets it, "
+            "not which law."
+        )
+    elif free:
+        lines.append(
+            f"The data leave {', '.join(free)} free (the 90 % interval spans most of the "
+            "box); the other parameters are determined."
+        )
+    for name in free:
+        d = out[name]
+        if d["target"] is None:
+            best = f" (the largest Sobol index, {d['sobol']:.2f})" if sens else ""
+            lines.append(
+                f"{name}: no target of this calibration moves it{best}: a target that "
+                f"depends on {name} must be added to determine it."
+            )
+            continue
+        sd = "" if d["lab_sd"] is None else f" (now +/- {100 * d['lab_sd']:.3g} %)"
+        lines.append(
+            f"{name}: {d['target']} moves it most (Sobol index {d['sobol']:.2f}): a tighter "
+            f"measurement of {d['target']}{sd} would determine it."
+        )
+    return {
+        "all_free": bool(params) and len(free) == len(params),
+        "free": free,
+        "lines": lines,
+        "parameters": out,
+    }
 
 
 def _emulators(u: np.ndarray, ys: np.ndarray) -> list[GP]:

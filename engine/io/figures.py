@@ -1084,18 +1084,26 @@ def _locus_panel(ax, checks: list, runs: list, curves: dict) -> None:
 
 def calibration_status(summary: dict) -> str:
     """One line on whether the calibrated law's check run met its targets: "all 9 targets
-    met", or "2 of 9 targets NOT met: ..." naming each with its z."""
+    met", or "2 of 9 targets NOT met: ..." naming each with its z; first, where the data
+    determine none of the parameters, that they are all free (a target met then says
+    only that some law of the box meets it)."""
+    from ..calibration.calibrate import determination
+
+    det = summary.get("determination") or determination(summary)
+    first = ""
+    if det["all_free"]:
+        first = f"the data determine none of its parameters ({', '.join(det['free'])} free): "
     checks = summary.get("targets_met") or []
     missed = [q for q in checks if not q.get("met")]
     if not missed:
-        return f"all {len(checks)} targets met (check run within 2 sd)"
+        return f"{first}all {len(checks)} targets met (check run within 2 sd)"
     words = ", ".join(
         f"{q['name']} (z = {q['z']:+.1f})"
         if q.get("z") is not None
         else f"{q['name']} ({'no peak' if q.get('no_peak') else 'failed'})"
         for q in missed
     )
-    return f"{len(missed)} of {len(checks)} targets NOT met: {words}"
+    return f"{first}{len(missed)} of {len(checks)} targets NOT met: {words}"
 
 
 def calibration_figure(summary: dict):

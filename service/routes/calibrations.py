@@ -19,6 +19,7 @@ from fastapi import APIRouter, HTTPException, Query, Response
 from fastapi.exceptions import RequestValidationError
 from sqlmodel import select
 
+from engine.calibration.calibrate import determination
 from engine.io.figures import FIGURES_VERSION, calibration_status  # matplotlib: when drawn
 
 from .. import transitions
@@ -64,9 +65,11 @@ def outcome(job: Study, settings) -> dict:
     except HTTPException:
         result = None
     if not result:
-        return {"all_targets_met": None, "outcome": None}
+        return {"all_targets_met": None, "all_free": None, "outcome": None}
     met = all(q.get("met") for q in result.get("targets_met", []))
-    return {"all_targets_met": met, "outcome": calibration_status(result)}
+    # stored before calibrations said it: from its parameters and Sobol indices
+    free = (result.get("determination") or determination(result))["all_free"]
+    return {"all_targets_met": met, "all_free": free, "outcome": calibration_status(result)}
 
 
 def public(job: Study, session, settings) -> CalibrationPublic:

@@ -1,6 +1,10 @@
 #!/usr/bin/env bash
 # Create ./.venv (once) and install demscale with the service, test and cli extras into it.
 # Sourced by main_job.sh and test.sh; re-running only reinstalls when pyproject.toml changed.
+# Quiet unless something fails: pip's output (and setuptools' notes on editable installs)
+# goes to .venv/setup.log, printed whole if the install fails. The `demscale` command lives
+# in ./.venv/bin: `source .venv/bin/activate` puts it on a shell's PATH (said once, when
+# installed).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 PY=${PYTHON:-python3}
@@ -8,8 +12,18 @@ if [ ! -x .venv/bin/python ]; then
   "$PY" -m venv .venv
 fi
 stamp=.venv/.demscale-installed
+log=.venv/setup.log
 if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
-  .venv/bin/python -m pip install --quiet --upgrade pip
-  .venv/bin/python -m pip install --quiet -e '.[service,test,cli]'
+  echo "setup: installing demscale and its service, test and cli extras into ./.venv ..."
+  if ! {
+    .venv/bin/python -m pip install --quiet --upgrade pip &&
+      .venv/bin/python -m pip install --quiet -e '.[service,test,cli]'
+  } >"$log" 2>&1; then
+    cat "$log" >&2
+    echo "setup: the install into ./.venv failed (pip's output above, kept in $log)" >&2
+    exit 1
+  fi
   touch "$stamp"
+  echo "setup: done. The demscale command is in ./.venv/bin: run 'source .venv/bin/activate'"
+  echo "       in each new shell (or call .venv/bin/demscale), then e.g. 'demscale --help'."
 fi

@@ -117,6 +117,7 @@ RULES: list[tuple[str, str, str]] = [
     (r"^bash scripts/test\.sh", "never", "the test suite itself (CI runs exactly it)"),
     (r"^\.venv/bin/python -m pytest", "never", "the tests themselves"),
     (r"^pip install", "never", "needs the package index: scripts/check_install.sh does it"),
+    (r"^source \.venv/bin/activate$", "never", "a shell's set-up (tests/test_setup_script.py)"),
     (r"^python -m service (api|worker)", "manual", "started, answers, stopped"),
     (r"^uvicorn --factory service\.app:create_app", "manual", "started, answers, stopped"),
     (r"^python -m benchmarks\.", "never", "a benchmark (minutes to hours; benchmarks/README)"),

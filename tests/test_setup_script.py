@@ -1,0 +1,89 @@
+"""The set-up prints only what a user needs (issue 53 item 2): scripts/setup_env.sh keeps
+pip's output, setuptools' "Editable installation" notes among it, out of sight unless the
+install fails (then it shows it whole), and says once where the `demscale` command is and
+how a shell finds it; the docs that show `demscale` commands say so too. The script runs
+on a copy of the repository's top with a stand-in Python whose pip only prints (no index,
+well under a second)."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+#: What setuptools prints during `pip install -e` (the block the issue quotes, shortened).
+NOTE = "Editable installation: the editable install of this project uses a .pth hook"
+
+
+def stand_in_python(path: Path, pip_fails: bool) -> Path:
+    """A `python3` that makes a venv (``-m venv DIR``) whose python runs a pip that prints
+    setuptools' note to stderr and succeeds (or fails)."""
+    venv_python = f"""#!/bin/sh
+echo "running pip $*"
+echo "!! {NOTE} !!" >&2
+echo "********************************************************************************" >&2
+exit {1 if pip_fails else 0}
+"""
+    path.write_text(
+        "#!/bin/sh\n"
+        '[ "$1" = "-m" ] && [ "$2" = "venv" ] || exit 2\n'
+        'mkdir -p "$3/bin"\n'
+        f"cat > \"$3/bin/python\" <<'EOS'\n{venv_python}EOS\n"
+        'chmod +x "$3/bin/python"\n'
+    )
+    path.chmod(0o755)
+    return path
+
+
+def setup(tmp_path: Path, pip_fails: bool = False) -> tuple[Path, callable]:
+    repo = tmp_path / "repo"
+    (repo / "scripts").mkdir(parents=True)
+    shutil.copy(ROOT / "scripts" / "setup_env.sh", repo / "scripts")
+    (repo / "pyproject.toml").write_text("[project]\nname = 'demscale'\n")
+    python = stand_in_python(tmp_path / "python3", pip_fails)
+
+    def run() -> subprocess.CompletedProcess:
+        return subprocess.run(
+            ["bash", "scripts/setup_env.sh"],
+            cwd=repo,
+            env={"PATH": "/usr/bin:/bin", "PYTHON": str(python)},
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+
+    return repo, run
+
+
+@pytest.mark.skipif(shutil.which("bash") is None, reason="needs bash")
+def test_the_set_up_is_quiet_and_says_where_demscale_is(tmp_path):
+    repo, run = setup(tmp_path)
+    first = run()
+    said = first.stdout + first.stderr
+    assert first.returncode == 0, said
+    assert NOTE not in said and "running pip" not in said and "*****" not in said
+    assert "source .venv/bin/activate" in said and ".venv/bin/demscale" in said
+    assert len(said.splitlines()) <= 4, said
+    assert NOTE in (repo / ".venv" / "setup.log").read_text()  # kept, out of sight
+    again = run()  # installed: nothing to say
+    assert again.returncode == 0 and again.stdout + again.stderr == ""
+
+
+@pytest.mark.skipif(shutil.which("bash") is None, reason="needs bash")
+def test_a_failed_install_shows_pip_s_output(tmp_path):
+    _, run = setup(tmp_path, pip_fails=True)
+    failed = run()
+    assert failed.returncode == 1
+    assert NOTE in failed.stderr and "running pip" in failed.stderr
+    assert "the install into ./.venv failed" in failed.stderr
+
+
+@pytest.mark.parametrize("doc", ["docs/COMMAND_LINE.md", "docs/SERVICE.md"])
+def test_the_docs_say_how_a_shell_finds_demscale(doc):
+    text = (ROOT / doc).read_text()
+    assert "demscale " in text
+    assert "source .venv/bin/activate" in text and ".venv/bin/demscale" in text

@@ -53,7 +53,7 @@ TEST_PLOTS = {"UniaxialTest": UNIAXIAL_KINDS, "ShearTest": SHEAR_KINDS}
 #: What each kind of test is called in a figure's words.
 TEST_NAMES = {"UniaxialTest": "uniaxial", "ShearTest": "shear"}
 #: Bumped when a figure's drawing changes, so that cached PNGs are drawn again.
-FIGURES_VERSION = 7
+FIGURES_VERSION = 8
 
 #: Kinds drawn from the advisor on a whole figure (several panels), not from the curves.
 _WHOLE_FIGURE = ("error_vs_runtime", "resolution")
@@ -445,6 +445,7 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
     groups += [(v, False) for v in advisor.get("resolution") or []]
     groups += [(v, True) for v in advisor.get("rule_errors") or []]
     axes = fig.subplots(1, max(1, len(names)), sharex=True, squeeze=False)[0]
+    clipped = False  # an interval cut at +-CAP: drawn to the edge with an arrow
     for ax, name in zip(axes, names):
         _, title = _METRIC_PANELS[name]
         if noise.get(name) is not None:
@@ -467,11 +468,14 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
             if got is None or t is None or rule not in rules:
                 continue
             err, lo, hi = (100 * x for x in got)
-            reach += [abs(err), abs(lo), abs(hi)]
             colour = f"C{rules.index(rule) % 10}"
+            x = t * (1.04 if own else 1.0)
+            err, lo, hi = _cap(ax, x, err, lo, hi, colour)
+            clipped = clipped or (lo, hi) != tuple(100 * y for y in got[1:])
+            reach += [abs(err), abs(lo), abs(hi)]
             marker = _MARKERS[radii.index(v["radius"]) % len(_MARKERS)]
             ax.errorbar(
-                t * (1.04 if own else 1.0),
+                x,
                 err,
                 yerr=[[max(err - lo, 0.0)], [max(hi - err, 0.0)]],
                 fmt=marker,
@@ -518,10 +522,31 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
     if advisor.get("rule_errors"):
         handles.append(Line2D([], [], ls="", marker="o", mfc="none", color="0.3"))
         labels.append("open: the rule's own error (against its control)")
+    if clipped:
+        handles.append(Line2D([], [], ls="", marker="^", color="0.3"))
+        labels.append(f"arrow: interval beyond ±{CAP:g} %, unbounded (too few seeds)")
     handles.append(Line2D([], [], ls=":", color="black"))
     labels.append("reference run time")
     fig.legend(handles, labels, loc="outside lower center", ncol=min(5, len(labels)), fontsize=7)
     fig.suptitle(KINDS["error_vs_runtime"], fontsize=10)
+
+
+#: Largest error an error axis shows [%]: an interval end beyond it (a one-degree-of-freedom
+#: interval reaches +1e8 %) is drawn to it with an arrow, and read as unbounded, as the
+#: reports print it (engine.study.reasons.UNBOUNDED).
+CAP = 1000.0
+
+
+def _cap(ax, x: float, err: float, lo: float, hi: float, colour) -> tuple[float, float, float]:
+    """(err, lo, hi) [%] within +-:data:`CAP`; an arrow at the edge for each end cut."""
+    for end, sign, marker in ((hi, 1.0, "^"), (lo, -1.0, "v")):
+        if not math.isfinite(end) or sign * end > CAP:
+            ax.plot([x], [sign * CAP], marker=marker, color=colour, ms=6, ls="", zorder=5)
+    return (
+        float(np.clip(err, -CAP, CAP)),
+        float(np.clip(lo, -CAP, CAP)) if math.isfinite(lo) else -CAP,
+        float(np.clip(hi, -CAP, CAP)) if math.isfinite(hi) else CAP,
+    )
 
 
 def _symlog_locator(lin: float, top: float):
@@ -687,9 +712,10 @@ def _resolution_points(fig, advisor: dict, table: list[dict]) -> None:
             if got is None or not v.get("diameters_across"):
                 continue
             err, lo, hi = (100 * x for x in got)
-            reach += [abs(err), abs(lo), abs(hi)]
-            xs.append(1.0 / float(v["diameters_across"]))
             x = 1.0 / float(v["diameters_across"])
+            err, lo, hi = _cap(ax, x, err, lo, hi, "C3")
+            reach += [abs(err), abs(lo), abs(hi)]
+            xs.append(x)
             ax.errorbar(
                 x,
                 err,

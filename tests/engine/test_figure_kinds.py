@@ -128,3 +128,21 @@ def test_a_study_s_plots_follow_its_kind_of_test():
     assert set(TEST_PLOTS) == {"UniaxialTest", "ShearTest"}
     with pytest.raises(ValueError, match="no plots"):
         plot_kinds({"reference": {"type": "Bogus"}})
+
+
+def test_an_unbounded_interval_is_cut_at_1000_percent_with_an_arrow():
+    """A two-seed interval to +1e6 % is drawn to +1000 % with an arrow (and read as
+    unbounded in the legend), so that no tick reads +1e+06."""
+    runs, table, advisor = uniaxial_study()
+    (m,) = [m for m in advisor["verdicts"][0]["metrics"] if m["metric"] == "loading_stiffness"]
+    m["bias"]["interval"] = [-0.99, 1e4]  # -99 % to +1e6 %
+    fig = figure("error_vs_runtime", runs, table, advisor)
+    ax = next(a for a in fig.axes if a.get_title().startswith("loading stiffness"))
+    assert ax.get_ylim()[1] <= 1150.0
+    arrows = [ln for ln in ax.get_lines() if ln.get_marker() == "^"]
+    assert arrows and float(arrows[0].get_ydata()[0]) == pytest.approx(1000.0)
+    fig.canvas.draw()
+    ticks = [t.get_text() for t in ax.get_yticklabels() if t.get_text()]
+    assert ticks and not any("e+" in t for t in ticks), ticks
+    legend = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert any("unbounded (too few seeds)" in t for t in legend), legend

@@ -53,7 +53,7 @@ TEST_PLOTS = {"UniaxialTest": UNIAXIAL_KINDS, "ShearTest": SHEAR_KINDS}
 #: What each kind of test is called in a figure's words.
 TEST_NAMES = {"UniaxialTest": "uniaxial", "ShearTest": "shear"}
 #: Bumped when a figure's drawing changes, so that cached PNGs are drawn again.
-FIGURES_VERSION = 8
+FIGURES_VERSION = 9
 
 #: Kinds drawn from the advisor on a whole figure (several panels), not from the curves.
 _WHOLE_FIGURE = ("error_vs_runtime", "resolution")
@@ -662,6 +662,9 @@ def _resolution(fig, advisor: dict | None, table: list[dict] | None = None) -> N
             transform=ax.transAxes,
             fontsize=6,
             va="bottom",
+            # the bulk's interval bar runs under it: the words on a white ground
+            bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.85, "pad": 1.5},
+            zorder=6,
         )
         ax.set_title(f"{_TITLES[n]} [%]", fontsize=9)
         ax.set_xlabel("d / L [-]", fontsize=8)  # the title says what d and L are

@@ -66,6 +66,7 @@ import numpy as np
 
 import engine
 from benchmarks.checks import run_and_store
+from benchmarks.report import CELL_WORDS
 from engine.io.store import load_run
 from engine.study.metrics import metric_names, metric_values
 from engine.uniaxial.measures import failed_by_curve
@@ -374,11 +375,37 @@ def judge(ref_runs: list, runs: list, name: str, platen: bool = False) -> dict:
     return judge_protocol(spec, noise, test.radius, half, refs, names)
 
 
+def strength_curve(runs: list, platen: bool = False) -> str:
+    """The curve the strength of ``runs`` is read from, and their failure with it: the top
+    platen's with ``platen`` (:func:`platen_view`), else each test's ``strength_from``."""
+    where = {"platen" if platen else r.test.strength_from for r in runs}
+    return " and ".join("top platen" if w == "platen" else f"{w} curve" for w in sorted(where))
+
+
+def failed_cell(ref_runs: list, runs: list, platen: bool = False) -> str:
+    """How many runs failed at a peak on the curve the compared strength is read from (the
+    failure that decides which runs' strengths are compared, docs/PHYSICS.md section 7.3),
+    and, where that is the top platen for runs that have an interior curve, how many fail on
+    that too."""
+    view = platen_view if platen else (lambda r: r)
+    both = ref_runs + runs
+    n = sum(view(r).scalars["unconfined_failure"] == 1.0 for r in both)
+    text = f"{n} of {len(both)} ({strength_curve(both, platen)})"
+    own = [r for r in both if r.test.strength_from != "platen"]
+    if platen and own:
+        k = sum(r.scalars["unconfined_failure"] == 1.0 for r in own)
+        text += f"; on the interior curve {k} of the {len(own)} that have one"
+    return text
+
+
 def verdict_row(
     label: str, ref_runs: list, runs: list, platen: bool = False
-) -> tuple[str, str | None]:
-    """A table row of ``runs`` judged against ``ref_runs`` (:func:`judge`), and the verdict
-    (None with fewer than two runs a side)."""
+) -> tuple[str, dict | None]:
+    """A table row of ``runs`` judged against ``ref_runs`` (:func:`judge`; each cell as
+    benchmarks.report.judged_text words it: no more than the verdict decided), and the
+    judgement (None with fewer than two runs a side)."""
+    from benchmarks.report import judged_text
+
     if len(ref_runs) < 2 or len(runs) < 2:
         return f"| {label} | {len(ref_runs)} / {len(runs)} | not enough runs stored yet |", None
     v = judge(ref_runs, runs, label, platen)
@@ -387,17 +414,92 @@ def verdict_row(
         if m["interval"] is None:
             cells.append(f"{100 * m['signed_error']:+.1f} %")
             continue
-        lo, hi = m["interval"]
-        cells.append(
-            f"{100 * m['level_error']:+.1f} [{100 * lo:+.1f}, {100 * hi:+.1f}] % ({m['verdict']})"
-        )
-    fails = f"{sum(r.scalars['unconfined_failure'] == 1.0 for r in ref_runs + runs)}"
+        cells.append(judged_text(m))
     row = (
         f"| {label} | {len(ref_runs)} / {len(runs)} | "
         + " | ".join(cells)
-        + f" | {fails} of {len(ref_runs) + len(runs)} | **{v['verdict']}** |"
+        + f" | {failed_cell(ref_runs, runs, platen)} | **{v['verdict']}** |"
     )
-    return row, v["verdict"]
+    return row, v
+
+
+#: What a bias within the tolerance means, per kind of comparison.
+HALVING_BIAS = (
+    "halving moved each by that much; `equivalent` bounds such a move by the tolerance, it "
+    "does not say that the protocol has converged in that metric, and a finer protocol "
+    "could move it again (docs/PHYSICS.md section 7.6)"
+)
+PROTOCOL_BIAS = "the two protocols give values that far apart"
+RULE_BIAS = "the runs are that far from those they are compared with"
+
+
+def curve_lines(bench: list) -> list[str]:
+    """Which curve each side's strength (and failure) is read from in the benchmark's
+    comparisons ``bench`` ((label, reference runs, runs, platen, _)), and the runs of each
+    side whose strength is compared: the runs that fail at a peak on that curve."""
+    out = [
+        "The strength of the comparisons with the seed's protocol is read from the top "
+        "platen on both sides (the seed's runs have no interior curve): the seed's runs "
+        "from their own (`strength_from = 'platen'`), the default's from the top platen's "
+        "stress they store beside their interior curve (`unconfined_strength_platen`); "
+        "whether a run failed at a peak is read from the same curve, and only failed runs' "
+        "strengths are compared (docs/PHYSICS.md section 7.3). The comparison of the "
+        "default with its halved I* reads both sides from the interior curve (the "
+        "default's `strength_from`).",
+        "",
+    ]
+    view = platen_view
+    for label, a, b, platen, _ in bench:
+        if not (platen and a and b):
+            continue
+        sides = []
+        for name, runs in (("the seed's protocol", a), ("the default", b)):
+            failed = [r.test.seed for r in runs if view(r).scalars["unconfined_failure"] == 1.0]
+            hard = [r.test.seed for r in runs if r.test.seed not in failed]
+            own = [r for r in runs if r.test.strength_from != "platen"]
+            inner = sum(r.scalars["unconfined_failure"] == 1.0 for r in own)
+            sides.append(
+                f"{name} {len(failed)} of {len(runs)} on the top platen"
+                + (
+                    f" (seed{'s' if len(hard) > 1 else ''} {', '.join(map(str, hard))} "
+                    f"harden{'' if len(hard) > 1 else 's'} there)"
+                    if hard
+                    else ""
+                )
+                + (f", {inner} of {len(own)} on the interior curve" if own else "")
+            )
+        out.append(
+            f"- {label}: runs that fail at a peak: {'; '.join(sides)}. Its strength compares "
+            "the failed runs only."
+        )
+    return out
+
+
+def bias_line(label: str, v: dict | None, meaning: str) -> str | None:
+    """One line naming the biased metrics of a comparison that is not ``differs`` (the
+    interval of the mean over levels excludes 0), each with its own verdict, and what
+    that ``meaning`` is."""
+    if v is None or v["verdict"] == "differs" or not v.get("biased"):
+        return None
+    ms = {m["metric"]: m for m in v["metrics"]}
+
+    def verdict(m):
+        tol = f"{100 * m['tolerance']:g} %"
+        return (
+            f"equivalent within {tol}"
+            if m["verdict"] == "equivalent"
+            else (f"{m['verdict']} against ± {tol}")
+        )
+
+    moved = "; ".join(
+        f"{b['metric']} {100 * b['error']:+.1f} [{100 * b['interval'][0]:+.1f}, "
+        f"{100 * b['interval'][1]:+.1f}] % ({verdict(ms[b['metric']])})"
+        for b in v["biased"]
+    )
+    return (
+        f"- {label} ({v['verdict']}): biased in {moved}; 95 % intervals of the mean over "
+        f"levels on each side's own spread: {meaning}."
+    )
 
 
 def cost_row(label: str, runs: list) -> str:
@@ -506,7 +608,11 @@ def report() -> str:
         "docstring, written before any run; the protocol itself: docs/PHYSICS.md sections 4 "
         "and 6. Verdicts: docs/PHYSICS.md section 7.1 at the study's tolerances (density 3 %, "
         "stiffnesses 15 %, coordination 10 %, strength 15 %) and 95 % confidence; intervals "
-        "of the per-level error in per cent.",
+        "of the per-level error in per cent (a curve's worst level; for `differs`, the "
+        "interval that lies outside the tolerance). Each cell says what its verdict decided "
+        f"and no more: {CELL_WORDS} Column 'failed': the runs that fail at a peak on the "
+        "curve the compared strength is read from (only those runs' strengths are compared, "
+        "docs/PHYSICS.md section 7.3).",
         "",
         f"The engine's defaults of a new test: dt = {t.dt_fraction:g} of the critical time "
         f"of the stiffest contact, I* = {t.inertial_number:g}, at most "
@@ -524,7 +630,10 @@ def report() -> str:
         "fails at a peak), the inertial number then checked on the reference itself (the "
         "benchmark's last row). A metric judged `undecided` needs more seeds; the verdicts "
         "are the study's protocol check (engine.study.judge.judge_protocol), paired by seed "
-        "where that pays.",
+        "where that pays. `equivalent` says that halving moves no metric beyond its "
+        "tolerance at 95 %, not that the protocol has converged: a halving that moves a "
+        "metric by less than its tolerance, but by more than its noise, is listed under its "
+        "table as a bias (docs/PHYSICS.md section 7.6).",
         "",
         "## The fill (paper scale)",
         "",
@@ -535,13 +644,14 @@ def report() -> str:
         HEADER,
     ]
     b2 = {tag: load_group("b2", tag, ALL_SEEDS) for tag in CANDIDATES}
-    verdicts = {}
+    verdicts, biases = {}, []
     for a, b, label in CHECKS:
         row, v = verdict_row(f"{label} ({b} against {a})", b2[a], b2[b])
         lines.append(row)
         if v is not None:
-            verdicts[a, b] = v
-    lines += ["", *chosen(verdicts), "", COST_HEADER]
+            verdicts[a, b] = v["verdict"]
+        biases.append(bias_line(label, v, HALVING_BIAS))
+    lines += ["", *chosen(verdicts), *[x for x in biases if x], "", COST_HEADER]
     lines += [cost_row(tag, runs) for tag, runs in b2.items()]
     lines += ["", "Median inertial number held per stage:", "", *held_rows(b2)]
     groups = {
@@ -552,18 +662,22 @@ def report() -> str:
         "b2, default": load_group("b2", "default", ALL_SEEDS),
     }
     g = list(groups.values())
+    bench = [
+        ("reference: default against the seed's protocol", g[0], g[1], True, PROTOCOL_BIAS),
+        ("5 mm b = 2: default against the seed's protocol", g[3], g[4], True, PROTOCOL_BIAS),
+        ("reference: I* halved against the default", g[1], g[2], False, HALVING_BIAS),
+    ]
+    judged = [(label, *verdict_row(label, a, b, p), meaning) for label, a, b, p, meaning in bench]
     lines += [
         "",
         "## The benchmark (paper scale): the seed's protocol against the default",
         "",
-        "The strength of these two comparisons is read from the top platen on both sides "
-        "(the seed's runs have no interior curve); the interior strength of the default's "
-        "runs is in their stored scalars (`unconfined_strength`).",
+        *curve_lines(bench),
         "",
         HEADER,
-        verdict_row("reference: default against the seed's protocol", g[0], g[1], True)[0],
-        verdict_row("5 mm b = 2: default against the seed's protocol", g[3], g[4], True)[0],
-        verdict_row("reference: I* halved against the default", g[1], g[2])[0],
+        *[row for _, row, _, _ in judged],
+        "",
+        *[x for label, _, v, meaning in judged if (x := bias_line(label, v, meaning))],
         "",
         COST_HEADER,
         *[cost_row(label, runs) for label, runs in groups.items()],
@@ -587,6 +701,23 @@ def report() -> str:
         "5 mm b = 2": load_group("ctl", "default", ALL_SEEDS),
         "3.75 mm b = 2": load_group("ctl_375", "default", ALL_SEEDS),
     }
+    judged_rule = [
+        (label, *verdict_row(label, g[1], runs))
+        for label, runs in (
+            (f"{lb} against the reference, default protocol", r) for lb, r in rule.items()
+        )
+    ]
+    own = [
+        (label, *verdict_row(label, a, b))
+        for label, a, b in [
+            (f"{lb} against its control, default protocol", controls[lb], r)
+            for lb, r in rule.items()
+        ]
+        + [
+            (f"control of {lb} against the reference, default protocol", g[1], c)
+            for lb, c in controls.items()
+        ]
+    ]
     lines += [
         "## The seed's rule re-judged at the default protocol (paper scale)",
         "",
@@ -596,25 +727,20 @@ def report() -> str:
         "are in docs/VALIDATION.md.",
         "",
         HEADER,
-        *[
-            verdict_row(f"{label} against the reference, default protocol", g[1], runs)[0]
-            for label, runs in rule.items()
-        ],
+        *[row for _, row, _ in judged_rule],
         "",
         "Against its control (the reference law in the coarse run's own packing and cell, "
-        "seed for seed): the rule's own error, with the resolution error of the coarse sample "
-        "taken out (docs/PHYSICS.md section 7.4); the control against the reference is that "
-        "resolution error.",
+        "seed for seed): for this law the quadratic rule is an exact similarity "
+        "(docs/PHYSICS.md section 5.1), so a coarse run is its control in other units and "
+        "this comparison is a check of units (the constants left in seconds and the runs' "
+        "chaos), not evidence for the rule. The control against the reference is the "
+        "resolution error of a sample that many diameters across (docs/PHYSICS.md section "
+        "7.4).",
         "",
         HEADER,
-        *[
-            verdict_row(f"{label} against its control, default protocol", controls[label], runs)[0]
-            for label, runs in rule.items()
-        ],
-        *[
-            verdict_row(f"control of {lb} against the reference, default protocol", g[1], c)[0]
-            for lb, c in controls.items()
-        ],
+        *[row for _, row, _ in own],
+        "",
+        *[x for label, _, v in judged_rule + own if (x := bias_line(label, v, RULE_BIAS))],
         "",
         *speedup_lines(g[1], rule),
     ]

@@ -47,6 +47,7 @@ import engine
 from benchmarks.experiments import CAPPED
 from engine.io.figures import UNIAXIAL_KINDS
 from engine.study.plan import adaptive_summary, final_look, plan_runs, stored_plan_runs
+from engine.study.reasons import UNBOUNDED_WORDS, bounded
 from engine.study.results import assemble
 from engine.uniaxial.measures import overburden_ratio
 
@@ -89,6 +90,94 @@ def interval_text(m: dict) -> str:
     return f"{100 * e:+.1f} [{100 * lo:+.1f}, {100 * hi:+.1f}] %"
 
 
+def _span(interval) -> str:
+    """ "[-26.2, -13.1] %", or the words for an interval too wide to print."""
+    if not bounded(interval):
+        return UNBOUNDED_WORDS
+    lo, hi = interval
+    return f"[{100 * lo:+.1f}, {100 * hi:+.1f}] %"
+
+
+def verdict_words(m: dict) -> str:
+    """What a metric's verdict says, and no more (docs/PHYSICS.md section 7.1), for the
+    parenthesis after :func:`interval_text`:
+
+    - ``equivalent`` bounds the error within the tolerance; where the interval of the mean
+      over levels (each side's own spread) excludes 0 the metric is also biased, and the
+      words say so ("equivalent within 15 %, biased low"), with that interval where it is
+      not the one printed (a curve's worst level, or a pooled spread); where only the
+      printed worst level excludes 0, they say that too;
+    - ``undecided`` whose printed (equivalence) interval lies wholly outside the tolerance:
+      the verdict rests on the other interval, the one that decides ``differs`` (per-seed
+      level means, own spreads, its rate split over the metrics), which reaches inside the
+      tolerance; the words print it;
+    - a strength compared on fewer runs than the row's (hardening runs left out, section
+      7.3): the runs compared."""
+    v = m["verdict"]
+    words = [v]
+    tol = m.get("tolerance")
+    within = "" if tol is None else f" within {100 * tol:g} %"
+    bias = m.get("bias") or {}
+    direction = bias.get("direction")
+    iv = m.get("interval")
+    if iv is not None and v == "equivalent":
+        if direction is not None:
+            words = [f"equivalent{within}, biased {direction}"]
+            if bias.get("interval") is not None and _span(bias["interval"]) != _span(iv):
+                words[0] += (
+                    f": {100 * bias['error']:+.1f} {_span(bias['interval'])} over levels"
+                    if m.get("level") is not None
+                    else f": {100 * bias['error']:+.1f} {_span(bias['interval'])} on own spreads"
+                )
+        elif iv[0] > 0 or iv[1] < 0:
+            words = [
+                f"equivalent{within}; its worst level excludes 0, its mean over levels does not"
+                if m.get("level") is not None
+                else f"equivalent{within}; on the pooled spread it excludes 0, on its own not"
+            ]
+    elif iv is not None and v == "undecided":
+        if direction is not None:
+            words = [f"undecided, biased {direction}"]
+        outside = tol is not None and (iv[0] > tol or iv[1] < -tol)
+        if outside and m.get("differs_interval") is not None:
+            rate = 1 - m["alpha_differs"] if "alpha_differs" in m else None
+            how = "" if rate is None else f" ({100 * rate:.4g} % per end)"
+            other = m["differs_interval"]
+            words.append(
+                f"this interval lies outside ± {100 * tol:g} %, but the one that decides "
+                + (
+                    f"differs{how}, {_span(other)}, reaches inside it"
+                    if bounded(other)
+                    else f"differs{how} is {UNBOUNDED_WORDS}"
+                )
+            )
+    if m.get("left_out"):
+        n = m["left_out"]
+        words.append(
+            f"{m['reference_seeds']} / {m['seeds']} runs compared, {n} hardening "
+            f"run{'s' if n > 1 else ''} left out"
+        )
+    return "; ".join(words)
+
+
+#: How the words of :func:`verdict_words` read, for a report's legend.
+CELL_WORDS = (
+    "`equivalent within 15 %` bounds the error by the tolerance at the stated confidence, "
+    "and `biased low` (or `high`) is added where the interval of the mean over levels (each "
+    "side's own spread) excludes 0: a bias within the tolerance, not an absence of error; "
+    "an `undecided` metric whose printed interval lies wholly outside the tolerance is "
+    "undecided because the interval that decides `differs` (the per-seed level means on "
+    "their own spreads, its rate split over the metrics and the two ends) still reaches "
+    "inside it, and the cell prints that interval too."
+)
+
+
+def judged_text(m: dict) -> str:
+    """A metric's error, the interval its verdict rests on and what the verdict says:
+    ``-10.4 [-11.3, -9.4] % (equivalent within 15 %, biased low)``."""
+    return f"{interval_text(m)} ({verdict_words(m)})"
+
+
 def _metric(v: dict, name: str) -> dict | None:
     return next((m for m in v.get("metrics", []) if m["metric"] == name), None)
 
@@ -114,7 +203,7 @@ def verdict_table(res: engine.StudyResult) -> str:
             if m is None:
                 cells.append("-")
                 continue
-            cells.append(f"{interval_text(m)} ({m['verdict']})")
+            cells.append(judged_text(m))
         sp = v.get("speedup")
         ps = particle_steps_ratio(res, v["rule"], v["radius"])
         ratio = "-" if ps is None else f"{ps:.1f}x"
@@ -254,7 +343,7 @@ def claim_a(res) -> str:
     )
     return (
         f"**{state}**. At R = 5 mm with the reference's stiffness the confined loading "
-        f"modulus is {interval_text(m)} off the reference (verdict {m['verdict']})."
+        f"modulus is {interval_text(m)} off the reference (verdict {verdict_words(m)})."
     )
 
 
@@ -273,7 +362,7 @@ def claim_b(res) -> str:
     )
     return (
         f"**{state}**. Linear stiffness at R = 5 mm: "
-        + "; ".join(f"{n} {interval_text(m)} ({m['verdict']})" for n, m in zip(names, ms))
+        + "; ".join(f"{n} {judged_text(m)}" for n, m in zip(names, ms))
         + "."
     )
 
@@ -288,7 +377,7 @@ def claim_c(res) -> list[str]:
         state = _adhesion_state(ms)
         out.append(
             f"R = {r * 1e3:g} mm: **{state}**. Strength against the reference: "
-            + ", ".join(f"b = {b[1]}: {interval_text(m)} ({m['verdict']})" for b, m in ms.items())
+            + ", ".join(f"b = {b[1]}: {judged_text(m)}" for b, m in ms.items())
             + "."
         )
         own = {b: _verdict_of(res, r, b, "strength", "rule_errors") for b in ms}
@@ -297,10 +386,8 @@ def claim_c(res) -> list[str]:
                 f"R = {r * 1e3:g} mm, against the resolution controls (the 2.5 mm law in the "
                 "coarse cell scaled; a check of units, not evidence for b = 2: for this law "
                 "b = 2 is an exact similarity, the coarse run is its control in other units, "
-                f"docs/PHYSICS.md section 5b): {_adhesion_state(own)}. "
-                + ", ".join(
-                    f"b = {b[1]}: {interval_text(m)} ({m['verdict']})" for b, m in own.items()
-                )
+                f"docs/PHYSICS.md section 5.1): {_adhesion_state(own)}. "
+                + ", ".join(f"b = {b[1]}: {judged_text(m)}" for b, m in own.items())
                 + "."
             )
             v = _variant(res, r, "b2", "rule_errors")
@@ -315,8 +402,7 @@ def claim_c(res) -> list[str]:
         if m is not None:
             out.append(
                 f"R = {r * 1e3:g} mm, resolution: the 2.5 mm law {loss['diameters_across']:.1f} "
-                f"diameters across against the reference: strength {interval_text(m)} "
-                f"({m['verdict']})."
+                f"diameters across against the reference: strength {judged_text(m)}."
             )
     adh = res.advisor.get("adhesion_exponent") or {}
     for r, v in (adh.get("by_radius") or {}).items():
@@ -432,7 +518,7 @@ def claim_eepa(res) -> list[str]:
 
         def cells(v):
             return ", ".join(
-                f"{n} {interval_text(m)}" for n in shown if (m := _metric(v, n)) is not None
+                f"{n} {judged_text(m)}" for n in shown if (m := _metric(v, n)) is not None
             )
 
         out.append(
@@ -783,7 +869,8 @@ def write_report(
         "the two ends and the looks), `undecided` otherwise (docs/PHYSICS.md section 7, "
         "engine/study/advisor.py). Table cells: relative error [interval] in per cent, at "
         "the worst level of a curve, or the interval that lies outside the tolerance for "
-        "`differs` (metric verdict).",
+        "`differs`, then the metric's verdict and no more than it decided: "
+        f"{CELL_WORDS}",
         "",
     ]
 

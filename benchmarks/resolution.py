@@ -6,7 +6,7 @@ of its bulk value, and so the coarsest particle for a feature L wide.
     python -m benchmarks.resolution                  # every run not yet stored, then the report
     python -m benchmarks.resolution --only d15-s1     # a share of the runs
     python -m benchmarks.resolution --import var/results/<id>.h5   # the main job's runs
-    python -m benchmarks.resolution --report          # docs/RESOLUTION_capped.md from the stored runs
+    python -m benchmarks.resolution --report      # docs/RESOLUTION_capped.md, from the stored runs
 
 The sample: ``engine.default_study().reference`` (the main job's reference: the ``quick``
 preset's 10 x 10 x 60-diameter column of R = 2.5 mm spheres, f0 = -0.4 N, at the default

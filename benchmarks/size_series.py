@@ -5,9 +5,9 @@ whole error of coarse-graining (docs/PHYSICS.md section 7.5).
     python -m benchmarks.size_series                       # every run not yet stored
     python -m benchmarks.size_series --only column/bond1   # one series (or a run key)
     python -m benchmarks.size_series --list                # the runs, stored or not, and cost
-    python -m benchmarks.size_series --report              # docs/RESOLUTION.md from the store
+    python -m benchmarks.size_report                       # docs/RESOLUTION.md from the store
 
-Under the bilinear law with K ~ R and f0 ~ R^2 (docs/PHYSICS.md section 5b) a coarse run at
+Under the bilinear law with K ~ R and f0 ~ R^2 (docs/PHYSICS.md section 5.1) a coarse run at
 factor s is the fine law in a geometry shrunk s times: the error a coarse model makes is the
 fine law's size effect in the feature, at the number of coarse particles across it. So each
 series runs one fine law (R = 2.5 mm, the main job's) in samples of growing size, holding:
@@ -314,8 +314,9 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", nargs="*", help="runs whose key contains any of these")
     ap.add_argument("--list", action="store_true", help="list the runs and their cost")
-    ap.add_argument("--report", action="store_true", help="only write docs/RESOLUTION.md")
-    ap.add_argument("--no-report", action="store_true", help="run, but write no report")
+    ap.add_argument(
+        "--no-report", action="store_true", help="(kept for old command lines: no effect)"
+    )
     args = ap.parse_args(argv)
     todo = keys(args.only)
     if args.list:
@@ -329,16 +330,11 @@ def main(argv=None) -> int:
             print(f"{key_name(*k):32s} {test_of(*k).n_particles:7d} particles  {state}")
         print(f"left to run: about {total / 3600:.1f} h on one core")
         return 0
-    if not args.report:
-        for k in todo:
-            if stored(*k) is None:
-                print(f"running {key_name(*k)} ({test_of(*k).n_particles} particles)", flush=True)
-                print(run_one(*k), flush=True)
-    if args.no_report:
-        return 0
-    from benchmarks.size_report import write_report
-
-    print(write_report())
+    for k in todo:
+        if stored(*k) is None:
+            print(f"running {key_name(*k)} ({test_of(*k).n_particles} particles)", flush=True)
+            print(run_one(*k), flush=True)
+    print("the report: python -m benchmarks.size_report")
     return 0
 
 

@@ -59,9 +59,6 @@ from .uniaxial.spec import SEED_PROTOCOL, UniaxialTest, preset
 __version__ = "0.1.0"
 
 __all__ = [
-    "Process",
-    "ProcessPlan",
-    "plan_process",
     "DEFAULT_TOLERANCES",
     "EEPA",
     "FEATURES",
@@ -81,6 +78,8 @@ __all__ = [
     "ParameterError",
     "Plane",
     "PlannedRun",
+    "Process",
+    "ProcessPlan",
     "Progress",
     "RunFailed",
     "RunOptions",
@@ -111,6 +110,7 @@ __all__ = [
     "default_study",
     "flow_function",
     "plan",
+    "plan_process",
     "preset",
     "run_shear",
     "run_study",

@@ -1,5 +1,5 @@
 """The similarity of the equations of motion under coarse-graining, applied to any declared
-record from its fields' units (docs/PHYSICS.md section 5b).
+record from its fields' units (docs/PHYSICS.md section 5.1).
 
 With lengths x s, times x s and densities x 1, every other unit follows: masses x s^3,
 velocities x 1, accelerations (gravity) x 1/s, forces x s^2, stresses x 1, stiffnesses

@@ -120,7 +120,7 @@ def resolution_lines(resolution: list[dict], rule_errors: list[dict], spec) -> l
             f"{says[v['verdict']]} ({parts})"
         )
         if v["rule"] in exact:
-            # docs/PHYSICS.md section 5b: for this law the coarse run is its control in
+            # docs/PHYSICS.md section 5.1: for this law the coarse run is its control in
             # other units, so the comparison can only see what the rule leaves unscaled
             fixed = (
                 "the curve samples' clock (output_interval, fixed in seconds) and the runs' chaos"
@@ -303,7 +303,7 @@ def adhesion_advice(
     that makes a coarse run match the fine law in the user's own cell. (Against a
     radius's resolution controls the fit would test nothing: for the bilinear law b = 2 is
     an exact similarity, so a coarse run under it is its control in other units,
-    docs/PHYSICS.md section 5b.) ``fitted_against`` is "reference" where there is a fit."""
+    docs/PHYSICS.md section 5.1.) ``fitted_against`` is "reference" where there is a fit."""
     if not getattr(spec.reference, "unconfined", False):
         return None
     families: dict[tuple, set] = {}

@@ -680,8 +680,9 @@ def judge_protocol(
     """The protocol check (docs/PHYSICS.md section 7.6): the reference seeds run at half the
     rate and step (``half``: seed -> metric values, the group (radius, "protocol") of
     ``noise``) against the references (``refs``: seed -> metric values), paired by seed
-    where that pays; judged once, at the study's confidence. ``equivalent`` states that the
-    study's protocol is quasi-static and its time step converged for every metric."""
+    where that pays; judged once, at the study's confidence. ``equivalent`` states that
+    halving the rate and the step moves no metric beyond its tolerance (not that the
+    protocol has converged: a finer one could move a metric again by less than that)."""
     key = (radius, "protocol")
     per_metric, pairs = _judge_by_seed(
         spec, noise, key, (radius, REFERENCE), half, refs, names, 1, 1, "reference"

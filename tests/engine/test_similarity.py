@@ -1,5 +1,5 @@
 """The similarity of the equations of motion tested as what it is, a change of units
-(docs/PHYSICS.md section 5b; issue 50 item 1): a small cohesive test and the same test at
+(docs/PHYSICS.md section 5.1; issue 50 item 1): a small cohesive test and the same test at
 factors 4 and 16 (cell, radii, gravity, stiffnesses, adhesion, time constants and output
 intervals scaled by the similarity's units, engine.core.similarity) run the same trajectory
 and give the same metrics. Powers of two scale floating-point numbers exactly, so any

@@ -16,7 +16,7 @@ def test_a_plan_answers_per_feature_kind(client):
     assert r.status_code == 200, r.text
     plan = r.json()
     assert plan["matched_series"] == "bond1"
-    assert [f["kind"] for f in plan["features"]][0] == "bulk_shear"
+    assert plan["features"][0]["kind"] == "bulk_shear"
     assert plan["features"][0]["s_max"] > 1
 
 

@@ -10,7 +10,8 @@ its packing) stay quick. Valid-by-schema studies may still be refused with 422 b
 engine's cross-field rules (e.g. consolidation_stress > pre_stress), which a JSON schema
 cannot state, or by the size caps: that is the one 422 counted as an acceptance, and only
 for ``POST /studies``, ``POST /calibrations`` (whose engine rules, e.g. runs >= parameters
-+ 2, a schema cannot state either) and ``POST /plans`` (a feature narrower than a particle). Set DEMSCALE_SCHEMATHESIS_LOG=<file> to log each request's
++ 2, a schema cannot state either) and ``POST /plans`` (a feature narrower than a
+particle). Set DEMSCALE_SCHEMATHESIS_LOG=<file> to log each request's
 operation, generation mode and status.
 """
 

@@ -39,7 +39,7 @@ from .judge import (
 )
 from .metrics import METRICS, is_shear
 from .noise import noise_floor
-from .reasons import _pct
+from .reasons import _pct, interval_words
 
 
 def finite_size_warnings(groups: list[dict], controlled: bool = False) -> list[str]:
@@ -74,8 +74,8 @@ def _interval_words(m: dict) -> str:
         if m.get("signed_error") is None:
             return f"{m['metric']} not compared (no failed run on a side)"
         return f"{m['metric']} {_pct(m['signed_error'])}"
-    pairs = ", paired" if m.get("paired") else ""
-    return f"{m['metric']} {_pct(m['level_error'])} [{_pct(lo)}, {_pct(hi)}{pairs}]"
+    pairs = " (paired)" if m.get("paired") else ""
+    return f"{m['metric']} {_pct(m['level_error'])} {interval_words((lo, hi))}{pairs}"
 
 
 def _scaled_law(spec, rule, radius: float) -> dict:

@@ -51,7 +51,7 @@ import numpy as np
 
 from .intervals import WELCH_MIN_SEEDS, t_quantile
 from .pooling import SCREEN_LEVEL, pool_arrays
-from .reasons import _pct
+from .reasons import _pct, interval_words
 
 #: The false-alarm rate [-] of the linearity check (:func:`linearity`): the chance that a
 #: property truly linear in d / L is called not linear, jointly over the sizes (Bonferroni).
@@ -437,7 +437,7 @@ def curve_lines(curves: dict) -> list[str]:
         lines.append(
             f"resolution curve, {n}: the reference ({c['reference_diameters_across']:.1f} "
             f"diameters across) is {_pct(c['reference_offset'])} "
-            f"[{_pct(lo)}, {_pct(hi)}] ({conf:.0%}) from the bulk value "
+            f"{interval_words((lo, hi))} ({conf:.0%}) from the bulk value "
             f"extrapolated linearly in d / L to d / L = 0 (sizes {sizes} diameters across{fit})"
             + needed_words(c.get("needed"))
         )

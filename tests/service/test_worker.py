@@ -15,7 +15,6 @@ import pytest
 
 import engine
 from engine.io.store import read_run_group, stage_names
-from service.plots import KINDS
 
 from .conftest import SLOW, TINY, TINY_CONTROLLED, study_getter, wait_for
 
@@ -141,10 +140,13 @@ def test_study_runs_end_to_end(client, workers, settings):
     for params in ({"kind": "nope"}, {"run": "a/b"}, {"run": "x" * 101}):
         assert client.get(f"/studies/{sid}/curves", params=params).status_code == 422
 
-    for kind in KINDS:
+    kinds = client.get(f"/studies/{sid}").json()["plot_kinds"]
+    for kind in kinds:
         r = client.get(f"/studies/{sid}/plots/{kind}.png")
         assert r.status_code == 200 and r.headers["content-type"] == "image/png", kind
         assert r.content[:8] == PNG and len(r.content) > 10_000, kind
+    # a uniaxial study has no shear plots: a 404 naming the kinds it has
+    assert client.get(f"/studies/{sid}/plots/yield_locus.png").status_code == 404
     assert client.get(f"/studies/{sid}/plots/histogram.png").status_code == 422
 
     r = client.get(f"/studies/{sid}/results.h5")

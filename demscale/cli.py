@@ -357,9 +357,11 @@ def study(args) -> int:
 
     h5 = save_study(out / "results.h5", spec_path.stem, result)
     plots = result.save_plots(out / "plots")
+    result_summary = result.to_summary()
     summary = {
+        "answer": result_summary["answer"],  # first: what the study decided
         "spec": spec.to_dict(),
-        **result.to_summary(),
+        **result_summary,
         "files": {
             "results": h5.name,
             "plots": [str(p.relative_to(out)) for p in plots],
@@ -370,25 +372,14 @@ def study(args) -> int:
         },
     }
     (out / "summary.json").write_text(json.dumps(_strict_json(summary), indent=1, allow_nan=False))
-    # the same report as the main job's (demscale.report), from the same summary
+    # the same report as the main job's (demscale.report), from the same summary: the
+    # answer first, a line per verdict (--details: the reasons), then the tables
     console.print(
-        "verdicts (coarse variant against the reference):\n" + summary_text(result.to_summary()),
+        summary_text(result_summary, details=getattr(args, "details", False)),
         soft_wrap=True,
         markup=False,
         highlight=False,
     )
-    adaptive = result.advisor.get("adaptive")
-    if adaptive:
-        console.print(
-            f"seeds until decided: {adaptive['planned_runs']} planned runs, "
-            f"{len(adaptive['added_runs'])} added "
-            f"({adaptive['added_particle_steps']:.3g} particle-steps), stopped: "
-            f"{adaptive['stopped']}",
-            soft_wrap=True,
-        )
-        for a in adaptive["added_runs"]:
-            console.print(f"  + {a['run']}: {a['reason']}", soft_wrap=True)
-    console.print(result.advisor["message"], soft_wrap=True)
     console.print(
         f"wrote {out / 'summary.json'}, {h5}, {len(plots)} plots"
         + (
@@ -631,6 +622,11 @@ def parser() -> argparse.ArgumentParser:
         metavar="N",
         help="runs side by side in N processes (one core each; default 1: one "
         "run at a time, the engine using the cores it wants)",
+    )
+    p.add_argument(
+        "--details",
+        action="store_true",
+        help="print each verdict's full reason and what would decide it",
     )
     p.add_argument(
         "--decide",

@@ -103,6 +103,25 @@ def _follow(client: httpx.Client, study_id: str, console=None, poll: float = 1.0
             time.sleep(poll)
 
 
+def _plans(base: str, auth: dict) -> list[str]:
+    """The answer lines of the main job's plans (demscale.plan.main_job_processes), asked
+    of the service; a line saying why where it cannot answer."""
+    from .plan import main_job_processes, plan_line
+
+    out = []
+    try:
+        with httpx.Client(base_url=base, timeout=60.0, headers=auth) as client:
+            for body in main_job_processes():
+                r = client.post("/plans", json=body)
+                if r.status_code != 200:
+                    out.append(f"how coarse: the plan was refused ({r.status_code}): {r.text}")
+                    continue
+                out.append("How coarse: " + plan_line(r.json()))
+    except httpx.HTTPError as e:
+        out.append(f"how coarse: the plan could not be asked ({e})")
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the main job; returns the exit status (0 when the study succeeded)."""
     ap = argparse.ArgumentParser(
@@ -114,6 +133,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--port", type=int, default=int(os.environ.get("DEMSCALE_PORT", 8000)))
     ap.add_argument("--study", type=Path, help="JSON study spec (default: engine.default_study)")
     ap.add_argument("--exit", action="store_true", help="exit when the study has ended")
+    ap.add_argument(
+        "--details", action="store_true", help="print each verdict's reason in the report"
+    )
     args = ap.parse_args(argv)
     try:
         # the study's runs side by side, one per core, unless DEMSCALE_RUN_WORKERS says else
@@ -126,6 +148,12 @@ def main(argv: list[str] | None = None) -> int:
     spec = json.loads(args.study.read_text()) if args.study else engine.default_study().to_dict()
     server, thread = _serve(settings, args.host, args.port)
     base = f"http://{args.host}:{args.port}"
+    auth = {"Authorization": f"Bearer {token}"}
+    # the answer first: how coarse the default powder may go, from the stored size series
+    # (POST /plans: nothing to run), before anything about the service or the study
+    plans = _plans(base, auth)
+    for line in plans:
+        print(line)
     print(f"demscale API at {base} (docs: {base}/docs), data in {settings.data_dir.resolve()}")
     where = f" (kept in {settings.api_token_file})" if settings.api_token_file else ""
     print(
@@ -133,7 +161,6 @@ def main(argv: list[str] | None = None) -> int:
     )
     if settings.worker_log_path is not None:
         print(f"the worker's log: {settings.worker_log_path.resolve()}")
-    auth = {"Authorization": f"Bearer {token}"}
     try:
         with httpx.Client(base_url=base, timeout=60.0, headers=auth) as client:
             r = client.post("/studies", json=spec)
@@ -145,14 +172,19 @@ def main(argv: list[str] | None = None) -> int:
             final = _follow(client, study_id)
             links = final["links"]
             if final["status"] == "succeeded":
+                summary = client.get(links["summary"]).raise_for_status().json()
+                # the report: the answer first (the plans, then the study's), the verdicts,
+                # then the tables and where everything is served
+                print("")
+                for line in plans:
+                    print(line)
+                print(summary_text(summary, details=args.details))
                 print("\nresults:")
                 for name in ("self", "summary", "curves", "results"):
                     print(f"  {name:<24} {base}{links[name]}")
                 for name, url in links.items():
                     if name.startswith("plot_"):
                         print(f"  {name:<24} {base}{url}")
-                summary = client.get(links["summary"]).raise_for_status().json()
-                print("\n" + summary_text(summary))
             else:
                 print(f"study {final['status']}: {final['error']}", file=sys.stderr)
         code = 0 if final["status"] == "succeeded" else 1

@@ -40,6 +40,49 @@ LIGGGHTS fragment (--liggghts).
 Exit status: 0 planned; 2 an option or the law file is not valid (the message names it)."""
 
 
+#: The feature the main job plans the default powder for: 200 mm wide (an outlet's, a
+#: channel's width) at 20 kPa, the size series' consolidation stress, so that the series'
+#: evidence applies to the default powder's law and its similarity counterparts.
+MAIN_JOB_FEATURE = {"feature_width": 0.2, "stress": 2e4, "feature_kind": "bulk_shear"}
+#: The powders the main job plans: the default powder (5 mm) and its 50 um counterpart.
+MAIN_JOB_DIAMETERS = (5e-5, 5e-3)
+
+
+def main_job_processes() -> list[dict]:
+    """The processes the main job plans (as POST /plans bodies): the default powder's law
+    scaled by the similarity to each of :data:`MAIN_JOB_DIAMETERS`, in the feature
+    :data:`MAIN_JOB_FEATURE`."""
+    import engine
+    from engine.core.records import to_dict
+
+    base = engine.default_study().reference
+    out = []
+    for d0 in MAIN_JOB_DIAMETERS:
+        law = engine.similar(base.pair_law, d0 / (2 * base.radius))
+        out.append(
+            {
+                "pair_law": {"type": type(law).__name__, **to_dict(law)},
+                "diameter": d0,
+                "density": base.density,
+                **MAIN_JOB_FEATURE,
+            }
+        )
+    return out
+
+
+def plan_line(plan: dict) -> str:
+    """:func:`engine.process.answer_line` of a plan's JSON (POST /plans)."""
+    import engine
+    from engine.process import answer_line
+    from engine.process.planner import FeaturePlan, ProcessPlan
+
+    process = engine.Process.from_dict(plan["process"])
+    feats = [FeaturePlan(**f) for f in plan["features"]]
+    return answer_line(
+        ProcessPlan(process, plan["groups"], plan["matched_series"], plan["mismatches"], feats)
+    )
+
+
 def add_commands(sub, fmt) -> None:
     from engine.process import FEATURE_KINDS
 

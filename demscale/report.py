@@ -5,9 +5,39 @@
 from __future__ import annotations
 
 
-def summary_text(summary: dict) -> str:
-    """Per run: size, cost and its errors against the mean reference; then the verdicts
-    with their reasons and the advisor's warnings."""
+def answer_of(summary: dict) -> list[str]:
+    """The summary's answer lines (a summary stored before it had them: made from its
+    advisor, the reference radius read from its table)."""
+    from engine.study.advisor import answer_lines
+
+    if summary.get("answer"):
+        return list(summary["answer"])
+    refs = [row["radius"] for row in summary.get("table", []) if not row.get("rule")]
+    return answer_lines(summary.get("advisor", {}), min(refs) if refs else None)
+
+
+def summary_text(summary: dict, details: bool = False) -> str:
+    """The answer first (one line, then the line that qualifies it), one short line per
+    verdict (with ``details`` its full reason and what would decide it), then per run its
+    size, cost and errors against the mean reference, the reference's strength, the
+    controls' lines, the seeds the study added and the warnings."""
+    from engine.study.advisor import verdict_line
+
+    advisor = summary.get("advisor", {})
+    lines = answer_of(summary)
+    conf = advisor.get("confidence")
+    if advisor.get("verdicts"):
+        at = f" at {conf:.0%} confidence" if conf is not None else ""
+        lines.append(f"\nverdicts{at} (docs/PHYSICS.md section 7):")
+    for v in advisor.get("verdicts", []):
+        lines.append(verdict_line(v))
+        if details:
+            lines.append(f"  why: {v['reason']}")
+            if v.get("to_decide"):
+                lines.append(f"  to decide it: {v['to_decide']}")
+    if not details and any(v.get("reason") for v in advisor.get("verdicts", [])):
+        lines.append("(the reasons and what would decide each: --details, or the summary JSON)")
+    lines.append("")
     cols = (
         ("err_density", "dens"),
         ("err_loading_stiffness", "K_ld"),
@@ -27,7 +57,7 @@ def summary_text(summary: dict) -> str:
         f"{'run':<22}{'R [mm]':>7}{'rule':>10}{'N':>7}{'cell [d]':>9}{'time [s]':>9}"
         f"{'speed-up':>9}" + "".join(f"{lab:>7}" for _, lab in cols)
     )
-    lines = [head, "-" * len(head)]
+    lines += [head, "-" * len(head)]
     for row in summary["table"]:
         lines.append(
             f"{row['run']:<22}{row['radius'] * 1e3:>7.3g}{row['rule']:>10}"
@@ -39,7 +69,6 @@ def summary_text(summary: dict) -> str:
         "errors [%] against the mean of the reference seeds; cell [d]: thinnest "
         "side in particle diameters"
     )
-    advisor = summary.get("advisor", {})
     ref = advisor.get("reference") or {}
     if "unconfined_strength" in ref:
         parts = [
@@ -56,23 +85,6 @@ def summary_text(summary: dict) -> str:
         if failed is not None:
             parts.append(f"{failed:.0%} of the references failed at a peak")
         lines.append("\nreference: " + "; ".join(parts))
-    conf = advisor.get("confidence")
-    if conf is not None:
-        lines.append(f"\nverdicts at {conf:.0%} confidence (docs/PHYSICS.md section 7):")
-    for v in advisor.get("verdicts", []):
-        lines.append(
-            f"R = {v['radius'] * 1e3:g} mm, {v['rule']}: {v['verdict'].upper()}: {v['reason']}"
-        )
-        if v.get("to_decide"):
-            lines.append(f"  to decide it: {v['to_decide']}")
-    for name, a in advisor.get("rules", {}).items():
-        if a.get("coarsest_radius") is not None:
-            lines.append(
-                f"{name}: equivalent up to R = {a['coarsest_radius'] * 1e3:g} mm "
-                f"({a['speedup']:.1f}x faster than the reference)"
-            )
-        else:
-            lines.append(f"{name}: no coarse radius shown equivalent")
     lines += advisor.get("control_lines", [])
     adaptive = advisor.get("adaptive")
     if adaptive:

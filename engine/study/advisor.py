@@ -246,6 +246,60 @@ def advise(
     }
 
 
+def answer_lines(advisor: dict, reference_radius: float | None) -> list[str]:
+    """The study's answer in one line (per rule, the coarsest radius equivalent on every
+    metric, as a factor over the reference radius ``reference_radius`` [m], and its
+    speed-up), then one line that says how it relates to what was run: the next radius's
+    verdict, and that this is the answer for the study's cell, not for a process's feature
+    (``demscale plan``)."""
+    parts, beyond = [], []
+    for name, a in (advisor.get("rules") or {}).items():
+        r = a.get("coarsest_radius")
+        if r is None:
+            stop = a.get("sequence_stopped_at")
+            why = "" if stop is None else f" (R = {stop['radius'] * 1e3:g} mm {stop['verdict']})"
+            parts.append(f"{name}: no coarse radius shown equivalent{why}")
+            continue
+        factor = f", {r / reference_radius:.3g}x coarser" if reference_radius else ""
+        speed = f", {a['speedup']:.2g}x faster" if a.get("speedup") else ""
+        parts.append(f"{name}: equivalent on every metric up to R = {r * 1e3:g} mm{factor}{speed}")
+        stop = a.get("sequence_stopped_at")
+        if stop is not None:
+            beyond.append(f"R = {stop['radius'] * 1e3:g} mm is {stop['verdict']} for {name}")
+    if not parts:
+        return ["Answer: no rule was judged"]
+    lines = ["Answer: " + "; ".join(parts)]
+    qualify = (
+        "This is the answer for the study's own cell, each coarse run judged against the fine "
+        "reference in it; how coarse a process's feature allows is `demscale plan`'s answer."
+    )
+    if beyond:
+        qualify = f"Beyond it {'; '.join(beyond)} (next radius tested). " + qualify
+    return [*lines, qualify]
+
+
+def verdict_line(v: dict) -> str:
+    """One short line per verdict: the radius, the rule, the verdict and the metrics that
+    make it (those that differ, or those still undecided, with their errors)."""
+    head = f"R = {v['radius'] * 1e3:g} mm, {v['rule']}: {v['verdict'].upper()}"
+    ms = v.get("metrics") or []
+    if v["verdict"] == "equivalent":
+        return f"{head}, every metric within its tolerance"
+    which = [m for m in ms if m.get("verdict") == v["verdict"]] or ms
+    words = []
+    for m in which:
+        err = m.get("level_error", m.get("signed_error"))
+        iv = m.get("differs_interval") if v["verdict"] == "differs" else m.get("interval")
+        tol = m.get("tolerance")
+        text = f"{m['metric']} {_pct(err)}" if err is not None else m["metric"]
+        if iv is not None:
+            text += f" {interval_words(iv)}"
+        if tol:
+            text += f" against +-{100 * tol:g} %"
+        words.append(text)
+    return f"{head} on " + "; ".join(words)
+
+
 def fit_exponent(by_b: dict[float, list[float]], target: list[float], confidence: float):
     r"""The adhesion exponent b at which the coarse strength meets ``target`` (strengths of
     the runs it should match), with Fieller's interval: the least-squares line
@@ -374,6 +428,7 @@ __all__ = [
     "VERDICTS",
     "adhesion_advice",
     "advise",
+    "answer_lines",
     "error_rates",
     "finite_size_warnings",
     "fit_exponent",
@@ -388,6 +443,7 @@ __all__ = [
     "seeds_needed",
     "side_by_side",
     "verdict",
+    "verdict_line",
     "what_decides",
 ]
 

@@ -168,8 +168,12 @@ class StudyResult:
     failed: dict[str, str] = field(default_factory=dict)
 
     def to_summary(self) -> dict:
-        """JSON-friendly summary: table, groups, advisor, failed runs and units."""
+        """JSON-friendly summary: the answer (the study's decision in one line, then the
+        line that qualifies it), table, groups, advisor, failed runs and units."""
+        from .advisor import answer_lines
+
         return {
+            "answer": answer_lines(self.advisor, self.spec.reference.radius),
             "table": self.table,
             "groups": self.groups,
             "advisor": self.advisor,

@@ -48,17 +48,20 @@ SNAPSHOT_MEDIA = {
 
 @router.get("/summary")
 def summary(study: StudyDep, results: ResultsDep, settings: SettingsDep) -> dict:
-    """Per run: radius, rule, particles, steps, dt, wall time, speed-up and errors against
+    """The answer first (what the study decided in one line, then the line that qualifies
+    it); per run: radius, rule, particles, steps, dt, wall time, speed-up and errors against
     the reference; the spread over seeds; the advisor's answer (verdicts, noise floor,
     warnings); units of every column; the snapshot files of every run."""
     snaps = {
         run: [f"/studies/{study.id}/runs/{run}/snapshots/{f}" for f in files]
         for run, files in settings.snapshot_files(study.id).items()
     }
+    summary = h5store.read_summary(results)
     return {
+        "answer": summary.pop("answer"),  # first: what the study decided, in a line
         "id": str(study.id),
         "name": study.name,
-        **h5store.read_summary(results),
+        **summary,
         "snapshots": snaps,
     }
 

@@ -57,8 +57,20 @@ def test_main_job_runs_a_study_with_the_embedded_worker(settings, tmp_path):
     # only the plots the study has: no unconfined stage in TINIEST, no shear plot
     assert not any(k in out for k in ("unconfined.png", "yield_locus", "preshear")), out
     assert "ref-s1" in out and "r3.1mm-paper-s1" in out and "speed-up" in out
-    # the verdict of every (radius, rule) with its reason
-    assert any(f"paper: {v}:" in out for v in ("EQUIVALENT", "DIFFERS", "UNDECIDED")), out
+    # the answer first: the plans of the default powder (from the stored size series), then
+    # in the report the plans again and the study's answer, before the verdicts and tables
+    lines = out.splitlines()
+    assert lines[0].startswith("How coarse: 50 um powder, bulk_shear 200 mm wide"), out
+    assert lines[1].startswith("How coarse: 5000 um powder"), out
+    answer = next(i for i, line in enumerate(lines) if line.startswith("Answer: "))
+    assert lines[answer - 2].startswith("How coarse: 50 um powder"), out
+    assert answer < next(i for i, line in enumerate(lines) if "speed-up" in line)
+    # a short line per (radius, rule): its verdict and the metrics that make it
+    assert any(
+        line.startswith("R = 3.1 mm, paper: ")
+        and line.split(": ")[1].split()[0].rstrip(",") in ("EQUIVALENT", "DIFFERS", "UNDECIDED")
+        for line in lines
+    ), out
     with Session(engine_for(settings)) as s:
         (study,) = s.exec(select(Study)).all()
     assert study.status is Status.succeeded and study.attempts == 1

@@ -251,12 +251,32 @@ def profile_path(kind: str, law_name: str, size: float, seed: int) -> Path:
 
 def extra_of(outcome) -> dict:
     """What a column's report reads beyond the metrics: the unconfined stage's first curve
-    sample (time [s], platen gap [m]), against which a profile's strain is measured."""
+    sample (time [s], platen gap [m]), against which a profile's strain is measured, and the
+    inertial number each loading stage held (the median over its samples; the unconfined
+    stage's up to the strength's peak: past it the driver holds the inertial number over a
+    shear band, not over the gap, engine.uniaxial.measures.loading_speed)."""
+    from engine.uniaxial.driver import LOADING
+    from engine.uniaxial.measures import held_inertial_numbers
+
     stages = getattr(outcome, "stages", None)
     if not stages or "unconfined" not in stages:
         return {}
     c = stages["unconfined"].curves
-    return {"unconfined_start": {"time": float(c["time"][0]), "gap": float(c["platen_gap"][0])}}
+    held = {}
+    for k in LOADING:
+        if k not in stages:
+            continue
+        curves = stages[k].curves
+        h = held_inertial_numbers(curves, outcome.test)
+        if k == "unconfined":
+            strain = np.asarray(curves["strain"], dtype=float)[1:][: len(h)]
+            h = h[strain <= outcome.scalars.get("strain_at_peak", np.inf)]
+        if len(h):
+            held[k] = float(np.median(h))
+    return {
+        "unconfined_start": {"time": float(c["time"][0]), "gap": float(c["platen_gap"][0])},
+        "inertial_number_held_by_stage": held,
+    }
 
 
 def run_one(kind: str, law_name: str, size: float, seed: int) -> str:
@@ -310,12 +330,34 @@ def run_one(kind: str, law_name: str, size: float, seed: int) -> str:
     return f"{key_name(kind, law_name, size, seed)}: {what} ({took:.0f} s{resumed})"
 
 
+def refresh(kind: str, law_name: str, size: float, seed: int) -> bool:
+    """Rewrite a stored run's digest from its full file (when the full file is here and is
+    the one the digest names): for a change in what a digest holds, with no run again."""
+    from engine.io.digest import sha256_of
+    from engine.io.store import load_run
+
+    d, full = stored(kind, law_name, size, seed), full_path_of(kind, law_name, size, seed)
+    if d is None or not full.exists() or sha256_of(full) != d.full_sha256:
+        return False
+    outcome = load_run(full)
+    test = test_of(kind, law_name, size, seed)
+    new = make_digest(outcome, test, full, extra_of(outcome))
+    new.code = d.code  # the code that made the run, not this process's
+    write_digest(path_of(kind, law_name, size, seed), new)
+    return True
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", nargs="*", help="runs whose key contains any of these")
     ap.add_argument("--list", action="store_true", help="list the runs and their cost")
     ap.add_argument(
         "--no-report", action="store_true", help="(kept for old command lines: no effect)"
+    )
+    ap.add_argument(
+        "--refresh",
+        action="store_true",
+        help="rewrite the stored digests from their full files (var/size_series), run nothing",
     )
     args = ap.parse_args(argv)
     todo = keys(args.only)
@@ -329,6 +371,10 @@ def main(argv=None) -> int:
             state = "stored" if s is not None else f"about {est / 60:.0f} min on one core"
             print(f"{key_name(*k):32s} {test_of(*k).n_particles:7d} particles  {state}")
         print(f"left to run: about {total / 3600:.1f} h on one core")
+        return 0
+    if args.refresh:
+        done = [key_name(*k) for k in todo if refresh(*k)]
+        print(f"refreshed {len(done)} digests")
         return 0
     for k in todo:
         if stored(*k) is None:

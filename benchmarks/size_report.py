@@ -461,11 +461,79 @@ def _curve_lines(c: dict) -> list[str]:
     return out
 
 
+README = ROOT / "README.md"
+BEGIN, END = "<!-- how-coarse:begin (benchmarks/size_report.py) -->", "<!-- how-coarse:end -->"
+KIND_WORDS = {
+    "bulk_shear": "the bulk in shear",
+    "bulk_compression": "the bulk in compression",
+    "free_surface": "a free surface",
+    "outlet": "an outlet",
+}
+
+
+def _need_words(need: dict | None) -> str:
+    if need is None:
+        return "not decided yet"
+    if need["bound"] == "not_linear":
+        return "undecided (a property off its line)"
+    b, p = need["n_req_bound"], need["n_req_point"]
+    if need["bound"] == "more_than":
+        return f"more than {b:.3g} (the finest size stored; point estimate {p:.2g})"
+    if need["bound"] == "at_most":
+        return f"at most {b:.3g} (every size stored held)"
+    return f"{p:.2g} (95 % bound {b:.3g})"
+
+
+def readme_block(ev: dict | None = None) -> str:
+    """The README's measured lines on N_req and the default powder's plan, made from the
+    evidence (so the README says what the stored series decide, no more)."""
+    import engine
+    from engine.process import plan_process
+
+    ev = evidence() if ev is None else ev
+    feats = ev["laws"]["bond1"]["features"]
+    kinds = ("bulk_shear", "bulk_compression", "free_surface")
+    needs = "; ".join(f"{KIND_WORDS[k]} {_need_words(feats.get(k))}" for k in kinds)
+    lines = [
+        f"- N_req for the default powder's law (f0 = -0.4 N at 20 kPa): {needs}; "
+        "an outlet is not measured (no bounded walls yet).",
+    ]
+    base = engine.default_study().reference
+    for d0 in (50e-6, 5e-3):
+        law = engine.similar(base.pair_law, d0 / (2 * base.radius))
+        plan = plan_process(
+            engine.Process(pair_law=law, diameter=d0, feature_width=0.2, stress=2e4), ev
+        )
+        parts = []
+        for f in plan.features:
+            if f.status == "not_measured":
+                continue
+            rel = {"more_than": "below ", "at_most": "at least "}.get(f.bound or "", "")
+            parts.append(f"{KIND_WORDS[f.kind]}: s_max {rel}{f.s_max:.3g}")
+        said = "; ".join(parts) if parts else "no feature kind decided yet"
+        lines.append(
+            f"- `demscale plan` for the default powder at d0 = {d0 * 1e6:g} um in a 200 mm "
+            f"feature at 20 kPa: {said}; the other kinds not decided yet."
+        )
+    return "\n".join(lines)
+
+
+def write_readme(ev: dict | None = None) -> None:
+    text = README.read_text()
+    if BEGIN not in text or END not in text:
+        return
+    head, rest = text.split(BEGIN, 1)
+    _, tail = rest.split(END, 1)
+    README.write_text(f"{head}{BEGIN}\n{readme_block(ev)}\n{END}{tail}")
+
+
 def write_report() -> str:
     REPORT.write_text(report())
+    ev = evidence()
     EVIDENCE.parent.mkdir(parents=True, exist_ok=True)
-    EVIDENCE.write_text(json.dumps(evidence(), indent=1, sort_keys=True, allow_nan=False) + "\n")
-    return f"wrote {REPORT.relative_to(ROOT)} and {EVIDENCE.relative_to(ROOT)}"
+    EVIDENCE.write_text(json.dumps(ev, indent=1, sort_keys=True, allow_nan=False) + "\n")
+    write_readme(json.loads(EVIDENCE.read_text()))
+    return f"wrote {REPORT.relative_to(ROOT)}, {EVIDENCE.relative_to(ROOT)} and README.md's lines"
 
 
 if __name__ == "__main__":

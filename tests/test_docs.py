@@ -109,7 +109,7 @@ NOT_CODE = [
 RULES: list[tuple[str, str, str]] = [
     (r"^demscale study my_study\.json", "never", "the user's own spec (a placeholder)"),
     (r"^demscale study spec\.json .*--backend cuda", "never", "an NVIDIA GPU (gpu_bench.sh)"),
-    (r"^demscale (study|run|calibrate|export) ", "cli", "parsed; run in the manual set"),
+    (r"^demscale (study|run|calibrate|export|plan) ", "cli", "parsed; run in the manual set"),
     (r"^demscale (export-test|judge-liggghts) ", "cli", "parsed; LIGGGHTS runs them (manual)"),
     (r"^demscale (serve|worker)\b", "manual", "started, answers /healthz, stopped"),
     (r"^demscale job\b", "manual", "the main job (bash scripts/main_job.sh --exit)"),
@@ -121,6 +121,7 @@ RULES: list[tuple[str, str, str]] = [
     (r"^python -m service (api|worker)", "manual", "started, answers, stopped"),
     (r"^uvicorn --factory service\.app:create_app", "manual", "started, answers, stopped"),
     (r"^python -m benchmarks\.", "never", "a benchmark (minutes to hours; benchmarks/README)"),
+    (r"^curl ", "never", "the main job's API running (tests/service/test_plans.py: the body)"),
     (r"^\(cd deck/s1 && liggghts", "never", "LIGGGHTS 3.8 (tests/test_liggghts_deck*.py)"),
     (r"^for s in .*liggghts -in", "never", "LIGGGHTS 3.8 (tests/test_liggghts_deck*.py)"),
     (r"^DEMSCALE_BACKEND=cuda", "never", "an NVIDIA GPU (scripts/gpu_bench.sh)"),
@@ -212,7 +213,7 @@ def test_a_python_block_compiles_and_uses_no_undefined_name(block, tmp_path):
 def test_the_help_of_every_documented_command_runs(capsys):
     from demscale.cli import main
 
-    for sub in ("study", "run", "calibrate", "export", "serve", "worker"):
+    for sub in ("study", "run", "calibrate", "export", "serve", "worker", "plan"):
         with pytest.raises(SystemExit) as e:
             main([sub, "--help"])
         assert e.value.code == 0

@@ -136,3 +136,12 @@ def test_the_default_powder_counterpart_matches_the_stored_default_series():
     plan = plan_process(_process())
     assert plan.matched == "bond1"
     assert math.isclose(plan.groups["cohesion_number"], 0.8, rel_tol=1e-12)
+
+
+def test_the_readme_says_what_the_stored_series_decide():
+    # README.md's measured lines are made from the evidence (benchmarks/size_report.py)
+    from benchmarks.size_report import BEGIN, END, README, readme_block
+
+    text = README.read_text()
+    block = text.split(BEGIN, 1)[1].split(END, 1)[0].strip("\n")
+    assert block == readme_block(load_evidence(EVIDENCE))

@@ -17,7 +17,8 @@ What runs them for real (minutes to tens of minutes: marked ``manual``, left out
 which runs, in a temporary folder holding a copy of examples/, each document's runnable
 blocks in order (the calibration example, its export, the study and run examples, the
 README's Python snippets, the snapshot snippet, the service started and stopped, the main
-job). A few are never run here, each with its reason in :data:`RULES` (the package index,
+job), each ``demscale`` command in a fresh shell that first does what README.md says
+(``source .venv/bin/activate``). A few are never run here, each with its reason in :data:`RULES` (the package index,
 a GPU, LIGGGHTS, hours of benchmark, the test suite itself).
 """
 
@@ -236,12 +237,29 @@ def _env() -> dict:
     return env
 
 
+def _fresh_shell_env() -> dict:
+    """A new shell's environment: no PYTHONPATH, no virtual environment active."""
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    venv_bin = str(ROOT / ".venv" / "bin")
+    env["PATH"] = os.pathsep.join(p for p in env.get("PATH", "").split(os.pathsep) if p != venv_bin)
+    return env
+
+
 def _run(command: str, cwd: Path, timeout: float, ok=(0,)) -> subprocess.CompletedProcess:
+    """Run a documented command as a user would after the two set-up commands: a
+    ``demscale`` command in a fresh shell that does what the README says (``source
+    .venv/bin/activate``), where ``./.venv`` is the set-up's; anything else as given."""
     argv = shlex.split(command)
+    env = _env()
     if argv[0] == "demscale":
-        argv = [sys.executable, "-m", "demscale", *argv[1:]]
+        activate = ROOT / ".venv" / "bin" / "activate"
+        if activate.is_file():
+            argv = ["bash", "-c", f"source {shlex.quote(str(activate))} && {command}"]
+            env = _fresh_shell_env()
+        else:  # no set-up venv (an installed package): the interpreter running the tests
+            argv = [sys.executable, "-m", "demscale", *argv[1:]]
     t0 = time.monotonic()
-    out = subprocess.run(argv, cwd=cwd, env=_env(), capture_output=True, text=True, timeout=timeout)
+    out = subprocess.run(argv, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
     print(f"{command}: exit {out.returncode}, {time.monotonic() - t0:.0f} s")
     assert out.returncode in ok, f"{command}\n{out.stdout[-3000:]}\n{out.stderr[-3000:]}"
     return out

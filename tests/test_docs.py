@@ -18,8 +18,9 @@ which runs, in a temporary folder holding a copy of examples/, each document's r
 blocks in order (the calibration example, its export, the study and run examples, the
 README's Python snippets, the snapshot snippet, the service started and stopped, the main
 job), each ``demscale`` command in a fresh shell that first does what README.md says
-(``source .venv/bin/activate``). A few are never run here, each with its reason in :data:`RULES` (the package index,
-a GPU, LIGGGHTS, hours of benchmark, the test suite itself).
+(``source .venv/bin/activate``). A few are never run here, each with its reason in
+:data:`RULES` (the package index, a GPU, LIGGGHTS, hours of benchmark, the test suite
+itself).
 """
 
 from __future__ import annotations

@@ -87,7 +87,12 @@ COLUMN_SIZES = {
     "bond3": {5.0: 4, 20.0 / 3.0: 4, 8.0: 4, 10.0: 4, 15.0: 2},
 }
 #: Shear cell sizes [diameters across its thin periodic width] and seeds per size.
-SHEAR_SIZES = {"bond1": {2.5: 6, 10.0 / 3.0: 6, 5.0: 6, 7.5: 4, 10.0: 4, 15.0: 2}}
+SHEAR_SIZES = {
+    "bond1": {2.5: 6, 10.0 / 3.0: 6, 5.0: 6, 7.5: 4, 10.0: 4, 15.0: 2},
+    # added 2026-12-06, after the bond1 shear sizes to 7.5 had been seen: the second law's
+    # bulk in shear, the cheap sizes (no rule changed)
+    "bond3": {2.5: 6, 10.0 / 3.0: 6, 5.0: 6, 7.5: 4},
+}
 SHEAR_REFERENCE_SIZE = 5.0
 #: Width of a profile bin [diameters] and the distance from the faces beyond which the
 #: section is its core [diameters].
@@ -142,12 +147,32 @@ def keys(only=None) -> list[tuple[str, str, float, int]]:
     return out
 
 
-def priority(key: tuple[str, str, float, int]) -> float:
-    """The order runs are taken in: the estimated cost, doubled for a size's seeds beyond
-    the second and for the second law's runs, so that every size of the default law gets
-    two seeds before any size gets more."""
-    _, law_name, _, seed = key
-    return estimate(*key) * (1 if seed <= 2 else 2) * (1 if law_name == "bond1" else 1.5)
+#: The order the runs are taken in, tier by tier (within a tier, cheapest first): what
+#: decides a feature kind's need soonest first. (kind, law, size, seeds up to).
+TIERS = (
+    ("column", "bond1", 10.0, 4),
+    ("column", "bond3", 8.0, 4),
+    ("shear", "bond3", 5.0, 6),
+    ("shear", "bond3", 2.5, 6),
+    ("shear", "bond3", 10.0 / 3.0, 6),
+    ("column", "bond3", 10.0, 3),
+    ("column", "bond1", 15.0, 2),
+    ("shear", "bond1", 10.0, 3),
+    ("shear", "bond3", 7.5, 4),
+    ("column", "bond1", 20.0, 1),
+)
+
+
+def priority(key: tuple[str, str, float, int]) -> tuple:
+    """The order runs are taken in: those of :data:`TIERS` first, in its order, then every
+    other by its estimated cost (doubled for a size's seeds beyond the second and for the
+    second law's runs)."""
+    kind, law_name, size, seed = key
+    for i, (k, law, z, most) in enumerate(TIERS):
+        if (k, law, z) == (kind, law_name, size) and seed <= most:
+            return (0, i, seed)
+    cost = estimate(*key) * (1 if seed <= 2 else 2) * (1 if law_name == "bond1" else 1.5)
+    return (1, cost, 0)
 
 
 def key_name(kind: str, law_name: str, size: float, seed: int) -> str:

@@ -379,10 +379,13 @@ def test_the_adaptive_rule_ends_with_about_the_seeds_an_oracle_needs():
 
 def test_the_adaptive_rule_decides_what_a_fixed_study_leaves_open():
     # a true error of 0 with a coarse spread of 10 %: the pilot of 3 + 3 seeds rarely
-    # decides it, the added seeds decide most studies
+    # decides it, the added seeds decide most studies. 200 adaptive studies (600
+    # before; 0.84 of those decided): 0.88 decided against the pilot's 0.18 of 4000, a
+    # binomial standard error of sqrt(0.88 * 0.12 / 200) = 0.023 on the difference against
+    # a margin of 0.30 over the 0.4 asserted
     fixed, _ = _power(_new_rule, 1.0, 3, seed=22)
-    adaptive, _, _ = _adaptive(1.0, n=600, seed=22)
-    assert adaptive > fixed + 0.4
+    adaptive, _, _ = _adaptive(1.0, n=200, seed=22)
+    assert adaptive > fixed + 0.4, (adaptive, fixed)
 
 
 # ------------------------------------------------------------------ the rule's own error

@@ -109,8 +109,10 @@ def test_a_calibration_runs_end_to_end_then_its_study(client, workers, settings)
 
 @pytest.mark.timeout(2 * RUN_TIMEOUT)
 def test_kill_9_mid_calibration_resumes_with_its_stored_runs(client, workers, settings):
-    body = {**CALIBRATION, "test": SLOW["reference"] | {"unconfined": False}, "runs": 3}
-    cid = submit(client, body)
+    # CALIBRATION's own runs (TINIEST's test, seconds each with their snapshots): the kill
+    # comes with two of the three design runs stored, a run and the check run before the end
+    # (SLOW's test before: four times the runtime)
+    cid = submit(client, CALIBRATION)
     first = workers.start()
     wait_for(
         getter(client, cid),

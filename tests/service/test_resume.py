@@ -19,8 +19,12 @@ from service.models import utcnow
 
 from .conftest import TINY, study_getter, wait_for
 
-#: One reference of a few seconds (a small time step), so that it can be killed mid-run.
-LONG = {**TINY, "name": "long", "reference": {**TINY["reference"], "unconfined": False, "dt": 1e-6}}
+#: One reference of several seconds (a small time step: about 450,000 steps, 7 s on a core),
+#: so that it can be killed mid-run KILLS times: each attempt is killed within about 0.6 s
+#: of its start (its first checkpoint comes after 0.3 s, or at the fill's end, the kill up
+#: to 0.3 s later), about a quarter of the run in all. (dt = 1e-6 s before: a 30 s run,
+#: made twice, by the killed workers and uninterrupted to compare: most of the test's time.)
+LONG = {**TINY, "name": "long", "reference": {**TINY["reference"], "unconfined": False, "dt": 4e-6}}
 KILLS = 3
 
 

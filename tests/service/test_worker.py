@@ -226,7 +226,10 @@ def test_sigterm_puts_the_study_back_in_the_queue(client, workers):
 
 @pytest.mark.timeout(2 * RUN_TIMEOUT)
 def test_kill_9_mid_study_then_a_new_worker_completes_it(client, workers, settings):
-    sid = submit(client)
+    # SLOW's step, so that the kill comes before the fill's end (a checkpoint: the attempt
+    # would have moved the study on and not count), without the unconfined stages: the new
+    # worker runs the whole study again, the test's longest part (two stages fewer per run)
+    sid = submit(client, {**SLOW, "reference": {**SLOW["reference"], "unconfined": False}})
     first = workers.start()
     running_mid_study(client, sid, workers)
     first.send_signal(signal.SIGKILL)

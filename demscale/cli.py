@@ -265,6 +265,7 @@ def study(args) -> int:
     from engine.io.curves import write_curves_csv
     from engine.io.store import save_study
     from engine.io.vtkhdf import save as save_snapshots
+    from engine.study.kinds import kind_of
 
     console = Console(stderr=True)
     spec_path = Path(args.spec)
@@ -330,7 +331,7 @@ def study(args) -> int:
             if isinstance(outcome, str):
                 return
             curve_paths[key] = write_curves_csv(outcome, out / "curves" / f"{key}.csv")
-            if args.snapshots and not isinstance(outcome, engine.ShearResult):
+            if args.snapshots and kind_of(outcome).snapshots:
                 snapshot_paths[key] = save_snapshots(outcome, out / "snapshots" / key, key)
 
         try:

@@ -21,6 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 import engine
+from engine.study.kinds import kind_of
 from engine.uniaxial.spec import particle_count
 
 from . import cost
@@ -499,9 +500,11 @@ def admit_spec(data: dict, settings: Settings) -> Admitted:
             else ("coarse_radii", spec.coarse_radii.index(biggest.radius))
         )
         raise _too_many_particles(loc, biggest.key, n, settings)
-    if isinstance(spec.reference, engine.ShearTest):
-        costs = shear_study_costs(study)
-        check_costs(costs, settings, bounds=SHEAR_BOUNDS)
+    own = KIND_COSTS.get(kind_of(spec.reference).name)
+    if own is not None:  # a kind whose costs have their own model and bounds (shear)
+        costs_of, bounds = own
+        costs = costs_of(study)
+        check_costs(costs, settings, bounds=bounds)
         return Admitted(study, costs)
     _check_bounds(spec.reference.to_dict(), data=data)
     costs = cost.worst_case(spec.to_dict())
@@ -723,3 +726,8 @@ def admit_calibration(body, settings: Settings) -> AdmittedCalibration:
         request["then_study"] = spec
         then_costs = admitted.costs
     return AdmittedCalibration(request, costs, then_costs)
+
+
+#: The test kinds (engine.study.kinds) whose study costs have their own model and bounds:
+#: kind name -> (costs of a plan, bounds); the rest take cost.worst_case on the raw spec.
+KIND_COSTS = {"shear": (shear_study_costs, SHEAR_BOUNDS)}

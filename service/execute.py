@@ -20,6 +20,7 @@ from sqlmodel import Session
 import engine
 from engine.io.store import completed_runs
 from engine.io.store import save_run as store_run
+from engine.study.kinds import kind_of
 from engine.study.plan import plan_runs
 from engine.study.run import ADDED, Eta
 
@@ -173,7 +174,7 @@ class StudyExecution:
         ``<study>/snapshots/<key>/`` (written into a temporary folder, then renamed)."""
         from engine.io.vtkhdf import save as save_snapshots
 
-        if isinstance(result, engine.ShearResult):  # its shear stages keep no snapshots
+        if not kind_of(result).snapshots:  # a shear test's stages keep none
             return
         final = self.settings.snapshots_dir(self.study_id) / key
         tmp = final.with_name(f".{key}.{self.worker_id.replace(':', '-')}.tmp")
@@ -280,13 +281,17 @@ class StudyExecution:
         return result.table
 
     def options(self, plan: engine.StudyPlan, pool) -> engine.RunOptions:
-        """The study's run options (:meth:`Settings.run_options`); a shear study's without
-        the per-run wall-time limit and on the CPU (engine.run_shear has neither a limit nor
-        another backend; the admission refused it where the service's backend is cuda): its
-        runs are bounded by their stages' own bounds, as the admitted worst case counts."""
+        """The study's run options (:meth:`Settings.run_options`), less what its reference's
+        kind does not honour (engine.study.kinds: a shear study's without the per-run
+        wall-time limit and on the CPU; the admission refused it where the service's backend
+        is cuda): its runs are bounded by their stages' own bounds, as the admitted worst
+        case counts."""
         options = self.settings.run_options(self.study_id, pool, self.channel(pool))
-        if isinstance(plan.spec.reference, engine.ShearTest):
-            options = dataclasses.replace(options, max_run_wall_time=None, backend="cpu")
+        kind = kind_of(plan.spec.reference)
+        if not kind.wall_time_limit:
+            options = dataclasses.replace(options, max_run_wall_time=None)
+        if kind.backends is not None and options.backend not in (None, *kind.backends):
+            options = dataclasses.replace(options, backend=kind.backends[0])
         return options
 
     def channel(self, pool) -> engine.FileChannel | None:

@@ -176,6 +176,7 @@ STUDY_FLOW = (
     "channel",
     "intervals",
     "metrics",
+    "kinds",
     "spec",
     "pooling",
     "noise",

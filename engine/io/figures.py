@@ -6,7 +6,7 @@ back from its HDF5 file draw the same pictures:
 ``runs``  key -> {"label": str, "reference": bool, "stages": {stage: {curve: 1-D array}}}
           (a shear run's also "points": its yield points, the pre-shear point first, as
           :meth:`engine.ShearResult.yield_points` gives them, and "locus": its fitted locus)
-``table`` one dict per run with the columns of :data:`engine.study.results.TABLE_UNITS`
+``table`` one dict per run with the columns of :data:`engine.study.kinds.TABLE_UNITS`
 ``advisor`` the study's advisor (tolerances, noise floor, verdicts), or None
 
 matplotlib is imported only when a figure is drawn (the engine does not depend on it).

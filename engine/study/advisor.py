@@ -37,7 +37,8 @@ from .judge import (
     verdict,
     what_decides,
 )
-from .metrics import METRICS, is_shear
+from .kinds import kind_of
+from .metrics import METRICS
 from .noise import noise_floor
 from .reasons import _pct, interval_words
 
@@ -122,12 +123,7 @@ def resolution_lines(resolution: list[dict], rule_errors: list[dict], spec) -> l
         if v["rule"] in exact:
             # docs/PHYSICS.md section 5.1: for this law the coarse run is its control in
             # other units, so the comparison can only see what the rule leaves unscaled
-            fixed = (
-                "the curve samples' clock (output_interval, fixed in seconds) and the runs' chaos"
-                if is_shear(spec.reference)
-                else "the constants left in seconds (output_interval, release_time) and the "
-                "runs' chaos"
-            )
+            fixed = kind_of(spec.reference).clock_constants
             text += (
                 "; a check of units, not evidence for the rule: for this law the rule is an "
                 "exact similarity (the coarse run is its control in other units), so this "

@@ -176,31 +176,28 @@ def metric_names(unconfined: bool) -> tuple[str, ...]:
     return tuple(k for k in METRICS if unconfined or k != "strength")
 
 
-def is_shear(test) -> bool:
-    """Whether ``test`` (a test record) is the shear test (engine.ShearTest)."""
-    from ..shear.spec import ShearTest
+def _kind(obj):
+    from .kinds import kind_of  # the registry of test kinds (engine.study.kinds)
 
-    return isinstance(test, ShearTest)
+    return kind_of(obj)
 
 
 def metrics_of(test) -> dict[str, Metric]:
-    """The verdict metrics of a study whose reference is ``test``: :data:`SHEAR_METRICS`
-    for a shear test, else :data:`METRICS`."""
-    return SHEAR_METRICS if is_shear(test) else METRICS
+    """The verdict metrics of a study whose reference is ``test``: its kind's
+    (:mod:`engine.study.kinds`: :data:`METRICS`, or :data:`SHEAR_METRICS`)."""
+    return dict(_kind(test).metrics)
 
 
 def metric_names_of(test) -> tuple[str, ...]:
-    """The verdict metrics a study of ``test`` judges: the shear test's, or the uniaxial
-    test's with (or without) the unconfined stage (:func:`metric_names`)."""
-    if is_shear(test):
-        return tuple(SHEAR_METRICS)
-    return metric_names(test.unconfined)
+    """The verdict metrics a study of ``test`` judges (its kind's: the uniaxial test's with
+    or without the unconfined stage, :func:`metric_names`; the shear test's)."""
+    return _kind(test).metric_names(test)
 
 
 def shape_names_of(test) -> tuple[str, ...]:
-    """The shape measures of a study of ``test``: :data:`SHAPE_NAMES`, none for a shear
-    test (:func:`shape_errors`)."""
-    return () if is_shear(test) else SHAPE_NAMES
+    """The shape measures of a study of ``test`` (its kind's: :data:`SHAPE_NAMES`, none for
+    a shear test)."""
+    return _kind(test).shape_names
 
 
 def metric_column(name: str) -> str:
@@ -265,13 +262,16 @@ def branch_on_levels(
 
 
 def metric_values(result) -> dict[str, np.ndarray]:
+    """Values of every verdict metric of one run's result, as its kind reads them
+    (:mod:`engine.study.kinds`: :func:`uniaxial_metric_values`, :func:`shear_metric_values`)."""
+    return _kind(result).metric_values(result)
+
+
+def uniaxial_metric_values(result) -> dict[str, np.ndarray]:
     """Values of every verdict metric of one :class:`engine.UniaxialResult` (see the module
     docstring), plus ``density_whole`` and ``coordination_whole`` (whole-sample values at the
     same levels, reported next to the interior ones) and, with a strength, ``failed`` (1.0
-    when the sample failed at a peak, 0.0 when it hardened). A shear test's result: its
-    :func:`shear_metric_values`."""
-    if is_shear(result.test):
-        return shear_metric_values(result)
+    when the sample failed at a peak, 0.0 when it hardened)."""
     test = result.test
     names = ("porosity_interior", "coordination_interior", "porosity", "coordination")
     parts: dict[str, list] = {n: [] for n in names}
@@ -351,12 +351,16 @@ def _common_levels(a: np.ndarray, b: np.ndarray, loading: bool, n: int = 40) -> 
 
 
 def shape_errors(run, ref) -> dict[str, float]:
+    """Shape measures of ``run`` against ``ref``, as their kind has them (none for shear
+    tests: their curves are against shear strain, and every run's stress path differs in
+    its own steps)."""
+    return _kind(run).shape_errors(run, ref)
+
+
+def uniaxial_shape_errors(run, ref) -> dict[str, float]:
     """Shape measures of ``run`` against ``ref`` (both :class:`engine.UniaxialResult`): the
     normalised RMS of strain, porosity and coordination on the common stress range of each
-    branch, divided by the reference curve's range. None for shear tests (their curves are
-    against shear strain, and every run's stress path differs in its own steps)."""
-    if is_shear(run.test):
-        return {}
+    branch, divided by the reference curve's range."""
     parts_run: dict[str, list] = {"strain": [], "porosity": [], "coordination": []}
     parts_ref: dict[str, list] = {"strain": [], "porosity": [], "coordination": []}
     for stage, loading in (("consolidation", True), ("unloading", False)):

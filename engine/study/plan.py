@@ -10,18 +10,17 @@ from stored runs, finds the same runs)."""
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..core.errors import ParameterError
-from ..shear import spec as shear_spec
 from ..shear.spec import ShearTest
-from ..uniaxial.spec import UniaxialTest, halved_protocol
+from ..uniaxial.spec import UniaxialTest
 from .allocate import Addition, next_runs
 from .judge import error_rates, judge_group, judge_groups
-from .metrics import is_shear, metric_names_of, metric_values, shape_errors
+from .kinds import kind_of
+from .metrics import metric_names_of, metric_values, shape_errors
 from .noise import StudyNoise
 from .spec import ScalingRule, StudySpec
 
@@ -107,56 +106,9 @@ def run_key(
 
 
 def estimated_steps(test: UniaxialTest | ShearTest) -> float:
-    """Rough step count of a test (a shear test's: :func:`estimated_shear_steps`): fill
-    (two free-fall times of the pour column), compression of the sample by 10 % there and
-    back, release, unconfined strain. At a constant ``platen_speed`` the loading takes
-    strain x height / speed; at an
-    ``inertial_number`` I* the strain rate is I* sqrt(p / rho) / d (at most
-    ``max_platen_speed`` / height), taken at a quarter of the consolidation stress as the
-    stages' typical stress (engine.uniaxial.measures.loading_speed)."""
-    if is_shear(test):
-        return estimated_shear_steps(test)
-    dt = test.resolved_dt()
-    height = test.cell[2]
-    if test.inertial_number is None:
-        rate = test.platen_speed / height
-    else:
-        d = 2.0 * test.radius
-        p = 0.25 * test.consolidation_stress
-        rate = min(
-            test.inertial_number * math.sqrt(p / test.density) / d,
-            test.max_platen_speed / height,
-        )
-    t = 2 * test.fall_time + 0.2 / rate
-    if test.unconfined:
-        t += test.release_time + test.max_unconfined_strain / rate
-    return t / dt
-
-
-#: Shear strain a shear point's stages take, as estimated: the reverse to zero shear stress
-#: and the shear to its peak and 5 % past it (the stored points peak at a few hundredths of
-#: strain, docs/SHEAR.md) [-].
-POINT_STRAIN = 0.1
-
-
-def estimated_shear_steps(test: ShearTest) -> float:
-    """Rough step count of a shear test: its consolidation test's fill and lid descent
-    (:func:`estimated_steps`), the pre-shear over ``preshear_min_strain`` and one
-    ``steady_window`` more, and :data:`POINT_STRAIN` per shear point, each at the shear
-    rate the inertial number gives at its normal stress, I sqrt(sigma / rho) / d (at most
-    ``max_shear_speed`` over the gap, taken as the cell's height)."""
-    cons = test.consolidation_test()
-    d = 2.0 * test.radius
-
-    def rate(sigma: float) -> float:
-        return min(
-            test.inertial_number * math.sqrt(sigma / test.density) / d,
-            test.max_shear_speed / test.cell[2],
-        )
-
-    t = (test.preshear_min_strain + test.steady_window) / rate(test.preshear_stress)
-    t += sum(POINT_STRAIN / rate(s) for s in test.normal_stresses)
-    return estimated_steps(cons) + t / cons.resolved_dt()
+    """Rough step count of a test, as its kind estimates it (:mod:`engine.study.kinds`:
+    ``uniaxial_steps``, ``shear_steps``)."""
+    return kind_of(test).estimated_steps(test)
 
 
 def reference_test(spec: StudySpec) -> UniaxialTest | ShearTest:
@@ -165,7 +117,7 @@ def reference_test(spec: StudySpec) -> UniaxialTest | ShearTest:
     the same for every run (a shear reference as it is: its bulk density's window is in
     each run's own diameters)."""
     ref = spec.reference
-    if is_shear(ref):
+    if not kind_of(ref).window:
         return ref
     margin = spec.interior_diameters * 2 * max((*spec.coarse_radii, ref.radius))
     return replace(ref, interior_margin=margin * (1 + ref.polydispersity))
@@ -173,28 +125,10 @@ def reference_test(spec: StudySpec) -> UniaxialTest | ShearTest:
 
 def control_test(reference, radius: float, reference_dt: float):
     """The resolution control of coarse radius ``radius`` [m]: the ``reference`` law unscaled
-    in the reference test scaled by s = R_ref / radius (docs/PHYSICS.md section 7.4): the
-    cell, and so the pour column, and the interior margin times s (the control is as many of
-    its diameters across as a coarse run is of its own), the platen speed times s (the strain
-    rate kept) and gravity over s (the overburden rho g H kept); the law, the time step
-    (``reference_dt`` [s]) and the stage times kept. For the linear law under K ~ R,
-    f0 ~ R^2 with Hertz platens a coarse run is this test scaled up by 1/s in length and
-    1/s^2 in force, all but its clock; so a coarse run against its control measures what
-    the rule changes (and the clock), the control against the reference what the sample's
-    size in diameters changes. A shear reference's control:
-    :func:`engine.shear.spec.control_test`."""
-    if is_shear(reference):
-        return shear_spec.control_test(reference, radius, reference_dt)
-    s = reference.radius / radius
-    return replace(
-        reference,
-        cell=tuple(c * s for c in reference.cell),
-        platen_speed=reference.platen_speed * s,
-        gravity=reference.gravity / s,
-        interior_margin=reference.margin * s,
-        # the reference's step: the same law and radius have the same contact time
-        dt=None if reference.dt is None else reference_dt,
-    )
+    in the reference test scaled by s = R_ref / radius, as the reference's kind makes it
+    (docs/PHYSICS.md section 7.4; :func:`engine.study.kinds.uniaxial_control_test`,
+    :func:`engine.shear.spec.control_test`)."""
+    return kind_of(reference).control_test(reference, radius, reference_dt)
 
 
 @dataclass(frozen=True)
@@ -338,7 +272,7 @@ def plan(spec: StudySpec) -> StudyPlan:
     ]
     if spec.protocol_check:
         try:
-            half = shear_spec.halved_protocol(ref) if is_shear(ref) else halved_protocol(ref)
+            half = kind_of(ref).halved_protocol(ref)
         except ParameterError as e:
             raise ParameterError(
                 "StudySpec.protocol_check",

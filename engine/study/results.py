@@ -8,15 +8,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..uniaxial.measures import overburden_ratio
 from ..uniaxial.results import UniaxialResult
 from .advisor import advise
 from .judge import error_rates, judge_group, judge_protocol, judge_rule_error
+from .kinds import kind_of
 from .metrics import (
-    METRIC_COLUMNS,
-    SHAPE_NAMES,
-    SHEAR_METRIC_COLUMNS,
-    is_shear,
     metric_column,
     metric_names_of,
     metric_values,
@@ -29,58 +25,11 @@ from .plan import CONTROL, PROTOCOL, PlannedRun
 from .resolution import curve_lines, diameters_needed, resolution_curves
 from .spec import ScalingRule, StudySpec
 
-#: Units of the columns of :attr:`StudyResult.table`.
-TABLE_UNITS = {
-    "run": "",
-    "radius": "m",
-    "rule": "",
-    "seed": "",
-    "scale": "1",
-    "particles": "1",
-    "steps": "1",
-    "dt": "s",
-    "wall_time": "s",
-    "particle_steps": "1",
-    "speedup": "1",
-    "speedup_steps": "1",
-    "thickness_diameters": "1",
-    "height_diameters": "1",
-    "overburden_ratio": "1",
-    "unconfined_failure": "1",
-    "unconfined_strength": "Pa",
-    **dict.fromkeys(METRIC_COLUMNS.values(), "1"),
-    **dict.fromkeys(SHAPE_NAMES, "1"),
-}
-
-#: The shear test's scalars a shear study's table carries beside its errors.
-SHEAR_TABLE_SCALARS = {
-    "cohesion": "Pa",
-    "friction_angle": "deg",
-    "preshear_tau": "Pa",
-    "sigma_1": "Pa",
-    "sigma_c": "Pa",
-    "ffc": "1",
-    "bulk_density": "kg/m^3",
-}
-
-#: Units of the columns of a shear study's :attr:`StudyResult.table`.
-SHEAR_TABLE_UNITS = {
-    **{
-        k: v
-        for k, v in TABLE_UNITS.items()
-        if k not in METRIC_COLUMNS.values()
-        and k not in SHAPE_NAMES
-        and not k.startswith("unconfined_")
-    },
-    **SHEAR_TABLE_SCALARS,
-    **dict.fromkeys(SHEAR_METRIC_COLUMNS.values(), "1"),
-}
-
 
 def table_units(spec: StudySpec) -> dict:
-    """Units of the columns of a study's table: :data:`TABLE_UNITS`, or for a shear study
-    :data:`SHEAR_TABLE_UNITS`."""
-    return SHEAR_TABLE_UNITS if is_shear(spec.reference) else TABLE_UNITS
+    """Units of the columns of a study's table: its reference kind's
+    (:mod:`engine.study.kinds`: ``TABLE_UNITS``, ``SHEAR_TABLE_UNITS``)."""
+    return dict(kind_of(spec.reference).table_units)
 
 
 @dataclass
@@ -139,15 +88,7 @@ class RunResult:
             "thickness_diameters": s["thickness_diameters"],
             "height_diameters": s["height_diameters"],
         }
-        if is_shear(self.result.test):
-            row["overburden_ratio"] = 0.0
-            row.update({k: s[k] for k in SHEAR_TABLE_SCALARS})
-            row.update(self.errors)
-            return row
-        row["overburden_ratio"] = overburden_ratio(self.result)
-        if "unconfined_strength" in s:
-            row["unconfined_failure"] = s["unconfined_failure"]
-            row["unconfined_strength"] = s["unconfined_strength"]
+        row.update(kind_of(self.result).row_scalars(self.result))
         row.update(self.errors)
         return row
 
@@ -155,7 +96,7 @@ class RunResult:
 @dataclass
 class StudyResult:
     """Result of :func:`run_study`: ``runs`` (key -> :class:`RunResult`, references
-    first), ``table`` (one row per run, units in :data:`TABLE_UNITS`), ``groups`` (mean and
+    first), ``table`` (one row per run, units in its kind's ``table_units``), ``groups`` (mean and
     spread over seeds per radius and rule), ``advisor`` (verdicts, noise floor, warnings,
     adhesion exponent; see :func:`engine.study.advisor.advise`) and ``failed`` (key -> error text
     of the runs that failed)."""
@@ -379,7 +320,9 @@ def assemble(
         advisor["control_lines"] = [*advisor["control_lines"], line]
         advisor["message"] = "; ".join([advisor["message"], line])
     advisor["noise_floor"] = noise
-    advisor["reference"] = _reference_summary(refs, names, ref_values, is_shear(spec.reference))
+    advisor["reference"] = _reference_summary(
+        refs, names, ref_values, kind_of(spec.reference).summary_scalars
+    )
     return StudyResult(spec, runs, table, groups, advisor, failed)
 
 
@@ -458,44 +401,11 @@ def _note_failure_kinds(refs: dict, runs: dict[str, RunResult], verdicts: list[d
             )
 
 
-#: The shear test's scalars a study's reference summary quotes.
-SHEAR_SUMMARY = (
-    "preshear_sigma",
-    "preshear_tau",
-    "cohesion",
-    "cohesion_se",
-    "friction_angle",
-    "effective_friction_angle",
-    "sigma_1",
-    "sigma_c",
-    "ffc",
-    "bulk_density",
-    "height_diameters",
-    "wall_time",
-    "particles",
-)
-
-
-def _reference_summary(refs: dict, names, ref_values: list[dict], shear: bool = False) -> dict:
-    """Mean and spread over reference seeds of the scalars a user quotes."""
+def _reference_summary(refs: dict, names, ref_values: list[dict], scalars) -> dict:
+    """Mean and spread over reference seeds of the scalars a user quotes (``scalars``: the
+    reference kind's, :mod:`engine.study.kinds`)."""
     out = {"seeds": sorted(refs)}
-    for k in (
-        SHEAR_SUMMARY
-        if shear
-        else (
-            "unconfined_strength",
-            "unconfined_strength_platen",
-            "unconfined_strength_interior",
-            "self_weight_stress",
-            "unconfined_failure",
-            "loading_stiffness",
-            "unloading_stiffness",
-            "consolidated_porosity",
-            "consolidated_porosity_interior",
-            "wall_time",
-            "particles",
-        )
-    ):
+    for k in scalars:
         v = [r.scalars[k] for r in refs.values() if k in r.scalars]
         if v:
             out[k] = float(np.mean(v))

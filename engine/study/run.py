@@ -19,13 +19,11 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..core.errors import ParameterError, StopRequested
-from ..shear.driver import run_shear
 from ..simulation.backend import check_backend
 from ..uniaxial.checkpoint import CHECKPOINT_INTERVAL, Checkpoint, check_interval
-from ..uniaxial.driver import run_uniaxial
 from ..uniaxial.results import Progress, UniaxialResult
 from .channel import task_progress, wait_tasks
-from .metrics import is_shear
+from .kinds import kind_of
 from .plan import (
     PlannedRun,
     StudyPlan,
@@ -147,33 +145,37 @@ def _execute(
 
 
 def run_test(test, progress=None, checkpoint=None, backend=None, limit=None):
-    """One run of a study's test: :func:`engine.run_uniaxial` (with its ``checkpoint``,
-    ``backend`` and wall-time ``limit``), or for an :class:`engine.ShearTest`
-    :func:`engine.run_shear` (the CPU, no checkpoint: a shear run resumed after a crash
-    starts again; :func:`run_study` refuses a wall-time limit and another backend for a
-    shear study before any run starts)."""
-    if is_shear(test):
-        return run_shear(test, progress=progress)
-    return run_uniaxial(
-        test, progress=progress, checkpoint=checkpoint, backend=backend, **_limit_args(limit)
+    """One run of a study's test by its kind's run (:mod:`engine.study.kinds`: the uniaxial
+    test's :func:`engine.run_uniaxial` with its ``checkpoint``, ``backend`` and wall-time
+    ``limit``; the shear test's :func:`engine.run_shear` on the CPU, which honours none of
+    them: :func:`check_kind_options` refuses them before any run starts, and a shear run
+    resumed after a crash starts again)."""
+    kind = kind_of(test)
+    return kind.run(
+        test,
+        progress=progress,
+        checkpoint=checkpoint if kind.checkpoints else None,
+        backend=backend,
+        **_limit_args(limit),
     )
 
 
-def check_shear_options(spec: StudySpec, options: RunOptions) -> None:
-    """A shear study's runs take neither a wall-time limit nor a backend other than the CPU
-    (:func:`engine.run_shear` has neither): :class:`engine.ParameterError` naming the
-    option, before any run starts."""
-    if not is_shear(spec.reference):
-        return
-    if options.max_run_wall_time is not None:
+def check_kind_options(spec: StudySpec, options: RunOptions) -> None:
+    """The options a study's reference kind does not honour (:mod:`engine.study.kinds`: a
+    wall-time limit, a backend): :class:`engine.ParameterError` naming the option, before
+    any run starts."""
+    kind = kind_of(spec.reference)
+    if options.max_run_wall_time is not None and not kind.wall_time_limit:
         raise ParameterError(
             "RunOptions.max_run_wall_time",
             options.max_run_wall_time,
-            "None for a shear study (engine.run_shear has no wall-time limit)",
+            f"None for a {kind.name} study (its run has no wall-time limit)",
         )
-    if options.backend not in (None, "cpu", "auto"):
+    if kind.backends is not None and options.backend not in (None, *kind.backends):
         raise ParameterError(
-            "RunOptions.backend", options.backend, "'cpu' for a shear study (engine.run_shear)"
+            "RunOptions.backend",
+            options.backend,
+            f"one of {', '.join(repr(b) for b in kind.backends)} for a {kind.name} study",
         )
 
 
@@ -280,7 +282,7 @@ def run_study(
     limit = (options.max_run_wall_time, options.wall_time_setting)
     study = as_plan(study)  # planned once
     spec = study.spec
-    check_shear_options(spec, options)
+    check_kind_options(spec, options)
     outcomes: dict[str, UniaxialResult | str] = dict(completed or {})
     progress = _monotone_progress(progress)
 

@@ -15,8 +15,9 @@ from ..contact.registry import adhesive_laws, law_names
 from ..core.errors import ParameterError
 from ..core.records import Record, check_fields, from_dict, param
 from ..shear.spec import ShearTest
-from ..uniaxial.spec import UniaxialTest, preset, uniaxial_from_json
-from .metrics import is_shear, metrics_of
+from ..uniaxial.spec import UniaxialTest, preset
+from .kinds import KINDS, kind_of
+from .metrics import metrics_of
 
 DT_POLICIES = ("fixed", "scaled")
 
@@ -112,7 +113,7 @@ class ScalingRule(Record):
             dt = reference_dt * s
         else:  # the reference's setting: its fixed step, or its fraction of the contact time
             dt = None if reference.dt is None else reference_dt
-        if is_shear(reference):
+        if kind_of(reference).stage_time_scales:
             return replace(
                 reference,
                 radius=radius,
@@ -144,23 +145,26 @@ def _seed_list(owner: str, seeds) -> tuple[int, ...]:
     return seeds
 
 
-#: The reference tests a study takes, by the ``"type"`` its JSON form names (none: uniaxial).
-TEST_TYPES = {"UniaxialTest": UniaxialTest, "ShearTest": ShearTest}
+#: The reference tests a study takes, by their class name (the registry's kinds).
+TEST_TYPES = {k.spec.__name__: k.spec for k in KINDS.values()}
 
 
 def _reference_from_json(raw):
-    """A reference given as JSON: a uniaxial test's fields, or ``"preset": "quick"`` (or
-    ``"paper"``) with overrides of some of them; a shear test's fields with
-    ``"type": "ShearTest"``."""
+    """A reference given as JSON: the test of the kind its ``"type"`` names
+    (:mod:`engine.study.kinds`; none or ``"UniaxialTest"``: a uniaxial test's fields, or
+    ``"preset": "quick"`` (or ``"paper"``) with overrides of some of them; ``"ShearTest"``:
+    a shear test's fields)."""
     if not isinstance(raw, dict):
         return raw
     raw = dict(raw)
-    kind = raw.pop("type", "UniaxialTest")
-    if kind not in TEST_TYPES:
-        raise ParameterError("StudySpec.reference.type", kind, f"one of {sorted(TEST_TYPES)}")
-    if kind == "ShearTest":
-        return from_dict(ShearTest, raw, "StudySpec.reference")
-    return uniaxial_from_json(raw, "StudySpec.reference")
+    tag = raw.pop("type", None)
+    kinds = {k.json_type or k.spec.__name__: k for k in KINDS.values()}
+    default = next(k for k in KINDS.values() if k.json_type is None)
+    kind = default if tag in (None, default.spec.__name__) else kinds.get(tag)
+    if kind is None:
+        names = sorted({*kinds, default.spec.__name__})
+        raise ParameterError("StudySpec.reference.type", tag, f"one of {names}")
+    return kind.from_json(raw, "StudySpec.reference")
 
 
 def _rules_from_json(raw):
@@ -328,10 +332,11 @@ class StudySpec(Record):
 
     def __post_init__(self) -> None:
         o = "StudySpec"
-        if not isinstance(self.reference, (UniaxialTest, ShearTest)):
-            raise ParameterError(
-                f"{o}.reference", self.reference, "an engine.UniaxialTest or engine.ShearTest"
-            )
+        try:
+            kind = kind_of(self.reference)
+        except TypeError:
+            names = " or ".join(f"engine.{k.spec.__name__}" for k in KINDS.values())
+            raise ParameterError(f"{o}.reference", self.reference, f"an {names}") from None
         if not getattr(self.reference.pair_law, "adhesive", False):
             raise ParameterError(
                 f"{o}.reference.pair_law",
@@ -400,15 +405,16 @@ class StudySpec(Record):
             )
         # the interior window is the study's (interior_diameters, engine.study.plan), not the
         # reference's own: its JSON form leaves it out
-        if not is_shear(self.reference) and self.reference.interior_margin is not None:
+        if kind.window and self.reference.interior_margin is not None:
             object.__setattr__(self, "reference", replace(self.reference, interior_margin=None))
 
     def to_dict(self) -> dict:
         """JSON form (inverse :meth:`from_dict`); a shear reference names its type,
         ``"type": "ShearTest"`` (a uniaxial one, the default, does not)."""
         d = super().to_dict()
-        if is_shear(self.reference):
-            d["reference"] = {"type": "ShearTest", **d["reference"]}
+        tag = kind_of(self.reference).json_type
+        if tag is not None:
+            d["reference"] = {"type": tag, **d["reference"]}
         return d
 
     @property

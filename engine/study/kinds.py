@@ -1,0 +1,367 @@
+"""Test kinds as a registry (issue 51 item 2), as LAMMPS registers its granular sub-models:
+each kind of test a study can take as its reference declares what the study, the service,
+the command line and the page need of it, so that none of them tests which kind it is.
+
+A kind declares: its spec and result records; its verdict metrics and how a run's values
+of them are read; its shape measures; its run (the driver, with the options it honours:
+checkpoints, a wall-time limit, backends); its resolution control and halved protocol; a
+step estimate; its table's columns and units, its row's scalars and the reference scalars a
+summary quotes; whether its runs keep snapshots; whether its stage-time bound grows with
+the coarse-graining factor; the constants its study leaves in seconds (what a coarse run
+against its control can see). :func:`kind_of` finds a record's kind, the one place where a
+record's type is asked; :func:`register` adds one (a new kind: its own package and one
+registration line).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, replace
+from typing import Any
+
+from ..core.records import from_dict
+from ..shear import spec as shear_spec
+from ..shear.driver import run_shear
+from ..shear.results import ShearResult
+from ..shear.spec import ShearTest
+from ..uniaxial.driver import run_uniaxial
+from ..uniaxial.measures import overburden_ratio
+from ..uniaxial.results import UniaxialResult
+from ..uniaxial.spec import UniaxialTest, halved_protocol, uniaxial_from_json
+from .metrics import (
+    METRIC_COLUMNS,
+    METRICS,
+    SHAPE_NAMES,
+    SHEAR_METRIC_COLUMNS,
+    SHEAR_METRICS,
+    Metric,
+    metric_names,
+    shear_metric_values,
+    uniaxial_metric_values,
+    uniaxial_shape_errors,
+)
+
+#: Units of the columns of a uniaxial study's table (:attr:`engine.StudyResult.table`).
+TABLE_UNITS = {
+    "run": "",
+    "radius": "m",
+    "rule": "",
+    "seed": "",
+    "scale": "1",
+    "particles": "1",
+    "steps": "1",
+    "dt": "s",
+    "wall_time": "s",
+    "particle_steps": "1",
+    "speedup": "1",
+    "speedup_steps": "1",
+    "thickness_diameters": "1",
+    "height_diameters": "1",
+    "overburden_ratio": "1",
+    "unconfined_failure": "1",
+    "unconfined_strength": "Pa",
+    **dict.fromkeys(METRIC_COLUMNS.values(), "1"),
+    **dict.fromkeys(SHAPE_NAMES, "1"),
+}
+
+#: The shear test's scalars a shear study's table carries beside its errors.
+SHEAR_TABLE_SCALARS = {
+    "cohesion": "Pa",
+    "friction_angle": "deg",
+    "preshear_tau": "Pa",
+    "sigma_1": "Pa",
+    "sigma_c": "Pa",
+    "ffc": "1",
+    "bulk_density": "kg/m^3",
+}
+
+#: Units of the columns of a shear study's table.
+SHEAR_TABLE_UNITS = {
+    **{
+        k: v
+        for k, v in TABLE_UNITS.items()
+        if k not in METRIC_COLUMNS.values()
+        and k not in SHAPE_NAMES
+        and not k.startswith("unconfined_")
+    },
+    **SHEAR_TABLE_SCALARS,
+    **dict.fromkeys(SHEAR_METRIC_COLUMNS.values(), "1"),
+}
+
+#: The uniaxial test's scalars a study's reference summary quotes.
+UNIAXIAL_SUMMARY = (
+    "unconfined_strength",
+    "unconfined_strength_platen",
+    "unconfined_strength_interior",
+    "self_weight_stress",
+    "unconfined_failure",
+    "loading_stiffness",
+    "unloading_stiffness",
+    "consolidated_porosity",
+    "consolidated_porosity_interior",
+    "wall_time",
+    "particles",
+)
+
+#: The shear test's scalars a study's reference summary quotes.
+SHEAR_SUMMARY = (
+    "preshear_sigma",
+    "preshear_tau",
+    "cohesion",
+    "cohesion_se",
+    "friction_angle",
+    "effective_friction_angle",
+    "sigma_1",
+    "sigma_c",
+    "ffc",
+    "bulk_density",
+    "height_diameters",
+    "wall_time",
+    "particles",
+)
+
+
+@dataclass(frozen=True)
+class TestKind:
+    """What a study needs of one kind of test (module docstring).
+
+    Attributes: ``name``; ``spec``, ``result`` (record classes); ``json_type`` (the
+    ``"type"`` a study's JSON gives its reference, None for the default kind);
+    ``from_json(raw, owner)`` (its test from that JSON, the tag removed); ``metrics``
+    (name -> :class:`engine.study.metrics.Metric`); ``metric_names(test)`` (those a study of
+    ``test`` judges); ``metric_values(result)``; ``shape_names``; ``shape_errors(run, ref)``;
+    ``run(test, progress, checkpoint, backend, max_wall_time, wall_time_setting)``;
+    ``checkpoints``, ``wall_time_limit`` (whether its run honours them), ``backends`` (the
+    backends its run takes: None for any); ``control_test(reference, radius,
+    reference_dt)``; ``halved_protocol(test)``; ``estimated_steps(test)``; ``table_units``;
+    ``row_scalars(result)`` (its table row's own columns); ``summary_scalars`` (the
+    reference scalars a summary quotes); ``snapshots`` (whether its runs keep stage-end
+    snapshots); ``stage_time_scales`` (whether a coarse run's ``max_stage_time`` grows by
+    s); ``window`` (whether a study sets its interior window, ``interior_margin``);
+    ``clock_constants`` (in words: what a rule that is the law's exact similarity leaves in
+    seconds, the only thing a coarse run against its control can see).
+    """
+
+    name: str
+    spec: type
+    result: type
+    json_type: str | None
+    from_json: Callable[[dict, str], Any]
+    metrics: Mapping[str, Metric]
+    metric_names: Callable[[Any], tuple[str, ...]]
+    metric_values: Callable[[Any], dict]
+    shape_names: tuple[str, ...]
+    shape_errors: Callable[[Any, Any], dict]
+    run: Callable[..., Any]
+    checkpoints: bool
+    wall_time_limit: bool
+    backends: tuple[str, ...] | None
+    control_test: Callable[[Any, float, float], Any]
+    halved_protocol: Callable[[Any], Any]
+    estimated_steps: Callable[[Any], float]
+    table_units: Mapping[str, str]
+    row_scalars: Callable[[Any], dict]
+    summary_scalars: tuple[str, ...]
+    snapshots: bool
+    stage_time_scales: bool
+    window: bool
+    clock_constants: str
+
+
+KINDS: dict[str, TestKind] = {}
+
+
+def register(kind: TestKind) -> TestKind:
+    """Add ``kind`` to the registry (its name unique); returns it."""
+    if kind.name in KINDS and KINDS[kind.name] is not kind:
+        raise ValueError(f"a test kind named {kind.name!r} is registered already")
+    KINDS[kind.name] = kind
+    return kind
+
+
+def kind_of(obj) -> TestKind:
+    """The kind of a test or of its result (or of anything that carries its ``test``): the
+    one place a record's type is asked. TypeError for anything else."""
+    for kind in KINDS.values():
+        if isinstance(obj, (kind.spec, kind.result)):
+            return kind
+    test = getattr(obj, "test", None)  # a run's outcome of another shape, by its test
+    if test is not None and test is not obj:
+        return kind_of(test)
+    names = ", ".join(f"{k.spec.__name__}" for k in KINDS.values())
+    raise TypeError(f"not a test of a registered kind ({names}): {type(obj).__name__}")
+
+
+def kind_for_json(raw: Any) -> TestKind:
+    """The kind a study's JSON reference names by its ``"type"`` (none: the default kind,
+    the one whose ``json_type`` is None)."""
+    tag = raw.get("type") if isinstance(raw, dict) else None
+    for kind in KINDS.values():
+        if kind.json_type == tag:
+            return kind
+    raise KeyError(tag)
+
+
+# ------------------------------------------------------------------ the uniaxial test
+def uniaxial_control_test(reference: UniaxialTest, radius: float, reference_dt: float):
+    """The resolution control of coarse radius ``radius`` [m]: the ``reference`` law unscaled
+    in the reference test scaled by s = R_ref / radius (docs/PHYSICS.md section 7.4): the
+    cell, and so the pour column, and the interior margin times s (the control is as many of
+    its diameters across as a coarse run is of its own), the platen speed times s (the strain
+    rate kept) and gravity over s (the overburden rho g H kept); the law, the time step
+    (``reference_dt`` [s]) and the stage times kept. For the linear law under K ~ R,
+    f0 ~ R^2 with Hertz platens a coarse run is this test scaled up by 1/s in length and
+    1/s^2 in force, all but its clock (docs/PHYSICS.md section 5.1)."""
+    s = reference.radius / radius
+    return replace(
+        reference,
+        cell=tuple(c * s for c in reference.cell),
+        platen_speed=reference.platen_speed * s,
+        gravity=reference.gravity / s,
+        interior_margin=reference.margin * s,
+        # the reference's step: the same law and radius have the same contact time
+        dt=None if reference.dt is None else reference_dt,
+    )
+
+
+def uniaxial_steps(test: UniaxialTest) -> float:
+    """Rough step count of a uniaxial test: fill (two free-fall times of the pour column),
+    compression of the sample by 10 % there and back, release, unconfined strain. At a
+    constant ``platen_speed`` the loading takes strain x height / speed; at an
+    ``inertial_number`` I* the strain rate is I* sqrt(p / rho) / d (at most
+    ``max_platen_speed`` / height), taken at a quarter of the consolidation stress as the
+    stages' typical stress (engine.uniaxial.measures.loading_speed)."""
+    dt = test.resolved_dt()
+    height = test.cell[2]
+    if test.inertial_number is None:
+        rate = test.platen_speed / height
+    else:
+        d = 2.0 * test.radius
+        p = 0.25 * test.consolidation_stress
+        rate = min(
+            test.inertial_number * math.sqrt(p / test.density) / d,
+            test.max_platen_speed / height,
+        )
+    t = 2 * test.fall_time + 0.2 / rate
+    if test.unconfined:
+        t += test.release_time + test.max_unconfined_strain / rate
+    return t / dt
+
+
+def _run_uniaxial(
+    test, progress=None, checkpoint=None, backend=None, max_wall_time=None, wall_time_setting=None
+):
+    limit = {}
+    if max_wall_time is not None:
+        limit = {"max_wall_time": max_wall_time, "wall_time_setting": wall_time_setting}
+    return run_uniaxial(test, progress=progress, checkpoint=checkpoint, backend=backend, **limit)
+
+
+def _uniaxial_row(result) -> dict:
+    s = result.scalars
+    row = {"overburden_ratio": overburden_ratio(result)}
+    if "unconfined_strength" in s:
+        row["unconfined_failure"] = s["unconfined_failure"]
+        row["unconfined_strength"] = s["unconfined_strength"]
+    return row
+
+
+UNIAXIAL = register(
+    TestKind(
+        name="uniaxial",
+        spec=UniaxialTest,
+        result=UniaxialResult,
+        json_type=None,
+        from_json=uniaxial_from_json,
+        metrics=METRICS,
+        metric_names=lambda test: metric_names(test.unconfined),
+        metric_values=uniaxial_metric_values,
+        shape_names=SHAPE_NAMES,
+        shape_errors=uniaxial_shape_errors,
+        run=_run_uniaxial,
+        checkpoints=True,
+        wall_time_limit=True,
+        backends=None,
+        control_test=uniaxial_control_test,
+        halved_protocol=halved_protocol,
+        estimated_steps=uniaxial_steps,
+        table_units=TABLE_UNITS,
+        row_scalars=_uniaxial_row,
+        summary_scalars=UNIAXIAL_SUMMARY,
+        snapshots=True,
+        stage_time_scales=False,
+        window=True,
+        clock_constants="the constants left in seconds (output_interval, release_time) and "
+        "the runs' chaos",
+    )
+)
+
+
+# ------------------------------------------------------------------ the shear test
+#: Shear strain a shear point's stages take, as estimated: the reverse to zero shear stress
+#: and the shear to its peak and 5 % past it (the stored points peak at a few hundredths of
+#: strain, docs/SHEAR.md) [-].
+POINT_STRAIN = 0.1
+
+
+def shear_steps(test: ShearTest) -> float:
+    """Rough step count of a shear test: its consolidation test's fill and lid descent
+    (:func:`uniaxial_steps`), the pre-shear over ``preshear_min_strain`` and one
+    ``steady_window`` more, and :data:`POINT_STRAIN` per shear point, each at the shear
+    rate the inertial number gives at its normal stress, I sqrt(sigma / rho) / d (at most
+    ``max_shear_speed`` over the gap, taken as the cell's height)."""
+    cons = test.consolidation_test()
+    d = 2.0 * test.radius
+
+    def rate(sigma: float) -> float:
+        return min(
+            test.inertial_number * math.sqrt(sigma / test.density) / d,
+            test.max_shear_speed / test.cell[2],
+        )
+
+    t = (test.preshear_min_strain + test.steady_window) / rate(test.preshear_stress)
+    t += sum(POINT_STRAIN / rate(s) for s in test.normal_stresses)
+    return uniaxial_steps(cons) + t / cons.resolved_dt()
+
+
+def _run_shear(test, progress=None, **_options):
+    # the kind declares what it does not honour (checkpoints, a wall-time limit, another
+    # backend): run_study refuses those options before any run starts
+    return run_shear(test, progress=progress)
+
+
+def _shear_row(result) -> dict:
+    s = result.scalars
+    return {"overburden_ratio": 0.0, **{k: s[k] for k in SHEAR_TABLE_SCALARS}}
+
+
+SHEAR = register(
+    TestKind(
+        name="shear",
+        spec=ShearTest,
+        result=ShearResult,
+        json_type="ShearTest",
+        from_json=lambda raw, owner: from_dict(ShearTest, raw, owner),
+        metrics=SHEAR_METRICS,
+        metric_names=lambda test: tuple(SHEAR_METRICS),
+        metric_values=shear_metric_values,
+        shape_names=(),
+        shape_errors=lambda run, ref: {},
+        run=_run_shear,
+        checkpoints=False,
+        wall_time_limit=False,
+        backends=("cpu", "auto"),
+        control_test=shear_spec.control_test,
+        halved_protocol=shear_spec.halved_protocol,
+        estimated_steps=shear_steps,
+        table_units=SHEAR_TABLE_UNITS,
+        row_scalars=_shear_row,
+        summary_scalars=SHEAR_SUMMARY,
+        snapshots=False,
+        stage_time_scales=True,
+        window=False,
+        clock_constants="the curve samples' clock (output_interval, fixed in seconds) and "
+        "the runs' chaos",
+    )
+)

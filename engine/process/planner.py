@@ -358,12 +358,14 @@ def plan_process(process: Process, evidence: dict | None = None) -> ProcessPlan:
                 )
             )
             continue
-        if entry is None or entry.get("bound") == "not_linear":
-            why = (
-                "not measured: no outlet in the engine yet (issue 52)"
-                if kind == "outlet"
-                else f"not measured: series {matched} has no decided need for this kind"
-            )
+        if entry is None or entry.get("bound") in ("not_linear", "confounded"):
+            if kind == "outlet":
+                why = "not measured: no outlet in the engine yet (issue 52)"
+            elif entry is not None and entry.get("bound") == "confounded":
+                what = entry.get("why", "a property is confounded")
+                why = f"not decided: in series {matched} {what} (docs/RESOLUTION.md, Confounds)"
+            else:
+                why = f"not measured: series {matched} has no decided need for this kind"
             features.append(FeaturePlan(kind, "not_measured", why, evidence=matched))
             continue
         npt, nb, bound = entry["n_req_point"], entry["n_req_bound"], entry["bound"]

@@ -145,3 +145,15 @@ def test_the_readme_says_what_the_stored_series_decide():
     text = README.read_text()
     block = text.split(BEGIN, 1)[1].split(END, 1)[0].strip("\n")
     assert block == readme_block(load_evidence(EVIDENCE))
+
+
+def test_a_confounded_kind_is_not_decided_and_says_why():
+    ev = json.loads(json.dumps(EVIDENCE_FAKE))
+    ev["laws"]["fake"]["features"]["bulk_compression"] = {
+        "bound": "confounded",
+        "limited_by": "unloading_stiffness",
+        "why": "the stiffnesses lag the platen",
+    }
+    plan = plan_process(_process(feature_kind="bulk_compression"), ev)
+    assert plan.answer.status == "not_measured" and plan.answer.s_max is None
+    assert "lag the platen" in plan.answer.why and "Confounds" in plan.answer.why

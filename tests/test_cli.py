@@ -1,5 +1,5 @@
 """The ``demscale`` command: help texts, spec errors, the progress bars' arithmetic, and
-``demscale study`` end to end on a two-run study in a subprocess (outputs read back)."""
+``demscale study`` end to end on a small study (four runs) in a subprocess (outputs read back)."""
 
 from __future__ import annotations
 

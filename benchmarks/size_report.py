@@ -581,7 +581,7 @@ def readme_block(ev: dict | None = None) -> str:
         )
         parts = []
         for f in plan.features:
-            if f.status == "not_measured":
+            if f.status in ("not_measured", "undecided"):
                 continue
             rel = {"more_than": "below ", "at_most": "at least "}.get(f.bound or "", "")
             parts.append(f"{KIND_WORDS[f.kind]}: s_max {rel}{f.s_max:.3g}")

@@ -188,7 +188,8 @@ class FeaturePlan:
     """The answer for one feature kind (SI units).
 
     ``status``: "decided" (N_req from a matching series), "bounded" (only a bound: the
-    finest size run was not enough, or every size held), "not_measured"; ``n_req_point``
+    finest size run was not enough, or every size held), "undecided" (the series has the
+    kind but a property off its line or confounded), "not_measured"; ``n_req_point``
     and ``n_req_bound`` [particles across], ``bound`` as the series reports it;
     ``s_max_point`` and ``s_max`` [-] the factors they give (``s_max`` the one to use: from
     the 95 % bound; for "more_than" an upper limit: the admissible factor is below it);
@@ -366,7 +367,9 @@ def plan_process(process: Process, evidence: dict | None = None) -> ProcessPlan:
                 why = f"not decided: in series {matched} {what} (docs/RESOLUTION.md, Confounds)"
             else:
                 why = f"not measured: series {matched} has no decided need for this kind"
-            features.append(FeaturePlan(kind, "not_measured", why, evidence=matched))
+            undecided = entry is not None and entry.get("bound") in ("not_linear", "confounded")
+            status = "undecided" if undecided else "not_measured"
+            features.append(FeaturePlan(kind, status, why, evidence=matched))
             continue
         npt, nb, bound = entry["n_req_point"], entry["n_req_bound"], entry["bound"]
         s_pt, s_b = L / (npt * d0), L / (nb * d0)
@@ -416,8 +419,8 @@ def answer_line(plan: ProcessPlan) -> str:
     p = plan.process
 
     def one(f: FeaturePlan) -> str:
-        if f.status == "not_measured":
-            return f"{f.kind}: not measured"
+        if f.status in ("not_measured", "undecided"):
+            return f"{f.kind}: {f.status.replace('_', ' ')}"
         rel = {"more_than": "below ", "at_most": "at least "}.get(f.bound or "", "")
         fewer = {"more_than": "under ", "at_most": "at least "}.get(f.bound or "", "")
         speed = f"{fewer}{f.s_max**4:.3g}x fewer particle-steps" if f.s_max and f.s_max >= 1 else ""

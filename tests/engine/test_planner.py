@@ -82,7 +82,7 @@ def test_the_factor_is_the_width_over_the_need_and_the_coarse_law_is_the_similar
     # the other kinds: a bound only, and not measured (never inferred from another kind)
     kinds = {x.kind: x for x in plan.features}
     assert kinds["free_surface"].status == "bounded" and kinds["free_surface"].bound == "more_than"
-    assert kinds["bulk_compression"].status == "not_measured"
+    assert kinds["bulk_compression"].status == "undecided"
     assert kinds["outlet"].status == "not_measured" and "issue 52" in kinds["outlet"].why
     line = answer_line(plan)
     assert line.startswith("50 um powder, bulk_shear 200 mm wide at 20 kPa: bulk_shear: s_max ")
@@ -155,5 +155,5 @@ def test_a_confounded_kind_is_not_decided_and_says_why():
         "why": "the stiffnesses lag the platen",
     }
     plan = plan_process(_process(feature_kind="bulk_compression"), ev)
-    assert plan.answer.status == "not_measured" and plan.answer.s_max is None
+    assert plan.answer.status == "undecided" and plan.answer.s_max is None
     assert "lag the platen" in plan.answer.why and "Confounds" in plan.answer.why

@@ -474,7 +474,8 @@ def confound_lines() -> list[str]:
         "confounded with the lag in one and with the rate in the other, so their need is "
         "reported and not used (the rule was added on 2026-12-06, after the held series' "
         "10-diameter runs had been seen: its unloading stiffness fell by half from 5 to 10 "
-        "diameters, where the capped series' was flat within 5 %). Density and coordination "
+        "diameters, where the capped series' was flat within 5 %, and at 15 diameters its "
+        "secant came out negative: no elastic branch is resolved). Density and coordination "
         "are read at stress levels, not over a branch.",
         "",
         "| law | size [d across] | v at consolidation [m/s] | c unloading [m/s] | v / c | "
@@ -490,12 +491,15 @@ def confound_lines() -> list[str]:
             e_unl = float(np.mean([d.scalars["unloading_stiffness"] for d in ds]))
             e_ld = float(np.mean([d.scalars["loading_stiffness"] for d in ds]))
             v = i_star * h_d * math.sqrt(sig / rho)
-            c = math.sqrt(e_unl / (rho * phi))
-            c_ld = math.sqrt(e_ld / (rho * phi))
+            c_ld = math.sqrt(e_ld / (rho * phi)) if e_ld > 0 else math.nan
+            lag_ld = (v / c_ld) / (0.5 * sig / e_ld) if e_ld > 0 else math.nan
+            if e_unl > 0:
+                c = math.sqrt(e_unl / (rho * phi))
+                unl = f"{c:.1f} | {v / c:.4f} | {(v / c) / (0.5 * sig / e_unl):.2f}"
+            else:  # the secant's stress fell while the strain did not: no elastic branch
+                unl = "no elastic branch | | "
             out.append(
-                f"| {law_name} | {size:.3g} | {v:.3f} | {c:.1f} | {v / c:.4f} | "
-                f"{(v / c) / (0.5 * sig / e_unl):.2f} | {(v / c_ld) / (0.5 * sig / e_ld):.2f} | "
-                f"{e_unl / 1e6:.3f} |"
+                f"| {law_name} | {size:.3g} | {v:.3f} | {unl} | {lag_ld:.2f} | {e_unl / 1e6:.3f} |"
             )
     return [*out, ""]
 

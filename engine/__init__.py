@@ -6,6 +6,7 @@ Public API (stable names)::
     BilinearAdhesive, EEPA, HertzMindlin, WallMaterial
                                                     contact-law parameter records
     Plane, Scene                                    what to simulate
+    Mesh                                            a wall of finite extent (triangles, STL)
     Simulation                                      run it
     critical_time_step                              time-step limits of a scene
     UniaxialTest, preset, run_uniaxial              the uniaxial test and its stages
@@ -40,8 +41,9 @@ from .process import Process, ProcessPlan, plan_process
 from .shear.driver import run_shear
 from .shear.results import ShearResult
 from .shear.spec import ShearTest
+from .simulation.mesh import Mesh
 from .simulation.scene import Plane, Scene
-from .simulation.simulation import Contacts, Simulation, StabilityWarning
+from .simulation.simulation import Contacts, MeshContacts, Simulation, StabilityWarning
 from .simulation.snapshot import Snapshot
 from .simulation.timestep import TimeStepLimit, critical_time_step
 from .study.channel import FileChannel
@@ -75,6 +77,8 @@ __all__ = [
     "HertzMindlin",
     "InstabilityError",
     "LabTargets",
+    "Mesh",
+    "MeshContacts",
     "ParameterError",
     "Plane",
     "PlannedRun",

@@ -53,6 +53,7 @@ def _particle_body(i, mode, P, L, W, prm, stat, wpart, disp):
             wpart[i, w, 1] = 0.0
             wpart[i, w, 2] = 0.0
     wlaw, wflags = _wall_setup(prm)
+    ms = W.mesh  # on the device always the arrays (empty without meshes)
     disp[i] = _particle_one(
         i,
         i,
@@ -77,6 +78,17 @@ def _particle_body(i, mode, P, L, W, prm, stat, wpart, disp):
         W.hist,
         wpart,
         stat,
+        ms.mvert,
+        ms.mtri,
+        ms.mtri_n,
+        ms.medge,
+        ms.mvert_start,
+        ms.mvert_edge,
+        ms.cand_start,
+        ms.cand_t,
+        ms.mhist,
+        ms.mscr,
+        ms.box,
         prm.dt,
         prm.max_overlap,
         prm.max_step,
@@ -86,15 +98,18 @@ def _particle_body(i, mode, P, L, W, prm, stat, wpart, disp):
     )
 
 
-def _chunk_body(c, mode, stat, wpart, disp, cstat, cdisp, cacc):
+def _chunk_body(c, mode, stat, wpart, disp, cstat, cdisp, cacc, W, dt):
     """CPU chunk c of ``CHUNK`` particles reduced in particle order, as the CPU chunk
-    does: largest displacement, first problem, force on each wall (the particles' in order:
-    the same additions as the CPU's)."""
+    does: largest displacement (chunk 0 also the meshes' drift since the list build), first
+    problem, force on each wall (the particles' in order: the same additions as the CPU's)."""
     lo = c * CHUNK
     hi = min(disp.shape[0], lo + CHUNK)
     m = 0.0
     for q in range(lo, hi):
         m = max(m, disp[q])
+    if MESHES:
+        if c == 0 and (mode == STEP or mode == OPEN):
+            m = max(m, mesh_drift2(W.point, W.vel, W.mesh.mshift0, W.normal.shape[0], dt))
     cdisp[c] = m
     cstat[c, 0] = 0.0
     for q in range(lo, hi):
@@ -102,7 +117,7 @@ def _chunk_body(c, mode, stat, wpart, disp, cstat, cdisp, cacc):
             for s in range(4):
                 cstat[c, s] = stat[q, s]
             break
-    if WALLS and mode != OPEN:
+    if (WALLS or MESHES) and mode != OPEN:
         for w in range(wpart.shape[1]):
             for a in range(3):
                 acc = 0.0
@@ -125,11 +140,11 @@ def particle_kernel(ctl, mode, P, L, W, prm, stat, wpart, disp):
         _particle_body(i, mode, P, L, W, prm, stat, wpart, disp)
 
 
-def chunk_kernel(ctl, mode, stat, wpart, disp, cstat, cdisp, cacc):
+def chunk_kernel(ctl, mode, stat, wpart, disp, cstat, cdisp, cacc, W, dt):
     """Chunk reductions: one thread per CPU chunk."""
     c = cuda.grid(1)
     if ctl[CTL_STOP] == 0 and c < cdisp.shape[0]:
-        _chunk_body(c, mode, stat, wpart, disp, cstat, cdisp, cacc)
+        _chunk_body(c, mode, stat, wpart, disp, cstat, cdisp, cacc, W, dt)
 
 
 def finish_kernel(ctl, s, nsteps, opening, W, prm, cstat, cdisp, cacc, info):
@@ -159,7 +174,7 @@ def steps_kernel(
             _particle_body(i, OPEN, P, L, W, prm, stat, wpart, disp)
         g.sync()
         for c in range(t, nchunk, nt):
-            _chunk_body(c, OPEN, stat, wpart, disp, cstat, cdisp, cacc)
+            _chunk_body(c, OPEN, stat, wpart, disp, cstat, cdisp, cacc, W, prm.dt)
         g.sync()
         if first_block:
             _finish_body(ctl, 0, nsteps, 1, W, prm, cstat, cdisp, cacc, info)
@@ -175,7 +190,7 @@ def steps_kernel(
             _particle_body(i, mode, P, L, W, prm, stat, wpart, disp)
         g.sync()
         for c in range(t, nchunk, nt):
-            _chunk_body(c, mode, stat, wpart, disp, cstat, cdisp, cacc)
+            _chunk_body(c, mode, stat, wpart, disp, cstat, cdisp, cacc, W, prm.dt)
         g.sync()
         if first_block:
             _finish_body(ctl, s, nsteps, 0, W, prm, cstat, cdisp, cacc, info)
@@ -209,8 +224,8 @@ def _finish_body(ctl, s, nsteps, opening, W, prm, cstat, cdisp, cacc, info):
         stride //= 2
     disp2 = shm[0]
     first = shi[0]
-    if WALLS and opening == 0:
-        nw = W.point.shape[0]
+    if (WALLS or MESHES) and opening == 0:
+        nw = W.point.shape[0]  # the planes and the meshes
         for w in range(nw):
             for a in range(3):
                 cuda.syncthreads()
@@ -439,6 +454,57 @@ def rev_sort_kernel(rev_start, rev_k, pos, pos_build):
         rev_k[b + 1] = v
     for a in range(3):
         pos_build[j, a] = pos[j, a]
+
+
+def mesh_count_kernel(
+    pos, rad, skin, wpoint, nw, mvert, mtri, gridf, gridi, cell_start, cell_tri, cnt, none
+):
+    """Candidate triangles of each particle (``mesh_scan`` of engine.kernel.mesh, counting
+    only: ``none`` has length 0)."""
+    i = cuda.grid(1)
+    if i < pos.shape[0]:
+        cnt[i] = mesh_scan(
+            i, pos, rad, skin, wpoint, nw, mvert, mtri, gridf, gridi, cell_start, cell_tri, none, 0
+        )
+
+
+def mesh_fill_kernel(
+    pos, rad, skin, wpoint, nw, mvert, mtri, gridf, gridi, cell_start, cell_tri, start, cand_t
+):
+    """Each particle's candidate triangles from ``start[i]`` (increasing, as on the CPU)."""
+    i = cuda.grid(1)
+    if i < pos.shape[0]:
+        mesh_scan(
+            i,
+            pos,
+            rad,
+            skin,
+            wpoint,
+            nw,
+            mvert,
+            mtri,
+            gridf,
+            gridi,
+            cell_start,
+            cell_tri,
+            cand_t,
+            start[i],
+        )
+
+
+def mesh_clear_kernel(cand_start, mhist):
+    """The mesh contact rows of a particle without candidate triangles cleared."""
+    i = cuda.grid(1)
+    if i < cand_start.shape[0] - 1:
+        clear_rows(i, cand_start, mhist)
+
+
+def mesh_shift_kernel(wpoint, nw, mshift0):
+    """The meshes' translations at this list build (one thread)."""
+    if cuda.grid(1) == 0:
+        for m in range(mshift0.shape[0]):
+            for a in range(3):
+                mshift0[m, a] = wpoint[nw + m, a]
 
 
 def zero_kernel(a):

@@ -14,7 +14,7 @@ from types import SimpleNamespace
 
 from numba.cuda import types as cuda_types
 
-from ..kernel import neighbour, state
+from ..kernel import mesh, neighbour, state
 from ..kernel import specialise as cpu_kernels
 from . import _sources
 from .device import SIMULATOR, device_function, kernel, plain_device_function
@@ -48,6 +48,10 @@ _SEARCH = (
     "commit_kernel",
     "rev_fill_kernel",
     "rev_sort_kernel",
+    "mesh_count_kernel",
+    "mesh_fill_kernel",
+    "mesh_clear_kernel",
+    "mesh_shift_kernel",
     "zero_kernel",
     "scan_block_kernel",
     "scan_add_kernel",
@@ -84,6 +88,7 @@ def step_kernels(features: dict[str, bool]) -> SimpleNamespace:
             CHUNK=mod.CHUNK,
             OPEN=mod.OPEN,
             WALLS=mod.WALLS,
+            MESHES=mod.MESHES,
             FORCES=mod.FORCES,
             STEP=mod.STEP,
             CLOSE=mod.CLOSE,
@@ -91,6 +96,7 @@ def step_kernels(features: dict[str, bool]) -> SimpleNamespace:
         for name in ("_pair_setup", "_pair_one", "_wall_setup", "_particle_one"):
             b[name] = device_function(getattr(mod, name), memo)
         b["_advance_walls"] = device_function(state._advance_walls, memo)
+        b["mesh_drift2"] = device_function(mesh.mesh_drift2, memo)
         for name in _STEP_HELPERS:
             b[name] = plain_device_function(getattr(_sources, name), b, memo)
         ns = SimpleNamespace(cpu=mod, **{n: kernel(getattr(_sources, n), b, memo) for n in _STEP})
@@ -107,5 +113,7 @@ def search_kernels() -> SimpleNamespace:
             b = _constants()
             b["wrap_one"] = device_function(neighbour.wrap_one, memo)
             b["_scan"] = device_function(neighbour._scan, memo)
+            b["mesh_scan"] = device_function(mesh.mesh_scan, memo)
+            b["clear_rows"] = device_function(mesh.clear_rows, memo)
             _search = SimpleNamespace(**{n: kernel(getattr(_sources, n), b, memo) for n in _SEARCH})
         return _search

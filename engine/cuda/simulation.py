@@ -25,7 +25,8 @@ from types import SimpleNamespace
 import numpy as np
 from numba import cuda
 
-from ..kernel.state import OK, PAUSE, NeighbourList, Particles, StepParams, Walls
+from ..kernel.mesh import MESH_CONTACTS, SCRATCH_WIDTH
+from ..kernel.state import OK, PAUSE, Meshes, NeighbourList, Particles, StepParams, Walls
 from ..simulation.simulation import Simulation
 from . import _sources as src
 from .device import SIMULATOR
@@ -103,6 +104,16 @@ class CudaSimulation(Simulation):
         d.rev_count = cuda.to_device(np.zeros(n, dtype=np.int64))
         d.rev_fill = cuda.to_device(np.zeros(n, dtype=np.int64))
         d.none = cuda.to_device(np.zeros(0, dtype=np.int32))
+        # meshes: the scratch of each particle's contacts (a row per particle, as the
+        # particle pass runs one thread per particle), the counts of a candidate build and
+        # the bin grids (made once, never changed)
+        nm = len(self.scene.meshes)
+        d.mscr = cuda.to_device(np.zeros((n if nm else 0, MESH_CONTACTS, SCRATCH_WIDTH)))
+        d.mcnt = cuda.to_device(np.zeros(n, dtype=np.int64))
+        d.mgrid = tuple(
+            cuda.to_device(self._mesh_arrays[k])
+            for k in ("gridf", "gridi", "cell_start", "cell_tri")
+        )
         d.total_host = np.zeros(1, dtype=np.int64)
         d.scan_bufs = {}
         d.batch = _FIRST_BATCH
@@ -125,6 +136,7 @@ class CudaSimulation(Simulation):
             hist=cuda.to_device(w.hist),
             force=cuda.to_device(w.force),
             acc=cuda.to_device(cacc),
+            mesh=self._device_meshes(),
         )
         prm = self._params
         d.prm = StepParams(
@@ -160,6 +172,31 @@ class CudaSimulation(Simulation):
         d.new_entry = cuda.to_device(np.zeros((cap, self._k.N_SLOT)))
         d.stale = set()
 
+    def _device_meshes(self) -> Meshes:
+        """The meshes' arrays on the device: always a record of arrays (empty without
+        meshes, where the kernels never read them; the CPU passes an empty tuple)."""
+        m = self._walls.mesh
+        if not isinstance(m, Meshes):
+            n = self.n
+            m = Meshes(
+                mvert=np.zeros((0, 3)),
+                mtri=np.zeros((0, 8), dtype=np.int64),
+                mtri_n=np.zeros((0, 3)),
+                medge=np.zeros((0, 6), dtype=np.int64),
+                mvert_start=np.zeros(1, dtype=np.int64),
+                mvert_edge=np.zeros(0, dtype=np.int64),
+                cand_start=np.zeros(n + 1, dtype=np.int64),
+                cand_t=np.zeros(0, dtype=np.int32),
+                mhist=np.zeros((0, self._k.N_MESH_HIST)),
+                mscr=np.zeros((0, MESH_CONTACTS, SCRATCH_WIDTH)),
+                mshift0=np.zeros((0, 3)),
+                box=np.zeros((2, 3)),
+            )
+        arrays = {k: cuda.to_device(v) for k, v in m._asdict().items() if k != "mscr"}
+        if not len(m.cand_t):
+            arrays["cand_t"] = cuda.to_device(np.zeros(1, dtype=np.int32))
+        return Meshes(mscr=self._dev.mscr, **arrays)
+
     def _pull(self, *groups: str) -> None:
         """Refresh the host arrays of ``groups`` from the device where the device is newer."""
         d = self._dev
@@ -176,6 +213,12 @@ class CudaSimulation(Simulation):
                 w = self._walls
                 for name in ("point", "vel", "hist", "force"):
                     getattr(d.W, name).copy_to_host(getattr(w, name))
+                if isinstance(w.mesh, Meshes):
+                    dm = d.W.mesh
+                    for name in ("cand_start", "mhist", "mshift0"):
+                        getattr(dm, name).copy_to_host(getattr(w.mesh, name))
+                    mesh = w.mesh._replace(cand_t=dm.cand_t.copy_to_host())
+                    self._walls = w._replace(mesh=mesh)
             else:
                 self._list = NeighbourList(*(a.copy_to_host() for a in d.L))
             d.stale.discard(g)
@@ -224,7 +267,7 @@ class CudaSimulation(Simulation):
         def step(s: int, mode: int) -> None:
             pair(d.ctl, P, L, prm, d.stat)
             particle(d.ctl, mode, P, L, W, prm, d.stat, d.wpart, d.disp)
-            chunk(d.ctl, mode, d.stat, d.wpart, d.disp, d.cstat, d.cdisp, W.acc)
+            chunk(d.ctl, mode, d.stat, d.wpart, d.disp, d.cstat, d.cdisp, W.acc, W, prm.dt)
             finish(d.ctl, s, nsteps, 0, W, prm, d.cstat, d.cdisp, W.acc, d.info)
 
         if nsteps == 0:
@@ -233,7 +276,7 @@ class CudaSimulation(Simulation):
         else:
             if phase == 0:
                 particle(d.ctl, mod.OPEN, P, L, W, prm, d.stat, d.wpart, d.disp)
-                chunk(d.ctl, mod.OPEN, d.stat, d.wpart, d.disp, d.cstat, d.cdisp, W.acc)
+                chunk(d.ctl, mod.OPEN, d.stat, d.wpart, d.disp, d.cstat, d.cdisp, W.acc, W, prm.dt)
                 finish(d.ctl, 0, nsteps, 1, W, prm, d.cstat, d.cdisp, W.acc, d.info)
             todo = min(int(nsteps), int(self._pause))
             s = 0
@@ -394,9 +437,34 @@ class CudaSimulation(Simulation):
             total, L.j, L.rev_start, d.rev_fill, L.rev_k
         )
         sk.rev_sort_kernel[nb, THREADS](L.rev_start, L.rev_k, P.pos, P.pos_build)
+        if self.scene.meshes:
+            self._mesh_rebuild()
         d.stale.update(_GROUPS)
         self._n_entries = total
         self._n_rebuilds += 1
+
+    def _mesh_rebuild(self) -> None:
+        """Each particle's candidate triangles on the device (counts, scan, one 8-byte read of
+        the total, fill: the CPU build's lists), the rows of particles without any cleared,
+        the meshes' translations at this build kept."""
+        d = self._dev
+        sk = search_kernels()
+        n = self.n
+        nb = _blocks(n)
+        W = d.W
+        m = W.mesh
+        args = (d.P.pos, d.P.rad, float(self.skin), W.point, self._n_planes, m.mvert, m.mtri)
+        args += d.mgrid
+        sk.mesh_count_kernel[nb, THREADS](*args, d.mcnt, d.none)
+        self._scan(d.mcnt, n, m.cand_start)
+        m.cand_start[n:].copy_to_host(d.total_host)
+        total = int(d.total_host[0])
+        if total > len(m.cand_t):
+            m = m._replace(cand_t=cuda.to_device(np.zeros(int(total * 1.25) + 16, np.int32)))
+            d.W = W._replace(mesh=m)
+        sk.mesh_fill_kernel[nb, THREADS](*args, m.cand_start, m.cand_t)
+        sk.mesh_clear_kernel[nb, THREADS](m.cand_start, m.mhist)
+        sk.mesh_shift_kernel[1, 1](W.point, self._n_planes, m.mshift0)
 
     # ------------------------------------------------------------------ host side
     def set_wall_velocity(self, index: int, velocity) -> None:
@@ -407,6 +475,9 @@ class CudaSimulation(Simulation):
 
     def set_velocities(self, velocities=None, angular_velocities=None) -> None:
         return self._host_edit(Simulation.set_velocities, velocities, angular_velocities)
+
+    def set_mesh_velocity(self, index: int, velocity) -> None:
+        return self._host_edit(Simulation.set_mesh_velocity, index, velocity)
 
     def set_gravity(self, gravity) -> None:
         return self._host_edit(Simulation.set_gravity, gravity)
@@ -459,9 +530,23 @@ def _pulling_method(name: str, *groups: str):
 
 for _name in ("positions", "unwrapped_positions", "velocities", "angular_velocities", "forces"):
     setattr(CudaSimulation, _name, _pulling_property(_name, "particles"))
-for _name in ("wall_forces", "wall_positions", "wall_velocities"):
+for _name in (
+    "wall_forces",
+    "wall_positions",
+    "wall_velocities",
+    "mesh_forces",
+    "mesh_displacements",
+    "mesh_velocities",
+):
     setattr(CudaSimulation, _name, _pulling_property(_name, "walls"))
 CudaSimulation.kinetic_energy = _pulling_method("kinetic_energy", "particles")
-for _name in ("n_contacts", "contact_counts", "contacts", "pair_stress", "memory_bytes"):
+for _name in (
+    "n_contacts",
+    "contact_counts",
+    "contacts",
+    "mesh_contacts",
+    "pair_stress",
+    "memory_bytes",
+):
     setattr(CudaSimulation, _name, _pulling_method(_name, *_GROUPS))
 del _name

@@ -3,8 +3,10 @@
 :func:`scene_features` says what a scene uses: the kernel family of its pair law and of its
 wall law (``pair_kernel``, ``wall_kernel``) and the compile-time switches, those of each side
 (the composition's and the family's own; the wall side's prefixed ``wall_``) and the scene's
-(periodic axes, walls, gravity). :func:`load_kernel` returns a module compiled for exactly
-those, with :func:`pair_slots` and :func:`wall_slots` naming the parameter slots it reads.
+(periodic axes, walls, meshes, gravity). :func:`load_kernel` returns a module compiled for
+exactly those, with :func:`pair_slots` and :func:`wall_slots` naming the parameter slots it
+reads. A scene without meshes has ``meshes`` off and compiles the kernel it compiled before
+meshes existed (their code is a branch on that constant).
 
 The module is the step template with its feature block generated: the two families imported
 from their law modules, every switch as a constant, and the readers of the two parameter
@@ -19,13 +21,17 @@ caller's file only) would do. Nothing here knows a particular law: each family
 
 from __future__ import annotations
 
+import ast
 import hashlib
 import importlib.util
+import io
 import os
 import re
 import sys
 import tempfile
+import textwrap
 import threading
+import tokenize
 from pathlib import Path
 from types import ModuleType
 
@@ -41,6 +47,7 @@ SCENE_SWITCHES: dict[str, str] = {
     "periodic_y": "minimum image along y",
     "periodic_z": "minimum image along z",
     "walls": "planar walls",
+    "meshes": "triangle-mesh walls (engine.Mesh: candidate triangles, face/edge/vertex contacts)",
     "gravity": "gravity",
 }
 
@@ -118,14 +125,16 @@ def scene_features(scene, periodic: tuple[bool, bool, bool] | None = None) -> di
     """The features ``scene`` uses (``periodic`` overrides the scene's periodic flags)."""
     per = scene.periodic if periodic is None else tuple(bool(p) for p in periodic)
     pair = scene.pair_law.kernel
-    # without walls the wall side is never called: the scene's wall law, or any wall law's
-    # family, fills it
+    # without walls or meshes the wall side is never called: the scene's wall law, or any
+    # wall law's family, fills it
+    meshes = bool(getattr(scene, "meshes", ()))
     wall = (scene.wall_law or wall_laws()[0]).kernel
     f: dict = {"pair_kernel": pair.name, "wall_kernel": wall.name}
     f.update(_side("", pair, scene.pair_law))  # each law says what it switches on
-    f.update(_side("wall_", wall, scene.wall_law if scene.walls else None))
+    f.update(_side("wall_", wall, scene.wall_law if scene.walls or meshes else None))
     f.update(periodic_x=per[0], periodic_y=per[1], periodic_z=per[2])
     f["walls"] = bool(scene.walls)
+    f["meshes"] = meshes  # off: the kernel of a scene of planes only, as before meshes
     f["gravity"] = any(g != 0 for g in scene.gravity)
     return f
 
@@ -146,8 +155,8 @@ def pair_slots(features: dict) -> tuple[str, ...]:
 
 def wall_slots(features: dict) -> tuple[str, ...]:
     """Names of the wall-law parameters the kernel for ``features`` reads, in slot order
-    (none without walls)."""
-    if not features["walls"]:
+    (none without walls or meshes)."""
+    if not (features["walls"] or features["meshes"]):
         return ()
     kernel = kernel_named(features["wall_kernel"])
     return kernel.used_slots(_unprefixed(features, kernel, "wall_"))
@@ -228,9 +237,65 @@ def _inline_particle_pass(src: str) -> str:
     return src[: call.start()] + "\n" + text + src[call.end() :]
 
 
+_MESH_CALL = re.compile(r"\n( *)# >>> _mesh_one.*?\n(.*?)\n *# <<< _mesh_one\n", re.S)
+
+
+def _inline_mesh_contacts(src: str) -> str:
+    """:func:`_particle_one` with :func:`_mesh_one`'s body written in place of its call (for
+    both targets): its local names prefixed ``_m_``, each parameter the argument's own name
+    where the argument is a name (an array bound to a local of its own would cost a
+    reference count per particle, as the call did), else a local set to the argument's
+    expression; its one ``return`` (its last line) assigns the call's targets. The
+    function itself stays (unused)."""
+    tree = ast.parse(src)
+    fn = next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "_mesh_one")
+    params = [a.arg for a in fn.args.args]
+    local = set(params) | {
+        n.id for n in ast.walk(fn) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)
+    }
+    ret = fn.body[-1]
+    if not isinstance(ret, ast.Return) or any(
+        isinstance(n, ast.Return) for stmt in fn.body[:-1] for n in ast.walk(stmt)
+    ):
+        raise RuntimeError("step template: _mesh_one must end in its one return")
+    lines = src.splitlines(keepends=True)
+    first = fn.body[1] if isinstance(fn.body[0], ast.Expr) else fn.body[0]  # after the doc
+    body = "".join(lines[first.lineno - 1 : ret.lineno - 1])
+    call = _MESH_CALL.search(src)
+    if call is None:
+        raise RuntimeError("step template: the call of _mesh_one or its markers not found")
+    stmt = ast.parse(textwrap.dedent(call.group(2))).body[0]
+    targets = [t.id for t in stmt.targets[0].elts]
+    args = [ast.unparse(a) for a in stmt.value.args]
+    names = {p: f"_m_{p}" for p in local}
+    binds = []
+    for p, a in zip(params, args, strict=True):
+        if a.isidentifier():
+            names[p] = a
+        else:
+            binds.append(f"_m_{p} = {a}\n")
+
+    def rename(text: str) -> str:
+        out = []
+        prev = None
+        for tok in tokenize.generate_tokens(io.StringIO(text).readline):
+            if tok.type == tokenize.NAME and tok.string in names and prev != ".":
+                tok = tok._replace(string=names[tok.string])
+            out.append(tok)
+            prev = tok.string
+        return tokenize.untokenize(out)
+
+    values = ", ".join(names[e.id] for e in ret.value.elts)
+    text = "".join(binds) + textwrap.dedent(rename(body)) + f"{', '.join(targets)} = {values}\n"
+    pad = call.group(1)
+    text = "".join(pad + line if line.strip() else line for line in text.splitlines(True))
+    return src[: call.start()] + "\n" + text + src[call.end() :]
+
+
 def _source(features: dict) -> str:
     block = features_block(features)
-    return _inline_particle_pass(_BLOCK.sub(lambda _m: block, _TEMPLATE.read_text(), count=1))
+    src = _BLOCK.sub(lambda _m: block, _TEMPLATE.read_text(), count=1)
+    return _inline_particle_pass(_inline_mesh_contacts(src))
 
 
 def _module_file(kernel: LawKernel) -> Path | None:

@@ -23,11 +23,28 @@ Particles = namedtuple(
 #: ``rev_start`` (N+1,), ``rev_k`` (capacity,).
 NeighbourList = namedtuple("NeighbourList", "start j entry rev_start rev_k")
 
-#: Planar walls: a point [m], the unit normal into the domain, the velocity [m/s] (n_walls, 3);
-#: ``hist``: per particle and wall contact history (N * n_walls, N_WALL_HIST), row
-#: ``i * n_walls + w``; ``force``: force of the particles on each wall [N] (n_walls, 3);
-#: ``acc``: its per-chunk partial sums (n_chunks, n_walls, 3).
-Walls = namedtuple("Walls", "point normal vel hist force acc")
+#: Walls: the planes, then the meshes. Planes: the unit normal into the domain (n_planes, 3);
+#: ``hist``: per particle and plane contact history (N * n_planes, N_WALL_HIST), row
+#: ``i * n_planes + w``. Rows ``0 .. n_planes - 1`` of ``point``, ``vel``, ``force`` and
+#: ``acc`` are the planes' (a point of the plane [m], its velocity [m/s]), rows ``n_planes +
+#: m`` those of mesh m (its translation since time 0 [m], its velocity [m/s]): every wall
+#: moves and sums its force alike. ``force``: force of the particles on each wall [N]
+#: (n_planes + n_meshes, 3); ``acc``: its per-chunk partial sums (n_chunks, n_planes +
+#: n_meshes, 3). ``mesh``: the meshes' arrays (:data:`Meshes`) where the kernel has meshes
+#: compiled in, else an empty tuple (a scene of planes passes the kernel what it passed
+#: before meshes existed: an empty tuple adds no argument to the compiled functions).
+Walls = namedtuple("Walls", "point normal vel hist force acc mesh")
+
+#: Meshes (engine.kernel.mesh, empty arrays without meshes): ``mvert``, ``mtri``, ``mtri_n``,
+#: ``medge``, ``mvert_start``, ``mvert_edge`` (geometry and topology), ``cand_start``,
+#: ``cand_t`` (each particle's candidate triangles), ``mhist`` (contact rows), ``mscr``
+#: (scratch of the particle in hand), ``mshift0`` (the meshes' translations at the last list
+#: build, (n_meshes, 3) [m]), ``box`` (the box's lower corner and lengths, (2, 3) [m]: a
+#: contact carried across a periodic face is matched to its row at the nearest image).
+Meshes = namedtuple(
+    "Meshes",
+    "mvert mtri mtri_n medge mvert_start mvert_edge cand_start cand_t mhist mscr mshift0 box",
+)
 
 #: Step parameters: pair and wall law parameter arrays (named slots, see engine.kernel.specialise),
 #: gravity [m/s^2] (3,), box lengths [m] (3,), time step dt [s], Verlet skin [m], the overlap

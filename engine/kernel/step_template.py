@@ -39,6 +39,15 @@ from numba import njit
 
 from engine.contact.compose import composition, rolling_torque
 from engine.core.config import CHUNK, NJIT, NJIT_INLINE
+from engine.kernel.mesh import (
+    MESH_SLOTS,
+    SAME_POINT,
+    T_MESH,
+    T_OWN,
+    edge_function,
+    end_dot,
+    mesh_drift2,
+)
 from engine.kernel.state import (
     NAN,
     OK,
@@ -82,6 +91,7 @@ PERIODIC_X = True
 PERIODIC_Y = True
 PERIODIC_Z = True
 WALLS = True
+MESHES = True
 GRAVITY = True
 PAIR_EFFECTIVE_RADIUS = False
 PairParams = PAIR_KERNEL.params
@@ -118,8 +128,9 @@ def _wall_flags():
 
 # <<< features
 
-ROTATION = FRICTION or ROLLING or (WALLS and (WALL_FRICTION or WALL_ROLLING))
-ANY_ROLLING = ROLLING or (WALLS and WALL_ROLLING)
+ANY_WALLS = WALLS or MESHES
+ROTATION = FRICTION or ROLLING or (ANY_WALLS and (WALL_FRICTION or WALL_ROLLING))
+ANY_ROLLING = ROLLING or (ANY_WALLS and WALL_ROLLING)
 #: history slots of a pair entry: largest overlap (contact marker), tangential spring (3)
 N_HIST = 4 if FRICTION else 1
 #: history slots of a particle-wall row: contact marker, tangential spring (3)
@@ -130,6 +141,14 @@ F_SLOT = N_HIST
 T_SLOT = F_SLOT + 3
 R_SLOT = T_SLOT + 3 if FRICTION else T_SLOT
 N_SLOT = R_SLOT + 1 if ROLLING else R_SLOT
+#: a mesh contact row (engine.kernel.mesh): the wall history, then the contact point in the
+#: mesh's frame (3) [m], the mesh + 1 (0: a free row), the overlap [m]
+MH_POINT = N_WALL_HIST
+MH_TAG = N_WALL_HIST + 3
+MH_OVERLAP = N_WALL_HIST + 4
+N_MESH_HIST = N_WALL_HIST + 5
+#: mesh contact rows per particle: its kept contacts and one spare (no history kept)
+MESH_ROWS = MESH_SLOTS + 1
 
 # particle_pass modes
 FORCES = 0  # forces only
@@ -373,6 +392,19 @@ def _particle_chunk(c, mode, P, L, W, prm, S):
     wnormal = W.normal
     wvel = W.vel
     whist = W.hist
+    if MESHES:  # (without meshes W.mesh is an empty tuple, and this is compiled out)
+        ms = W.mesh
+        mvert = ms.mvert
+        mtri = ms.mtri
+        mtri_n = ms.mtri_n
+        medge = ms.medge
+        mvert_start = ms.mvert_start
+        mvert_edge = ms.mvert_edge
+        cand_start = ms.cand_start
+        cand_t = ms.cand_t
+        mhist = ms.mhist
+        mscr = ms.mscr
+        mbox = ms.box
     dt = prm.dt
     ovl_frac = prm.max_overlap
     max_step = prm.max_step
@@ -404,6 +436,17 @@ def _particle_chunk(c, mode, P, L, W, prm, S):
             whist,
             wacc,
             stat,
+            mvert,
+            mtri,
+            mtri_n,
+            medge,
+            mvert_start,
+            mvert_edge,
+            cand_start,
+            cand_t,
+            mhist,
+            mscr,
+            mbox,
             dt,
             ovl_frac,
             max_step,
@@ -413,6 +456,9 @@ def _particle_chunk(c, mode, P, L, W, prm, S):
         )
         # <<< _particle_one
         disp2 = max(disp2, e2)
+    if MESHES:
+        if c == 0 and (mode == STEP or mode == OPEN):  # the meshes move too: list valid?
+            disp2 = max(disp2, mesh_drift2(wpoint, wvel, ms.mshift0, wnormal.shape[0], dt))
     S.chunk_disp[c] = disp2
 
 
@@ -441,6 +487,17 @@ def _particle_one(
     whist,
     wacc,
     stat,
+    mvert,
+    mtri,
+    mtri_n,
+    medge,
+    mvert_start,
+    mvert_edge,
+    cand_start,
+    cand_t,
+    mhist,
+    mscr,
+    mbox,
     dt,
     ovl_frac,
     max_step,
@@ -448,18 +505,21 @@ def _particle_one(
     wlaw,
     wflags,
 ):
-    """Particle i of the particle pass: gather the pair forces stored for it, add walls,
-    rolling resistance and gravity, integrate (velocity Verlet kick and drift).
+    """Particle i of the particle pass: gather the pair forces stored for it, add walls (the
+    planes, then the meshes: :func:`_mesh_one`), rolling resistance and gravity, integrate
+    (velocity Verlet kick and drift).
 
     Problems are flagged in row c of ``stat`` and the force of i on each wall is subtracted
-    from ``wacc[c]`` [N] (the CPU: i's chunk; CUDA: i itself). It takes the records' fields
+    from ``wacc[c]`` [N] (the CPU: i's chunk; CUDA: i itself); ``mscr[c]`` is the scratch of
+    its mesh contacts. It takes the records' fields
     as arrays and scalars, not the records: passed a record, the
     inlined body took a reference to each of its arrays per particle, which made the CPU
     pass ten times slower. Returns the squared
     displacement of i since the last list build [m^2] (0 in a mode without drift). The one
     body of the particle pass for both targets (a CUDA device function in engine.cuda).
     """
-    nw = wpoint.shape[0]
+    # the planes (the meshes' rows of wpoint follow them)
+    nw = wnormal.shape[0] if MESHES else wpoint.shape[0]
     h = dt if mode == STEP else 0.5 * dt
     ri = rad[i]
     fx = frc[i, 0]
@@ -545,6 +605,62 @@ def _particle_one(
                     tz += tiz
                 if WALL_ROLLING:
                     roll += rm
+        if MESHES:
+            if cand_start[i + 1] > cand_start[i]:  # near a mesh at the last list build
+                msx = 0.0
+                msy = 0.0
+                msz = 0.0
+                if WALL_FRICTION:
+                    msx = ri * omg[i, 0]
+                    msy = ri * omg[i, 1]
+                    msz = ri * omg[i, 2]
+                # >>> _mesh_one (engine.kernel.specialise writes its body here: called, the
+                # fourteen arrays it takes cost as many reference counts each time)
+                mfx, mfy, mfz, mtx, mty, mtz, mroll = _mesh_one(
+                    i,
+                    c,
+                    pos[i, 0],
+                    pos[i, 1],
+                    pos[i, 2],
+                    vel[i, 0],
+                    vel[i, 1],
+                    vel[i, 2],
+                    msx,
+                    msy,
+                    msz,
+                    ri,
+                    mass[i],
+                    nw,
+                    wpoint,
+                    wvel,
+                    wacc,
+                    stat,
+                    mvert,
+                    mtri,
+                    mtri_n,
+                    medge,
+                    mvert_start,
+                    mvert_edge,
+                    cand_start,
+                    cand_t,
+                    mhist,
+                    mscr,
+                    mbox,
+                    ovl_frac,
+                    dt,
+                    wlaw,
+                    wflags,
+                )
+                # <<< _mesh_one
+                fx += mfx
+                fy += mfy
+                fz += mfz
+                if WALL_FRICTION:
+                    tx += mtx
+                    ty += mty
+                    tz += mtz
+                if WALL_ROLLING:
+                    roll += mroll
         if ANY_ROLLING:  # every contact pulls against the same unit spin: applied once
             ax, ay, az = rolling_torque(omg[i, 0], omg[i, 1], omg[i, 2], 1.0, roll, ri)
             tx += ax
@@ -597,6 +713,370 @@ def _particle_one(
             ez = z - pos_build[i, 2]
             e2 = ex * ex + ey * ey + ez * ez
     return e2
+
+
+@njit(**NJIT_INLINE)
+def _mesh_keep(mscr, c, n_c, first, qx, qy, qz, nx, ny, nz, d, m, tol2):
+    """Add a contact (closest point q in the mesh's frame [m], unit normal n from the mesh to
+    the particle, overlap d [m], mesh m) to the particle's list ``mscr[c]`` unless a contact
+    of the same mesh (listed from ``first``) has its closest point within ``sqrt(tol2)``
+    [m]: then it is that contact, seen again through the rounding (engine.kernel.mesh).
+    Returns the new count (unchanged when full: more contacts than ``MESH_CONTACTS``)."""
+    for q in range(first, n_c):
+        ex = mscr[c, q, 0] - qx
+        ey = mscr[c, q, 1] - qy
+        ez = mscr[c, q, 2] - qz
+        if ex * ex + ey * ey + ez * ez <= tol2:
+            return n_c
+    if n_c >= mscr.shape[1]:
+        return n_c
+    mscr[c, n_c, 0] = qx
+    mscr[c, n_c, 1] = qy
+    mscr[c, n_c, 2] = qz
+    mscr[c, n_c, 3] = nx
+    mscr[c, n_c, 4] = ny
+    mscr[c, n_c, 5] = nz
+    mscr[c, n_c, 6] = d
+    mscr[c, n_c, 7] = m
+    mscr[c, n_c, 8] = -1.0
+    return n_c + 1
+
+
+@njit(**NJIT)
+def _mesh_one(
+    i,
+    c,
+    xi,
+    yi,
+    zi,
+    vxi,
+    vyi,
+    vzi,
+    sx,
+    sy,
+    sz,
+    ri,
+    mi,
+    nw,
+    wpoint,
+    wvel,
+    wacc,
+    stat,
+    mvert,
+    mtri,
+    mtri_n,
+    medge,
+    mvert_start,
+    mvert_edge,
+    cand_start,
+    cand_t,
+    mhist,
+    mscr,
+    mbox,
+    ovl_frac,
+    dt,
+    wlaw,
+    wflags,
+):
+    """The mesh contacts of particle i (centre x [m], velocity v [m/s], spin term
+    ``s = R_i w_i`` [m/s], radius ri [m], mass mi [kg]) through the one wall composition.
+
+    1. Contacts: over its candidate triangles (by mesh, then triangle), each face whose
+       interior holds the centre's projection, each edge and vertex this triangle owns whose
+       closest point is a local minimum of the distance over the mesh (engine.kernel.mesh),
+       within ri; one contact per closest point (``_mesh_keep``); a mesh touched but left
+       without a contact by the rounding gets its nearest point.
+    2. History: each contact takes the kept row of the same mesh whose last contact point
+       lies nearest its own (within ri; nearest pairs first), so that a contact rolling or
+       sliding from one triangle to the next, across an edge or a vertex, keeps its
+       tangential spring; rows left unclaimed are contacts that ended (cleared); a new
+       contact takes a free row (the spare row, its history not kept, when none is free).
+    3. Forces: ``wall_contact`` as for a plane (normal from the closest point to the
+       centre, the mesh's velocity), the force on mesh m into ``wacc[c, nw + m]``.
+
+    Returns the force [N], torque [N m] and rolling moment [N] on i. Its one ``return`` is
+    its last line: engine.kernel.specialise writes the body in place of its call in
+    :func:`_particle_one` (its locals renamed, its array arguments the caller's own), as
+    numba would count a reference to each of the fourteen arrays at every call."""
+    r2 = ri * ri
+    tol2 = (SAME_POINT * ri) * (SAME_POINT * ri)
+    n_c = 0
+    first = 0
+    cur = -1
+    best = math.inf
+    bx = 0.0
+    by = 0.0
+    bz = 0.0
+    px = 0.0
+    py = 0.0
+    pz = 0.0
+    k1 = cand_start[i + 1]
+    k = cand_start[i]
+    while True:
+        m = mtri[cand_t[k], T_MESH] if k < k1 else -1
+        if m != cur:
+            if cur >= 0 and n_c == first and best < r2:
+                # touched but nothing counted (rounding): the nearest point is a contact
+                dist = math.sqrt(best)
+                n_c = _mesh_keep(
+                    mscr,
+                    c,
+                    n_c,
+                    first,
+                    bx,
+                    by,
+                    bz,
+                    (px - bx) / dist,
+                    (py - by) / dist,
+                    (pz - bz) / dist,
+                    ri - dist,
+                    cur,
+                    tol2,
+                )
+            if k >= k1:
+                break
+            cur = m
+            first = n_c
+            best = math.inf
+            px = xi - wpoint[nw + m, 0]  # the centre in the mesh's frame
+            py = yi - wpoint[nw + m, 1]
+            pz = zi - wpoint[nw + m, 2]
+        t = cand_t[k]
+        k += 1
+        a = mtri[t, 0]
+        b = mtri[t, 1]
+        cc = mtri[t, 2]
+        nx = mtri_n[t, 0]
+        ny = mtri_n[t, 1]
+        nz = mtri_n[t, 2]
+        hh = (px - mvert[a, 0]) * nx + (py - mvert[a, 1]) * ny + (pz - mvert[a, 2]) * nz
+        if hh * hh >= r2:  # its plane out of reach: so are its face, edges and corners
+            continue
+        # the face: the projection strictly inside (the edge functions its edges also read)
+        s0 = edge_function(mvert, mtri_n, t, a, b, px, py, pz)
+        s1 = edge_function(mvert, mtri_n, t, b, cc, px, py, pz)
+        s2 = edge_function(mvert, mtri_n, t, cc, a, px, py, pz)
+        if s0 > 0.0 and s1 > 0.0 and s2 > 0.0:
+            qx = px - hh * nx
+            qy = py - hh * ny
+            qz = pz - hh * nz
+            if hh * hh < best:
+                best = hh * hh
+                bx = qx
+                by = qy
+                bz = qz
+            if hh < 0.0:  # two-sided: the particle below the triangle
+                hh = -hh
+                nx = -nx
+                ny = -ny
+                nz = -nz
+            n_c = _mesh_keep(mscr, c, n_c, first, qx, qy, qz, nx, ny, nz, ri - hh, m, tol2)
+        own = mtri[t, T_OWN]
+        if own != 0:
+            for q in range(3):
+                if own & (1 << q):  # its edge q: the closest point inside the segment
+                    e = mtri[t, 3 + q]
+                    v = medge[e, 0]
+                    w = medge[e, 1]
+                    dv = end_dot(mvert, v, w, px, py, pz)
+                    dw = end_dot(mvert, w, v, px, py, pz)
+                    if dv > 0.0 and dw > 0.0:
+                        ex = mvert[w, 0] - mvert[v, 0]
+                        ey = mvert[w, 1] - mvert[v, 1]
+                        ez = mvert[w, 2] - mvert[v, 2]
+                        f = dv / (ex * ex + ey * ey + ez * ez)
+                        qx = mvert[v, 0] + f * ex
+                        qy = mvert[v, 1] + f * ey
+                        qz = mvert[v, 2] + f * ez
+                        dx = px - qx
+                        dy = py - qy
+                        dz = pz - qz
+                        dd = dx * dx + dy * dy + dz * dz
+                        if dd < best:
+                            best = dd
+                            bx = qx
+                            by = qy
+                            bz = qz
+                        if dd < r2:
+                            # a local minimum: no triangle beside the edge has the
+                            # projection on its side of it
+                            ok = True
+                            for side in range(2):
+                                u = medge[e, 2 + 2 * side]
+                                if u >= 0:
+                                    uq = medge[e, 3 + 2 * side]
+                                    s = edge_function(
+                                        mvert,
+                                        mtri_n,
+                                        u,
+                                        mtri[u, uq],
+                                        mtri[u, (uq + 1) % 3],
+                                        px,
+                                        py,
+                                        pz,
+                                    )
+                                    if s > 0.0:
+                                        ok = False
+                            if ok:
+                                dist = math.sqrt(dd)
+                                n_c = _mesh_keep(
+                                    mscr,
+                                    c,
+                                    n_c,
+                                    first,
+                                    qx,
+                                    qy,
+                                    qz,
+                                    dx / dist,
+                                    dy / dist,
+                                    dz / dist,
+                                    ri - dist,
+                                    m,
+                                    tol2,
+                                )
+            for q in range(3):
+                if own & (8 << q):  # its corner q
+                    v = mtri[t, q]
+                    dx = px - mvert[v, 0]
+                    dy = py - mvert[v, 1]
+                    dz = pz - mvert[v, 2]
+                    dd = dx * dx + dy * dy + dz * dz
+                    if dd < best:
+                        best = dd
+                        bx = mvert[v, 0]
+                        by = mvert[v, 1]
+                        bz = mvert[v, 2]
+                    if dd < r2:
+                        # a local minimum: the projection past v on none of its edges
+                        ok = True
+                        for kk in range(mvert_start[v], mvert_start[v + 1]):
+                            e = mvert_edge[kk]
+                            w = medge[e, 0] + medge[e, 1] - v
+                            if end_dot(mvert, v, w, px, py, pz) > 0.0:
+                                ok = False
+                        if ok:
+                            dist = math.sqrt(dd)
+                            n_c = _mesh_keep(
+                                mscr,
+                                c,
+                                n_c,
+                                first,
+                                mvert[v, 0],
+                                mvert[v, 1],
+                                mvert[v, 2],
+                                dx / dist,
+                                dy / dist,
+                                dz / dist,
+                                ri - dist,
+                                m,
+                                tol2,
+                            )
+
+    # 2. the kept rows: nearest (contact, row) pairs of the same mesh first
+    base = i * MESH_ROWS
+    claimed = 0
+    for _ in range(n_c):
+        nearest = r2
+        bj = -1
+        bs = -1
+        for j in range(n_c):
+            if mscr[c, j, 8] >= 0.0:
+                continue
+            tag = mscr[c, j, 7] + 1.0
+            for s in range(MESH_SLOTS):
+                row = base + s
+                if (claimed >> s) & 1 or mhist[row, MH_TAG] != tag:
+                    continue
+                ex = mhist[row, MH_POINT] - mscr[c, j, 0]
+                ey = mhist[row, MH_POINT + 1] - mscr[c, j, 1]
+                ez = mhist[row, MH_POINT + 2] - mscr[c, j, 2]
+                if PERIODIC_X:  # a contact carried across a periodic face: the nearest image
+                    ex -= mbox[1, 0] * math.floor(ex / mbox[1, 0] + 0.5)
+                if PERIODIC_Y:
+                    ey -= mbox[1, 1] * math.floor(ey / mbox[1, 1] + 0.5)
+                if PERIODIC_Z:
+                    ez -= mbox[1, 2] * math.floor(ez / mbox[1, 2] + 0.5)
+                dd = ex * ex + ey * ey + ez * ez
+                if dd < nearest:
+                    nearest = dd
+                    bj = j
+                    bs = s
+        if bj < 0:
+            break
+        mscr[c, bj, 8] = base + bs
+        claimed |= 1 << bs
+    for s in range(MESH_SLOTS):  # unclaimed rows: their contacts ended
+        row = base + s
+        if not (claimed >> s) & 1 and mhist[row, MH_TAG] != 0.0:
+            for col in range(N_MESH_HIST):
+                mhist[row, col] = 0.0
+    for j in range(n_c):  # new contacts: a free row, else the spare one
+        if mscr[c, j, 8] < 0.0:
+            row = base + MESH_SLOTS
+            for s in range(MESH_SLOTS):
+                if not (claimed >> s) & 1:
+                    claimed |= 1 << s
+                    row = base + s
+                    break
+            if row == base + MESH_SLOTS:
+                for col in range(N_MESH_HIST):
+                    mhist[row, col] = 0.0
+            mscr[c, j, 8] = row
+
+    # 3. the forces, each contact through the wall composition
+    fx = 0.0
+    fy = 0.0
+    fz = 0.0
+    tx = 0.0
+    ty = 0.0
+    tz = 0.0
+    roll = 0.0
+    for j in range(n_c):
+        row = int(mscr[c, j, 8])
+        m = int(mscr[c, j, 7])
+        d = mscr[c, j, 6]
+        if d > ovl_frac * ri:
+            _flag(stat, c, OVERLAP, i, -1 - (nw + m), d / ri)
+        fcx, fcy, fcz, tix, tiy, tiz, _tjx, _tjy, _tjz, rm = wall_contact(
+            mhist,
+            row,
+            d,
+            mscr[c, j, 3],
+            mscr[c, j, 4],
+            mscr[c, j, 5],
+            vxi - wvel[nw + m, 0],
+            vyi - wvel[nw + m, 1],
+            vzi - wvel[nw + m, 2],
+            sx,
+            sy,
+            sz,
+            ri,
+            0.0,
+            ri,
+            mi,
+            wlaw,
+            wflags,
+            dt,
+        )
+        fx += fcx
+        fy += fcy
+        fz += fcz
+        wacc[c, nw + m, 0] -= fcx
+        wacc[c, nw + m, 1] -= fcy
+        wacc[c, nw + m, 2] -= fcz
+        if WALL_FRICTION:
+            tx += tix
+            ty += tiy
+            tz += tiz
+        if WALL_ROLLING:
+            roll += rm
+        if row < base + MESH_SLOTS:  # a kept row: where the contact is, for the next step
+            mhist[row, MH_POINT] = mscr[c, j, 0]
+            mhist[row, MH_POINT + 1] = mscr[c, j, 1]
+            mhist[row, MH_POINT + 2] = mscr[c, j, 2]
+            mhist[row, MH_TAG] = m + 1.0
+            mhist[row, MH_OVERLAP] = d
+    return fx, fy, fz, tx, ty, tz, roll
 
 
 @njit(**NJIT)

@@ -19,6 +19,7 @@ from ..contact.registry import law_names, pair_laws, wall_laws
 from ..contact.wall import WallMaterial
 from ..core.config import MAX_RADIUS_RATIO
 from ..core.errors import ParameterError
+from .mesh import Mesh
 
 
 def _vec3(owner: str, name: str, value) -> tuple[float, float, float]:
@@ -98,12 +99,14 @@ class Scene:
             is hi - lo), informative elsewhere.
         periodic: three booleans, minimum-image periodicity along x, y, z.
         walls: planar walls (:class:`Plane`).
+        meshes: walls of finite extent (:class:`engine.Mesh`, triangle meshes; docs/MESH.md).
         gravity: acceleration [m/s^2].
         pair_law: :class:`BilinearAdhesive`, :class:`EEPA` or :class:`HertzMindlin` for
             particle pairs.
-        wall_law: :class:`HertzMindlin` for particle-wall contacts (required with walls);
+        wall_law: :class:`HertzMindlin` for particle-wall contacts, planes and meshes alike
+            (required with walls or meshes);
             its E and nu are the particles' elastic properties.
-        wall_material: :class:`WallMaterial` of the walls (required with walls).
+        wall_material: :class:`WallMaterial` of the walls and meshes (required with either).
     """
 
     def __init__(
@@ -120,6 +123,7 @@ class Scene:
         pair_law: BilinearAdhesive | EEPA | HertzMindlin | None = None,
         wall_law: HertzMindlin | None = None,
         wall_material: WallMaterial | None = None,
+        meshes: Sequence[Mesh] = (),
     ) -> None:
         pos = np.asarray(positions, dtype=np.float64)
         if pos.ndim != 2 or pos.shape[1] != 3 or pos.shape[0] < 1:
@@ -167,23 +171,27 @@ class Scene:
         for k, w in enumerate(self.walls):
             if not isinstance(w, Plane):
                 raise ParameterError(f"Scene.walls[{k}]", w, "an engine.Plane")
+        self.meshes = tuple(meshes)
+        for k, m in enumerate(self.meshes):
+            if not isinstance(m, Mesh):
+                raise ParameterError(f"Scene.meshes[{k}]", m, "an engine.Mesh")
         self.gravity = _vec3("Scene", "gravity", gravity)
 
         if not isinstance(pair_law, pair_laws()):
             raise ParameterError("Scene.pair_law", pair_law, f"an {law_names(pair_laws())}")
         self.pair_law = pair_law
-        if self.walls:
+        if self.walls or self.meshes:
             if not isinstance(wall_law, wall_laws()):
                 raise ParameterError(
                     "Scene.wall_law",
                     wall_law,
-                    f"an {law_names(wall_laws())} when the scene has walls",
+                    f"an {law_names(wall_laws())} when the scene has walls or meshes",
                 )
             if not isinstance(wall_material, WallMaterial):
                 raise ParameterError(
                     "Scene.wall_material",
                     wall_material,
-                    "an engine.WallMaterial when the scene has walls",
+                    "an engine.WallMaterial when the scene has walls or meshes",
                 )
         self.wall_law = wall_law
         self.wall_material = wall_material

@@ -22,6 +22,12 @@ from ..core.config import (
     SKIN_FRACTION,
 )
 from ..core.errors import InstabilityError, ParameterError, StabilityError
+from ..kernel.mesh import (
+    MESH_CONTACTS,
+    SCRATCH_WIDTH,
+    build_mesh_candidates,
+    clear_idle_rows,
+)
 from ..kernel.neighbour import (
     build_neighbour_list,
     renumber_list,
@@ -34,10 +40,11 @@ from ..kernel.state import OK as _STATUS_OK
 from ..kernel.state import OVERLAP as _STATUS_OVERLAP
 from ..kernel.state import PAUSE as _STATUS_PAUSE
 from ..kernel.state import REBUILD as _STATUS_REBUILD
-from ..kernel.state import NeighbourList, Particles, Scratch, StepParams, Walls
+from ..kernel.state import Meshes, NeighbourList, Particles, Scratch, StepParams, Walls
 from ..kernel.team import SYNC_STATUS, SYNC_STEPS, sync_length
 from ..kernel.virial import pair_virial
 from .backend import resolve_backend
+from .mesh import pack_meshes
 from .scene import Scene
 from .timestep import TimeStepLimit, adhesion_overlap, critical_time_step
 
@@ -117,6 +124,25 @@ class Contacts:
     wall_particles: np.ndarray
     wall_ids: np.ndarray
     wall_overlaps: np.ndarray
+
+
+@dataclass(frozen=True)
+class MeshContacts:
+    """Particle-mesh contacts at the last force evaluation (:meth:`Simulation.mesh_contacts`),
+    one per touching surface patch (a face, an edge or a vertex of the mesh), sorted by
+    particle, then mesh.
+
+    Attributes:
+        particles: (K,) particle ids.
+        meshes: (K,) index of the mesh in the scene's ``meshes``.
+        overlaps: (K,) overlaps [m].
+        points: (K, 3) the closest point of the mesh to the particle's centre [m].
+    """
+
+    particles: np.ndarray
+    meshes: np.ndarray
+    overlaps: np.ndarray
+    points: np.ndarray
 
 
 def _concat(parts: list, dtype) -> np.ndarray:
@@ -239,9 +265,12 @@ class Simulation:
         self.skin = float(skin)
         self._periodic = np.array(scene.periodic, dtype=np.bool_)
         self._check_box()
+        self._check_meshes()
 
         n = scene.n
         nw = len(scene.walls)
+        nm = len(scene.meshes)
+        self._n_planes = nw
         self._lo = scene.box[:, 0].copy()
         self._images = np.zeros((n, 3), dtype=np.int64)
         self._load(scene_features(scene))
@@ -268,13 +297,36 @@ class Simulation:
             pos_build=pos.copy(),
         )
         nchunk = -(-n // k.CHUNK)
+        # rows 0 .. nw - 1: the planes; nw + m: mesh m (its translation since time 0)
+        point = [w.point for w in scene.walls] + [(0.0, 0.0, 0.0)] * nm
+        vel = [w.velocity for w in (*scene.walls, *scene.meshes)]
+        #: the meshes' bin grids and topology (engine.kernel.mesh), made once
+        self._mesh_arrays = pack_meshes(scene.meshes, rmax + self.skin)
+        ma = self._mesh_arrays
         self._walls = Walls(
-            point=np.array([w.point for w in scene.walls], dtype=np.float64).reshape(nw, 3),
+            point=np.array(point, dtype=np.float64).reshape(nw + nm, 3),
             normal=np.array([w.normal for w in scene.walls], dtype=np.float64).reshape(nw, 3),
-            vel=np.array([w.velocity for w in scene.walls], dtype=np.float64).reshape(nw, 3),
+            vel=np.array(vel, dtype=np.float64).reshape(nw + nm, 3),
             hist=np.zeros((n * nw, k.N_WALL_HIST)),
-            force=np.zeros((nw, 3)),
-            acc=np.zeros((nchunk, nw, 3)),
+            force=np.zeros((nw + nm, 3)),
+            acc=np.zeros((nchunk, nw + nm, 3)),
+            # a kernel without meshes takes no mesh arrays (an empty tuple: nothing changes)
+            mesh=Meshes(
+                mvert=ma["mvert"],
+                mtri=ma["mtri"],
+                mtri_n=ma["mtri_n"],
+                medge=ma["medge"],
+                mvert_start=ma["mvert_start"],
+                mvert_edge=ma["mvert_edge"],
+                cand_start=np.zeros(n + 1, dtype=np.int64),
+                cand_t=np.zeros(16 if nm else 0, dtype=np.int32),
+                mhist=np.zeros((n * k.MESH_ROWS if nm else 0, k.N_MESH_HIST)),
+                mscr=np.zeros((nchunk if nm else 0, MESH_CONTACTS, SCRATCH_WIDTH)),
+                mshift0=np.zeros((nm, 3)),
+                box=np.stack([self._lo, scene.box_lengths]),
+            )
+            if self._features["meshes"]
+            else (),
         )
         self._params = StepParams(
             pair=self._pair_params(),
@@ -370,6 +422,31 @@ class Simulation:
                     f"2 Rmax + skin, for the minimum image)",
                 )
 
+    def _check_meshes(self) -> None:
+        """A mesh is not repeated across a periodic face: along a periodic axis it must reach
+        beyond both faces of the box by the largest radius plus the skin (a wall extruded
+        along the axis, as a slot hopper's: every particle, wrapped into the box or a little
+        past a face between two list builds, meets the mesh around it), or keep that far
+        inside them (no particle meets it across a face)."""
+        margin = float(self.scene.radii.max()) + self.skin
+        for k, mesh in enumerate(self.scene.meshes):
+            for a, axis in enumerate("xyz"):
+                if not self._periodic[a]:
+                    continue
+                lo, hi = self.scene.box[a]
+                mn, mx = float(mesh.vertices[:, a].min()), float(mesh.vertices[:, a].max())
+                if (mn <= lo - margin and mx >= hi + margin) or (
+                    mn >= lo + margin and mx <= hi - margin
+                ):
+                    continue
+                raise ParameterError(
+                    f"Scene.meshes[{k}]",
+                    f"{mesh.name} from {mn:.6g} to {mx:.6g} m along the periodic axis {axis}",
+                    f"beyond both faces of the box ({lo:.6g}, {hi:.6g} m) by the largest "
+                    f"radius plus the skin ({margin:.4g} m), or that far inside them",
+                    "a mesh is not repeated across a periodic face",
+                )
+
     def _pair_params(self) -> np.ndarray:
         """The pair law's kernel parameters in the slots the specialised kernel names."""
         return pack_params(self.scene.pair_law.pair_values(), pair_slots(self._features))
@@ -377,7 +454,7 @@ class Simulation:
     def _wall_params(self) -> np.ndarray:
         """The wall law's kernel parameters in the slots the specialised kernel names."""
         slots = wall_slots(self._features)
-        if not self.scene.walls:
+        if not (self.scene.walls or self.scene.meshes):
             return np.full(len(slots) + 1, math.nan)
         return pack_params(self.scene.wall_law.wall_values(self.scene.wall_material), slots)
 
@@ -451,8 +528,41 @@ class Simulation:
             self._n_rebuilds += 1
             if total >= 0:
                 self._n_entries = int(total)
-                return
+                break
             self._grow(-int(total))
+        self._build_mesh_candidates()
+
+    def _build_mesh_candidates(self) -> None:
+        """Each particle's candidate triangles, from the positions of this list build (those
+        within its radius plus the skin), and the meshes' translations at it."""
+        if not self.scene.meshes:
+            return
+        nw = self._n_planes
+        ma = self._mesh_arrays
+        p = self._particles
+        while True:
+            m = self._walls.mesh
+            total = build_mesh_candidates(
+                p.pos,
+                p.rad,
+                self.skin,
+                self._walls.point,
+                nw,
+                m.mvert,
+                m.mtri,
+                ma["gridf"],
+                ma["gridi"],
+                ma["cell_start"],
+                ma["cell_tri"],
+                m.cand_start,
+                m.cand_t,
+            )
+            if total >= 0:
+                break
+            m = m._replace(cand_t=np.zeros(int(-total * 1.25) + 16, np.int32))
+            self._walls = self._walls._replace(mesh=m)
+        clear_idle_rows(m.cand_start, m.mhist)
+        m.mshift0[:] = self._walls.point[nw:]
 
     def _renumber(self) -> bool:
         """Renumber the particles in the cell order of their current positions (called at
@@ -499,10 +609,24 @@ class Simulation:
             if a.shape[0] == n:
                 a[:] = a[perm]
         self._images[:] = self._images[perm]
-        nw = self._walls.point.shape[0]
+        nw = self._n_planes
         if nw:
             hist = self._walls.hist.reshape(n, nw, -1)
             hist[:] = hist[perm]
+        if self.scene.meshes:
+            m = self._walls.mesh
+            mhist = m.mhist.reshape(n, -1, m.mhist.shape[1])
+            mhist[:] = mhist[perm]
+            # each particle's candidate triangles move with it (the same list, renumbered)
+            counts = np.diff(m.cand_start)[perm]
+            start = np.zeros(n + 1, dtype=np.int64)
+            np.cumsum(counts, out=start[1:])
+            src = np.repeat(m.cand_start[:-1][perm] - start[:-1], counts)
+            src += np.arange(start[-1])
+            cand_t = m.cand_t.copy()
+            cand_t[: start[-1]] = m.cand_t[src]
+            m = m._replace(cand_start=start, cand_t=cand_t)
+            self._walls = self._walls._replace(mesh=m)
         lst = self._list
         start = np.empty_like(lst.start)
         j = np.zeros_like(lst.j)
@@ -592,7 +716,12 @@ class Simulation:
                 (i,),
             )
         elif status == _STATUS_OVERLAP:
-            other = f"particle {j}" if j >= 0 else f"wall {-1 - j}"
+            w = -1 - j
+            other = (
+                f"particle {j}"
+                if j >= 0
+                else (f"wall {w}" if w < self._n_planes else f"mesh {w - self._n_planes}")
+            )
             msg = (
                 f"{where}: overlap between particle {i} and {other} is {value:.3g} x the "
                 f"radius, beyond max_overlap_fraction = {self._params.max_overlap:g}"
@@ -618,6 +747,19 @@ class Simulation:
                 "Simulation.set_wall_velocity.velocity", velocity, "3 finite numbers [m/s]"
             )
         self._walls.vel[index] = v
+
+    def set_mesh_velocity(self, index: int, velocity) -> None:
+        """Set the translation velocity [m/s] of mesh ``index`` (of the scene's ``meshes``)
+        for the following runs (a gate that opens)."""
+        nm = len(self.scene.meshes)
+        if not (isinstance(index, (int, np.integer)) and 0 <= index < nm):
+            raise ParameterError("Simulation.set_mesh_velocity.index", index, f"in [0, {nm})")
+        v = np.asarray(velocity, dtype=np.float64)
+        if v.shape != (3,) or not np.all(np.isfinite(v)):
+            raise ParameterError(
+                "Simulation.set_mesh_velocity.velocity", velocity, "3 finite numbers [m/s]"
+            )
+        self._walls.vel[self._n_planes + index] = v
 
     def set_gravity(self, gravity) -> None:
         """Set the acceleration of gravity [m/s^2] (3 numbers) for the following runs; forces
@@ -739,8 +881,8 @@ class Simulation:
         self._compute_forces()
 
     def _check_wall(self, index: int) -> None:
-        if not (isinstance(index, (int, np.integer)) and 0 <= index < len(self._walls.point)):
-            raise ParameterError("wall index", index, f"in [0, {len(self._walls.point)})")
+        if not (isinstance(index, (int, np.integer)) and 0 <= index < self._n_planes):
+            raise ParameterError("wall index", index, f"in [0, {self._n_planes})")
 
     # ------------------------------------------------------------------ checkpoints
     def __getstate__(self) -> dict:
@@ -835,17 +977,34 @@ class Simulation:
     @property
     def wall_forces(self) -> np.ndarray:
         """(n_walls, 3) force exerted by the particles on each wall [N]."""
-        return self._walls.force.copy()
+        return self._walls.force[: self._n_planes].copy()
 
     @property
     def wall_positions(self) -> np.ndarray:
         """(n_walls, 3) current point of each wall [m]."""
-        return self._walls.point.copy()
+        return self._walls.point[: self._n_planes].copy()
 
     @property
     def wall_velocities(self) -> np.ndarray:
         """(n_walls, 3) wall velocities [m/s]."""
-        return self._walls.vel.copy()
+        return self._walls.vel[: self._n_planes].copy()
+
+    @property
+    def mesh_forces(self) -> np.ndarray:
+        """(n_meshes, 3) force exerted by the particles on each mesh [N] (summed over chunks
+        in a fixed order: the same for any thread count)."""
+        return self._walls.force[self._n_planes :].copy()
+
+    @property
+    def mesh_displacements(self) -> np.ndarray:
+        """(n_meshes, 3) translation of each mesh since the start [m] (its vertices are the
+        scene's plus this)."""
+        return self._walls.point[self._n_planes :].copy()
+
+    @property
+    def mesh_velocities(self) -> np.ndarray:
+        """(n_meshes, 3) mesh velocities [m/s]."""
+        return self._walls.vel[self._n_planes :].copy()
 
     @property
     def n_rebuilds(self) -> int:
@@ -877,7 +1036,8 @@ class Simulation:
     def memory_bytes(self) -> int:
         """Bytes held by the engine's state arrays (list buffers at their capacity)."""
         arrays = [v for v in vars(self).values() if isinstance(v, np.ndarray)]
-        for rec in (self._particles, self._list, self._walls, self._params, self._scratch):
+        recs = (self._particles, self._list, self._walls, self._walls.mesh)
+        for rec in (*recs, self._params, self._scratch):
             arrays += [v for v in rec if isinstance(v, np.ndarray)]
         return sum(a.nbytes for a in arrays)
 
@@ -917,6 +1077,24 @@ class Simulation:
         )
         return sums / float(volume)
 
+    def mesh_contacts(self) -> MeshContacts:
+        """Particle-mesh contacts at the last force evaluation (:class:`MeshContacts`: one per
+        touching face, edge or vertex; a particle's contacts beyond the ``MESH_SLOTS`` kept
+        of engine.kernel.mesh, which keep no history, are not listed)."""
+        w = self._walls
+        k = self._k
+        if not self.scene.meshes:
+            none = np.zeros(0, dtype=np.int64)
+            return MeshContacts(none, none.copy(), np.zeros(0), np.zeros((0, 3)))
+        rows = w.mesh.mhist.reshape(self.n, k.MESH_ROWS, -1)[:, : k.MESH_SLOTS]
+        tag = rows[:, :, k.MH_TAG]
+        ii, ss = np.nonzero(tag > 0)
+        mesh = tag[ii, ss].astype(np.int64) - 1
+        points = rows[ii, ss, k.MH_POINT : k.MH_POINT + 3] + w.point[self._n_planes + mesh]
+        ids = self._order[ii]
+        srt = np.lexsort((mesh, ids))
+        return MeshContacts(ids[srt], mesh[srt], rows[ii, ss, k.MH_OVERLAP][srt], points[srt])
+
     def contacts(self) -> Contacts:
         """Particle-particle and particle-wall contacts at the last force evaluation."""
         m = self._n_entries
@@ -933,7 +1111,7 @@ class Simulation:
         f = self._k.F_SLOT
         forces = -self._list.entry[active, f : f + 3]
         wp, wi, wo = [], [], []
-        for w in range(len(self._walls.point)):
+        for w in range(self._n_planes):
             d = rad - (pos - self._walls.point[w]) @ self._walls.normal[w]
             idx = np.nonzero(d > 0)[0]
             wp.append(idx)

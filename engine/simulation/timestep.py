@@ -59,10 +59,11 @@ def adhesion_overlap(law, rmin: float, fraction: float) -> float | None:
 
 
 def expected_max_speed(scene: Scene) -> float:
-    """Default impact speed for the Hertz limits [m/s]: the largest of the particles' and
-    walls' speeds, the free-fall speed over the scene's extent along gravity, and 0.1 m/s."""
+    """Default impact speed for the Hertz limits [m/s]: the largest of the particles', the
+    walls' and the meshes' speeds, the free-fall speed over the scene's extent along gravity,
+    and 0.1 m/s."""
     v = [0.1, float(np.sqrt((scene.velocities**2).sum(axis=1)).max())]
-    v += [math.sqrt(sum(c * c for c in w.velocity)) for w in scene.walls]
+    v += [math.sqrt(sum(c * c for c in w.velocity)) for w in (*scene.walls, *scene.meshes)]
     g = np.asarray(scene.gravity)
     gnorm = float(np.linalg.norm(g))
     if gnorm > 0:
@@ -98,7 +99,7 @@ def _critical_time_step(scene: Scene, max_speed: float | None) -> TimeStepLimit:
         cands += scene.pair_law.pair_time_steps(
             m0 * m1 / (m0 + m1), r0 * r1 / (r0 + r1), radii[i], scene.density[i], v
         )
-    if scene.walls:
+    if scene.walls or scene.meshes:
         # distinct (m, R) only: monodisperse scenes do this once
         mr = np.unique(np.stack([masses, radii], axis=1), axis=0)
         i = int(np.argmin(radii))

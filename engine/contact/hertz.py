@@ -1,5 +1,6 @@
 """The Hertz-Mindlin (no slip) contact law, for walls and, selectable, for particle pairs:
-its record, its force kernels, its time-step limits and its kernel family."""
+its record, its force kernels, its time-step limits, its kernel family and its LIGGGHTS
+mapping (``model hertz``)."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from numba import njit
 
 from ..core.config import NJIT_INLINE
 from ..core.records import check_fields, param
+from .export import LiggghtsPair, elastic_atom_type, gran_coefficients
 from .kernel import COMPOSITION_SWITCHES, LawKernel, Slot, law_array
 from .limits import TimeStepCandidate, damping_ratio, oscillator_limit
 from .wall import WallMaterial
@@ -248,6 +250,31 @@ class HertzMindlin:
             "mu_s": self.mu,
             "mu_r": self.mu_r,
         }
+
+    def liggghts(self, owner: str | None = None) -> LiggghtsPair:
+        """This law as LIGGGHTS 3.8's ``model hertz`` (pairs) and ``wall/gran model hertz``
+        (walls) take it (engine/contact/export.py): restitution, friction ``mu`` and rolling
+        friction per atom type pair, E [Pa] and nu per atom type. No fragment on its own: a
+        deck writes E and nu for the particles and the platens together
+        (:mod:`engine.io.liggghts_deck`). ``owner`` is not read (every value exports)."""
+        return LiggghtsPair(
+            law=type(self).__name__,
+            model="hertz",
+            coefficients=gran_coefficients(
+                self.restitution, self.mu, self.mu_r, ("restitution", "mu", "mu_r")
+            ),
+            atom_type=elastic_atom_type(self.E, self.nu),
+            differences=(
+                "Coulomb cap: LIGGGHTS mu |F_n| with damping, this law mu times the elastic force",
+            ),
+            deck_differences=(
+                "Hertz pairs: LIGGGHTS caps friction at mu |F_n| with damping, demscale at mu "
+                "times the elastic force; rolling friction (cdt) as for the platens",
+            ),
+            fragment="LIGGGHTS' hertz model reads E and nu per atom type (youngsModulus, "
+            "poissonsRatio), for the particles' pairs and walls alike: export it in a deck "
+            "(engine.io.liggghts_deck, demscale export-test)",
+        )
 
     def to_array(self, slots: tuple[str, ...] | None = None) -> np.ndarray:
         """Kernel parameter array of a pair of particles of this material

@@ -17,6 +17,10 @@ own module, with the attributes and methods the engine asks of it:
 - ``adhesion_overlap(rmin, fraction)``: the overlap its adhesion alone holds a contact at.
 - ``load_overlap(force, radius)`` (optional): the overlap at which it carries a compressive force,
   and the parameter that sets it (a test refuses a law too soft for its consolidation stress).
+- ``liggghts(owner)`` (optional): its LIGGGHTS mapping (:class:`engine.contact.export.LiggghtsPair`:
+  the ``pair_style gran`` model and keywords, the ``fix property/global`` values, what LIGGGHTS
+  does differently), which the exporters (engine.io.liggghts, engine.io.liggghts_deck) write as
+  it is; without it the law is refused for export naming the field.
 
 Adding a law is its module plus one line here (or ``LAWS[name] = Law`` from outside: nothing
 else in the engine asks which law it has; tests/engine/test_toy_law.py does it with a law of

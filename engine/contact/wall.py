@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..core.records import check_fields, param
+from .export import LiggghtsProperty, elastic_atom_type
 
 
 @dataclass(frozen=True)
@@ -28,3 +29,8 @@ class WallMaterial:
     def G(self) -> float:
         """Shear modulus [Pa]."""
         return self.E / (2.0 * (1.0 + self.nu))
+
+    def liggghts_atom_type(self) -> tuple[LiggghtsProperty, ...]:
+        """Its LIGGGHTS per-atom-type properties: ``youngsModulus`` E [Pa], ``poissonsRatio``
+        nu [-] (a deck's platen atom type)."""
+        return elastic_atom_type(self.E, self.nu)

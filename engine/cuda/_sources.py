@@ -3,10 +3,12 @@
 
 The names they call and read that are not defined here (``_pair_one``, ``_particle_one``, the
 scene's flags, the block sizes) are bound per scene: the per-particle bodies are the device
-versions of the specialised CPU step module's (:mod:`engine.kernel.step_template`), the neighbour
-search's those of :mod:`engine.kernel.neighbour`. What is here is only the CUDA-side arrangement:
-one thread per particle (or entry, or cell), reductions in a fixed order, the control array
-that stops the queued kernels of a call when a step asks for a rebuild or fails.
+versions of the specialised CPU step module's (:mod:`engine.kernel.step_template`), the
+neighbour search's those of :mod:`engine.kernel.neighbour` (its grid, cell, scan, segment sort
+with the history merge and entry commit: written once, the CPU build's own). What is here is
+only the CUDA-side arrangement: one thread per particle (or entry, or cell), reductions in a
+fixed order, the control array that stops the queued kernels of a call when a step asks for a
+rebuild or fails.
 
 No float atomics: forces are gathered per particle from the entries (reverse list), chunk
 and wall sums run in a fixed order. Integer atomics fill the cell and reverse lists; each
@@ -316,42 +318,20 @@ def bounds_kernel(pos, bounds):
 
 
 def grid_kernel(bounds, lo, length, periodic, cut, max_cells, grid, ncell):
-    """The cell grid of :func:`engine.kernel.neighbour.cell_grid` (one thread): cells at least
+    """The cell grid (one thread: :func:`engine.kernel.neighbour.grid_cells`): cells at least
     ``cut`` wide [m], periodic axes tiling the period, at most ``max_cells`` cells. ``grid``:
     origin (row 0) and cell size (row 1) [m]."""
-    if cuda.grid(1) != 0:
-        return
-    for a in range(3):
-        if periodic[a]:
-            grid[0, a] = lo[a]
-            ext = length[a]
-        else:
-            grid[0, a] = bounds[a, 0]
-            ext = bounds[a, 1] - bounds[a, 0]
-        grid[1, a] = ext
-        ncell[a] = max(1, int(ext / cut))
-    while ncell[0] * ncell[1] * ncell[2] > max_cells:
-        a = 0
-        for b in range(1, 3):
-            if ncell[b] > ncell[a]:
-                a = b
-        ncell[a] = max(1, ncell[a] // 2)
-    for a in range(3):
-        ext = grid[1, a]
-        grid[1, a] = max(ext / ncell[a], cut) if not periodic[a] else ext / ncell[a]
+    if cuda.grid(1) == 0:
+        grid_cells(bounds, lo, length, periodic, cut, max_cells, grid, ncell)
 
 
 def cell_kernel(pos, grid, ncell, cell3, key, count):
-    """Cell of each particle; counts per cell (integer atomics)."""
+    """Cell of each particle (``cell_of``); counts per cell (integer atomics)."""
     i = cuda.grid(1)
-    if i >= pos.shape[0]:
-        return
-    for a in range(3):
-        c = int((pos[i, a] - grid[0, a]) / grid[1, a])
-        cell3[i, a] = min(max(c, 0), ncell[a] - 1)
-    c = (cell3[i, 0] * ncell[1] + cell3[i, 1]) * ncell[2] + cell3[i, 2]
-    key[i] = c
-    cuda.atomic.add(count, c, 1)
+    if i < pos.shape[0]:
+        c = cell_of(i, pos, grid, ncell, cell3)
+        key[i] = c
+        cuda.atomic.add(count, c, 1)
 
 
 def cell_fill_kernel(key, cell_start, fill, cell_list):
@@ -391,44 +371,22 @@ def list_kernel(
     n_hist,
 ):
     """The new half list of particle i (sorted), with the history of every pair also in the
-    old list carried over (merge of two sorted segments, as engine.kernel.neighbour does)."""
+    old list carried over (``sort_and_carry`` of engine.kernel.neighbour, as the CPU's)."""
     i = cuda.grid(1)
-    if i >= pos.shape[0]:
-        return
-    s = new_start[i]
-    e = new_start[i + 1]
-    _scan(i, pos, rad, skin, cell3, ncell, cell_start, cell_list, periodic, length, new_j, s)
-    for a in range(s + 1, e):  # insertion sort: segments are short
-        v = new_j[a]
-        b = a - 1
-        while b >= s and new_j[b] > v:
-            new_j[b + 1] = new_j[b]
-            b -= 1
-        new_j[b + 1] = v
-    o = start[i]
-    oe = start[i + 1]
-    for k in range(s, e):
-        for h in range(new_entry.shape[1]):
-            new_entry[k, h] = 0.0
-        j = new_j[k]
-        while o < oe and nbr_j[o] < j:
-            o += 1
-        if o < oe and nbr_j[o] == j:
-            for h in range(n_hist):
-                new_entry[k, h] = entry[o, h]
+    if i < pos.shape[0]:
+        s = new_start[i]
+        _scan(i, pos, rad, skin, cell3, ncell, cell_start, cell_list, periodic, length, new_j, s)
+        sort_and_carry(i, new_start, new_j, new_entry, start, nbr_j, entry, n_hist)
 
 
 def commit_kernel(total, new_start, new_j, new_entry, start, nbr_j, entry, rev_count):
-    """The new list replaces the old one; the reverse list's counts (integer atomics)."""
+    """The new list replaces the old one (``commit_entry``, as the CPU's); the reverse list's
+    counts (integer atomics)."""
     k = cuda.grid(1)
     if k < start.shape[0]:
         start[k] = new_start[k]
     if k < total:
-        j = new_j[k]
-        nbr_j[k] = j
-        for h in range(entry.shape[1]):
-            entry[k, h] = new_entry[k, h]
-        cuda.atomic.add(rev_count, j, 1)
+        cuda.atomic.add(rev_count, commit_entry(k, new_j, new_entry, nbr_j, entry), 1)
 
 
 def rev_fill_kernel(total, nbr_j, rev_start, fill, rev_k):
@@ -440,20 +398,12 @@ def rev_fill_kernel(total, nbr_j, rev_start, fill, rev_k):
 
 def rev_sort_kernel(rev_start, rev_k, pos, pos_build):
     """Entries of each particle j in increasing order (the CPU's gather order, increasing
-    first particle); the positions of this build."""
+    first particle: ``sort_segment``); the positions of this build."""
     j = cuda.grid(1)
-    if j >= pos.shape[0]:
-        return
-    s = rev_start[j]
-    for a in range(s + 1, rev_start[j + 1]):
-        v = rev_k[a]
-        b = a - 1
-        while b >= s and rev_k[b] > v:
-            rev_k[b + 1] = rev_k[b]
-            b -= 1
-        rev_k[b + 1] = v
-    for a in range(3):
-        pos_build[j, a] = pos[j, a]
+    if j < pos.shape[0]:
+        sort_segment(rev_k, rev_start[j], rev_start[j + 1])
+        for a in range(3):
+            pos_build[j, a] = pos[j, a]
 
 
 def mesh_count_kernel(

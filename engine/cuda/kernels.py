@@ -56,6 +56,17 @@ _SEARCH = (
     "scan_block_kernel",
     "scan_add_kernel",
 )
+#: The neighbour build's functions both backends run (engine.kernel.neighbour), bound into
+#: the search kernels as device functions.
+_NEIGHBOUR = (
+    "wrap_one",
+    "grid_cells",
+    "cell_of",
+    "_scan",
+    "sort_segment",
+    "sort_and_carry",
+    "commit_entry",
+)
 
 _lock = threading.Lock()
 _step_cache: dict[tuple, SimpleNamespace] = {}
@@ -111,8 +122,8 @@ def search_kernels() -> SimpleNamespace:
         if _search is None:
             memo: dict = {}
             b = _constants()
-            b["wrap_one"] = device_function(neighbour.wrap_one, memo)
-            b["_scan"] = device_function(neighbour._scan, memo)
+            for name in _NEIGHBOUR:
+                b[name] = device_function(getattr(neighbour, name), memo)
             b["mesh_scan"] = device_function(mesh.mesh_scan, memo)
             b["clear_rows"] = device_function(mesh.clear_rows, memo)
             _search = SimpleNamespace(**{n: kernel(getattr(_sources, n), b, memo) for n in _SEARCH})

@@ -18,6 +18,13 @@ restitution        ``coefficientRestitution``
 mu_s, mu_r         ``coefficientFriction``, ``coefficientRollingFriction``
 =================  ===========================================
 
+The law declares this mapping itself (its ``liggghts`` method, an
+:class:`engine.contact.export.LiggghtsPair`: for the adhesive laws in
+engine/contact/adhesive.py); this module writes and reads the LIGGGHTS text and asks the law
+nothing else (:func:`mapping`). A law without a mapping, or one whose mapping is no fragment
+on its own (the Hertz-Mindlin law's E and nu are per atom type: it exports in a deck,
+:mod:`engine.io.liggghts_deck`), is refused naming the field.
+
 What LIGGGHTS cannot take is said, not hidden: its tangential stiffness is K1 whatever the
 law's ``kt_ratio``, its Coulomb cap is mu |F_n| (EEPA's ``friction_cap="normal"``), and for
 n != 1 its damping at a given restitution differs from demscale's (constant, from K1, against
@@ -50,15 +57,16 @@ fragment's comments and :func:`differences`.
   remove the adhesive branch; demscale clips nothing.
 
 So a law with kadh > 0 and n = chi = 1 is exported on the ``fixKc on`` path
-(:func:`adhesive_branch`), its remaining difference (the plastic reload from the branch)
-in the fragment's comments; checked against LIGGGHTS on a head-on impact (the rebound
-speed the same within 1e-6, tests/engine/test_calibration.py) and on one packing
-(benchmarks/liggghts_kadh, docs/LIGGGHTS_DECK.md "The adhesive branch": the platen-stress
-curves 2.76 % apart with kadh, 2.70 % without, within the 5 % criterion; kadh moves that
-loading curve by only 4-5 %, and the reload from the branch is not measured there). A
-law with kadh > 0 and n or chi != 1 is refused with the reason. :func:`from_liggghts`
-reads such a fragment back into a law (LIGGGHTS' conventions, or the bilinear law for
-n = chi = 1), and :func:`law_table` lists a law's parameters with units (JSON or CSV).
+(``liggghts_adhesive_branch`` of the adhesive laws, engine/contact/adhesive.py), its
+remaining difference (the plastic reload from the branch) in the fragment's comments;
+checked against LIGGGHTS on a head-on impact (the rebound speed the same within 1e-6,
+tests/engine/test_calibration.py) and on one packing (benchmarks/liggghts_kadh,
+docs/LIGGGHTS_DECK.md "The adhesive branch": the platen-stress curves 2.76 % apart with
+kadh, 2.70 % without, within the 5 % criterion; kadh moves that loading curve by only 4-5 %,
+and the reload from the branch is not measured there). A law with kadh > 0 and n or chi != 1
+is refused with the reason. :func:`from_liggghts` reads such a fragment back into a law
+(LIGGGHTS' conventions, or the bilinear law for n = chi = 1), and :func:`law_table` lists a
+law's parameters with units (JSON or CSV).
 """
 
 from __future__ import annotations
@@ -68,116 +76,39 @@ import io
 import math
 import re
 
+from ..contact.adhesive import EDINBURGH_PROPERTIES
 from ..contact.bilinear import BilinearAdhesive
 from ..contact.eepa import EEPA
+from ..contact.registry import LAWS, law_names
 from ..core.errors import ParameterError
 from ..core.records import describe
 
-#: The ``fix property/global`` names a fragment sets, in order.
-PROPERTIES = (
-    "coefficientRestitution",
-    "coefficientFriction",
-    "coefficientRollingFriction",
-    "LoadingStiffness",
-    "UnloadingStiffness",
-    "overlapExponent",
-    "adhesionExponent",
-    "pullOffForce",
-    "surfaceEnergy",
-    "coefficientAdhesionStiffness",
-)
-_SCALAR = ("overlapExponent", "adhesionExponent")
+#: The ``fix property/global`` names a fragment sets, in order (the adhesive laws' mapping,
+#: engine.contact.adhesive).
+PROPERTIES = EDINBURGH_PROPERTIES
 
 
-def _meanings(law, n: float, chi: float) -> dict[str, str]:
-    """What each property's value means, with its unit, for the fragment's comments: a
-    LIGGGHTS user reads ``UnloadingStiffness 9.78`` as a stiffness otherwise."""
-    k_unit = "N/m" if n == 1.0 else f"N/m^{n:g}"
-    return {
-        "coefficientRestitution": "normal coefficient of restitution [-] (sets the damping)",
-        "coefficientFriction": "sliding friction coefficient mu_s [-]",
-        "coefficientRollingFriction": "rolling friction coefficient mu_r [-] (cdt model)",
-        "LoadingStiffness": f"virgin loading stiffness K1 [{k_unit}]",
-        "UnloadingStiffness": f"RATIO K2 / K1 [-] of unloading to loading stiffness, not a "
-        f"stiffness: K2 = {law.k2!r} {k_unit}",
-        "overlapExponent": f"overlap exponent n [-] of the loading branch (K1 d^n); {n:g}: "
-        + ("linear" if n == 1.0 else "non-linear"),
-        "adhesionExponent": f"adhesion exponent chi [-] of the adhesive branch; {chi:g}",
-        "pullOffForce": "constant pull-off (adhesion) force f0 [N], <= 0 (0: none)",
-        "surfaceEnergy": "surface energy [J/m^2] from which LIGGGHTS computes the adhesive "
-        "branch's stiffness per contact with fixKc off; 0 here, not read with fixKc on",
-        "coefficientAdhesionStiffness": "RATIO kadh / K1 [-] of the adhesive branch's "
-        f"stiffness to K1 (read with fixKc on): kadh = {law.kadh!r} {k_unit}"
-        + ("" if law.kadh else "; 0: no adhesive branch (fixKc off)"),
-    }
-
-
-def _exponents(law) -> tuple[float, float]:
-    if isinstance(law, EEPA):
-        return law.n, law.chi
-    if isinstance(law, BilinearAdhesive):
-        return 1.0, 1.0
-    raise ParameterError("law", type(law).__name__, "an engine.BilinearAdhesive or engine.EEPA")
-
-
-def adhesive_branch(law, field: str | None = None) -> tuple[float, str]:
-    """LIGGGHTS' ``coefficientAdhesionStiffness`` (kadh / K1 [-]) and the pair style's
-    settings for ``law``'s adhesive branch: (0, "") for kadh = 0 (``fixKc`` off,
-    ``surfaceEnergy`` 0: no branch); (kadh / K1, " fixKc on limitForce off") for kadh > 0
-    with n = chi = 1 (module docstring). Raises :class:`engine.ParameterError` at ``field``
-    (default ``<law>.kadh``) for kadh > 0 with n or chi != 1."""
-    n, chi = _exponents(law)
-    if law.kadh == 0.0:
-        return 0.0, ""
-    if n != 1.0 or chi != 1.0:
+def mapping(law, field: str = "law", owner: str | None = None):
+    """``law``'s LIGGGHTS mapping (:class:`engine.contact.export.LiggghtsPair`, declared by the
+    law: its ``liggghts`` method). Raises :class:`engine.ParameterError` at ``field`` for a
+    law that declares none (naming those that do), and the law's own refusals at
+    ``<owner>.<its field>`` (default owner: the law's name)."""
+    declare = getattr(law, "liggghts", None)
+    if declare is None:
+        able = [c for c in LAWS.values() if hasattr(c, "liggghts")]
         raise ParameterError(
-            field or f"{type(law).__name__}.kadh",
-            law.kadh,
-            f"0 to export to LIGGGHTS with n = {n:g}, chi = {chi:g} (kadh > 0 needs n = chi = 1)",
-            "on its adhesive branch LIGGGHTS 3.8 resets dmax = (K2 + kadh) / (K2 - K1) d "
-            "(normal_model_edinburgh_stiffness.h line 286), the n = chi = 1 formula: for "
-            "other exponents the moved K2 branch misses the contact's point and the force "
-            "jumps at every step on the branch",
+            field,
+            type(law).__name__,
+            f"{law_names(able)} to export to LIGGGHTS",
+            "the law declares no LIGGGHTS mapping (its liggghts method, engine/contact/export.py)",
         )
-    return law.kadh / law.k1, " fixKc on limitForce off"
+    return declare(owner)
 
 
 def differences(law) -> list[str]:
-    """What LIGGGHTS' ``edinburgh/stiffness`` does differently from ``law`` (module
-    docstring): empty when the fragment is the same law."""
-    n, _ = _exponents(law)
-    out = []
-    if not (n == 1.0 and law.kt_ratio == 1.0):
-        out.append(
-            f"tangential stiffness: LIGGGHTS uses K1, this law kt_ratio = {law.kt_ratio:g} x "
-            + ("K1" if n == 1.0 else "the loading tangent n K1 d^(n-1)")
-        )
-    if getattr(law, "friction_cap", "adhesive") != "normal":
-        out.append(
-            "Coulomb cap: LIGGGHTS mu_s |F_n|, this law mu_s |f_hys - f0 + kadh d^chi| "
-            "(friction_cap='adhesive')"
-        )
-    if law.f0 == 0.0 and law.kadh == 0.0 and law.restitution < 1.0:
-        out.append(
-            "separation: with f0 = kadh = 0 LIGGGHTS clips the total normal force, damping "
-            "included, at zero (limitForce); this law lets damping pull on a separating "
-            "contact, so a pair leaves an impact slower"
-        )
-    if law.kadh > 0.0:
-        out.append(
-            "adhesive branch: LIGGGHTS' is plastic, this law's reversible; on it LIGGGHTS "
-            "resets dmax = (K2 + kadh) / (K2 - K1) d every step, so a contact that closes "
-            "again from the branch reloads along K2 from where it is, its old dmax "
-            "forgotten; this law's goes back along f0 - kadh d to its K2 branch (the same "
-            "force while the contact only opens)"
-        )
-    if n != 1.0:
-        out.append(
-            "damping: LIGGGHTS' is constant (from K1), this law's follows the tangent "
-            "stiffness; matched_restitution(restitution, n, d) gives LIGGGHTS' restitution "
-            "with the same damping at an overlap d"
-        )
-    return out
+    """What LIGGGHTS does differently from ``law`` (module docstring; the law's mapping
+    declares it): empty when the fragment is the same law."""
+    return list(mapping(law).differences)
 
 
 def matched_restitution(restitution: float, n: float, d: float) -> float:
@@ -191,36 +122,25 @@ def matched_restitution(restitution: float, n: float, d: float) -> float:
 
 
 def to_liggghts(law, atom_type: int = 1, note: str = "", radius: float | None = None) -> str:
-    """The LIGGGHTS 3.8 input fragment of ``law`` (an :class:`engine.BilinearAdhesive` or
-    :class:`engine.EEPA`, fine or scaled) for one ``atom_type``: ``fix property/global`` lines
-    and the ``pair_style``/``pair_coeff``, SI units, each value's meaning and unit in a
-    comment line above it, with what LIGGGHTS does differently in its comments; ``radius``
-    [m], where known, the particle radius the law is for (a law is calibrated, or scaled,
-    for one size). An adhesive branch (kadh > 0) goes on LIGGGHTS' ``fixKc on`` path for
-    n = chi = 1 (:func:`adhesive_branch`); raises :class:`engine.ParameterError` for kadh > 0
-    with n or chi != 1 (module docstring)."""
-    n, chi = _exponents(law)
-    ratio, settings = adhesive_branch(law)
+    """The LIGGGHTS 3.8 input fragment of ``law`` (a law whose mapping is a fragment on its
+    own: :class:`engine.BilinearAdhesive` or :class:`engine.EEPA`, fine or scaled) for one
+    ``atom_type``: ``fix property/global`` lines and the ``pair_style``/``pair_coeff``, SI
+    units, each value's meaning and unit in a comment line above it, with what LIGGGHTS does
+    differently in its comments; ``radius`` [m], where known, the particle radius the law is
+    for (a law is calibrated, or scaled, for one size). What is written is the law's mapping
+    (:func:`mapping`); an adhesive branch (kadh > 0) goes on LIGGGHTS' ``fixKc on`` path for
+    n = chi = 1. Raises :class:`engine.ParameterError` at ``law`` for a law without a
+    fragment, at ``<law>.kadh`` for kadh > 0 with n or chi != 1 (module docstring)."""
+    pair = mapping(law)
+    if pair.fragment:
+        raise ParameterError(
+            "law", pair.law, "a law with a LIGGGHTS fragment of its own", pair.fragment
+        )
     if atom_type != 1:
         raise ParameterError("atom_type", atom_type, "1 (one particle type per fragment)")
-    values = {
-        "coefficientRestitution": law.restitution,
-        "coefficientFriction": law.mu_s,
-        "coefficientRollingFriction": law.mu_r,
-        "LoadingStiffness": law.k1,
-        "UnloadingStiffness": law.k2 / law.k1,
-        "overlapExponent": n,
-        "adhesionExponent": chi,
-        "pullOffForce": law.f0,
-        "surfaceEnergy": 0.0,
-        "coefficientAdhesionStiffness": ratio,
-    }
-    unit = "N/m" if n == 1.0 else f"N/m^{n:g}"
     lines = [
-        f"# demscale {type(law).__name__} as LIGGGHTS edinburgh/stiffness (engine.io.liggghts)",
-        f"# K1 = {law.k1!r} {unit}, K2 = {law.k2!r} {unit}, n = {n:g}, chi = {chi:g}, "
-        f"f0 = {law.f0!r} N, kadh = {law.kadh!r} {unit}"
-        + (" (fixKc on: coefficientAdhesionStiffness = kadh / K1)" if ratio else ""),
+        f"# demscale {pair.law} as LIGGGHTS {pair.model} (engine.io.liggghts)",
+        f"# {pair.summary}",
     ]
     if radius is not None:
         lines.append(
@@ -229,16 +149,15 @@ def to_liggghts(law, atom_type: int = 1, note: str = "", radius: float | None = 
         )
     if note:
         lines += [f"# {line}" for line in note.splitlines()]
-    for d in differences(law):
+    for d in pair.differences:
         lines.append(f"# differs: {d}")
-    meaning = _meanings(law, n, chi)
-    for k, name in enumerate(PROPERTIES, start=1):
-        how = "scalar" if name in _SCALAR else f"peratomtypepair {atom_type}"
-        lines.append(f"# {name}: {meaning[name]}")
-        lines.append(f"fix dsl{k} all property/global {name} {how} {values[name]!r}")
+    for k, p in enumerate((*pair.coefficients, *pair.properties), start=1):
+        how = "scalar" if p.scalar else f"peratomtypepair {atom_type}"
+        lines.append(f"# {p.name}: {p.meaning}")
+        lines.append(f"fix dsl{k} all property/global {p.name} {how} {p.value!r}")
     lines += [
-        "pair_style gran model edinburgh/stiffness tangential history rolling_friction cdt"
-        + settings,
+        f"pair_style gran model {pair.model} tangential history rolling_friction cdt"
+        + pair.settings,
         "pair_coeff * *",
     ]
     return "\n".join(lines) + "\n"
@@ -344,10 +263,10 @@ def law_table(law, fmt: str = "json", radius: float | None = None):
 
 __all__ = [
     "PROPERTIES",
-    "adhesive_branch",
     "differences",
     "from_liggghts",
     "law_table",
+    "mapping",
     "matched_restitution",
     "to_liggghts",
 ]

@@ -14,8 +14,8 @@ demscale           LIGGGHTS 3.8
 cell, periodic     ``boundary p p f``, the box (0, Lx) x (0, Ly), z from below the
 x and y            bottom platen to above the pour column
 the poured cloud   ``read_data packing.data`` (id, type 1, diameter, density, x, y, z)
-pair law           ``pair_style gran model edinburgh/stiffness`` (bilinear and EEPA, as
-                   :mod:`engine.io.liggghts` maps them) or ``model hertz``
+pair law           ``pair_style gran model edinburgh/stiffness`` (bilinear and EEPA) or
+                   ``model hertz``: what the law's mapping declares (engine.contact.export)
 platens            Hertz-Mindlin walls of atom type 2 (E, nu of ``wall_material``;
                    the particles' E, nu from ``wall_law``): the bottom a
                    ``primitive zplane 0`` with ``store_force``, the top during the fill a
@@ -45,10 +45,12 @@ each stage's end writes the particles (``stage_<name>.dump``: id x y z radius). 
 turns them into demscale's curves with demscale's own formulas.
 
 What the deck cannot make LIGGGHTS do the same way is said in its comments
-(:func:`differences`): for the bilinear and EEPA laws those of
-:func:`engine.io.liggghts.differences` (tangential stiffness K1, Coulomb cap mu |F_n|,
-damping for n != 1, force clipping without adhesion) and the platen and history
-differences of the deck itself. What it cannot express at all raises
+(:func:`differences`): those the pair law's mapping declares (for the bilinear and EEPA laws
+:func:`engine.io.liggghts.differences`: tangential stiffness K1, Coulomb cap mu |F_n|,
+damping for n != 1, force clipping without adhesion; then the plastic reload, rolling
+friction and the history across periodic faces) and the platen differences of the deck
+itself. The deck asks the pair and wall laws for their mappings only, and tests no law's
+type. What it cannot express at all raises
 :class:`engine.ParameterError` naming the field (:func:`check_exportable`).
 """
 
@@ -60,13 +62,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..contact.bilinear import BilinearAdhesive
-from ..contact.eepa import EEPA
-from ..contact.hertz import HertzMindlin
 from ..core.errors import ParameterError
 from ..simulation.packing import sphere_volume
-from .liggghts import adhesive_branch
-from .liggghts import differences as law_differences
+from .liggghts import mapping
 
 #: Files of a deck folder.
 DECK = "in.demscale"
@@ -152,16 +150,15 @@ def _num(x: float) -> str:
     return repr(float(x))
 
 
-def _pair_law_kind(law) -> str:
-    if isinstance(law, (BilinearAdhesive, EEPA)):
-        return "edinburgh"
-    if isinstance(law, HertzMindlin):
-        return "hertz"
-    raise ParameterError(
-        "UniaxialTest.pair_law",
-        type(law).__name__,
-        "an engine.BilinearAdhesive, engine.EEPA or engine.HertzMindlin to export to LIGGGHTS",
-    )
+def _pair(test):
+    """The pair law's LIGGGHTS mapping (engine.contact.export), refusals at
+    ``UniaxialTest.pair_law``."""
+    return mapping(test.pair_law, "UniaxialTest.pair_law", "UniaxialTest.pair_law")
+
+
+def _wall(test):
+    """The wall law's LIGGGHTS mapping, refusals at ``UniaxialTest.wall_law``."""
+    return mapping(test.wall_law, "UniaxialTest.wall_law", "UniaxialTest.wall_law")
 
 
 #: Protocol fields the deck cannot write, at the value it can: a platen speed held to an
@@ -173,24 +170,28 @@ _PROTOCOL_DEFAULTS = {"inertial_number": None}
 
 def check_exportable(test) -> None:
     """Raise :class:`engine.ParameterError` naming the field of ``test`` (an
-    :class:`engine.UniaxialTest`) that a LIGGGHTS 3.8 deck cannot express: a pair law other
-    than the bilinear, EEPA and Hertz-Mindlin laws, an adhesive branch (kadh > 0) with
-    n or chi != 1 (:func:`engine.io.liggghts.adhesive_branch`; with n = chi = 1 it is written
-    on LIGGGHTS' ``fixKc on`` path), a Hertz pair law whose E, nu differ from the wall law's
-    (LIGGGHTS has one E and nu per atom type), or a platen speed that is not constant."""
-    law = test.pair_law
-    kind = _pair_law_kind(law)
-    if kind == "edinburgh":
-        adhesive_branch(law, "UniaxialTest.pair_law.kadh")
-    w = test.wall_law
-    if kind == "hertz" and (law.E != w.E or law.nu != w.nu):
-        raise ParameterError(
-            "UniaxialTest.wall_law.E",
-            f"E = {w.E:g} Pa, nu = {w.nu:g}",
-            f"the pair law's E = {law.E:g} Pa and nu = {law.nu:g}",
-            "LIGGGHTS gives the particles' atom type one Young's modulus and Poisson's ratio "
-            "for pairs and platens alike",
-        )
+    :class:`engine.UniaxialTest`) that a LIGGGHTS 3.8 deck cannot express: a pair or wall
+    law without a LIGGGHTS mapping (engine.contact.export; the bilinear, EEPA and
+    Hertz-Mindlin laws have one), what the law's mapping refuses (an adhesive branch,
+    kadh > 0, with n or chi != 1; with n = chi = 1 it is written on LIGGGHTS' ``fixKc on``
+    path), a per-atom-type property of the pair law (a Hertz law's E, nu) that differs from
+    the wall law's (LIGGGHTS has one value per atom type for pairs and walls alike), or a
+    platen speed that is not constant."""
+    pair, wall = _pair(test), _wall(test)
+    walls = {p.name: p for p in wall.atom_type}
+    for p in pair.atom_type:
+        q = walls.get(p.name)
+        if q is None or q.value != p.value:
+            shown = ", ".join(f"{w.field} = {w.value:g}{_unit(w)}" for w in wall.atom_type)
+            wanted = " and ".join(f"{w.field} = {w.value:g}{_unit(w)}" for w in pair.atom_type)
+            raise ParameterError(
+                f"UniaxialTest.wall_law.{p.field}",
+                shown or "none",
+                f"the pair law's {wanted}",
+                "LIGGGHTS gives the particles' atom type one "
+                + " and ".join(w.name for w in pair.atom_type)
+                + " for pairs and platens alike",
+            )
     for name, default in _PROTOCOL_DEFAULTS.items():
         value = getattr(test, name, default)
         if value != default:
@@ -203,45 +204,23 @@ def check_exportable(test) -> None:
             )
 
 
+def _unit(p) -> str:
+    return f" {p.unit}" if p.unit not in ("", "1") else ""
+
+
 def differences(test) -> list[str]:
     """What LIGGGHTS does differently from demscale in the deck of ``test``: the pair law's
-    (:func:`engine.io.liggghts.differences` for the bilinear and EEPA laws), then the deck's
-    own (platens, contact history)."""
-    law = test.pair_law
-    out = []
-    if _pair_law_kind(law) == "edinburgh":
-        out += law_differences(law)
-        if law.f0 != 0.0 or law.kadh != 0.0:
-            out.append(
-                "plastic reload: a LIGGGHTS contact below its plastic overlap that closes "
-                "again reloads along K2 from the overlap of the step before; demscale's stays "
-                "on the plateau f0 until the overlap is back at the plastic overlap"
-            )
-        if law.mu_r > 0.0:
-            out.append(
-                "rolling friction: LIGGGHTS cdt mu_r K1 d R/2 against the relative spin; "
-                "demscale mu_r |f_hys| R against the particle's own spin"
-            )
-    else:
-        out.append(
-            "Hertz pairs: LIGGGHTS caps friction at mu |F_n| with damping, demscale at mu "
-            "times the elastic force; rolling friction (cdt) as for the platens"
-        )
+    in a deck (its mapping's, engine.contact.export), then the deck's own (platens), then
+    the pair law's across the periodic faces, then the fill's speed cap."""
+    pair = _pair(test)
+    out = list(pair.deck_differences)
     out.append(
         "platens: the top one is an STL plate (the cell's size, three cells wide after the "
         "release; contacts with its edges are sphere-edge contacts), the bottom one a "
         "primitive plane; LIGGGHTS caps platen friction at mu |F_n| with damping, demscale "
         "at mu times the elastic Hertz force"
     )
-    if _pair_law_kind(law) == "edinburgh" and law.k2 != law.k1:
-        out.append(
-            "contact history across the periodic faces: LIGGGHTS (newton off) computes such "
-            "a contact once from each particle, each with its own copy of the plastic "
-            "history, and the copies part (the one handed to the partner at a list rebuild "
-            "is negated): the two particles feel different forces, so the pair forces stop "
-            "summing to zero; a cohesive bed of this law gains momentum and may not settle "
-            "(docs/LIGGGHTS_DECK.md, the probe)"
-        )
+    out += pair.periodic_differences
     if test.pour_speed is not None:
         out.append(
             "the fill's speed cap is applied with the same rule, after each sample, through "
@@ -341,61 +320,44 @@ def release_times(test) -> tuple[float, float]:
 # ----------------------------------------------------------------------------- the deck
 def _materials(test) -> list[str]:
     """``fix property/global`` lines for two atom types (1 particles, 2 platens) and the
-    pair style."""
-    law, wall, mat = test.pair_law, test.wall_law, test.wall_material
-    kind = _pair_law_kind(law)
+    pair style: what the pair and wall laws' mappings declare (engine.contact.export), the
+    platens' per-atom-type values from ``wall_material``."""
+    pair, wall = _pair(test), _wall(test)
+    platen = {p.name: p.value for p in test.wall_material.liggghts_atom_type()}
 
-    def pair(pp: float, pw: float) -> str:
+    def two(pp: float, pw: float) -> str:
         return f"peratomtypepair 2 {_num(pp)} {_num(pw)} {_num(pw)} {_num(pw)}"
 
-    if kind == "edinburgh":
-        mu_pp, mu_r_pp, e_pp = law.mu_s, law.mu_r, law.restitution
-    else:
-        mu_pp, mu_r_pp, e_pp = law.mu, law.mu_r, law.restitution
     lines = [
         "# materials: atom type 1 the particles, 2 the platens (Hertz-Mindlin: E, nu of",
         "# both sides; restitution, friction and rolling friction per type pair)",
-        f"fix m1 all property/global youngsModulus peratomtype {_num(wall.E)} {_num(mat.E)}",
-        f"fix m2 all property/global poissonsRatio peratomtype {_num(wall.nu)} {_num(mat.nu)}",
-        "fix m3 all property/global coefficientRestitution " + pair(e_pp, wall.restitution),
-        "fix m4 all property/global coefficientFriction " + pair(mu_pp, wall.mu),
-        "fix m5 all property/global coefficientRollingFriction " + pair(mu_r_pp, wall.mu_r),
     ]
-    roll = " rolling_friction cdt" if mu_r_pp > 0 else ""
-    if kind == "edinburgh":
-        n, chi = (law.n, law.chi) if isinstance(law, EEPA) else (1.0, 1.0)
-        k1 = law.k1
-
-        def same(v: float) -> str:
-            return pair(v, v)
-
-        ratio, settings = adhesive_branch(law, "UniaxialTest.pair_law.kadh")
-        branch = (
-            f"kadh = {law.kadh!r} N/m (fixKc on: coefficientAdhesionStiffness = kadh / K1)"
-            if ratio
-            else "kadh = 0 (surfaceEnergy 0, fixKc off)"
+    k = 0
+    for p in wall.atom_type:
+        k += 1
+        lines.append(
+            f"fix m{k} all property/global {p.name} peratomtype {_num(p.value)} "
+            f"{_num(platen[p.name])}"
         )
-        lines += [
-            f"# {type(law).__name__}: K1 = {law.k1!r} N/m^n, K2 = {law.k2!r} N/m^n, "
-            f"n = {n:g}, chi = {chi:g}, f0 = {law.f0!r} N, {branch}",
-            "fix m6 all property/global LoadingStiffness " + same(k1),
-            "fix m7 all property/global UnloadingStiffness " + same(law.k2 / k1),
-            f"fix m8 all property/global overlapExponent scalar {_num(n)}",
-            f"fix m9 all property/global adhesionExponent scalar {_num(chi)}",
-            "fix m10 all property/global pullOffForce " + same(law.f0),
-            "fix m11 all property/global surfaceEnergy " + same(0.0),
-            "fix m12 all property/global coefficientAdhesionStiffness " + same(ratio),
-            f"pair_style gran model edinburgh/stiffness tangential history{roll}{settings}",
-        ]
-    else:
-        lines.append(f"pair_style gran model hertz tangential history{roll}")
+    for p, w in zip(pair.coefficients, wall.coefficients):
+        k += 1
+        lines.append(f"fix m{k} all property/global {p.name} " + two(p.value, w.value))
+    if pair.deck_summary:
+        lines.append(f"# {pair.deck_summary}")
+    for p in pair.properties:
+        k += 1
+        how = f"scalar {_num(p.value)}" if p.scalar else two(p.value, p.value)
+        lines.append(f"fix m{k} all property/global {p.name} {how}")
+    roll = " rolling_friction cdt" if pair.rolling else ""
+    lines.append(f"pair_style gran model {pair.model} tangential history{roll}{pair.settings}")
     lines.append("pair_coeff * *")
     return lines
 
 
 def _wall_model(test) -> str:
-    roll = " rolling_friction cdt" if test.wall_law.mu_r > 0 else ""
-    return f"wall/gran model hertz tangential history{roll}"
+    wall = _wall(test)
+    roll = " rolling_friction cdt" if wall.rolling else ""
+    return f"wall/gran model {wall.model} tangential history{roll}{wall.settings}"
 
 
 def _min(a: str, b: str) -> str:
@@ -531,12 +493,11 @@ class _Deck:
         """Everything before the stages: units, box, packing, materials, walls, what a
         sample reads; ``periodic`` False: a box walled in x and y instead (a probe's)."""
         t = self.t
-        law = t.pair_law
         self.add(
             "# demscale uniaxial test as a LIGGGHTS 3.8 deck (engine.io.liggghts_deck),",
             "# docs/LIGGGHTS_DECK.md. Run it in this folder: liggghts -in in.demscale",
             f"# {t.n_particles} particles, R = {t.radius!r} m, cell {t.cell!r} m, seed {t.seed},",
-            f"# pair law {type(law).__name__}, dt = {self.dt!r} s, a sample every {self.S} steps;",
+            f"# pair law {_pair(t).law}, dt = {self.dt!r} s, a sample every {self.S} steps;",
             "# every parameter of the test is in test.json. LIGGGHTS does differently:",
         )
         for d in differences(t):

@@ -11,7 +11,10 @@ Layout (jax-md style: sized in Python, filled in compiled code at fixed capacity
   particle is j, in increasing order of the first particle, for the deterministic gather.
 
 The build is serial: it runs every few hundred steps and a serial build keeps the compile
-short; its cost is part of the measured particle-steps per second.
+short; its cost is part of the measured particle-steps per second. The grid, a particle's
+cell, the sort of a particle's segment with the history carried over and the commit of an
+entry are written once here (``NJIT_INLINE``) and are the CUDA backend's too
+(engine/cuda/_sources.py, compiled by engine.cuda.device), so both build the same list.
 
 A pair enters the list when its surface gap (minimum image on periodic axes) is below the skin.
 Compiled code here and in the step uses plain loops and ``math`` rather than numpy methods:
@@ -55,26 +58,39 @@ def wrap_one(i, pos, lo, length, periodic, images):
 
 @njit(**NJIT)
 def cell_grid(pos, lo, length, periodic, cut, max_cells):
-    """Cell origin [m], cell size [m] and cell counts of a grid whose cells are at least
-    ``cut`` wide. Periodic axes tile the period; open axes span the particles. At most
-    ``max_cells`` cells (larger cells when the particles are spread far apart)."""
-    origin = np.empty(3)
-    size = np.empty(3)
-    ext = np.empty(3)
+    """The cell grid of :func:`grid_cells` over the particles' extent: ``grid`` (row 0 the
+    cell origin, row 1 the cell size [m]) and the cell counts."""
+    bounds = np.empty((3, 2))
+    for a in range(3):
+        mn = pos[0, a]
+        mx = pos[0, a]
+        for i in range(1, pos.shape[0]):
+            mn = min(mn, pos[i, a])
+            mx = max(mx, pos[i, a])
+        bounds[a, 0] = mn
+        bounds[a, 1] = mx
+    grid = np.empty((2, 3))
     ncell = np.empty(3, dtype=np.int64)
+    grid_cells(bounds, lo, length, periodic, cut, max_cells, grid, ncell)
+    return grid, ncell
+
+
+@njit(**NJIT_INLINE)
+def grid_cells(bounds, lo, length, periodic, cut, max_cells, grid, ncell):
+    """A grid whose cells are at least ``cut`` wide [m] into ``grid`` (row 0 the cell origin,
+    row 1 the cell size [m]) and ``ncell`` (cells per axis): periodic axes tile the period,
+    open axes span ``bounds`` (per axis the smallest and largest coordinate [m]); at most
+    ``max_cells`` cells (larger cells when the particles are spread far apart). Both
+    backends' (the CUDA one in one thread)."""
     for a in range(3):
         if periodic[a]:
-            origin[a] = lo[a]
-            ext[a] = length[a]
+            grid[0, a] = lo[a]
+            ext = length[a]
         else:
-            mn = pos[0, a]
-            mx = pos[0, a]
-            for i in range(1, pos.shape[0]):
-                mn = min(mn, pos[i, a])
-                mx = max(mx, pos[i, a])
-            origin[a] = mn
-            ext[a] = mx - mn
-        ncell[a] = max(1, int(ext[a] / cut))
+            grid[0, a] = bounds[a, 0]
+            ext = bounds[a, 1] - bounds[a, 0]
+        grid[1, a] = ext
+        ncell[a] = max(1, int(ext / cut))
     while ncell[0] * ncell[1] * ncell[2] > max_cells:
         a = 0
         for b in range(1, 3):
@@ -82,8 +98,62 @@ def cell_grid(pos, lo, length, periodic, cut, max_cells):
                 a = b
         ncell[a] = max(1, ncell[a] // 2)
     for a in range(3):
-        size[a] = max(ext[a] / ncell[a], cut) if not periodic[a] else ext[a] / ncell[a]
-    return origin, size, ncell
+        ext = grid[1, a]
+        grid[1, a] = max(ext / ncell[a], cut) if not periodic[a] else ext / ncell[a]
+
+
+@njit(**NJIT_INLINE)
+def cell_of(i, pos, grid, ncell, cell3):
+    """The cell of particle i: its coordinates into ``cell3[i]`` (clamped to the grid), its
+    flat index returned."""
+    for a in range(3):
+        c = int((pos[i, a] - grid[0, a]) / grid[1, a])
+        cell3[i, a] = min(max(c, 0), ncell[a] - 1)
+    return (cell3[i, 0] * ncell[1] + cell3[i, 1]) * ncell[2] + cell3[i, 2]
+
+
+@njit(**NJIT_INLINE)
+def sort_segment(a, s, e):
+    """Sort ``a[s:e]`` in place (insertion sort: the segments are short)."""
+    for q in range(s + 1, e):
+        v = a[q]
+        b = q - 1
+        while b >= s and a[b] > v:
+            a[b + 1] = a[b]
+            b -= 1
+        a[b + 1] = v
+
+
+@njit(**NJIT_INLINE)
+def sort_and_carry(i, new_start, new_j, new_entry, start, nbr_j, entry, n_hist):
+    """Particle i's segment of the new list sorted, its entries zeroed but for the
+    ``n_hist`` history slots of every pair also in the old list (``start``, ``nbr_j``,
+    ``entry``), carried over: a merge of two sorted segments. Both backends' (the CUDA one
+    in one thread per particle)."""
+    s = new_start[i]
+    e = new_start[i + 1]
+    sort_segment(new_j, s, e)
+    o = start[i]
+    oe = start[i + 1]
+    for k in range(s, e):
+        for h in range(new_entry.shape[1]):
+            new_entry[k, h] = 0.0
+        j = new_j[k]
+        while o < oe and nbr_j[o] < j:
+            o += 1
+        if o < oe and nbr_j[o] == j:
+            for h in range(n_hist):
+                new_entry[k, h] = entry[o, h]
+
+
+@njit(**NJIT_INLINE)
+def commit_entry(k, new_j, new_entry, nbr_j, entry):
+    """Entry k of the new list into the list's arrays; its second particle returned."""
+    j = new_j[k]
+    nbr_j[k] = j
+    for h in range(entry.shape[1]):
+        entry[k, h] = new_entry[k, h]
+    return j
 
 
 @njit(**NJIT)
@@ -174,17 +244,16 @@ def build_neighbour_list(
     rmax = 0.0
     for i in range(n):
         rmax = max(rmax, rad[i])
-    origin, size, ncell = cell_grid(pos, lo, length, periodic, 2.0 * rmax + skin, 4 * n + 64)
+    grid, ncell = cell_grid(pos, lo, length, periodic, 2.0 * rmax + skin, 4 * n + 64)
     ncells = ncell[0] * ncell[1] * ncell[2]
 
     # counting sort of particles into cells (each cell lists its particles in increasing id)
     cell3 = np.empty((n, 3), dtype=np.int64)
+    key = np.empty(n, dtype=np.int64)
     cell_start = np.zeros(ncells + 1, dtype=np.int64)
     for i in range(n):
-        for a in range(3):
-            c = int((pos[i, a] - origin[a]) / size[a])
-            cell3[i, a] = min(max(c, 0), ncell[a] - 1)
-        c = (cell3[i, 0] * ncell[1] + cell3[i, 1]) * ncell[2] + cell3[i, 2]
+        c = cell_of(i, pos, grid, ncell, cell3)
+        key[i] = c
         cell_start[c + 1] += 1
     for c in range(ncells):
         cell_start[c + 1] += cell_start[c]
@@ -193,7 +262,7 @@ def build_neighbour_list(
         fill[c] = cell_start[c]
     cell_list = np.empty(n, dtype=np.int64)
     for i in range(n):
-        c = (cell3[i, 0] * ncell[1] + cell3[i, 1]) * ncell[2] + cell3[i, 2]
+        c = key[i]
         cell_list[fill[c]] = i
         fill[c] += 1
 
@@ -221,32 +290,11 @@ def build_neighbour_list(
     if total > cap:
         return -total
 
-    new_entry = np.zeros((total, entry.shape[1]))
+    new_entry = np.empty((total, entry.shape[1]))
     for i in range(n):
-        s = new_start[i]
-        e = new_start[i + 1]
-        for a in range(s + 1, e):  # insertion sort: segments are short
-            v = new_j[a]
-            b = a - 1
-            while b >= s and new_j[b] > v:
-                new_j[b + 1] = new_j[b]
-                b -= 1
-            new_j[b + 1] = v
-        # merge with the old sorted segment to carry the history over
-        o = nbr_start[i]
-        oe = nbr_start[i + 1]
-        for k in range(s, e):
-            j = new_j[k]
-            while o < oe and nbr_j[o] < j:
-                o += 1
-            if o < oe and nbr_j[o] == j:
-                for h in range(n_hist):
-                    new_entry[k, h] = entry[o, h]
-
+        sort_and_carry(i, new_start, new_j, new_entry, nbr_start, nbr_j, entry, n_hist)
     for k in range(total):
-        nbr_j[k] = new_j[k]
-        for h in range(entry.shape[1]):
-            entry[k, h] = new_entry[k, h]
+        commit_entry(k, new_j, new_entry, nbr_j, entry)
     for i in range(n + 1):
         nbr_start[i] = new_start[i]
 

@@ -40,15 +40,16 @@ class HopperGeometry:
 
     Attributes: ``scene``; ``wall_top`` (the walls' top, z [m]); ``catch_depth`` (the catch
     floor at z = -catch_depth [m]); ``gate_stop`` (z at which the opened gate stops, below the
-    catch floor out of the particles' reach [m]); ``wall_mesh`` and ``gate_mesh`` (indices in
-    ``scene.meshes``); ``half_width`` (B / 2 [m]); ``tan`` (tan of the half-angle);
+    catch floor out of the particles' reach [m]); ``wall_meshes`` and ``gate_mesh`` (indices in
+    ``scene.meshes``: a slot's two walls, -x then +x, are two meshes, so that the engine's
+    force on each can be read); ``half_width`` (B / 2 [m]); ``tan`` (tan of the half-angle);
     ``depth`` (the slot's period [m], None for a cone)."""
 
     scene: Scene
     wall_top: float
     catch_depth: float
     gate_stop: float
-    wall_mesh: int
+    wall_meshes: tuple[int, ...]
     gate_mesh: int
     half_width: float
     tan: float
@@ -62,7 +63,7 @@ def wall_radius(test: HopperTest, z) -> np.ndarray:
     return 0.5 * test.outlet_width + t * np.maximum(np.asarray(z, dtype=float), 0.0)
 
 
-def _slot_meshes(test: HopperTest, top: float) -> tuple[Mesh, Mesh]:
+def _slot_meshes(test: HopperTest, top: float) -> tuple[list[Mesh], Mesh]:
     d = test.max_diameter
     b = 0.5 * test.outlet_width
     t = math.tan(math.radians(test.half_angle))
@@ -70,27 +71,26 @@ def _slot_meshes(test: HopperTest, top: float) -> tuple[Mesh, Mesh]:
     m = 2.0 * d
     y0, y1 = -m, test.depth + m
     xt = b + t * top
-    v = [
-        [b, y0, 0.0],
-        [b, y1, 0.0],
-        [xt, y1, top],
-        [xt, y0, top],
-        [-b, y0, 0.0],
-        [-b, y1, 0.0],
-        [-xt, y1, top],
-        [-xt, y0, top],
-    ]
-    walls = Mesh(v, [[0, 1, 2], [0, 2, 3], [4, 6, 5], [4, 7, 6]], name="hopper walls")
+    left = Mesh(
+        [[-b, y0, 0.0], [-b, y1, 0.0], [-xt, y1, top], [-xt, y0, top]],
+        [[0, 2, 1], [0, 3, 2]],
+        name="hopper wall -x",
+    )
+    right = Mesh(
+        [[b, y0, 0.0], [b, y1, 0.0], [xt, y1, top], [xt, y0, top]],
+        [[0, 1, 2], [0, 2, 3]],
+        name="hopper wall +x",
+    )
     g = b + GATE_OVERHANG * d
     gate = Mesh(
         [[-g, y0, 0.0], [g, y0, 0.0], [g, y1, 0.0], [-g, y1, 0.0]],
         [[0, 1, 2], [0, 2, 3]],
         name="gate",
     )
-    return walls, gate
+    return [left, right], gate
 
 
-def _cone_meshes(test: HopperTest, top: float) -> tuple[Mesh, Mesh]:
+def _cone_meshes(test: HopperTest, top: float) -> tuple[list[Mesh], Mesh]:
     n = CONE_SIDES
     b = 0.5 * test.outlet_width
     rt = float(wall_radius(test, top))
@@ -108,7 +108,7 @@ def _cone_meshes(test: HopperTest, top: float) -> tuple[Mesh, Mesh]:
         [[0, 1, 2], [0, 2, 3]],
         name="gate",
     )
-    return walls, gate
+    return [walls], gate
 
 
 def lattice_fill(test: HopperTest) -> np.ndarray:
@@ -196,7 +196,7 @@ def build_hopper(test: HopperTest) -> HopperGeometry:
         box=box,
         periodic=periodic,
         walls=[floor],
-        meshes=[walls, gate],
+        meshes=[*walls, gate],
         gravity=(0.0, 0.0, -test.gravity),
         pair_law=test.pair_law,
         wall_law=test.wall_law,
@@ -209,8 +209,8 @@ def build_hopper(test: HopperTest) -> HopperGeometry:
         top,
         catch,
         stop,
-        0,
-        1,
+        tuple(range(len(walls))),
+        len(walls),
         0.5 * test.outlet_width,
         math.tan(math.radians(test.half_angle)),
         depth,

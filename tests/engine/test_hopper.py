@@ -137,7 +137,8 @@ def test_the_poured_fill_lies_inside_the_walls_without_overlaps(shape):
     assert gap.min() > 1.1 * R
     g = build_hopper(t)
     assert g.wall_top > p[:, 2].max() + D and g.gate_stop < -g.catch_depth - D
-    assert len(g.scene.meshes) == 2 and g.scene.n == 400
+    assert len(g.scene.meshes) == (3 if shape == "slot" else 2) and g.scene.n == 400
+    assert g.gate_mesh == len(g.scene.meshes) - 1 and g.gate_mesh not in g.wall_meshes
     if shape == "slot":
         assert g.scene.periodic == (False, True, False)
 

@@ -14,11 +14,33 @@ from engine.hopper.spec import HopperTest
 D = 5e-3  # particle diameter [m]
 
 
-def _discharge(test: HopperTest, hold: float = 0.0):
+def _discharge(test: HopperTest, hold: float = 0.0, at_rest=None):
     run = HopperRun(test, threads=1)
     run.settle()
     held = run.hold(hold) if hold > 0 else 0.0
+    if at_rest is not None:
+        at_rest(run)
     return run, held, run.discharge()
+
+
+def _wall_forces(run: HopperRun, seen: dict) -> None:
+    """The normal force on the slot's +x wall [N] two ways: the engine's force on that mesh
+    along the wall's outward normal, and the sum of the contacts' elastic Hertz forces the
+    wall stress is made of."""
+    from engine.hopper.measures import hertz_wall_force
+
+    sim, t = run.sim, run.test
+    th = math.radians(t.half_angle)
+    outward = np.array([math.cos(th), 0.0, -math.sin(th)])
+    right = run.geo.wall_meshes[1]
+    c = sim.mesh_contacts()
+    on = c.meshes == right
+    e_star, _ = t.wall_law.wall_moduli(t.wall_material)
+    seen["engine"] = float(sim.mesh_forces[right] @ outward)
+    seen["elastic"] = float(
+        hertz_wall_force(c.overlaps[on], sim.radii[c.particles[on]], e_star).sum()
+    )
+    seen["contacts"] = int(on.sum())
 
 
 def _conserved(run: HopperRun, res) -> None:
@@ -39,13 +61,18 @@ def _conserved(run: HopperRun, res) -> None:
 def slots():
     """Slot hoppers of outlet 6 and 10 diameters, 500 particles, half-angle 30 degrees; the
     narrower one's gate held closed for 0.05 s after the settling first."""
-    narrow = _discharge(HopperTest(outlet_width=6 * D, particles=500), hold=0.05)
+    seen: dict = {}
+    narrow = _discharge(
+        HopperTest(outlet_width=6 * D, particles=500),
+        hold=0.05,
+        at_rest=lambda run: _wall_forces(run, seen),
+    )
     wide = _discharge(HopperTest(outlet_width=10 * D, particles=500))
-    return narrow, wide
+    return narrow, wide, seen
 
 
 def test_closed_gate_holds_the_fill(slots):
-    (_, held, res), _ = slots
+    (_, held, res), _, seen = slots
     assert held == 0.0
     assert res.scalars["settle_time"] > 0
     # the settled fill presses on the walls: positive normal stress in the lower bins
@@ -56,10 +83,13 @@ def test_closed_gate_holds_the_fill(slots):
     rho_g = res.scalars["bulk_density"] * res.test.gravity
     lower = res.wall_edges[:-1]
     assert np.all(res.wall_stress_fill[:3] < 1.5 * rho_g * (h - lower[:3]))
+    # the wall stress's contact forces add up to the engine's own force on the wall
+    assert seen["contacts"] > 20
+    assert seen["elastic"] == pytest.approx(seen["engine"], rel=1e-3)
 
 
 def test_slot_discharges_at_a_rate_that_grows_with_the_outlet(slots):
-    (run6, _, r6), (run10, _, r10) = slots
+    (run6, _, r6), (run10, _, r10), _ = slots
     for run, res in ((run6, r6), (run10, r10)):
         _conserved(run, res)
         s = res.scalars

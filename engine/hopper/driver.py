@@ -10,6 +10,7 @@ current height, and the wall normal stress by height (:mod:`engine.hopper.measur
 
 from __future__ import annotations
 
+import bisect
 import math
 import time
 
@@ -208,6 +209,7 @@ class HopperRun:
         wait = t.arch_wait * t.free_fall_time
         pm = float(self.masses.min())
         rows: list[tuple] = []
+        times: list[float] = []  # the rows' times, for the stop criterion's look-back
         stresses: list[np.ndarray] = []
         fastest = 0.0
         stopped = False
@@ -250,6 +252,7 @@ class HopperRun:
             )
             stresses.append(self.wall_stress(self.edges))
             now = rows[-1][0]
+            times.append(now)
             self._tick(
                 "discharge",
                 _SETTLE_SHARE + (1 - _SETTLE_SHARE) * m_out / self.total,
@@ -259,8 +262,7 @@ class HopperRun:
                 break
             # the stop criterion as it goes: the mass of the last window of `wait`
             if now >= wait:
-                times = np.array([r[0] for r in rows])
-                i = int(np.searchsorted(times, now - wait, side="right")) - 1
+                i = bisect.bisect_right(times, now - wait) - 1
                 moved = m_out - rows[i][1]
                 if moved < max(pm, t.arch_fraction * fastest * wait):
                     stopped = True

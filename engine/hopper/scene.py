@@ -28,10 +28,13 @@ LATTICE_JITTER = 0.02
 GATE_OVERHANG = 2.0
 #: The walls rise this many diameters above the top of the poured lattice [-].
 WALL_HEADROOM = 2.0
-#: The catch floor lies this many diameters below the outlet, plus 2 B [-]: deep enough that
-#: the heap of the whole fill on it stays well below the outlet (a heap of N = 2,000 grains
-#: at a repose angle of 35 degrees is about 10 diameters high in a slot 5 diameters deep).
+#: The catch floor lies this many largest diameters below the outlet, plus 2 B, plus the
+#: height of the heap the whole fill would make on it (:func:`heap_height`) [-].
 CATCH_DIAMETERS = 20.0
+#: The heap's slope [deg] and solid fraction [-] in :func:`heap_height`: steeper and looser
+#: than a cohesionless heap of spheres, so that the estimate is high.
+HEAP_ANGLE = 35.0
+HEAP_FRACTION = 0.5
 
 
 @dataclass
@@ -111,6 +114,19 @@ def _cone_meshes(test: HopperTest, top: float) -> tuple[list[Mesh], Mesh]:
     return [walls], gate
 
 
+def heap_height(test: HopperTest) -> float:
+    """Height of the heap the whole fill makes on the catch floor [m], an upper estimate: its
+    solid volume at :data:`HEAP_FRACTION`, as a ridge of triangular section along the slot's
+    depth (A = h^2 / tan(alpha)) or a cone (V = pi h^3 / (3 tan^2(alpha))), alpha =
+    :data:`HEAP_ANGLE`. The catch floor lies this much deeper, so that the heap never
+    reaches the outlet (where it would hold the flow back, and pass for an arch)."""
+    v = test.n_particles * test.mean_particle_volume / HEAP_FRACTION
+    ta = math.tan(math.radians(HEAP_ANGLE))
+    if test.shape == "slot":
+        return math.sqrt(v / test.depth * ta)
+    return (3.0 * v * ta * ta / math.pi) ** (1.0 / 3.0)
+
+
 def lattice_fill(test: HopperTest) -> np.ndarray:
     """Centres of the poured fill [m], (N, 3): a cubic lattice of spacing
     :data:`LATTICE_SPACING` largest diameters inside the walls (every centre at least 1.05
@@ -175,7 +191,7 @@ def build_hopper(test: HopperTest) -> HopperGeometry:
     r = radii_of(test)
     d = test.max_diameter
     top = float(pos[:, 2].max()) + WALL_HEADROOM * d
-    catch = CATCH_DIAMETERS * d + 2.0 * test.outlet_width
+    catch = CATCH_DIAMETERS * d + 2.0 * test.outlet_width + heap_height(test)
     if test.shape == "slot":
         walls, gate = _slot_meshes(test, top)
         lo_x = -float(wall_radius(test, top)) - d

@@ -16,7 +16,14 @@ from engine.hopper.measures import (
     steady_rate,
     stop_time,
 )
-from engine.hopper.scene import build_hopper, lattice_fill, radii_of, wall_bin_areas, wall_radius
+from engine.hopper.scene import (
+    build_hopper,
+    heap_height,
+    lattice_fill,
+    radii_of,
+    wall_bin_areas,
+    wall_radius,
+)
 from engine.hopper.spec import CONE_SIDES, HopperTest, control_test, halved_protocol
 from engine.hopper.study import hopper_metric_values, hopper_steps
 from engine.study.kinds import kind_for_json, kind_of
@@ -137,6 +144,14 @@ def test_the_poured_fill_lies_inside_the_walls_without_overlaps(shape):
     assert gap.min() > 1.1 * R
     g = build_hopper(t)
     assert g.wall_top > p[:, 2].max() + D and g.gate_stop < -g.catch_depth - D
+    # the catch floor lies below the outlet by 20 d + 2 B and a heap of the whole fill
+    heap = heap_height(t)
+    assert g.catch_depth == pytest.approx(20 * 1.1 * D + 2 * t.outlet_width + heap)
+    # the heap holds the fill's solid volume at solid fraction 0.5 with 35-degree slopes
+    v = 400 * t.mean_particle_volume / 0.5
+    ta = math.tan(math.radians(35.0))
+    held = heap**2 / ta * t.depth if shape == "slot" else math.pi * heap**3 / (3 * ta * ta)
+    assert held == pytest.approx(v, rel=1e-12)
     assert len(g.scene.meshes) == (3 if shape == "slot" else 2) and g.scene.n == 400
     assert g.gate_mesh == len(g.scene.meshes) - 1 and g.gate_mesh not in g.wall_meshes
     if shape == "slot":

@@ -104,3 +104,44 @@ class HopperResult:
             "wall_stress_fill": [float(x) for x in self.wall_stress_fill],
             "wall_stress_flow": [float(x) for x in self.wall_stress_flow],
         }
+
+
+def save_hopper(path, res: HopperResult, **extra) -> None:
+    """Store ``res`` as ``path`` (.json: its test, scalars, flow mode, wall stress profiles and
+    the ``extra`` keys; NaN written as NaN) and its curves beside it (.npz), each written whole
+    (a temporary file, then a rename), the curves first: a .json present means a complete
+    run (as :func:`engine.shear.results.save_shear`)."""
+    import json
+    from pathlib import Path
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".npz.tmp")
+    with open(tmp, "wb") as f:
+        np.savez_compressed(f, **res.curves)
+    tmp.replace(path.with_suffix(".npz"))
+    tmp = path.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps({**res.to_dict(), **extra}, indent=1, default=float))
+    tmp.replace(path)
+
+
+def load_hopper(path, curves: bool = False) -> HopperResult:
+    """A run stored by :func:`save_hopper`: its test, scalars and wall stress profiles; with
+    ``curves`` its curves from the .npz beside it (else none)."""
+    import json
+    from pathlib import Path
+
+    path = Path(path)
+    d = json.loads(path.read_text())
+    c: dict[str, np.ndarray] = {}
+    if curves:
+        with np.load(path.with_suffix(".npz")) as z:
+            c = {k: z[k] for k in z.files}
+    return HopperResult(
+        HopperTest.from_dict(d["test"]),
+        c,
+        np.array(d["wall_edges"], dtype=float),
+        np.array(d["wall_stress_fill"], dtype=float),
+        np.array(d["wall_stress_flow"], dtype=float),
+        {k: float(v) for k, v in d["scalars"].items()},
+    )

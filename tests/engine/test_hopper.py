@@ -272,3 +272,27 @@ def test_a_hopper_study_is_planned_by_the_study_machinery():
     assert ctl.n_particles == coarse.n_particles
     assert runs["half-s1"].test.dt_fraction == ref.dt_fraction / 2
     assert all(r.particle_steps > 0 for r in runs.values())
+
+
+def test_a_result_is_stored_and_read_back(tmp_path):
+    from engine.hopper.results import HOPPER_CURVE_UNITS, load_hopper, save_hopper
+
+    t = HopperTest(shape="cone", outlet_width=7 * D, particles=300, seed=4)
+    curves = {k: np.linspace(0.0, 1.0, 5) * (i + 1) for i, k in enumerate(HOPPER_CURVE_UNITS)}
+    res = engine.HopperResult(
+        t,
+        curves,
+        np.array([0.0, 0.01, 0.02]),
+        np.array([300.0, 100.0]),
+        np.array([np.nan, np.nan]),
+        {"discharge_rate": 0.25, "arch_time": math.nan, "mass_flow_index": 0.2, "mass_flow": 0.0},
+    )
+    save_hopper(tmp_path / "run.json", res, seed=4)
+    back = load_hopper(tmp_path / "run.json", curves=True)
+    assert back.test == t and back.flow_mode == "funnel"
+    assert back.scalars["discharge_rate"] == 0.25 and math.isnan(back.scalars["arch_time"])
+    assert back.wall_stress_fill.tolist() == [300.0, 100.0]
+    assert np.isnan(back.wall_stress_flow).all()
+    for k, v in curves.items():
+        assert np.array_equal(back.curves[k], v)
+    assert load_hopper(tmp_path / "run.json").curves == {}

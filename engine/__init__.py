@@ -11,6 +11,7 @@ Public API (stable names)::
     critical_time_step                              time-step limits of a scene
     UniaxialTest, preset, run_uniaxial              the uniaxial test and its stages
     ShearTest, run_shear, ShearResult               the Jenike-type shear test (docs/SHEAR.md)
+    HopperTest, run_hopper, HopperResult            the hopper discharge (docs/HOPPER.md)
     SEED_PROTOCOL                                   the seed's protocol (preset protocol="seed")
     Checkpoint                                      resume a killed run where it was
     ScalingRule, StudySpec, run_study               scaling studies, errors and costs
@@ -35,6 +36,9 @@ from .core.errors import (
     WallTimeExceeded,
 )
 from .core.similarity import similar
+from .hopper.driver import run_hopper
+from .hopper.results import HopperResult
+from .hopper.spec import HopperTest
 from .io.vtkhdf import SnapshotWriter
 from .kernel.specialise import FEATURES
 from .process import Process, ProcessPlan, plan_process
@@ -75,6 +79,8 @@ __all__ = [
     "FileChannel",
     "FlowFunction",
     "HertzMindlin",
+    "HopperResult",
+    "HopperTest",
     "InstabilityError",
     "LabTargets",
     "Mesh",
@@ -116,6 +122,7 @@ __all__ = [
     "plan",
     "plan_process",
     "preset",
+    "run_hopper",
     "run_shear",
     "run_study",
     "run_uniaxial",

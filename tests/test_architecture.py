@@ -87,6 +87,7 @@ LAYERS = (
     "cuda",
     "uniaxial",
     "shear",
+    "hopper",
     "study",
     "io",
     "calibration",

@@ -21,6 +21,10 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from ..core.records import from_dict
+from ..hopper import spec as hopper_spec
+from ..hopper import study as hopper_study
+from ..hopper.results import HopperResult
+from ..hopper.spec import HopperTest
 from ..shear import spec as shear_spec
 from ..shear.driver import run_shear
 from ..shear.results import ShearResult
@@ -363,5 +367,48 @@ SHEAR = register(
         window=False,
         clock_constants="the curve samples' clock (output_interval, fixed in seconds) and "
         "the runs' chaos",
+    )
+)
+
+
+# ------------------------------------------------------------------ the hopper (docs/HOPPER.md)
+HOPPER_METRICS = {m[0]: Metric(*m) for m in hopper_study.HOPPER_METRICS}
+HOPPER = register(
+    TestKind(
+        name="hopper",
+        spec=HopperTest,
+        result=HopperResult,
+        json_type="HopperTest",
+        from_json=lambda raw, owner: from_dict(HopperTest, raw, owner),
+        metrics=HOPPER_METRICS,
+        metric_names=lambda test: tuple(HOPPER_METRICS),
+        metric_values=hopper_study.hopper_metric_values,
+        shape_names=(),
+        shape_errors=lambda run, ref: {},
+        run=hopper_study.run_hopper_kind,
+        checkpoints=False,
+        wall_time_limit=True,
+        backends=("cpu", "auto"),
+        control_test=hopper_spec.control_test,
+        halved_protocol=hopper_spec.halved_protocol,
+        estimated_steps=hopper_study.hopper_steps,
+        table_units={
+            **{
+                k: v
+                for k, v in TABLE_UNITS.items()
+                if k not in METRIC_COLUMNS.values()
+                and k not in SHAPE_NAMES
+                and not k.startswith("unconfined_")
+            },
+            **hopper_study.HOPPER_TABLE_SCALARS,
+            **{f"err_{k}": "1" for k in HOPPER_METRICS},
+        },
+        row_scalars=hopper_study.hopper_row,
+        summary_scalars=hopper_study.HOPPER_SUMMARY,
+        snapshots=False,
+        stage_time_scales=False,
+        window=False,
+        clock_constants="the discharge samples' clock (output_interval, fixed in seconds), "
+        "the gate's opening and the runs' chaos",
     )
 )

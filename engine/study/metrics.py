@@ -201,8 +201,9 @@ def shape_names_of(test) -> tuple[str, ...]:
 
 
 def metric_column(name: str) -> str:
-    """The table column of a verdict metric's per-run error."""
-    return METRIC_COLUMNS.get(name) or SHEAR_METRIC_COLUMNS[name]
+    """The table column of a verdict metric's per-run error (``err_<name>`` for a kind's
+    metric named in neither table: the hopper's, engine/study/kinds.py)."""
+    return METRIC_COLUMNS.get(name) or SHEAR_METRIC_COLUMNS.get(name) or f"err_{name}"
 
 
 def shear_metric_values(result) -> dict[str, np.ndarray]:

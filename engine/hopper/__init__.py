@@ -1,0 +1,1 @@
+"""The simulated hopper discharge: parameters, scene, stages, measures (docs/HOPPER.md)."""

@@ -1,0 +1,377 @@
+"""The hopper's stages (docs/HOPPER.md): the fill poured from a loose lattice and settled behind
+the closed gate, then the gate moved away downwards and the discharge sampled every
+``output_interval`` until the hopper is empty, the flow stops, or ``max_discharge_time``.
+
+Each sample counts the mass discharged (centres more than one largest diameter below the
+outlet), still in the hopper, and anywhere else (a leak: none in a sound scene), and reads the
+grains' downward speeds next to the wall and on the centre line in a band at half the fill's
+current height, and the wall normal stress by height (:mod:`engine.hopper.measures`).
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+import time
+
+import numpy as np
+
+from ..core.errors import StopRequested, WallTimeExceeded
+from ..simulation.simulation import Simulation
+from ..simulation.timestep import critical_time_step
+from ..uniaxial.driver import StageError
+from ..uniaxial.results import Progress, ProgressCallback
+from .measures import (
+    MASS_FLOW_INDEX,
+    binned_stress,
+    flow_index,
+    hertz_wall_force,
+    steady_rate,
+    stop_time,
+)
+from .results import HOPPER_CURVE_UNITS, HopperResult
+from .scene import HopperGeometry, build_hopper, wall_bin_areas, wall_radius
+from .spec import CONE_SIDES, HopperTest
+
+#: Grains whose centres lie within this many largest diameters of the wall (normal to it)
+#: are the wall's in the mass-flow index; those within this many of the centre line the
+#: centre's [-] (about the first layer of grains at the wall).
+BAND_REACH = 1.0
+#: Half-thickness of the band in which the mass-flow index reads speeds, in largest
+#: diameters [-].
+BAND_HALF = 1.0
+#: The share of the overall progress taken by the settling [-].
+_SETTLE_SHARE = 0.3
+
+
+def impact_speed(test: HopperTest, geometry: HopperGeometry) -> float:
+    """Fastest impact the time step is sized for [m/s]: a free fall from the walls' top onto
+    the catch floor, sqrt(2 g (top + catch depth)). (The opened gate moves away from the
+    grains, faster than they fall: it strikes none.)"""
+    return math.sqrt(2.0 * test.gravity * (geometry.wall_top + geometry.catch_depth))
+
+
+def resolved_dt(test: HopperTest, geometry: HopperGeometry | None = None) -> float:
+    """The time step of a run of ``test`` [s]: ``dt``, or ``dt_fraction`` of the stable limit
+    of its scene (:func:`engine.critical_time_step`) at :func:`impact_speed`."""
+    if test.dt is not None:
+        return test.dt
+    geometry = geometry or build_hopper(test)
+    lim = critical_time_step(geometry.scene, impact_speed(test, geometry))
+    return test.dt_fraction * lim.dt
+
+
+class HopperRun:
+    """One hopper discharge on one :class:`engine.Simulation`: :meth:`settle`, then
+    :meth:`hold` (the gate kept closed) or :meth:`discharge`; :meth:`run` does the whole."""
+
+    def __init__(
+        self,
+        test: HopperTest,
+        progress: ProgressCallback | None = None,
+        max_wall_time: float | None = None,
+        wall_time_setting: str | None = None,
+        threads: int | None = None,
+    ) -> None:
+        if not isinstance(test, HopperTest):
+            raise TypeError(f"a hopper run takes an engine.HopperTest, not {type(test).__name__}")
+        self.test = test
+        self.progress = progress
+        self.max_wall_time = max_wall_time
+        self.wall_time_setting = wall_time_setting or "max_wall_time"
+        self.geo = build_hopper(test)
+        self.dt = resolved_dt(test, self.geo)
+        t = time.perf_counter()
+        self.sim = Simulation(  # the CPU whatever DEMSCALE_BACKEND says: not run on CUDA yet
+            self.geo.scene,
+            self.dt,
+            max_speed=impact_speed(test, self.geo),
+            threads=threads,
+            backend="cpu",
+        )
+        sim = self.sim
+        self.d = test.max_diameter
+        self.masses = sim.masses.copy()
+        self.total = float(self.masses.sum())
+        self.sample_steps = max(1, round(test.output_interval / self.dt))
+        sim.run(1)  # compiles the kernels (or loads them): set-up, not the run's wall time
+        self.setup = time.perf_counter() - t
+        self.t0 = time.perf_counter()
+        self.settle_time = math.nan
+        self.fill_height = math.nan
+        self.bulk_density = math.nan
+        self.edges = np.zeros(2)
+        self.stress_fill = np.zeros(1)
+
+    # ------------------------------------------------------------------ helpers
+    def _tick(self, stage: str, fraction: float, stage_fraction: float, msg: str = "") -> None:
+        if self.max_wall_time is not None:
+            elapsed = time.perf_counter() - self.t0
+            if elapsed > self.max_wall_time:
+                raise WallTimeExceeded(self.max_wall_time, elapsed, self.wall_time_setting)
+        if self.progress is not None:
+            p = Progress(
+                min(1.0, fraction),
+                stage,
+                min(1.0, stage_fraction),
+                self.sim.time,
+                self.sim.steps,
+                msg,
+            )
+            if self.progress(p) is False:
+                raise StopRequested(f"stopped by the progress callback in stage {stage}")
+
+    def regions(self) -> tuple[np.ndarray, np.ndarray]:
+        """(discharged, inside) masks of the particles now: discharged, centres more than one
+        largest diameter below the outlet; inside, the rest that lie within the hopper's
+        walls (within one radius of them)."""
+        p = self.sim.positions
+        r = self.sim.radii
+        z = p[:, 2]
+        out = z < -self.d
+        across = self._across(p)
+        inside = ~out & (across <= wall_radius(self.test, z) + r)
+        return out, inside
+
+    def _across(self, p: np.ndarray) -> np.ndarray:
+        """Distance of each centre from the mid-plane (slot) or the axis (cone) [m]."""
+        if self.test.shape == "slot":
+            return np.abs(p[:, 0])
+        return np.hypot(p[:, 0], p[:, 1])
+
+    def wall_stress(self, edges: np.ndarray) -> np.ndarray:
+        """The wall normal stress by height bin of ``edges`` [Pa] at the last force
+        evaluation: each wall contact's elastic Hertz normal force
+        (:func:`engine.hopper.measures.hertz_wall_force`) at its contact point's height."""
+        c = self.sim.mesh_contacts()
+        on = np.isin(c.meshes, self.geo.wall_meshes)
+        e_star, _ = self.test.wall_law.wall_moduli(self.test.wall_material)
+        f = hertz_wall_force(c.overlaps[on], self.sim.radii[c.particles[on]], e_star)
+        return binned_stress(c.points[on, 2], f, edges, wall_bin_areas(self.test, edges))
+
+    def kinetic_scale(self) -> float:
+        """N m g R [J]: the scale of the settling criterion."""
+        return self.total * self.test.gravity * self.test.radius
+
+    # ------------------------------------------------------------------ stages
+    def settle(self) -> None:
+        """Let the poured fill settle behind the closed gate: at least two free-fall times
+        from the walls' top, then until its kinetic energy is below ``settle_ke`` N m g R
+        (StageError past ``max_settle_time``). Then the settled fill's bulk density (its lower
+        half's), the height it fills at that density under a level surface, and the wall
+        normal stress of the fill at rest."""
+        t = self.test
+        sim = self.sim
+        t_min = 2.0 * math.sqrt(2.0 * self.geo.wall_top / t.gravity)
+        bound = t.settle_ke * self.kinetic_scale()
+        while True:
+            sim.run(self.sample_steps)
+            ke = sim.kinetic_energy()
+            self._tick("settle", _SETTLE_SHARE * sim.time / t.max_settle_time, sim.time / t_min)
+            if sim.time >= t_min and ke < bound:
+                break
+            if sim.time > t.max_settle_time:
+                raise StageError(
+                    f"the fill did not settle within {t.max_settle_time:g} s "
+                    f"(max_settle_time): kinetic energy {ke / self.kinetic_scale():.3g} "
+                    f"N m g R, settle_ke {t.settle_ke:g}",
+                    "settle",
+                    sim.steps,
+                )
+        self.settle_time = sim.time
+        z = sim.positions[:, 2]
+        half = 0.5 * float((z + sim.radii).max())
+        # bulk density in the fill's lower half, its mass counted by centres: exact at the
+        # walls and the gate (no grain crosses them), at the open face z = half on average
+        self.bulk_density = float(self.masses[z < half].sum()) / t.volume_below(half)
+        self.fill_height = t.height_holding(self.total / self.bulk_density)
+        self.edges = np.linspace(0.0, self.fill_height, t.wall_bins + 1)
+        self.stress_fill = self.wall_stress(self.edges)
+
+    def hold(self, seconds: float) -> float:
+        """Run ``seconds`` [s] more with the gate closed; returns the mass discharged [kg]."""
+        self.sim.run(max(1, round(seconds / self.dt)))
+        out, _ = self.regions()
+        return float(self.masses[out].sum())
+
+    def discharge(self) -> HopperResult:
+        """Open the gate (moved down at ``gate_speed`` until it lies below the catch floor) and
+        sample the discharge until the hopper is empty, the flow has stopped
+        (:func:`engine.hopper.measures.stop_time`'s criterion, read as it goes), or
+        ``max_discharge_time``; then the measures."""
+        t = self.test
+        sim = self.sim
+        geo = self.geo
+        gate_steps = math.ceil(abs(geo.gate_stop) / (t.resolved_gate_speed * self.dt))
+        sim.set_mesh_velocity(geo.gate_mesh, (0.0, 0.0, -t.resolved_gate_speed))
+        t_open = sim.time
+        step_open = sim.steps
+        wait = t.arch_wait * t.free_fall_time
+        pm = float(self.masses.min())
+        rows: list[tuple] = []
+        times: list[float] = []  # the rows' times, for the stop criterion's look-back
+        stresses: list[np.ndarray] = []
+        fastest = 0.0
+        stopped = False
+        detected = math.nan  # the start of the window in which the flow was seen stopped
+        cos = math.cos(math.radians(t.half_angle))
+        polygon = math.cos(math.pi / CONE_SIDES) if t.shape == "cone" else 1.0
+        while True:
+            moving = sim.steps - step_open < gate_steps
+            steps = self.sample_steps
+            if moving:
+                steps = min(steps, gate_steps - (sim.steps - step_open))
+            if rows:  # the first sample is the opening itself (t = 0)
+                sim.run(steps)
+            if moving and sim.steps - step_open >= gate_steps:
+                sim.set_mesh_velocity(geo.gate_mesh, (0.0, 0.0, 0.0))
+            out, inside = self.regions()
+            m_out = float(self.masses[out].sum())
+            m_in = float(self.masses[inside].sum())
+            p, v = sim.positions, sim.velocities
+            z = p[:, 2]
+            top = float(z[inside].max()) if inside.any() else 0.0
+            band = inside & (np.abs(z - 0.5 * top) <= BAND_HALF * self.d)
+            across = self._across(p)
+            gap = (wall_radius(t, z) * polygon - across) * cos
+            wall = band & (gap <= BAND_REACH * self.d)
+            centre = band & (across <= BAND_REACH * self.d)
+            vz = -v[:, 2]
+            rows.append(
+                (
+                    sim.time - t_open,
+                    m_out,
+                    m_in,
+                    float(self.masses[~out & ~inside].sum()),
+                    float(vz[wall].mean()) if wall.any() else math.nan,
+                    float(wall.sum()),
+                    float(vz[centre].mean()) if centre.any() else math.nan,
+                    float(centre.sum()),
+                    sim.kinetic_energy(),
+                )
+            )
+            stresses.append(self.wall_stress(self.edges))
+            now = rows[-1][0]
+            times.append(now)
+            self._tick(
+                "discharge",
+                _SETTLE_SHARE + (1 - _SETTLE_SHARE) * m_out / self.total,
+                m_out / self.total,
+            )
+            if m_in == 0.0:
+                break
+            # the stop criterion as it goes: the mass of the last window of `wait`
+            if now >= wait:
+                i = bisect.bisect_right(times, now - wait) - 1
+                moved = m_out - rows[i][1]
+                if moved < max(pm, t.arch_fraction * fastest * wait):
+                    stopped = True
+                    detected = rows[i][0]
+                    break
+                fastest = max(fastest, moved / (now - rows[i][0]))
+            if now >= t.max_discharge_time:
+                break
+        return self._result(rows, stresses, stopped, wait, pm, detected)
+
+    def _result(
+        self, rows, stresses, stopped: bool, wait: float, pm: float, detected: float
+    ) -> HopperResult:
+        t = self.test
+        sim = self.sim
+        a = np.array(rows, dtype=float)
+        curves = {k: a[:, i].copy() for i, k in enumerate(HOPPER_CURVE_UNITS)}
+        tt, m = curves["time"], curves["discharged_mass"]
+        steady = steady_rate(tt, m, self.total, t.window_start, t.window_end)
+        arched = False
+        arch_time = math.nan
+        if stopped:
+            when = stop_time(tt, m, wait, t.arch_fraction, pm)
+            # an arch: grains rest above the outlet's central half, within B above it
+            p = sim.positions
+            _, inside = self.regions()
+            over = inside & (self._across(p) <= 0.25 * t.outlet_width)
+            over &= p[:, 2] <= t.outlet_width
+            arched = bool(over.any())
+            if arched:
+                # the criterion read over the whole curve, else where it was read as it went
+                arch_time = when if when is not None else detected
+        win = np.zeros(len(tt), dtype=bool)
+        if math.isfinite(steady.rate):
+            win = (tt >= steady.start) & (tt <= steady.end)
+        if win.any():
+            index = flow_index(
+                curves["wall_speed"][win],
+                curves["wall_count"][win],
+                curves["centre_speed"][win],
+                curves["centre_count"][win],
+            )
+            flow_stress = np.mean(np.array(stresses)[win], axis=0)
+        else:
+            index = math.nan
+            flow_stress = np.full(t.wall_bins, math.nan)
+        per_depth = steady.rate / t.depth if t.shape == "slot" else math.nan
+        scale = t.rate_scale
+        s = {
+            "particles": float(sim.n),
+            "total_mass": self.total,
+            "discharged_mass": float(m[-1]),
+            "remaining_mass": float(curves["remaining_mass"][-1]),
+            "escaped_mass": float(curves["escaped_mass"][-1]),
+            "discharge_rate": steady.rate,
+            "discharge_rate_se": steady.se,
+            "discharge_rate_per_depth": per_depth,
+            "discharge_number": steady.rate / scale,
+            "discharge_number_se": steady.se / scale,
+            "window_start": steady.start,
+            "window_end": steady.end,
+            "window_samples": float(steady.samples),
+            "stopped": float(stopped),
+            "arched": float(arched),
+            "arch_time": arch_time,
+            "mass_flow_index": index,
+            "mass_flow": float(index >= MASS_FLOW_INDEX) if math.isfinite(index) else 0.0,
+            "fill_height": self.fill_height,
+            "bulk_density": self.bulk_density,
+            "outlet_diameters": t.outlet_diameters,
+            "thickness_diameters": t.thickness_diameters,
+            "height_diameters": self.fill_height / (2.0 * t.radius),
+            "free_fall_time": t.free_fall_time,
+            "settle_time": self.settle_time,
+            "discharge_time": float(tt[-1]),
+            "steps": float(sim.steps),
+            "particle_steps": float(sim.n) * float(sim.steps),
+            "dt": self.dt,
+            "wall_time": time.perf_counter() - self.t0,
+        }
+        return HopperResult(t, curves, self.edges, self.stress_fill, flow_stress, s)
+
+    def run(self) -> HopperResult:
+        """Settle, then discharge."""
+        self.settle()
+        return self.discharge()
+
+
+def run_hopper(
+    test: HopperTest,
+    progress: ProgressCallback | None = None,
+    *,
+    max_wall_time: float | None = None,
+    wall_time_setting: str | None = None,
+    threads: int | None = None,
+) -> HopperResult:
+    """Run the hopper discharge (docs/HOPPER.md): the fill settled behind the closed gate, the
+    gate opened, the discharge sampled and measured.
+
+    Args:
+        test: the parameters (:class:`engine.HopperTest`).
+        progress: called after every sample with a :class:`engine.Progress`; returning
+            ``False`` stops the run with :class:`engine.StopRequested`.
+        max_wall_time: stop with :class:`engine.WallTimeExceeded` past this many seconds of
+            wall time (the kernels' compilation left out) [s]; ``wall_time_setting`` names
+            the knob in its message.
+        threads: threads of the simulation (None: numba's).
+    Raises: :class:`engine.StageError` when the fill does not settle within
+        ``max_settle_time``; :class:`engine.InstabilityError` when the integration blows up.
+        The CPU backend.
+    """
+    return HopperRun(test, progress, max_wall_time, wall_time_setting, threads).run()

@@ -1,0 +1,145 @@
+"""Small hopper discharges (docs/HOPPER.md): a slot hopper at two outlet widths, the closed gate,
+mass conservation, a cone, and a narrow frictional outlet that arches. 400-500 particles of
+R = 2.5 mm each; one thread."""
+
+import math
+
+import numpy as np
+import pytest
+
+import engine
+from engine.hopper.driver import HopperRun
+from engine.hopper.spec import HopperTest
+
+D = 5e-3  # particle diameter [m]
+
+
+def _discharge(test: HopperTest, hold: float = 0.0, at_rest=None):
+    run = HopperRun(test, threads=1)
+    run.settle()
+    held = run.hold(hold) if hold > 0 else 0.0
+    if at_rest is not None:
+        at_rest(run)
+    return run, held, run.discharge()
+
+
+def _wall_forces(run: HopperRun, seen: dict) -> None:
+    """The normal force on the slot's +x wall [N] two ways: the engine's force on that mesh
+    along the wall's outward normal, and the sum of the contacts' elastic Hertz forces the
+    wall stress is made of."""
+    from engine.hopper.measures import hertz_wall_force
+
+    sim, t = run.sim, run.test
+    th = math.radians(t.half_angle)
+    outward = np.array([math.cos(th), 0.0, -math.sin(th)])
+    right = run.geo.wall_meshes[1]
+    c = sim.mesh_contacts()
+    on = c.meshes == right
+    e_star, _ = t.wall_law.wall_moduli(t.wall_material)
+    seen["engine"] = float(sim.mesh_forces[right] @ outward)
+    seen["elastic"] = float(
+        hertz_wall_force(c.overlaps[on], sim.radii[c.particles[on]], e_star).sum()
+    )
+    seen["contacts"] = int(on.sum())
+
+
+def _conserved(run: HopperRun, res) -> None:
+    c = res.curves
+    total = res.scalars["total_mass"]
+    assert run.sim.n == res.test.n_particles
+    assert total == pytest.approx(
+        res.test.n_particles * res.test.density * (4 / 3) * math.pi * (D / 2) ** 3
+    )
+    # every sample: discharged + in the hopper = all of it, nothing anywhere else
+    assert np.all(c["escaped_mass"] == 0.0)
+    assert np.allclose(c["discharged_mass"] + c["remaining_mass"], total, rtol=1e-12)
+    assert np.all(np.diff(c["discharged_mass"]) >= 0.0)  # nothing comes back up
+    assert c["time"][0] == 0.0 and c["discharged_mass"][0] == 0.0
+
+
+@pytest.fixture(scope="module")
+def slots():
+    """Slot hoppers of outlet 6 and 10 diameters, 500 particles, half-angle 30 degrees; the
+    narrower one's gate held closed for 0.05 s after the settling first."""
+    seen: dict = {}
+    narrow = _discharge(
+        HopperTest(outlet_width=6 * D, particles=500),
+        hold=0.05,
+        at_rest=lambda run: _wall_forces(run, seen),
+    )
+    wide = _discharge(HopperTest(outlet_width=10 * D, particles=500))
+    return narrow, wide, seen
+
+
+def test_closed_gate_holds_the_fill(slots):
+    (_, held, res), _, seen = slots
+    assert held == 0.0
+    assert res.scalars["settle_time"] > 0
+    # the settled fill presses on the walls: positive normal stress in the lower bins
+    assert np.all(res.wall_stress_fill[:3] > 0)
+    # at most the hydrostatic pressure at the bin's lower edge (walls carry part of the
+    # weight by friction: Janssen), far from zero
+    h = res.scalars["fill_height"]
+    rho_g = res.scalars["bulk_density"] * res.test.gravity
+    lower = res.wall_edges[:-1]
+    assert np.all(res.wall_stress_fill[:3] < 1.5 * rho_g * (h - lower[:3]))
+    # the wall stress's contact forces add up to the engine's own force on the wall
+    assert seen["contacts"] > 20
+    assert seen["elastic"] == pytest.approx(seen["engine"], rel=1e-3)
+
+
+def test_slot_discharges_at_a_rate_that_grows_with_the_outlet(slots):
+    (run6, _, r6), (run10, _, r10), _ = slots
+    for run, res in ((run6, r6), (run10, r10)):
+        _conserved(run, res)
+        s = res.scalars
+        assert s["discharged_mass"] == pytest.approx(s["total_mass"])  # emptied
+        assert not res.arched and not s["stopped"]
+        assert s["discharge_rate"] > 0 and 0 < s["discharge_rate_se"] < 0.2 * s["discharge_rate"]
+        assert s["window_samples"] >= 12
+        assert s["discharge_rate_per_depth"] == pytest.approx(s["discharge_rate"] / 0.025)
+        assert 0.4 * 2000 < s["bulk_density"] < 0.7 * 2000
+        assert res.flow_mode in ("mass", "funnel")
+        assert np.isfinite(res.wall_stress_flow).all()
+    w6, w10 = r6.scalars, r10.scalars
+    gap = w10["discharge_rate"] - w6["discharge_rate"]
+    assert gap > 3 * math.hypot(w6["discharge_rate_se"], w10["discharge_rate_se"])
+
+
+def test_cone_discharges_and_conserves_mass():
+    run, _, res = _discharge(HopperTest(shape="cone", outlet_width=6 * D, particles=500))
+    _conserved(run, res)
+    s = res.scalars
+    assert s["discharge_rate"] > 0 and math.isnan(s["discharge_rate_per_depth"])
+    assert s["discharged_mass"] == pytest.approx(s["total_mass"])
+
+
+def test_narrow_frictional_outlet_arches():
+    law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=0.0, mu_s=1.0, mu_r=0.3, restitution=0.4)
+    t = HopperTest(
+        outlet_width=3.2 * D, particles=400, pair_law=law, arch_wait=5.0, max_discharge_time=1.0
+    )
+    run, _, res = _discharge(t)
+    _conserved(run, res)
+    s = res.scalars
+    assert s["stopped"] and res.arched
+    assert s["remaining_mass"] > 0.5 * s["total_mass"]
+    # the arch formed after the opening, and the run waited arch_wait free-fall times after it
+    assert 0.0 <= s["arch_time"] <= s["discharge_time"] - t.arch_wait * t.free_fall_time + 2e-3
+    assert math.isnan(s["discharge_rate"])  # no steady window
+
+
+def test_wall_time_limit_and_stop_request_are_honoured():
+    t = HopperTest(outlet_width=6 * D, particles=100)
+    with pytest.raises(engine.WallTimeExceeded) as e:
+        engine.run_hopper(t, max_wall_time=1e-9, wall_time_setting="max_run_wall_time")
+    assert e.value.setting == "max_run_wall_time" and e.value.limit == 1e-9
+    seen = []
+
+    def stop(p):
+        seen.append(p)
+        return False
+
+    with pytest.raises(engine.StopRequested):
+        engine.run_hopper(t, progress=stop)
+    assert len(seen) == 1 and seen[0].stage == "settle" and 0 <= seen[0].fraction <= 1

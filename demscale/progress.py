@@ -5,7 +5,8 @@ when they are added, before they run), the stage of the run in progress and the 
 
 On a terminal it is a live rich bar; otherwise (a log, a pipe, CI) one line per event: a
 run finished or failed, runs added, the status changed, and a line a minute while a long
-run goes on. Both forms print the same words (:func:`line`)."""
+run goes on. Both forms print the same words (:func:`line`). :class:`StudyBars` adds
+``demscale study``'s bar per run, fed by the engine's progress reports."""
 
 from __future__ import annotations
 
@@ -164,3 +165,111 @@ class StudyDisplay:
     def _print(self, text: str, style: str | None = None) -> None:
         self.last_line = self.clock()
         self.console.print(text, style=style, markup=False, highlight=False, soft_wrap=True)
+
+
+class StudyBars:
+    """The progress display of ``demscale study`` (:class:`StudyDisplay`: its bar with
+    the fraction of the planned and added work, the runs done, the stage and the time left
+    on a terminal; a line per event otherwise; nothing but the runs' results when not
+    ``enabled``) with a bar per run. ``update`` is the study's progress callback;
+    ``finished`` hears of each run's outcome. ``live``: draw bars (None: on a terminal)."""
+
+    def __init__(self, planned, console, enabled: bool = True, live: bool | None = None):
+        from engine.study.plan import cost_weights
+        from engine.study.run import Eta
+
+        self.planned = planned
+        self.console = console
+        self.weights = [float(w) for w in cost_weights(planned)]
+        self.bases = [sum(self.weights[:i]) for i in range(len(planned))]
+        self.display = StudyDisplay(console, live=live, quiet=not enabled)
+        self.progress = self.display.progress
+        self.study = self.display.study
+        self.eta = Eta()
+        self.width = max(len(p.key) for p in planned)
+        self.runs = {
+            p.key: self.progress.add_task(
+                f"  {p.key:<{self.width}} {p.test.n_particles:>6} particles",
+                total=1.0,
+                stage="waiting",
+                eta="",
+            )
+            for p in planned
+        }
+
+    def _task(self, key: str):
+        """The bar of run ``key``; a run a study added (``decide``) gets one when it starts."""
+        if key not in self.runs:
+            self.runs[key] = self.progress.add_task(
+                f"  {key:<{self.width}} (added)", total=1.0, stage="waiting", eta=""
+            )
+        return self.runs[key]
+
+    def __enter__(self) -> StudyBars:
+        self.display.__enter__()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.display.__exit__(*exc)
+
+    def update(self, p) -> None:
+        """The study's progress callback (an :class:`engine.StudyProgress`)."""
+        from engine.study.run import ADDED
+
+        state = State(
+            p.fraction,
+            p.runs_done,
+            p.n_runs,
+            p.added,
+            None if p.stage in (ADDED, "done") else p.run_key,
+            p.stage,
+            self.eta(p.fraction),
+        )
+        if p.stage == ADDED:  # a decide round's runs, said before any of them runs
+            self.display.event(state, f"+ {p.message}")
+            return
+        self.display.update(state)
+        if p.stage == "done":  # on an executor: a run has finished
+            return
+        i = p.run_index
+        task = self._task(p.run_key)
+        if p.run_fraction is not None:
+            run_fraction = p.run_fraction
+        elif i < len(self.planned) and self.planned[i].key == p.run_key:
+            run_fraction = (p.fraction - self.bases[i]) / self.weights[i]
+        else:  # an added run of a report without its own fraction: its stage only
+            self.progress.update(task, stage=p.stage)
+            return
+        self.progress.update(task, completed=min(max(run_fraction, 0.0), 1.0), stage=p.stage)
+
+    def finished(self, key: str, outcome) -> None:
+        """A run ended with a :class:`engine.UniaxialResult` or an error text."""
+        task = self._task(key)
+        # the run has its outcome: one more done than the last report counted
+        state = self.display.state
+        state = replace(state, runs_done=(state.runs_done or 0) + 1, run=None)
+        if isinstance(outcome, str):
+            self.progress.update(task, stage="failed")
+            self._say(state, f"{key} failed: {outcome}", "red")
+            return
+        s = outcome.scalars
+        self.progress.update(task, completed=1.0, stage="done")
+        strength = s.get("unconfined_strength")
+        extra = f", unconfined strength {strength:.4g} Pa" if strength is not None else ""
+        if "cohesion" in s:  # a shear run: its yield locus
+            extra = (
+                f", cohesion {s['cohesion']:.4g} Pa, friction angle "
+                f"{s['friction_angle']:.3g} deg, ffc {s['ffc']:.3g}"
+            )
+        self._say(
+            state,
+            f"{key} done: {s['particles']:.0f} particles, {s['steps']:.0f} steps, "
+            f"{s['wall_time']:.1f} s{extra}",
+        )
+
+    def _say(self, state, text: str, style: str | None = None) -> None:
+        """A run's outcome: in the display's events, and printed even without bars."""
+        if self.display.quiet:
+            self.console.print(text, style=style, markup=False, highlight=False, soft_wrap=True)
+        else:
+            self.display.event(state, text, style)

@@ -1,8 +1,98 @@
-"""The one text report of a study's result, printed by ``demscale study`` (from the
-:class:`engine.StudyResult` it ran) and by ``demscale job`` (from the service's
-``/studies/{id}/summary``): both are the same summary dict (``StudyResult.to_summary``)."""
+"""What the commands write and print: the one text report of a study's result, printed by
+``demscale study`` (from the :class:`engine.StudyResult` it ran) and by ``demscale job``
+(from the service's ``/studies/{id}/summary``), both from the same summary dict
+(``StudyResult.to_summary``); the layout of ``study``'s summary.json and ``run``'s
+result.json; ``calibrate``'s report of the calibrated law."""
 
 from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+
+def strict(obj):
+    """``obj`` with NaN and infinities as None and numpy scalars as Python numbers."""
+    if isinstance(obj, dict):
+        return {str(k): strict(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [strict(v) for v in obj]
+    if hasattr(obj, "item") and not isinstance(obj, (str, bytes)):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def write_json(path: Path, obj) -> None:
+    """``obj`` as strict JSON (:func:`strict`), indented, into ``path``."""
+    path.write_text(json.dumps(strict(obj), indent=1, allow_nan=False))
+
+
+def study_summary(spec, result_summary: dict, out: Path, files: dict) -> dict:
+    """``demscale study``'s summary.json: the answer first, the spec, the result's summary
+    (``StudyResult.to_summary``) and the files written under ``out``: ``files`` holds
+    ``results`` (the HDF5 file), ``plots`` (paths), ``curves`` and ``snapshots`` (by run)."""
+    rel = lambda p: str(Path(p).relative_to(out))  # noqa: E731
+    return {
+        "answer": result_summary["answer"],  # first: what the study decided
+        "spec": spec.to_dict(),
+        **result_summary,
+        "files": {
+            "results": Path(files["results"]).name,
+            "plots": [rel(p) for p in files["plots"]],
+            "curves": {k: rel(p) for k, p in files["curves"].items()},
+            "snapshots": {k: [rel(p) for p in v] for k, v in files["snapshots"].items()},
+        },
+    }
+
+
+def run_summary(test, result, out: Path, snapshot_paths, time_steps) -> dict:
+    """``demscale run``'s result.json: the test, its scalars with their units, the curves'
+    file and the snapshots (``snapshot_paths`` under ``out``, a PNG section per stage, the
+    snapshot files' ``time_steps``)."""
+    from engine.uniaxial.results import SCALAR_UNITS
+
+    return {
+        "test": test.to_dict(),
+        "scalars": result.scalars,
+        "units": {k: SCALAR_UNITS.get(k, "") for k in result.scalars},
+        "curves": "curves.csv",
+        "snapshots": {
+            "files": [
+                *(str(p.relative_to(out)) for p in snapshot_paths),
+                *(f"snapshots/{k}.png" for k in result.stages),
+            ],
+            "time_steps": time_steps,
+        },
+    }
+
+
+def _unit(q: dict) -> str:
+    return f" {q['unit']}" if q.get("unit") not in (None, "", "1") else ""
+
+
+def calibration_lines(cal, summary: dict, radius: float) -> list[str]:
+    """``demscale calibrate``'s report: first whether the data determine the parameters
+    (and which target would determine a free one:
+    engine.calibration.calibrate.determination), each parameter calibrated for particles
+    of ``radius`` [m] (median, 90 % interval, status), each target against the laboratory's
+    value (met, or not with its z)."""
+    lines = list(summary["determination"]["lines"])
+    lines.append(f"parameters (calibrated for R = {radius:g} m):")
+    for n, p in cal.parameters.items():
+        lo, hi = p["interval"]
+        u = _unit(p)
+        lines.append(f"  {n} = {p['median']:.4g}{u} (90 %: {lo:.4g} to {hi:.4g}{u}), {p['status']}")
+    lines.append("targets (check run of the calibrated law against the laboratory, 1 sd):")
+    for q in cal.targets_met:
+        u = _unit(q)
+        z = "the check run failed" if q["z"] is None else f"z = {q['z']:+.1f}"
+        lines.append(
+            f"  {q['name']}: {q['value']:.4g}{u} against {q['lab']:.4g} +/- {q['sd']:.2g}{u}: "
+            + ("met" if q["met"] else f"NOT met ({z})")
+        )
+    return lines
 
 
 def answer_of(summary: dict) -> list[str]:

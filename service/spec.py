@@ -12,7 +12,10 @@ the cell can hold, ...): :mod:`service.admission` turns its ``ParameterError`` i
 What the API adds to the records: the study's ``name`` (a label), the reference's
 ``preset`` (``engine.preset``), rules given by name (``engine.study.spec.NAMED_RULES``), the
 ``type`` tag of contact laws, and the constraints in :data:`SERVICE_LIMITS` that the engine
-checks in code but does not declare. Numbers, booleans and strings are strict: ``"1e-3"``
+checks in code but does not declare. The rules of a request beyond its records (a study's
+reference and a shear test's pair law required, a preset or a pair law for a uniaxial test,
+a calibration design's minimum) are the engine's (:mod:`engine.core.inputs`), the same copy
+the command line applies. Numbers, booleans and strings are strict: ``"1e-3"``
 is not a number.
 """
 
@@ -40,6 +43,8 @@ from engine.calibration import CALIBRATED, LabTargets
 from engine.calibration.calibrate import CORRECTED_BY
 from engine.calibration.forward import SET_BY_CALIBRATION
 from engine.calibration.targets import LOCUS_UNCERTAINTY_OF, UNCERTAINTY_OF, ShearLocus
+from engine.core.errors import MissingField
+from engine.core.inputs import DESIGN_MINIMUM, REQUIRED_GIVEN, check_test_json
 from engine.core.records import ParamInfo, describe
 from engine.study.spec import NAMED_RULES
 from engine.uniaxial.spec import PRESETS, PROTOCOLS
@@ -103,13 +108,12 @@ CROSS_FIELD_RULES: dict[tuple[str, str], str] = {
     ("ShearLocus", "points"): "at least 2 (a yield locus is a line fitted through them), each "
     "sigma_n < sigma_pre, no two at one sigma_n, their fitted line rising (tan(phi) > 0)",
 }
-#: Fields the API requires where the engine has a default: a study's reference (the engine
-#: requires it too; kept so that the two may differ, in the API's favour, and the agreement
-#: test knows it) and a shear reference's pair law (no shear test of the record's default
-#: law: nobody chose it, and there is no shear preset to name instead).
-SERVICE_REQUIRED: frozenset[tuple[str, str]] = frozenset(
-    {("StudySpec", "reference"), ("ShearTest", "pair_law")}
-)
+#: Fields the API requires where the engine has a default: the engine's request rules
+#: (engine.core.inputs.REQUIRED_GIVEN, which the command line applies too): a study's
+#: reference (the record requires it too; kept so that the two may differ, in the API's
+#: favour, and the agreement test knows it) and a shear reference's pair law (no shear test
+#: of the record's default law: nobody chose it, and there is no shear preset to name).
+SERVICE_REQUIRED: frozenset[tuple[str, str]] = frozenset(REQUIRED_GIVEN)
 #: Longest list or object the API takes where the engine declares no ``max_items``.
 MAX_ITEMS = 32
 #: Longest key of an object parameter (e.g. a metric name of ``tolerances``).
@@ -185,13 +189,14 @@ def _item_kind(item_hint: Any) -> str:
 
 
 def _named_rule(value: Any) -> Any:
-    """A rule given by name becomes that rule of ``engine.study.spec.NAMED_RULES``."""
+    """A rule given by name becomes that rule of ``engine.study.spec.NAMED_RULES``
+    (:meth:`engine.ScalingRule.named` judges the name, as for the command line)."""
     if not isinstance(value, str):
         return value
-    if value not in NAMED_RULES:
-        names = list(NAMED_RULES)
-        raise ValueError(f"unknown rule {value!r}: give a rule object or one of {names}")
-    return engine.ScalingRule.named(value).to_dict()
+    try:
+        return engine.ScalingRule.named(value).to_dict()
+    except engine.ParameterError as e:
+        raise ValueError(f"unknown rule {value!r}: give a rule object or {e.limit}") from None
 
 
 def _named_or_rule() -> Any:
@@ -315,12 +320,11 @@ class _ReferenceBase(BaseModel):
 
     @model_validator(mode="after")
     def _named_or_given(self):
-        if self.preset is None and "pair_law" not in self.model_fields_set:
-            raise PydanticCustomError(
-                "preset_or_pair_law",
-                "give a preset (quick or paper) or the pair law: a test of the record's "
-                "defaults alone would run a law nobody chose",
-            )
+        # the engine's request rule (engine.core.inputs), as the command line applies it
+        try:
+            check_test_json(self.model_dump(exclude_unset=True), "")
+        except MissingField as e:
+            raise PydanticCustomError("preset_or_pair_law", f"{e.limit}: {e.why}") from None
         return self
 
 
@@ -527,15 +531,23 @@ class CalibrationCreate(BaseModel):
     runs: int = Field(
         25,
         strict=True,
-        ge=3,
+        ge=DESIGN_MINIMUM["runs"],
         le=MAX_CALIBRATION_RUNS,
         description="runs of the space-filling design (at least parameters + 2)",
     )
     waves: int = Field(
-        2, strict=True, ge=0, le=MAX_WAVES, description="history-matching waves after the design"
+        2,
+        strict=True,
+        ge=DESIGN_MINIMUM["waves"],
+        le=MAX_WAVES,
+        description="history-matching waves after the design",
     )
     wave_runs: int = Field(
-        15, strict=True, ge=1, le=MAX_WAVE_RUNS, description="runs per wave (at most)"
+        15,
+        strict=True,
+        ge=DESIGN_MINIMUM["wave_runs"],
+        le=MAX_WAVE_RUNS,
+        description="runs per wave (at most)",
     )
     seed: int = Field(0, strict=True, ge=0, le=2**31 - 1, description="the design's random seed")
     resolution: (

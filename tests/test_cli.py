@@ -16,7 +16,8 @@ import pytest
 import engine
 
 pytest.importorskip("rich")  # the cli extra
-from demscale.cli import StudyBars, main
+from demscale.cli import main
+from demscale.progress import StudyBars
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = {
@@ -79,7 +80,7 @@ def test_help_explains_every_command(argv, capsys):
 
 
 def test_example_spec_is_a_valid_small_study():
-    from demscale.cli import STUDY_HELP
+    from demscale.commands.study import STUDY_HELP
 
     spec = engine.StudySpec.from_dict(json.loads((ROOT / "examples/quick_study.json").read_text()))
     runs = engine.plan(spec).runs

@@ -188,7 +188,7 @@ def test_a_documented_command_parses_and_its_examples_exist(block, command):
 
     argv = shlex.split(command)[1:]
     if argv[0] in ("export-test", "judge-liggghts"):  # the deck engineer's subcommands
-        pytest.importorskip("demscale.deck")
+        pytest.importorskip("demscale.commands.deck")
     args = parser().parse_args(argv)  # a wrong flag exits 2 here
     for value in vars(args).values():
         for v in value if isinstance(value, list) else [value]:

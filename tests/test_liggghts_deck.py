@@ -431,7 +431,7 @@ def test_judge_liggghts_refuses_references_of_another_test(tmp_path, capsys):
     base = refs[0].test
     law = replace(base.pair_law, k1=4e3, k2=4e3)
     moved = replace(base, radius=0.8 * base.radius, dt=0.8e-5, pair_law=law)
-    from demscale.deck import _check_same_test
+    from demscale.commands.deck import _check_same_test
 
     _check_same_test([replace(refs[0], test=moved)], refs)  # no error
     with pytest.raises(ValueError, match="interior_margin"):

@@ -20,8 +20,8 @@ pytest.importorskip("rich")
 from rich.console import Console
 
 import engine
-from demscale.cli import StudyBars
-from demscale.job import _follow
+from demscale.commands.job import _follow
+from demscale.progress import StudyBars
 from engine.study.plan import most_added, plan_runs
 from engine.study.run import ADDED, Eta, duration_words
 from tests.test_cli import TINY

@@ -30,6 +30,17 @@ class ParameterError(ValueError):
         return type(self), (self.field, self.value, self.limit, self.why)
 
 
+class MissingField(ParameterError):
+    """A request leaves out what it must give (engine.core.inputs): ``field`` names where,
+    ``limit`` what is needed ("given": the field itself), ``why`` the reason. Its message
+    reads ``field: required (why)``, or ``field: limit (why)``."""
+
+    def __init__(self, field: str, value: object = None, limit: str = "given", why: str = ""):
+        super().__init__(field, value, limit, why)
+        text = f"{field}: required" if limit == "given" else f"{field}: {limit}"
+        self.args = (f"{text} ({why})" if why else text,)
+
+
 class StabilityError(ValueError):
     """A requested time step (or parameter set) cannot be integrated stably.
 

@@ -189,10 +189,10 @@ def test_login_from_its_own_page_is_accepted(browser):
 def test_no_command_prints_a_login_url_with_the_token():
     import inspect
 
-    import demscale.cli
-    import demscale.job
+    import demscale.commands.job
+    import demscale.commands.serve
 
-    for module in (demscale.cli, demscale.job):
+    for module in (demscale.commands.serve, demscale.commands.job):
         assert "login?token" not in inspect.getsource(module), module
 
 

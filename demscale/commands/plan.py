@@ -10,9 +10,11 @@ This module parses the command line and prints; the planner is engine.process.pl
 from __future__ import annotations
 
 import json
-import math
 import sys
 from pathlib import Path
+
+from ..laws import law_from_json
+from ..options import command
 
 PLAN_HELP = """\
 The largest coarse-graining factor s_max = L / (N_req d0) a process allows, per feature kind:
@@ -83,14 +85,16 @@ def plan_line(plan: dict) -> str:
     )
 
 
-def add_commands(sub, fmt) -> None:
+def add_commands(sub) -> None:
+    """``plan`` on the ``demscale`` parser's subparsers ``sub``."""
     from engine.process import FEATURE_KINDS
 
-    p = sub.add_parser(
+    p = command(
+        sub,
         "plan",
-        help="how coarse a process may go, per feature kind (from the size series)",
-        description=PLAN_HELP,
-        formatter_class=fmt,
+        "how coarse a process may go, per feature kind (from the size series)",
+        PLAN_HELP,
+        plan_cmd,
     )
     law = p.add_mutually_exclusive_group(required=True)
     law.add_argument("--law", type=Path, metavar="FILE", help="the fine law (JSON)")
@@ -120,13 +124,11 @@ def add_commands(sub, fmt) -> None:
     p.add_argument("--duration", type=float, default=1.0, help="process time simulated [s]")
     p.add_argument("--json", action="store_true", help="print the plan as JSON")
     p.add_argument("--liggghts", action="store_true", help="print the coarse law's fragments")
-    p.set_defaults(func=plan_cmd)
 
 
 def _fine_law(args):
     """The fine law at --diameter, and where it came from."""
     import engine
-    from engine.core.records import from_dict
 
     d0 = args.diameter
     if args.default_powder:
@@ -140,21 +142,16 @@ def _fine_law(args):
         raise ValueError(f"--law {args.law}: {e.strerror}") from None
     except json.JSONDecodeError as e:
         raise ValueError(f"--law {args.law}: not JSON ({e})") from None
-    laws = {"BilinearAdhesive": engine.BilinearAdhesive, "EEPA": engine.EEPA}
     if isinstance(raw, dict) and isinstance(raw.get("law"), dict):  # a calibration.json
         raw = {**raw["law"], "reference_radius": raw.get("reference_radius")}
-    if not isinstance(raw, dict) or raw.get("type") not in laws:
-        raise ValueError(
-            f'--law {args.law}: a JSON object with "type": "BilinearAdhesive" or "EEPA" '
-            "(or a calibration.json with its law)"
-        )
-    body = dict(raw)
-    radius = body.pop("reference_radius", None)
-    law = from_dict(laws[body.pop("type")], body, "law")
+    try:
+        law, radius = law_from_json(raw, "law", " (or a calibration.json with its law)")
+    except engine.ParameterError:
+        raise  # a field of the law, named
+    except ValueError as e:  # the file's type or its reference_radius
+        raise ValueError(f"--law {args.law}: {e}") from None
     if radius is None:
         return law, f"{args.law} (taken at d0)"
-    if not (isinstance(radius, (int, float)) and math.isfinite(radius) and radius > 0):
-        raise ValueError(f"--law {args.law}: reference_radius = {radius!r}: must be > 0 m")
     s = d0 / (2 * radius)
     return engine.similar(law, s), f"{args.law} (R = {radius:g} m) scaled x {s:.4g}"
 

@@ -27,7 +27,7 @@ import engine
 from service.app import create_app
 from service.settings import ConfigError, Settings, with_local_token
 
-from .report import summary_text
+from ..report import summary_text
 
 _TERMINAL = {"succeeded", "failed", "cancelled"}
 
@@ -51,7 +51,7 @@ _RUN_DONE = {"succeeded", "failed"}
 
 def _state(s: dict):
     """The progress display's state of a study as the API answers it (GET /studies/{id})."""
-    from .progress import State
+    from ..progress import State
 
     running = s["status"] == "running"
     return State(
@@ -72,7 +72,7 @@ def _follow(client: httpx.Client, study_id: str, console=None, poll: float = 1.0
     ``decide`` round adds when they are added (before they run); returns its final state."""
     from rich.console import Console
 
-    from .progress import StudyDisplay
+    from ..progress import StudyDisplay
 
     console = console or Console(highlight=False)
     known: set[str] | None = None  # run keys seen so far
@@ -104,7 +104,7 @@ def _follow(client: httpx.Client, study_id: str, console=None, poll: float = 1.0
 
 
 def _plans(base: str, auth: dict) -> list[str]:
-    """The answer lines of the main job's plans (demscale.plan.main_job_processes), asked
+    """The answer lines of the main job's plans (demscale.commands.plan.main_job_processes), asked
     of the service; a line saying why where it cannot answer."""
     from .plan import main_job_processes, plan_line
 

@@ -16,6 +16,8 @@ import math
 import sys
 from pathlib import Path
 
+from ..options import add_out, attempt, command
+
 EXPORT_HELP = """\
 Write a uniaxial test as a complete LIGGGHTS 3.8 input deck: the cell with its periodic
 axes, demscale's own poured cloud (read_data), the pair law (edinburgh/stiffness for the
@@ -125,33 +127,41 @@ def _read_test(args):
     return engine.UniaxialTest.from_dict(fields)
 
 
-def export_test(args) -> int:
-    """``demscale export-test``: the deck folder(s) of one test."""
+def _write_decks(args):
+    """The test of ``export-test``'s arguments, scaled to --radius where given, and the deck
+    files written for it (one per --seeds seed)."""
     from dataclasses import replace
 
     import engine
-    from engine.io.liggghts_deck import DECK, differences, write_deck
+    from engine.io.liggghts_deck import write_deck
 
-    try:
-        test = _read_test(args)
-        if args.run is not None and args.study is None:
-            raise ValueError("--run needs --study")
-        if args.radius is not None:
-            rule = engine.ScalingRule.named(args.rule)
-            test = rule.apply(test, args.radius, test.resolved_dt())
-        seeds = args.seeds or [None]
-        out = Path(args.out)
-        written = []
-        for seed in seeds:
-            t = test if seed is None else replace(test, seed=seed)
-            folder = out if seed is None else out / f"s{seed}"
-            written.append(write_deck(t, folder, skin=args.skin))
-    except (OSError, json.JSONDecodeError) as e:
-        print(f"cannot read the input: {e}", file=sys.stderr)
+    test = _read_test(args)
+    if args.run is not None and args.study is None:
+        raise ValueError("--run needs --study")
+    if args.radius is not None:
+        rule = engine.ScalingRule.named(args.rule)
+        test = rule.apply(test, args.radius, test.resolved_dt())
+    seeds = args.seeds or [None]
+    out = Path(args.out)
+    written = []
+    for seed in seeds:
+        t = test if seed is None else replace(test, seed=seed)
+        folder = out if seed is None else out / f"s{seed}"
+        written.append(write_deck(t, folder, skin=args.skin))
+    return test, written
+
+
+def export_test(args) -> int:
+    """``demscale export-test``: the deck folder(s) of one test."""
+    from engine.io.liggghts_deck import DECK, differences
+
+    decks, why = attempt(
+        lambda: _write_decks(args), "cannot read the input", "not valid", refused=(KeyError,)
+    )
+    if why is not None:
+        print(why, file=sys.stderr)
         return 2
-    except (engine.ParameterError, TypeError, ValueError, KeyError) as e:
-        print(f"not valid: {e}", file=sys.stderr)
-        return 2
+    test, written = decks
     print(
         f"{test.n_particles} particles, R = {test.radius:g} m, {type(test.pair_law).__name__}, "
         f"dt = {test.resolved_dt():g} s"
@@ -184,32 +194,41 @@ def _references(paths, runs) -> list:
     return out
 
 
-def judge_liggghts(args) -> int:
-    """``demscale judge-liggghts``: LIGGGHTS runs read back, stored and judged."""
-    import engine
-    from engine.io.liggghts_read import OutputError, judge_runs, save_output
+def _judge(args) -> dict:
+    """``judge-liggghts``' deck folders read back (stored as runs), checked against the
+    references' test and judged."""
+    from engine.io.liggghts_read import judge_runs, save_output
     from engine.io.store import load_run
 
-    try:
-        tolerances = {}
-        for item in args.tolerance:
-            name, _, value = item.partition("=")
-            tolerances[name.strip()] = float(value)
-        runs = []
-        for folder in map(Path, args.decks):
-            name = folder.name if args.store else "liggghts.h5"
-            path = (Path(args.store) / f"{name}.h5") if args.store else folder / name
-            save_output(folder, path)
-            runs.append(load_run(path))
-            print(f"read {folder} -> {path}")
-        refs = _references(args.reference, set(args.runs))
-        _check_same_test(runs, refs)
-        result = judge_runs(runs, refs, tolerances, args.confidence)
-    except (OSError, OutputError) as e:
-        print(f"cannot read: {e}", file=sys.stderr)
-        return 2
-    except (engine.ParameterError, TypeError, ValueError, KeyError) as e:
-        print(f"not valid: {e}", file=sys.stderr)
+    tolerances = {}
+    for item in args.tolerance:
+        name, _, value = item.partition("=")
+        tolerances[name.strip()] = float(value)
+    runs = []
+    for folder in map(Path, args.decks):
+        name = folder.name if args.store else "liggghts.h5"
+        path = (Path(args.store) / f"{name}.h5") if args.store else folder / name
+        save_output(folder, path)
+        runs.append(load_run(path))
+        print(f"read {folder} -> {path}")
+    refs = _references(args.reference, set(args.runs))
+    _check_same_test(runs, refs)
+    return judge_runs(runs, refs, tolerances, args.confidence)
+
+
+def judge_liggghts(args) -> int:
+    """``demscale judge-liggghts``: LIGGGHTS runs read back, stored and judged."""
+    from engine.io.liggghts_read import OutputError
+
+    result, why = attempt(
+        lambda: _judge(args),
+        "cannot read",
+        "not valid",
+        unreadable=(OSError, OutputError),
+        refused=(KeyError,),
+    )
+    if why is not None:
+        print(why, file=sys.stderr)
         return 2
     print(
         f"\nLIGGGHTS ({result['seeds']} run(s), {len(result['failed'])} stopped) against "
@@ -233,13 +252,14 @@ def judge_liggghts(args) -> int:
     return 0
 
 
-def add_commands(sub, fmt) -> None:
+def add_commands(sub) -> None:
     """The two subcommands, on the ``demscale`` parser's subparsers ``sub``."""
-    p = sub.add_parser(
+    p = command(
+        sub,
         "export-test",
-        help="a uniaxial test as a complete LIGGGHTS 3.8 deck",
-        description=EXPORT_HELP,
-        formatter_class=fmt,
+        "a uniaxial test as a complete LIGGGHTS 3.8 deck",
+        EXPORT_HELP,
+        export_test,
     )
     p.add_argument("test", nargs="?", metavar="TEST.json", help="the test (engine.UniaxialTest)")
     p.add_argument("--preset", help="a named test (quick, paper) instead of TEST.json")
@@ -259,14 +279,14 @@ def add_commands(sub, fmt) -> None:
     p.add_argument("--rule", default="paper", help="the scaling rule of --radius (default paper)")
     p.add_argument("--seeds", type=int, nargs="*", help="one deck per packing seed (OUT/sN)")
     p.add_argument("--skin", type=float, help="LIGGGHTS' Verlet skin [m] (default R/2)")
-    p.add_argument("--out", "-o", metavar="DIR", required=True, help="the deck's folder")
-    p.set_defaults(func=export_test)
+    add_out(p, "the deck's folder")
 
-    p = sub.add_parser(
+    p = command(
+        sub,
         "judge-liggghts",
-        help="LIGGGHTS runs of exported decks judged against demscale's runs",
-        description=JUDGE_HELP,
-        formatter_class=fmt,
+        "LIGGGHTS runs of exported decks judged against demscale's runs",
+        JUDGE_HELP,
+        judge_liggghts,
     )
     p.add_argument("decks", nargs="+", metavar="DECK_DIR", help="folders LIGGGHTS ran a deck in")
     p.add_argument(
@@ -287,4 +307,3 @@ def add_commands(sub, fmt) -> None:
     )
     p.add_argument("--confidence", type=float, help="the verdicts' confidence (default 0.95)")
     p.add_argument("--json", metavar="FILE", help="also write the verdict as JSON")
-    p.set_defaults(func=judge_liggghts)

@@ -40,9 +40,32 @@ import numpy as np
 
 from .intervals import interval_df, t_quantile, t_upper_quantiles
 from .metrics import relative_error, signed_error
-from .noise import Space
 from .pooling import SCREEN_LEVEL, Spread, pool_arrays
 from .seeds import PLANNED_POWER, seeds_needed
+
+
+class Space:
+    """How one metric is compared at one radius: ``kind`` ``"log"`` (logarithms: a
+    difference d of mean logs is the ratio exp(d) of geometric means, relative error
+    exp(d) - 1, a tolerance's bounds log(1 -/+ tol)) or ``"difference"`` (the values over
+    ``scale``: relative error d, bounds -/+ tol)."""
+
+    def __init__(self, kind: str, scale=None):
+        self.kind = kind
+        self.scale = scale
+
+    def map(self, a: np.ndarray) -> np.ndarray:
+        return np.log(a) if self.kind == "log" else a / self.scale
+
+    def rel(self, d):
+        """A difference on this scale as a relative error [-]."""
+        return float(np.expm1(d)) if self.kind == "log" else float(d)
+
+    def bounds(self, tolerance: float) -> tuple[float, float]:
+        if self.kind == "log":
+            lo = np.log(1.0 - tolerance) if tolerance < 1 else -np.inf
+            return float(lo), float(np.log1p(tolerance))
+        return -tolerance, tolerance
 
 
 def difference_interval(d, vc, vr, nc, nr, dfc, dfr, alpha, shared=False):
@@ -362,4 +385,4 @@ def judge_samples(
     return np.where(differs, "differs", np.where(equivalent, "equivalent", "undecided"))
 
 
-__all__ = ["Comparison", "difference_interval", "judge_metric", "judge_samples"]
+__all__ = ["Comparison", "Space", "difference_interval", "judge_metric", "judge_samples"]

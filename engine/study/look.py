@@ -25,7 +25,7 @@ from .metrics import (
     shape_errors,
     shape_names_of,
 )
-from .noise import StudyNoise
+from .noise import StudyNoise, noise_floor
 from .plan import CONTROL, PROTOCOL, PlannedRun
 from .rates import error_rates
 from .spec import StudySpec
@@ -36,7 +36,7 @@ class Look:
     """The runs of a study measured and judged at look ``look`` of ``spec.looks``.
 
     Attributes:
-        names: the verdict metrics of the study's kind.
+        names: the verdict metrics of the study's kind; shapes: its shape measures.
         refs: packing seed -> outcome of each finished reference (planned order).
         ref_values: metric values of those references, in that order.
         values: run key -> metric values of every finished run that is compared.
@@ -50,6 +50,8 @@ class Look:
         half: packing seed -> metric values of the protocol check.
         noise: the groups on their compared scale with pooled spreads (None: no
             reference finished).
+        noise_floor: metric -> the references' relative noise floor [-] (None with one
+            reference seed; :func:`engine.study.noise.noise_floor`).
         alpha_e, alpha_d: the one-sided rates of the equivalence and differs tests.
         verdicts: each variant's verdict at this look (:func:`engine.study.judge.judge_group`).
         resolution, rule_errors: the report's look only: the two errors the resolution
@@ -61,6 +63,7 @@ class Look:
     spec: StudySpec
     look: int
     names: tuple
+    shapes: tuple
     refs: dict
     ref_values: list
     values: dict = field(default_factory=dict)
@@ -71,6 +74,7 @@ class Look:
     controls: dict = field(default_factory=dict)
     half: dict = field(default_factory=dict)
     noise: StudyNoise | None = None
+    noise_floor: dict = field(default_factory=dict)
     alpha_e: float = 0.0
     alpha_d: float = 0.0
     verdicts: list = field(default_factory=list)
@@ -107,11 +111,12 @@ def judge_look(
     ok = [p for p in planned if p.key in outcomes and not isinstance(outcomes[p.key], str)]
     refs = {p.seed: outcomes[p.key] for p in ok if p.is_reference}
     names = tuple(metric_names_of(spec.reference))
-    out = Look(spec, look, names, refs, [metric_values(r) for r in refs.values()], failed=failed)
+    shapes = tuple(shape_names_of(spec.reference))
+    ref_values = [metric_values(r) for r in refs.values()]
+    out = Look(spec, look, names, shapes, refs, ref_values, failed=failed)
     if not refs:
         return out
     cons = spec.reference.consolidation_stress
-    shapes = shape_names_of(spec.reference)
     floor_mean = {n: np.mean([v[n] for v in out.ref_values], axis=0) for n in names}
     first_ref = next(iter(refs.values()))
     for p in ok:
@@ -151,6 +156,8 @@ def judge_look(
         ),
     }
     out.noise = StudyNoise(out.ref_values, groups, names, cons)
+    floor = noise_floor(out.ref_values, names, cons)
+    out.noise_floor = {n: floor[n]["noise"] for n in names}
     out.alpha_e, out.alpha_d = error_rates(spec.confidence, len(names), look, spec.looks)
     out.verdicts = [
         judge_group(out.noise, k, spec.tolerances, out.alpha_e, out.alpha_d) for k in out.variants

@@ -127,9 +127,7 @@ class StudyLoop:
                 ]
                 if not new:
                     if not self._missing():  # else: controls still to run, asked again
-                        self.stopped = stop_reason(
-                            spec, self.planned, self.outcomes, NOTHING_TO_ADD
-                        )
+                        self.stopped = stop_reason(self._last_look(), NOTHING_TO_ADD)
                     return
             self.rounds = round_no
             for p, a in new:
@@ -137,7 +135,12 @@ class StudyLoop:
                 self.spent += p.particle_steps
                 self.added.append(a)
         if self.stopped is None and not self._missing():
-            self.stopped = stop_reason(spec, self.planned, self.outcomes, all_rounds_run(spec))
+            self.stopped = stop_reason(self._last_look(), all_rounds_run(spec))
+
+    def _last_look(self):
+        """The runs so far judged at the study's last look (the stopping rule's), without
+        the protocol check."""
+        return judge_look(self.spec, self.planned, self.outcomes, self.spec.looks, report=False)
 
 
 def _decided_rounds(plan: StudyPlan, decided: list[dict]) -> dict[int, list[tuple]]:

@@ -12,8 +12,7 @@ from ..uniaxial.results import UniaxialResult
 from .advisor import advise
 from .kinds import kind_of
 from .look import judge_look
-from .metrics import metric_column, metric_values, shape_names_of
-from .noise import noise_floor
+from .metrics import metric_column, metric_values
 from .plan import PROTOCOL, PlannedRun
 from .resolution import curve_lines, diameters_needed, resolution_curves
 from .spec import ScalingRule, StudySpec
@@ -184,9 +183,7 @@ def assemble(
         )
     controls, half, verdicts = at.controls, at.half, at.verdicts
     table = [r.row() for r in runs.values()]
-    groups = _groups(spec, runs, names)
-    floor = noise_floor(ref_values, names, spec.reference.consolidation_stress)
-    noise = {n: floor[n]["noise"] for n in names}
+    groups = _groups(spec, runs, names, at.shapes)
     keys_of: dict[tuple, list[str]] = {}
     for p in planned:
         if not p.is_reference and not p.control and not p.protocol:
@@ -262,7 +259,7 @@ def assemble(
         line = protocol_line(check)
         advisor["control_lines"] = [*advisor["control_lines"], line]
         advisor["message"] = "; ".join([advisor["message"], line])
-    advisor["noise_floor"] = noise
+    advisor["noise_floor"] = at.noise_floor
     advisor["reference"] = _reference_summary(
         refs, names, ref_values, kind_of(spec.reference).summary_scalars
     )
@@ -317,11 +314,11 @@ def _reference_summary(refs: dict, names, ref_values: list[dict], scalars) -> di
     return out
 
 
-def _groups(spec: StudySpec, runs: dict[str, RunResult], names) -> list[dict]:
+def _groups(spec: StudySpec, runs: dict[str, RunResult], names, shapes) -> list[dict]:
     """Mean and spread (sample standard deviation; 0 with one seed) over seeds of the
     errors, wall time and speed-up of every (radius, rule) with at least one run."""
     out = []
-    cols_err = [metric_column(n) for n in names] + list(shape_names_of(spec.reference))
+    cols_err = [metric_column(n) for n in names] + list(shapes)
     for r in spec.coarse_radii:
         for rule in spec.rules:
             members = [x for x in runs.values() if x.rule == rule and x.radius == r]

@@ -285,7 +285,7 @@ def run_study(
     progress = _monotone_progress(progress)
     tell_added = on_run is not None and _takes_added(on_run)
 
-    refs = [q.key for q in loop.planned if q.is_reference]
+    refs = [q.key for q in study.runs if q.is_reference]
 
     def checkpoint(p: PlannedRun) -> Checkpoint | None:
         if checkpoints is None:
@@ -341,14 +341,16 @@ def run_study(
 
 
 def _takes_added(callback) -> bool:
-    """Whether ``on_run`` takes the keyword ``added`` (the round of an added run)."""
+    """Whether ``on_run`` names a parameter ``added`` (the round of an added run); a
+    callback of ``(key, outcome)`` alone, or one that passes ``**kwargs`` on, is called as
+    before."""
     import inspect
 
     try:
         params = inspect.signature(callback).parameters
     except (TypeError, ValueError):  # a builtin without a signature (dict.__setitem__)
         return False
-    return "added" in params or any(p.kind == p.VAR_KEYWORD for p in params.values())
+    return "added" in params
 
 
 def _monotone_progress(progress: StudyCallback | None) -> StudyCallback | None:

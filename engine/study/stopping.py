@@ -10,7 +10,7 @@ study's progress is counted against it)."""
 
 from __future__ import annotations
 
-from .look import judge_look
+from .look import Look
 from .plan import PlannedRun, to_seed_caps
 from .spec import StudySpec
 
@@ -26,13 +26,13 @@ def all_rounds_run(spec: StudySpec) -> str:
     return f"all {spec.rounds} rounds run"
 
 
-def stop_reason(spec: StudySpec, planned: list[PlannedRun], outcomes: dict, otherwise: str) -> str:
-    """Why a study that stops adding runs stopped: ``"every verdict decided"`` where no
-    variant is undecided at its last look (``spec.looks``: no look follows, so it is judged
-    there, :func:`final_look`), else ``otherwise`` (:data:`NOTHING_TO_ADD` or
+def stop_reason(look: Look, otherwise: str) -> str:
+    """Why a study that stops adding runs stopped, from ``look`` (its runs judged at its
+    last look, ``spec.looks``: no look follows, so it is judged there, :func:`final_look`;
+    the loop's look, without the protocol check): ``"every verdict decided"`` where no
+    variant is undecided, else ``otherwise`` (:data:`NOTHING_TO_ADD` or
     :func:`all_rounds_run`); ``"no reference run finished"`` where there is nothing to
-    judge. The look is the loop's (without the protocol check)."""
-    look = judge_look(spec, planned, outcomes, spec.looks, report=False)
+    judge."""
     if not look.refs:
         return "no reference run finished"
     return otherwise if look.undecided() else "every verdict decided"

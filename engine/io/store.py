@@ -25,6 +25,13 @@ curves of :data:`engine.shear.results.SHEAR_CURVE_UNITS`), and the attrs ``shear
 fitted yield locus) hold what the curves were read into. Both are strict JSON (RFC 8259):
 the ffc of a locus without cohesion (sigma_c = 0), infinite, is stored as null and read
 back as infinity.
+
+A run a ``decide`` study added (engine.study.loop) also holds its round: attrs ``round``,
+``reason`` and ``added_kind`` (``"coarse"``, ``"reference"`` or ``"control"``), and
+``round_added`` (JSON: every addition of its round, ``{run, round, kind, reason}``, its own
+among them), so that loading the study reads its rounds (:func:`stored_additions`) instead
+of judging them again. Runs stored before these were recorded have none of them: their
+rounds are replayed from their outcomes, which finds the same runs.
 """
 
 from __future__ import annotations
@@ -117,6 +124,51 @@ def write_run_group(g, outcome, keep_particles: bool = True) -> None:
                 ds.attrs["units"] = "m"
 
 
+def write_addition(g, key: str, added: list[dict]) -> None:
+    """The round of the added run ``key``, as attrs of its group (or file) ``g`` (module
+    docstring): ``added`` lists every addition of the round, ``key``'s among them
+    (``ValueError`` where it is not)."""
+    own = next((a for a in added if a["run"] == key), None)
+    if own is None:
+        raise ValueError(f"run {key}: not among the additions of its round {added!r}")
+    g.attrs.update(
+        {
+            "round": int(own["round"]),
+            "reason": str(own["reason"]),
+            "added_kind": str(own["kind"]),
+            "round_added": strict_json(
+                [{k: a[k] for k in ("run", "round", "kind", "reason")} for a in added]
+            ),
+        }
+    )
+
+
+def read_addition(g) -> list[dict] | None:
+    """The additions of the round stored with a run (its group ``g``), None for a planned
+    run or one stored before rounds were recorded."""
+    text = g.attrs.get("round_added")
+    return None if text is None else json.loads(text)
+
+
+def stored_additions(directory: Path) -> list[dict]:
+    """Every addition stored with the runs in ``directory`` (``<key>.h5``), each ``{run,
+    round, kind, reason}``, by round and in each round's order: what a ``decide`` study's
+    rounds added (engine.study.loop.StudyLoop's ``decided``). Empty for a folder of runs
+    stored before rounds were recorded."""
+    import h5py
+
+    rounds: dict[int, list[dict]] = {}
+    for path in sorted(Path(directory).glob("*.h5")):
+        try:
+            with h5py.File(path, "r") as f:
+                added = read_addition(f)
+        except OSError:  # a file being written, or not HDF5: no round read from it
+            continue
+        if added:
+            rounds.setdefault(int(added[0]["round"]), added)
+    return [a for r in sorted(rounds) for a in rounds[r]]
+
+
 def _is_shear_result(outcome) -> bool:
     from ..shear.results import ShearResult
 
@@ -193,9 +245,13 @@ def read_run_group(g):
     return UniaxialResult(test, stages, scalars)
 
 
-def save_run(path: Path, outcome, keep_particles: bool = True) -> Path:
+def save_run(
+    path: Path, outcome, keep_particles: bool = True, added: list[dict] | None = None
+) -> Path:
     """Write ``outcome`` (a UniaxialResult or an error text) to ``path`` atomically; with
-    ``keep_particles`` also the particle positions and radii at each stage's end."""
+    ``keep_particles`` also the particle positions and radii at each stage's end; with
+    ``added`` (a ``decide`` study's added run: the additions of its round, as
+    ``run_study``'s ``on_run`` hears them) its round and reason (module docstring)."""
     import h5py
     import numba
 
@@ -212,6 +268,8 @@ def save_run(path: Path, outcome, keep_particles: bool = True) -> Path:
             f.attrs["machine"] = json.dumps(this_machine())
             f.attrs["code"] = json.dumps(this_code())
             write_run_group(f, outcome, keep_particles)
+            if added:
+                write_addition(f, path.stem, added)
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
@@ -285,7 +343,9 @@ def save_study(path: Path, study_id: object, result, before_rename=lambda: True)
                           group scalars, stages/<stage>/<curve>, stages/<stage>/particles),
                           plus attrs label, reference, position, radius (+ radius_units),
                           rule, seed, the rule's stiffness_exponent, adhesion_exponent,
-                          adhesive_exponent and dt_rule, and each error err_* (+ _units)
+                          adhesive_exponent and dt_rule, and each error err_* (+ _units);
+                          a run a decide study added: round, reason, added_kind,
+                          round_added (:func:`write_addition`)
         /summary          attrs: columns; one 1-D dataset per table column with units
 
     ``before_rename()`` is asked right before the rename: False raises
@@ -319,9 +379,12 @@ def save_study(path: Path, study_id: object, result, before_rename=lambda: True)
                 }
             )
             runs = f.create_group("runs", track_order=True)
+            rounds = _rounds_of(result.advisor)
             for i, (key, run) in enumerate(result.runs.items()):
                 g = runs.create_group(key, track_order=True)
                 write_run_group(g, run.result)
+                if key in rounds:
+                    write_addition(g, key, rounds[key])
                 g.attrs.update(
                     {
                         "label": run.key,
@@ -370,27 +433,72 @@ def save_study(path: Path, study_id: object, result, before_rename=lambda: True)
     return path
 
 
-def completed_runs(study, directory: Path) -> tuple[dict, list[str]]:
+def _rounds_of(advisor: dict) -> dict[str, list[dict]]:
+    """Run key -> the additions of its round, from a report's ``adaptive`` entry."""
+    added = (advisor.get("adaptive") or {}).get("added_runs") or []
+    return {a["run"]: [b for b in added if b["round"] == a["round"]] for a in added}
+
+
+def completed_runs(study, directory: Path, decided: list | None = None):
     """The runs of ``study`` (an :class:`engine.StudyPlan`, or a spec planned here) stored in
     ``directory`` whose test is exactly the planned one (what ``run_study(completed=...)``
     resumes from), and the keys of stored runs made with other parameters (to be run again).
-    With ``decide`` the runs its rounds added are found too, round by round
-    (:func:`engine.study.plan.plan_runs`)."""
-    from ..study.plan import as_plan, plan_runs
+    With ``decide`` the runs its rounds added are found too: read from their stored rounds
+    (:func:`stored_additions`; a ``decided`` list, filled here, receives them, for
+    ``run_study(decided=...)``), or, for runs stored before rounds were recorded, replayed
+    round by round from the stored outcomes (engine.study.loop.plan_runs)."""
+    from ..study.loop import plan_runs
+    from ..study.plan import as_plan
 
     study = as_plan(study)
-    done, stale, seen = {}, [], set()
+    rounds = stored_additions(directory) if study.spec.decide else []
     while True:
-        planned = {p.key: p.test for p in plan_runs(study, done)[0]}
-        fresh = [k for k in planned if k not in seen]
-        if not fresh:
-            return done, stale
-        seen.update(fresh)
-        for key, outcome in load_all(directory, fresh).items():
-            if isinstance(outcome, str) or outcome.test == planned[key]:
-                done[key] = outcome
-            else:
-                stale.append(key)
+        done, stale, seen = {}, [], set()
+        while True:
+            planned = {p.key: p.test for p in plan_runs(study, done, rounds)[0]}
+            fresh = [k for k in planned if k not in seen]
+            if not fresh:
+                break
+            seen.update(fresh)
+            for key, outcome in load_all(directory, fresh).items():
+                if isinstance(outcome, str) or outcome.test == planned[key]:
+                    done[key] = outcome
+                else:
+                    stale.append(key)
+        if not rounds or not any(a["run"] in stale for a in rounds):
+            break
+        rounds = []  # rounds stored by another study's runs: replayed from the outcomes
+    if decided is not None:
+        decided[:] = rounds
+    return done, stale
+
+
+def load_study(path: Path):
+    """The :class:`engine.StudyResult` of a study's file (:func:`save_study`), recomputed
+    from its stored runs (engine.study.results.assemble) with the rounds its added runs
+    were stored with (attrs ``round_added``; a file stored before they were recorded has
+    its rounds replayed from its runs, which finds the same ones). Runs the file does not
+    hold (failed, or not comparable) are what its stored summary says of them: a failed
+    run's error text, else not run."""
+    import h5py
+
+    from ..study.loop import StudyLoop
+    from ..study.spec import StudySpec
+
+    with h5py.File(path, "r") as f:
+        spec = StudySpec.from_dict(json.loads(f.attrs["spec"]))
+        outcomes = {k: read_run_group(g) for k, g in f["runs"].items()}
+        rounds: dict[int, list] = {}
+        for g in f["runs"].values():
+            added = read_addition(g)
+            if added:
+                rounds.setdefault(int(added[0]["round"]), added)
+        failed = json.loads(f.attrs["summary"]).get("failed", {})
+    for key, text in failed.items():
+        if key not in outcomes and text != "not run" and not text.startswith("not comparable"):
+            outcomes[key] = text
+    decided = [a for r in sorted(rounds) for a in rounds[r]]
+    return StudyLoop(spec, outcomes, decided).result()
 
 
 def load_all(directory: Path, keys) -> dict:

@@ -23,6 +23,11 @@ the runs to add, each with its reason. Deterministic given the stored runs.
   its means and spreads stayed as observed (futility: stopping without a verdict never
   makes a wrong one).
 - A variant or reference of one seed first gets seeds up to three (a spread of its own).
+
+:func:`allocate_round` is the allocator the adaptive loop asks (engine.study.loop, in the
+role of Optuna's sampler): from a look at the data (engine.study.look.judge_look) it
+returns the runs of a round as planned runs of the study with new seeds, each with its
+:class:`Addition` (round, kind, reason).
 """
 
 from __future__ import annotations
@@ -30,8 +35,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .intervals import WELCH_MIN_SEEDS
-from .judge import compare, error_rates
+from .judge import compare
 from .noise import StudyNoise
+from .plan import CONTROL
+from .rates import error_rates
 
 #: Least rise in a variant's chance of being decided, per added run, for which a run is
 #: worth adding [-]: a run that adds under 2 % to the chance of a decision costs more than
@@ -233,4 +240,57 @@ def next_runs(
     return out
 
 
-__all__ = ["LOOKAHEAD", "MIN_GAIN", "Addition", "headline", "next_runs"]
+def allocate_round(look, planned: list, round_no: int, spent: float) -> list[tuple]:
+    """The runs round ``round_no`` adds, judged from ``look`` (a
+    :class:`engine.study.look.Look` of ``planned`` at look ``round_no``, without the
+    protocol check): planned runs of the study (``planned``, the stored plan's first) with
+    new seeds, nothing planned again, each with its :class:`Addition`; ``spent``: the
+    particle-steps the earlier rounds added. A control follows each added coarse seed at a
+    radius with controls (its cost reserved by :func:`next_runs`). Returns (run, addition)
+    pairs, the round's order."""
+    spec = look.spec
+    if not look.refs:
+        return []
+    cost: dict = {}
+    attempted: dict = {}
+    template: dict = {}  # the first planned run of each variant (None: the reference)
+    used: dict = {}
+    for p in planned:
+        k = "reference" if p.is_reference else p.variant
+        cost.setdefault(k, p.particle_steps)
+        attempted[k] = attempted.get(k, 0) + 1
+        template.setdefault(p.variant, p)
+        used.setdefault(p.variant, set()).add(p.seed)
+    budget_left = None if spec.budget is None else spec.budget - spent
+    control_costs = {
+        k[0]: c for k, c in cost.items() if k is not None and k != "reference" and k[1] == CONTROL
+    }
+    adds = next_runs(
+        spec, look.noise, look.verdicts, cost, round_no, budget_left, attempted, control_costs
+    )
+    out = []
+    for a in adds:
+        seeds = used.setdefault(a.variant, set())
+        seed = max(seeds | used.get(None, set())) + 1
+        seeds.add(seed)
+        # the planned run with a new seed: the same test (a coarse test's time step is the
+        # reference's, whatever its seed), so an added run is what the stored plan holds
+        out.append((template[None if a.kind == "reference" else a.variant].with_seed(seed), a))
+    for p, a in list(out):
+        # a control follows each added coarse seed at its radius (one control per radius
+        # and seed serves every rule there), so that the rule's own error keeps its pairs
+        # (engine.study.judge.judge_rule_error); the allocation reserved its cost
+        ck = (p.radius, CONTROL)
+        if a.kind != "coarse" or ck not in template or p.seed in used.get(ck, set()):
+            continue
+        ctl = template[ck].with_seed(p.seed)
+        used[ck].add(p.seed)
+        reason = (
+            f"round {a.round}: the resolution control of seed {p.seed} at "
+            f"R = {p.radius * 1e3:g} mm, which {p.key} is paired with for the rule's own error"
+        )
+        out.append((ctl, Addition("control", ck, a.round, reason)))
+    return out
+
+
+__all__ = ["LOOKAHEAD", "MIN_GAIN", "Addition", "allocate_round", "headline", "next_runs"]

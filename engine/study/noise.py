@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .comparison import Space
 from .metrics import FLOORED, STRENGTH_FLOOR, reference_scale
 from .pooling import SCREEN_LEVEL, Spread, group_spreads, own_spread
 
@@ -47,30 +48,6 @@ def noise_floor(ref_values: list[dict], names, consolidation_stress: float) -> d
 
 def _failed(values: dict) -> bool:
     return float(values.get("failed", 1.0)) == 1.0
-
-
-class Space:
-    """How one metric is compared at one radius: ``kind`` ``"log"`` (logarithms: a
-    difference d of mean logs is the ratio exp(d) of geometric means, relative error
-    exp(d) - 1, a tolerance's bounds log(1 -/+ tol)) or ``"difference"`` (the values over
-    ``scale``: relative error d, bounds -/+ tol)."""
-
-    def __init__(self, kind: str, scale=None):
-        self.kind = kind
-        self.scale = scale
-
-    def map(self, a: np.ndarray) -> np.ndarray:
-        return np.log(a) if self.kind == "log" else a / self.scale
-
-    def rel(self, d):
-        """A difference on this scale as a relative error [-]."""
-        return float(np.expm1(d)) if self.kind == "log" else float(d)
-
-    def bounds(self, tolerance: float) -> tuple[float, float]:
-        if self.kind == "log":
-            lo = np.log(1.0 - tolerance) if tolerance < 1 else -np.inf
-            return float(lo), float(np.log1p(tolerance))
-        return -tolerance, tolerance
 
 
 def choose_space(name: str, arrays: list[np.ndarray], ref_mean: np.ndarray, cons: float) -> Space:

@@ -4,9 +4,9 @@
 the references (one per reference seed), then every coarse radius x rule per seed, each test
 complete (its time step known before any run starts) and checked runnable; nothing is placed
 or run. A plan has a JSON form (:meth:`StudyPlan.to_dict`): the job service stores it with the
-job and its worker runs the stored plan. With ``decide``, :func:`plan_runs` adds the runs of
-each round, replayed from the outcomes so far (deterministic: a resumed study, or a report
-from stored runs, finds the same runs)."""
+job and its worker runs the stored plan. The plan is static: with ``decide``, the runs each
+round adds are the adaptive loop's (engine.study.loop), as planned runs of this plan with new
+seeds (:meth:`PlannedRun.with_seed`, :func:`stored_plan_runs`)."""
 
 from __future__ import annotations
 
@@ -17,11 +17,7 @@ import numpy as np
 from ..core.errors import ParameterError
 from ..shear.spec import ShearTest
 from ..uniaxial.spec import UniaxialTest
-from .allocate import Addition, next_runs
-from .judge import error_rates, judge_group, judge_groups
 from .kinds import kind_of
-from .metrics import metric_names_of, metric_values, shape_errors
-from .noise import StudyNoise
 from .spec import ScalingRule, StudySpec
 
 #: The variant name of a study's resolution controls (a rule may not take it).
@@ -150,7 +146,7 @@ class StudyPlan:
         total = float(sum(p.particle_steps for p in self.runs))
         if not spec.decide:
             return total
-        worst = _to_seed_caps(spec, self.runs)
+        worst = to_seed_caps(spec, self.runs)
         return total + float(worst if spec.budget is None else min(worst, spec.budget))
 
     def to_dict(self) -> dict:
@@ -193,7 +189,7 @@ class StudyPlan:
         return cls(spec, runs)
 
 
-def _to_seed_caps(spec: StudySpec, runs) -> float:
+def to_seed_caps(spec: StudySpec, runs) -> float:
     """Particle-steps of the runs that would fill the reference and every variant of
     ``runs`` up to their seed caps (``max_reference_seeds``, ``max_seeds``; a control
     follows the added coarse seeds of its radius; the protocol check adds none)."""
@@ -209,27 +205,6 @@ def _to_seed_caps(spec: StudySpec, runs) -> float:
             if k is None or k[1] != PROTOCOL
         )
     )
-
-
-def most_added(
-    spec: StudySpec, planned: list[PlannedRun], added: list[dict], stopped: str | None
-) -> float:
-    """The most particle-steps the rounds still to come of a ``decide`` study may add to
-    its runs so far (``planned``, ``added`` and ``stopped`` as :func:`plan_runs` returns
-    them): none without ``decide``, once it has stopped adding or once each of its
-    ``rounds`` has added runs; else the budget not yet spent or every variant and the
-    reference filled to their seed caps, whichever is less (for the plan's own runs the
-    admitted worst case, :meth:`StudyPlan.estimated_particle_steps`). A round's runs come
-    out of it, so the study's known runs plus this never grow: its progress, counted
-    against that sum, never goes back when a round adds runs (engine.run_study)."""
-    if not spec.decide or stopped is not None or len({a["round"] for a in added}) >= spec.rounds:
-        return 0.0
-    worst = _to_seed_caps(spec, planned)
-    if spec.budget is None:
-        return worst
-    keys = {a["run"] for a in added}
-    spent = sum(p.particle_steps for p in planned if p.key in keys)
-    return float(max(0.0, min(worst, spec.budget - spent)))
 
 
 def plan(spec: StudySpec) -> StudyPlan:
@@ -314,71 +289,6 @@ def cost_weights(planned: list[PlannedRun], reserve: float = 0.0) -> np.ndarray:
     return cost / (cost.sum() + reserve)
 
 
-def plan_runs(
-    study: StudyPlan | StudySpec, outcomes: dict
-) -> tuple[list[PlannedRun], list[dict], str | None]:
-    """Every run of the ``study`` (a :class:`StudyPlan`, or a spec planned here) given the
-    ``outcomes`` so far: the planned runs, then, with ``decide``, the runs each round adds
-    (engine.study.allocate), replayed from the outcomes round by round (deterministic: a
-    resumed study, or a report from stored runs, finds the same runs). Returns (runs, the
-    added runs as {run, round, kind, reason}, why the study stopped adding: None while some
-    run of the last round is still to run)."""
-    study = as_plan(study)
-    spec = study.spec
-    planned = list(study.runs)
-    added: list[dict] = []
-    if not spec.decide:
-        return planned, added, None
-    spent = 0.0
-    for round_no in range(1, spec.rounds + 1):
-        # a round is planned from the finished references and variants (the controls and
-        # the protocol check take no part in it, so a round need not wait for them)
-        if any(p.key not in outcomes for p in planned if not p.control and not p.protocol):
-            return planned, added, None
-        new = _added_runs(spec, planned, outcomes, round_no, spent)
-        if not new:
-            if any(p.key not in outcomes for p in planned):  # controls still to run
-                return planned, added, None
-            return (
-                planned,
-                added,
-                _stop_reason(
-                    spec,
-                    planned,
-                    outcomes,
-                    added,
-                    "no undecided verdict can be decided within the seed "
-                    "caps and budget (each reason says how many seeds it would need)",
-                ),
-            )
-        for p, a in new:
-            planned.append(p)
-            spent += p.particle_steps
-            added.append({"run": p.key, "round": a.round, "kind": a.kind, "reason": a.reason})
-    if any(p.key not in outcomes for p in planned):
-        return planned, added, None
-    return (
-        planned,
-        added,
-        _stop_reason(spec, planned, outcomes, added, f"all {spec.rounds} rounds run"),
-    )
-
-
-def _stop_reason(spec, planned, outcomes, added, otherwise: str) -> str:
-    names, ref_values, variants, controls = _judged_values(spec, planned, outcomes)
-    if not ref_values:
-        return "no reference run finished"
-    look = final_look(spec, added, stopped=otherwise)  # it stops here: its last look
-    _, verdicts = judge_groups(
-        spec, ref_values, variants, names, look=look, looks=spec.looks, controls=controls
-    )
-    return (
-        otherwise
-        if any(v["verdict"] == "undecided" for v in verdicts)
-        else ("every verdict decided")
-    )
-
-
 def stored_plan_runs(study: StudyPlan | StudySpec, keys) -> list[PlannedRun]:
     """The plan's runs, then each run named in ``keys`` that is a planned run of the study
     (its reference or one of its variants) with another seed, in the order of ``keys``:
@@ -402,114 +312,19 @@ def stored_plan_runs(study: StudyPlan | StudySpec, keys) -> list[PlannedRun]:
     return runs
 
 
-def final_look(spec: StudySpec, added: list[dict], stopped: str | None = None) -> int:
-    """The look at which a study's verdicts are judged (engine.study.advisor.look_alpha): 1
-    for a study without ``decide``; else, while it may still add runs, 1 (the pilot: the
-    planned runs) plus one per round that added runs (``added``: as :func:`plan_runs`
-    returns them); once it has stopped (``stopped``: :func:`plan_runs`' reason), its last
-    look, ``spec.looks``: no look follows, so the error rate of every look not taken is
-    spent on the data it has (the looks' rates add up to alpha whatever data each sees: a
-    union bound, docs/PHYSICS.md section 7.2). A study that stops after its pilot because
-    no round could decide more is judged at its last look, not at the pilot's share."""
-    if not spec.decide:
-        return 1
-    if stopped is not None:
-        return spec.looks
-    return 1 + len({a["round"] for a in added})
+#: The adaptive loop's names, importable from here as before (engine.study.loop,
+#: engine.study.stopping): the plan is static, and these replay or judge a study's rounds.
+_LOOP_NAMES = {
+    "plan_runs": "loop",
+    "adaptive_summary": "loop",
+    "final_look": "stopping",
+    "most_added": "stopping",
+}
 
 
-def adaptive_summary(
-    spec: StudySpec, planned: list[PlannedRun], added: list[dict], stopped: str | None
-) -> dict:
-    keys = {a["run"] for a in added}
-    return {
-        "planned_runs": len(planned) - len(added),
-        "added_runs": added,
-        "looks": spec.looks,
-        "look": final_look(spec, added, stopped),
-        "stopped": stopped,
-        "budget": spec.budget,
-        "added_particle_steps": float(sum(p.particle_steps for p in planned if p.key in keys)),
-    }
+def __getattr__(name: str):
+    if name in _LOOP_NAMES:
+        import importlib
 
-
-def _judged_values(spec: StudySpec, planned: list[PlannedRun], outcomes: dict):
-    """Metric values of the finished references, of every variant's finished seeds and of
-    each radius's finished controls that :func:`assemble` judges (a run whose curves cannot
-    be compared is left out there too): (names, reference values, variants, controls)."""
-    names = metric_names_of(spec.reference)
-    ok = [p for p in planned if p.key in outcomes and not isinstance(outcomes[p.key], str)]
-    refs = {p.seed: outcomes[p.key] for p in ok if p.is_reference}
-    ref_values = [metric_values(r) for r in refs.values()]
-    variants: dict[tuple, list[dict]] = {}
-    controls: dict[float, list[dict]] = {}
-    for p in ok:
-        if p.is_reference or p.protocol:
-            continue
-        res = outcomes[p.key]
-        try:
-            shape_errors(res, refs.get(p.seed, next(iter(refs.values()))))
-        except (ValueError, StopIteration):
-            continue
-        if p.control:
-            controls.setdefault(p.radius, []).append(metric_values(res))
-        else:
-            variants.setdefault((p.radius, p.rule.name), []).append(metric_values(res))
-    return names, ref_values, variants, controls
-
-
-def _added_runs(
-    spec: StudySpec, planned: list[PlannedRun], outcomes: dict, round_no: int, spent: float
-) -> list[tuple[PlannedRun, Addition]]:
-    """The runs round ``round_no`` adds (engine.study.adaptive): planned runs of the study
-    (``planned``, the stored plan's first) with new seeds, nothing planned again."""
-    names, ref_values, variants, controls = _judged_values(spec, planned, outcomes)
-    if not ref_values:
-        return []
-    groups = dict(variants)
-    groups.update({(r, CONTROL): v for r, v in controls.items()})
-    noise = StudyNoise(ref_values, groups, names, spec.reference.consolidation_stress)
-    alpha_e, alpha_d = error_rates(spec.confidence, len(names), round_no, spec.looks)
-    verdicts = [judge_group(noise, k, spec.tolerances, alpha_e, alpha_d) for k in variants]
-    cost: dict = {}
-    attempted: dict = {}
-    template: dict = {}  # the first planned run of each variant (None: the reference)
-    used: dict = {}
-    for p in planned:
-        k = "reference" if p.is_reference else p.variant
-        cost.setdefault(k, p.particle_steps)
-        attempted[k] = attempted.get(k, 0) + 1
-        template.setdefault(p.variant, p)
-        used.setdefault(p.variant, set()).add(p.seed)
-    budget_left = None if spec.budget is None else spec.budget - spent
-    control_costs = {
-        k[0]: c for k, c in cost.items() if k is not None and k != "reference" and k[1] == CONTROL
-    }
-    adds = next_runs(spec, noise, verdicts, cost, round_no, budget_left, attempted, control_costs)
-    out = []
-    for a in adds:
-        seeds = used.setdefault(a.variant, set())
-        seed = max(seeds | used.get(None, set())) + 1
-        seeds.add(seed)
-        # the planned run with a new seed: the same test (a coarse test's time step is the
-        # reference's, whatever its seed), so an added run is what the stored plan holds
-        out.append((template[None if a.kind == "reference" else a.variant].with_seed(seed), a))
-    if budget_left is not None:
-        budget_left -= sum(p.particle_steps for p, _ in out)
-    for p, a in list(out):
-        # a control follows each added coarse seed at its radius (one control per radius
-        # and seed serves every rule there), so that the rule's own error keeps its pairs
-        # (engine.study.judge.judge_rule_error); the allocation reserved its cost
-        ck = (p.radius, CONTROL)
-        if a.kind != "coarse" or ck not in template or p.seed in used.get(ck, set()):
-            continue
-        ctl = template[ck].with_seed(p.seed)
-        used[ck].add(p.seed)
-        if budget_left is not None:
-            budget_left -= ctl.particle_steps
-        reason = (
-            f"round {a.round}: the resolution control of seed {p.seed} at "
-            f"R = {p.radius * 1e3:g} mm, which {p.key} is paired with for the rule's own error"
-        )
-        out.append((ctl, Addition("control", ck, a.round, reason)))
-    return out
+        return getattr(importlib.import_module(f".{_LOOP_NAMES[name]}", __package__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

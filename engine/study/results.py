@@ -10,18 +10,10 @@ import numpy as np
 
 from ..uniaxial.results import UniaxialResult
 from .advisor import advise
-from .judge import error_rates, judge_group, judge_protocol, judge_rule_error
 from .kinds import kind_of
-from .metrics import (
-    metric_column,
-    metric_names_of,
-    metric_values,
-    relative_error,
-    shape_errors,
-    shape_names_of,
-)
-from .noise import StudyNoise, noise_floor
-from .plan import CONTROL, PROTOCOL, PlannedRun
+from .look import judge_look
+from .metrics import metric_column, metric_values
+from .plan import PROTOCOL, PlannedRun
 from .resolution import curve_lines, diameters_needed, resolution_curves
 from .spec import ScalingRule, StudySpec
 
@@ -156,52 +148,25 @@ def assemble(
 ) -> StudyResult:
     """Errors, groups, noise floor, verdicts and advisor from the runs' outcomes (key ->
     :class:`UniaxialResult` or error text), the verdicts judged at ``look`` of ``spec.looks``
-    (engine.study.plan.final_look). Recomputable at any time from stored runs."""
-    failed = {p.key: outcomes[p.key] for p in planned if isinstance(outcomes.get(p.key), str)}
-    missing = [p.key for p in planned if p.key not in outcomes]
-    for k in missing:
-        failed[k] = "not run"
-    refs = {
-        p.seed: outcomes[p.key]
-        for p in planned
-        if p.is_reference and p.key in outcomes and not isinstance(outcomes[p.key], str)
-    }
+    (engine.study.stopping.final_look): the runs measured and judged once, by
+    :func:`engine.study.look.judge_look` (the adaptive loop's arithmetic), then tabled and
+    advised. Recomputable at any time from stored runs."""
+    at = judge_look(spec, planned, outcomes, look)
+    failed, refs, names = at.failed, at.refs, at.names
     if not refs:
         key = next(p.key for p in planned if p.is_reference)
         raise RunFailed(key, failed.get(key, "no reference run succeeded"))
-    names = metric_names_of(spec.reference)
-    shapes = shape_names_of(spec.reference)
     unconfined = getattr(spec.reference, "unconfined", False)
-    ref_values = [metric_values(r) for r in refs.values()]
+    ref_values = at.ref_values
     ref_wall = float(np.median([r.scalars["wall_time"] for r in refs.values()]))
     ref_steps = float(np.median([r.scalars["particle_steps"] for r in refs.values()]))
-    cons = spec.reference.consolidation_stress
-    floor_mean = {n: np.mean([v[n] for v in ref_values], axis=0) for n in names}
-    first_ref = next(iter(refs.values()))
     runs: dict[str, RunResult] = {}
-    variants: dict[tuple, list[dict]] = {}
-    seeds_of: dict[tuple, list[int]] = {}
-    controls: dict[float, dict[int, dict]] = {}
-    half: dict[int, dict] = {}  # the protocol check, by seed
     for p in planned:
-        res = outcomes.get(p.key)
-        if res is None or isinstance(res, str):
+        if p.key not in at.values:
             continue
-        values = metric_values(res)
-        errors = {
-            metric_column(n): (
-                0.0 if p.is_reference else relative_error(n, values[n], floor_mean[n], cons)
-            )
-            for n in names
-        }
+        res, errors = outcomes[p.key], at.errors[p.key]
         if p.is_reference:
-            errors.update(dict.fromkeys(shapes, 0.0))
             runs[p.key] = RunResult(p.key, p.radius, None, p.seed, res, errors, 1.0, 1.0)
-            continue
-        try:
-            errors.update(shape_errors(res, refs.get(p.seed, first_ref)))
-        except ValueError as e:
-            failed[p.key] = f"not comparable: {e}"
             continue
         runs[p.key] = RunResult(
             p.key,
@@ -216,31 +181,9 @@ def assemble(
             ref_steps / res.scalars["particle_steps"],
             p.protocol,
         )
-        if p.protocol:
-            half[p.seed] = values
-        elif p.control:
-            controls.setdefault(p.radius, {})[p.seed] = values
-        else:
-            variants.setdefault((p.radius, p.rule.name), []).append(values)
-            seeds_of.setdefault((p.radius, p.rule.name), []).append(p.seed)
+    controls, half, verdicts = at.controls, at.half, at.verdicts
     table = [r.row() for r in runs.values()]
-    groups = _groups(spec, runs, names)
-    ctl_values = {r: list(c.values()) for r, c in controls.items()}
-    r_ref = spec.reference.radius
-    pooled = StudyNoise(
-        ref_values,
-        {
-            **variants,
-            **{(r, CONTROL): v for r, v in ctl_values.items()},
-            **({(r_ref, PROTOCOL): list(half.values())} if half else {}),
-        },
-        names,
-        cons,
-    )
-    alpha_e, alpha_d = error_rates(spec.confidence, len(names), look, spec.looks)
-    verdicts = [judge_group(pooled, k, spec.tolerances, alpha_e, alpha_d) for k in variants]
-    floor = noise_floor(ref_values, names, cons)
-    noise = {n: floor[n]["noise"] for n in names}
+    groups = _groups(spec, runs, names, at.shapes)
     keys_of: dict[tuple, list[str]] = {}
     for p in planned:
         if not p.is_reference and not p.control and not p.protocol:
@@ -275,9 +218,7 @@ def assemble(
     ref_strength = None
     if unconfined:
         ref_strength = float(np.mean([r.scalars["unconfined_strength"] for r in refs.values()]))
-    resolution, rule_errors = judge_controls(
-        spec, pooled, variants, controls, names, look, runs, seeds_of
-    )
+    resolution, rule_errors = at.resolution, at.rule_errors
     strengths = None
     if unconfined:
         strengths = {"reference": [r.scalars["unconfined_strength"] for r in refs.values()]}
@@ -313,56 +254,16 @@ def assemble(
             advisor["message"] = "; ".join([advisor["message"], *lines])
     advisor["protocol"] = None
     if half:
-        ref_by_seed = dict(zip(refs, ref_values))
-        check = judge_protocol(spec, pooled, r_ref, half, ref_by_seed, names)
+        check = at.protocol
         advisor["protocol"] = check
         line = protocol_line(check)
         advisor["control_lines"] = [*advisor["control_lines"], line]
         advisor["message"] = "; ".join([advisor["message"], line])
-    advisor["noise_floor"] = noise
+    advisor["noise_floor"] = at.noise_floor
     advisor["reference"] = _reference_summary(
         refs, names, ref_values, kind_of(spec.reference).summary_scalars
     )
     return StudyResult(spec, runs, table, groups, advisor, failed)
-
-
-def judge_controls(
-    spec: StudySpec,
-    noise: StudyNoise,
-    variants: dict[tuple, list[dict]],
-    controls: dict[float, dict[int, dict]],
-    names,
-    look: int,
-    runs: dict[str, RunResult],
-    seeds_of: dict[tuple, list[int]],
-) -> tuple[list[dict], list[dict]]:
-    """The two errors the resolution controls separate (docs/PHYSICS.md section 7.4): per
-    radius with controls, the controls against the reference (the resolution error: what a
-    sample that many diameters across loses; judged once, at the study's confidence), and
-    per coarse variant at that radius, the variant against the controls (the rule's own
-    error, at the variant's look; ``seeds_of`` gives the packing seed of each of its values):
-    paired by seed where that pays (:func:`engine.study.judge.judge_rule_error`), since a
-    control and a coarse run of one seed start from the same scaled cloud; ``noise``: the
-    study's groups with their spreads pooled by radius."""
-    if not controls:
-        return [], []
-    alpha_e, alpha_d = error_rates(spec.confidence, len(names), 1, 1)
-    resolution = [
-        judge_group(noise, (r, CONTROL), spec.tolerances, alpha_e, alpha_d) for r in controls
-    ]
-    for v in resolution:
-        ctl = [x for x in runs.values() if x.control and x.radius == v["radius"]]
-        v["diameters_across"] = ctl[0].result.scalars["thickness_diameters"] if ctl else None
-        v["what"] = "resolution"
-    rule_errors = []
-    for (r, rule), vals in variants.items():
-        if r not in controls:
-            continue
-        mine = dict(zip(seeds_of[(r, rule)], vals))
-        v = judge_rule_error(spec, r, rule, mine, controls[r], names, look, spec.looks, noise)
-        v["what"] = "rule"
-        rule_errors.append(v)
-    return resolution, rule_errors
 
 
 def protocol_line(check: dict) -> str:
@@ -413,11 +314,11 @@ def _reference_summary(refs: dict, names, ref_values: list[dict], scalars) -> di
     return out
 
 
-def _groups(spec: StudySpec, runs: dict[str, RunResult], names) -> list[dict]:
+def _groups(spec: StudySpec, runs: dict[str, RunResult], names, shapes) -> list[dict]:
     """Mean and spread (sample standard deviation; 0 with one seed) over seeds of the
     errors, wall time and speed-up of every (radius, rule) with at least one run."""
     out = []
-    cols_err = [metric_column(n) for n in names] + list(shape_names_of(spec.reference))
+    cols_err = [metric_column(n) for n in names] + list(shapes)
     for r in spec.coarse_radii:
         for rule in spec.rules:
             members = [x for x in runs.values() if x.rule == rule and x.radius == r]

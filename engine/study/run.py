@@ -24,17 +24,9 @@ from ..uniaxial.checkpoint import CHECKPOINT_INTERVAL, Checkpoint, check_interva
 from ..uniaxial.results import Progress, UniaxialResult
 from .channel import task_progress, wait_tasks
 from .kinds import kind_of
-from .plan import (
-    PlannedRun,
-    StudyPlan,
-    adaptive_summary,
-    as_plan,
-    cost_weights,
-    final_look,
-    most_added,
-    plan_runs,
-)
-from .results import RunFailed, StudyResult, assemble
+from .loop import StudyLoop
+from .plan import PlannedRun, StudyPlan, as_plan
+from .results import RunFailed, StudyResult
 from .spec import StudySpec
 
 #: The ``stage`` of the report that announces the runs a ``decide`` round has added (its
@@ -49,7 +41,7 @@ class StudyProgress:
 
     ``fraction`` is the share of the study's work done (its runs' estimated particle-steps)
     and never goes back: a ``decide`` study counts the most its later rounds may add as
-    work still to do (:func:`engine.study.plan.most_added`), so a round's added runs take
+    work still to do (:func:`engine.study.stopping.most_added`), so a round's added runs take
     their share from that reserve, and whatever a round does not add is a step forward.
     ``runs_done`` runs have an outcome (finished or failed) of the ``n_runs`` known so far,
     ``added`` of which a ``decide`` study has added; ``run_fraction`` is the run's own
@@ -245,6 +237,7 @@ def run_study(
     completed: dict | None = None,
     on_run: RunCallback | None = None,
     options: RunOptions | None = None,
+    decided: list[dict] | None = None,
     **how,
 ) -> StudyResult:
     """Run every run of ``study`` that is not in ``completed``, then judge the study.
@@ -260,7 +253,12 @@ def run_study(
         executor: shorthand for ``options.executor``.
         completed: key -> :class:`UniaxialResult` (or an error text for a failed run) of
             runs already done, e.g. read back from storage when a study resumes.
-        on_run: called with (key, UniaxialResult or error text) as soon as a run ends.
+        on_run: called with (key, UniaxialResult or error text) as soon as a run ends;
+            where it takes a keyword ``added``, also with the additions of the round that
+            added the run (``[{run, round, kind, reason}, ...]``, the run's own among them;
+            None for a planned run), to store with it (:func:`engine.io.store.save_run`).
+        decided: the added runs a store holds (:func:`engine.io.store.stored_additions`),
+            taken as their rounds' decisions (:class:`engine.study.loop.StudyLoop`).
         options: how the runs are run (:class:`RunOptions`); ``how``: any of its fields as
             keywords, on top of ``options`` (``run_study(spec, checkpoints="ckpt")``).
 
@@ -281,10 +279,11 @@ def run_study(
     checkpoint_interval, backend = options.checkpoint_interval, options.backend
     limit = (options.max_run_wall_time, options.wall_time_setting)
     study = as_plan(study)  # planned once
-    spec = study.spec
-    check_kind_options(spec, options)
-    outcomes: dict[str, UniaxialResult | str] = dict(completed or {})
+    check_kind_options(study.spec, options)
+    loop = StudyLoop(study, dict(completed or {}), decided)
+    outcomes = loop.outcomes
     progress = _monotone_progress(progress)
+    tell_added = on_run is not None and _takes_added(on_run)
 
     refs = [q.key for q in study.runs if q.is_reference]
 
@@ -294,8 +293,10 @@ def run_study(
         return Checkpoint(Path(checkpoints) / f"{p.key}.ckpt", checkpoint_interval)
 
     def record(p: PlannedRun, outcome) -> None:
-        outcomes[p.key] = outcome
-        if on_run is not None:
+        loop.tell(p.key, outcome)
+        if tell_added:
+            on_run(p.key, outcome, added=loop.round_of(p.key))
+        elif on_run is not None:
             on_run(p.key, outcome)
         if checkpoints is not None:  # stored: the run is never resumed again
             checkpoint(p).remove()
@@ -325,22 +326,31 @@ def run_study(
             )
 
     announced = 0
-    while True:  # with decide, each pass may add the runs of the next round
-        planned, added, stopped = plan_runs(study, outcomes)
-        todo = [i for i, p in enumerate(planned) if p.key not in outcomes]
-        if not todo:
-            break
+    # ask / tell: each ask returns the runs still to run, with a decide study's next round
+    # planned (by the allocator) once the runs it is planned from have finished
+    while asked := {p.key for p in loop.ask()}:
+        planned = loop.planned
+        todo = [i for i, p in enumerate(planned) if p.key in asked]
         # the work still to come counts in: the fraction never goes back (StudyProgress)
-        weights = cost_weights(planned, most_added(spec, planned, added, stopped))
-        tally = _Tally(planned, weights, outcomes, len(added))
-        if len(added) > announced:
-            _announce(tally, added[announced:], progress)
-            announced = len(added)
+        tally = _Tally(planned, loop.weights(), outcomes, len(loop.added))
+        if len(loop.added) > announced:
+            _announce(tally, loop.added[announced:], progress)
+            announced = len(loop.added)
         run(todo, tally)
-    result = assemble(spec, planned, outcomes, final_look(spec, added, stopped))
-    if spec.decide:
-        result.advisor["adaptive"] = adaptive_summary(spec, planned, added, stopped)
-    return result
+    return loop.result()
+
+
+def _takes_added(callback) -> bool:
+    """Whether ``on_run`` names a parameter ``added`` (the round of an added run); a
+    callback of ``(key, outcome)`` alone, or one that passes ``**kwargs`` on, is called as
+    before."""
+    import inspect
+
+    try:
+        params = inspect.signature(callback).parameters
+    except (TypeError, ValueError):  # a builtin without a signature (dict.__setitem__)
+        return False
+    return "added" in params
 
 
 def _monotone_progress(progress: StudyCallback | None) -> StudyCallback | None:
@@ -391,7 +401,7 @@ class _Tally:
 
 def _announce(tally: _Tally, new: list[dict], progress) -> None:
     """The :data:`ADDED` report of the runs a round has just added (``new``, as
-    :func:`engine.study.plan.plan_runs` lists them), before any of them runs."""
+    :attr:`engine.study.loop.StudyLoop.added` lists them), before any of them runs."""
     if progress is None:
         return
     keys = [a["run"] for a in new]

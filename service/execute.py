@@ -170,8 +170,10 @@ class StudyExecution:
         log.info("study %s: run %s %s", self.study_id, key, "failed" if failed else "stored")
 
     def store_snapshots(self, key: str, result) -> None:
-        """ParaView files and PNG sections of the run's stage ends, under
-        ``<study>/snapshots/<key>/`` (written into a temporary folder, then renamed)."""
+        """ParaView files of the run's stage ends and the data of their PNG sections (drawn
+        when first asked for: :func:`engine.io.vtkhdf.render_section`; drawing them here took
+        two thirds of a small study's worker time), under ``<study>/snapshots/<key>/``
+        (written into a temporary folder, then renamed)."""
         from engine.io.vtkhdf import save as save_snapshots
 
         if not kind_of(result).snapshots:  # a shear test's stages keep none
@@ -180,7 +182,7 @@ class StudyExecution:
         tmp = final.with_name(f".{key}.{self.worker_id.replace(':', '-')}.tmp")
         shutil.rmtree(tmp, ignore_errors=True)
         try:
-            save_snapshots(result, tmp, key)
+            save_snapshots(result, tmp, key, sections=False)
         except ValueError:  # a result without snapshots: nothing to show
             shutil.rmtree(tmp, ignore_errors=True)
             return

@@ -268,15 +268,23 @@ class Settings(BaseSettings):
         return self.study_dir(study_id) / "snapshots"
 
     def snapshot_files(self, study_id: object) -> dict[str, list[str]]:
-        """Run key -> names of its snapshot files (complete folders only)."""
+        """Run key -> names of its snapshot files (complete folders only): the files there
+        and the ``<stage>.png`` sections its ``sections.npz`` can draw when asked for."""
+        from engine.io.vtkhdf import SECTION_DATA, section_stages
+
         root = self.snapshots_dir(study_id)
         if not root.is_dir():
             return {}
-        return {
-            d.name: sorted(f.name for f in d.iterdir() if f.is_file())
-            for d in sorted(root.iterdir())
-            if d.is_dir() and not d.name.startswith(".")
-        }
+        out = {}
+        for d in sorted(root.iterdir()):
+            if not d.is_dir() or d.name.startswith("."):
+                continue
+            names = {f.name for f in d.iterdir() if f.is_file() and not f.name.startswith(".")}
+            if SECTION_DATA in names:
+                names.discard(SECTION_DATA)
+                names.update(f"{stage}.png" for stage in section_stages(d))
+            out[d.name] = sorted(names)
+        return out
 
     def checkpoints_dir(self, study_id: object) -> Path:
         """Checkpoints of one study's runs in flight (``<key>.ckpt``), removed once stored."""

@@ -13,7 +13,10 @@ Per run directory (docs/SNAPSHOTS.md)::
     particles.pvd,     the same, as every ParaView (5.9 and earlier) and meshio read them:
     contacts.pvd       a collection of one VTK XML file per time step,
                        particles-NNNN.vtu and contacts-NNNN.vtu (engine.io.vtu)
-    <stage>.png        section through the middle of the sample at the stage's end
+    <stage>.png        section through the middle of the sample at the stage's end; or,
+    sections.npz       with ``save(..., sections=False)``, what each section is drawn from
+                       (positions, radii, contacts at each stage end), drawn on first request
+                       by :func:`render_section` (a worker stores a run without drawing)
 
 Each file holds every snapshot of the run as one time step (``/VTKHDF/Steps``): ParaView
 plays the run as an animation. Snapshots are appended to resizable, chunked datasets, so a
@@ -35,11 +38,20 @@ from ..simulation.snapshot import Snapshot, particle_fields
 
 __all__ = [
     "FIELD_UNITS",
+    "SECTION_DATA",
     "VTKHDF_VERSION",
     "SnapshotWriter",
+    "render_section",
     "save",
     "save_study",
+    "section_stages",
 ]
+
+#: The file a run's snapshot folder keeps its sections' data in when they are drawn later.
+SECTION_DATA = "sections.npz"
+
+#: The fields of a :class:`Snapshot` a section is drawn from (engine.io.figures.section_figure).
+_SECTION_FIELDS = ("positions", "radii", "pairs", "normal_forces", "branches", "platens")
 
 #: VTKHDF format version written: 2.0 is the first with PolyData and time steps
 #: (VTK 9.3, ParaView 5.12) and every later 2.x reader reads it.
@@ -306,11 +318,14 @@ class SnapshotWriter:
         self.close()
 
 
-def save(result, directory, label: str = "") -> list[Path]:
+def save(result, directory, label: str = "", sections: bool = True) -> list[Path]:
     """Write the stage-end snapshots of the :class:`engine.UniaxialResult` ``result`` into
-    ``directory``: ``particles.vtkhdf``, ``contacts.vtkhdf`` and ``<stage>.png`` per stage.
-    Returns the paths. Stages without a snapshot (a result read back from a file that did
-    not keep them) are skipped; none at all raises ValueError."""
+    ``directory``: ``particles.vtkhdf``, ``contacts.vtkhdf`` (and their ``.pvd``/``.vtu``) and
+    ``<stage>.png`` per stage; with ``sections=False`` the PNGs are not drawn now (about a
+    second of matplotlib each) but their data kept in ``sections.npz``, for
+    :func:`render_section` to draw one when it is asked for. Returns the paths. Stages without
+    a snapshot (a result read back from a file that did not keep them) are skipped; none at
+    all raises ValueError."""
     snaps = [st.snapshot for st in result.stages.values() if st.snapshot is not None]
     if not snaps:
         raise ValueError("the result keeps no snapshots (read back from a file without them?)")
@@ -320,6 +335,16 @@ def save(result, directory, label: str = "") -> list[Path]:
         for s in snaps:
             w.add(s)
         paths += w.paths()
+    if not sections:
+        data = {"stages": np.array([s.stage for s in snaps]), "label": np.array(label)}
+        for s in snaps:
+            data.update({f"{s.stage}/{name}": getattr(s, name) for name in _SECTION_FIELDS})
+            data.update(
+                {f"{s.stage}/time": np.array(s.time), f"{s.stage}/steps": np.array(s.steps)}
+            )
+        path = d / SECTION_DATA
+        np.savez_compressed(path, **data)
+        return [*paths, path]
     from .figures import section_figure
 
     for s in snaps:
@@ -327,6 +352,56 @@ def save(result, directory, label: str = "") -> list[Path]:
         section_figure(s, label).savefig(path, format="png")
         paths.append(path)
     return paths
+
+
+def section_stages(directory) -> list[str]:
+    """The stages whose PNG section :func:`render_section` can draw from ``directory``'s
+    ``sections.npz`` (none without it)."""
+    path = Path(directory) / SECTION_DATA
+    if not path.is_file():
+        return []
+    with np.load(path) as z:
+        return [str(x) for x in z["stages"]]
+
+
+def render_section(directory, stage: str) -> Path:
+    """``directory/<stage>.png``, drawn from ``sections.npz`` if it is not there yet (written
+    to a temporary name, then renamed: a reader never sees half a file, and two drawing at
+    once both leave a whole one). Raises KeyError for a stage the folder has no data of."""
+    d = Path(directory)
+    out = d / f"{stage}.png"
+    if out.is_file():
+        return out
+    if stage not in section_stages(d):
+        raise KeyError(f"no section data of stage {stage!r} in {d}")
+    with np.load(d / SECTION_DATA) as z:
+        fields = {name: z[f"{stage}/{name}"] for name in _SECTION_FIELDS}
+        label = str(z["label"])
+        time, steps = float(z[f"{stage}/time"]), int(z[f"{stage}/steps"])
+    empty = np.zeros((len(fields["radii"]), 3), dtype=np.float32)
+    snap = Snapshot(
+        stage=stage,
+        time=time,
+        steps=steps,
+        velocities=empty,
+        angular_velocities=empty,
+        contact_counts=np.zeros(len(fields["radii"]), dtype=np.int32),
+        **fields,
+    )
+    import os
+    import tempfile
+
+    from .figures import section_figure
+
+    fd, tmp = tempfile.mkstemp(prefix=f".{stage}.", suffix=".png.tmp", dir=d)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            section_figure(snap, label).savefig(f, format="png")
+        os.replace(tmp, out)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return out
 
 
 def save_study(study, directory) -> dict[str, list[Path]]:

@@ -8,6 +8,7 @@ from typing import Annotated
 from fastapi import APIRouter, HTTPException, Path, Query, Response
 from fastapi.responses import FileResponse
 
+from engine.io.vtkhdf import render_section
 from engine.shear.spec import MAX_POINTS
 from engine.uniaxial.driver import STAGES
 
@@ -108,6 +109,8 @@ def snapshot(
     if name not in settings.snapshot_files(study.id).get(run, []):
         raise HTTPException(status_code=404, detail=f"no snapshot {name!r} of run {run!r}")
     path = settings.snapshots_dir(study.id) / run / name
+    if path.suffix == ".png" and not path.is_file():  # drawn on first request, then kept
+        path = render_section(path.parent, path.stem)
     media = SNAPSHOT_MEDIA[path.suffix]
     # a .pvd names its .vtu files as they are in the run's folder: download them by name
     filename = name if path.suffix in (".pvd", ".vtu") else f"{run}-{name}"

@@ -183,6 +183,25 @@ def test_pngs_are_images(run):
             assert img[..., :3].std() > 0.05  # not blank
 
 
+def test_sections_kept_as_data_are_drawn_on_request_as_the_eager_ones(run, tmp_path):
+    """save(sections=False) (the service's worker) keeps each section's data and draws no
+    PNG; render_section draws the same image, byte for byte, when first asked for, and
+    refuses a stage it has no data of."""
+    from engine.io.vtkhdf import SECTION_DATA, render_section, save, section_stages
+
+    res, *_, d, paths = run
+    paths = save(res, tmp_path, "tiny", sections=False)
+    assert tmp_path / SECTION_DATA in paths and not list(tmp_path.glob("*.png"))
+    assert section_stages(tmp_path) == list(res.stages)
+    for stage in res.stages:
+        drawn = render_section(tmp_path, stage)
+        assert drawn == tmp_path / f"{stage}.png"
+        assert drawn.read_bytes() == (d / "stages" / f"{stage}.png").read_bytes()
+    assert not list(tmp_path.glob(".*.tmp"))
+    with pytest.raises(KeyError, match="other"):
+        render_section(tmp_path, "other")
+
+
 def test_vtk_reader_reads_every_step(run):
     """VTK's vtkHDFReader (ParaView's reader of .vtkhdf) on the files."""
     vtk_hdf = pytest.importorskip("vtkmodules.vtkIOHDF")

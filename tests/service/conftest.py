@@ -35,6 +35,9 @@ TINY = {
         "cell": [0.015, 0.015, 0.03],
         "output_interval": 1e-3,
         "platen_speed": 0.02,
+        # the constant platen speed above (the default protocol's inertial number would
+        # move it at 6.7 mm/s here: three times the steps for what these tests check)
+        "inertial_number": None,
         "pair_law": {"type": "BilinearAdhesive", "k1": 5e3, "k2": 2.5e4, "f0": -0.05},
     },
     "coarse_radii": [3.1e-3],
@@ -47,7 +50,12 @@ TINY = {
 TINY_CONTROLLED = {**TINY, "name": "tiny-controlled", "controls": True}
 
 #: TINY with a smaller time step: long enough (seconds) to be interrupted mid-study.
-SLOW = {**TINY, "name": "slow", "reference": {**TINY["reference"], "dt": 4e-6}}
+#: (At the default protocol's inertial number, as it ran before TINY held the platen speed.)
+SLOW = {
+    **TINY,
+    "name": "slow",
+    "reference": {**TINY["reference"], "dt": 4e-6, "inertial_number": 5e-4},
+}
 
 #: Smaller still: no unconfined stages, a coarse time step; about a second per study.
 TINIEST = {

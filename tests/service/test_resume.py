@@ -24,7 +24,11 @@ from .conftest import TINY, study_getter, wait_for
 #: of its start (its first checkpoint comes after 0.3 s, or at the fill's end, the kill up
 #: to 0.3 s later), about a quarter of the run in all. (dt = 1e-6 s before: a 30 s run,
 #: made twice, by the killed workers and uninterrupted to compare: most of the test's time.)
-LONG = {**TINY, "name": "long", "reference": {**TINY["reference"], "unconfined": False, "dt": 4e-6}}
+LONG = {
+    **TINY,
+    "name": "long",
+    "reference": {**TINY["reference"], "unconfined": False, "dt": 4e-6, "inertial_number": 5e-4},
+}
 KILLS = 3
 
 

@@ -43,6 +43,30 @@ def report(checks: list[tuple[str, bool]]) -> int:
     return 0 if all(ok for _, ok in checks) else 1
 
 
+def write_marked(doc: Path, begin: str, end: str, text: str, title: str) -> None:
+    """Put ``text`` between the markers ``begin`` and ``end`` of the Markdown file ``doc``,
+    replacing what stood between them; a file without both markers gets the marked block
+    appended (a new or empty one under the heading ``# <title>``)."""
+    block = f"{begin}\n{text}{end}"
+    old = doc.read_text() if doc.exists() else ""
+    if begin in old and end in old:
+        a, b = old.index(begin), old.index(end) + len(end)
+        doc.write_text(old[:a] + block + old[b:])
+    else:
+        doc.write_text(old + ("\n" if old else f"# {title}\n\n") + block + "\n")
+
+
+def save_figure(fig, path: Path, dpi: int) -> None:
+    """Lay out the matplotlib figure ``fig``, write it to ``path`` (its folder made) at
+    ``dpi`` and close it."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+
+
 def run_child(tree: Path, code: str, args=(), **env) -> object:
     """Run ``code`` with the engine of ``tree`` in a fresh Python process (``env`` added to
     the environment, e.g. its own ``DEMSCALE_CACHE_DIR``) and return the JSON value its last

@@ -8,6 +8,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -67,6 +68,21 @@ def save_figure(fig, path: Path, dpi: int) -> None:
     plt.close(fig)
 
 
+class Ticker:
+    """A run's progress callback that prints ``line(progress, seconds since it started)``
+    at most once every ``every`` seconds [s] of wall time."""
+
+    def __init__(self, line, every: float = 60.0):
+        self.line, self.every = line, every
+        self.t0 = self.last = time.perf_counter()
+
+    def __call__(self, pr) -> None:
+        now = time.perf_counter()
+        if now - self.last >= self.every:
+            self.last = now
+            print(self.line(pr, now - self.t0), flush=True)
+
+
 def run_child(tree: Path, code: str, args=(), **env) -> object:
     """Run ``code`` with the engine of ``tree`` in a fresh Python process (``env`` added to
     the environment, e.g. its own ``DEMSCALE_CACHE_DIR``) and return the JSON value its last
@@ -85,8 +101,6 @@ def run_child(tree: Path, code: str, args=(), **env) -> object:
 def commit_stored(path: Path, message: str) -> None:
     """Commit one stored result file at ``path`` alone (``git commit -- path``), waiting a
     little for another engineer's commit that holds the index."""
-    import time
-
     rel = str(Path(path).resolve().relative_to(ROOT))
     for _ in range(30):
         if not (ROOT / ".git" / "index.lock").exists():
@@ -102,8 +116,6 @@ def run_and_store(test, path: Path, label: str, commit: bool, interval: float = 
     fill, so a run cut off resumes bit for bit), store its outcome at ``path`` (an error as
     its text, as the studies store it), drop the checkpoint and, with ``commit``, commit
     the file as "<label>: <stem> stored (<wall time> s)". Returns a line for the log."""
-    import time
-
     import numba
 
     import engine

@@ -58,6 +58,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import engine
+from benchmarks.calibration_shear import print_report, summary_report
 from benchmarks.calibration_shear import shear_cell as tiny_cell
 from engine.calibration import LabTargets, calibrate
 from engine.calibration.forward import check_shear_cell, measure_shear, run_shear_tests, shear_tests
@@ -199,23 +200,15 @@ def report(summary: dict, cell: str, material: str = "calcium_carbonate") -> dic
     """Each parameter's interval (and whether it sits on a box edge), each target against
     the laboratory's with its z, the failed runs."""
     box = MATERIALS[material].box
-    out = {"parameters": {}, "targets": [], "failed_runs": []}
-    for name, p in summary["parameters"].items():
-        lo, hi = p["interval"]
-        b_lo, b_hi = box[name]
-        out["parameters"][name] = {
+    out = summary_report(
+        summary,
+        lambda name, p: {
             "median": p["median"],
-            "interval": [lo, hi],
-            "box": [b_lo, b_hi],
+            "interval": list(p["interval"]),
+            "box": list(box[name]),
             "status": p["status"],
-        }
-    for q in summary["targets_met"]:
-        out["targets"].append(
-            {k: q[k] for k in ("name", "lab", "sd", "value", "z", "met", "unit") if k in q}
-        )
-    out["failed_runs"] = [r["error"] for r in summary["runs"] if "error" in r]
-    out["all_targets_met"] = summary["all_targets_met"]
-    out["yield_loci"] = summary["curves"].get("yield_loci", [])
+        },
+    )
     if material != "calcium_carbonate":  # the calcium carbonate's stored report stays as it was
         out["lab_yield_loci"] = lab_loci(material)
         out["sensitivity"] = summary.get("sensitivity")
@@ -269,14 +262,19 @@ def figures(summary: dict, material: str) -> list[Path]:
     fig = Figure(figsize=(5.5, 4.6), dpi=100, layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.subplots()
+
+    def flow_function(loci: list[dict], style: str, color: str, label: str) -> None:
+        # sigma_c against sigma_1 of yield loci (summary rows, in Pa), in kPa
+        ax.plot(
+            [c["sigma_1"] * 1e-3 for c in loci],
+            [c["sigma_c"] * 1e-3 for c in loci],
+            style,
+            color=color,
+            label=label,
+        )
+
     lab = lab_loci(material)
-    ax.plot(
-        [c["sigma_1"] * 1e-3 for c in lab],
-        [c["sigma_c"] * 1e-3 for c in lab],
-        "o-",
-        color="black",
-        label="laboratory: engine's construction on its points",
-    )
+    flow_function(lab, "o-", "black", "laboratory: engine's construction on its points")
     printed = PRINTED_FLOW_FUNCTION.get(material, [])
     if printed:
         ax.scatter(
@@ -288,13 +286,7 @@ def figures(summary: dict, material: str) -> list[Path]:
             label="laboratory: the source's printed values",
         )
     model = summary["curves"].get("yield_loci") or []
-    ax.plot(
-        [c["sigma_1"] * 1e-3 for c in model],
-        [c["sigma_c"] * 1e-3 for c in model],
-        "s-",
-        color="C3",
-        label="calibrated law (check run)",
-    )
+    flow_function(model, "s-", "C3", "calibrated law (check run)")
     top = max([c["sigma_1"] for c in lab + model] + [1.0]) * 1e-3
     for ffc in (1, 2, 4, 10):
         ax.plot([0, top], [0, top / ffc], ":", color="0.7", lw=0.8)
@@ -335,13 +327,7 @@ def main() -> None:
         else run(args.cell, args.material)
     )
     rep = report(summary, args.cell, args.material)
-    for name, p in rep["parameters"].items():
-        lo, hi = p["interval"]
-        print(f"{name}: {p['median']:.4g} [{lo:.4g}, {hi:.4g}] (box {p['box']}), {p['status']}")
-    for q in rep["targets"]:
-        z = "-" if q["z"] is None else f"{q['z']:+.2f}"
-        print(f"  {q['name']}: {q['value']:.4g} against {q['lab']:.4g} +- {q['sd']:.2g}, z {z}")
-    print(f"all targets met: {rep['all_targets_met']}; failed runs: {len(rep['failed_runs'])}")
+    print_report(rep, lambda p: f"box {p['box']}")
     if args.figure:
         for p in figures(summary, args.material):
             print(f"figure: {p.relative_to(ROOT)}")

@@ -157,28 +157,58 @@ def run() -> dict:
     return summary
 
 
+def summary_report(summary: dict, parameter) -> dict:
+    """The report of a calibration's summary: each parameter as ``parameter(name, p)``
+    describes it (``p`` its entry in the summary: median, 90 % interval, status), each
+    target against the laboratory's with its z, the failed runs' errors, whether every
+    target was met, the check run's yield loci."""
+    return {
+        "parameters": {name: parameter(name, p) for name, p in summary["parameters"].items()},
+        "targets": [
+            {k: q[k] for k in ("name", "lab", "sd", "value", "z", "met", "unit") if k in q}
+            for q in summary["targets_met"]
+        ],
+        "failed_runs": [r["error"] for r in summary["runs"] if "error" in r],
+        "all_targets_met": summary["all_targets_met"],
+        "yield_loci": summary["curves"].get("yield_loci", []),
+    }
+
+
 def report(summary: dict) -> dict:
     """Each parameter against the truth (inside its 90 % interval?), each target met."""
-    out = {"parameters": {}, "targets": [], "failed_runs": []}
-    for name, p in summary["parameters"].items():
+
+    def parameter(name: str, p: dict) -> dict:
         truth = getattr(TRUTH, name)
         lo, hi = p["interval"]
-        out["parameters"][name] = {
+        return {
             "truth": truth,
             "median": p["median"],
             "interval": [lo, hi],
             "truth_inside": lo <= truth <= hi,
             "status": p["status"],
         }
-    for q in summary["targets_met"]:
-        out["targets"].append(
-            {k: q[k] for k in ("name", "lab", "sd", "value", "z", "met", "unit") if k in q}
-        )
-    out["failed_runs"] = [r["error"] for r in summary["runs"] if "error" in r]
-    out["all_targets_met"] = summary["all_targets_met"]
-    out["yield_loci"] = summary["curves"].get("yield_loci", [])
+
+    out = summary_report(summary, parameter)
     REPORT.write_text(json.dumps(out, indent=1))
     return out
+
+
+def truth_aside(p: dict) -> str:
+    """A parameter's truth and whether its interval holds it, for :func:`print_report`."""
+    return f"truth {p['truth']:g}, {'inside' if p['truth_inside'] else 'OUTSIDE'}"
+
+
+def print_report(rep: dict, aside) -> None:
+    """Print a report: each parameter's median and interval (with ``aside(p)`` of its
+    entry ``p``) and status, each target against the laboratory's with its z, whether
+    every target was met and how many runs failed."""
+    for name, p in rep["parameters"].items():
+        lo, hi = p["interval"]
+        print(f"{name}: {p['median']:.4g} [{lo:.4g}, {hi:.4g}] ({aside(p)}), {p['status']}")
+    for q in rep["targets"]:
+        z = "-" if q["z"] is None else f"{q['z']:+.2f}"
+        print(f"  {q['name']}: {q['value']:.4g} against {q['lab']:.4g} +- {q['sd']:.2g}, z {z}")
+    print(f"all targets met: {rep['all_targets_met']}; failed runs: {len(rep['failed_runs'])}")
 
 
 def main() -> None:
@@ -190,16 +220,7 @@ def main() -> None:
     else:
         summary = run()
     rep = report(summary)
-    for name, p in rep["parameters"].items():
-        lo, hi = p["interval"]
-        print(
-            f"{name}: {p['median']:.4g} [{lo:.4g}, {hi:.4g}] (truth {p['truth']:g}, "
-            f"{'inside' if p['truth_inside'] else 'OUTSIDE'}), {p['status']}"
-        )
-    for q in rep["targets"]:
-        z = "-" if q["z"] is None else f"{q['z']:+.2f}"
-        print(f"  {q['name']}: {q['value']:.4g} against {q['lab']:.4g} +- {q['sd']:.2g}, z {z}")
-    print(f"all targets met: {rep['all_targets_met']}; failed runs: {len(rep['failed_runs'])}")
+    print_report(rep, truth_aside)
 
 
 if __name__ == "__main__":

@@ -59,7 +59,7 @@ from pathlib import Path
 import numpy as np
 
 import engine
-from benchmarks.calibration_shear import _draft, _locus_targets
+from benchmarks.calibration_shear import _draft, _locus_targets, print_report, truth_aside
 from benchmarks.calibration_shear import shear_cell as _tiny_cell
 from engine.calibration import LabTargets, calibrate
 from engine.calibration.forward import (
@@ -415,16 +415,7 @@ def main() -> None:
         "extra": predict(summary, "extra", EXTRA, groups["extra"]),
     }
     rep = report(summary, groups, predictions, lab_failed)
-    for name, p in rep["parameters"].items():
-        lo, hi = p["interval"]
-        print(
-            f"{name}: {p['median']:.4g} [{lo:.4g}, {hi:.4g}] (truth {p['truth']:g}, "
-            f"{'inside' if p['truth_inside'] else 'OUTSIDE'}), {p['status']}"
-        )
-    for q in rep["targets"]:
-        z = "-" if q["z"] is None else f"{q['z']:+.2f}"
-        print(f"  {q['name']}: {q['value']:.4g} against {q['lab']:.4g} +- {q['sd']:.2g}, z {z}")
-    print(f"all targets met: {rep['all_targets_met']}; failed runs: {len(rep['failed_runs'])}")
+    print_report(rep, truth_aside)
     for name, pr in predictions.items():
         print(f"{name} ({pr['loci']} Pa): predicted {pr['predicted']}; failed {pr['failed']}")
         for q in pr["quantities"]:

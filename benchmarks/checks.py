@@ -8,6 +8,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -43,6 +44,45 @@ def report(checks: list[tuple[str, bool]]) -> int:
     return 0 if all(ok for _, ok in checks) else 1
 
 
+def write_marked(doc: Path, begin: str, end: str, text: str, title: str) -> None:
+    """Put ``text`` between the markers ``begin`` and ``end`` of the Markdown file ``doc``,
+    replacing what stood between them; a file without both markers gets the marked block
+    appended (a new or empty one under the heading ``# <title>``)."""
+    block = f"{begin}\n{text}{end}"
+    old = doc.read_text() if doc.exists() else ""
+    if begin in old and end in old:
+        a, b = old.index(begin), old.index(end) + len(end)
+        doc.write_text(old[:a] + block + old[b:])
+    else:
+        doc.write_text(old + ("\n" if old else f"# {title}\n\n") + block + "\n")
+
+
+def save_figure(fig, path: Path, dpi: int) -> None:
+    """Lay out the matplotlib figure ``fig``, write it to ``path`` (its folder made) at
+    ``dpi`` and close it."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+
+
+class Ticker:
+    """A run's progress callback that prints ``line(progress, seconds since it started)``
+    at most once every ``every`` seconds [s] of wall time."""
+
+    def __init__(self, line, every: float = 60.0):
+        self.line, self.every = line, every
+        self.t0 = self.last = time.perf_counter()
+
+    def __call__(self, pr) -> None:
+        now = time.perf_counter()
+        if now - self.last >= self.every:
+            self.last = now
+            print(self.line(pr, now - self.t0), flush=True)
+
+
 def run_child(tree: Path, code: str, args=(), **env) -> object:
     """Run ``code`` with the engine of ``tree`` in a fresh Python process (``env`` added to
     the environment, e.g. its own ``DEMSCALE_CACHE_DIR``) and return the JSON value its last
@@ -61,8 +101,6 @@ def run_child(tree: Path, code: str, args=(), **env) -> object:
 def commit_stored(path: Path, message: str) -> None:
     """Commit one stored result file at ``path`` alone (``git commit -- path``), waiting a
     little for another engineer's commit that holds the index."""
-    import time
-
     rel = str(Path(path).resolve().relative_to(ROOT))
     for _ in range(30):
         if not (ROOT / ".git" / "index.lock").exists():
@@ -78,8 +116,6 @@ def run_and_store(test, path: Path, label: str, commit: bool, interval: float = 
     fill, so a run cut off resumes bit for bit), store its outcome at ``path`` (an error as
     its text, as the studies store it), drop the checkpoint and, with ``commit``, commit
     the file as "<label>: <stem> stored (<wall time> s)". Returns a line for the log."""
-    import time
-
     import numba
 
     import engine

@@ -53,7 +53,20 @@ WALL_LAW = engine.HertzMindlin(E=1e8, nu=0.25, restitution=0.4, mu=0.3)
 WALL = engine.WallMaterial(E=2e11, nu=0.3)
 
 
-def scene_for(pos, rad, lengths, law, top: float | None, platen_speed: float = PLATEN_SPEED):
+def scene_for(
+    pos,
+    rad,
+    lengths,
+    law,
+    top: float | None,
+    platen_speed: float = PLATEN_SPEED,
+    wall_law=WALL_LAW,
+    wall_material=WALL,
+):
+    """The bed ``pos``, ``rad`` [m] in a cell of ``lengths`` [m] periodic in x and y, on a
+    floor at z = 0 and (``top`` [m] not None) under a top platen moving down at
+    ``platen_speed`` [m/s], under gravity, with the pair law ``law`` and the walls'
+    ``wall_law`` and ``wall_material``."""
     walls = [engine.Plane((0, 0, 0), (0, 0, 1))]
     if top is not None:
         walls.append(engine.Plane((0, 0, top), (0, 0, -1), velocity=(0, 0, -platen_speed)))
@@ -66,8 +79,8 @@ def scene_for(pos, rad, lengths, law, top: float | None, platen_speed: float = P
         walls=walls,
         gravity=(0, 0, -9.81),
         pair_law=law,
-        wall_law=WALL_LAW,
-        wall_material=WALL,
+        wall_law=wall_law,
+        wall_material=wall_material,
     )
 
 

@@ -118,6 +118,19 @@ def candidate(name: str, seed: int, law=None) -> engine.UniaxialTest:
     )
 
 
+def _run_and_store(key: str, test: engine.UniaxialTest) -> tuple[dict, float]:
+    """Run ``test`` and store it as ``STORE/<key>.h5`` (an exception is stored as the run's
+    error, so that the other runs go on); returns the run's scalars (empty for an error)
+    and the wall time of the run [s]."""
+    t0 = time.perf_counter()
+    try:
+        res = engine.run_uniaxial(test)
+    except Exception as e:  # stored as the run's error, the others go on
+        res = f"{type(e).__name__}: {e}"
+    save_run(STORE / f"{key}.h5", res, keep_particles=False)
+    return (res.scalars if not isinstance(res, str) else {}), time.perf_counter() - t0
+
+
 def run_candidates(names, seeds) -> None:
     """Run (one at a time) and store each candidate run not stored yet:
     ``STORE/<name>-s<seed>.h5``."""
@@ -128,15 +141,9 @@ def run_candidates(names, seeds) -> None:
             if not isinstance(stored(key, test) or "", str):
                 print(f"{key}: stored")
                 continue
-            t0 = time.perf_counter()
-            try:
-                res = engine.run_uniaxial(test)
-            except Exception as e:  # stored as the run's error, the others go on
-                res = f"{type(e).__name__}: {e}"
-            save_run(STORE / f"{key}.h5", res, keep_particles=False)
-            s = res.scalars if not isinstance(res, str) else {}
+            s, seconds = _run_and_store(key, test)
             print(
-                f"{key}: {time.perf_counter() - t0:.0f} s, failed {s.get('unconfined_failure')}, "
+                f"{key}: {seconds:.0f} s, failed {s.get('unconfined_failure')}, "
                 f"strength {s.get('unconfined_strength', float('nan')):.0f} Pa at "
                 f"{100 * s.get('strain_at_peak', float('nan')):.1f} %, "
                 f"{s.get('particle_steps', float('nan')):.3g} particle-steps",
@@ -209,15 +216,9 @@ def run_main_job(keys=None) -> None:
             continue
         if not isinstance(stored(key, test) or "", str):
             continue
-        t0 = time.perf_counter()
-        try:
-            res = engine.run_uniaxial(test)
-        except Exception as e:  # stored as the run's error, the others go on
-            res = f"{type(e).__name__}: {e}"
-        save_run(STORE / f"{key}.h5", res, keep_particles=False)
-        s = res.scalars if not isinstance(res, str) else {}
+        s, seconds = _run_and_store(key, test)
         print(
-            f"{key}: {time.perf_counter() - t0:.0f} s, failed {s.get('unconfined_failure')}, "
+            f"{key}: {seconds:.0f} s, failed {s.get('unconfined_failure')}, "
             f"{s.get('particle_steps', float('nan')):.3g} particle-steps",
             flush=True,
         )

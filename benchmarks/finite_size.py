@@ -53,6 +53,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.checks import Ticker
 from engine.io.store import load_run, save_run
 from engine.study.judge import error_rates, judge_values
 from engine.study.metrics import METRICS, metric_names, metric_values
@@ -106,23 +107,14 @@ def stored(directory: Path = STORE) -> dict:
     return {p.stem: load_run(p) for p in sorted(Path(directory).glob("control-s*.h5"))}
 
 
-class _Ticker:
-    """A progress line at most once every ``every`` seconds."""
-
-    def __init__(self, key: str, every: float = 60.0):
-        self.key, self.every = key, every
-        self.t0 = self.last = time.perf_counter()
-
-    def __call__(self, pr) -> None:
-        now = time.perf_counter()
-        if now - self.last >= self.every:
-            self.last = now
-            print(
-                f"    [{now - self.t0:6.0f} s] {self.key}: {pr.stage}, "
-                f"t = {pr.time:.3f} s simulated, {pr.steps} steps, "
-                f"{100 * pr.fraction:.1f} % done",
-                flush=True,
-            )
+def _ticker(key: str) -> Ticker:
+    """A progress line of run ``key`` at most once a minute."""
+    return Ticker(
+        lambda pr, took: (
+            f"    [{took:6.0f} s] {key}: {pr.stage}, t = {pr.time:.3f} s simulated, "
+            f"{pr.steps} steps, {100 * pr.fraction:.1f} % done"
+        )
+    )
 
 
 def run(seeds=SEEDS, threads: int = 1, directory: Path = STORE) -> None:
@@ -151,7 +143,7 @@ def run(seeds=SEEDS, threads: int = 1, directory: Path = STORE) -> None:
         )
         t0 = time.perf_counter()
         try:
-            outcome = run_uniaxial(test, _Ticker(key))
+            outcome = run_uniaxial(test, _ticker(key))
         except Exception as e:  # stored as the run's error, as the studies do
             outcome = f"{type(e).__name__}: {e}"
         save_run(path, outcome, keep_particles=False)

@@ -49,6 +49,7 @@ from pathlib import Path
 import numpy as np
 
 import engine
+from benchmarks.checks import save_figure, write_marked
 from engine.io.liggghts_deck import write_deck
 from engine.io.liggghts_read import save_output
 from engine.io.store import load_run, save_run
@@ -583,21 +584,12 @@ def figure(path: Path) -> None:
         ax.grid(alpha=0.3)
         if ax.lines:
             ax.legend(fontsize=8)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save_figure(fig, path, dpi=100)
 
 
 def write_doc(text: str) -> None:
     """Put the results between the markers of docs/LIGGGHTS_DECK.md."""
-    block = f"{TABLE_BEGIN}\n{text}{TABLE_END}"
-    doc = DOC.read_text() if DOC.exists() else ""
-    if TABLE_BEGIN in doc and TABLE_END in doc:
-        a, b = doc.index(TABLE_BEGIN), doc.index(TABLE_END) + len(TABLE_END)
-        DOC.write_text(doc[:a] + block + doc[b:])
-    else:
-        DOC.write_text(doc + ("\n" if doc else "# LIGGGHTS deck\n\n") + block + "\n")
+    write_marked(DOC, TABLE_BEGIN, TABLE_END, text, "LIGGGHTS deck")
 
 
 def main(argv=None) -> int:

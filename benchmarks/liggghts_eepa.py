@@ -48,8 +48,15 @@ from pathlib import Path
 import numpy as np
 
 import engine
-from benchmarks.checks import report
-from benchmarks.engine_speed import DT, PLATEN_SPEED, RHO, R, anchor_bed, write_lammps_data
+from benchmarks.checks import report, save_figure, write_marked
+from benchmarks.engine_speed import (
+    DT,
+    PLATEN_SPEED,
+    R,
+    anchor_bed,
+    scene_for,
+    write_lammps_data,
+)
 from engine.io.liggghts import matched_restitution
 
 HERE = Path(__file__).resolve().parent
@@ -224,16 +231,13 @@ def run_demscale(case: Case, threads: int = 1, jitter: float = 0.0, seed: int = 
     chaotic spread of the run; the platen stays where the unmoved bed puts it)."""
     pos, rad, lengths, top = bed()
     pos = jittered(pos, jitter, seed)
-    walls = [engine.Plane((0, 0, 0), (0, 0, 1)), engine.Plane((0, 0, top), (0, 0, -1))]
-    scene = engine.Scene(
+    scene = scene_for(
         pos,
         rad,
-        RHO,
-        box=[(0, lengths[0]), (0, lengths[1]), (0, lengths[2])],
-        periodic=(True, True, False),
-        walls=walls,
-        gravity=(0, 0, -9.81),
-        pair_law=case.eepa(),
+        lengths,
+        case.eepa(),
+        top,
+        platen_speed=0.0,  # the platen starts after the equilibration (set_wall_velocity)
         wall_law=case.wall_law(),
         wall_material=engine.WallMaterial(E=WALL_E, nu=WALL_NU),
     )
@@ -615,23 +619,12 @@ def figure(results: dict, path: Path) -> None:
             ax.legend(fontsize=8, loc="upper left")
     for row in axes:
         row[0].set_ylabel("top platen stress [kPa]")
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)
 
 
 def write_doc(text: str) -> None:
     """Put the table between the markers of docs/LIGGGHTS_EEPA.md (create it if absent)."""
-    block = f"{TABLE_BEGIN}\n{text}{TABLE_END}"
-    if DOC.exists():
-        doc = DOC.read_text()
-        if TABLE_BEGIN in doc and TABLE_END in doc:
-            a = doc.index(TABLE_BEGIN)
-            b = doc.index(TABLE_END) + len(TABLE_END)
-            DOC.write_text(doc[:a] + block + doc[b:])
-            return
-    DOC.write_text(f"# demscale against LIGGGHTS 3.8: the EEPA law\n\n{block}\n")
+    write_marked(DOC, TABLE_BEGIN, TABLE_END, text, "demscale against LIGGGHTS 3.8: the EEPA law")
 
 
 def main(argv=None) -> int:

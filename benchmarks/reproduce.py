@@ -48,6 +48,7 @@ from pathlib import Path
 
 import benchmarks.experiments as _experiments
 import engine
+from benchmarks.checks import Ticker
 from benchmarks.experiments import (  # noqa: F401  (names of this module before the split)
     COARSE_SEEDS,
     DECIDE,
@@ -90,21 +91,14 @@ def all_stored_runs(spec: engine.StudySpec, directory: Path) -> dict:
     return done
 
 
-class _Ticker:
-    """Prints a study's progress at most once every ``every`` seconds (one run at a time)."""
-
-    def __init__(self, every: float = 60.0):
-        self.every, self.last = every, time.perf_counter()
-
-    def __call__(self, pr) -> None:
-        now = time.perf_counter()
-        if now - self.last >= self.every:
-            self.last = now
-            print(
-                f"    {pr.run_key}: {pr.stage}, t = {pr.time:.3f} s simulated, "
-                f"study {100 * pr.fraction:.1f} % done",
-                flush=True,
-            )
+def _ticker() -> Ticker:
+    """A study's progress line (one run at a time) at most once a minute."""
+    return Ticker(
+        lambda pr, _: (
+            f"    {pr.run_key}: {pr.stage}, t = {pr.time:.3f} s simulated, "
+            f"study {100 * pr.fraction:.1f} % done"
+        )
+    )
 
 
 SKIPPED = "skipped by --runs"
@@ -198,7 +192,7 @@ def run(
                         spec, executor=pool, completed=done, on_run=on_run, checkpoints=ckpt
                     )
             else:
-                engine.run_study(spec, _Ticker(), completed=done, on_run=on_run, checkpoints=ckpt)
+                engine.run_study(spec, _ticker(), completed=done, on_run=on_run, checkpoints=ckpt)
         except engine.RunFailed:
             if not runs:
                 raise

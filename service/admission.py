@@ -12,9 +12,11 @@ plan is stored with the job for the worker to run.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import re
+from collections.abc import Callable, Iterator
 from dataclasses import replace
 from typing import NamedTuple
 
@@ -341,6 +343,31 @@ def _check_bounds(fields: dict, where: str = "reference", data: dict | None = No
         raise SpecRejected(list(errors.values()))
 
 
+@contextlib.contextmanager
+def engine_refusals(
+    data: dict, loc_of: Callable[[str], tuple], fields: Callable[[], dict], noun: str, built: str
+) -> Iterator[None]:
+    """Turn what the engine raises while building the request ``data`` into its 422
+    (:class:`SpecRejected`): a ParameterError at ``loc_of(field)`` (:func:`refused`, with
+    the test's ``fields()`` as built), a TypeError or ValueError as "the ``noun`` is not
+    valid" (e.g. an explicit null where a value is needed), anything else, an input the
+    engine's checks did not foresee, logged and refused as "the engine cannot build this
+    ``built``". A SpecRejected passes through."""
+    try:
+        yield
+    except SpecRejected:
+        raise
+    except engine.ParameterError as e:
+        raise refused(e, loc_of(e.field), data, fields()) from e
+    except (TypeError, ValueError) as e:
+        raise SpecRejected([_error((), f"the {noun} is not valid: {e}", None)]) from e
+    except Exception as e:  # an input the engine's checks did not foresee: logged, refused
+        log.exception("the engine failed on a submitted %s: %s", noun, data)
+        raise SpecRejected(
+            [_error((), f"the engine cannot build this {built}: {type(e).__name__}: {e}", None)]
+        ) from e
+
+
 def refused(e: engine.ParameterError, loc: tuple, data: dict, fields: dict) -> SpecRejected:
     """The 422 of an engine refusal ``e`` at ``loc`` of the request ``data`` (its test's
     ``fields`` as built): at the field the client set (:func:`engine_error`), and at k1 where
@@ -474,20 +501,9 @@ def admit(body: StudyCreate, settings: Settings) -> Admitted:
 
 def admit_spec(data: dict, settings: Settings) -> Admitted:
     """:func:`admit` of a study's fields as :meth:`engine.StudySpec.from_dict` takes them."""
-    try:
+    with engine_refusals(data, engine_loc, lambda: cost.reference_fields(data), "spec", "study"):
         _check_size_first(data, settings)
         study = engine.plan(engine.StudySpec.from_dict(data))
-    except SpecRejected:
-        raise
-    except engine.ParameterError as e:
-        raise refused(e, engine_loc(e.field), data, cost.reference_fields(data)) from e
-    except (TypeError, ValueError) as e:  # e.g. an explicit null where a value is needed
-        raise SpecRejected([_error((), f"the spec is not valid: {e}", None)]) from e
-    except Exception as e:  # an input the engine's checks did not foresee: logged, refused
-        log.exception("the engine failed on a submitted spec: %s", data)
-        raise SpecRejected(
-            [_error((), f"the engine cannot build this study: {type(e).__name__}: {e}", None)]
-        ) from e
     spec, runs = study.spec, study.runs
     if len(runs) > settings.max_runs:
         raise _too_many_runs(len(runs), settings)
@@ -677,7 +693,7 @@ def admit_calibration(body, settings: Settings) -> AdmittedCalibration:
         n = particles_from_fields(fields, fields["radius"])
         if n > settings.max_particles_per_run:
             raise _too_many_particles(("test",), "calibration run", n, settings)
-    try:
+    with engine_refusals(data, calibration_loc, lambda: fields, "calibration", "calibration"):
         test = engine.UniaxialTest.from_dict(fields)  # its own checks first (the time step)
         _check_bounds(fields, "test", data)
         targets = LabTargets.from_dict(data["targets"])
@@ -689,17 +705,6 @@ def admit_calibration(body, settings: Settings) -> AdmittedCalibration:
             replace(test, consolidation_stress=sv)
         shear = calibration_shear_tests(test, targets, shear_test)
         costs = calibration_costs(test, stresses, total, shear)
-    except SpecRejected:
-        raise
-    except engine.ParameterError as e:
-        raise refused(e, calibration_loc(e.field), data, fields) from e
-    except (TypeError, ValueError) as e:
-        raise SpecRejected([_error((), f"the calibration is not valid: {e}", None)]) from e
-    except Exception as e:  # an input the engine's checks did not foresee: logged, refused
-        log.exception("the engine failed on a submitted calibration: %s", data)
-        raise SpecRejected(
-            [_error((), f"the engine cannot build this calibration: {type(e).__name__}: {e}", None)]
-        ) from e
     check_costs(costs, settings, "calibration")
     request = {
         "test": test.to_dict(),

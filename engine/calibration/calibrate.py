@@ -98,6 +98,16 @@ class _Axis:
         return self.lo + u * (self.hi - self.lo)
 
 
+def _number_pair(field: str, value, limit: str) -> tuple[float, float]:
+    """``value`` as two floats (in its own unit); anything else: ParameterError at
+    ``field`` with ``limit``."""
+    try:
+        a, b = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise ParameterError(field, value, limit) from None
+    return a, b
+
+
 def _axes(base_law, parameters: dict) -> list[_Axis]:
     if not parameters:
         raise ParameterError("calibrate.parameters", parameters, "at least one law parameter")
@@ -107,12 +117,7 @@ def _axes(base_law, parameters: dict) -> list[_Axis]:
         if name not in CALIBRATED or name not in fields:
             have = [p for p in CALIBRATED if p in fields]
             raise ParameterError(f"calibrate.parameters.{name}", name, f"one of {have}")
-        try:
-            lo, hi = (float(v) for v in box)
-        except (TypeError, ValueError):
-            raise ParameterError(
-                f"calibrate.parameters.{name}", box, "a (low, high) pair of numbers"
-            ) from None
+        lo, hi = _number_pair(f"calibrate.parameters.{name}", box, "a (low, high) pair of numbers")
         if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
             raise ParameterError(f"calibrate.parameters.{name}", box, "finite, low < high")
         out.append(_Axis(name, lo, hi))
@@ -337,12 +342,9 @@ def check_corrections(resolution: dict | None) -> dict:
             raise ParameterError(
                 f"calibrate.resolution.{kind}", kind, f"one of {list(CORRECTED_BY)}"
             )
-        try:
-            factor, sd = (float(v) for v in pair)
-        except (TypeError, ValueError):
-            raise ParameterError(
-                f"calibrate.resolution.{kind}", pair, "a (factor, sd of its log) pair"
-            ) from None
+        factor, sd = _number_pair(
+            f"calibrate.resolution.{kind}", pair, "a (factor, sd of its log) pair"
+        )
         if not (math.isfinite(factor) and factor > 0 and math.isfinite(sd) and sd >= 0):
             raise ParameterError(
                 f"calibrate.resolution.{kind}", pair, "factor > 0, 0 <= sd of its log < inf"

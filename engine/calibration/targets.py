@@ -131,6 +131,15 @@ class LocusPoint(Record):
 LOCUS_UNCERTAINTY_OF = {"tau_pre": "tau_pre_sd", "bulk_density": "bulk_density_sd"}
 
 
+def _uncertainty(unit: str):
+    """The field ``<name>_sd`` of an optional scalar target ``<name>``: its uncertainty,
+    one standard deviation in the value's ``unit``, >= 0; a value given without it is
+    refused (module docstring)."""
+    return param(
+        None, unit=unit, ge=0, nullable=True, doc="its uncertainty (1 sd; required with it)"
+    )
+
+
 @dataclass(frozen=True)
 class ShearLocus(Record):
     """One yield locus of a shear tester (ASTM D6773, D6128): the sample pre-sheared to
@@ -148,15 +157,11 @@ class ShearLocus(Record):
     tau_pre: float | None = param(
         None, unit="Pa", gt=0, nullable=True, doc="shear stress of the pre-shear's steady flow"
     )
-    tau_pre_sd: float | None = param(
-        None, unit="Pa", ge=0, nullable=True, doc="its uncertainty (1 sd; required with it)"
-    )
+    tau_pre_sd: float | None = _uncertainty("Pa")
     bulk_density: float | None = param(
         None, unit="kg/m^3", gt=0, nullable=True, doc="bulk density of the pre-sheared sample"
     )
-    bulk_density_sd: float | None = param(
-        None, unit="kg/m^3", ge=0, nullable=True, doc="its uncertainty (1 sd; required with it)"
-    )
+    bulk_density_sd: float | None = _uncertainty("kg/m^3")
 
     def __post_init__(self) -> None:
         o = "ShearLocus"
@@ -292,21 +297,15 @@ class LabTargets(Record):
     loading_stiffness: float | None = param(
         None, unit="Pa", gt=0, nullable=True, doc="confined loading stiffness"
     )
-    loading_stiffness_sd: float | None = param(
-        None, unit="Pa", ge=0, nullable=True, doc="its uncertainty (1 sd; required with it)"
-    )
+    loading_stiffness_sd: float | None = _uncertainty("Pa")
     unloading_stiffness: float | None = param(
         None, unit="Pa", gt=0, nullable=True, doc="confined unloading stiffness"
     )
-    unloading_stiffness_sd: float | None = param(
-        None, unit="Pa", ge=0, nullable=True, doc="its uncertainty (1 sd; required with it)"
-    )
+    unloading_stiffness_sd: float | None = _uncertainty("Pa")
     k0: float | None = param(
         None, unit="1", gt=0, lt=1.5, nullable=True, doc="lateral stress ratio on loading"
     )
-    k0_sd: float | None = param(
-        None, unit="1", ge=0, nullable=True, doc="its uncertainty (1 sd; required with it)"
-    )
+    k0_sd: float | None = _uncertainty("1")
     strength: tuple[StrengthPoint, ...] = param(
         (), unit="", kind="list", max_items=16, doc="unconfined strength (flow function)"
     )

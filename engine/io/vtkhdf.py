@@ -176,6 +176,38 @@ class _TemporalPolyData:
         self.file.close()
 
 
+def _particle_data(snap: Snapshot) -> dict[str, np.ndarray]:
+    """The point data of a snapshot's particles: radius [m], velocity [m/s], angular
+    velocity [rad/s], contact count [-], mean normal force [N], pressure [Pa] and id."""
+    fields = particle_fields(snap)
+    return {
+        "radius": snap.radii,
+        "velocity": snap.velocities,
+        "angular_velocity": snap.angular_velocities,
+        "contact_count": snap.contact_counts,
+        "mean_normal_force": fields["mean_normal_force"],
+        "pressure": fields["pressure"],
+        "id": np.arange(len(snap.radii), dtype=np.int64),
+    }
+
+
+def _contact_data(snap: Snapshot) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """A snapshot's contacts as lines: their end points [m] (two rows a contact: the first
+    particle's centre, then the second's nearest image) and their cell data (normal force
+    [N] and the two particles' ids)."""
+    m = len(snap.pairs)
+    first = snap.positions[snap.pairs[:, 0]]
+    ends = np.empty((2 * m, 3))
+    ends[0::2] = first
+    ends[1::2] = first - snap.branches  # the second particle's nearest image
+    cells = {
+        "normal_force": snap.normal_forces,
+        "particle_i": snap.pairs[:, 0],
+        "particle_j": snap.pairs[:, 1],
+    }
+    return ends, cells
+
+
 class SnapshotWriter:
     """Writes the snapshots of one run into ``directory`` as they come: ``particles.vtkhdf``
     and ``contacts.vtkhdf``, one time step per snapshot (see the module docstring).
@@ -202,47 +234,33 @@ class SnapshotWriter:
             self._write_labels()
             return
         n = len(snap.radii)
-        fields = particle_fields(snap)
+        point_data = _particle_data(snap)
         self.particles.add(
             snap.time,
             snap.positions,
             {"Vertices": np.arange(n, dtype=np.int64)[:, None]},
-            {
-                "radius": snap.radii,
-                "velocity": snap.velocities,
-                "angular_velocity": snap.angular_velocities,
-                "contact_count": snap.contact_counts,
-                "mean_normal_force": fields["mean_normal_force"],
-                "pressure": fields["pressure"],
-                "id": np.arange(n, dtype=np.int64),
-            },
+            point_data,
             {},
         )
         m = len(snap.pairs)
-        first = snap.positions[snap.pairs[:, 0]]
-        ends = np.empty((2 * m, 3))
-        ends[0::2] = first
-        ends[1::2] = first - snap.branches  # the second particle's nearest image
+        ends, cell_data = _contact_data(snap)
         self.contacts.add(
             snap.time,
             ends,
             {"Lines": np.arange(2 * m, dtype=np.int64).reshape(m, 2)},
             {},
-            {
-                "normal_force": snap.normal_forces,
-                "particle_i": snap.pairs[:, 0],
-                "particle_j": snap.pairs[:, 1],
-            },
+            cell_data,
         )
         self.labels.append(snap.stage)
         self.last_steps = snap.steps
         self._write_labels()
         if self.legacy:
-            self._write_vtu(snap, fields)
+            self._write_vtu(snap, point_data, ends, cell_data)
 
-    def _write_vtu(self, snap: Snapshot, fields: dict) -> None:
-        """The same time step as ``particles-NNNN.vtu`` and ``contacts-NNNN.vtu``, and the
-        two ``.pvd`` collections rewritten with it (:mod:`engine.io.vtu`)."""
+    def _write_vtu(self, snap: Snapshot, point_data: dict, ends, cell_data: dict) -> None:
+        """The same time step as ``particles-NNNN.vtu`` and ``contacts-NNNN.vtu`` (the
+        arrays :meth:`add` wrote to the VTKHDF files), and the two ``.pvd`` collections
+        rewritten with it (:mod:`engine.io.vtu`)."""
         from .vtu import VTK_LINE, VTK_VERTEX, write_pvd, write_vtu
 
         i, n, m = len(self.times), len(snap.radii), len(snap.pairs)
@@ -251,31 +269,15 @@ class SnapshotWriter:
             snap.positions,
             np.arange(n)[:, None],
             VTK_VERTEX,
-            {
-                "radius": snap.radii,
-                "velocity": snap.velocities,
-                "angular_velocity": snap.angular_velocities,
-                "contact_count": snap.contact_counts,
-                "mean_normal_force": fields["mean_normal_force"],
-                "pressure": fields["pressure"],
-                "id": np.arange(n, dtype=np.int64),
-            },
+            point_data,
             time=snap.time,
         )
-        first = snap.positions[snap.pairs[:, 0]]
-        ends = np.empty((2 * m, 3))
-        ends[0::2] = first
-        ends[1::2] = first - snap.branches
         write_vtu(
             self.directory / f"contacts-{i:04d}.vtu",
             ends,
             np.arange(2 * m).reshape(m, 2),
             VTK_LINE,
-            cell_data={
-                "normal_force": snap.normal_forces,
-                "particle_i": snap.pairs[:, 0],
-                "particle_j": snap.pairs[:, 1],
-            },
+            cell_data=cell_data,
             time=snap.time,
         )
         self.times.append(float(snap.time))

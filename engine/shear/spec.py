@@ -19,18 +19,16 @@ from ..contact.registry import pair_laws, wall_laws
 from ..contact.wall import WallMaterial
 from ..core.errors import ParameterError
 from ..core.records import Record, check_fields, param
-from ..uniaxial.spec import DEFAULT_PROTOCOL, GRAVITY, UniaxialTest
+from ..uniaxial.spec import (  # the uniaxial test's default laws are the shear test's
+    DEFAULT_PROTOCOL,
+    GRAVITY,
+    UniaxialTest,
+    _cohesionless_law,
+    _platen_law,
+)
 
 #: Most shear points (normal stresses) one test takes.
 MAX_POINTS = 8
-
-
-def _cohesionless_law() -> BilinearAdhesive:
-    return BilinearAdhesive(k1=5e3, k2=2.5e4, f0=0.0, mu_s=0.5, mu_r=0.001, restitution=0.4)
-
-
-def _platen_law() -> HertzMindlin:
-    return HertzMindlin(E=1e8, nu=0.25, restitution=0.4, mu=0.3)
 
 
 @dataclass(frozen=True)

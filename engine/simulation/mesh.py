@@ -31,7 +31,10 @@ from ..core.errors import ParameterError
 DEGENERATE_AREA = 1e-12
 
 
-def _vec3(owner: str, name: str, value) -> tuple[float, float, float]:
+def vec3(owner: str, name: str, value) -> tuple[float, float, float]:
+    """``value`` as three finite floats (a vector in the unit of the field); bad input:
+    ParameterError naming ``<owner>.<name>``. Shared by the scene's planes, gravity and
+    meshes."""
     try:
         a = np.asarray(value, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError):
@@ -101,7 +104,7 @@ class Mesh:
                 "finite vertex coordinates",
             )
         self.closed = bool(closed)
-        self.velocity = _vec3(field, "velocity", velocity)
+        self.velocity = vec3(field, "velocity", velocity)
         v, t = _merge_vertices(v, t)
         self._check_triangles(v, t)
         self.vertices = v
@@ -194,7 +197,7 @@ class Mesh:
 
     def translated(self, offset) -> Mesh:
         """The same mesh moved by ``offset`` [m] (a new mesh)."""
-        d = np.asarray(_vec3(self.name, "offset", offset))
+        d = np.asarray(vec3(self.name, "offset", offset))
         return Mesh(
             self.vertices + d,
             self.triangles,
@@ -232,7 +235,7 @@ class Mesh:
             raise ParameterError(f"Mesh({p}).scale", scale, "a positive number") from None
         if not (math.isfinite(s) and s > 0):
             raise ParameterError(f"Mesh({p}).scale", scale, "a positive finite number")
-        move = np.asarray(_vec3(f"Mesh({p})", "offset", offset))
+        move = np.asarray(vec3(f"Mesh({p})", "offset", offset))
         corners = read_stl(p)
         n = corners.shape[0]
         vertices = corners.reshape(-1, 3) * s + move

@@ -19,17 +19,7 @@ from ..contact.registry import law_names, pair_laws, wall_laws
 from ..contact.wall import WallMaterial
 from ..core.config import MAX_RADIUS_RATIO
 from ..core.errors import ParameterError
-from .mesh import Mesh
-
-
-def _vec3(owner: str, name: str, value) -> tuple[float, float, float]:
-    try:
-        a = np.asarray(value, dtype=np.float64).reshape(-1)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{owner}.{name}", value, "a sequence of 3 real numbers") from None
-    if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise ParameterError(f"{owner}.{name}", value, "3 finite real numbers")
-    return (float(a[0]), float(a[1]), float(a[2]))
+from .mesh import Mesh, vec3
 
 
 @dataclass(frozen=True)
@@ -48,13 +38,13 @@ class Plane:
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "point", _vec3("Plane", "point", self.point))
-        n = _vec3("Plane", "normal", self.normal)
+        object.__setattr__(self, "point", vec3("Plane", "point", self.point))
+        n = vec3("Plane", "normal", self.normal)
         length = math.sqrt(sum(c * c for c in n))
         if length == 0.0:
             raise ParameterError("Plane.normal", self.normal, "a non-zero vector")
         object.__setattr__(self, "normal", tuple(c / length for c in n))
-        object.__setattr__(self, "velocity", _vec3("Plane", "velocity", self.velocity))
+        object.__setattr__(self, "velocity", vec3("Plane", "velocity", self.velocity))
 
 
 def _per_particle(name: str, value, n: int, positive: bool) -> np.ndarray:
@@ -175,7 +165,7 @@ class Scene:
         for k, m in enumerate(self.meshes):
             if not isinstance(m, Mesh):
                 raise ParameterError(f"Scene.meshes[{k}]", m, "an engine.Mesh")
-        self.gravity = _vec3("Scene", "gravity", gravity)
+        self.gravity = vec3("Scene", "gravity", gravity)
 
         if not isinstance(pair_law, pair_laws()):
             raise ParameterError("Scene.pair_law", pair_law, f"an {law_names(pair_laws())}")

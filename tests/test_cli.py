@@ -24,6 +24,7 @@ TINY = {
     "reference": {
         "cell": [0.015, 0.015, 0.015],
         "platen_speed": 0.02,
+        "inertial_number": None,  # the constant platen speed above: a third of the steps
         "output_interval": 0.001,
         "pair_law": {
             "type": "BilinearAdhesive",
@@ -236,6 +237,7 @@ def test_study_decide_adds_seeds_and_reports_them(tmp_path):
 TINY_TEST = {
     "cell": [0.015, 0.015, 0.015],
     "platen_speed": 0.02,
+    "inertial_number": None,
     "output_interval": 0.001,
     "unconfined": False,
     "pair_law": {"type": "BilinearAdhesive", "k1": 5e3, "k2": 4.5e4},

@@ -118,7 +118,7 @@ def job(argv: list[str]) -> int:
     """The main job over the service (``demscale job --help`` lists its options)."""
     if lacks_extra("job", ("fastapi", "sqlmodel", "uvicorn", "httpx"), "service"):
         return 2
-    from ..job import main as job_main
+    from .job import main as job_main
 
     return job_main(argv)
 

@@ -57,6 +57,7 @@ def test_a_hopper_study_runs_in_the_worker(client, settings):
     assert r.status_code == 404 and "hopper study" in r.text and "error_vs_runtime" in r.text
     page = client.get(f"/studies/{sid}/page")
     assert page.status_code == 200 and "discharge number err [%]" in page.text
+    assert "A hopper study" in page.text and "A shear study" not in page.text
     assert "plots/error_vs_runtime.png" in page.text and "plots/stress_strain.png" not in page.text
     assert "self-weight" not in page.text
     ref = load_run(settings.runs_dir(sid) / "ref-s1.h5")
@@ -138,3 +139,17 @@ def test_on_run_stores_an_added_runs_round(client, settings):
     assert stored_additions(settings.runs_dir(sid)) == added
     runs = {run["key"]: run for run in client.get(f"/studies/{sid}").json()["runs"]}
     assert runs[key]["status"] == "failed" and "added run" in runs[key]["error"]
+
+
+def test_the_schema_has_the_hopper_reference_from_the_record(client):
+    from engine.core.records import describe
+
+    schema = client.get("/openapi.json").json()["components"]["schemas"]
+    hopper = schema["HopperTestIn"]
+    declared = {info.name: info for info in describe(engine.HopperTest)}
+    assert set(hopper["properties"]) == set(declared) | {"type"}
+    assert "pair_law" in hopper["required"]
+    for name, info in declared.items():
+        if info.unit:
+            assert hopper["properties"][name]["x-unit"] == info.unit, name
+    assert hopper["properties"]["half_angle"]["exclusiveMaximum"] == 90.0

@@ -71,6 +71,7 @@ def engine_loc(field: str) -> tuple:
         "StudySpec": (),
         "UniaxialTest": ("reference",),
         "ShearTest": ("reference",),
+        "HopperTest": ("reference",),
         "preset": ("reference", "preset"),
         # a contact law's errors name its type, as pydantic's tagged-union errors do
         "BilinearAdhesive": ("reference", "pair_law", "BilinearAdhesive"),
@@ -282,6 +283,7 @@ SHEAR_BOUNDS = (
     "the fill and consolidation's max_stage_time and platen travel, preshear_strain, "
     "failure_strain, and max_stage_time for each reversal and normal-stress stage"
 )
+HOPPER_BOUNDS = "max_settle_time and max_discharge_time"
 
 
 def check_costs(
@@ -408,21 +410,61 @@ def is_shear_study(data: dict) -> bool:
     return isinstance(ref, dict) and ref.get("type") == "ShearTest"
 
 
-def _check_shear_backend(settings: Settings) -> None:
-    """A shear study's runs are engine.run_shear's, on the CPU only: a service whose runs
-    go to the GPU (DEMSCALE_BACKEND=cuda) refuses it rather than run it elsewhere."""
+def is_hopper_study(data: dict) -> bool:
+    """Whether the study's fields name a hopper reference (``"type": "HopperTest"``)."""
+    ref = data.get("reference")
+    return isinstance(ref, dict) and ref.get("type") == "HopperTest"
+
+
+#: The run of each test kind that runs on the CPU only, as a refusal names it.
+CPU_ONLY_RUNS = {
+    "ShearTest": ("shear test", "engine.run_shear"),
+    "HopperTest": ("hopper", "engine.run_hopper"),
+}
+
+
+def _check_shear_backend(settings: Settings, test_type: str = "ShearTest") -> None:
+    """A shear study's runs are engine.run_shear's (a hopper study's engine.run_hopper's),
+    on the CPU only: a service whose runs go to the GPU (DEMSCALE_BACKEND=cuda) refuses it
+    rather than run it elsewhere."""
     if settings.backend == "cuda":
+        test, run = CPU_ONLY_RUNS[test_type]
         raise SpecRejected(
             [
                 _error(
                     ("reference", "type"),
                     "this service runs its studies on the GPU (DEMSCALE_BACKEND=cuda) and the "
-                    "shear test runs on the CPU only (engine.run_shear): a shear study needs "
+                    f"{test} runs on the CPU only ({run}): a {test.split()[0]} study needs "
                     "a service with DEMSCALE_BACKEND=cpu or auto",
-                    "ShearTest",
+                    test_type,
                 )
             ]
         )
+
+
+def _check_hopper_particles(data: dict, fields: dict, settings: Settings) -> None:
+    """The particles of a hopper reference against the cap, from its fields (its count
+    from ``particles`` or ``fill_height``, engine.HopperTest.n_particles: arithmetic, no
+    fill placed), before the plan places the hopper's fill to find its time step; the
+    coarse variants have larger particles, so fewer. A test the engine refuses is left to
+    the engine's building of the spec, which names the field."""
+    try:
+        n = float(engine.HopperTest.from_dict(fields).n_particles)
+    except (engine.ParameterError, TypeError, ValueError, KeyError, AttributeError):
+        return
+    if n > settings.max_particles_per_run:
+        given = given_paths(data)
+        # the field that set the count: particles, or fill_height where particles is null
+        count = "particles" if fields.get("particles") is not None else "fill_height"
+        loc = next(
+            (
+                ("reference", f)
+                for f in (count, "radius", "outlet_width", "depth")
+                if ("reference", f) in given
+            ),
+            ("reference",),
+        )
+        raise _too_many_particles(loc, "reference", n, settings)
 
 
 def _check_size_first(data: dict, settings: Settings) -> None:
@@ -440,6 +482,10 @@ def _check_size_first(data: dict, settings: Settings) -> None:
     if is_shear_study(data):
         _check_shear_backend(settings)
         _check_particles(data, fields, settings)
+        return
+    if is_hopper_study(data):  # its worst case on the built plan (hopper_study_costs)
+        _check_shear_backend(settings, "HopperTest")
+        _check_hopper_particles(data, fields, settings)
         return
     _check_particles(data, fields, settings)
     try:  # the reference's own checks first (the time step, k2 >= k1, ...), then the
@@ -529,7 +575,38 @@ def admit_spec(data: dict, settings: Settings) -> Admitted:
 
 
 def shear_study_costs(study: engine.StudyPlan) -> list[cost.RunCost]:
-    """The worst case of every run of a shear study (:func:`shear_cost` of each planned
+    """The worst case of every run of a shear study (:func:`study_costs` with
+    :func:`shear_cost`)."""
+    return study_costs(study, shear_cost)
+
+
+def hopper_study_costs(study: engine.StudyPlan) -> list[cost.RunCost]:
+    """The worst case of every run of a hopper study (:func:`study_costs` with
+    :func:`hopper_cost`)."""
+    return study_costs(study, hopper_cost)
+
+
+def hopper_cost(test) -> cost.RunCost:
+    """The worst case of one hopper run (an :class:`engine.HopperTest`, docs/HOPPER.md) at
+    its time step (engine.hopper.driver.resolved_dt): the settling to ``max_settle_time``
+    and the discharge to ``max_discharge_time``, each checked every ``output_interval`` (so
+    one sample's steps past its bound at most); a curve sample every ``output_interval`` of
+    the discharge and one at the gate's opening (the settling records no curve)."""
+    from engine.hopper.driver import resolved_dt
+
+    dt = resolved_dt(test)
+    per_sample = max(1.0, float(round(test.output_interval / dt)))
+    settle = math.ceil(test.max_settle_time / dt) + per_sample
+    discharge = math.ceil(test.max_discharge_time / dt) + per_sample
+    samples = 1 + math.ceil(discharge / per_sample)
+    return cost.RunCost(
+        f"hopper@{test.radius * 1e3:g}mm", float(test.n_particles), settle + discharge, samples
+    )
+
+
+def study_costs(study: engine.StudyPlan, cost_of) -> list[cost.RunCost]:
+    """The worst case of every run of a study whose kind has its own cost model
+    (``cost_of(test)``, e.g. :func:`shear_cost`, of each planned
     run's test: references, coarse variants, controls and protocol checks) and, with
     ``decide``, of the runs it may add: each reference and coarse variant up to its seed cap
     (``max_reference_seeds``, ``max_seeds``), or, with a ``budget`` of estimated
@@ -542,7 +619,7 @@ def shear_study_costs(study: engine.StudyPlan) -> list[cost.RunCost]:
     out = []
     first: dict[object, tuple[cost.RunCost, object]] = {}
     for p in study.runs:
-        c = shear_cost(p.test)
+        c = cost_of(p.test)
         out.append(cost.RunCost(p.key, c.particles, c.steps, c.samples))
         if p.is_reference or (p.rule is not None and not p.control and not p.protocol):
             first.setdefault(p.variant, (c, p.test))
@@ -735,4 +812,7 @@ def admit_calibration(body, settings: Settings) -> AdmittedCalibration:
 
 #: The test kinds (engine.study.kinds) whose study costs have their own model and bounds:
 #: kind name -> (costs of a plan, bounds); the rest take cost.worst_case on the raw spec.
-KIND_COSTS = {"shear": (shear_study_costs, SHEAR_BOUNDS)}
+KIND_COSTS = {
+    "shear": (shear_study_costs, SHEAR_BOUNDS),
+    "hopper": (hopper_study_costs, HOPPER_BOUNDS),
+}

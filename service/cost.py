@@ -56,10 +56,14 @@ _PRESETS = _preset_fields()
 def reference_fields(data: dict) -> dict:
     """The reference test's fields as the engine will build them: the preset (``quick``
     when no reference is given) or the record's defaults, overridden by the request; a
-    shear reference's (``"type": "ShearTest"``): engine.ShearTest's defaults, overridden."""
+    shear reference's (``"type": "ShearTest"``): engine.ShearTest's defaults, overridden (a
+    hopper's, ``"HopperTest"``, engine.HopperTest's)."""
     given = dict(data.get("reference", {"preset": "quick"}))
-    if given.pop("type", "UniaxialTest") == "ShearTest":  # a shear study's reference
+    test_type = given.pop("type", "UniaxialTest")
+    if test_type == "ShearTest":  # a shear study's reference
         return {**_defaults(engine.ShearTest), **given}
+    if test_type == "HopperTest":  # a hopper study's
+        return {**_defaults(engine.HopperTest), **given}
     name = given.pop("preset", None)
     protocol = given.pop("protocol", "default")
     protocol = protocol if protocol in PROTOCOLS else "default"  # the schema refuses others

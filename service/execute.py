@@ -149,11 +149,13 @@ class StudyExecution:
             log.info("study %s: %d runs added until decided", self.study_id, added)
         self.known_runs.update(p.key for p in planned)
 
-    def on_run(self, key: str, outcome) -> None:
+    def on_run(self, key: str, outcome, added: list[dict] | None = None) -> None:
         """The engine reports a finished run: store it at once (atomically) so that a
         resumed study skips it, and mark its row. A failed coarse run is recorded with its
-        error while the others go on; the verdicts name it."""
-        store_run(self.settings.runs_dir(self.study_id) / f"{key}.h5", outcome)
+        error while the others go on; the verdicts name it. ``added``: for a run a
+        ``decide`` round added, the additions of its round (engine.run_study's ``on_run``),
+        stored with it so that a resumed study reads its rounds instead of replaying them."""
+        store_run(self.settings.runs_dir(self.study_id) / f"{key}.h5", outcome, added=added)
         self.ensure_row(key)
         failed = isinstance(outcome, str)
         if not failed:
@@ -189,9 +191,11 @@ class StudyExecution:
         shutil.rmtree(final, ignore_errors=True)
         os.replace(tmp, final)
 
-    def stored_runs(self, plan: engine.StudyPlan) -> dict:
-        """Runs of this study stored by earlier attempts whose test is the planned one."""
-        out, _ = completed_runs(plan, self.settings.runs_dir(self.study_id))
+    def stored_runs(self, plan: engine.StudyPlan, decided: list | None = None) -> dict:
+        """Runs of this study stored by earlier attempts whose test is the planned one;
+        ``decided``, where given, receives the rounds their added runs were stored with
+        (engine.io.store.completed_runs), for ``engine.run_study(decided=...)``."""
+        out, _ = completed_runs(plan, self.settings.runs_dir(self.study_id), decided)
         if out:
             log.info(
                 "study %s: resuming with %d of %d runs stored",
@@ -265,12 +269,15 @@ class StudyExecution:
         result table (each run's steps and wall time)."""
         plan = self.plan = self.load_plan()
         self.known_runs.update(p.key for p in plan.runs)
+        decided: list = []  # the rounds of the added runs stored by earlier attempts
+        completed = self.stored_runs(plan, decided)
         with run_executor(self.settings) as pool:
             # a run in flight keeps a checkpoint: after a crash it resumes where it was
             result = engine.run_study(
                 plan,
                 progress=self.progress,
-                completed=self.stored_runs(plan),
+                completed=completed,
+                decided=decided,
                 on_run=self.on_run,
                 options=self.options(plan, pool),
             )

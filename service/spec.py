@@ -66,6 +66,8 @@ SERVICE_LIMITS: dict[tuple[str, str], dict[str, Any]] = {
     # the same for a shear study's reference (and the calibration's shear cell)
     ("ShearTest", "pair_law"): {"record": engine.contact.registry.adhesive_laws()},
     ("ShearTest", "settle_ke"): {"ge": MIN_SETTLE_KE},
+    # and for a hopper study's (engine.HopperTest takes any pair law; a study, adhesive ones)
+    ("HopperTest", "pair_law"): {"record": engine.contact.registry.adhesive_laws()},
 }
 #: Rules that span fields, which JSON Schema cannot state (it compares no two values): each
 #: is written into the field's description in the OpenAPI document, and the request is
@@ -369,8 +371,15 @@ ReferenceIn = create_model(
 #: from its records as the calibration's shear cell's (:data:`ShearCellIn`); the pair law
 #: required (:data:`SERVICE_REQUIRED`).
 ShearTestIn = record_model(engine.ShearTest)
+#: A hopper study's reference (``"type": "HopperTest"``, docs/HOPPER.md): engine.HopperTest's
+#: declared fields; the pair law required (:data:`SERVICE_REQUIRED`), as a shear test's.
+HopperTestIn = record_model(engine.HopperTest)
 #: The reference kinds a study takes, by their ``type`` (engine.study.spec.TEST_TYPES).
-REFERENCE_MODELS = {"UniaxialTest": ReferenceIn, "ShearTest": ShearTestIn}
+REFERENCE_MODELS = {
+    "UniaxialTest": ReferenceIn,
+    "ShearTest": ShearTestIn,
+    "HopperTest": HopperTestIn,
+}
 
 
 def _reference_kind(value: Any) -> str:
@@ -397,7 +406,8 @@ _study_fields["reference"] = (
         description=f"{_reference_doc}: a uniaxial test, a preset named, e.g. "
         '{"preset": "quick"}, or the pair law with the other fields of the test; or a shear '
         'test, "type": "ShearTest" with its pair law and any other fields of '
-        "engine.ShearTest (docs/SHEAR.md)",
+        'engine.ShearTest (docs/SHEAR.md); or a hopper, "type": "HopperTest" with its pair '
+        "law and any other fields of engine.HopperTest (docs/HOPPER.md)",
     ),
 )
 

@@ -24,7 +24,7 @@ from fastapi.templating import Jinja2Templates
 from sqlmodel import select
 
 from engine.calibration.calibrate import TARGET_UNITS, determination
-from engine.io.figures import KINDS, is_shear_table
+from engine.io.figures import KINDS, is_shear_table, reference_type
 from engine.study.reasons import describe, interval_words, pct, shown
 from engine.study.run import duration_words
 
@@ -73,9 +73,17 @@ RUN_COLUMNS = (
     ("err_sigma_c", "sigma_c err [%]", 100.0, "{:.1f}"),
     ("err_ffc", "ffc err [%]", 100.0, "{:.1f}"),
     ("err_bulk_density", "bulk density err [%]", 100.0, "{:.1f}"),
+    # a hopper study's (docs/HOPPER.md): its steady discharge, whether it arched, its flow
+    # mode's index, then the error of its discharge number
+    ("discharge_number", "discharge number [-]", 1.0, "{:.3g}"),
+    ("discharge_rate", "discharge rate [g/s]", 1e3, "{:.3g}"),
+    ("arched", "arched [-]", 1.0, "{:.0f}"),
+    ("mass_flow_index", "mass-flow index [-]", 1.0, "{:.2f}"),
+    ("err_discharge_number", "discharge number err [%]", 100.0, "{:.1f}"),
 )
 #: Columns a shear study's page leaves out: its runs have no self-weight stress (gravity is
-#: off from the consolidation on: the column reads 0 for every run).
+#: off from the consolidation on: the column reads 0 for every run). A hopper study's leaves
+#: it out too (its rows read 0: engine.hopper.study.hopper_row).
 SHEAR_HIDDEN = frozenset({"overburden_ratio"})
 
 
@@ -249,7 +257,8 @@ def study_page(
         shear = is_shear_table(summary["table"])
         stored = h5store.read_run_scalars(path, ("setup_time", "ffc") if shear else ("setup_time",))
         rows = [{**row, **stored.get(row.get("run"), {})} for row in summary["table"]]
-        hidden = SHEAR_HIDDEN if shear else frozenset()
+        hopper = reference_type(study.spec.get("reference") or {}) == "HopperTest"
+        hidden = SHEAR_HIDDEN if shear or hopper else frozenset()
         cols = [c for c in RUN_COLUMNS if c[0] not in hidden and any(c[0] in row for row in rows)]
         table = [[cell(row.get(k), s, f) for k, _, s, f in cols] for row in rows]
         headings = [h for _, h, _, _ in cols]

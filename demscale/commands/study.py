@@ -52,6 +52,12 @@ radius). It judges the yield locus, sigma_1, sigma_c, ffc and bulk density; plot
 holds yield_locus, preshear, error_vs_runtime (and resolution), curves/ the shear stages,
 and no snapshots are written (the shear stages keep none). It runs on the CPU.
 
+A hopper study (docs/HOPPER.md): a "reference" with "type": "HopperTest" and the fields of
+an engine.HopperTest (its pair law required; give fill_height, not particles, so that a
+coarse run fills the same hopper). It judges the discharge number and bulk density;
+curves/ holds the discharge, plots/ error_vs_runtime (and resolution), no snapshots. It
+runs on the CPU.
+
 Exit status: 0 every run finished; 1 some run failed (what finished is written; the
 failures are in summary.json) or no reference run finished; 2 the spec is not valid."""
 

@@ -4,11 +4,11 @@ calibration's design) must give beyond what the records themselves check. The co
 
 A record checks its own fields (:func:`engine.core.records.param` bounds, ``__post_init__``);
 this module holds what only a request can break: a field a user must give although the
-record has a default (a study's reference, a shear test's pair law), a uniaxial test that
-names neither a preset nor its pair law (it would run the record's default law, which
-nobody chose), and the lower bounds of a calibration's design. Every refusal is an
-:class:`engine.ParameterError` (:class:`engine.core.errors.MissingField` for what is left
-out) naming the field and the limit.
+record has a default (a study's reference, a shear test's or a hopper's pair law), a
+uniaxial test that names neither a preset nor its pair law (it would run the record's
+default law, which nobody chose), and the lower bounds of a calibration's design. Every
+refusal is an :class:`engine.ParameterError` (:class:`engine.core.errors.MissingField` for
+what is left out) naming the field and the limit.
 
 The rules are keyed by the records' names (their JSON ``"type"``): this module imports no
 layer below ``core``.
@@ -24,6 +24,8 @@ REQUIRED_GIVEN: dict[tuple[str, str], str] = {
     ("StudySpec", "reference"): 'a preset named, e.g. {"preset": "quick"}, or the pair law '
     "with the other fields of the test: no study runs a default reference",
     ("ShearTest", "pair_law"): "the shear test's particle-particle law: no study runs the "
+    "record's default law, which nobody chose",
+    ("HopperTest", "pair_law"): "the hopper's particle-particle law: no study runs the "
     "record's default law, which nobody chose",
 }
 

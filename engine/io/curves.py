@@ -12,28 +12,41 @@ from pathlib import Path
 
 import numpy as np
 
+from ..hopper.results import HOPPER_CURVE_UNITS
 from ..shear.results import SHEAR_CURVE_UNITS
 from ..uniaxial.results import CURVE_UNITS
 
-#: Units of every curve a run has: the uniaxial test's, then the shear test's stages'.
+#: Units of every curve a run has: the uniaxial test's, then the shear test's stages', then
+#: a hopper's discharge.
 _UNITS = {**CURVE_UNITS, **{k: v for k, v in SHEAR_CURVE_UNITS.items() if k not in CURVE_UNITS}}
+_UNITS.update({k: v for k, v in HOPPER_CURVE_UNITS.items() if k not in _UNITS})
 
 __all__ = ["curves_csv", "runs_csv", "write_curves_csv"]
 
 
+def stage_curves(result) -> dict:
+    """Stage -> {curve: 1-D array} of ``result``, in the order its stages ran: a uniaxial or
+    shear result's stages, a hopper's discharge as the one stage ``"discharge"`` (as
+    engine.io.store stores it), or a mapping of that form as it is."""
+    if hasattr(result, "stages"):
+        return {name: st.curves for name, st in result.stages.items()}
+    if hasattr(result, "curves"):  # an engine.HopperResult
+        from .store import HOPPER_STAGE
+
+        return {HOPPER_STAGE: result.curves}
+    return dict(result)
+
+
 def curves_csv(result) -> str:
     """The curves of every stage of ``result`` (an :class:`engine.UniaxialResult`, an
-    :class:`engine.ShearResult`: its shear stages, or a mapping stage -> {curve: 1-D array}
+    :class:`engine.ShearResult`: its shear stages, an :class:`engine.HopperResult`: its
+    discharge (:func:`stage_curves`), or a mapping stage -> {curve: 1-D array}
     in the order the stages ran) as CSV text: a heading ``stage,<curve> [<unit>],...`` (in
     :data:`engine.uniaxial.results.CURVE_UNITS` order, then the shear test's
     :data:`engine.shear.results.SHEAR_CURVE_UNITS`, then any others), then a row per
     sample. Values are written in full precision (``repr``); a stage that lacks a curve
     another has leaves it empty."""
-    stages = (
-        {name: st.curves for name, st in result.stages.items()}
-        if hasattr(result, "stages")
-        else dict(result)
-    )
+    stages = stage_curves(result)
     names: list[str] = []
     for curves in stages.values():
         names += [n for n in curves if n not in names]

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..simulation.snapshot import Snapshot, particle_fields
 from ..study.metrics import METRIC_COLUMNS, SHEAR_METRIC_COLUMNS
+from .curves import stage_curves
 
 #: Plot kinds and their titles (with the units of their axes).
 KINDS = {
@@ -46,12 +47,14 @@ UNIAXIAL_KINDS = (
     "resolution",
 )
 SHEAR_KINDS = ("yield_locus", "preshear", "error_vs_runtime", "resolution")
+#: A hopper study's (docs/HOPPER.md): the verdicts' figures only (no discharge plot yet).
+HOPPER_KINDS = ("error_vs_runtime", "resolution")
 #: The plot kinds of each kind of test a study's reference can be, keyed on the test
 #: record's type (its JSON form's ``"type"``): the one place that says which plots a study
 #: has (:func:`plot_kinds`). The study's links, the API and the pages ask it.
-TEST_PLOTS = {"UniaxialTest": UNIAXIAL_KINDS, "ShearTest": SHEAR_KINDS}
+TEST_PLOTS = {"UniaxialTest": UNIAXIAL_KINDS, "ShearTest": SHEAR_KINDS, "HopperTest": HOPPER_KINDS}
 #: What each kind of test is called in a figure's words.
-TEST_NAMES = {"UniaxialTest": "uniaxial", "ShearTest": "shear"}
+TEST_NAMES = {"UniaxialTest": "uniaxial", "ShearTest": "shear", "HopperTest": "hopper"}
 #: Bumped when a figure's drawing changes, so that cached PNGs are drawn again.
 FIGURES_VERSION = 9
 
@@ -72,8 +75,13 @@ _TITLES = {
     "sigma_c": "sigma_c (strength)",
     "ffc": "flowability ffc",
     "bulk_density": "bulk density",
+    # a hopper study's (engine.hopper.study.HOPPER_METRICS)
+    "discharge_number": "discharge number (steady rate)",
 }
-_METRIC_PANELS = {n: ({**METRIC_COLUMNS, **SHEAR_METRIC_COLUMNS}[n], t) for n, t in _TITLES.items()}
+_METRIC_PANELS = {
+    n: ({**METRIC_COLUMNS, **SHEAR_METRIC_COLUMNS}.get(n, f"err_{n}"), t)
+    for n, t in _TITLES.items()
+}
 _MARKERS = "osD^vP*X"
 
 
@@ -84,7 +92,7 @@ def study_plot_data(result) -> tuple[dict, list[dict], dict]:
         runs[key] = {
             "label": key,
             "reference": r.is_reference,
-            "stages": {name: st.curves for name, st in r.result.stages.items()},
+            "stages": stage_curves(r.result),
         }
         if hasattr(r.result, "yield_points"):  # a shear run (engine.ShearResult)
             runs[key]["points"] = r.result.yield_points()
@@ -142,7 +150,11 @@ def kinds_of(table: list[dict]) -> tuple[str, ...]:
 
 
 def _table_type(table: list[dict]) -> str:
-    return "ShearTest" if is_shear_table(table) else "UniaxialTest"
+    if is_shear_table(table):
+        return "ShearTest"
+    if any("err_discharge_number" in r for r in table):  # a hopper study's rows
+        return "HopperTest"
+    return "UniaxialTest"
 
 
 def _style(i: int, ref: bool) -> dict:

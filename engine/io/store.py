@@ -26,6 +26,15 @@ fitted yield locus) hold what the curves were read into. Both are strict JSON (R
 the ffc of a locus without cohesion (sigma_c = 0), infinite, is stored as null and read
 back as infinity.
 
+A hopper's run (:class:`engine.HopperResult`, a hopper study's): ``test`` names its kind
+(``"type": "HopperTest"``); its discharge curves (:data:`engine.hopper.results.HOPPER_CURVE_UNITS`,
+one sample every ``output_interval`` from the gate's opening) are the one stage
+``stages/discharge`` (attr ``part`` "discharge"; its ``steps`` are the run's, settling and
+discharge together: a hopper counts no stage's own; no particles); its wall normal stress
+profiles are the datasets ``edges`` [m], ``fill`` and ``flow`` [Pa] of group
+``wall_stress``. Each kind writes and reads its own (``TestKind.write_group`` and
+``read_group``, engine.study.kinds); the uniaxial and shear layouts are as they were.
+
 A run a ``decide`` study added (engine.study.loop) also holds its round: attrs ``round``,
 ``reason`` and ``added_kind`` (``"coarse"``, ``"reference"`` or ``"control"``), and
 ``round_added`` (JSON: every addition of its round, ``{run, round, kind, reason}``, its own
@@ -84,31 +93,29 @@ def stored_code(path: Path) -> dict | None:
 
 
 def write_run_group(g, outcome, keep_particles: bool = True) -> None:
-    """Write ``outcome`` (a UniaxialResult, a ShearResult or an error text) into the h5py
-    group (or file)
-    ``g``: the one layout of a run, in its own file and inside a study's file alike."""
+    """Write ``outcome`` (a result of a registered test kind, or an error text) into the
+    h5py group (or file) ``g``: the one layout of a run, in its own file and inside a
+    study's file alike. The result's kind writes it (``TestKind.write_group``,
+    engine.study.kinds: :func:`write_uniaxial_group`, :func:`write_shear_group`,
+    :func:`write_hopper_group`)."""
     if isinstance(outcome, str):
         g.attrs["error"] = outcome
         return
-    shear = _is_shear_result(outcome)
-    curve_units, scalar_units = CURVE_UNITS, SCALAR_UNITS
-    if shear:
-        from ..shear.results import SHEAR_CURVE_UNITS, SHEAR_SCALAR_UNITS
+    from ..study.kinds import kind_of
 
-        curve_units = {**CURVE_UNITS, **SHEAR_CURVE_UNITS}
-        scalar_units = {**SCALAR_UNITS, **SHEAR_SCALAR_UNITS}
-        g.attrs["test"] = json.dumps({"type": "ShearTest", **outcome.test.to_dict()})
-        g.attrs["shear_points"] = strict_json(outcome.yield_points())
-        g.attrs["locus"] = strict_json(outcome.locus.to_dict())
-        stages = [(n, st, "consolidation") for n, st in outcome.consolidation.items()]
-        stages += [(n, st, "shear") for n, st in outcome.stages.items()]
-    else:
-        g.attrs["test"] = json.dumps(outcome.test.to_dict())
-        stages = [(n, st, None) for n, st in outcome.stages.items()]
+    kind_of(outcome).write_group(g, outcome, keep_particles)
+
+
+def _write_scalars(g, scalars: dict, units: dict) -> None:
     sc = g.create_group("scalars")
-    for k, v in outcome.scalars.items():
+    for k, v in scalars.items():
         sc.attrs[k] = float(v)
-        sc.attrs[f"{k}_units"] = scalar_units.get(k, "")
+        sc.attrs[f"{k}_units"] = units.get(k, "")
+
+
+def _write_stages(g, stages, curve_units: dict, keep_particles: bool) -> None:
+    """``stages``: (name, stage, part) in the order they ran; each stage has ``curves`` and
+    ``steps`` and, where it keeps them, ``positions`` and ``radii`` [m]."""
     for i, (name, st, part) in enumerate(stages):
         sg = g.create_group(f"stages/{name}")
         sg.attrs.update({"steps": int(st.steps), "position": i})
@@ -122,6 +129,57 @@ def write_run_group(g, outcome, keep_particles: bool = True) -> None:
             for pname, v in (("positions", st.positions), ("radii", st.radii)):
                 ds = p.create_dataset(pname, data=np.asarray(v), compression="gzip")
                 ds.attrs["units"] = "m"
+
+
+def write_uniaxial_group(g, outcome, keep_particles: bool = True) -> None:
+    """A :class:`engine.UniaxialResult` in the run layout (module docstring)."""
+    g.attrs["test"] = json.dumps(outcome.test.to_dict())
+    _write_scalars(g, outcome.scalars, SCALAR_UNITS)
+    stages = [(n, st, None) for n, st in outcome.stages.items()]
+    _write_stages(g, stages, CURVE_UNITS, keep_particles)
+
+
+def write_shear_group(g, outcome, keep_particles: bool = True) -> None:
+    """An :class:`engine.ShearResult` in the run layout (module docstring)."""
+    from ..shear.results import SHEAR_CURVE_UNITS, SHEAR_SCALAR_UNITS
+
+    g.attrs["test"] = json.dumps({"type": "ShearTest", **outcome.test.to_dict()})
+    g.attrs["shear_points"] = strict_json(outcome.yield_points())
+    g.attrs["locus"] = strict_json(outcome.locus.to_dict())
+    _write_scalars(g, outcome.scalars, {**SCALAR_UNITS, **SHEAR_SCALAR_UNITS})
+    stages = [(n, st, "consolidation") for n, st in outcome.consolidation.items()]
+    stages += [(n, st, "shear") for n, st in outcome.stages.items()]
+    _write_stages(g, stages, {**CURVE_UNITS, **SHEAR_CURVE_UNITS}, keep_particles)
+
+
+#: The stage a hopper run's discharge curves are stored as (module docstring).
+HOPPER_STAGE = "discharge"
+#: A hopper run's wall normal stress profiles: dataset name in group ``wall_stress`` ->
+#: (the :class:`engine.HopperResult` attribute, its units).
+HOPPER_WALL_STRESS = {
+    "edges": ("wall_edges", "m"),
+    "fill": ("wall_stress_fill", "Pa"),
+    "flow": ("wall_stress_flow", "Pa"),
+}
+
+
+def write_hopper_group(g, outcome, keep_particles: bool = True) -> None:
+    """An :class:`engine.HopperResult` in the run layout (module docstring): its discharge
+    curves as the one stage :data:`HOPPER_STAGE` (no particles: a hopper run keeps none, so
+    ``keep_particles`` changes nothing), its wall stress profiles in group ``wall_stress``."""
+    from types import SimpleNamespace
+
+    from ..hopper.results import HOPPER_CURVE_UNITS, HOPPER_SCALAR_UNITS
+
+    g.attrs["test"] = json.dumps({"type": "HopperTest", **outcome.test.to_dict()})
+    _write_scalars(g, outcome.scalars, HOPPER_SCALAR_UNITS)
+    # the run's steps, settling and discharge together: a hopper counts no stage's own
+    stage = SimpleNamespace(curves=outcome.curves, steps=outcome.scalars["steps"])
+    _write_stages(g, [(HOPPER_STAGE, stage, "discharge")], HOPPER_CURVE_UNITS, False)
+    ws = g.create_group("wall_stress")
+    for name, (attr, units) in HOPPER_WALL_STRESS.items():
+        ds = ws.create_dataset(name, data=np.asarray(getattr(outcome, attr), dtype=float))
+        ds.attrs["units"] = units
 
 
 def write_addition(g, key: str, added: list[dict]) -> None:
@@ -169,19 +227,14 @@ def stored_additions(directory: Path) -> list[dict]:
     return [a for r in sorted(rounds) for a in rounds[r]]
 
 
-def _is_shear_result(outcome) -> bool:
-    from ..shear.results import ShearResult
-
-    return isinstance(outcome, ShearResult)
-
-
-def _read_shear_group(g, test: dict):
-    """The :class:`engine.ShearResult` stored in the group ``g`` (its test's JSON ``test``)."""
+def read_shear_group(g, test: dict):
+    """The :class:`engine.ShearResult` stored in the group ``g`` (its test's JSON ``test``,
+    the kind's tag removed)."""
     from ..shear.locus import YieldLocus
     from ..shear.results import ShearPoint, ShearResult, ShearStage
     from ..shear.spec import ShearTest
 
-    scalars = {k: float(v) for k, v in g["scalars"].attrs.items() if not k.endswith("_units")}
+    scalars = _read_scalars(g)
     consolidation, stages = {}, {}
     for name in stage_names(g):
         sg = g["stages"][name]
@@ -215,15 +268,31 @@ def stage_names(g) -> list[str]:
 
 
 def read_run_group(g):
-    """The outcome stored in the group (or file) ``g``: a :class:`engine.UniaxialResult`,
-    an :class:`engine.ShearResult` or the error text."""
+    """The outcome stored in the group (or file) ``g``: a result of the kind its test's JSON
+    names by its ``"type"`` (``TestKind.read_group``, engine.study.kinds; none: a uniaxial
+    test) or the error text."""
     if "error" in g.attrs:
         return str(g.attrs["error"])
+    from ..study.kinds import KINDS
+
     stored = json.loads(g.attrs["test"])
-    if stored.get("type") == "ShearTest":
-        return _read_shear_group(g, {k: v for k, v in stored.items() if k != "type"})
-    test = UniaxialTest.from_stored(stored)
-    scalars = {k: float(v) for k, v in g["scalars"].attrs.items() if not k.endswith("_units")}
+    tag = stored.get("type")
+    kinds = {k.json_type or k.spec.__name__: k for k in KINDS.values()}
+    kind = next(k for k in KINDS.values() if k.json_type is None) if tag is None else kinds.get(tag)
+    if kind is None:
+        raise ValueError(f"stored run {g.name}: a test of an unknown type {tag!r}")
+    return kind.read_group(g, {k: v for k, v in stored.items() if k != "type"})
+
+
+def _read_scalars(g) -> dict[str, float]:
+    return {k: float(v) for k, v in g["scalars"].attrs.items() if not k.endswith("_units")}
+
+
+def read_uniaxial_group(g, test: dict):
+    """The :class:`engine.UniaxialResult` stored in the group ``g`` (its test's JSON
+    ``test``)."""
+    test = UniaxialTest.from_stored(test)
+    scalars = _read_scalars(g)
     stages = {}
     for name in stage_names(g):
         sg = g["stages"][name]
@@ -245,10 +314,28 @@ def read_run_group(g):
     return UniaxialResult(test, stages, scalars)
 
 
+def read_hopper_group(g, test: dict):
+    """The :class:`engine.HopperResult` stored in the group ``g`` (its test's JSON ``test``,
+    the kind's tag removed)."""
+    from ..hopper.results import HopperResult
+    from ..hopper.spec import HopperTest
+
+    sg = g["stages"][HOPPER_STAGE]
+    ws = g["wall_stress"]
+    profiles = {attr: ws[name][()] for name, (attr, _) in HOPPER_WALL_STRESS.items()}
+    return HopperResult(
+        HopperTest.from_dict(test),
+        {c: sg[c][()] for c in sg},
+        scalars=_read_scalars(g),
+        **profiles,
+    )
+
+
 def save_run(
     path: Path, outcome, keep_particles: bool = True, added: list[dict] | None = None
 ) -> Path:
-    """Write ``outcome`` (a UniaxialResult or an error text) to ``path`` atomically; with
+    """Write ``outcome`` (a result of a registered test kind, or an error text) to ``path``
+    atomically; with
     ``keep_particles`` also the particle positions and radii at each stage's end; with
     ``added`` (a ``decide`` study's added run: the additions of its round, as
     ``run_study``'s ``on_run`` hears them) its round and reason (module docstring)."""
@@ -277,7 +364,8 @@ def save_run(
 
 
 def load_run(path: Path):
-    """The stored outcome: a :class:`engine.UniaxialResult` or the error text."""
+    """The stored outcome: a result of its test's kind (:func:`read_run_group`) or the
+    error text."""
     import h5py
 
     with h5py.File(path, "r") as f:

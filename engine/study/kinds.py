@@ -25,6 +25,7 @@ from ..hopper import spec as hopper_spec
 from ..hopper import study as hopper_study
 from ..hopper.results import HopperResult
 from ..hopper.spec import HopperTest
+from ..io import store as run_store
 from ..shear import spec as shear_spec
 from ..shear.driver import run_shear
 from ..shear.results import ShearResult
@@ -144,7 +145,9 @@ class TestKind:
     snapshots); ``stage_time_scales`` (whether a coarse run's ``max_stage_time`` grows by
     s); ``window`` (whether a study sets its interior window, ``interior_margin``);
     ``clock_constants`` (in words: what a rule that is the law's exact similarity leaves in
-    seconds, the only thing a coarse run against its control can see).
+    seconds, the only thing a coarse run against its control can see); ``write_group(g,
+    result, keep_particles)`` and ``read_group(g, test_json)`` (its run in an h5py group,
+    engine.io.store's one run layout; ``test_json`` without the ``"type"`` tag).
     """
 
     name: str
@@ -171,6 +174,8 @@ class TestKind:
     stage_time_scales: bool
     window: bool
     clock_constants: str
+    write_group: Callable[[Any, Any, bool], None]
+    read_group: Callable[[Any, dict], Any]
 
 
 KINDS: dict[str, TestKind] = {}
@@ -298,6 +303,8 @@ UNIAXIAL = register(
         window=True,
         clock_constants="the constants left in seconds (output_interval, release_time) and "
         "the runs' chaos",
+        write_group=run_store.write_uniaxial_group,
+        read_group=run_store.read_uniaxial_group,
     )
 )
 
@@ -367,6 +374,8 @@ SHEAR = register(
         window=False,
         clock_constants="the curve samples' clock (output_interval, fixed in seconds) and "
         "the runs' chaos",
+        write_group=run_store.write_shear_group,
+        read_group=run_store.read_shear_group,
     )
 )
 
@@ -410,5 +419,7 @@ HOPPER = register(
         window=False,
         clock_constants="the discharge samples' clock (output_interval, fixed in seconds), "
         "the gate's opening and the runs' chaos",
+        write_group=run_store.write_hopper_group,
+        read_group=run_store.read_hopper_group,
     )
 )

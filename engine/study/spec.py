@@ -14,6 +14,7 @@ from ..contact.bilinear import BilinearAdhesive
 from ..contact.registry import adhesive_laws, law_names
 from ..core.errors import ParameterError
 from ..core.records import Record, check_fields, from_dict, param
+from ..hopper.spec import HopperTest
 from ..shear.spec import ShearTest
 from ..uniaxial.spec import UniaxialTest, preset
 from .kinds import KINDS, kind_of
@@ -237,8 +238,9 @@ class StudySpec(Record):
     """
 
     # the hint names what the job service takes (service/spec.py derives its schema from
-    # it: a uniaxial test, or a shear test tagged "type": "ShearTest" in JSON)
-    reference: UniaxialTest | ShearTest = param(
+    # it: a uniaxial test, or a shear test or a hopper tagged "type": "ShearTest" or
+    # "HopperTest" in JSON)
+    reference: UniaxialTest | ShearTest | HopperTest = param(
         unit="",
         kind="record",
         parse=_reference_from_json,

@@ -5,9 +5,11 @@ from __future__ import annotations
 from enum import Enum
 from typing import Annotated
 
+import numpy as np
 from fastapi import APIRouter, HTTPException, Path, Query, Response
 from fastapi.responses import FileResponse
 
+from engine.io.store import HOPPER_STAGE
 from engine.io.vtkhdf import render_section
 from engine.shear.spec import MAX_POINTS
 from engine.uniaxial.driver import STAGES
@@ -28,8 +30,11 @@ SHEAR_STAGES = (
     *(f"point{k}_{part}" for k in range(MAX_POINTS) for part in ("reverse", "normal", "shear")),
 )
 #: A stage of the uniaxial test (engine.uniaxial.driver.STAGES; a shear test's fill and
-#: consolidation are among them) or of the shear test, or every stage.
-StageKind = Enum("StageKind", {s: s for s in (*STAGES, *SHEAR_STAGES, "all")}, type=str)
+#: consolidation are among them), of the shear test or of a hopper (its discharge, as
+#: engine.io.store stores it), or every stage.
+StageKind = Enum(
+    "StageKind", {s: s for s in (*STAGES, *SHEAR_STAGES, HOPPER_STAGE, "all")}, type=str
+)
 #: How the curves are sent.
 CurvesFormat = Enum("CurvesFormat", {k: k for k in ("json", "csv")}, type=str)
 #: Longest run key accepted [characters].
@@ -148,8 +153,8 @@ def curves(
         ),
     ] = CurvesFormat.json,
 ):
-    """Curves of a run (or every run), of one stage or all: lists of numbers with units, or
-    CSV. 404 for a run or stage the study does not have."""
+    """Curves of a run (or every run), of one stage or all: lists of numbers with units (a
+    sample not measured as null), or CSV. 404 for a run or stage the study does not have."""
     results = get_results(study, settings)  # 409 after the query's own checks (422)
     stage = None if kind is StageKind.all else kind.value
     try:
@@ -171,9 +176,18 @@ def curves(
         )
     for entry in data["runs"].values():
         entry["stages"] = {
-            s: {k: v.tolist() for k, v in c.items()} for s, c in entry["stages"].items()
+            s: {k: _json_values(v) for k, v in c.items()} for s, c in entry["stages"].items()
         }
     return {"id": str(study.id), **data}
+
+
+def _json_values(values) -> list:
+    """A curve as strict JSON: a sample not measured (NaN, e.g. a hopper's band speed where
+    no grain is in the band) or infinite as null."""
+    v = np.asarray(values)
+    if v.dtype.kind != "f" or np.isfinite(v).all():
+        return v.tolist()
+    return np.where(np.isfinite(v), v, None).tolist()
 
 
 @router.get(
@@ -189,7 +203,8 @@ def plot(
     """A PNG plot of a kind the study has (its ``plot_kinds``): of a uniaxial study
     stress_strain, stress_porosity, coordination, unconfined (with that stage),
     error_vs_runtime and resolution (with resolution controls); of a shear study
-    yield_locus, preshear, error_vs_runtime and resolution. An unknown kind is a 422 and a
+    yield_locus, preshear, error_vs_runtime and resolution; of a hopper study
+    error_vs_runtime and resolution. An unknown kind is a 422 and a
     kind the study does not have a 404 naming the kinds it has, whatever its status; one of
     its kinds of a study that has not succeeded a 409."""
     why = not_a_kind_of(study.spec, kind.value)

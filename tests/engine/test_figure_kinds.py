@@ -125,7 +125,11 @@ def test_a_study_s_plots_follow_its_kind_of_test():
     # the table of a stored study says the same
     assert kinds_of(uniaxial_study()[1]) == UNIAXIAL_KINDS
     assert kinds_of(shear_study()[1]) == ("yield_locus", "preshear", "error_vs_runtime")
-    assert set(TEST_PLOTS) == {"UniaxialTest", "ShearTest"}
+    assert set(TEST_PLOTS) == {"UniaxialTest", "ShearTest", "HopperTest"}
+    # a hopper study: the verdicts' figures only (docs/HOPPER.md)
+    assert plot_kinds({"reference": {"type": "HopperTest"}, "controls": False}) == (
+        "error_vs_runtime",
+    )
     with pytest.raises(ValueError, match="no plots"):
         plot_kinds({"reference": {"type": "Bogus"}})
 

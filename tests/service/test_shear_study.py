@@ -268,6 +268,6 @@ def test_the_schema_has_the_shear_reference_from_the_records(client):
     assert shear["properties"]["settle_ke"]["minimum"] == 1e-8
     ref = schema["StudyCreate"]["properties"]["reference"]
     refs = {o["$ref"].rsplit("/", 1)[1] for o in ref["oneOf"]}
-    assert refs == {"ReferenceIn", "ShearTestIn"}
+    assert refs == {"ReferenceIn", "ShearTestIn", "HopperTestIn"}
     examples = schema["StudyCreate"]["examples"]
     assert SHEAR_EXAMPLE in examples

@@ -8,9 +8,10 @@ What decides, fixed before the runs (2026-12-06):
   the settled fill** (its lower half, ``scalars["bulk_density"]``), in units of d^(3/2):
   y = W / (rho_b sqrt(g) d^(3/2)), d the mean diameter. Beverloo's slot form is then
   y = C (B/d - k)^(3/2).
-- **Width means**: per outlet width the mean of y over its seeds, with its standard error
-  (standard deviation over sqrt(n), n >= 2 seeds; a single seed's own batch-means error
-  otherwise, marked).
+- **Width means**: per outlet width the mean of y over its seeds, with its standard error:
+  the seeds' standard deviation over sqrt(n) (n >= 2 seeds), but no less than the runs'
+  mean batch-means error over sqrt(n) (two or three seeds that agree by chance would
+  otherwise weigh a width without bound); a single seed's own batch-means error otherwise.
 - **The fit**: C and k by weighted least squares over the width means (weights 1 / SE^2):
   for a fixed k the best C is linear, so chi^2 is minimised over a fine grid of k
   (step 1e-3 of a diameter, k from -3 to just below the narrowest B/d) and C follows.
@@ -79,6 +80,24 @@ class Point:
     particles: int
     cpu_seconds: float
     wall_seconds: float
+    drift: float = math.nan
+
+
+def drift_of(curve: dict, total: float, start: float, end: float) -> float:
+    """How the rate changed over the steady window, from a digest's decimated curve: the
+    least-squares rate over the window's second half in discharged mass less that over its
+    first half, over their mean [-] (NaN with fewer than four samples in a half). A rate set
+    by the outlet alone, not by the head above it, drifts by no more than its noise."""
+    t = np.asarray(curve.get("time", ()), dtype=float)
+    m = np.asarray(curve.get("discharged_mass", ()), dtype=float)
+    mid = 0.5 * (start + end)
+    rates = []
+    for a, b in ((start, mid), (mid, end)):
+        sel = (m >= a * total) & (m <= b * total)
+        if sel.sum() < 4:
+            return math.nan
+        rates.append(np.polyfit(t[sel], m[sel], 1)[0])
+    return float((rates[1] - rates[0]) / (0.5 * (rates[0] + rates[1])))
 
 
 def point_of(width: float, seed: int, digest) -> Point | None:
@@ -105,6 +124,12 @@ def point_of(width: float, seed: int, digest) -> Point | None:
         particles=int(s["particles"]),
         cpu_seconds=float(digest.extra.get("cpu_seconds", math.nan)),
         wall_seconds=float(digest.extra.get("wall_seconds", math.nan)),
+        drift=drift_of(
+            digest.extra.get("curve", {}),
+            float(s.get("total_mass", math.nan)),
+            float(digest.test["window_start"]),
+            float(digest.test["window_end"]),
+        ),
     )
 
 
@@ -124,10 +149,13 @@ def width_means(pts: list[Point]) -> list[dict]:
     out = []
     for w in sorted({p.width for p in pts}):
         ys = np.array([p.y for p in pts if p.width == w])
+        own = float(np.mean([p.y_se for p in pts if p.width == w])) / math.sqrt(len(ys))
         if len(ys) >= 2:
-            se, from_seeds = float(np.std(ys, ddof=1) / math.sqrt(len(ys))), True
+            # no lower than the runs' own errors say: two or three seeds that agree by
+            # chance would otherwise weigh a width without bound
+            se, from_seeds = max(float(np.std(ys, ddof=1) / math.sqrt(len(ys))), own), True
         else:
-            se, from_seeds = float(next(p.y_se for p in pts if p.width == w)), False
+            se, from_seeds = own, False
         out.append(
             {"width": w, "n": len(ys), "mean": float(ys.mean()), "se": se, "seeds": from_seeds}
         )
@@ -269,18 +297,22 @@ def section(store=None) -> str:
     if pts:
         L += [
             "| B/d | seed | particles | rho_b (kg/m^3) | W (kg/(s m)) | y | y's SE (batch means) "
-            "| flow | CPU s | wall s |",
-            "|---|---|---|---|---|---|---|---|---|---|",
+            "| drift | flow | CPU s | wall s |",
+            "|---|---|---|---|---|---|---|---|---|---|---|",
         ]
         for p in sorted(pts, key=lambda p: (p.width, p.seed)):
             L.append(
                 f"| {p.width:g} | {p.seed} | {p.particles} | {p.rho_b:.0f} | "
-                f"{p.rate_per_depth:.4g} | {p.y:.4g} | {p.y_se:.2g} | {p.flow_mode} | "
+                f"{p.rate_per_depth:.4g} | {p.y:.4g} | {p.y_se:.2g} | {p.drift:+.1%} | "
+                f"{p.flow_mode} | "
                 f"{p.cpu_seconds:.0f} | {p.wall_seconds:.0f} |"
             )
         L += [
             "",
-            "(CPU and wall seconds of the whole run on one engine thread of a 2-core VM shared "
+            "(drift: the rate over the second half of the steady window, in discharged mass, "
+            "less that over its first half, over their mean, from the stored curve: a rate set "
+            "by the outlet, not the head, drifts by its noise only. "
+            "CPU and wall seconds of the whole run on one engine thread of a 2-core VM shared "
             "with other jobs, the kernels' compilation included where the run compiled them.)",
             "",
         ]

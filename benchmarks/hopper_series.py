@@ -141,27 +141,26 @@ def stored(width: float, seed: int, store: Path | None = None):
 
 
 #: Throughput of the engine on these fills, one thread of this 2-core VM shared with other
-#: jobs [particle-steps per CPU second] (measured: module docstring of hopper_report, the
-#: cost table; the hopper tests' 0.7-1.3 microseconds per particle-step).
-THROUGHPUT = 1.0e6
-#: The time step of these grains, 0.4 of the stable limit [s] (2.1e-5 s in the hopper tests).
-DT_ESTIMATE = 2.1e-5
+#: jobs [particle-steps per CPU second]: 3.3e6 and 3.5e6 measured in the runs w8-s1 and
+#: w12-s1 (2026-12-06; the first run, w6-s1, 1.4e6 with the kernels' compilation in it).
+THROUGHPUT = 3.4e6
+#: The time step of these grains, 0.4 of the stable limit [s] (1.81e-5 to 1.84e-5 s measured).
+DT_ESTIMATE = 1.83e-5
+#: The settling's simulated time [s] (0.368-0.374 s measured at 6-12 d).
+SETTLE_ESTIMATE = 0.4
 
 
 def estimate(width: float, seed: int) -> float:
-    """A run's CPU time on one thread [s], estimated: the settling (two free-fall times from
-    the loose lattice's top, 1.3 H, plus 0.2 s to come to rest) and the discharge (the fill's
-    mass over Beverloo's rate with C = 0.6, k = 1.5 and rho_b = 0.6 rho, 1.3 times for the
-    start and the tail) in steps of :data:`DT_ESTIMATE`, times the particles, over
+    """A run's CPU time on one thread [s], estimated: the settling
+    (:data:`SETTLE_ESTIMATE`) and the discharge (the fill's mass at rho_b = 0.56 rho over
+    the rate y = 1.0 (B/d)^1.5, about what the first runs gave, 1.3 times for the start and
+    the tail) in steps of :data:`DT_ESTIMATE`, times the particles, over
     :data:`THROUGHPUT`."""
     t = test_of(width, seed)
-    g = t.gravity
-    h = t.fill_height
-    settle = 2.0 * math.sqrt(2.0 * 1.3 * h / g) + 0.2
-    rho_b = 0.6 * t.density
-    mass = rho_b * t.volume_below(h)
-    rate = 0.6 * rho_b * math.sqrt(g) * (t.outlet_width - 1.5 * D) ** 1.5 * t.depth
-    steps = (settle + 1.3 * mass / rate) / DT_ESTIMATE
+    rho_b = 0.56 * t.density
+    mass = rho_b * t.volume_below(t.fill_height)
+    rate = 1.0 * rho_b * math.sqrt(t.gravity) * t.outlet_width**1.5 * t.depth
+    steps = (SETTLE_ESTIMATE + 1.3 * mass / rate) / DT_ESTIMATE
     return t.n_particles * steps / THROUGHPUT
 
 

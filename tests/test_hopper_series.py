@@ -60,6 +60,8 @@ def test_report_from_stored_digests(tmp_path):
             _write(tmp_path, w, seed, y)
     means = R.width_means(R.points(tmp_path))
     assert [m["n"] for m in means] == [3] * 5
+    # no width's error below the runs' own (1 % of y) over sqrt(3)
+    assert all(m["se"] >= 0.0099 * m["mean"] / math.sqrt(3) for m in means)
     text = R.section(tmp_path)
     assert text.startswith(R.BEGIN) and text.endswith(R.END)
     assert "15 runs with a steady window of 18 planned" in text

@@ -288,6 +288,16 @@ def section(store=None) -> str:
         + ".",
         "",
     ]
+    left = [k for k, (_, _, d) in zip(S.keys(), stored_all) if d is None]
+    if left:
+        L += [
+            f"**Left to run**: {len(left)} runs ("
+            + ", ".join(S.key_name(*k) for k in left)
+            + f"), about {sum(S.estimate(*k) for k in left) / 60:.0f} min of CPU on one "
+            "engine thread by `hopper_series.estimate` (wall time more on a shared machine); "
+            "`python -m benchmarks.hopper_series` runs them, then `--report` rewrites this.",
+            "",
+        ]
     if failed:
         L += ["Failed runs: " + "; ".join(f"{S.key_name(w, s)}: {o[:120]}" for w, s, o in failed)]
         L += [""]

@@ -5,7 +5,7 @@ runs, stored as compact digests in git; the fit and docs/HOPPER.md's section are
     python -m benchmarks.hopper_series            # every run not yet stored, cheapest first
     python -m benchmarks.hopper_series --list     # the runs, particles, stored or estimated cost
     python -m benchmarks.hopper_series --only w6  # the runs whose key contains w6
-    python -m benchmarks.hopper_series --report   # docs/HOPPER.md's Beverloo section
+    python -m benchmarks.hopper_report           # docs/HOPPER.md's Beverloo section
 
 Choices, fixed here before any run of the series (2026-12-06):
 
@@ -229,15 +229,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", nargs="*", help="runs whose key contains any of these")
     ap.add_argument("--list", action="store_true", help="list the runs and their cost")
-    ap.add_argument(
-        "--report", action="store_true", help="write docs/HOPPER.md's section, run nothing"
-    )
     args = ap.parse_args(argv)
-    if args.report:
-        from benchmarks import hopper_report
-
-        print(hopper_report.write_report())
-        return 0
     todo = keys(args.only)
     if args.list:
         total = 0.0
@@ -257,7 +249,7 @@ def main(argv=None) -> int:
         if stored(*k) is None:
             print(f"running {key_name(*k)} ({test_of(*k).n_particles} particles)", flush=True)
             print(run_one(*k), flush=True)
-    print("the report: python -m benchmarks.hopper_series --report")
+    print("the report: python -m benchmarks.hopper_report")
     return 0
 
 

@@ -30,6 +30,9 @@ from tests.test_cli import TINY
 #: runs; the round adds the two reference seeds a one-seed reference lacks).
 DECIDE = {
     **TINY,
+    # at the default protocol's inertial number: runs long enough (seconds) for the display
+    # to have a time left to show before the study ends
+    "reference": {**TINY["reference"], "inertial_number": 5e-4},
     "controls": False,
     "protocol_check": False,
     "decide": True,

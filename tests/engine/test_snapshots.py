@@ -23,7 +23,9 @@ INTERVAL = 0.05  # s of simulated time between snapshots during the stages
 def run(tmp_path_factory):
     """A tiny run streamed to a writer every INTERVAL, then its stage ends saved."""
     d = tmp_path_factory.mktemp("snapshots")
-    test = engine.UniaxialTest(cell=(0.015, 0.015, 0.015), output_interval=1e-3, platen_speed=0.02)
+    test = engine.UniaxialTest(
+        cell=(0.015, 0.015, 0.015), output_interval=1e-3, platen_speed=0.02, inertial_number=None
+    )
     streamed = []
 
     def keep(snap):

@@ -377,7 +377,7 @@ def report() -> str:
                 f"{'' if need is None else need['limited_by']} | {sizes} |"
             )
     lines.append(
-        "| hopper outlet | any | not measured (no outlet in the engine yet: issue 52) | | |"
+        "| hopper outlet | any | not measured (no outlet size series yet: issue 52) | | |"
     )
     lines += [
         "",
@@ -445,8 +445,8 @@ def report() -> str:
     lines += [
         "## Not measured",
         "",
-        "- A hopper outlet (Beverloo's annulus, arching): the engine has no bounded walls yet "
-        "(issue 52).",
+        "- A hopper outlet (Beverloo's annulus, arching): the engine has the hopper test "
+        "(docs/HOPPER.md) but no outlet size series of the fine law yet (issue 52).",
         "- A wall layer against a smooth wall, and a shear band in a free flow.",
         "- Laws other than the bilinear law at f0 = -0.4 and -1.2 N (k1 = 5 kN/m, "
         "mu_s = 0.5, R = 2.5 mm, 20 kPa consolidation): another law's need is not inferred "
@@ -575,7 +575,7 @@ def readme_block(ev: dict | None = None) -> str:
     needs = "; ".join(f"{KIND_WORDS[k]} {_need_words(feats.get(k))}" for k in kinds)
     lines = [
         f"- N_req for the default powder's law (f0 = -0.4 N at 20 kPa): {needs}; "
-        "an outlet is not measured (no bounded walls yet).",
+        "an outlet is not measured (no outlet size series yet).",
     ]
     base = engine.default_study().reference
     for d0 in (50e-6, 5e-3):

@@ -361,7 +361,7 @@ def plan_process(process: Process, evidence: dict | None = None) -> ProcessPlan:
             continue
         if entry is None or entry.get("bound") in ("not_linear", "confounded"):
             if kind == "outlet":
-                why = "not measured: no outlet in the engine yet (issue 52)"
+                why = "not measured: no outlet size series yet (docs/HOPPER.md, issue 52)"
             elif entry is not None and entry.get("bound") == "confounded":
                 what = entry.get("why", "a property is confounded")
                 why = f"not decided: in series {matched} {what} (docs/RESOLUTION.md, Confounds)"

@@ -376,9 +376,7 @@ def report() -> str:
                 f"| {FEATURE_WORDS[feature]} | {law_name} | {_fmt_need(need)} | "
                 f"{'' if need is None else need['limited_by']} | {sizes} |"
             )
-    lines.append(
-        "| hopper outlet | any | not measured (no outlet size series yet: issue 52) | | |"
-    )
+    lines.append("| hopper outlet | any | not measured (no outlet size series yet: issue 52) | | |")
     lines += [
         "",
         "A feature kind not in this table is not measured; none is inferred from another.",

@@ -359,3 +359,30 @@ def load_kernel(features: dict[str, bool]) -> ModuleType:
         spec.loader.exec_module(module)
         _loaded[key] = module
         return module
+
+
+def compiled_member(module: ModuleType, args: tuple):
+    """``module.run_member`` compiled for ``args`` (the member's arguments after its rank),
+    once across processes: the first process to need a kernel compiles it (tens of seconds)
+    while holding a lock file beside its source (``step_<digest>.lock``, ``flock``); the
+    others wait, then load what it wrote to numba's cache instead of compiling it again
+    (test workers, service workers and pool processes starting together on a cold cache).
+    A process killed while compiling drops its lock. Without ``fcntl`` (not POSIX) each
+    process compiles as before."""
+    member = module.run_member
+    if member.signatures:
+        return member
+    signature = tuple(numba.typeof(a) for a in (0, *args))
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - POSIX only
+        member.compile(signature)
+        return member
+    with open(Path(module.__file__).with_suffix(".lock"), "a") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            if not member.signatures:
+                member.compile(signature)  # numba's cache first: a loaded kernel if written
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+    return member

@@ -34,7 +34,13 @@ from ..kernel.neighbour import (
     reverse_list,
     wrap_positions,
 )
-from ..kernel.specialise import load_kernel, pair_slots, scene_features, wall_slots
+from ..kernel.specialise import (
+    compiled_member,
+    load_kernel,
+    pair_slots,
+    scene_features,
+    wall_slots,
+)
 from ..kernel.state import NAN as _STATUS_NAN
 from ..kernel.state import OK as _STATUS_OK
 from ..kernel.state import OVERLAP as _STATUS_OVERLAP
@@ -503,7 +509,7 @@ class Simulation:
         return int(sync[SYNC_STEPS]), int(sync[SYNC_STATUS])
 
     def _run_team(self, team: int, args: tuple) -> None:
-        run_team(self._k.run_member, team, args)
+        run_team(compiled_member(self._k, args), team, args)
 
     def _rebuild(self) -> None:
         p = self._particles

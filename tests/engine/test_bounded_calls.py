@@ -4,6 +4,8 @@ bit-identical to that of one uninterrupted call, wherever the calls end."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -116,3 +118,15 @@ def test_a_long_call_returns_to_python_within_call_seconds():
     assert len(gaps) >= 2
     # generous: the bound is about CALL_SECONDS; a loaded CI machine may stretch it
     assert max(gaps[1:]) < 20 * simulation.CALL_SECONDS, gaps
+
+
+def test_the_step_kernel_is_compiled_once_for_the_types_it_is_called_with():
+    """engine.kernel.specialise.compiled_member compiles the member ahead of its first call
+    (under a lock file, so that processes starting together compile a kernel once): the
+    signature it compiles is the one the call dispatches to, or the call would compile a
+    second one."""
+    sim = engine.Simulation(_scene(), dt=1e-5, threads=2)
+    sim.run(10)
+    member = sim._k.run_member
+    assert len(member.signatures) == 1
+    assert Path(sim._k.__file__).with_suffix(".lock").is_file()

@@ -19,7 +19,8 @@ from ..contact.wall import WallMaterial
 from ..core.config import SKIN_FRACTION
 from ..core.errors import ParameterError
 from ..core.records import Record, check_fields, param
-from ..uniaxial.spec import DEFAULT_PROTOCOL, GRAVITY
+from ..uniaxial.spec import DEFAULT_PROTOCOL, GRAVITY, _cohesionless_law
+from ..uniaxial.spec import _platen_law as _wall_law
 
 #: The outlet is at least this many diameters of the largest particle wide [-]: below about
 #: three diameters a few grains span any outlet and no flow, steady or not, is measured
@@ -31,14 +32,6 @@ MIN_PARTICLES = 50
 MAX_PARTICLES = 2_000_000
 #: Sides of the polygon that stands for the cone's circular cross-section [-].
 CONE_SIDES = 32
-
-
-def _cohesionless_law() -> BilinearAdhesive:
-    return BilinearAdhesive(k1=5e3, k2=2.5e4, f0=0.0, mu_s=0.5, mu_r=0.001, restitution=0.4)
-
-
-def _wall_law() -> HertzMindlin:
-    return HertzMindlin(E=1e8, nu=0.25, restitution=0.4, mu=0.3)
 
 
 @dataclass(frozen=True)

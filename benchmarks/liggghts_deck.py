@@ -30,7 +30,7 @@ Cases:
   with K2 = K1, for (b) with f0 = 0 and for (b) in a box walled instead of periodic.
 
 docs/LIGGGHTS_DECK.md explains what each case shows; the report judges LIGGGHTS' runs of a
-case against demscale's with the study's verdict rule (engine.study.advisor.judge_groups),
+case against demscale's with the study's verdict rule (engine.study.judge.judge_groups),
 and against each demscale run with a difference removed.
 """
 

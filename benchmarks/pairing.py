@@ -5,13 +5,13 @@
 A resolution control and a coarse run of one seed start from the exactly scaled same loose
 cloud (engine.simulation.packing draws positions as fractions of the box). Whether their
 values stay correlated decides whether the rule's own error is worth judging paired by seed
-(engine.study.advisor.judge_rule_error). For every variant with two or more seeds that have
+(engine.study.judge.judge_rule_error). For every variant with two or more seeds that have
 a control, the logs of each metric (summed over stress levels for density and coordination)
 are centred within the variant, for the coarse runs and for their controls; the pooled
 correlation is the sum of the cross products over the root of the sums of squares, with
 sum(n - 1) degrees of freedom, and the variance ratio is
 var(log c - log k) / (var log c + var log k), which
-:data:`engine.study.advisor.PAIRING_VARIANCE_RATIO` holds.
+:data:`engine.study.judge.PAIRING_VARIANCE_RATIO` holds.
 """
 
 from __future__ import annotations

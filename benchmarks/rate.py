@@ -13,7 +13,7 @@ The quick scale (2,292 particles, 10 diameters thick) is used: a paper-scale ref
 compression stages). Speeds 0.5x and 2x of the reference test's platen speed, seeds 1-3,
 each stored as it finishes in ``benchmarks/results/quick/rate/``; the 1x runs are the stored
 references of experiment (b) (``benchmarks/results/quick/b_cohesive/ref-s*.h5``). Each speed
-is judged against them with :func:`engine.study.advisor.judge_groups` at the study's
+is judged against them with :func:`engine.study.judge.judge_groups` at the study's
 tolerances and confidence: ``equivalent`` means the reference's properties do not depend on
 the platen speed within tolerance over a factor of 4 in rate.
 """
@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from engine.io.store import load_run, save_run
-from engine.study.advisor import judge_groups
+from engine.study.judge import judge_groups
 from engine.study.metrics import metric_names, metric_values
 from engine.study.plan import reference_test as study_reference
 from engine.uniaxial.driver import run_uniaxial

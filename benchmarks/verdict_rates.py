@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from engine.study import advisor, judge
+from engine.study import judge
 from tests.engine import test_coverage as sim
 
 KINDS = ("normal", "lognormal", "low", "high")
@@ -58,7 +58,7 @@ def coverage(n: int) -> dict:
     for name in ("rule", "alpha per end", "Welch-Satterthwaite"):
         out[name] = {}
         with variant(name):
-            ae, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
+            ae, ad = judge.error_rates(judge.CONFIDENCE, 1)
             for kind in KINDS:
                 worst_e, worst_d = (0.0, None), (0.0, None)
                 for nr in SEEDS:
@@ -80,7 +80,7 @@ def power(n: int) -> dict:
     """The issue-28 scenario (3 reference seeds at 3 %, coarse spread 10 %): per coarse seed
     count, P(equivalent | error 0) and P(differs | error ± 2 tolerance), for the rule and the
     rule before issue 28; and the oracle's seed counts."""
-    ae, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
+    ae, ad = judge.error_rates(judge.CONFIDENCE, 1)
     rows = []
     for nc in range(3, 13):
         new_eq = sim._power(sim._new_rule, 1.0, nc, n=n, seed=nc)[0]
@@ -93,7 +93,7 @@ def power(n: int) -> dict:
     return {
         "rows": rows,
         "oracle_equivalent": sim._oracle_equivalent(ae),
-        "oracle_equivalent_alpha_per_end": sim._oracle_equivalent(1 - advisor.CONFIDENCE),
+        "oracle_equivalent_alpha_per_end": sim._oracle_equivalent(1 - judge.CONFIDENCE),
         "oracle_differs": sim._oracle_differs(ad),
     }
 
@@ -115,7 +115,7 @@ def adaptive(n: int) -> dict:
     out["error 0"] = sim._adaptive(1.0, n=n, seed=8)
     out["error +30 %"] = sim._adaptive(1 + 2 * sim.TOL, n=n, seed=9)
     out["error -30 %"] = sim._adaptive(1 - 2 * sim.TOL, n=n, seed=10)
-    ae, _ = advisor.error_rates(advisor.CONFIDENCE, 1, look=2, looks=2)
+    ae, _ = judge.error_rates(judge.CONFIDENCE, 1, look=2, looks=2)
     out["oracle_seeds"] = sim._oracle_equivalent(ae)
     return out
 
@@ -147,7 +147,7 @@ def pooled(n: int) -> dict:
     r = sim._draw(rng, (n, 3), 1.0, sim.SD_REF, "normal")
     c = sim._draw(rng, (n, 8), 1 + sim.TOL, 2 * sim.SD_COARSE, "normal")
     others = [sim._draw(rng, (n, 8), 1.0, sim.SD_COARSE, "normal") for _ in range(3)]
-    ae, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
+    ae, ad = judge.error_rates(judge.CONFIDENCE, 1)
     for level, key in ((None, "no_screen"), (0.05, "screen_5pct"), (judge.SCREEN_LEVEL, "screen")):
         v = judge.judge_samples(c, r, sim.TOL, ae, ad, others=others, level=level)
         out[key] = float(np.mean(v == "equivalent"))

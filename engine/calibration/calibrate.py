@@ -311,7 +311,8 @@ CORRECTED_BY = {
 
 def resolution_corrections(curve: dict) -> dict[str, tuple[float, float]]:
     """Corrections for a calibration run in a study's reference cell, from that study's
-    resolution curve (``StudyResult.advisor["resolution_curve"]``, or its summary's): per
+    resolution curve (``StudyResult.report.resolution_curve.to_dict()``, or its summary's
+    ``advisor["resolution_curve"]``): per
     kind of target, the factor bulk / cell value, 1 / (1 + the reference's offset from the
     bulk), and the standard deviation of its logarithm (from the offset's interval and its
     degrees of freedom). Only properties the curve has are corrected."""
@@ -555,7 +556,7 @@ class Calibration:
         """The scaling study of the calibrated law, to hand to :func:`engine.run_study`:
         ``spec``'s radii, rules and seeds (an :class:`engine.StudySpec`; None: the default
         study's) with the calibrated test as its reference. Calibrate, then coarsen:
-        ``engine.run_study(cal.study())``; its advisor names the coarsest radius each rule
+        ``engine.run_study(cal.study())``; its report names the coarsest radius each rule
         keeps every property within tolerance at, and the law to run there."""
         from ..study.spec import default_study
 

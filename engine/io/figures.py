@@ -7,7 +7,8 @@ back from its HDF5 file draw the same pictures:
           (a shear run's also "points": its yield points, the pre-shear point first, as
           :meth:`engine.ShearResult.yield_points` gives them, and "locus": its fitted locus)
 ``table`` one dict per run with the columns of :data:`engine.study.kinds.TABLE_UNITS`
-``advisor`` the study's advisor (tolerances, noise floor, verdicts), or None
+``report`` the study's :class:`engine.study.report.StudyReport` (tolerances, noise floor,
+          verdicts), or None
 
 matplotlib is imported only when a figure is drawn (the engine does not depend on it).
 """
@@ -58,7 +59,7 @@ TEST_NAMES = {"UniaxialTest": "uniaxial", "ShearTest": "shear", "HopperTest": "h
 #: Bumped when a figure's drawing changes, so that cached PNGs are drawn again.
 FIGURES_VERSION = 9
 
-#: Kinds drawn from the advisor on a whole figure (several panels), not from the curves.
+#: Kinds drawn from the report on a whole figure (several panels), not from the curves.
 _WHOLE_FIGURE = ("error_vs_runtime", "resolution")
 
 _CONFINED = ("consolidation", "unloading")
@@ -85,8 +86,8 @@ _METRIC_PANELS = {
 _MARKERS = "osD^vP*X"
 
 
-def study_plot_data(result) -> tuple[dict, list[dict], dict]:
-    """``(runs, table, advisor)`` of a live :class:`engine.StudyResult`."""
+def study_plot_data(result) -> tuple[dict, list[dict], object]:
+    """``(runs, table, report)`` of a live :class:`engine.StudyResult`."""
     runs = {}
     for key, r in result.runs.items():
         runs[key] = {
@@ -97,7 +98,7 @@ def study_plot_data(result) -> tuple[dict, list[dict], dict]:
         if hasattr(r.result, "yield_points"):  # a shear run (engine.ShearResult)
             runs[key]["points"] = r.result.yield_points()
             runs[key]["locus"] = r.result.locus.to_dict()
-    return runs, result.table, result.advisor
+    return runs, result.table, result.report
 
 
 def is_shear_table(table: list[dict]) -> bool:
@@ -398,16 +399,16 @@ def _mohr_circles(ax, loci: list[dict]) -> None:
         )
 
 
-def _metric_bias(m: dict | None) -> tuple[float, float, float] | None:
-    """(signed error, low, high) of a verdict metric [-]: its bias and the bias's 95 %
-    interval, or its signed error alone; None where the metric compared nothing."""
-    if not m:
+def _metric_bias(m) -> tuple[float, float, float] | None:
+    """(signed error, low, high) of a verdict metric [-] (an
+    :class:`engine.study.report.MetricVerdict`): its bias and the bias's 95 % interval, or
+    its signed error alone; None where the metric compared nothing."""
+    if m is None:
         return None
-    bias = m.get("bias") or {}
-    err = bias.get("error", m.get("signed_error"))
+    err = m.bias.error if m.bias is not None else m.signed_error
     if err is None:
         return None
-    lo, hi = bias.get("interval") or (err, err)
+    lo, hi = m.bias.interval if m.bias is not None else (err, err)
     return float(err), float(lo), float(hi)
 
 
@@ -433,7 +434,7 @@ def _time_axis(ax, times: list[float]) -> None:
     ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
 
 
-def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
+def _error_vs_runtime(fig, table: list[dict], report) -> None:
     """One panel per verdict metric: each coarse variant's signed error against the
     reference [%] (the mean over its seeds, with its 95 % interval) at its mean run time
     [s]; the resolution controls' likewise (the error of the reference law that many
@@ -445,17 +446,17 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
     from matplotlib.lines import Line2D
     from matplotlib.ticker import FuncFormatter
 
-    advisor = advisor or {}
-    tol = advisor.get("tolerances", {})
-    noise = advisor.get("noise_floor", {})
+    tol = report.tolerances if report is not None else {}
+    noise = report.noise_floor if report is not None else {}
     names = [n for n, (col, _) in _METRIC_PANELS.items() if any(col in r for r in table)]
     rules = sorted({r["rule"] for r in table if r["rule"] != "reference"})
     radii = sorted({r["radius"] for r in table if r["rule"] != "reference"})
     times = _run_times(table)
     ref_times = [r["wall_time"] for r in table if r["rule"] == "reference"]
-    groups = [(v, False) for v in advisor.get("verdicts") or []]
-    groups += [(v, False) for v in advisor.get("resolution") or []]
-    groups += [(v, True) for v in advisor.get("rule_errors") or []]
+    groups = []
+    if report is not None:
+        groups = [(v, False) for v in (*report.verdicts, *report.resolution)]
+        groups += [(v, True) for v in report.rule_errors]
     axes = fig.subplots(1, max(1, len(names)), sharex=True, squeeze=False)[0]
     clipped = False  # an interval cut at +-CAP: drawn to the edge with an arrow
     for ax, name in zip(axes, names):
@@ -473,10 +474,9 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
         lin = 100 * tol.get(name, 0.1)  # linear within the tolerance
         reach = [lin, 100 * noise.get(name) if noise.get(name) is not None else 0.0]
         for v, own in groups:
-            rule = "control" if v.get("what") == "resolution" else v["rule"]
-            m = next((m for m in v.get("metrics", []) if m["metric"] == name), None)
-            got = _metric_bias(m)
-            t = times.get((v["radius"], rule))
+            rule = "control" if v.what == "resolution" else v.rule
+            got = _metric_bias(v.metric(name))
+            t = times.get((v.radius, rule))
             if got is None or t is None or rule not in rules:
                 continue
             err, lo, hi = (100 * x for x in got)
@@ -485,7 +485,7 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
             err, lo, hi = _cap(ax, x, err, lo, hi, colour)
             clipped = clipped or (lo, hi) != tuple(100 * y for y in got[1:])
             reach += [abs(err), abs(lo), abs(hi)]
-            marker = _MARKERS[radii.index(v["radius"]) % len(_MARKERS)]
+            marker = _MARKERS[radii.index(v.radius) % len(_MARKERS)]
             ax.errorbar(
                 x,
                 err,
@@ -531,7 +531,7 @@ def _error_vs_runtime(fig, table: list[dict], advisor: dict | None) -> None:
     for i, r in enumerate(radii):
         handles.append(Line2D([], [], ls="", marker=_MARKERS[i % len(_MARKERS)], color="0.3"))
         labels.append(f"R = {r * 1e3:g} mm")
-    if advisor.get("rule_errors"):
+    if report is not None and report.rule_errors:
         handles.append(Line2D([], [], ls="", marker="o", mfc="none", color="0.3"))
         labels.append("open: the rule's own error (against its control)")
     if clipped:
@@ -597,15 +597,16 @@ def _span(lo: float, hi: float) -> str:
     return f"[{_pct(100 * lo)}, {_pct(100 * hi)}] %"
 
 
-def _resolution(fig, advisor: dict | None, table: list[dict] | None = None) -> None:
+def _resolution(fig, report, table: list[dict] | None = None) -> None:
     """One panel per property with a resolution curve (engine.study.resolution): each sample
     size's mean relative to the extrapolated bulk value against d / L, the fitted line, and
     the bulk value's interval at d / L = 0."""
-    curves = ((advisor or {}).get("resolution_curve") or {}).get("metrics") or {}
+    curve = report.resolution_curve if report is not None else None
+    curves = curve.metrics if curve is not None else {}
     names = [n for n in _TITLES if n in curves]
     if not names:
-        if (advisor or {}).get("resolution"):  # controls ran, too few seeds for a line
-            _resolution_points(fig, advisor, table)
+        if report is not None and report.resolution:  # controls ran, too few seeds for a line
+            _resolution_points(fig, report, table)
             return
         ax = fig.add_subplot()
         ax.text(
@@ -692,20 +693,20 @@ def _resolution(fig, advisor: dict | None, table: list[dict] | None = None) -> N
     ]
     labels += ["references", "resolution controls"]
     fig.legend(handles, labels, loc="outside lower center", ncol=4, fontsize=7)
-    conf = (advisor or {}).get("resolution_curve", {}).get("confidence", 0.95)
+    conf = curve.confidence
     fig.suptitle(f"{KINDS['resolution']} (bulk interval {conf:.0%})", fontsize=10)
 
 
-def _resolution_points(fig, advisor: dict, table: list[dict]) -> None:
+def _resolution_points(fig, report, table: list[dict]) -> None:
     """The resolution controls of a study whose sizes are too few, or too thinly seeded,
     for a line (engine.study.resolution.fit_curve wants two sizes of two seeds or more):
     per property, each control's signed error against the references [%] with its 95 %
     interval at its d / L, the references at theirs (zero), and why there is no line."""
     from matplotlib.ticker import FuncFormatter
 
-    controls = advisor.get("resolution") or []
+    controls = report.resolution
     ref_d = [r["thickness_diameters"] for r in table if r["rule"] == "reference"]
-    names = [n for n in _TITLES if any(_metric_bias(_metric(v, n)) is not None for v in controls)]
+    names = [n for n in _TITLES if any(_metric_bias(v.metric(n)) is not None for v in controls)]
     names = names or ["density"]
     axes = fig.subplots(1, len(names), squeeze=False)[0]
     for ax, n in zip(axes, names):
@@ -719,15 +720,15 @@ def _resolution_points(fig, advisor: dict, table: list[dict]) -> None:
                 xytext=(3, 3),
                 textcoords="offset points",
             )
-        tol = (advisor.get("tolerances") or {}).get(n)
+        tol = report.tolerances.get(n)
         reach = [100 * (tol or 0.1)]  # the values the panel must show [%]
         xs = [1.0 / float(np.mean(ref_d))] if ref_d else []
         for v in controls:
-            got = _metric_bias(_metric(v, n))
-            if got is None or not v.get("diameters_across"):
+            got = _metric_bias(v.metric(n))
+            if got is None or not v.diameters_across:
                 continue
             err, lo, hi = (100 * x for x in got)
-            x = 1.0 / float(v["diameters_across"])
+            x = 1.0 / float(v.diameters_across)
             err, lo, hi = _cap(ax, x, err, lo, hi, "C3")
             reach += [abs(err), abs(lo), abs(hi)]
             xs.append(x)
@@ -741,7 +742,7 @@ def _resolution_points(fig, advisor: dict, table: list[dict]) -> None:
                 zorder=3,
             )
             ax.annotate(
-                f"{v['diameters_across']:.1f} d",
+                f"{v.diameters_across:.1f} d",
                 (x, err),
                 fontsize=6,
                 xytext=(3, 3),
@@ -780,10 +781,6 @@ def _resolution_points(fig, advisor: dict, table: list[dict]) -> None:
         "seeds each",
         fontsize=9,
     )
-
-
-def _metric(group: dict, name: str) -> dict | None:
-    return next((m for m in group.get("metrics", []) if m["metric"] == name), None)
 
 
 def draw(ax, kind: str, runs: dict, table: list[dict]) -> None:
@@ -873,8 +870,9 @@ def _placeholder(ax, words: str) -> None:
     ax.text(0.5, 0.5, words, ha="center", va="center", transform=ax.transAxes)
 
 
-def figure(kind: str, runs: dict, table: list[dict], advisor: dict | None = None):
-    """A new matplotlib Figure (Agg canvas, no pyplot) with plot ``kind``."""
+def figure(kind: str, runs: dict, table: list[dict], report=None):
+    """A new matplotlib Figure (Agg canvas, no pyplot) with plot ``kind`` (``report``: the
+    study's :class:`engine.study.report.StudyReport`, for the kinds drawn from it)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -882,9 +880,9 @@ def figure(kind: str, runs: dict, table: list[dict], advisor: dict | None = None
         fig = Figure(figsize=(12.0, 4.2), dpi=100, layout="constrained")
         FigureCanvasAgg(fig)
         if kind == "error_vs_runtime":
-            _error_vs_runtime(fig, table, advisor)
+            _error_vs_runtime(fig, table, report)
         else:
-            _resolution(fig, advisor, table)
+            _resolution(fig, report, table)
         return fig
     fig = Figure(figsize=(7.0, 4.8), dpi=110, layout="constrained")
     FigureCanvasAgg(fig)
@@ -898,7 +896,7 @@ def has_controls(table: list[dict]) -> bool:
     return any(r.get("rule") == "control" for r in table)
 
 
-def save_all(directory, runs: dict, table: list[dict], advisor: dict | None = None) -> list[Path]:
+def save_all(directory, runs: dict, table: list[dict], report=None) -> list[Path]:
     """Write ``<kind>.png`` for every kind of the study into ``directory``
     (:func:`kinds_of`: a uniaxial study's or a shear study's; ``resolution`` only for a
     study with resolution controls); returns the paths."""
@@ -907,7 +905,7 @@ def save_all(directory, runs: dict, table: list[dict], advisor: dict | None = No
     out = []
     for kind in kinds_of(table):  # a study without resolution controls has no resolution plot
         path = d / f"{kind}.png"
-        figure(kind, runs, table, advisor).savefig(path, format="png")
+        figure(kind, runs, table, report).savefig(path, format="png")
         out.append(path)
     return out
 

@@ -300,7 +300,7 @@ def judge_runs(runs: list, references: list, tolerances: dict | None = None, con
     """LIGGGHTS' runs of a test (``runs``: :class:`engine.UniaxialResult` or error texts)
     judged against demscale's runs of the test it stands for (``references``), as a study
     judges a coarse variant against its references: every verdict metric's error, its
-    interval at the study's confidence and the verdict (engine.study.advisor.judge_groups,
+    interval at the study's confidence and the verdict (engine.study.judge.judge_groups,
     metric values by engine.study.metrics.metric_values; ``tolerances`` override
     engine.DEFAULT_TOLERANCES). The reference's test sets the stress levels, tolerances and
     consolidation stress; runs that stopped (error texts) are left out and counted.
@@ -311,8 +311,7 @@ def judge_runs(runs: list, references: list, tolerances: dict | None = None, con
     from types import SimpleNamespace
 
     from ..core.errors import ParameterError
-    from ..study.advisor import judge_groups
-    from ..study.judge import CONFIDENCE
+    from ..study.judge import CONFIDENCE, judge_groups
     from ..study.metrics import DEFAULT_TOLERANCES, metric_names, metric_values
 
     done = [r for r in runs if not isinstance(r, str)]

@@ -426,7 +426,7 @@ def save_study(path: Path, study_id: object, result, before_rename=lambda: True)
     Layout (``schema`` "demscale-study", ``schema_version`` :data:`SCHEMA_VERSION`)::
 
         /                 attrs: schema, schema_version, study_id, created, spec, summary,
-                          advisor (JSON), versions (JSON), version_<package>
+                          advisor (the report's JSON), versions (JSON), version_<package>
         /runs/<key>       a run in the per-run layout (:func:`write_run_group`: attrs test,
                           group scalars, stages/<stage>/<curve>, stages/<stage>/particles),
                           plus attrs label, reference, position, radius (+ radius_units),
@@ -461,13 +461,13 @@ def save_study(path: Path, study_id: object, result, before_rename=lambda: True)
                     "created": datetime.now(timezone.utc).isoformat(),
                     "spec": json.dumps(result.spec.to_dict()),
                     "summary": strict_json(result.to_summary()),
-                    "advisor": strict_json(result.advisor),
+                    "advisor": strict_json(result.report.to_dict()),
                     "versions": json.dumps(vs),
                     **{f"version_{k}": v for k, v in vs.items()},
                 }
             )
             runs = f.create_group("runs", track_order=True)
-            rounds = _rounds_of(result.advisor)
+            rounds = _rounds_of(result.report)
             for i, (key, run) in enumerate(result.runs.items()):
                 g = runs.create_group(key, track_order=True)
                 write_run_group(g, run.result)
@@ -521,9 +521,10 @@ def save_study(path: Path, study_id: object, result, before_rename=lambda: True)
     return path
 
 
-def _rounds_of(advisor: dict) -> dict[str, list[dict]]:
-    """Run key -> the additions of its round, from a report's ``adaptive`` entry."""
-    added = (advisor.get("adaptive") or {}).get("added_runs") or []
+def _rounds_of(report) -> dict[str, list[dict]]:
+    """Run key -> the additions of its round, from a report's (an
+    :class:`engine.study.report.StudyReport`) ``adaptive`` entry."""
+    added = [dict(a) for a in report.adaptive.added_runs] if report.adaptive else []
     return {a["run"]: [b for b in added if b["round"] == a["round"]] for a in added}
 
 

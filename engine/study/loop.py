@@ -20,6 +20,7 @@ from __future__ import annotations
 from .allocate import allocate_round
 from .look import judge_look
 from .plan import PlannedRun, StudyPlan, as_plan, cost_weights
+from .report import AdaptiveSummary
 from .results import StudyResult, assemble
 from .spec import StudySpec
 from .stopping import NOTHING_TO_ADD, all_rounds_run, final_look, most_added, stop_reason
@@ -87,17 +88,15 @@ class StudyLoop:
         """The look the study's verdicts are judged at now (engine.study.stopping)."""
         return final_look(self.spec, self.added, self.stopped)
 
-    def summary(self) -> dict:
+    def summary(self) -> AdaptiveSummary:
         """The report's ``adaptive`` entry (:func:`adaptive_summary`)."""
         return adaptive_summary(self.spec, self.planned, self.added, self.stopped)
 
     def result(self) -> StudyResult:
         """The study's report from its outcomes, judged at :attr:`look`, with its
         ``adaptive`` entry where it decides."""
-        result = assemble(self.spec, self.planned, self.outcomes, self.look)
-        if self.spec.decide:
-            result.advisor["adaptive"] = self.summary()
-        return result
+        adaptive = self.summary() if self.spec.decide else None
+        return assemble(self.spec, self.planned, self.outcomes, self.look, adaptive)
 
     # --------------------------------------------------------------------------- rounds
     def _missing(self, pilot_only: bool = False) -> bool:
@@ -187,19 +186,19 @@ def plan_runs(
 
 def adaptive_summary(
     spec: StudySpec, planned: list[PlannedRun], added: list[dict], stopped: str | None
-) -> dict:
+) -> AdaptiveSummary:
     """The report's ``adaptive`` entry: planned and added runs, the looks, the look judged
     at, why it stopped, the budget and the particle-steps the rounds added."""
     keys = {a["run"] for a in added}
-    return {
-        "planned_runs": len(planned) - len(added),
-        "added_runs": added,
-        "looks": spec.looks,
-        "look": final_look(spec, added, stopped),
-        "stopped": stopped,
-        "budget": spec.budget,
-        "added_particle_steps": float(sum(p.particle_steps for p in planned if p.key in keys)),
-    }
+    return AdaptiveSummary(
+        planned_runs=len(planned) - len(added),
+        added_runs=tuple(dict(a) for a in added),
+        looks=spec.looks,
+        look=final_look(spec, added, stopped),
+        stopped=stopped,
+        budget=spec.budget,
+        added_particle_steps=float(sum(p.particle_steps for p in planned if p.key in keys)),
+    )
 
 
 __all__ = ["StudyLoop", "adaptive_summary", "plan_runs"]

@@ -410,7 +410,7 @@ def resolution_curves(
 
 
 def curve_lines(curves: dict) -> list[str]:
-    """The advisor's lines on the resolution curve: per property the bulk value's
+    """The report's lines on the resolution curve: per property the bulk value's
     extrapolation and how far the reference itself is from it."""
     lines = []
     conf = curves.get("confidence", 0.95)

@@ -1,6 +1,6 @@
 """What a scaling study gives back, assembled from its runs' outcomes: errors against the
-reference, the table and groups, noise floor, verdicts and advice (docs/PHYSICS.md sections 5
-and 7). Recomputable at any time from stored runs (:func:`assemble`)."""
+reference, the table and groups, and the typed report (engine.study.report; docs/PHYSICS.md
+sections 5 and 7). Recomputable at any time from stored runs (:func:`assemble`)."""
 
 from __future__ import annotations
 
@@ -9,12 +9,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..uniaxial.results import UniaxialResult
-from .advisor import advise
+from .advice import answer_lines, build_report
 from .kinds import kind_of
 from .look import judge_look
-from .metrics import metric_column, metric_values
+from .metrics import metric_column
 from .plan import PROTOCOL, PlannedRun
-from .resolution import curve_lines, diameters_needed, resolution_curves
+from .report import AdaptiveSummary, StudyReport
 from .spec import ScalingRule, StudySpec
 
 
@@ -89,27 +89,27 @@ class RunResult:
 class StudyResult:
     """Result of :func:`run_study`: ``runs`` (key -> :class:`RunResult`, references
     first), ``table`` (one row per run, units in its kind's ``table_units``), ``groups`` (mean and
-    spread over seeds per radius and rule), ``advisor`` (verdicts, noise floor, warnings,
-    adhesion exponent; see :func:`engine.study.advisor.advise`) and ``failed`` (key -> error text
-    of the runs that failed)."""
+    spread over seeds per radius and rule), ``report`` (the typed
+    :class:`engine.study.report.StudyReport`: verdicts, recommendation, noise floor,
+    warnings, adhesion exponent) and ``failed`` (key -> error text of the runs that
+    failed)."""
 
     spec: StudySpec
     runs: dict[str, RunResult]
     table: list[dict]
     groups: list[dict]
-    advisor: dict
+    report: StudyReport
     failed: dict[str, str] = field(default_factory=dict)
 
     def to_summary(self) -> dict:
         """JSON-friendly summary: the answer (the study's decision in one line, then the
-        line that qualifies it), table, groups, advisor, failed runs and units."""
-        from .advisor import answer_lines
-
+        line that qualifies it), table, groups, the report (under ``"advisor"``, the key
+        summaries have always had), failed runs and units."""
         return {
-            "answer": answer_lines(self.advisor, self.spec.reference.radius),
+            "answer": answer_lines(self.report, self.spec.reference.radius),
             "table": self.table,
             "groups": self.groups,
-            "advisor": self.advisor,
+            "advisor": self.report.to_dict(),
             "failed": self.failed,
             "units": table_units(self.spec),
         }
@@ -144,20 +144,23 @@ class RunFailed(RuntimeError):
 
 
 def assemble(
-    spec: StudySpec, planned: list[PlannedRun], outcomes: dict, look: int = 1
+    spec: StudySpec,
+    planned: list[PlannedRun],
+    outcomes: dict,
+    look: int = 1,
+    adaptive: AdaptiveSummary | None = None,
 ) -> StudyResult:
-    """Errors, groups, noise floor, verdicts and advisor from the runs' outcomes (key ->
-    :class:`UniaxialResult` or error text), the verdicts judged at ``look`` of ``spec.looks``
+    """Errors, table, groups and report from the runs' outcomes (key -> a result of the
+    test's kind, or error text), the verdicts judged at ``look`` of ``spec.looks``
     (engine.study.stopping.final_look): the runs measured and judged once, by
     :func:`engine.study.look.judge_look` (the adaptive loop's arithmetic), then tabled and
-    advised. Recomputable at any time from stored runs."""
+    reported (:func:`engine.study.advice.build_report`; ``adaptive``: the study's rounds,
+    where it decides). Recomputable at any time from stored runs."""
     at = judge_look(spec, planned, outcomes, look)
     failed, refs, names = at.failed, at.refs, at.names
     if not refs:
         key = next(p.key for p in planned if p.is_reference)
         raise RunFailed(key, failed.get(key, "no reference run succeeded"))
-    unconfined = getattr(spec.reference, "unconfined", False)
-    ref_values = at.ref_values
     ref_wall = float(np.median([r.scalars["wall_time"] for r in refs.values()]))
     ref_steps = float(np.median([r.scalars["particle_steps"] for r in refs.values()]))
     runs: dict[str, RunResult] = {}
@@ -181,137 +184,10 @@ def assemble(
             ref_steps / res.scalars["particle_steps"],
             p.protocol,
         )
-    controls, half, verdicts = at.controls, at.half, at.verdicts
     table = [r.row() for r in runs.values()]
     groups = _groups(spec, runs, names, at.shapes)
-    keys_of: dict[tuple, list[str]] = {}
-    for p in planned:
-        if not p.is_reference and not p.control and not p.protocol:
-            keys_of.setdefault((p.radius, p.rule.name), []).append(p.key)
-    for v in verdicts:
-        g = next(g for g in groups if g["radius"] == v["radius"] and g["rule"] == v["rule"])
-        v.update(
-            speedup=g["speedup"],
-            thickness_diameters=g["thickness_diameters"],
-            height_diameters=g["height_diameters"],
-        )
-    if unconfined:
-        _note_failure_kinds(refs, runs, verdicts)
-    judged = {(v["radius"], v["rule"]) for v in verdicts}
-    for variant, keys in keys_of.items():
-        lost = {k: failed[k] for k in keys if k in failed}
-        if variant not in judged:
-            verdicts.append(
-                {
-                    "radius": variant[0],
-                    "rule": variant[1],
-                    "verdict": "undecided",
-                    "reason": "no run of this variant finished",
-                    "seeds": 0,
-                    "metrics": [],
-                }
-            )
-        if lost:
-            v = next(v for v in verdicts if (v["radius"], v["rule"]) == variant)
-            v["missing_runs"] = lost
-            v["reason"] += "; missing: " + "; ".join(f"{k} ({t})" for k, t in lost.items())
-    ref_strength = None
-    if unconfined:
-        ref_strength = float(np.mean([r.scalars["unconfined_strength"] for r in refs.values()]))
-    resolution, rule_errors = at.resolution, at.rule_errors
-    strengths = None
-    if unconfined:
-        strengths = {"reference": [r.scalars["unconfined_strength"] for r in refs.values()]}
-        strengths["variants"], strengths["controls"] = {}, {}
-        for r in runs.values():
-            if r.is_reference or r.protocol:
-                continue
-            st = r.result.scalars["unconfined_strength"]
-            if r.control:
-                strengths["controls"].setdefault(r.radius, []).append(st)
-            else:
-                strengths["variants"].setdefault((r.radius, r.rule.name), []).append(st)
-    advisor = advise(spec, groups, verdicts, ref_strength, resolution, rule_errors, strengths)
-    advisor["resolution_curve"] = None
-    if controls:
-        ctl_runs: dict[float, list] = {}
-        for r in runs.values():
-            if r.control:
-                ctl_runs.setdefault(r.radius, []).append(
-                    (r.result.scalars["thickness_diameters"], metric_values(r.result))
-                )
-        ref_runs = [
-            (x.scalars["thickness_diameters"], v) for x, v in zip(refs.values(), ref_values)
-        ]
-        curve = resolution_curves(ref_runs, ctl_runs, names, getattr(spec, "confidence", 0.95))
-        for n, c in curve["metrics"].items():  # the fewest diameters across each property needs
-            if n in spec.tolerances:
-                c["needed"] = diameters_needed(c, spec.tolerances[n])
-        advisor["resolution_curve"] = curve
-        lines = curve_lines(curve)
-        advisor["control_lines"] = advisor["control_lines"] + lines
-        if lines:
-            advisor["message"] = "; ".join([advisor["message"], *lines])
-    advisor["protocol"] = None
-    if half:
-        check = at.protocol
-        advisor["protocol"] = check
-        line = protocol_line(check)
-        advisor["control_lines"] = [*advisor["control_lines"], line]
-        advisor["message"] = "; ".join([advisor["message"], line])
-    advisor["noise_floor"] = at.noise_floor
-    advisor["reference"] = _reference_summary(
-        refs, names, ref_values, kind_of(spec.reference).summary_scalars
-    )
-    return StudyResult(spec, runs, table, groups, advisor, failed)
-
-
-def protocol_line(check: dict) -> str:
-    """The advisor's line on the protocol check (docs/PHYSICS.md section 7.6)."""
-    says = {
-        "equivalent": "is quasi-static and its time step converged: halving the inertial "
-        "number (or platen speed) and the time step changes no metric beyond its tolerance",
-        "differs": "is NOT converged: halving the inertial number (or platen speed) and the "
-        "time step changes a metric beyond its tolerance",
-        "undecided": "is not shown converged: halving the inertial number (or platen speed) "
-        "and the time step leaves a metric undecided",
-    }
-    return f"protocol check: the study's protocol {says[check['verdict']]} ({check['reason']})"
-
-
-def _note_failure_kinds(refs: dict, runs: dict[str, RunResult], verdicts: list[dict]) -> None:
-    """Say what a strength verdict compared: only the runs that failed at a peak
-    (engine.study.noise; engine.uniaxial.measures.failed_by_curve) where any run of the
-    study failed, with how many references and runs of the variant hardened instead (their
-    "strength" is the largest stress up to the strain limit, another quantity)."""
-    ref_flags = [r.scalars["unconfined_failure"] == 1.0 for r in refs.values()]
-    for v in verdicts:
-        flags = [
-            r.result.scalars["unconfined_failure"] == 1.0
-            for r in runs.values()
-            if r.rule is not None and r.rule.name == v["rule"] and r.radius == v["radius"]
-        ]
-        v["failed_runs"] = sum(flags)
-        v["reference_failed_runs"] = sum(ref_flags)
-        if flags and len(set(flags + ref_flags)) > 1:
-            v["reason"] += (
-                f"; strength compares failed runs only: {sum(ref_flags)} of "
-                f"{len(ref_flags)} references and {sum(flags)} of {len(flags)} runs of this "
-                "variant failed at a peak, the others hardened to the strain limit and are "
-                "left out of it"
-            )
-
-
-def _reference_summary(refs: dict, names, ref_values: list[dict], scalars) -> dict:
-    """Mean and spread over reference seeds of the scalars a user quotes (``scalars``: the
-    reference kind's, :mod:`engine.study.kinds`)."""
-    out = {"seeds": sorted(refs)}
-    for k in scalars:
-        v = [r.scalars[k] for r in refs.values() if k in r.scalars]
-        if v:
-            out[k] = float(np.mean(v))
-            out[k + "_std"] = float(np.std(v, ddof=1)) if len(v) > 1 else 0.0
-    return out
+    report = build_report(spec, at, runs, groups, planned, adaptive)
+    return StudyResult(spec, runs, table, groups, report, failed)
 
 
 def _groups(spec: StudySpec, runs: dict[str, RunResult], names, shapes) -> list[dict]:

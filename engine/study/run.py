@@ -3,7 +3,8 @@ any :class:`concurrent.futures.Executor`, then errors, noise floor and verdicts
 (docs/PHYSICS.md sections 5 and 7).
 
 The spec is in :mod:`engine.study.spec`, its runs in :mod:`engine.study.plan`, the metrics in
-:mod:`engine.study.metrics`, the verdict logic in :mod:`engine.study.advisor`. Runs are
+:mod:`engine.study.metrics`, the verdict logic in :mod:`engine.study.judge`, the report in
+:mod:`engine.study.report` (built by :mod:`engine.study.advice`). Runs are
 independent: a coarse run's time step is known before its reference runs, so all runs can go
 side by side; the comparison is made when they are all done. A failed coarse run is recorded
 with its error while the others go on; ``on_run`` hears of every finished run at once (to

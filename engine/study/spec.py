@@ -211,7 +211,7 @@ class StudySpec(Record):
             (uniaxial; a shear test's bulk density leaves out 1.5 of each run's own mean
             diameters next to each glued layer, docs/SHEAR.md).
         confidence: of every verdict: a wrong ``equivalent`` or a wrong ``differs`` is said
-            in at most 1 - confidence of studies [-] (engine.study.advisor).
+            in at most 1 - confidence of studies [-] (engine.study.rates).
         controls: per coarse radius and seed, a resolution control
             (:func:`engine.study.plan.control_test`): the reference law unscaled in the
             reference test scaled to that radius's cell. Against the reference it measures
@@ -471,7 +471,7 @@ def on_test(spec: StudySpec, reference) -> StudySpec:
     """The study ``spec`` on another reference test (an :class:`engine.UniaxialTest` or
     :class:`engine.ShearTest` with the same radius): the same rules, coarse radii, seeds,
     confidence and design, each metric at its default tolerance for that test. Two such
-    studies judge one rule on both tests (engine.study.advisor.side_by_side;
+    studies judge one rule on both tests (engine.study.advice.side_by_side;
     docs/PHYSICS.md section 11.1)."""
     if getattr(reference, "radius", None) != spec.reference.radius:
         raise ParameterError(

@@ -191,7 +191,7 @@ def test_the_resume_digest_follows_only_the_code_a_run_steps_through(tmp_path):
 
     run0, all0 = digests()
     assert run0 == ck_module.trajectory_digest() and all0 == ck_module.code_digest()
-    with open(root / "study" / "advisor.py", "a") as fh:
+    with open(root / "study" / "advice.py", "a") as fh:
         fh.write("\n# an edit outside the trajectory\n")
     run1, all1 = digests()
     assert run1 == run0 and all1 != all0

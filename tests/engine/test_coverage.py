@@ -1,11 +1,11 @@
 """The verdict rule keeps the rates it states and decides with the seeds a user pays for:
 proven by simulation (docs/PHYSICS.md section 7).
 
-Synthetic studies with known true errors and spreads are judged by the advisor's own
-functions: :func:`engine.study.advisor.judge_samples` (many studies of a scalar metric at
-once, checked here to agree with :func:`~engine.study.advisor.judge_metric`), and for the
+Synthetic studies with known true errors and spreads are judged by the study's own
+functions: :func:`engine.study.judge.judge_samples` (many studies of a scalar metric at
+once, checked here to agree with :func:`~engine.study.judge.judge_metric`), and for the
 adaptive rule :func:`engine.study.adaptive.next_runs` with
-:func:`~engine.study.advisor.judge_groups`, round by round.
+:func:`~engine.study.judge.judge_groups`, round by round.
 
 - **Coverage**: a variant whose true error is at the tolerance is called ``equivalent`` in at
   most 5 % of studies, and ``differs`` in at most 5 %, for 2 to 12 seeds on either side,
@@ -31,7 +31,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from engine.study import advisor, judge
+from engine.study import judge
 from engine.study.allocate import next_runs
 from engine.study.intervals import hsu_df, t_quantile
 from engine.study.noise import Space, StudyNoise
@@ -39,7 +39,7 @@ from engine.study.noise import Space, StudyNoise
 CONS = 2e4
 TOL = 0.15
 LO, HI = math.log(1 - TOL), math.log(1 + TOL)
-ALPHA = 1 - advisor.CONFIDENCE
+ALPHA = 1 - judge.CONFIDENCE
 
 
 def _bound(n: int) -> float:
@@ -75,19 +75,19 @@ def _rates(n_ref, n_coarse, ratio, k, kind, n=4000, sd=0.05, seed=0, ae=None, ad
     r = _draw(rng, (n, n_ref), 1.0, sd, kind)
     c = _draw(rng, (n, n_coarse), ratio, k * sd, kind)
     if ae is None:
-        ae, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
-    v = advisor.judge_samples(c, r, TOL, ae, ad)
+        ae, ad = judge.error_rates(judge.CONFIDENCE, 1)
+    v = judge.judge_samples(c, r, TOL, ae, ad)
     return float(np.mean(v == "equivalent")), float(np.mean(v == "differs"))
 
 
 def test_the_fast_path_is_the_rule():
     # judge_samples (many studies at once) gives judge_metric's verdict study by study
     rng = np.random.default_rng(1)
-    ae, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
+    ae, ad = judge.error_rates(judge.CONFIDENCE, 1)
     for n_ref, n_coarse in [(2, 2), (3, 7), (12, 3), (5, 5)]:
         r = np.exp(rng.normal(0, 0.05, (60, n_ref)))
         c = np.exp(rng.normal(rng.choice([0.0, 0.1, 0.2]), 0.1, (60, n_coarse)))
-        fast = advisor.judge_samples(c, r, TOL, ae, ad)
+        fast = judge.judge_samples(c, r, TOL, ae, ad)
         for i in range(60):
             m = judge.judge_values(
                 "k",
@@ -136,8 +136,8 @@ def test_differs_keeps_its_rate_when_the_tolerance_is_small_against_the_noise():
     rng = np.random.default_rng(5)
     r = np.exp(rng.normal(0, 0.01, (4000, 12)))
     c = np.exp(rng.normal(0.01, 0.3, (4000, 12)))
-    ae, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
-    v = advisor.judge_samples(c, r, 0.01, ae, ad)
+    ae, ad = judge.error_rates(judge.CONFIDENCE, 1)
+    v = judge.judge_samples(c, r, 0.01, ae, ad)
     assert np.mean(v == "differs") <= _bound(4000)
 
 
@@ -191,8 +191,8 @@ def _power(rule, ratio: float, n_coarse: int, n=4000, seed=0) -> tuple[float, fl
 
 
 def _new_rule(c, r):
-    ae, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
-    return advisor.judge_samples(c, r, TOL, ae, ad)
+    ae, ad = judge.error_rates(judge.CONFIDENCE, 1)
+    return judge.judge_samples(c, r, TOL, ae, ad)
 
 
 def _old_rule(c, r):
@@ -230,7 +230,7 @@ def _allowed(n_oracle: int) -> int:
 
 
 def test_power_equivalent_at_zero_error():
-    ae, _ = advisor.error_rates(advisor.CONFIDENCE, 1)
+    ae, _ = judge.error_rates(judge.CONFIDENCE, 1)
     n = _allowed(_oracle_equivalent(ae))
     eq, _ = _power(_new_rule, 1.0, n, seed=11)
     assert eq >= 0.8, f"equivalent in {eq:.0%} with {n} coarse seeds"
@@ -241,7 +241,7 @@ def test_power_equivalent_at_zero_error():
 
 
 def test_power_differs_at_twice_the_tolerance():
-    _, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
+    _, ad = judge.error_rates(judge.CONFIDENCE, 1)
     n = _allowed(_oracle_differs(ad))
     _, di = _power(_new_rule, 1 + 2 * TOL, n, seed=12)
     _, di_low = _power(_new_rule, 1 - 2 * TOL, n, seed=13)
@@ -260,7 +260,7 @@ def _curve_rates(true_error, n_ref, n_coarse, n=300, seed=0):
     shape = np.full(levels, 0.5 * true_error)
     shape[levels // 3] = true_error
     eq = di = 0
-    ae, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
+    ae, ad = judge.error_rates(judge.CONFIDENCE, 1)
     for _ in range(n):
 
         def draw(k, rel):
@@ -304,7 +304,7 @@ def _adaptive(
     spec = SimpleNamespace(
         reference=SimpleNamespace(consolidation_stress=CONS),
         tolerances={name: TOL},
-        confidence=advisor.CONFIDENCE,
+        confidence=judge.CONFIDENCE,
         decide=True,
         max_seeds=30,
         max_reference_seeds=10,
@@ -327,7 +327,7 @@ def _adaptive(
         look = 1
         for round_no in range(1, rounds + 1):
             noise = StudyNoise(refs, {key: coarse}, [name], CONS)
-            ae, ad = advisor.error_rates(spec.confidence, 1, look, spec.looks)
+            ae, ad = judge.error_rates(spec.confidence, 1, look, spec.looks)
             verdicts = [judge.judge_group(noise, key, spec.tolerances, ae, ad)]
             adds = next_runs(spec, noise, verdicts, costs, round_no, None)
             if not adds:
@@ -338,7 +338,7 @@ def _adaptive(
                 else:
                     coarse.append(one(ratio, sd_coarse))
             look += 1
-        _, verdicts = advisor.judge_groups(
+        _, verdicts = judge.judge_groups(
             spec, refs, {key: coarse}, [name], look=look, looks=spec.looks
         )
         eq += verdicts[0]["verdict"] == "equivalent"
@@ -368,7 +368,7 @@ def test_the_adaptive_rule_ends_with_about_the_seeds_an_oracle_needs():
     # with no more added seeds than a fixed study that reaches the same power. (In added
     # seeds alone the oracle's 3 are out of reach: a t interval whose spread is estimated
     # needs 8 coarse seeds for 80 %, docs/PHYSICS.md section 7.2.)
-    ae, _ = advisor.error_rates(advisor.CONFIDENCE, 1, look=2, looks=2)
+    ae, _ = judge.error_rates(judge.CONFIDENCE, 1, look=2, looks=2)
     oracle = _oracle_equivalent(ae)
     eq, _, added = _adaptive(1.0, n=2000, seed=21)
     assert 3 + added <= 1.5 * oracle + 1, f"{3 + added:.2f} seeds, oracle {oracle}"
@@ -417,10 +417,10 @@ def _pairs(rng, n, n_pairs, ratio, k, rho, kind, sd=0.05):
 
 def test_the_paired_fast_path_is_the_rule():
     rng = np.random.default_rng(11)
-    ae, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
+    ae, ad = judge.error_rates(judge.CONFIDENCE, 1)
     for n_pairs in (2, 3, 6):
         c, r = _pairs(rng, 60, n_pairs, 1.08, 2.0, 0.6, "lognormal")
-        fast = advisor.judge_samples(c, r, TOL, ae, ad, paired=True)
+        fast = judge.judge_samples(c, r, TOL, ae, ad, paired=True)
         for i in range(60):
             lc, lr = np.log(c[i])[:, None], np.log(r[i])[:, None]
             comp = judge.Comparison(Space("log"), lc, lr, None, None, TOL, paired=True)
@@ -440,8 +440,8 @@ def test_the_paired_rule_error_keeps_its_rates_at_the_tolerance(kind):
                     seed = 100 * n_pairs + int(10 * k) + int(10 * (rho + 1)) + (ratio > 1)
                     rng = np.random.default_rng(seed)
                     c, r = _pairs(rng, n, n_pairs, ratio, k, rho, kind)
-                    ae, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
-                    v = advisor.judge_samples(c, r, TOL, ae, ad, paired=True)
+                    ae, ad = judge.error_rates(judge.CONFIDENCE, 1)
+                    v = judge.judge_samples(c, r, TOL, ae, ad, paired=True)
                     rate = max(np.mean(v == "equivalent"), np.mean(v == "differs"))
                     worst.append((float(rate), n_pairs, k, rho, ratio))
     top = max(worst)
@@ -450,41 +450,41 @@ def test_the_paired_rule_error_keeps_its_rates_at_the_tolerance(kind):
 
 def test_the_unpaired_rule_error_keeps_its_rates_at_the_measured_correlation():
     # stiffness and strength are judged unpaired: their measured correlation between a
-    # coarse run and its control is -0.12 to -0.05 (advisor.PAIRING_VARIANCE_RATIO); a
+    # coarse run and its control is -0.12 to -0.05 (judge.PAIRING_VARIANCE_RATIO); a
     # negative one makes the unpaired interval too narrow, so it is checked at -0.15
     n = 4000
-    ae, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
+    ae, ad = judge.error_rates(judge.CONFIDENCE, 1)
     worst = []
     for n_pairs in SEEDS:
         for ratio in (1 + TOL, 1 - TOL):
             rng = np.random.default_rng(7 * n_pairs + (ratio > 1))
             c, r = _pairs(rng, n, n_pairs, ratio, 1.0, -0.15, "lognormal")
-            v = advisor.judge_samples(c, r, TOL, ae, ad)
+            v = judge.judge_samples(c, r, TOL, ae, ad)
             worst.append(max(np.mean(v == "equivalent"), np.mean(v == "differs")))
     assert max(worst) <= _bound(n), worst
 
 
 def test_pairing_is_chosen_by_counts_and_pays_where_correlated():
-    ae, _ = advisor.error_rates(advisor.CONFIDENCE, 5)
+    ae, _ = judge.error_rates(judge.CONFIDENCE, 5)
     # the metrics that keep the cloud's imprint are paired; the others never
     for n in (2, 3, 6, 12):
-        assert advisor.pairing_pays("density", n, n, n, ae)
-        assert not advisor.pairing_pays("strength", n, n, n, ae)
-        assert not advisor.pairing_pays("loading_stiffness", n, n, n, ae)
-    assert not advisor.pairing_pays("density", 1, 3, 3, ae)
+        assert judge.pairing_pays("density", n, n, n, ae)
+        assert not judge.pairing_pays("strength", n, n, n, ae)
+        assert not judge.pairing_pays("loading_stiffness", n, n, n, ae)
+    assert not judge.pairing_pays("density", 1, 3, 3, ae)
     # at the measured density correlation the paired rule calls a true error of 0
     # equivalent more often with the same seeds (3 coarse runs and their 3 controls)
     rng = np.random.default_rng(3)
-    rho = 1 - advisor.PAIRING_VARIANCE_RATIO["density"]
+    rho = 1 - judge.PAIRING_VARIANCE_RATIO["density"]
     c, r = _pairs(rng, 4000, 3, 1.0, 1.0, rho, "lognormal", sd=0.06)
-    _, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
-    paired = np.mean(advisor.judge_samples(c, r, TOL, ae, ad, paired=True) == "equivalent")
-    unpaired = np.mean(advisor.judge_samples(c, r, TOL, ae, ad) == "equivalent")
+    _, ad = judge.error_rates(judge.CONFIDENCE, 1)
+    paired = np.mean(judge.judge_samples(c, r, TOL, ae, ad, paired=True) == "equivalent")
+    unpaired = np.mean(judge.judge_samples(c, r, TOL, ae, ad) == "equivalent")
     assert paired > unpaired + 0.05, (paired, unpaired)
 
 
 def test_the_pairing_ratios_are_those_the_stored_runs_show():
-    # advisor.PAIRING_VARIANCE_RATIO is measured by benchmarks.pairing on the stored runs;
+    # judge.PAIRING_VARIANCE_RATIO is measured by benchmarks.pairing on the stored runs;
     # runs stored since may move it a little, and not across 1 (paired or not) where the
     # stored runs decide the side: the ratio is 1 - rho, and the correlation rho of n pairs
     # has a standard error of about 1 / sqrt(n), so a ratio within two of them of 1
@@ -496,7 +496,7 @@ def test_the_pairing_ratios_are_those_the_stored_runs_show():
             continue
         p = pooled(rows)
         measured = p["variance_ratio"]
-        fixed = advisor.PAIRING_VARIANCE_RATIO[name]
+        fixed = judge.PAIRING_VARIANCE_RATIO[name]
         assert abs(measured - fixed) < 0.15, (name, measured)
         if abs(measured - 1.0) > 2.0 / math.sqrt(p["dof"]):
             assert (measured < 1) == (fixed < 1), (name, measured)
@@ -519,7 +519,7 @@ def _pooled_rates(n_groups, n_seeds, ratio, wide, kind, n=4000, n_ref=3, seed=0)
     r = _draw(rng, (n, n_ref), 1.0, SD_REF, kind)
     c = _draw(rng, (n, n_seeds), ratio, sds[0], kind)
     others = [_draw(rng, (n, n_seeds), 1.0, s, kind) for s in sds[1:]]
-    ae, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
+    ae, ad = judge.error_rates(judge.CONFIDENCE, 1)
     v = judge.judge_samples(c, r, TOL, ae, ad, others=others)
     return float(np.mean(v == "equivalent")), float(np.mean(v == "differs"))
 
@@ -547,7 +547,7 @@ def test_without_the_screen_a_wider_variant_breaks_the_rate():
     r = _draw(rng, (n, 3), 1.0, SD_REF, "normal")
     c = _draw(rng, (n, 8), 1 + TOL, 2 * SD_COARSE, "normal")
     others = [_draw(rng, (n, 8), 1.0, SD_COARSE, "normal") for _ in range(3)]
-    ae, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
+    ae, ad = judge.error_rates(judge.CONFIDENCE, 1)
     unscreened = judge.judge_samples(c, r, TOL, ae, ad, others=others, level=None)
     screened = judge.judge_samples(c, r, TOL, ae, ad, others=others)
     assert np.mean(unscreened == "equivalent") > _bound(n)
@@ -560,7 +560,7 @@ def _pooled_power(n_seeds, pooled: bool, n=4000, seed=0) -> float:
     rng = np.random.default_rng(seed)
     r = np.exp(rng.normal(0, SD_REF, (n, N_REF)))
     c = [np.exp(rng.normal(0, SD_COARSE, (n, n_seeds))) for _ in range(3)]
-    ae, ad = advisor.error_rates(advisor.CONFIDENCE, 1)
+    ae, ad = judge.error_rates(judge.CONFIDENCE, 1)
     v = judge.judge_samples(c[0], r, TOL, ae, ad, others=c[1:] if pooled else ())
     return float(np.mean(v == "equivalent"))
 
@@ -575,7 +575,7 @@ def test_pooling_decides_with_fewer_seeds():
     assert pooled[8] >= 0.8 and pooled[8] > own[8] - 0.02, (pooled, own)
     # 80 % with at most 5 seeds a rule is out of reach at these rates for any rule that
     # estimates spreads: a z-test knowing both spreads needs more than 5 itself
-    ae, _ = advisor.error_rates(advisor.CONFIDENCE, 1)
+    ae, _ = judge.error_rates(judge.CONFIDENCE, 1)
     assert _oracle_equivalent(ae) > 5
 
 
@@ -588,7 +588,7 @@ def _adaptive_pooled(ratios, sds, n=600, seed=0, kind="lognormal"):
     spec = SimpleNamespace(
         reference=SimpleNamespace(consolidation_stress=CONS),
         tolerances={name: TOL},
-        confidence=advisor.CONFIDENCE,
+        confidence=judge.CONFIDENCE,
         decide=True,
         max_seeds=10,
         max_reference_seeds=6,
@@ -609,7 +609,7 @@ def _adaptive_pooled(ratios, sds, n=600, seed=0, kind="lognormal"):
         refs = [one(1.0, SD_REF) for _ in range(3)]
         groups = {k: [one(q, s) for _ in range(3)] for k, q, s in zip(keys, ratios, sds)}
         noise = StudyNoise(refs, groups, [name], CONS)
-        ae, ad = advisor.error_rates(spec.confidence, 1, 1, 2)
+        ae, ad = judge.error_rates(spec.confidence, 1, 1, 2)
         verdicts = [judge.judge_group(noise, k, spec.tolerances, ae, ad) for k in keys]
         for a in next_runs(spec, noise, verdicts, costs, 1, None):
             if a.kind == "reference":
@@ -618,7 +618,7 @@ def _adaptive_pooled(ratios, sds, n=600, seed=0, kind="lognormal"):
                 i = keys.index(a.variant)
                 groups[a.variant].append(one(ratios[i], sds[i]))
         noise = StudyNoise(refs, groups, [name], CONS)
-        ae, ad = advisor.error_rates(spec.confidence, 1, 2, 2)
+        ae, ad = judge.error_rates(spec.confidence, 1, 2, 2)
         v = judge.judge_group(noise, keys[0], spec.tolerances, ae, ad)
         eq += v["verdict"] == "equivalent"
         di += v["verdict"] == "differs"

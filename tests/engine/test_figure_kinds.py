@@ -21,12 +21,13 @@ from engine.io.figures import (
     kinds_of,
     plot_kinds,
 )
+from engine.study.report import StudyReport
 from tests.engine.test_figures import study as uniaxial_study
 
 TINY_SHEAR = {"type": "ShearTest", "pair_law": {"type": "BilinearAdhesive", "k1": 5e3}}
 
 
-def shear_study() -> tuple[dict, list[dict], dict]:
+def shear_study() -> tuple[dict, list[dict], StudyReport]:
     """Two shear references and a coarse variant: yield points, fitted loci, pre-shear."""
     strain = np.linspace(0.0, 0.3, 40)
     runs, table = {}, []
@@ -59,7 +60,7 @@ def shear_study() -> tuple[dict, list[dict], dict]:
                 "err_sigma_1": 0.02,
             }
         )
-    return runs, table, {"tolerances": {"yield_locus": 0.1}, "verdicts": []}
+    return runs, table, StudyReport.from_dict({"tolerances": {"yield_locus": 0.1}, "verdicts": []})
 
 
 def words(fig) -> list[tuple[str, object]]:
@@ -96,12 +97,12 @@ def test_no_figure_draws_words_over_words(which):
 
 
 def test_an_empty_panel_says_one_thing_and_names_the_study_s_plots():
-    runs, table, advisor = uniaxial_study()
-    (ax,) = figure("yield_locus", runs, table, advisor).axes
+    runs, table, report = uniaxial_study()
+    (ax,) = figure("yield_locus", runs, table, report).axes
     (note,) = ax.texts
     assert "a uniaxial study" in note.get_text() and "stress_strain" in note.get_text()
-    runs, table, advisor = shear_study()
-    (ax,) = figure("unconfined", runs, table, advisor).axes
+    runs, table, report = shear_study()
+    (ax,) = figure("unconfined", runs, table, report).axes
     (note,) = ax.texts
     assert "a shear study" in note.get_text() and "yield_locus" in note.get_text()
 
@@ -137,10 +138,11 @@ def test_a_study_s_plots_follow_its_kind_of_test():
 def test_an_unbounded_interval_is_cut_at_1000_percent_with_an_arrow():
     """A two-seed interval to +1e6 % is drawn to +1000 % with an arrow (and read as
     unbounded in the legend), so that no tick reads +1e+06."""
-    runs, table, advisor = uniaxial_study()
-    (m,) = [m for m in advisor["verdicts"][0]["metrics"] if m["metric"] == "loading_stiffness"]
+    runs, table, report = uniaxial_study()
+    data = report.to_dict()
+    (m,) = [m for m in data["verdicts"][0]["metrics"] if m["metric"] == "loading_stiffness"]
     m["bias"]["interval"] = [-0.99, 1e4]  # -99 % to +1e6 %
-    fig = figure("error_vs_runtime", runs, table, advisor)
+    fig = figure("error_vs_runtime", runs, table, StudyReport.from_dict(data))
     ax = next(a for a in fig.axes if a.get_title().startswith("loading stiffness"))
     assert ax.get_ylim()[1] <= 1150.0
     arrows = [ln for ln in ax.get_lines() if ln.get_marker() == "^"]

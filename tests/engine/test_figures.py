@@ -10,6 +10,7 @@ import pytest
 
 pytest.importorskip("matplotlib")
 from engine.io.figures import KINDS, UNIAXIAL_KINDS, figure, has_controls, save_all
+from engine.study.report import StudyReport
 
 TOL = {"density": 0.03, "loading_stiffness": 0.15, "strength": 0.15}
 
@@ -18,7 +19,7 @@ def metric(name: str, err: float, lo: float, hi: float) -> dict:
     return {"metric": name, "signed_error": err, "bias": {"error": err, "interval": [lo, hi]}}
 
 
-def study(controls: bool = True) -> tuple[dict, list[dict], dict]:
+def study(controls: bool = True) -> tuple[dict, list[dict], StudyReport]:
     """Two references, a coarse variant 26 % weak in strength, and (with ``controls``) its
     resolution control of one seed: too few for a resolution curve."""
     t = np.linspace(0.0, 1.0, 50)
@@ -48,7 +49,7 @@ def study(controls: bool = True) -> tuple[dict, list[dict], dict]:
                 "unconfined_strength": peak,
             }
         )
-    advisor = {
+    report = {
         "tolerances": TOL,
         "noise_floor": {"density": 0.01, "loading_stiffness": 0.05, "strength": 0.1},
         "verdicts": [
@@ -76,7 +77,7 @@ def study(controls: bool = True) -> tuple[dict, list[dict], dict]:
         "rule_errors": [],
         "resolution_curve": {"metrics": {}, "confidence": 0.95},
     }
-    return runs, table, advisor
+    return runs, table, StudyReport.from_dict(report)
 
 
 def test_errors_are_signed_on_an_axis_that_reads():
@@ -96,19 +97,19 @@ def test_errors_are_signed_on_an_axis_that_reads():
 
 
 def test_a_study_with_controls_too_few_for_a_line_shows_them():
-    runs, table, advisor = study()
+    runs, table, report = study()
     assert has_controls(table)
-    fig = figure("resolution", runs, table, advisor)
+    fig = figure("resolution", runs, table, report)
     text = fig._suptitle.get_text()
     assert "no line to the bulk" in text and "no resolution controls" not in text
     ax = next(a for a in fig.axes if a.get_title().startswith("unconfined strength"))
     ys = [round(float(y), 6) for line in ax.get_lines() for y in np.atleast_1d(line.get_ydata())]
     assert -18.0 in ys  # the control's own error, at its d / L
     # without controls, the plot says so, and save_all leaves it out
-    runs, table, advisor = study(controls=False)
+    runs, table, report = study(controls=False)
     assert (
         "no resolution controls"
-        in figure("resolution", runs, table, advisor).axes[0].texts[0].get_text()
+        in figure("resolution", runs, table, report).axes[0].texts[0].get_text()
     )
 
 

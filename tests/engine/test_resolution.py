@@ -93,7 +93,7 @@ def test_curves_and_lines_from_run_values():
 
 
 def test_the_adhesion_exponent_fit_and_its_fieller_interval():
-    from engine.study.advisor import fit_exponent
+    from engine.study.adhesion import fit_exponent
 
     # strength ~ exp(0.4 b): the target made at b = 2 is met at b = 2
     exact = {b: [math.exp(0.4 * b) * f for f in (0.999, 1.001)] for b in (1.0, 2.0, 3.0)}

@@ -15,9 +15,10 @@ import pytest
 
 import engine
 from engine.shear.results import load_shear, save_shear
-from engine.study.advisor import side_by_side
+from engine.study.advice import side_by_side
 from engine.study.metrics import SHEAR_METRICS, metric_values
 from engine.study.plan import StudyPlan, plan
+from engine.study.report import Verdict
 from engine.study.results import assemble
 from engine.study.spec import on_test
 from tests.engine.test_shear import COHESIVE, tiny
@@ -103,14 +104,14 @@ def test_the_shear_metrics_against_hand_numbers():
 
 def test_side_by_side_combines_one_rules_verdicts_on_two_tests():
     uni = [
-        {"radius": 3e-3, "rule": "paper", "verdict": "equivalent"},
-        {"radius": 3e-3, "rule": "unscaled", "verdict": "differs"},
-        {"radius": 4e-3, "rule": "paper", "verdict": "equivalent"},
+        Verdict(3e-3, "paper", "equivalent"),
+        Verdict(3e-3, "unscaled", "differs"),
+        Verdict(4e-3, "paper", "equivalent"),
     ]
     shear = [
-        {"radius": 3e-3, "rule": "paper", "verdict": "equivalent"},
-        {"radius": 3e-3, "rule": "unscaled", "verdict": "undecided"},
-        {"radius": 4e-3, "rule": "paper", "verdict": "undecided"},
+        Verdict(3e-3, "paper", "equivalent"),
+        Verdict(3e-3, "unscaled", "undecided"),
+        Verdict(4e-3, "paper", "undecided"),
     ]
     rows = {(r["radius"], r["rule"]): r for r in side_by_side({"uniaxial": uni, "shear": shear})}
     assert rows[3e-3, "paper"]["verdict"] == "equivalent"
@@ -153,17 +154,17 @@ def test_a_tiny_shear_study_runs_judges_and_reports(tmp_path):
             assert s["dt"] == pytest.approx(ref.scalars["dt"] * 3.1 / 2.5, rel=1e-9)
         elif run.control:  # the reference law: the reference's step
             assert s["dt"] == ref.scalars["dt"]
-    adv = res.advisor
-    (v,) = adv["verdicts"]
-    assert v["rule"] == "paper" and v["verdict"] in ("equivalent", "differs", "undecided")
-    if v["metrics"]:
-        assert [m["metric"] for m in v["metrics"]] == list(SHEAR_METRICS)
-    assert set(adv["noise_floor"]) == set(SHEAR_METRICS)
-    assert all(x is not None and math.isfinite(x) for x in adv["noise_floor"].values())
-    assert [r["radius"] for r in adv["resolution"]] == [3.1e-3]
+    rep = res.report
+    (v,) = rep.verdicts
+    assert v.rule == "paper" and v.verdict in ("equivalent", "differs", "undecided")
+    if v.metrics:
+        assert [m.metric for m in v.metrics] == list(SHEAR_METRICS)
+    assert set(rep.noise_floor) == set(SHEAR_METRICS)
+    assert all(x is not None and math.isfinite(x) for x in rep.noise_floor.values())
+    assert [r.radius for r in rep.resolution] == [3.1e-3]
     # the paper rule is the law's exact similarity: against its control a check of units
-    assert "a check of units, not evidence for the rule" in adv["message"]
-    assert "output_interval" in adv["message"]
+    assert "a check of units, not evidence for the rule" in rep.message
+    assert "output_interval" in rep.message
     # the shear study's figures (engine.io.figures.SHEAR_KINDS), not the uniaxial curves
     plots = res.save_plots(tmp_path / "plots")
     assert [p.stem for p in plots] == ["yield_locus", "preshear", "error_vs_runtime", "resolution"]
@@ -185,5 +186,5 @@ def test_a_tiny_shear_study_runs_judges_and_reports(tmp_path):
             r.stages["preshear"].curves["shear_stress"],
         )
     again = assemble(spec, plan(spec).runs, back)
-    assert again.advisor["verdicts"] == adv["verdicts"]
+    assert again.report.verdicts == rep.verdicts
     assert again.table == res.table

@@ -1,4 +1,4 @@
-"""Scaling rules, the study spec, the advisor, and tiny studies end to end (in process and
+"""Scaling rules, the study spec, the report, and tiny studies end to end (in process and
 on a process pool)."""
 
 from __future__ import annotations
@@ -12,7 +12,10 @@ import pytest
 
 import engine
 from engine.study import metrics
-from engine.study.advisor import adhesion_advice, advise
+from engine.study.adhesion import adhesion_advice
+from engine.study.advice import rule_answers
+from engine.study.judge import VERDICTS
+from engine.study.report import Verdict
 from tests.engine.test_uniaxial import COHESIVE, tiny
 
 
@@ -124,7 +127,7 @@ def test_spec_validation_names_fields():
     assert engine.plan(spec).max_particles() == spec.reference.n_particles
 
 
-def test_advisor_picks_coarsest_equivalent_and_fits_exponent():
+def test_report_picks_coarsest_equivalent_and_fits_exponent():
     spec = engine.StudySpec(
         reference=engine.preset("quick"),
         coarse_radii=(3e-3, 3.5e-3),
@@ -153,21 +156,14 @@ def test_advisor_picks_coarsest_equivalent_and_fits_exponent():
                     "thickness_diameters": 12.0,
                 }
             )
-            verdicts.append(
-                {
-                    "radius": r,
-                    "rule": rule.name,
-                    "verdict": "equivalent" if err < 0.2 else "differs",
-                }
-            )
-    adv = advise(spec, groups, verdicts, reference_strength=1000.0)
-    assert adv["rules"]["b2"]["coarsest_radius"] == 3.5e-3
-    assert adv["rules"]["b1"]["coarsest_radius"] == 3e-3  # 3.5 mm: 30 % off
-    assert adv["verdicts"] is verdicts and adv["warnings"] == []
-    for v in adv["adhesion_exponent"]["by_radius"].values():
-        assert v["best"] == 2.0
-        assert v["fitted"] == pytest.approx(2.0, abs=1e-9)
-    assert adhesion_advice(spec, groups, None)["by_radius"]
+            verdicts.append(Verdict(r, rule.name, "equivalent" if err < 0.2 else "differs"))
+    rules = rule_answers(spec, groups, verdicts)
+    assert rules["b2"].coarsest_radius == 3.5e-3
+    assert rules["b1"].coarsest_radius == 3e-3  # 3.5 mm: 30 % off
+    for v in adhesion_advice(spec, groups, reference_strength=1000.0).by_radius.values():
+        assert v.best == 2.0
+        assert v.fitted == pytest.approx(2.0, abs=1e-9)
+    assert adhesion_advice(spec, groups, None).by_radius
 
 
 def _tiny_spec(**kw):
@@ -209,10 +205,10 @@ def test_tiny_study_end_to_end(tiny_study, tmp_path):
     half = stored["half-s1"]
     assert half.scalars["dt"] == pytest.approx(stored["ref-s1"].scalars["dt"] / 2)
     assert half.test.platen_speed == pytest.approx(stored["ref-s1"].test.platen_speed / 2)
-    check = res.advisor["protocol"]
-    assert check["rule"] == "protocol" and check["paired_seeds"] == 2
-    assert {m["metric"] for m in check["metrics"]} == set(engine.METRICS)
-    assert any(line.startswith("protocol check: ") for line in res.advisor["control_lines"])
+    check = res.report.protocol
+    assert check.rule == "protocol" and check.paired_seeds == 2
+    assert {m.metric for m in check.metrics} == set(engine.METRICS)
+    assert any(line.startswith("protocol check: ") for line in res.report.control_lines)
     assert res.runs["half-s1"].label == "protocol" and not res.runs["half-s1"].is_reference
     assert next(p.run_key for p in seen) == "ref-s1" and seen[-1].fraction == pytest.approx(1.0)
     for k in ("ref-s1", "ref-s2"):
@@ -228,19 +224,18 @@ def test_tiny_study_end_to_end(tiny_study, tmp_path):
     assert coarse.result.scalars["particles"] < ref.result.scalars["particles"]
     mean_ref_wall = np.median([res.runs[k].result.scalars["wall_time"] for k in keys[:2]])
     assert coarse.speedup == pytest.approx(mean_ref_wall / coarse.result.scalars["wall_time"])
-    adv = res.advisor
-    assert set(adv["rules"]) == {"paper", "unscaled"}
-    assert {(v["radius"], v["rule"]) for v in adv["verdicts"]} == {
-        (3.1e-3, "paper"),
-        (3.1e-3, "unscaled"),
-    }
-    for v in adv["verdicts"]:
-        assert v["verdict"] in engine.study.advisor.VERDICTS and v["reason"]
-        assert {m["metric"] for m in v["metrics"]} == set(engine.METRICS)
-    assert set(adv["noise_floor"]) == set(engine.METRICS)
-    assert all(x is not None and x >= 0 for x in adv["noise_floor"].values())
+    rep = res.report
+    assert set(rep.rules) == {"paper", "unscaled"}
+    assert {(v.radius, v.rule) for v in rep.verdicts} == {(3.1e-3, "paper"), (3.1e-3, "unscaled")}
+    for v in rep.verdicts:
+        assert v.verdict in VERDICTS and v.reason
+        assert {m.metric for m in v.metrics} == set(engine.METRICS)
+    assert set(rep.noise_floor) == set(engine.METRICS)
+    assert all(x is not None and x >= 0 for x in rep.noise_floor.values())
     # 15 mm cell, 6.2 mm particles: 2.4 diameters, the finite-size warning
-    assert any("R = 3.1 mm" in w for w in adv["warnings"])
+    assert any("R = 3.1 mm" in w for w in rep.warnings)
+    # the report's JSON reads back to the same report
+    assert type(rep).from_dict(res.to_summary()["advisor"]) == rep
     assert res.to_summary()["units"]["wall_time"] == "s"
     paths = res.save_plots(tmp_path)
     assert len(paths) == 6  # with the resolution curve: controls are on by default
@@ -249,7 +244,7 @@ def test_tiny_study_end_to_end(tiny_study, tmp_path):
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
     # the verdicts recomputed from the stored runs are the same
     again = engine.study.results.assemble(spec, engine.plan(spec).runs, stored)
-    assert again.advisor["verdicts"] == adv["verdicts"]
+    assert again.report.verdicts == rep.verdicts
 
 
 def test_process_pool_gives_the_same_table_and_resumes(tiny_study):
@@ -278,10 +273,10 @@ def test_process_pool_gives_the_same_table_and_resumes(tiny_study):
     assert ran == ["r3.1mm-paper-s1"] and table(resumed) == table(res)
     # one seed per variant: its spread is unknown, so a second seed of each is added (with
     # the control of that seed), and the pool's added runs are those of the same study here
-    added = [a["run"] for a in pooled_d.advisor["adaptive"]["added_runs"]]
+    added = [a["run"] for a in pooled_d.report.adaptive.added_runs]
     assert sorted(added) == ["ctl-r3.1mm-s3", "r3.1mm-paper-s3", "r3.1mm-unscaled-s3"]
     here = engine.run_study(deciding, completed=dict(stored))
-    assert [a["run"] for a in here.advisor["adaptive"]["added_runs"]] == added
+    assert [a["run"] for a in here.report.adaptive.added_runs] == added
     assert table(here) == table(pooled_d)
 
 
@@ -292,8 +287,8 @@ def test_a_failed_coarse_run_leaves_the_rest():
     outcomes["r3.1mm-paper-s1"] = "InstabilityError: blew up at step 12"
     res = engine.study.results.assemble(spec, engine.plan(spec).runs, outcomes)
     assert res.failed == {"r3.1mm-paper-s1": "InstabilityError: blew up at step 12"}
-    v = next(v for v in res.advisor["verdicts"] if v["rule"] == "paper")
-    assert v["verdict"] == "undecided" and "blew up" in v["reason"]
+    v = next(v for v in res.report.verdicts if v.rule == "paper")
+    assert v.verdict == "undecided" and "blew up" in v.reason
     assert "r3.1mm-unscaled-s1" in res.runs and len(good.runs) == 5
     outcomes["ref-s1"] = outcomes["ref-s2"] = "StageError: no"
     with pytest.raises(engine.RunFailed):
@@ -327,24 +322,22 @@ def test_a_deciding_study_resumes_with_the_runs_it_added():
     )
     stored: dict = {}
     full = engine.run_study(spec, on_run=stored.__setitem__)
-    added = [a["run"] for a in full.advisor["adaptive"]["added_runs"]]
+    added = [a["run"] for a in full.report.adaptive.added_runs]
     assert added and added[0] == "ref-s2"  # one reference seed: its spread first
     planned = [p.key for p in engine.plan(spec).runs]
     partial = {k: v for k, v in stored.items() if k in planned + added[:1]}
     ran: list = []
     again = engine.run_study(spec, completed=partial, on_run=lambda k, o: ran.append(k))
     assert ran == added[1:]
-    assert [a["run"] for a in again.advisor["adaptive"]["added_runs"]] == added
+    assert [a["run"] for a in again.report.adaptive.added_runs] == added
     assert [r["run"] for r in again.table] == [r["run"] for r in full.table]
     # the runs are deterministic: the resumed study's verdicts are the uninterrupted one's
-    assert [v["verdict"] for v in again.advisor["verdicts"]] == [
-        v["verdict"] for v in full.advisor["verdicts"]
-    ]
+    assert [v.verdict for v in again.report.verdicts] == [v.verdict for v in full.report.verdicts]
 
 
 def test_a_control_follows_every_added_coarse_seed():
     # engine.study.plan._added_runs: one control per radius and seed, so that the rule's
-    # own error keeps its pairs (advisor.judge_rule_error); counted in the budget
+    # own error keeps its pairs (judge.judge_rule_error); counted in the budget
     spec = engine.StudySpec(
         reference=tiny(),
         coarse_radii=(3.1e-3,),
@@ -358,7 +351,7 @@ def test_a_control_follows_every_added_coarse_seed():
     )
     stored: dict = {}
     res = engine.run_study(spec, on_run=stored.__setitem__)
-    added = {a["run"]: a for a in res.advisor["adaptive"]["added_runs"]}
+    added = {a["run"]: a for a in res.report.adaptive.added_runs}
     # with a control still to run the study has not stopped, even when no round adds more
     from engine.study.plan import plan_runs
 
@@ -369,8 +362,8 @@ def test_a_control_follows_every_added_coarse_seed():
     for k in coarse:
         ctl = "ctl-r3.1mm-s" + k.rpartition("-s")[2]
         assert added[ctl]["kind"] == "control" and k in added[ctl]["reason"]
-    (own,) = res.advisor["rule_errors"]
-    assert own["paired_seeds"] == 3 and own["control_seeds"] == 3
+    (own,) = res.report.rule_errors
+    assert own.paired_seeds == 3 and own.control_seeds == 3
 
 
 def test_stored_runs_beyond_the_plan_are_judged_with_it():
@@ -434,27 +427,27 @@ def test_a_study_with_controls_gives_the_rule_error_and_the_resolution_error():
     assert burden["ctl-r3.1mm-s2"] == pytest.approx(burden["r3.1mm-paper-s2"], rel=0.05)
     assert burden["ctl-r3.1mm-s2"] == pytest.approx(burden["ref-s2"], rel=0.05)
     assert res.runs["ctl-r3.1mm-s2"].result.test.gravity == pytest.approx(9.81 * 3.1 / 2.5)
-    (resolution,) = res.advisor["resolution"]
-    assert resolution["radius"] == 3.1e-3 and resolution["seeds"] == 3
-    assert resolution["diameters_across"] == pytest.approx(12.1e-3 / 5e-3, rel=1e-2)
-    (rule,) = res.advisor["rule_errors"]
-    assert rule["rule"] == "paper" and rule["control_seeds"] == 3
-    assert rule["verdict"] in ("equivalent", "differs", "undecided")
-    lines = " ".join(res.advisor["control_lines"])
+    (resolution,) = res.report.resolution
+    assert resolution.radius == 3.1e-3 and resolution.seeds == 3
+    assert resolution.diameters_across == pytest.approx(12.1e-3 / 5e-3, rel=1e-2)
+    (rule,) = res.report.rule_errors
+    assert rule.rule == "paper" and rule.control_seeds == 3
+    assert rule.verdict in ("equivalent", "differs", "undecided")
+    lines = " ".join(res.report.control_lines)
     assert "against its resolution control" in lines and "diameters across" in lines
     # density paired by seed (its measured correlation), the stiffnesses not; coordination
     # not at three a side, where the unpaired interval's 4 degrees of freedom outweigh
-    paired = {m["metric"]: m["paired"] for m in rule["metrics"]}
+    paired = {m.metric: m.paired for m in rule.metrics}
     assert paired["density"] and not paired["coordination"] and not paired["loading_stiffness"]
-    assert rule["paired_seeds"] == 3
+    assert rule.paired_seeds == 3
     # the resolution curve through the references and the controls, and its figure
-    curve = res.advisor["resolution_curve"]["metrics"]
+    curve = res.report.resolution_curve.metrics
     assert set(curve) >= {"density", "loading_stiffness"}
     assert [s["reference"] for s in curve["density"]["sizes"]] == [True, False]
     assert "resolution curve, density" in lines and "bulk value" in lines
-    assert res.figure("resolution").axes  # drawn from the advisor
+    assert res.figure("resolution").axes  # drawn from the report
     # the coarse variant's own verdict against the reference is judged as before
-    assert [(v["radius"], v["rule"]) for v in res.advisor["verdicts"]] == [(3.1e-3, "paper")]
+    assert [(v.radius, v.rule) for v in res.report.verdicts] == [(3.1e-3, "paper")]
     # a study may leave them out
     off = engine.StudySpec(reference=tiny(), coarse_radii=(3.1e-3,), controls=False)
     assert not any(p.control for p in engine.plan(off).runs)

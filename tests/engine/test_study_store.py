@@ -86,7 +86,7 @@ def test_added_runs_are_stored_with_their_round_and_read_back(old_store, tmp_pat
     res = engine.run_study(spec, executor=_StoredRuns(old.values()), on_run=on_run)
     # the same runs give the same report, the loop as the replay
     assert strict_json(res.to_summary()) == want
-    added = res.advisor["adaptive"]["added_runs"]
+    added = list(res.report.adaptive.added_runs)
     assert {k for k, a in heard.items() if a is None} == pilot
     for a in added:
         assert a in heard[a["run"]] and {b["round"] for b in heard[a["run"]]} == {a["round"]}

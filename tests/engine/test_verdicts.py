@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 import engine
-from engine.study import advisor, judge, metrics
+from engine.study import advice, judge, metrics, noise
 from engine.study.intervals import log_ratio_interval, t_quantile
+from engine.study.report import StoppedAt, Verdict
 from engine.uniaxial.measures import (
     FailureDetector,
     interior_measures,
@@ -194,7 +195,7 @@ def test_noise_too_large_to_tell():
     m = judge.judge_values("strength", _seeds("strength", [2.0e4, 2.2e4]), ref, 0.15, 2e4)
     assert m["verdict"] == "undecided"
     assert m["needs"]["coarse"] is not None or m["needs"]["coarse_and_reference"] is not None
-    overall, reason = advisor.verdict([m])
+    overall, reason = judge.verdict([m])
     assert overall == "undecided" and "noise too large" in reason and "strength" in reason
     assert "would decide it" in reason
 
@@ -202,7 +203,7 @@ def test_noise_too_large_to_tell():
 def test_one_seed_of_a_variant_is_undecided_and_says_why():
     ref = _ref("density", [0.6, 0.601])
     m = judge.judge_values("density", _seeds("density", [0.9]), ref, 0.03, 2e4)
-    overall, reason = advisor.verdict([m])
+    overall, reason = judge.verdict([m])
     assert overall == "undecided" and "one seed of this variant" in reason
 
 
@@ -210,23 +211,23 @@ def test_one_reference_seed_is_undecided_and_says_why():
     m = judge.judge_values(
         "density", [{"density": np.array([0.9])}], [{"density": np.array([0.6])}], 0.03, 2e4
     )
-    overall, reason = advisor.verdict([m])
+    overall, reason = judge.verdict([m])
     assert overall == "undecided" and "one reference seed" in reason
 
 
 def test_error_rates_split_over_metrics_ends_and_looks():
     # equivalence: alpha / 2 per end at any look (claimed at the final look only);
     # differs: its look's share over the metrics and the two ends
-    assert advisor.error_rates(0.95, 5) == pytest.approx((0.025, 0.005))
-    assert advisor.error_rates(0.9, 4, look=1, looks=2) == pytest.approx((0.05, 0.0025))
-    assert advisor.error_rates(0.9, 4, look=2, looks=2) == pytest.approx((0.05, 0.01))
-    assert advisor.error_rates(0.9, 4, look=3, looks=3) == pytest.approx((0.05, 0.005))
+    assert judge.error_rates(0.95, 5) == pytest.approx((0.025, 0.005))
+    assert judge.error_rates(0.9, 4, look=1, looks=2) == pytest.approx((0.05, 0.0025))
+    assert judge.error_rates(0.9, 4, look=2, looks=2) == pytest.approx((0.05, 0.01))
+    assert judge.error_rates(0.9, 4, look=3, looks=3) == pytest.approx((0.05, 0.005))
     # the looks spend alpha once between them
-    assert sum(advisor.look_alpha(0.95, k, 4) for k in range(1, 5)) == pytest.approx(0.05)
+    assert sum(judge.look_alpha(0.95, k, 4) for k in range(1, 5)) == pytest.approx(0.05)
     with pytest.raises(ValueError):
-        advisor.error_rates(1.0, 1)
+        judge.error_rates(1.0, 1)
     with pytest.raises(ValueError):
-        advisor.error_rates(0.95, 1, look=3, looks=2)
+        judge.error_rates(0.95, 1, look=3, looks=2)
 
 
 def test_any_metric_that_differs_decides():
@@ -258,15 +259,15 @@ def test_any_metric_that_differs_decides():
         verdict="differs",
     )
     unsure = dict(ok, metric="coordination", verdict="undecided")
-    assert advisor.verdict([ok, ok])[0] == "equivalent"
-    assert advisor.verdict([ok, unsure])[0] == "undecided"
-    v, reason = advisor.verdict([ok, unsure, bad])
+    assert judge.verdict([ok, ok])[0] == "equivalent"
+    assert judge.verdict([ok, unsure])[0] == "undecided"
+    v, reason = judge.verdict([ok, unsure, bad])
     assert v == "differs" and "strength -50.0 %" in reason and "[-60.0 %, -40.0 %]" in reason
 
 
 def test_noise_floor_is_the_reference_spread():
     vals = [{"strength": np.array([v])} for v in (900.0, 1000.0, 1100.0)]
-    floor = advisor.noise_floor(vals, ["strength"], 2e4)["strength"]
+    floor = noise.noise_floor(vals, ["strength"], 2e4)["strength"]
     assert floor["mean"][0] == pytest.approx(1000.0)
     assert floor["noise"] == pytest.approx(100.0 / 1000.0)
 
@@ -277,11 +278,11 @@ def test_thin_cell_warnings_without_and_with_controls():
         {"radius": 3e-3, "thickness_diameters": 8.0},
         {"radius": 2e-3, "thickness_diameters": 12.0},
     ]
-    w = advisor.finite_size_warnings(groups)
+    w = advice.finite_size_warnings(groups)
     assert len(w) == 2 and "R = 5 mm" in w[0] and "4.0" in w[0] and "under the 5" in w[0]
     assert "R = 3 mm" in w[1] and "no resolution control" in w[1]
     # with controls the resolution error is measured, not warned about
-    w = advisor.finite_size_warnings(groups, controlled=True)
+    w = advice.finite_size_warnings(groups, controlled=True)
     assert len(w) == 1 and "R = 5 mm" in w[0]
 
 
@@ -464,27 +465,29 @@ def test_the_coarsest_radius_is_tested_fine_to_coarse():
         {"radius": r, "rule": "paper", "speedup": r * 1e3, "thickness_diameters": 10.0}
         for r in (3e-3, 4e-3, 5e-3, 6e-3)
     ]
-    a = advisor.advise(spec, groups, verdicts, None)
-    rule = a["rules"]["paper"]
-    assert rule["coarsest_radius"] == 4e-3 and rule["speedup"] == pytest.approx(4.0)
-    assert rule["radii_equivalent"] == [3e-3, 4e-3, 6e-3]
-    assert rule["sequence_stopped_at"] == {"radius": 5e-3, "verdict": "undecided"}
-    assert "6 mm equivalent but not reported" in a["message"]
+    verdicts = [Verdict.from_dict(v) for v in verdicts]
+    rules = advice.rule_answers(spec, groups, verdicts)
+    message = "; ".join(advice.advice_lines(rules, verdicts))
+    rule = rules["paper"]
+    assert rule.coarsest_radius == 4e-3 and rule.speedup == pytest.approx(4.0)
+    assert rule.radii_equivalent == (3e-3, 4e-3, 6e-3)
+    assert rule.sequence_stopped_at == StoppedAt(5e-3, "undecided")
+    assert "6 mm equivalent but not reported" in message
     # the law to run there: K ~ R, f0 ~ R^2 (the paper rule) from 2 to 4 mm
-    assert rule["coarsest_law"] == {**to_dict(law.scaled(2.0, 1.0, 2.0, 1.0)), "type": law_name}
-    assert rule["coarsest_law"]["k1"] == pytest.approx(1e4)
-    assert rule["coarsest_law"]["f0"] == pytest.approx(-0.4)
-    assert "K1 = 1e+04 N/m" in a["message"] and "F0 = -0.4 N" in a["message"]
+    assert rule.coarsest_law == {**to_dict(law.scaled(2.0, 1.0, 2.0, 1.0)), "type": law_name}
+    assert rule.coarsest_law["k1"] == pytest.approx(1e4)
+    assert rule.coarsest_law["f0"] == pytest.approx(-0.4)
+    assert "K1 = 1e+04 N/m" in message and "F0 = -0.4 N" in message
     # the finest radius not equivalent: nothing to report
-    verdicts[1] = _verdict(3e-3, "differs")
-    assert advisor.advise(spec, groups, verdicts, None)["rules"]["paper"]["coarsest_radius"] is None
+    verdicts[1] = Verdict.from_dict(_verdict(3e-3, "differs"))
+    assert advice.rule_answers(spec, groups, verdicts)["paper"].coarsest_radius is None
 
 
 def test_what_decides_an_undecided_verdict():
     ref = _ref("strength", [1.6e4, 2e4, 2.4e4])
     m = judge.judge_values("strength", _seeds("strength", [2.0e4, 2.2e4, 1.9e4]), ref, 0.15, 2e4)
     assert m["verdict"] == "undecided"
-    text = advisor.what_decides([m])
+    text = judge.what_decides([m])
     assert text.startswith("about ") and "seeds" in text
     # at the tolerance no seed count decides it
     ref_tight = _ref("strength", [2e4, 2.002e4, 1.998e4])
@@ -492,6 +495,6 @@ def test_what_decides_an_undecided_verdict():
         "strength", _seeds("strength", [2.28e4, 2.32e4, 2.3e4]), ref_tight, 0.15, 2e4
     )
     assert at["verdict"] == "undecided"
-    assert "sits at its tolerance" in advisor.what_decides([at])
+    assert "sits at its tolerance" in judge.what_decides([at])
     ok = dict(m, verdict="equivalent")
-    assert advisor.what_decides([ok]) is None
+    assert judge.what_decides([ok]) is None

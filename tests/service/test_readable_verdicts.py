@@ -13,7 +13,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from engine.study import advisor, judge
+from engine.study import judge
 from engine.study.reasons import UNBOUNDED_WORDS, describe, interval_words, pct
 from service.models import TERMINAL, Status, Study
 from service.routes.studies import public
@@ -56,7 +56,7 @@ def test_an_unbounded_interval_is_said_so_in_the_reason():
     metrics = judged()
     stiffness = metrics[1]
     assert max(abs(x) for x in stiffness["interval"]) > 100  # beyond +-10,000 %: the case
-    overall, reason = advisor.verdict(metrics)
+    overall, reason = judge.verdict(metrics)
     assert overall == "differs"
     line = describe(stiffness)
     assert UNBOUNDED_WORDS.removesuffix(")") in line and "1.0 dof" in line, line
@@ -104,7 +104,7 @@ def page(summary: dict) -> str:
 
 def test_the_page_shows_the_verdicts_as_a_table_with_readable_intervals():
     metrics = judged()
-    overall, reason = advisor.verdict(metrics)
+    overall, reason = judge.verdict(metrics)
     summary = {
         "table": [],
         "failed": {},

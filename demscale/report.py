@@ -97,13 +97,15 @@ def calibration_lines(cal, summary: dict, radius: float) -> list[str]:
 
 def answer_of(summary: dict) -> list[str]:
     """The summary's answer lines (a summary stored before it had them: made from its
-    advisor, the reference radius read from its table)."""
-    from engine.study.advisor import answer_lines
+    report, the reference radius read from its table)."""
+    from engine.study.advice import answer_lines
+    from engine.study.report import StudyReport
 
     if summary.get("answer"):
         return list(summary["answer"])
     refs = [row["radius"] for row in summary.get("table", []) if not row.get("rule")]
-    return answer_lines(summary.get("advisor", {}), min(refs) if refs else None)
+    report = StudyReport.from_dict(summary.get("advisor"))
+    return answer_lines(report, min(refs) if refs else None)
 
 
 def summary_text(summary: dict, details: bool = False) -> str:
@@ -111,21 +113,22 @@ def summary_text(summary: dict, details: bool = False) -> str:
     verdict (with ``details`` its full reason and what would decide it), then per run its
     size, cost and errors against the mean reference, the reference's strength, the
     controls' lines, the seeds the study added and the warnings."""
-    from engine.study.advisor import verdict_line
+    from engine.study.advice import verdict_line
+    from engine.study.report import StudyReport
 
-    advisor = summary.get("advisor", {})
+    report = StudyReport.from_dict(summary.get("advisor"))
     lines = answer_of(summary)
-    conf = advisor.get("confidence")
-    if advisor.get("verdicts"):
-        at = f" at {conf:.0%} confidence" if conf is not None else ""
-        lines.append(f"\nverdicts{at} (docs/PHYSICS.md section 7):")
-    for v in advisor.get("verdicts", []):
+    if report.verdicts:
+        lines.append(
+            f"\nverdicts at {report.confidence:.0%} confidence (docs/PHYSICS.md section 7):"
+        )
+    for v in report.verdicts:
         lines.append(verdict_line(v))
         if details:
-            lines.append(f"  why: {v['reason']}")
-            if v.get("to_decide"):
-                lines.append(f"  to decide it: {v['to_decide']}")
-    if not details and any(v.get("reason") for v in advisor.get("verdicts", [])):
+            lines.append(f"  why: {v.reason}")
+            if v.to_decide:
+                lines.append(f"  to decide it: {v.to_decide}")
+    if not details and any(v.reason for v in report.verdicts):
         lines.append("(the reasons and what would decide each: --details, or the summary JSON)")
     lines.append("")
     cols = (
@@ -159,36 +162,38 @@ def summary_text(summary: dict, details: bool = False) -> str:
         "errors [%] against the mean of the reference seeds; cell [d]: thinnest "
         "side in particle diameters"
     )
-    ref = advisor.get("reference") or {}
-    if "unconfined_strength" in ref:
+    ref = report.reference
+    strength = ref.mean("unconfined_strength") if ref is not None else None
+    if strength is not None:
         parts = [
-            f"strength {ref['unconfined_strength'] / 1e3:.2f} ± "
-            f"{ref.get('unconfined_strength_std', 0.0) / 1e3:.2f} kPa"
+            f"strength {strength / 1e3:.2f} ± "
+            f"{(ref.std('unconfined_strength') or 0.0) / 1e3:.2f} kPa"
         ]
-        if "unconfined_strength_platen" in ref:
-            parts.append(f"top platen {ref['unconfined_strength_platen'] / 1e3:.2f} kPa")
-        if "self_weight_stress" in ref:
+        if ref.mean("unconfined_strength_platen") is not None:
+            parts.append(f"top platen {ref.mean('unconfined_strength_platen') / 1e3:.2f} kPa")
+        if ref.mean("self_weight_stress") is not None:
             parts.append(
-                f"self-weight rho g H / 2 = {ref['self_weight_stress'] / 1e3:.2f} kPa beside it"
+                f"self-weight rho g H / 2 = {ref.mean('self_weight_stress') / 1e3:.2f} kPa "
+                "beside it"
             )
-        failed = ref.get("unconfined_failure")
+        failed = ref.mean("unconfined_failure")
         if failed is not None:
             parts.append(f"{failed:.0%} of the references failed at a peak")
         lines.append("\nreference: " + "; ".join(parts))
-    lines += advisor.get("control_lines", [])
-    adaptive = advisor.get("adaptive")
-    if adaptive:
-        added = adaptive.get("added_runs", [])
+    lines += report.control_lines
+    adaptive = report.adaptive
+    if adaptive is not None:
+        added = adaptive.added_runs
         kinds = {}
         for a in added:
             kinds[a["kind"]] = kinds.get(a["kind"], 0) + 1
         what = ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())) or "none"
         lines.append(
-            f"seeds until decided: {adaptive['planned_runs']} planned runs (the pilot), "
-            f"{len(added)} added ({what}); verdicts at look {adaptive.get('look', '?')} of "
-            f"{adaptive.get('looks', '?')}; stopped: {adaptive.get('stopped') or 'still adding'}"
+            f"seeds until decided: {adaptive.planned_runs} planned runs (the pilot), "
+            f"{len(added)} added ({what}); verdicts at look {adaptive.look} of "
+            f"{adaptive.looks}; stopped: {adaptive.stopped or 'still adding'}"
         )
         for a in added:
             lines.append(f"  + {a['run']}: {a['reason']}")
-    lines += [f"warning: {w}" for w in advisor.get("warnings", [])]
+    lines += [f"warning: {w}" for w in report.warnings]
     return "\n".join(lines)

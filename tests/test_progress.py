@@ -65,7 +65,7 @@ def test_a_decide_study_s_progress_never_goes_back(tmp_path):
             bars.update(p)
 
         result = engine.run_study(study, progress=progress, on_run=bars.finished)
-    added = [a["run"] for a in result.advisor["adaptive"]["added_runs"]]
+    added = [a["run"] for a in result.report.adaptive.added_runs]
     assert added, "the round added no run: the case is not made"
 
     # the engine's fraction never goes back, and moves on through the added runs

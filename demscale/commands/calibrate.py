@@ -121,15 +121,16 @@ def _calibrate_where(field: str, args) -> str:
 
 
 def _resolution(raw) -> dict:
-    """--resolution: a study's summary.json (its advisor's resolution curve), or the
-    corrections themselves ({kind: [factor, sd of its log]})."""
+    """--resolution: a study's summary.json (its report's resolution curve, under
+    ``advisor``), or the corrections themselves ({kind: [factor, sd of its log]})."""
     from engine.calibration.calibrate import resolution_corrections
+    from engine.study.report import StudyReport
 
     if isinstance(raw, dict) and "advisor" in raw:
-        curve = (raw["advisor"] or {}).get("resolution_curve")
-        if not curve:
+        curve = StudyReport.from_dict(raw["advisor"]).resolution_curve
+        if curve is None:
             raise ValueError("--resolution: the study has no resolution curve (no controls)")
-        return resolution_corrections(curve)
+        return resolution_corrections(curve.to_dict())
     if not isinstance(raw, dict):
         raise ValueError("--resolution: a study's summary.json or {kind: [factor, sd]}")
     return raw

@@ -17,6 +17,7 @@ from engine.io.store import (
     stage_names,
     strict_json,
 )
+from engine.study.report import StudyReport
 
 __all__ = [
     "SCHEMA",
@@ -41,16 +42,18 @@ def write_results(path: Path, study_id: object, result, still_ours=lambda: True)
 
 
 def read_summary(path: Path) -> dict:
-    """The study summary (the answer, table, groups, advisor, units) stored in the file; a
-    summary stored before it had its ``answer`` gets it from its advisor
-    (:func:`engine.study.advisor.answer_lines`, the reference radius read from its table)."""
-    from engine.study.advisor import answer_lines
+    """The study summary (the answer, table, groups, the report's JSON under ``advisor``,
+    units) stored in the file; a summary stored before it had its ``answer`` gets it from
+    its report (:func:`engine.study.advice.answer_lines`, the reference radius read from
+    its table)."""
+    from engine.study.advice import answer_lines
 
     with h5py.File(path, "r") as f:
         summary = json.loads(f.attrs["summary"])
     if not summary.get("answer"):
         refs = [row["radius"] for row in summary.get("table", []) if not row.get("rule")]
-        answer = answer_lines(summary.get("advisor") or {}, min(refs) if refs else None)
+        report = StudyReport.from_dict(summary.get("advisor"))
+        answer = answer_lines(report, min(refs) if refs else None)
         summary = {"answer": answer, **summary}
     return summary
 
@@ -123,8 +126,10 @@ def read_runs(
     return {"runs": out, "units": units} if with_units else out
 
 
-def read_plot_data(path: Path) -> tuple[dict, list[dict], dict | None]:
-    """``(runs, table, advisor)`` as :func:`engine.io.figures.figure` takes them, from the stored
-    file."""
+def read_plot_data(path: Path) -> tuple[dict, list[dict], StudyReport | None]:
+    """``(runs, table, report)`` as :func:`engine.io.figures.figure` takes them, from the
+    stored file (the report None where the summary has none)."""
     summary = read_summary(path)
-    return read_runs(path), summary["table"], summary.get("advisor")
+    advice = summary.get("advisor")
+    report = None if advice is None else StudyReport.from_dict(advice)
+    return read_runs(path), summary["table"], report

@@ -33,9 +33,10 @@ def not_a_kind_of(spec: dict, kind: str) -> str | None:
     return f"this {test} study has no {kind} plot; its plots: {', '.join(kinds)}"
 
 
-def render_png(kind: str, runs: dict, table: list[dict], advisor: dict | None = None) -> bytes:
-    """PNG bytes of plot ``kind`` for the given runs, summary table and advisor."""
-    fig = engine_plots.figure(kind, runs, table, advisor)
+def render_png(kind: str, runs: dict, table: list[dict], report=None) -> bytes:
+    """PNG bytes of plot ``kind`` for the given runs, summary table and the study's
+    :class:`engine.study.report.StudyReport`."""
+    fig = engine_plots.figure(kind, runs, table, report)
     buf = io.BytesIO()
     fig.savefig(buf, format="png")
     return buf.getvalue()

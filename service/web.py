@@ -26,6 +26,7 @@ from sqlmodel import select
 from engine.calibration.calibrate import TARGET_UNITS, determination
 from engine.io.figures import KINDS, is_shear_table, reference_type
 from engine.study.reasons import describe, interval_words, pct, shown
+from engine.study.report import StudyReport
 from engine.study.run import duration_words
 
 from . import h5store, transitions
@@ -102,60 +103,62 @@ def cell(value, scale: float | None, fmt: str) -> str:
     return fmt.format(value)
 
 
-def verdict_table(groups: list[dict], tolerances: dict) -> dict:
-    """A table of judged groups (the advisor's ``verdicts``, ``rule_errors`` or
-    ``resolution``): a row per (radius, rule), a column per metric. Each cell holds the
-    metric's signed error and, below it, its interval (an interval with an end beyond
-    +-1000 % as unbounded, engine.study.reasons.interval_words), its verdict (the cell's
-    colour) and, on hover, how the interval was made, the tolerance and the seeds; each
-    row's reasons, a line per metric, and what would decide it go in a detail row."""
+def verdict_table(groups, tolerances: dict) -> dict:
+    """A table of judged groups (a :class:`engine.study.report.StudyReport`'s ``verdicts``,
+    ``rule_errors`` or ``resolution``): a row per (radius, rule), a column per metric.
+    Each cell holds the metric's signed error and, below it, its interval (an interval
+    with an end beyond +-1000 % as unbounded, engine.study.reasons.interval_words), its
+    verdict (the cell's colour) and, on hover, how the interval was made, the tolerance
+    and the seeds; each row's reasons, a line per metric, and what would decide it go in
+    a detail row."""
     names: list[str] = []
     for v in groups:
-        names += [m["metric"] for m in v.get("metrics", []) if m["metric"] not in names]
+        names += [m.metric for m in v.metrics if m.metric not in names]
     rows = []
     for v in groups:
-        by_name = {m["metric"]: m for m in v.get("metrics", [])}
+        by_name = {m.metric: m for m in v.metrics}
         cells = []
         for name in names:
             m = by_name.get(name)
             if m is None:
                 cells.append(None)
                 continue
-            err, interval, how = shown(m)
+            # the words are engine.study.reasons', on the judged metric's record
+            err, interval, how = shown(m.to_dict())
             bounds = interval_words(interval) if interval is not None else how
             cells.append(
                 {
-                    "verdict": m["verdict"],
+                    "verdict": m.verdict,
                     "error": "-" if err is None else pct(err),
                     "interval": bounds,
-                    "title": f"{name}: {m['verdict']}; {pct(err)}, interval {bounds}"
+                    "title": f"{name}: {m.verdict}; {pct(err)}, interval {bounds}"
                     + (f" ({how})" if interval is not None else "")
-                    + f"; tolerance ± {100 * m['tolerance']:g} %; {m['seeds']} seeds against "
-                    f"{m['reference_seeds']}",
+                    + f"; tolerance ± {100 * m.tolerance:g} %; {m.seeds} seeds against "
+                    f"{m.reference_seeds}",
                 }
             )
         rows.append(
             {
-                "radius": v["radius"],
-                "rule": v["rule"],
-                "verdict": v["verdict"],
-                "seeds": v.get("seeds"),
-                "speedup": v.get("speedup"),
+                "radius": v.radius,
+                "rule": v.rule,
+                "verdict": v.verdict,
+                "seeds": v.seeds,
+                "speedup": v.speedup,
                 "cells": cells,
-                "lines": [describe(m) for m in v.get("metrics", [])],
-                "to_decide": v.get("to_decide"),
+                "lines": [describe(m.to_dict()) for m in v.metrics],
+                "to_decide": v.to_decide,
             }
         )
     return {"metrics": [(n, tolerances.get(n)) for n in names], "rows": rows}
 
 
-def curve_table(advisor: dict) -> list[dict]:
+def curve_table(report: StudyReport) -> list[dict]:
     """The resolution curve per property (engine.study.resolution): how far the reference
     is from the bulk value, with its interval (unbounded beyond +-1000 %), and the sizes
     the line was fitted to."""
-    curve = advisor.get("resolution_curve") or {}
+    curve = report.resolution_curve
     rows = []
-    for name, c in (curve.get("metrics") or {}).items():
+    for name, c in (curve.metrics if curve is not None else {}).items():
         rows.append(
             {
                 "metric": name,
@@ -167,6 +170,18 @@ def curve_table(advisor: dict) -> list[dict]:
             }
         )
     return rows
+
+
+def report_tables(report: StudyReport) -> dict:
+    """The study page's tables of ``report``: the verdicts, the rule errors, the resolution
+    errors (:func:`verdict_table`) and the resolution curve (:func:`curve_table`)."""
+    tables = {
+        "verdicts": verdict_table(report.verdicts, report.tolerances),
+        "rule_errors": verdict_table(report.rule_errors, report.tolerances),
+        "resolution": verdict_table(report.resolution, report.tolerances),
+    }
+    tables["curve"] = curve_table(report)
+    return tables
 
 
 @router.get("/", response_class=HTMLResponse)
@@ -243,15 +258,10 @@ def study_page(
             summary = h5store.read_summary(path)
         else:
             missing = "the results file of this study is gone"
-    table, verdicts = [], {}
+    table, verdicts, report = [], {}, None
     if summary is not None:
-        advisor = summary.get("advisor") or {}
-        tolerances = advisor.get("tolerances") or {}
-        verdicts = {
-            key: verdict_table(advisor.get(key) or [], tolerances)
-            for key in ("verdicts", "rule_errors", "resolution")
-        }
-        verdicts["curve"] = curve_table(advisor)
+        report = StudyReport.from_dict(summary.get("advisor"))
+        verdicts = report_tables(report)
         # each run's kernel compilation (set-up), kept out of its run time and speed-up; a
         # shear run's ffc as stored (the summary's JSON has null where it is infinite)
         shear = is_shear_table(summary["table"])
@@ -271,6 +281,7 @@ def study_page(
             "study": public(study),
             "runs": runs,
             "summary": summary,
+            "report": report,
             "missing": missing,
             "headings": headings,
             "table": table,

@@ -410,6 +410,10 @@ class ReferenceSummary:
     seeds: tuple[int, ...]
     scalars: Mapping[str, float] = field(default_factory=dict)
 
+    def has(self, name: str) -> bool:
+        """Whether the references measured scalar ``name``."""
+        return name in self.scalars
+
     def mean(self, name: str) -> float | None:
         """The mean of scalar ``name`` over the reference seeds (None: not measured)."""
         return self.scalars.get(name)

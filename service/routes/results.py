@@ -56,7 +56,7 @@ SNAPSHOT_MEDIA = {
 def summary(study: StudyDep, results: ResultsDep, settings: SettingsDep) -> dict:
     """The answer first (what the study decided in one line, then the line that qualifies
     it); per run: radius, rule, particles, steps, dt, wall time, speed-up and errors against
-    the reference; the spread over seeds; the advisor's answer (verdicts, noise floor,
+    the reference; the spread over seeds; the report (verdicts, noise floor,
     warnings); units of every column; the snapshot files of every run."""
     snaps = {
         run: [f"/studies/{study.id}/runs/{run}/snapshots/{f}" for f in files]

@@ -15,9 +15,10 @@ import numpy as np
 
 from engine.study import judge
 from engine.study.reasons import UNBOUNDED_WORDS, describe, interval_words, pct
+from engine.study.report import StudyReport
 from service.models import TERMINAL, Status, Study
 from service.routes.studies import public
-from service.web import cell, curve_table, templates, verdict_table
+from service.web import cell, report_tables, templates
 
 #: A per cent figure as the reports print it ("+145 %", "-13.2 %", "above +1000 %" aside).
 PERCENT = re.compile(r"(?<![\w.])([+-]?\d[\d.]*(?:e[+-]?\d+)?)\s?%")
@@ -79,21 +80,17 @@ def page(summary: dict) -> str:
         progress=1.0,
         n_runs=4,
     )
-    advisor_ = summary["advisor"]
-    verdicts = {
-        k: verdict_table(advisor_.get(k) or [], advisor_["tolerances"])
-        for k in ("verdicts", "rule_errors", "resolution")
-    }
-    verdicts["curve"] = curve_table(advisor_)
+    report = StudyReport.from_dict(summary["advisor"])
     context = {
         "request": SimpleNamespace(scope={}),
         "study": public(row),
         "runs": [],
         "summary": summary,
+        "report": report,
         "missing": None,
         "headings": [],
         "table": [],
-        "verdicts": verdicts,
+        "verdicts": report_tables(report),
         "plots": {},
         "terminal": TERMINAL,
         "fmt": cell,
@@ -151,7 +148,7 @@ def test_the_page_shows_the_verdicts_as_a_table_with_readable_intervals():
     assert [c[0] for c in cells] == [m["verdict"] for m in metrics]
     assert cells[1][3] == UNBOUNDED_WORDS and "1.0 dof" in cells[1][1]
     assert cells[0][3].startswith("[") and cells[0][2].endswith(" %")
-    # the reasons behind "why", a line per metric; the advisor's paragraph folded away
+    # the reasons behind "why", a line per metric; the report's paragraph folded away
     assert re.search(
         r"<details><summary>why</summary>\s*<ul>(<li>.*?</li>){3}</ul>", table[0], re.S
     )

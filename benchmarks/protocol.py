@@ -405,6 +405,7 @@ def verdict_row(
     benchmarks.report.judged_text words it: no more than the verdict decided), and the
     judgement (None with fewer than two runs a side)."""
     from benchmarks.report import judged_text
+    from engine.study.report import MetricVerdict
 
     if len(ref_runs) < 2 or len(runs) < 2:
         return f"| {label} | {len(ref_runs)} / {len(runs)} | not enough runs stored yet |", None
@@ -414,7 +415,7 @@ def verdict_row(
         if m["interval"] is None:
             cells.append(f"{100 * m['signed_error']:+.1f} %")
             continue
-        cells.append(judged_text(m))
+        cells.append(judged_text(MetricVerdict.from_dict(m)))
     row = (
         f"| {label} | {len(ref_runs)} / {len(runs)} | "
         + " | ".join(cells)

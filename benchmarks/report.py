@@ -38,6 +38,7 @@ import json
 import os
 import platform
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numba
@@ -48,6 +49,7 @@ from benchmarks.experiments import CAPPED
 from engine.io.figures import UNIAXIAL_KINDS
 from engine.study.plan import adaptive_summary, final_look, plan_runs, stored_plan_runs
 from engine.study.reasons import UNBOUNDED_WORDS, bounded
+from engine.study.report import AdhesionAtRadius, MetricVerdict
 from engine.study.results import assemble
 from engine.uniaxial.measures import overburden_ratio
 
@@ -75,18 +77,18 @@ def _pct(x, signed=False):
     return f"{100 * x:+.1f} %" if signed else f"{100 * x:.1f} %"
 
 
-def interval_text(m: dict) -> str:
+def interval_text(m: MetricVerdict) -> str:
     """A metric's signed error with the interval its verdict rests on, in per cent: the
     equivalence interval (at the worst level of a curve), or for ``differs`` the interval
     that lies beyond the tolerance."""
-    if m.get("interval") is None:
-        if m.get("signed_error") is None:
+    if m.interval is None:
+        if m.signed_error is None:
             return "not compared (no failed run on a side)"
-        return f"{_pct(m['signed_error'], True)} (spread unknown)"
-    if m["verdict"] == "differs":
-        e, (lo, hi) = m["differs_error"], m["differs_interval"]
+        return f"{_pct(m.signed_error, True)} (spread unknown)"
+    if m.verdict == "differs":
+        e, (lo, hi) = m.differs_error, m.differs_interval
     else:
-        e, (lo, hi) = m["level_error"], m["interval"]
+        e, (lo, hi) = m.level_error, m.interval
     return f"{100 * e:+.1f} [{100 * lo:+.1f}, {100 * hi:+.1f}] %"
 
 
@@ -98,7 +100,7 @@ def _span(interval) -> str:
     return f"[{100 * lo:+.1f}, {100 * hi:+.1f}] %"
 
 
-def verdict_words(m: dict) -> str:
+def verdict_words(m: MetricVerdict) -> str:
     """What a metric's verdict says, and no more (docs/PHYSICS.md section 7.1), for the
     parenthesis after :func:`interval_text`:
 
@@ -113,36 +115,36 @@ def verdict_words(m: dict) -> str:
       tolerance; the words print it;
     - a strength compared on fewer runs than the row's (hardening runs left out, section
       7.3): the runs compared."""
-    v = m["verdict"]
+    v = m.verdict
     words = [v]
-    tol = m.get("tolerance")
+    tol = m.tolerance
     within = "" if tol is None else f" within {100 * tol:g} %"
-    bias = m.get("bias") or {}
-    direction = bias.get("direction")
-    iv = m.get("interval")
+    bias = m.bias
+    direction = None if bias is None else bias.direction
+    iv = m.interval
     if iv is not None and v == "equivalent":
         if direction is not None:
             words = [f"equivalent{within}, biased {direction}"]
-            if bias.get("interval") is not None and _span(bias["interval"]) != _span(iv):
+            if bias.interval is not None and _span(bias.interval) != _span(iv):
                 words[0] += (
-                    f": {100 * bias['error']:+.1f} {_span(bias['interval'])} over levels"
-                    if m.get("level") is not None
-                    else f": {100 * bias['error']:+.1f} {_span(bias['interval'])} on own spreads"
+                    f": {100 * bias.error:+.1f} {_span(bias.interval)} over levels"
+                    if m.level is not None
+                    else f": {100 * bias.error:+.1f} {_span(bias.interval)} on own spreads"
                 )
         elif iv[0] > 0 or iv[1] < 0:
             words = [
                 f"equivalent{within}; its worst level excludes 0, its mean over levels does not"
-                if m.get("level") is not None
+                if m.level is not None
                 else f"equivalent{within}; on the pooled spread it excludes 0, on its own not"
             ]
     elif iv is not None and v == "undecided":
         if direction is not None:
             words = [f"undecided, biased {direction}"]
         outside = tol is not None and (iv[0] > tol or iv[1] < -tol)
-        if outside and m.get("differs_interval") is not None:
-            rate = 1 - m["alpha_differs"] if "alpha_differs" in m else None
+        if outside and m.differs_interval is not None:
+            rate = None if m.alpha_differs is None else 1 - m.alpha_differs
             how = "" if rate is None else f" ({100 * rate:.4g} % per end)"
-            other = m["differs_interval"]
+            other = m.differs_interval
             words.append(
                 f"this interval lies outside ± {100 * tol:g} %, but the one that decides "
                 + (
@@ -151,10 +153,10 @@ def verdict_words(m: dict) -> str:
                     else f"differs{how} is {UNBOUNDED_WORDS}"
                 )
             )
-    if m.get("left_out"):
-        n = m["left_out"]
+    if m.left_out:
+        n = m.left_out
         words.append(
-            f"{m['reference_seeds']} / {m['seeds']} runs compared, {n} hardening "
+            f"{m.reference_seeds} / {m.seeds} runs compared, {n} hardening "
             f"run{'s' if n > 1 else ''} left out"
         )
     return "; ".join(words)
@@ -172,14 +174,10 @@ CELL_WORDS = (
 )
 
 
-def judged_text(m: dict) -> str:
+def judged_text(m: MetricVerdict) -> str:
     """A metric's error, the interval its verdict rests on and what the verdict says:
     ``-10.4 [-11.3, -9.4] % (equivalent within 15 %, biased low)``."""
     return f"{interval_text(m)} ({verdict_words(m)})"
-
-
-def _metric(v: dict, name: str) -> dict | None:
-    return next((m for m in v.get("metrics", []) if m["metric"] == name), None)
 
 
 def verdict_table(res: engine.StudyResult) -> str:
@@ -195,24 +193,24 @@ def verdict_table(res: engine.StudyResult) -> str:
     )
     lines = [head, "|" + "---|" * (6 + len(names))]
     rules = {r.name: r for r in res.spec.rules}
-    for v in res.advisor["verdicts"]:
-        r = rules[v["rule"]]
+    for v in res.report.verdicts:
+        r = rules[v.rule]
         cells = []
         for n in names:
-            m = _metric(v, n)
+            m = v.metric(n)
             if m is None:
                 cells.append("-")
                 continue
             cells.append(judged_text(m))
-        sp = v.get("speedup")
-        ps = particle_steps_ratio(res, v["rule"], v["radius"])
+        sp = v.speedup
+        ps = particle_steps_ratio(res, v.rule, v.radius)
         ratio = "-" if ps is None else f"{ps:.1f}x"
         a, b, _ = r.exponents(res.spec.reference.pair_law)
         lines.append(
-            f"| {v['radius'] * 1e3:g} | {r.name} ({a:g}, {b:g}) | {v['seeds']} | "
+            f"| {v.radius * 1e3:g} | {r.name} ({a:g}, {b:g}) | {v.seeds} | "
             f"{'-' if sp is None else f'{sp:.1f}x'} | {ratio} | "
             + " | ".join(cells)
-            + f" | **{v['verdict']}** |"
+            + f" | **{v.verdict}** |"
         )
     return "\n".join(lines)
 
@@ -269,17 +267,17 @@ def run_table(res: engine.StudyResult, machines: dict | None = None) -> str:
 
 
 def noise_line(res: engine.StudyResult) -> str:
-    noise = res.advisor["noise_floor"]
-    ref = res.advisor["reference"]
+    noise = res.report.noise_floor
+    ref = res.report.reference
     parts = [f"{n} {_pct(v)}" for n, v in noise.items()]
     text = (
-        f"Reference seeds {', '.join(map(str, ref['seeds']))}: seed-to-seed spread "
+        f"Reference seeds {', '.join(map(str, ref.seeds))}: seed-to-seed spread "
         f"(noise floor, 1 sd relative to the mean): " + ", ".join(parts) + "."
     )
-    if "unconfined_strength" in ref:
+    if ref.has("unconfined_strength"):
         text += (
-            f" Reference unconfined strength {ref['unconfined_strength'] / 1e3:.2f} ± "
-            f"{ref['unconfined_strength_std'] / 1e3:.2f} kPa."
+            f" Reference unconfined strength {ref.mean('unconfined_strength') / 1e3:.2f} ± "
+            f"{ref.std('unconfined_strength') / 1e3:.2f} kPa."
         )
     return text
 
@@ -288,40 +286,39 @@ def _verdict_of(res, radius, rule, metric, where="verdicts"):
     """A metric's judgement of (radius, rule): against the reference (``verdicts``) or
     against the radius's resolution controls (``rule_errors``, the rule's own error)."""
     v = _variant(res, radius, rule, where)
-    return None if v is None else _metric(v, metric)
+    return None if v is None else v.metric(metric)
 
 
 def _variant(res, radius, rule, where="verdicts"):
     return next(
         (
             v
-            for v in res.advisor.get(where) or []
-            if v["rule"] == rule and abs(v["radius"] - radius) < 1e-12
+            for v in getattr(res.report, where)
+            if v.rule == rule and abs(v.radius - radius) < 1e-12
         ),
         None,
     )
 
 
-def _direction(m: dict) -> str | None:
+def _direction(m: MetricVerdict) -> str | None:
     """Whether "low" or "high": where the metric's interval excludes zero (its bias), else None."""
-    b = m.get("bias")
-    return None if not b else b.get("direction")
+    return None if m.bias is None else m.bias.direction
 
 
 def _adhesion_state(ms: dict) -> str:
     """Claim (c) from the strength judgements of b1, b2, b3: agrees when b2 is equivalent
     and b1 and b3 differ, below and above; differs when b2 differs or the order is shown
     wrong (b1 biased high or b3 biased low beyond their intervals); else undecided."""
-    if any(m.get("signed_error") is None for m in ms.values()):
+    if any(m.signed_error is None for m in ms.values()):
         return "undecided"
     wrong = _direction(ms["b1"]) == "high" or _direction(ms["b3"]) == "low"
-    if wrong or ms["b2"]["verdict"] == "differs":
+    if wrong or ms["b2"].verdict == "differs":
         return "differs"
-    under, over = ms["b1"]["signed_error"] < 0, ms["b3"]["signed_error"] > 0
+    under, over = ms["b1"].signed_error < 0, ms["b3"].signed_error > 0
     if (
-        ms["b2"]["verdict"] == "equivalent"
-        and ms["b1"]["verdict"] == "differs"
-        and ms["b3"]["verdict"] == "differs"
+        ms["b2"].verdict == "equivalent"
+        and ms["b1"].verdict == "differs"
+        and ms["b3"].verdict == "differs"
         and under
         and over
     ):
@@ -333,12 +330,12 @@ def claim_a(res) -> str:
     m = _verdict_of(res, 2 * 2.5e-3, "unscaled", "loading_stiffness")
     if m is None:
         return "*undecided*: the unscaled runs are missing."
-    soft = m["signed_error"] is not None and m["signed_error"] < 0
+    soft = m.signed_error is not None and m.signed_error < 0
     state = (
         "agrees"
-        if soft and m["verdict"] == "differs"
+        if soft and m.verdict == "differs"
         else "differs"
-        if not soft or m["verdict"] == "equivalent"
+        if not soft or m.verdict == "equivalent"
         else "undecided"
     )
     return (
@@ -352,7 +349,7 @@ def claim_b(res) -> str:
     ms = [_verdict_of(res, 5e-3, "linear", n) for n in names]
     if any(m is None for m in ms):
         return "*undecided*: the linearly scaled runs are missing."
-    vs = [m["verdict"] for m in ms]
+    vs = [m.verdict for m in ms]
     state = (
         "agrees"
         if all(v == "equivalent" for v in vs)
@@ -391,30 +388,28 @@ def claim_c(res) -> list[str]:
                 + "."
             )
             v = _variant(res, r, "b2", "rule_errors")
-            if own["b2"]["verdict"] == "undecided" and v and v.get("to_decide"):
-                text += f" To decide b = 2: {v['to_decide']}."
+            if own["b2"].verdict == "undecided" and v and v.to_decide:
+                text += f" To decide b = 2: {v.to_decide}."
             out.append(text)
-        loss = next(
-            (v for v in res.advisor.get("resolution") or [] if abs(v["radius"] - r) < 1e-12),
-            None,
-        )
-        m = None if loss is None else _metric(loss, "strength")
+        loss = next((v for v in res.report.resolution if abs(v.radius - r) < 1e-12), None)
+        m = None if loss is None else loss.metric("strength")
         if m is not None:
             out.append(
-                f"R = {r * 1e3:g} mm, resolution: the 2.5 mm law {loss['diameters_across']:.1f} "
+                f"R = {r * 1e3:g} mm, resolution: the 2.5 mm law {loss.diameters_across:.1f} "
                 f"diameters across against the reference: strength {judged_text(m)}."
             )
-    adh = res.advisor.get("adhesion_exponent") or {}
-    for r, v in (adh.get("by_radius") or {}).items():
+    adh = res.report.adhesion_exponent
+    for r, v in (adh.by_radius if adh is not None else {}).items():
         missing = [
             b[1] for b in ("b1", "b2", "b3") if _verdict_of(res, float(r), b, "strength") is None
         ]
         among = f" (b = {', '.join(missing)} not run yet: closest of those run)" if missing else ""
         out.append(
-            f"Adhesion exponent at R = {float(r) * 1e3:g} mm: closest b = {v['best']:g}{among}"
+            f"Adhesion exponent at R = {float(r) * 1e3:g} mm: closest b = {v.best:g}{among}"
             f"{exponent_text(v)}."
         )
-    curve = ((res.advisor.get("resolution_curve") or {}).get("metrics") or {}).get("strength")
+    curves = res.report.resolution_curve
+    curve = None if curves is None else curves.metrics.get("strength")
     if curve is not None:
         lo, hi = curve["reference_offset_interval"]
         out.append(
@@ -427,19 +422,19 @@ def claim_c(res) -> list[str]:
     return out
 
 
-def exponent_text(v: dict) -> str:
-    """The fitted adhesion exponent of one radius (engine.study.advisor.adhesion_advice)
+def exponent_text(v: AdhesionAtRadius) -> str:
+    """The fitted adhesion exponent of one radius (engine.study.adhesion.adhesion_advice)
     with its interval and what it was fitted against."""
-    if v.get("fitted") is None:
+    if v.fitted is None:
         return ""
-    iv = v.get("interval")
-    text = f", fitted b = {v['fitted']:.2f}"
+    iv = v.interval
+    text = f", fitted b = {v.fitted:.2f}"
     text += (
         f" [{iv[0]:.2f}, {iv[1]:.2f}] (95 %)"
         if iv is not None
         else " (no bounded interval: the data do not fix it)"
     )
-    text += f" against the {v.get('fitted_against') or 'reference'}s"
+    text += f" against the {v.fitted_against or 'reference'}s"
     return text
 
 
@@ -501,29 +496,29 @@ def claim_eepa(res) -> list[str]:
     out = []
     shown = ("density", "loading_stiffness", "strength")
     for r in res.spec.coarse_radii:
-        vs = {v["rule"]: v for v in res.advisor["verdicts"] if abs(v["radius"] - r) < 1e-12}
+        vs = {v.rule: v for v in res.report.verdicts if abs(v.radius - r) < 1e-12}
         sim, lin = vs.get("similarity"), vs.get("linear")
         if sim is None or lin is None:
             out.append(f"R = {r * 1e3:g} mm: *undecided*, runs missing.")
             continue
-        e = {"equivalent": "agrees", "differs": "differs"}.get(sim["verdict"], "undecided")
-        k = _metric(lin, "loading_stiffness")
+        e = {"equivalent": "agrees", "differs": "differs"}.get(sim.verdict, "undecided")
+        k = lin.metric("loading_stiffness")
         f = (
             "agrees"
-            if lin["verdict"] == "differs" and k is not None and (k["signed_error"] or 0) > 0
+            if lin.verdict == "differs" and k is not None and (k.signed_error or 0) > 0
             else "differs"
-            if lin["verdict"] == "equivalent"
+            if lin.verdict == "equivalent"
             else "undecided"
         )
 
         def cells(v):
             return ", ".join(
-                f"{n} {judged_text(m)}" for n in shown if (m := _metric(v, n)) is not None
+                f"{n} {judged_text(m)}" for n in shown if (m := v.metric(n)) is not None
             )
 
         out.append(
-            f"R = {r * 1e3:g} mm: (e) similarity **{e}** ({sim['verdict']}: "
-            f"{cells(sim)}); (f) linear stiffness fails: **{f}** ({lin['verdict']}: "
+            f"R = {r * 1e3:g} mm: (e) similarity **{e}** ({sim.verdict}: "
+            f"{cells(sim)}); (f) linear stiffness fails: **{f}** ({lin.verdict}: "
             f"{cells(lin)})."
         )
     return out
@@ -532,24 +527,24 @@ def claim_eepa(res) -> list[str]:
 def adaptive_lines(res, beyond_why: str | None = None) -> list[str]:
     """What a study that adds seeds until decided added, what its rule would still run, and
     why it stopped."""
-    a = res.advisor.get("adaptive")
-    if not a:
+    a = res.report.adaptive
+    if a is None:
         return []
     head = (
-        f"Seeds until decided (budget {a['budget']:.3g} particle-steps of added runs"
-        if a["budget"]
+        f"Seeds until decided (budget {a.budget:.3g} particle-steps of added runs"
+        if a.budget
         else "Seeds until decided (no particle-step budget"
     )
-    beyond, pending = a.get("beyond", []), a.get("pending", [])
+    beyond, pending = a.beyond or (), a.pending or ()
     out = [
         f"{head}, {res.spec.rounds} rounds, at most {res.spec.max_seeds} seeds per variant "
         f"and {res.spec.max_reference_seeds} reference seeds; verdicts at look "
-        f"{a.get('look', a['looks'])} of {a['looks']}): {a['planned_runs']} planned runs, "
-        f"{len(a['added_runs'])} added by the two-stage design of docs/PHYSICS.md section 7.2 "
-        f"({a['added_particle_steps']:.3g} particle-steps); "
+        f"{a.look} of {a.looks}): {a.planned_runs} planned runs, "
+        f"{len(a.added_runs)} added by the two-stage design of docs/PHYSICS.md section 7.2 "
+        f"({a.added_particle_steps:.3g} particle-steps); "
         + (
-            f"stopped: {a['stopped']}."
-            if a["stopped"]
+            f"stopped: {a.stopped}."
+            if a.stopped
             else "**still to run**: "
             + "; ".join(
                 f"{what} {', '.join(keys)}"
@@ -573,8 +568,8 @@ def adaptive_lines(res, beyond_why: str | None = None) -> list[str]:
             + "; the verdicts treat them as the study's last look).",
             "",
         ]
-    out += [f"- added {x['run']} ({x['kind']}): {x['reason']}" for x in a["added_runs"]]
-    return out + ([""] if a["added_runs"] else [])
+    out += [f"- added {x['run']} ({x['kind']}): {x['reason']}" for x in a.added_runs]
+    return out + ([""] if a.added_runs else [])
 
 
 def code_lines(res, codes: dict | None) -> list[str]:
@@ -607,12 +602,14 @@ def undecided_note(results: dict) -> list[str]:
     on variants of two seeds (Hsu's 1 degree of freedom), and the runs the two-stage design
     would still make."""
     judged = [r for r in results.values() if isinstance(r, engine.StudyResult)]
-    open_ = [(r, v) for r in judged for v in r.advisor["verdicts"] if v["verdict"] == "undecided"]
+    open_ = [(r, v) for r in judged for v in r.report.verdicts if v.verdict == "undecided"]
     if not open_:
         return ["Every verdict of the stored runs is decided."]
-    two = sum(1 for _, v in open_ if v.get("seeds") == 2)
+    two = sum(1 for _, v in open_ if v.seeds == 2)
     pending = [
-        k for r in judged for k in sorted((r.advisor.get("adaptive") or {}).get("pending", []))
+        k
+        for r in judged
+        for k in sorted((r.report.adaptive.pending or ()) if r.report.adaptive else ())
     ]
     text = (
         f"Verdicts judged from the stored runs by the rule of docs/PHYSICS.md section 7 "
@@ -703,7 +700,7 @@ def porosity_note(res) -> str:
             if r.rule is not None and r.rule.name == g["rule"] and r.radius == g["radius"]
         ]
         rows.append(f"{g['rule']} at {g['radius'] * 1e3:g} mm: {np.mean(por):.3f}")
-    ref = res.advisor["reference"].get("consolidated_porosity_interior")
+    ref = res.report.reference.mean("consolidated_porosity_interior")
     return (
         f"Consolidated interior porosity: reference {ref:.3f}"
         + "".join(f"; {r}" for r in rows)
@@ -767,8 +764,8 @@ def write_report(
             continue
         if spec.decide:
             a = adaptive_summary(spec, planned, added, stopped)
-            a.update(look=look, pending=pending, beyond=beyond)
-            results[name].advisor["adaptive"] = a
+            a = replace(a, look=look, pending=tuple(pending), beyond=tuple(beyond))
+            results[name].report = results[name].report.with_adaptive(a)
         results[name].save_plots(fig_root / f"{name_of_run}_{name}")
     machine = (
         f"{platform.machine()}, {os.cpu_count()} cores, numba {numba.__version__}, "
@@ -867,7 +864,7 @@ def write_report(
         "interval lies inside ± tolerance at every level, `differs` when the interval of "
         "the per-seed level means lies wholly outside it (its rate split over the metrics, "
         "the two ends and the looks), `undecided` otherwise (docs/PHYSICS.md section 7, "
-        "engine/study/advisor.py). Table cells: relative error [interval] in per cent, at "
+        "engine/study/judge.py). Table cells: relative error [interval] in per cent, at "
         "the worst level of a curve, or the interval that lies outside the tolerance for "
         "`differs`, then the metric's verdict and no more than it decided: "
         f"{CELL_WORDS}",
@@ -912,17 +909,17 @@ def write_report(
         )
         lines += ["Reasons:", ""]
         lines += [
-            f"- R = {v['radius'] * 1e3:g} mm, {v['rule']}: {v['verdict']}: {v['reason']}"
-            for v in res.advisor["verdicts"]
+            f"- R = {v.radius * 1e3:g} mm, {v.rule}: {v.verdict}: {v.reason}"
+            for v in res.report.verdicts
         ]
-        lines += [f"- warning: {w}" for w in res.advisor["warnings"]]
-        if res.advisor.get("control_lines"):
+        lines += [f"- warning: {w}" for w in res.report.warnings]
+        if res.report.control_lines:
             lines += [
                 "",
                 "Against the resolution controls (docs/PHYSICS.md section 7.4; the rule's own "
                 "error and what a sample that many diameters across loses):",
                 "",
-                *[f"- {c}" for c in res.advisor["control_lines"]],
+                *[f"- {c}" for c in res.report.control_lines],
             ]
         lines += [
             "",
@@ -947,7 +944,7 @@ def write_report(
             f"![{k}]({fig}/{k}.png)"
             for k in UNIAXIAL_KINDS
             if (k != "unconfined" or res.spec.reference.unconfined)
-            and (k != "resolution" or res.advisor.get("resolution_curve"))
+            and (k != "resolution" or res.report.resolution_curve is not None)
         ]
         lines.append("")
     lines += ["## The seed's claims", "", *undecided_note(results), ""]

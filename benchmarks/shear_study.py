@@ -23,7 +23,7 @@ Each run is stored the moment it ends under ``benchmarks/results/quick/shear_stu
 ``<key>.json`` (test, scalars, points, locus) with its shear stages' curves in ``<key>.npz``
 (engine.shear.results.save_shear), or ``<key>.failed`` (its error), and committed with
 ``--commit``; the study resumes with the runs it lacks (a run cut off starts again: a shear
-run has no checkpoint). The summary (table, verdicts, advisor) is written to
+run has no checkpoint). The summary (table, verdicts, report) is written to
 ``summary.json`` there when the study ends and by ``--report``.
 """
 
@@ -131,11 +131,10 @@ def result() -> engine.StudyResult:
     """The study judged from the stored runs (as run_study would at this point)."""
     outcomes = stored()
     runs, added, stopped = plan_runs(plan(SPEC), outcomes)
-    res = assemble(SPEC, runs, outcomes, final_look(SPEC, added, stopped))
     from engine.study.plan import adaptive_summary
 
-    res.advisor["adaptive"] = adaptive_summary(SPEC, runs, added, stopped)
-    return res
+    adaptive = adaptive_summary(SPEC, runs, added, stopped)
+    return assemble(SPEC, runs, outcomes, final_look(SPEC, added, stopped), adaptive)
 
 
 def write_summary(res: engine.StudyResult, do_commit: bool = False) -> Path:
@@ -158,11 +157,12 @@ def _pct(x) -> str:
     return "-" if x is None else f"{100 * x:+.1f}"
 
 
-def _metric(m: dict) -> str:
-    if m.get("interval") is None:
-        return f"{_pct(m.get('signed_error'))} %"
-    lo, hi = m["interval"]
-    return f"{_pct(m['level_error'])} [{_pct(lo)}, {_pct(hi)}]"
+def _metric(m) -> str:
+    """A judged metric (engine.study.report.MetricVerdict): its error and interval [%]."""
+    if m.interval is None:
+        return f"{_pct(m.signed_error)} %"
+    lo, hi = m.interval
+    return f"{_pct(m.level_error)} [{_pct(lo)}, {_pct(hi)}]"
 
 
 def report() -> str:
@@ -171,15 +171,15 @@ def report() -> str:
     the protocol check, errors against run time, the reference's values."""
     res = result()
     write_summary(res)
-    adv = res.advisor
+    rep = res.report
     names = list(engine.study.metrics.SHEAR_METRICS)
     lines = []
-    ad = adv.get("adaptive") or {}
+    ad = rep.adaptive
     lines.append(
         f"Runs stored: {len(res.runs)} (failed: "
-        f"{sum(t != 'not run' for t in res.failed.values())}); look {ad.get('look')} of "
-        f"{ad.get('looks')}; stopped: {ad.get('stopped')}; added runs: "
-        f"{len(ad.get('added_runs') or [])}"
+        f"{sum(t != 'not run' for t in res.failed.values())}); look {ad and ad.look} of "
+        f"{ad and ad.looks}; stopped: {ad and ad.stopped}; added runs: "
+        f"{len(ad.added_runs) if ad else 0}"
     )
     missing = [k for k, t in res.failed.items() if t == "not run"]
     if missing:
@@ -193,21 +193,20 @@ def report() -> str:
     lines += ["", head, "|" + "---|" * (4 + len(names))]
 
     def rows(verdicts, against):
-        for v in sorted(verdicts, key=lambda v: (v["radius"], v["rule"])):
-            ms = {m["metric"]: m for m in v.get("metrics", [])}
-            cells = [_metric(ms[n]) if n in ms else "-" for n in names]
-            who = v["rule"] if against is None else f"{v['rule']} vs {against}"
+        for v in sorted(verdicts, key=lambda v: (v.radius, v.rule)):
+            cells = [_metric(m) if (m := v.metric(n)) is not None else "-" for n in names]
+            who = v.rule if against is None else f"{v.rule} vs {against}"
             lines.append(
-                f"| {v['radius'] * 1e3:g} | {who} | {v['verdict']} | {v.get('seeds', 0)} | "
+                f"| {v.radius * 1e3:g} | {who} | {v.verdict} | {v.seeds} | "
                 + " | ".join(cells)
                 + " |"
             )
 
-    rows(adv["verdicts"], None)
-    rows(adv.get("rule_errors") or [], "control")
-    rows(adv.get("resolution") or [], "reference")
-    if adv.get("protocol"):
-        rows([adv["protocol"]], "reference")
+    rows(rep.verdicts, None)
+    rows(rep.rule_errors, "control")
+    rows(rep.resolution, "reference")
+    if rep.protocol is not None:
+        rows([rep.protocol], "reference")
     lines.append("")
     lines.append(
         "Errors are the ratio of geometric means less 1 [%] with the 95 % interval of the "
@@ -235,22 +234,22 @@ def report() -> str:
             f"{np.mean(wall):.1f} | {np.mean([x.speedup for x in rs]):.2f} | "
             f"{np.mean([x.speedup_steps for x in rs]):.2f} | " + " | ".join(err) + " |"
         )
-    ref = adv["reference"]
+    ref = rep.reference
     lines.append("")
     lines.append(
         "Reference (seeds "
-        + ", ".join(str(s) for s in ref["seeds"])
+        + ", ".join(str(s) for s in ref.seeds)
         + "): "
         + ", ".join(
-            f"{k} {ref[k]:.4g} +- {ref[k + '_std']:.2g}"
+            f"{k} {ref.mean(k):.4g} +- {ref.std(k):.2g}"
             for k in ("cohesion", "friction_angle", "sigma_1", "sigma_c", "ffc", "bulk_density")
-            if k in ref and math.isfinite(ref[k])
+            if ref.has(k) and math.isfinite(ref.mean(k))
         )
     )
     lines.append("")
-    lines.append("Noise floor: " + ", ".join(f"{k} {v:.3f}" for k, v in adv["noise_floor"].items()))
+    lines.append("Noise floor: " + ", ".join(f"{k} {v:.3f}" for k, v in rep.noise_floor.items()))
     lines.append("")
-    lines.append("Advisor: " + adv["message"])
+    lines.append("Advisor: " + rep.message)
     return "\n".join(lines)
 
 

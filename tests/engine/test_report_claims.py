@@ -8,6 +8,7 @@ from types import SimpleNamespace
 import pytest
 
 from benchmarks import report
+from engine.study.report import MetricVerdict, StudyReport
 
 R = 2.5e-3
 
@@ -34,7 +35,10 @@ def _m(name, signed, verdict):
 def _res(verdicts, radii=(2 * R,), runs=None, groups=()):
     spec = SimpleNamespace(coarse_radii=radii, reference=SimpleNamespace(radius=R, dt=1e-5))
     return SimpleNamespace(
-        spec=spec, advisor={"verdicts": verdicts}, runs=runs or {}, groups=list(groups)
+        spec=spec,
+        report=StudyReport.from_dict({"verdicts": verdicts}),
+        runs=runs or {},
+        groups=list(groups),
     )
 
 
@@ -174,25 +178,30 @@ def _judged(verdict, interval, bias=None, differs=None, level=None, tolerance=0.
     }
 
 
+def _text(m: dict) -> str:
+    """The words of the cell of judged metric ``m`` (its record, as a report holds it)."""
+    return report.judged_text(MetricVerdict.from_dict(m))
+
+
 def test_a_cell_says_no_more_than_its_verdict_decided():
     # equivalent, and an interval that excludes 0: within the tolerance and biased
     m = _judged("equivalent", (-0.113, -0.095), bias="low")
-    assert report.judged_text(m) == "-10.4 [-11.3, -9.5] % (equivalent within 15 %, biased low)"
+    assert _text(m) == "-10.4 [-11.3, -9.5] % (equivalent within 15 %, biased low)"
     # equivalent with no bias: the bare verdict
-    assert report.judged_text(_judged("equivalent", (-0.05, 0.04))).endswith("(equivalent)")
+    assert _text(_judged("equivalent", (-0.05, 0.04))).endswith("(equivalent)")
     # a curve whose worst level excludes 0 while its mean over levels does not
     m = _judged("equivalent", (-0.003, -0.001), level=17, tolerance=0.03)
     m["bias"]["interval"] = [-0.001, 0.0005]
-    assert "its worst level excludes 0, its mean over levels does not" in report.judged_text(m)
+    assert "its worst level excludes 0, its mean over levels does not" in _text(m)
     # undecided with its printed interval wholly outside the tolerance: the interval that
     # decides differs is printed, and reaches inside
     m = _judged("undecided", (-0.243, -0.153), bias="low", differs=(-0.262, -0.131))
-    text = report.judged_text(m)
+    text = _text(m)
     assert text.startswith("-19.8 [-24.3, -15.3] % (undecided, biased low;")
     assert "decides differs (99.5 % per end), [-26.2, -13.1] %, reaches inside it" in text
     # an undecided interval that crosses the tolerance needs no second one
-    assert report.judged_text(_judged("undecided", (-0.25, -0.05))).endswith("(undecided)")
+    assert _text(_judged("undecided", (-0.25, -0.05))).endswith("(undecided)")
     # a strength compared on fewer runs than the row's: the runs compared
     m = _judged("undecided", (-0.2, 0.3), left_out=1)
     m["seeds"] = 2
-    assert "3 / 2 runs compared, 1 hardening run left out" in report.judged_text(m)
+    assert "3 / 2 runs compared, 1 hardening run left out" in _text(m)

@@ -12,6 +12,7 @@ study as that code reported it, strict JSON)."""
 from __future__ import annotations
 
 import concurrent.futures as cf
+import io
 import json
 import tarfile
 from pathlib import Path
@@ -119,3 +120,28 @@ def test_stored_rounds_are_taken_as_decided_and_others_are_not(old_store, tmp_pa
     assert StudyLoop(spec, {}, gap).decided == {}
     with pytest.raises(ValueError, match="ref-s9"):
         save_run(tmp_path / "ref-s9.h5", "failed", added=gap)
+
+
+def test_the_stored_report_reads_back_typed_and_draws_the_same_figures(old_store):
+    # the summary's "advisor" JSON, read as a StudyReport, writes the same JSON back, and
+    # the report figures drawn from it are the live report's, byte for byte
+    pytest.importorskip("matplotlib")
+    from engine.io.figures import figure, study_plot_data
+    from engine.study.report import StudyReport
+
+    folder, _, want = old_store
+    stored = StudyReport.from_dict(json.loads(want)["advisor"])
+    assert strict_json(stored.to_dict()) == strict_json(json.loads(want)["advisor"])
+    live = load_study(folder / "study.h5")
+    # the same records but where strict JSON nulls a non-finite number (an infinite dof)
+    assert strict_json(stored.to_dict()) == strict_json(live.report.to_dict())
+    assert stored.rules == live.report.rules and stored.adaptive == live.report.adaptive
+    runs, table, report = study_plot_data(live)
+
+    def png(kind, rep):
+        buf = io.BytesIO()
+        figure(kind, runs, table, rep).savefig(buf, format="png", metadata={"Software": None})
+        return buf.getvalue()
+
+    for kind in ("error_vs_runtime", "resolution"):
+        assert png(kind, stored) == png(kind, report), kind

@@ -1,10 +1,11 @@
 """The hopper as a LIGGGHTS 3.8 deck (engine.io.liggghts_hopper): its files and refusals here,
 and where Debian's ``liggghts`` is installed a short run of the tiny hopper's deck (100
-particles, 300 steps of settling and 300 of discharge: under a second)."""
+particles, about 11,000 steps: about 3 s)."""
 
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import subprocess
 
@@ -71,8 +72,11 @@ def test_the_deck_refuses_what_liggghts_cannot_take():
 
 @pytest.mark.skipif(shutil.which("liggghts") is None, reason="no liggghts")
 def test_liggghts_runs_the_tiny_hoppers_deck(tmp_path):
-    t = tiny()
-    lh.write_hopper_deck(t, tmp_path, dump_every=2, max_steps=300)
+    # a gate opened at 1 mm/s holds the fill back for longer than the stop criterion's first
+    # window (arch_wait = 2 free-fall times, 111 samples): the deck stops the discharge at
+    # that window's end, as demscale would; the settling is cut short at 6000 steps
+    t = tiny(gate_speed=1e-3, arch_wait=2.0)
+    lh.write_hopper_deck(t, tmp_path, dump_every=50, max_steps=6000)
     run = subprocess.run(
         ["liggghts", "-in", lh.HOPPER_DECK],
         cwd=tmp_path,
@@ -89,10 +93,17 @@ def test_liggghts_runs_the_tiny_hoppers_deck(tmp_path):
         "cut settle",
         "end settle",
         "begin discharge",
-        "cut discharge",
+        "stopped",
         "end discharge",
         "done",
     ]
+    step_of = {" ".join(e.split()[:-1]): int(e.split()[-1]) for e in out["events"][1:]}
+    d = out["stage"] == 1
+    every = int(np.diff(out["step"][d])[0])  # steps per sample
+    wait = math.ceil(t.arch_wait * t.free_fall_time / t.output_interval)  # samples
+    assert wait == 111 and out["discharged_mass"][-1] == 0.0
+    assert step_of["stopped"] - step_of["begin discharge"] == wait * every
+
     # every particle read in and kept, their mass demscale's
     mass = t.n_particles * t.density * 4 / 3 * np.pi * t.radius**3
     assert np.all(out["particles"] == t.n_particles)

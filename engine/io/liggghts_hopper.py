@@ -188,6 +188,8 @@ class _HopperDeck:
         # the opened gate moves this many steps, to below the catch floor (as demscale's)
         self.gate_steps = math.ceil(abs(geo.gate_stop) / (test.resolved_gate_speed * self.dt))
         self.max_steps = max_steps
+        r = np.asarray(geo.scene.radii, dtype=float)
+        self.masses = test.density * 4.0 / 3.0 * math.pi * r**3  # [kg]
         self.lines: list[str] = []
 
     def add(self, *lines: str) -> None:
@@ -314,8 +316,8 @@ class _HopperDeck:
     def settle(self) -> None:
         t, geo = self.t, self.geo
         t_min = 2.0 * math.sqrt(2.0 * geo.wall_top / t.gravity)
-        m = float(t.density * 4.0 / 3.0 * math.pi * t.radius**3)
-        bound = t.settle_ke * t.n_particles * m * t.gravity * t.radius
+        # settle_ke N m g R with N m the fill's mass (engine.hopper.driver.HopperRun)
+        bound = t.settle_ke * float(self.masses.sum()) * t.gravity * t.radius
         over = math.ceil(t.max_settle_time / self.dt)
         self.add(
             "",
@@ -350,7 +352,7 @@ class _HopperDeck:
         gate_steps = self.gate_steps
         wait = t.arch_wait * t.free_fall_time
         k = max(1, math.ceil(wait / t.output_interval))  # samples in a stop window
-        pm = float(t.density * 4.0 / 3.0 * math.pi * (t.radius * (1 - t.polydispersity)) ** 3)
+        pm = float(self.masses.min())  # the lightest particle's mass [kg]
         self.add(
             "",
             "# ------------------------------------------------------------------ discharge",
@@ -374,13 +376,25 @@ class _HopperDeck:
             "variable wcount equal 0",
             "variable wmass equal ${mout}",
             "variable wfast equal 0.0",
-            f"variable ddone equal (v_mrest<=0)+((v_n-v_topen)*{dt}>={_num(t.max_discharge_time)})",
+            "variable dempty equal v_mrest<=0",
+            f"variable dtime equal (v_n-v_topen)*{dt}>={_num(t.max_discharge_time)}",
             "variable wmoved equal v_mout-v_wmass",
             f"variable wstop equal (v_wmoved<{_num(pm)})"
             f"+(v_wmoved<{_num(t.arch_fraction)}*v_wfast)",
             "variable wfaster equal v_wmoved>v_wfast",
+            "# after each sample, as demscale reads it: emptied, then the flow stopped (at the",
+            f"# end of a window of {k} samples), then max_discharge_time",
             "label loop_discharge",
-            'if "${ddone} > 0" then "jump SELF end_discharge"',
+            'if "${dempty} > 0" then "jump SELF end_discharge"',
+            f'if "${{wcount}} >= {k} && ${{wstop}} > 0" then &',
+            f"  \"print '# stopped ${{n}}' append {DISCHARGE} screen no\" "
+            '"jump SELF end_discharge"',
+            f'if "${{wcount}} >= {k} && ${{wfaster}} > 0" then "variable wfast equal ${{wmoved}}"',
+            f'if "${{wcount}} >= {k}" then "variable wmass equal ${{mout}}" '
+            '"variable wcount equal 0"',
+            'if "${dtime} > 0" then "jump SELF end_discharge"',
+            'if "${dumpnow} > 0" then "jump SELF dump_discharge"',
+            "label run_discharge",
             *cut,
             f"run {self.S} pre no post no",
         )
@@ -388,19 +402,12 @@ class _HopperDeck:
         self.add(
             "variable wcount equal ${wcount}+1",
             "variable ns equal ${ns}+1",
-            f'if "${{wcount}} >= {k} && ${{wstop}} > 0" then &',
-            f"  \"print '# stopped ${{n}}' append {DISCHARGE} screen no\" "
-            '"jump SELF end_discharge"',
-            f'if "${{wcount}} >= {k} && ${{wfaster}} > 0" then "variable wfast equal ${{wmoved}}"',
-            f'if "${{wcount}} >= {k}" then "variable wmass equal ${{mout}}" '
-            '"variable wcount equal 0"',
-            'if "${dumpnow} > 0" then "jump SELF dump_discharge"',
             "jump SELF loop_discharge",
             "label dump_discharge",
         )
         self.dump()
         self.add(
-            "jump SELF loop_discharge",
+            "jump SELF run_discharge",
             "label end_discharge",
             f'print "# end discharge ${{n}}" append {DISCHARGE} screen no',
         )

@@ -1,13 +1,13 @@
 """Checkpoints of a hopper run: a run killed while its fill settles and again while it
 discharges, resumed each time from its checkpoint, gives a discharge record byte for byte equal
 to that of a run never interrupted. The tiny slot hopper of tests/engine/test_hopper_run.py
-(100 particles, outlet 6 diameters); one thread."""
+(100 particles, outlet 6 diameters), settled to 1e-2 N m g R and discharged for 40 ms (a
+sixth of it flows out); one thread."""
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
 import pytest
 
 import engine
@@ -39,7 +39,7 @@ def _killer(stage: str, after: int):
 
 
 def test_a_killed_hopper_run_resumes_bit_identically(tmp_path):
-    t = HopperTest(outlet_width=6 * D, particles=100)
+    t = HopperTest(outlet_width=6 * D, particles=100, settle_ke=1e-2, max_discharge_time=0.04)
     whole = engine.run_hopper(t, threads=1)
     path = tmp_path / "run.ckpt"
 
@@ -51,7 +51,7 @@ def test_a_killed_hopper_run_resumes_bit_identically(tmp_path):
 
     # resumed, then killed while discharging
     ck = Checkpoint(path, 1e-9)
-    progress, c = _killer("discharge", 8)
+    progress, c = _killer("discharge", 20)
     with pytest.raises(Killed):
         engine.run_hopper(t, progress, threads=1, checkpoint=ck)
     assert ck.resumed_steps is not None and ck.resumed_steps > 0
@@ -65,8 +65,9 @@ def test_a_killed_hopper_run_resumes_bit_identically(tmp_path):
     assert ck.resumed_steps > settled_at
     assert c["seen"][0] == ("discharge", f"{engine.RESUMED} at step {ck.resumed_steps}")
 
-    assert res.scalars["discharged_mass"] == pytest.approx(res.scalars["total_mass"])
-    assert len(res.curves["time"]) > 10
+    # grains flowed out after the second resumption, and the whole record came through it
+    d = res.curves["discharged_mass"]
+    assert d[19] == 0.0 < d[-1] and len(d) > 30
     for k, v in whole.curves.items():
         assert v.tobytes() == res.curves[k].tobytes(), k
     for a in ("wall_edges", "wall_stress_fill", "wall_stress_flow"):
@@ -74,7 +75,6 @@ def test_a_killed_hopper_run_resumes_bit_identically(tmp_path):
     for k, v in whole.scalars.items():
         if k != "wall_time":
             assert v == res.scalars[k] or (math.isnan(v) and math.isnan(res.scalars[k])), k
-    assert np.isfinite(res.scalars["discharge_rate"])
 
 
 def test_a_hopper_checkpoint_is_tied_to_the_hopper_sources(tmp_path, monkeypatch):

@@ -39,6 +39,8 @@ from benchmarks import hopper_series as S
 
 ROOT = S.ROOT
 REPORT = ROOT / "docs" / "HOPPER.md"
+#: The Beverloo figure, drawn by :func:`write_report` beside the section.
+FIGURE = ROOT / "docs" / "figures" / "hopper_beverloo.png"
 BEGIN = "<!-- beverloo:begin (benchmarks/hopper_report.py) -->"
 END = "<!-- beverloo:end -->"
 #: Beverloo's exponent for a slot (plane flow).
@@ -253,6 +255,145 @@ def verdict(interval: tuple[float, float], published: tuple[float, float]) -> st
     return "undecided"
 
 
+def fit_band(f: dict, x: np.ndarray, y: np.ndarray, se: np.ndarray, grid: np.ndarray):
+    """The 95 % band of the fitted curve at widths ``grid`` [-]: the lowest and highest
+    C (B/d - k)^1.5 over every (C, k) inside the fit's joint profile region (chi^2 within
+    3.84 s^2 of its minimum: the region :func:`fit`'s intervals are read from)."""
+    ks = _k_grid(x)
+    chi2, c, sxx = _profile(x, y, se, ks)
+    thr = float(chi2.min()) + Z95 * f["s2"]
+    inside = chi2 <= thr
+    half = np.sqrt(np.clip(thr - chi2[inside], 0.0, None) / sxx[inside])
+    shape = np.clip(grid[None, :] - ks[inside][:, None], 0.0, None) ** EXPONENT  # (k, grid)
+    lo = np.minimum((c[inside] - half)[:, None] * shape, (c[inside] + half)[:, None] * shape)
+    hi = np.maximum((c[inside] - half)[:, None] * shape, (c[inside] + half)[:, None] * shape)
+    return lo.min(axis=0), hi.max(axis=0)
+
+
+def figure(store=None):
+    """The Beverloo figure (matplotlib's object API on an Agg canvas, as
+    engine/io/figures.py draws): y = W / (rho_b sqrt(g) d^1.5) against B/d on log-log
+    axes, each run's point
+    (small), each width's mean with its standard error, the fit C (B/d - k)^1.5 with its 95 %
+    band, and the mean rate per unit depth in kg/(s m) on the right axis (at the runs' mean
+    bulk density); below, the same against the fit [%] (where the band can be seen). Without five
+    widths of two seeds the points only, and the panel says why."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    pts = points(store)
+    means = [m for m in width_means(pts) if m["n"] >= 2]
+    fig = Figure(figsize=(7.0, 6.2), dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    ax, res = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": (3, 1)})
+    ax.plot(
+        [p.width for p in pts],
+        [p.y for p in pts],
+        "o",
+        ms=3,
+        color="0.55",
+        label=f"each run ({len(pts)})",
+    )
+    if means:
+        ax.errorbar(
+            [m["width"] for m in means],
+            [m["mean"] for m in means],
+            yerr=[m["se"] for m in means],
+            fmt="s",
+            ms=5,
+            color="black",
+            capsize=3,
+            label="mean over seeds ± 1 SE",
+        )
+    top = max([p.width for p in pts], default=float(max(S.WIDTHS)))
+    if len(means) >= WIDTHS_NEEDED:
+        x = np.array([m["width"] for m in means])
+        y = np.array([m["mean"] for m in means])
+        se = np.array([m["se"] for m in means])
+        f = fit(x, y, se)
+        grid = np.geomspace(0.8 * float(x.min()), 1.15 * top, 300)
+        lo, hi = fit_band(f, x, y, se, grid)
+        ax.fill_between(grid, lo, hi, color="C0", alpha=0.2, lw=0, label="fit's 95 % band")
+        cl, ch = f["C_interval"]
+        kl, kh = f["k_interval"]
+        ax.plot(
+            grid,
+            f["C"] * np.clip(grid - f["k"], 0.0, None) ** EXPONENT,
+            color="C0",
+            lw=1.8,
+            label=f"C (B/d - k)^1.5: C = {f['C']:.3g} [{cl:.3g}, {ch:.3g}], "
+            f"k = {f['k']:.3g} [{kl:.3g}, {kh:.3g}]",
+        )
+
+        # below: each point against the fit [%], the band the same way
+        def model(b):
+            return f["C"] * np.clip(np.asarray(b, dtype=float) - f["k"], 0.0, None) ** EXPONENT
+
+        mid = model(grid)
+        res.fill_between(grid, 100 * (lo / mid - 1), 100 * (hi / mid - 1), color="C0", alpha=0.2)
+        res.axhline(0.0, color="C0", lw=1.2)
+        res.plot(
+            [p.width for p in pts],
+            [100 * (p.y / model(p.width) - 1) for p in pts],
+            "o",
+            ms=3,
+            color="0.55",
+        )
+        res.errorbar(
+            x,
+            100 * (y / model(x) - 1),
+            yerr=100 * se / model(x),
+            fmt="s",
+            ms=4,
+            color="black",
+            capsize=3,
+        )
+        res.set_ylabel("against the fit [%]")
+    else:
+        res.text(
+            0.5,
+            0.5,
+            f"no fit: {len(means)} widths with two seeds or more, the fit takes {WIDTHS_NEEDED}",
+            ha="center",
+            va="center",
+            transform=res.transAxes,
+        )
+    if pts:  # the right axis: the rate per unit depth at the runs' mean bulk density
+        scale = float(np.mean([p.rate_per_depth / p.y for p in pts]))
+        right = ax.secondary_yaxis("right", functions=(lambda v: v * scale, lambda w: w / scale))
+        right.set_ylabel("W at the mean rho_b [kg/(s m)]")
+    # log-log: the widths from 6 to 40 diameters and their rates spread evenly, and the
+    # bend of (B/d - k)^1.5 away from a power law at small widths (k) shows
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    low = min([p.width for p in pts], default=float(min(S.WIDTHS)))
+    ax.set_xlim(0.8 * low, 1.15 * top)
+    ticks = sorted({float(w) for w in S.WIDTHS})
+    ax.set_xticks(ticks, [f"{w:g}" for w in ticks])
+    ax.set_xticks([], minor=True)
+    ax.set_ylabel("W / (rho_b sqrt(g) d^1.5) [-]")
+    ax.set_title(
+        f"Slot hopper discharge against Beverloo's law ({S.HALF_ANGLE:g} deg walls, "
+        f"depth {S.DEPTH / S.D:g} d)",
+        fontsize=10,
+    )
+    ax.legend(fontsize=8, loc="upper left", title="intervals 95 % (profile)", title_fontsize=7)
+    res.set_xlabel("outlet width B / d [-]")
+    for a in (ax, res):
+        a.grid(alpha=0.3)
+    return fig
+
+
+def write_figure(path=None, store=None) -> str:
+    """Draw :func:`figure` into ``path`` (default :data:`FIGURE`; its folder made)."""
+    from pathlib import Path
+
+    path = Path(path or FIGURE)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figure(store).savefig(path, format="png")
+    return str(path)
+
+
 def _f(v, nd=3) -> str:
     return "n/a" if v is None or not math.isfinite(v) else f"{v:.{nd}g}"
 
@@ -281,6 +422,9 @@ def section(store=None) -> str:
         "adhesion (mu_s = 0.5, mu_r = 0.001, e = 0.4), Hertz walls (mu = 0.3), fill height "
         "max(1.5 B, 20 d). y = W / (rho_b sqrt(g) d^1.5), W the steady rate per unit depth, "
         "rho_b the run's settled bulk density; Beverloo's slot form y = C (B/d - k)^1.5.",
+        "",
+        f"![Beverloo fit](figures/{FIGURE.name}) (drawn from the same digests: each run, the "
+        "widths' means, the fit with its 95 % band; below, the same against the fit)",
         "",
         f"**Stored**: {len(pts)} runs with a steady window of {len(S.keys())} planned "
         f"({len(S.WIDTHS)} widths x {S.SEEDS} seeds); per width: "
@@ -441,3 +585,4 @@ def write_report(path=None, store=None) -> str:
 
 if __name__ == "__main__":
     print(write_report())
+    print(write_figure())

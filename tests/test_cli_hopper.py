@@ -49,7 +49,8 @@ def test_a_hopper_study_runs_from_the_command_line(tmp_path, capsys):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["spec"]["reference"]["type"] == "HopperTest"
     assert set(summary["advisor"]["noise_floor"]) == {"discharge_number", "bulk_density"}
-    assert summary["files"]["plots"] == ["plots/error_vs_runtime.png"]  # no controls
+    # the discharge rate against time and the verdicts (no controls: no resolution plot)
+    assert summary["files"]["plots"] == ["plots/discharge.png", "plots/error_vs_runtime.png"]
     assert summary["files"]["snapshots"] == {}  # a hopper keeps none
     head = (out / "curves" / "ref-s1.csv").read_text().splitlines()[0]
     assert head.startswith("stage,") and "discharged_mass [kg]" in head

@@ -87,3 +87,33 @@ def test_partial_series_leaves_the_fit_undecided(tmp_path):
     other = S.path_of(12.0, 1, tmp_path)
     other.write_text(S.path_of(6.0, 1, tmp_path).read_text())
     assert S.stored(12.0, 1, tmp_path) is None
+
+
+def test_the_beverloo_figure_draws_points_fit_and_band(tmp_path):
+    rng = np.random.default_rng(5)
+    for w in S.FIRST_WIDTHS:
+        for seed in (1, 2, 3):
+            _write(tmp_path, w, seed, 0.60 * (w - 2.0) ** 1.5 * (1 + 0.01 * rng.standard_normal()))
+    means = R.width_means(R.points(tmp_path))
+    x, y, se = (np.array([m[k] for m in means]) for k in ("width", "mean", "se"))
+    f = R.fit(x, y, se)
+    grid = np.linspace(6.0, 40.0, 50)
+    lo, hi = R.fit_band(f, x, y, se, grid)
+    best = f["C"] * (grid - f["k"]) ** 1.5
+    assert np.all(lo <= best) and np.all(best <= hi) and np.all(hi - lo > 0)
+    # the band is narrowest where the widths are, and covers the curve the data came from
+    assert np.all(lo <= 0.60 * (grid - 2.0) ** 1.5 * 1.01)
+    fig = R.figure(tmp_path)
+    ax, res = fig.axes[:2]
+    labels = ax.get_legend_handles_labels()[1]
+    assert labels[0] == "each run (15)" and any(lab.startswith("C (B/d - k)^1.5") for lab in labels)
+    assert ax.get_xscale() == "log" and res.get_ylabel() == "against the fit [%]"
+    path = R.write_figure(tmp_path / "fig" / "b.png", tmp_path)
+    assert open(path, "rb").read(4) == b"\x89PNG"
+    # two widths only: the points, and the lower panel says why there is no fit
+    few = tmp_path / "few"
+    for w in S.FIRST_WIDTHS[:2]:
+        for seed in (1, 2):
+            _write(few, w, seed, 0.60 * (w - 2.0) ** 1.5)
+    (_, res) = R.figure(few).axes[:2]
+    assert "no fit: 2 widths" in res.texts[0].get_text()

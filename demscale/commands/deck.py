@@ -1,12 +1,14 @@
-"""``demscale export-test`` and ``demscale judge-liggghts``: a uniaxial test out as a LIGGGHTS
-3.8 deck, and LIGGGHTS' runs of it back, judged against demscale's own (docs/LIGGGHTS_DECK.md).
+"""``demscale export-test`` and ``demscale judge-liggghts``: a uniaxial test (or a hopper) out
+as a LIGGGHTS 3.8 deck, and LIGGGHTS' runs of a uniaxial deck back, judged against demscale's
+own (docs/LIGGGHTS_DECK.md; the hopper's deck: docs/HOPPER.md).
 
     demscale export-test --study my_study.json --run r5mm-paper-s1 --seeds 1 2 3 --out deck/
     (cd deck/s1 && liggghts -in in.demscale)       # and s2, s3
     demscale judge-liggghts deck/s1 deck/s2 deck/s3 --reference results/mine/results.h5
 
-The engine side is engine.io.liggghts_deck (the deck) and engine.io.liggghts_read (the
-reader and the verdict); this module parses the command lines and prints.
+The engine side is engine.io.liggghts_deck (the deck), engine.io.liggghts_hopper (the
+hopper's) and engine.io.liggghts_read (the reader and the verdict); this module parses the
+command lines and prints.
 """
 
 from __future__ import annotations
@@ -32,7 +34,16 @@ seed (folders s1, s2, ... under --out). Run each unmodified in its folder:
 
     cd OUT && liggghts -in in.demscale
 
-and read it back with `demscale judge-liggghts OUT --reference ...`. The deck's comments say
+and read it back with `demscale judge-liggghts OUT --reference ...`.
+
+A hopper (TEST.json with "type": "HopperTest", or a study whose reference is one) is written
+as its own deck (in.hopper: demscale's lattice fill read in, the walls and the gate as STL
+meshes, the catch floor a plane, the settling behind the closed gate, the gate moved away,
+discharge.txt with the discharged mass every output_interval and particle dumps in dump/):
+
+    cd OUT && liggghts -in in.hopper
+
+The deck's comments say
 what LIGGGHTS does differently; what it cannot express (an adhesive branch kadh > 0 with n
 or chi != 1, a platen speed held to an inertial number, as the default protocol loads) is
 refused, naming the field: export a test at the seed's protocol (--protocol seed) or one
@@ -90,6 +101,7 @@ def _check_same_test(runs, refs) -> None:
 
 def _read_test(args):
     import engine
+    from engine.study.kinds import kind_for_json
     from engine.uniaxial.spec import uniaxial_from_json
 
     if args.study is not None:
@@ -106,6 +118,9 @@ def _read_test(args):
         fields = json.loads(Path(args.test).read_text())
         if not isinstance(fields, dict):
             raise ValueError("the test file must hold a JSON object of the test's fields")
+        if fields.get("type") == "HopperTest":
+            raw = {k: v for k, v in fields.items() if k != "type"}
+            return kind_for_json(fields).from_json(raw, "HopperTest")
         return uniaxial_from_json(fields)
     if args.preset is None:
         raise ValueError("give a test: TEST.json, --preset NAME [--law LAW.json] or --study")
@@ -127,6 +142,21 @@ def _read_test(args):
     return engine.UniaxialTest.from_dict(fields)
 
 
+def _is_hopper(test) -> bool:
+    from engine.hopper.spec import HopperTest
+
+    return isinstance(test, HopperTest)
+
+
+def _dt(test) -> float:
+    """The time step demscale runs ``test`` with [s]."""
+    if _is_hopper(test):
+        from engine.hopper.driver import resolved_dt
+
+        return resolved_dt(test)
+    return test.resolved_dt()
+
+
 def _write_decks(args):
     """The test of ``export-test``'s arguments, scaled to --radius where given, and the deck
     files written for it (one per --seeds seed)."""
@@ -134,26 +164,29 @@ def _write_decks(args):
 
     import engine
     from engine.io.liggghts_deck import write_deck
+    from engine.io.liggghts_hopper import write_hopper_deck
 
     test = _read_test(args)
     if args.run is not None and args.study is None:
         raise ValueError("--run needs --study")
     if args.radius is not None:
         rule = engine.ScalingRule.named(args.rule)
-        test = rule.apply(test, args.radius, test.resolved_dt())
+        test = rule.apply(test, args.radius, _dt(test))
+    write = write_hopper_deck if _is_hopper(test) else write_deck
     seeds = args.seeds or [None]
     out = Path(args.out)
     written = []
     for seed in seeds:
         t = test if seed is None else replace(test, seed=seed)
         folder = out if seed is None else out / f"s{seed}"
-        written.append(write_deck(t, folder, skin=args.skin))
+        written.append(write(t, folder, skin=args.skin))
     return test, written
 
 
 def export_test(args) -> int:
     """``demscale export-test``: the deck folder(s) of one test."""
-    from engine.io.liggghts_deck import DECK, differences
+    from engine.io.liggghts_deck import differences
+    from engine.io.liggghts_hopper import hopper_differences
 
     decks, why = attempt(
         lambda: _write_decks(args), "cannot read the input", "not valid", refused=(KeyError,)
@@ -164,12 +197,12 @@ def export_test(args) -> int:
     test, written = decks
     print(
         f"{test.n_particles} particles, R = {test.radius:g} m, {type(test.pair_law).__name__}, "
-        f"dt = {test.resolved_dt():g} s"
+        f"dt = {_dt(test):g} s"
     )
     for path in written:
-        print(f"wrote {path}   run it: (cd {path.parent} && liggghts -in {DECK})")
+        print(f"wrote {path}   run it: (cd {path.parent} && liggghts -in {path.name})")
     print("LIGGGHTS does differently:")
-    for d in differences(test):
+    for d in (hopper_differences if _is_hopper(test) else differences)(test):
         print(f"  - {d}")
     return 0
 
@@ -257,11 +290,16 @@ def add_commands(sub) -> None:
     p = command(
         sub,
         "export-test",
-        "a uniaxial test as a complete LIGGGHTS 3.8 deck",
+        "a uniaxial test or a hopper as a complete LIGGGHTS 3.8 deck",
         EXPORT_HELP,
         export_test,
     )
-    p.add_argument("test", nargs="?", metavar="TEST.json", help="the test (engine.UniaxialTest)")
+    p.add_argument(
+        "test",
+        nargs="?",
+        metavar="TEST.json",
+        help='the test (engine.UniaxialTest, or engine.HopperTest with "type": "HopperTest")',
+    )
     p.add_argument("--preset", help="a named test (quick, paper) instead of TEST.json")
     p.add_argument(
         "--law", metavar="LAW.json", help='with --preset: {"type": "BilinearAdhesive", ...}'

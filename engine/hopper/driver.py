@@ -2,6 +2,13 @@
 the closed gate, then the gate moved away downwards and the discharge sampled every
 ``output_interval`` until the hopper is empty, the flow stops, or ``max_discharge_time``.
 
+With a :class:`engine.Checkpoint` the run writes its state (a pickle of the
+:class:`HopperRun` between two samples: the simulation with its contact history and moving gate,
+the discharge's rows so far and its stop criterion's state) every ``interval`` of wall time and
+once the fill has settled, and resumes from it: nothing is random after the fill is placed, so
+a resumed run's record is bit-identical to an uninterrupted one's
+(tests/engine/test_hopper_checkpoint.py).
+
 Each sample counts the mass discharged (centres more than one largest diameter below the
 outlet), still in the hopper, and anywhere else (a leak: none in a sound scene), and reads the
 grains' downward speeds next to the wall and on the centre line in a band at half the fill's
@@ -12,15 +19,18 @@ from __future__ import annotations
 
 import bisect
 import math
+import os
 import time
+import warnings
 
 import numpy as np
 
 from ..core.errors import StopRequested, WallTimeExceeded
 from ..simulation.simulation import Simulation
 from ..simulation.timestep import critical_time_step
+from ..uniaxial.checkpoint import TRAJECTORY_PACKAGES, Checkpoint, check_interval, this_code
 from ..uniaxial.driver import StageError
-from ..uniaxial.results import Progress, ProgressCallback
+from ..uniaxial.results import RESUMED, Progress, ProgressCallback
 from .measures import (
     MASS_FLOW_INDEX,
     binned_stress,
@@ -42,6 +52,9 @@ BAND_REACH = 1.0
 BAND_HALF = 1.0
 #: The share of the overall progress taken by the settling [-].
 _SETTLE_SHARE = 0.3
+#: The engine's packages a hopper run steps through (its checkpoint is resumed only by the
+#: same sources of these: :class:`engine.Checkpoint`).
+HOPPER_TRAJECTORY = (*TRAJECTORY_PACKAGES, "hopper")
 
 
 def impact_speed(test: HopperTest, geometry: HopperGeometry) -> float:
@@ -102,9 +115,33 @@ class HopperRun:
         self.bulk_density = math.nan
         self.edges = np.zeros(2)
         self.stress_fill = np.zeros(1)
+        self.checkpoint: Checkpoint | None = None
+        self.stage = "settle"  # then "discharge", once the fill has settled
+        self.flow: dict | None = None  # the discharge loop's state, once the gate opens
+        self.last_progress = ("settle", 0.0, 0.0)  # (stage, fraction, stage fraction)
+
+    # ------------------------------------------------------------------ checkpoints
+    trajectory_packages = HOPPER_TRAJECTORY
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state["progress"] = state["checkpoint"] = None
+        # wall time so far instead of the start of a clock that does not survive the process
+        state["t0"] = time.perf_counter() - self.t0
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self.t0 = time.perf_counter() - state["t0"]
+
+    def _due(self) -> None:
+        """Between two samples: write the checkpoint if its interval has passed."""
+        if self.checkpoint is not None:
+            self.checkpoint.due(self)
 
     # ------------------------------------------------------------------ helpers
     def _tick(self, stage: str, fraction: float, stage_fraction: float, msg: str = "") -> None:
+        self.last_progress = (stage, fraction, stage_fraction)
         if self.max_wall_time is not None:
             elapsed = time.perf_counter() - self.t0
             if elapsed > self.max_wall_time:
@@ -178,6 +215,7 @@ class HopperRun:
                     "settle",
                     sim.steps,
                 )
+            self._due()  # a resumed settling re-enters the loop here: it reads only sim
         self.settle_time = sim.time
         z = sim.positions[:, 2]
         half = 0.5 * float((z + sim.radii).max())
@@ -187,6 +225,9 @@ class HopperRun:
         self.fill_height = t.height_holding(self.total / self.bulk_density)
         self.edges = np.linspace(0.0, self.fill_height, t.wall_bins + 1)
         self.stress_fill = self.wall_stress(self.edges)
+        self.stage = "discharge"
+        if self.checkpoint is not None and self.checkpoint.after_fill:
+            self.checkpoint.save(self)  # the settled fill: never poured again
 
     def hold(self, seconds: float) -> float:
         """Run ``seconds`` [s] more with the gate closed; returns the mass discharged [kg]."""
@@ -198,22 +239,32 @@ class HopperRun:
         """Open the gate (moved down at ``gate_speed`` until it lies below the catch floor) and
         sample the discharge until the hopper is empty, the flow has stopped
         (:func:`engine.hopper.measures.stop_time`'s criterion, read as it goes), or
-        ``max_discharge_time``; then the measures."""
+        ``max_discharge_time``; then the measures. Resumed from a checkpoint, it goes on with
+        the loop where it was (its state lives in ``self.flow``)."""
         t = self.test
         sim = self.sim
         geo = self.geo
-        gate_steps = math.ceil(abs(geo.gate_stop) / (t.resolved_gate_speed * self.dt))
-        sim.set_mesh_velocity(geo.gate_mesh, (0.0, 0.0, -t.resolved_gate_speed))
-        t_open = sim.time
-        step_open = sim.steps
+        if self.flow is None:
+            sim.set_mesh_velocity(geo.gate_mesh, (0.0, 0.0, -t.resolved_gate_speed))
+            self.flow = {
+                "gate_steps": math.ceil(abs(geo.gate_stop) / (t.resolved_gate_speed * self.dt)),
+                "t_open": sim.time,
+                "step_open": sim.steps,
+                "rows": [],
+                "times": [],  # the rows' times, for the stop criterion's look-back
+                "stresses": [],
+                "fastest": 0.0,
+                "stopped": False,
+                # the start of the window in which the flow was seen stopped
+                "detected": math.nan,
+            }
+        f = self.flow
+        gate_steps, t_open, step_open = f["gate_steps"], f["t_open"], f["step_open"]
+        rows: list[tuple] = f["rows"]
+        times: list[float] = f["times"]
+        stresses: list[np.ndarray] = f["stresses"]
         wait = t.arch_wait * t.free_fall_time
         pm = float(self.masses.min())
-        rows: list[tuple] = []
-        times: list[float] = []  # the rows' times, for the stop criterion's look-back
-        stresses: list[np.ndarray] = []
-        fastest = 0.0
-        stopped = False
-        detected = math.nan  # the start of the window in which the flow was seen stopped
         cos = math.cos(math.radians(t.half_angle))
         polygon = math.cos(math.pi / CONE_SIDES) if t.shape == "cone" else 1.0
         while True:
@@ -264,14 +315,16 @@ class HopperRun:
             if now >= wait:
                 i = bisect.bisect_right(times, now - wait) - 1
                 moved = m_out - rows[i][1]
-                if moved < max(pm, t.arch_fraction * fastest * wait):
-                    stopped = True
-                    detected = rows[i][0]
+                if moved < max(pm, t.arch_fraction * f["fastest"] * wait):
+                    f["stopped"] = True
+                    f["detected"] = rows[i][0]
                     break
-                fastest = max(fastest, moved / (now - rows[i][0]))
+                f["fastest"] = max(f["fastest"], moved / (now - rows[i][0]))
             if now >= t.max_discharge_time:
                 break
-        return self._result(rows, stresses, stopped, wait, pm, detected)
+            # between two samples, the criterion read: a resumed run re-enters the loop here
+            self._due()
+        return self._result(rows, stresses, f["stopped"], wait, pm, f["detected"])
 
     def _result(
         self, rows, stresses, stopped: bool, wait: float, pm: float, detected: float
@@ -346,8 +399,10 @@ class HopperRun:
         return HopperResult(t, curves, self.edges, self.stress_fill, flow_stress, s)
 
     def run(self) -> HopperResult:
-        """Settle, then discharge."""
-        self.settle()
+        """Settle, then discharge (resumed from a checkpoint: go on with the stage it was
+        in)."""
+        if self.stage == "settle":
+            self.settle()
         return self.discharge()
 
 
@@ -358,6 +413,7 @@ def run_hopper(
     max_wall_time: float | None = None,
     wall_time_setting: str | None = None,
     threads: int | None = None,
+    checkpoint: Checkpoint | str | os.PathLike | None = None,
 ) -> HopperResult:
     """Run the hopper discharge (docs/HOPPER.md): the fill settled behind the closed gate, the
     gate opened, the discharge sampled and measured.
@@ -370,8 +426,46 @@ def run_hopper(
             wall time (the kernels' compilation left out) [s]; ``wall_time_setting`` names
             the knob in its message.
         threads: threads of the simulation (None: numba's).
+        checkpoint: a :class:`engine.Checkpoint` (or its path, written every
+            ``CHECKPOINT_INTERVAL`` s): the run resumes from it when it holds this test's
+            state (written by the same sources of :data:`HOPPER_TRAJECTORY`), and writes it
+            between samples as it goes and once the fill has settled; the result is
+            bit-identical to that of an uninterrupted run (its ``wall_time`` aside). The file
+            is left for the caller to remove once the result is stored
+            (:meth:`engine.Checkpoint.remove`).
     Raises: :class:`engine.StageError` when the fill does not settle within
         ``max_settle_time``; :class:`engine.InstabilityError` when the integration blows up.
         The CPU backend.
     """
-    return HopperRun(test, progress, max_wall_time, wall_time_setting, threads).run()
+    this_code()  # the code this run is made by, taken before it runs (engine.io.store)
+    if max_wall_time is not None:
+        check_interval(max_wall_time, "run_hopper.max_wall_time")
+    if checkpoint is not None and not isinstance(checkpoint, Checkpoint):
+        checkpoint = Checkpoint(checkpoint)
+    run = None
+    if checkpoint is not None:
+        t0 = time.perf_counter()
+        run = checkpoint.load(test, HOPPER_TRAJECTORY)
+        if run is not None and not isinstance(run, HopperRun):
+            warnings.warn(
+                f"checkpoint {checkpoint.path} holds no hopper run; the run starts from the "
+                "beginning",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+            run = None
+        if run is not None:  # loading its kernel is set-up time, as for a new Simulation
+            load = time.perf_counter() - t0
+            run.setup += load
+            run.t0 += load
+            run.progress = progress
+    if run is None:
+        run = HopperRun(test, progress, max_wall_time, wall_time_setting, threads)
+    run.checkpoint = checkpoint
+    run.max_wall_time = max_wall_time
+    run.wall_time_setting = wall_time_setting or "max_wall_time"
+    if checkpoint is not None:
+        checkpoint.start()
+        if checkpoint.resumed_steps is not None:
+            run._tick(*run.last_progress, f"{RESUMED} at step {checkpoint.resumed_steps}")
+    return run.run()

@@ -37,6 +37,8 @@ KINDS = {
     "particle diameter / sample thickness [-]",
     "yield_locus": "Shear test: yield loci, shear stress [kPa] against normal stress [kPa]",
     "preshear": "Shear test: pre-shear, shear stress [kPa] against shear strain [-]",
+    "discharge": "Hopper discharge: mass discharge rate [kg/s] against time since the gate "
+    "opened [s]",
 }
 #: The kinds of a uniaxial study and of a shear study (:func:`kinds_of`).
 UNIAXIAL_KINDS = (
@@ -48,8 +50,13 @@ UNIAXIAL_KINDS = (
     "resolution",
 )
 SHEAR_KINDS = ("yield_locus", "preshear", "error_vs_runtime", "resolution")
-#: A hopper study's (docs/HOPPER.md): the verdicts' figures only (no discharge plot yet).
-HOPPER_KINDS = ("error_vs_runtime", "resolution")
+#: A hopper study's (docs/HOPPER.md): the discharge rate against time, and the verdicts'.
+HOPPER_KINDS = ("discharge", "error_vs_runtime", "resolution")
+#: The discharge plot's rate is the slope of the discharged mass over a centred window of
+#: this fraction of each run's discharge time (at least one sample on each side) [-]: short
+#: enough to show the start, the steady stretch and the emptying, long enough that single
+#: grains crossing the discharge level do not make it a comb.
+RATE_WINDOW = 0.05
 #: The plot kinds of each kind of test a study's reference can be, keyed on the test
 #: record's type (its JSON form's ``"type"``): the one place that says which plots a study
 #: has (:func:`plot_kinds`). The study's links, the API and the pages ask it.
@@ -783,6 +790,43 @@ def _resolution_points(fig, report, table: list[dict]) -> None:
     )
 
 
+def discharge_rate(time, mass, window: float = RATE_WINDOW) -> tuple[np.ndarray, np.ndarray]:
+    """(time [s], rate [kg/s]) of a hopper's discharge curves: at each sample the slope of the
+    discharged ``mass`` [kg] against ``time`` [s] between the samples ``window`` x the run's
+    discharge time before and after it (at least one sample; cut at the curve's ends)."""
+    t = np.asarray(time, dtype=float)
+    m = np.asarray(mass, dtype=float)
+    n = len(t)
+    if n < 2:
+        return t[:0], t[:0]
+    h = max(1, round(window * (n - 1)))
+    i = np.arange(n)
+    lo, hi = np.maximum(i - h, 0), np.minimum(i + h, n - 1)
+    return t, (m[hi] - m[lo]) / (t[hi] - t[lo])
+
+
+def _discharge(ax, runs: dict, table: list[dict]) -> None:
+    """Every group's discharge rate against time (:func:`discharge_rate`; seeds as a mean
+    with a band of 1 sd) and, dotted in its colour, its steady-window rate (the table's, the
+    mean over the group's seeds)."""
+    _plot_groups(
+        ax,
+        runs,
+        table,
+        lambda c: discharge_rate(c["time"], c["discharged_mass"]),
+        (("discharge", True),),
+        ("-",),
+    )
+    rows = {r["run"]: r for r in table}
+    for i, (_, keys) in enumerate(_groups(runs, table).items()):
+        rates = [rows[k].get("discharge_rate", math.nan) for k in keys if k in rows]
+        rates = [r for r in rates if r is not None and math.isfinite(r)]
+        if rates:
+            st = _style(i, runs[keys[0]]["reference"])
+            ax.axhline(float(np.mean(rates)), color=st["color"], ls=":", lw=1.2)
+    ax.set_ylim(bottom=0.0)
+
+
 def draw(ax, kind: str, runs: dict, table: list[dict]) -> None:
     """Draw plot ``kind`` (one of :data:`KINDS`) on the matplotlib Axes ``ax``."""
     if kind not in KINDS:
@@ -830,12 +874,18 @@ def draw(ax, kind: str, runs: dict, table: list[dict]) -> None:
         )
         ax.set_xlabel("shear strain (lid displacement / gap) [-]")
         ax.set_ylabel("shear stress on the lid [kPa]")
+    elif kind == "discharge":
+        _discharge(ax, runs, table)
+        ax.set_xlabel("time since the gate began to open [s]")
+        ax.set_ylabel("mass discharge rate [kg/s]")
     else:
         raise ValueError(f"{kind} is drawn on a whole figure: use figure()")
     titles = {
         "unconfined": None,
         "preshear": "at the pre-shear normal stress, to steady flow",
         "yield_locus": "lines: each seed's fitted locus, mean ± 1 sd",
+        "discharge": f"slope over ± {RATE_WINDOW:.0%} of the discharge time; dotted: steady-"
+        "window rate",
     }
     if ax.get_legend_handles_labels()[0]:
         ax.legend(

@@ -150,15 +150,15 @@ def _num(x: float) -> str:
     return repr(float(x))
 
 
-def _pair(test):
+def _pair(test, owner: str = "UniaxialTest"):
     """The pair law's LIGGGHTS mapping (engine.contact.export), refusals at
-    ``UniaxialTest.pair_law``."""
-    return mapping(test.pair_law, "UniaxialTest.pair_law", "UniaxialTest.pair_law")
+    ``<owner>.pair_law``."""
+    return mapping(test.pair_law, f"{owner}.pair_law", f"{owner}.pair_law")
 
 
-def _wall(test):
-    """The wall law's LIGGGHTS mapping, refusals at ``UniaxialTest.wall_law``."""
-    return mapping(test.wall_law, "UniaxialTest.wall_law", "UniaxialTest.wall_law")
+def _wall(test, owner: str = "UniaxialTest"):
+    """The wall law's LIGGGHTS mapping, refusals at ``<owner>.wall_law``."""
+    return mapping(test.wall_law, f"{owner}.wall_law", f"{owner}.wall_law")
 
 
 #: Protocol fields the deck cannot write, at the value it can: a platen speed held to an
@@ -177,21 +177,7 @@ def check_exportable(test) -> None:
     path), a per-atom-type property of the pair law (a Hertz law's E, nu) that differs from
     the wall law's (LIGGGHTS has one value per atom type for pairs and walls alike), or a
     platen speed that is not constant."""
-    pair, wall = _pair(test), _wall(test)
-    walls = {p.name: p for p in wall.atom_type}
-    for p in pair.atom_type:
-        q = walls.get(p.name)
-        if q is None or q.value != p.value:
-            shown = ", ".join(f"{w.field} = {w.value:g}{_unit(w)}" for w in wall.atom_type)
-            wanted = " and ".join(f"{w.field} = {w.value:g}{_unit(w)}" for w in pair.atom_type)
-            raise ParameterError(
-                f"UniaxialTest.wall_law.{p.field}",
-                shown or "none",
-                f"the pair law's {wanted}",
-                "LIGGGHTS gives the particles' atom type one "
-                + " and ".join(w.name for w in pair.atom_type)
-                + " for pairs and platens alike",
-            )
+    check_laws(test)
     for name, default in _PROTOCOL_DEFAULTS.items():
         value = getattr(test, name, default)
         if value != default:
@@ -201,6 +187,28 @@ def check_exportable(test) -> None:
                 f"{default} (a constant platen speed) to export to LIGGGHTS",
                 "the deck moves the platen at platen_speed; a speed held to an inertial "
                 "number is not written",
+            )
+
+
+def check_laws(test, owner: str = "UniaxialTest") -> None:
+    """Raise :class:`engine.ParameterError` naming ``<owner>.pair_law`` or
+    ``<owner>.wall_law`` where a deck of ``test`` cannot write its laws: no LIGGGHTS mapping,
+    the mapping's own refusals, or a per-atom-type property of the pair law that differs from
+    the wall law's (:func:`check_exportable`)."""
+    pair, wall = _pair(test, owner), _wall(test, owner)
+    walls = {p.name: p for p in wall.atom_type}
+    for p in pair.atom_type:
+        q = walls.get(p.name)
+        if q is None or q.value != p.value:
+            shown = ", ".join(f"{w.field} = {w.value:g}{_unit(w)}" for w in wall.atom_type)
+            wanted = " and ".join(f"{w.field} = {w.value:g}{_unit(w)}" for w in pair.atom_type)
+            raise ParameterError(
+                f"{owner}.wall_law.{p.field}",
+                shown or "none",
+                f"the pair law's {wanted}",
+                "LIGGGHTS gives the particles' atom type one "
+                + " and ".join(w.name for w in pair.atom_type)
+                + " for pairs and walls alike",
             )
 
 
@@ -318,11 +326,11 @@ def release_times(test) -> tuple[float, float]:
 
 
 # ----------------------------------------------------------------------------- the deck
-def _materials(test) -> list[str]:
-    """``fix property/global`` lines for two atom types (1 particles, 2 platens) and the
-    pair style: what the pair and wall laws' mappings declare (engine.contact.export), the
-    platens' per-atom-type values from ``wall_material``."""
-    pair, wall = _pair(test), _wall(test)
+def _materials(test, owner: str = "UniaxialTest") -> list[str]:
+    """``fix property/global`` lines for two atom types (1 particles, 2 platens or walls) and
+    the pair style: what the pair and wall laws' mappings declare (engine.contact.export),
+    the walls' per-atom-type values from ``wall_material``."""
+    pair, wall = _pair(test, owner), _wall(test, owner)
     platen = {p.name: p.value for p in test.wall_material.liggghts_atom_type()}
 
     def two(pp: float, pw: float) -> str:
@@ -354,8 +362,8 @@ def _materials(test) -> list[str]:
     return lines
 
 
-def _wall_model(test) -> str:
-    wall = _wall(test)
+def _wall_model(test, owner: str = "UniaxialTest") -> str:
+    wall = _wall(test, owner)
     roll = " rolling_friction cdt" if wall.rolling else ""
     return f"wall/gran model {wall.model} tangential history{roll}{wall.settings}"
 

@@ -77,10 +77,12 @@ def code_digest() -> str:
 
 
 @functools.cache
-def trajectory_digest() -> str:
-    """Digest of the sources of :data:`TRAJECTORY_PACKAGES` and the numba and Python versions:
-    a checkpoint written by other such code is not resumed (its trajectory could differ)."""
-    return _source_digest(_ENGINE, TRAJECTORY_PACKAGES)
+def trajectory_digest(packages: tuple[str, ...] = TRAJECTORY_PACKAGES) -> str:
+    """Digest of the sources of ``packages`` (the engine's packages a run steps through: a
+    uniaxial run's :data:`TRAJECTORY_PACKAGES`; a hopper's adds its own) and the numba and
+    Python versions: a checkpoint written by other such code is not resumed (its trajectory
+    could differ)."""
+    return _source_digest(_ENGINE, packages)
 
 
 _code: dict | None = None
@@ -142,11 +144,12 @@ class Checkpoint:
             the poured and settled bed, a run's one random and often longest stage, is
             never poured again after a crash.
 
-    :func:`engine.run_uniaxial` resumes from ``path`` when it holds a checkpoint of the same
-    test and engine, writes it while it runs, and leaves it in place: the caller removes it
-    (:meth:`remove`) once the run's result is stored, so a crash between the end of the run
-    and the store loses nothing. Attributes: ``writes`` (checkpoints written by this object),
-    ``resumed_steps`` (the step the run resumed from, or None).
+    :func:`engine.run_uniaxial` (and :func:`engine.run_hopper`) resumes from ``path`` when it
+    holds a checkpoint of the same test and engine, writes it while it runs, and leaves it
+    in place: the caller removes it (:meth:`remove`) once the run's result is stored, so a
+    crash between the end of the run and the store loses nothing. Attributes: ``writes``
+    (checkpoints written by this object), ``resumed_steps`` (the step the run resumed from,
+    or None).
     """
 
     def __init__(
@@ -161,9 +164,10 @@ class Checkpoint:
         self._last = time.monotonic()
 
     # ------------------------------------------------------------------ reading
-    def load(self, test):
-        """The driver state stored for ``test``, or None (no file, another test, other code,
-        or an unreadable file: each is warned about and ignored)."""
+    def load(self, test, packages: tuple[str, ...] = TRAJECTORY_PACKAGES):
+        """The driver state stored for ``test``, or None (no file, another test, other code
+        of the engine's ``packages`` its run steps through, or an unreadable file: each is
+        warned about and ignored)."""
         try:
             with open(self.path, "rb") as fh:
                 stored = pickle.load(fh)
@@ -180,7 +184,7 @@ class Checkpoint:
         why = None
         if not isinstance(stored, dict) or stored.get("format") != _FORMAT:
             why = "not a demscale checkpoint of this format"
-        elif stored.get("code") != trajectory_digest():
+        elif stored.get("code") != trajectory_digest(tuple(packages)):
             why = "written by other engine code"
         elif stored.get("test") != test.to_dict():
             why = "written for another test"
@@ -216,7 +220,9 @@ class Checkpoint:
         blob = pickle.dumps(
             {
                 "format": _FORMAT,
-                "code": trajectory_digest(),
+                "code": trajectory_digest(
+                    getattr(driver, "trajectory_packages", TRAJECTORY_PACKAGES)
+                ),
                 "test": driver.test.to_dict(),
                 "driver": driver,
             },

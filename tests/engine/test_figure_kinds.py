@@ -13,10 +13,12 @@ import pytest
 pytest.importorskip("matplotlib")
 import engine
 from engine.io.figures import (
+    HOPPER_KINDS,
     KINDS,
     SHEAR_KINDS,
     TEST_PLOTS,
     UNIAXIAL_KINDS,
+    discharge_rate,
     figure,
     kinds_of,
     plot_kinds,
@@ -127,8 +129,9 @@ def test_a_study_s_plots_follow_its_kind_of_test():
     assert kinds_of(uniaxial_study()[1]) == UNIAXIAL_KINDS
     assert kinds_of(shear_study()[1]) == ("yield_locus", "preshear", "error_vs_runtime")
     assert set(TEST_PLOTS) == {"UniaxialTest", "ShearTest", "HopperTest"}
-    # a hopper study: the verdicts' figures only (docs/HOPPER.md)
+    # a hopper study: its discharge rate and the verdicts' figures (docs/HOPPER.md)
     assert plot_kinds({"reference": {"type": "HopperTest"}, "controls": False}) == (
+        "discharge",
         "error_vs_runtime",
     )
     with pytest.raises(ValueError, match="no plots"):
@@ -152,3 +155,43 @@ def test_an_unbounded_interval_is_cut_at_1000_percent_with_an_arrow():
     assert ticks and not any("e+" in t for t in ticks), ticks
     legend = [t.get_text() for t in fig.legends[0].get_texts()]
     assert any("unbounded (too few seeds)" in t for t in legend), legend
+
+
+def test_the_discharge_plot_draws_each_groups_rate_against_time():
+    """Made-up discharges: 1 kg at 2 kg/s from t = 0.1 s (two reference seeds) and at 1 kg/s
+    (a coarse run), sampled every 10 ms: the rate curves' plateaus and the steady rates
+    (dotted) are those rates."""
+    t = np.arange(0.0, 1.3, 0.01)
+    runs, table = {}, []
+    for key, rate, ref in (
+        ("ref-s1", 2.0, True),
+        ("ref-s2", 2.0, True),
+        ("r3mm-paper-s1", 1.0, False),
+    ):
+        m = np.clip(rate * (t - 0.1), 0.0, 1.0)
+        runs[key] = {
+            "label": key,
+            "reference": ref,
+            "stages": {"discharge": {"time": t, "discharged_mass": m}},
+        }
+        table.append(
+            {
+                "run": key,
+                "radius": 2.5e-3 if ref else 3e-3,
+                "rule": "reference" if ref else "paper",
+                "discharge_rate": rate,
+                "err_discharge_number": 0.0,
+            }
+        )
+    tt, r = discharge_rate(t, runs["ref-s1"]["stages"]["discharge"]["discharged_mass"])
+    assert np.array_equal(tt, t) and np.allclose(r[(t > 0.2) & (t < 0.5)], 2.0)
+    assert np.allclose(r[t > 0.75], 0.0)  # emptied at 0.6 s
+    assert kinds_of(table) == HOPPER_KINDS[:2]  # no controls
+    (ax,) = figure("discharge", runs, table).axes
+    solid = [ln for ln in ax.get_lines() if ln.get_linestyle() == "-"]
+    dotted = sorted(float(ln.get_ydata()[0]) for ln in ax.get_lines() if ln.get_linestyle() == ":")
+    assert dotted == [1.0, 2.0]
+    assert sorted(round(float(np.max(ln.get_ydata())), 6) for ln in solid) == [1.0, 2.0]
+    labels = ax.get_legend_handles_labels()[1]
+    assert labels == ["reference (mean of 2 seeds ± 1 sd)", "R = 3 mm, paper"]
+    assert "mass discharge rate [kg/s]" in ax.get_ylabel() and not ax.texts

@@ -51,13 +51,15 @@ def test_a_hopper_study_runs_in_the_worker(client, settings):
     mass = curves["runs"]["ref-s1"]["stages"]["discharge"]["discharged_mass"]
     assert mass[0] == 0.0 and mass[-1] > 0.0
     # the hopper kind's figures; a uniaxial one is a 404 naming the study's plots
-    png = client.get(f"/studies/{sid}/plots/error_vs_runtime.png")
-    assert png.status_code == 200 and png.content[:4] == b"\x89PNG"
+    for kind in ("discharge", "error_vs_runtime"):
+        png = client.get(f"/studies/{sid}/plots/{kind}.png")
+        assert png.status_code == 200 and png.content.startswith(b"\x89PNG"), kind
     r = client.get(f"/studies/{sid}/plots/stress_strain.png")
     assert r.status_code == 404 and "hopper study" in r.text and "error_vs_runtime" in r.text
     page = client.get(f"/studies/{sid}/page")
     assert page.status_code == 200 and "discharge number err [%]" in page.text
     assert "A hopper study" in page.text and "A shear study" not in page.text
+    assert "plots/discharge.png" in page.text
     assert "plots/error_vs_runtime.png" in page.text and "plots/stress_strain.png" not in page.text
     assert "self-weight" not in page.text
     ref = load_run(settings.runs_dir(sid) / "ref-s1.h5")

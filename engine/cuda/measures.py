@@ -215,6 +215,21 @@ def measure_final_kernel(csum, out):
         out[q] = sh[0]
 
 
+def cap_kernel(vel, cap, flag):
+    """Scale the velocity of every particle faster than ``cap`` [m/s] down to ``cap`` (the
+    host's formula: v cap / |v|); ``flag[0]`` = 1 where any was."""
+    i = cuda.grid(1)
+    if i >= vel.shape[0]:
+        return
+    s = math.sqrt(vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1] + vel[i, 2] * vel[i, 2])
+    if s > cap:
+        f = cap / s
+        vel[i, 0] *= f
+        vel[i, 1] *= f
+        vel[i, 2] *= f
+        flag[0] = 1
+
+
 _lock = threading.Lock()
 _kernels: SimpleNamespace | None = None
 
@@ -232,5 +247,6 @@ def kernels() -> SimpleNamespace:
                 rows=kernel(measure_rows_kernel, b, memo),
                 chunk=kernel(measure_chunk_kernel, b, memo),
                 final=kernel(measure_final_kernel, b, memo),
+                cap=kernel(cap_kernel, b, memo),
             )
         return _kernels

@@ -309,14 +309,7 @@ class CudaSimulation(Simulation):
         mk = measure_kernels()
         n = self.n
         nchunk = len(d.cdisp)
-        if d.measure is None:
-            d.measure = SimpleNamespace(
-                rows=self._to(np.zeros((n, NV))),
-                csum=self._to(np.zeros((nchunk, NV))),
-                out=self._to(np.zeros(NV)),
-                host=np.zeros(NV),
-            )
-        m = d.measure
+        m = self._measure_buffers()
         P, L = d.P, d.L
         self._go(mk.rows, _blocks(n), THREADS)(
             P.pos,
@@ -345,6 +338,38 @@ class CudaSimulation(Simulation):
         m.out.copy_to_host(m.host, stream=d.stream)
         d.stream.synchronize()
         return sums_from(m.host)
+
+    def cap_speed(self, cap: float) -> bool:
+        """Scale down the velocity of every particle faster than ``cap`` [m/s] to ``cap``
+        on the device, then (where any was) evaluate the forces again, as
+        ``set_velocities`` does: a capped pour's fill without copying the state (one
+        8-byte flag crosses). Returns whether any particle was capped."""
+        self._ensure_device()
+        d = self._dev
+        m = self._measure_buffers()
+        m.flag.copy_to_device(m.flag_zero, stream=d.stream)
+        self._go(measure_kernels().cap, _blocks(self.n), THREADS)(d.P.vel, float(cap), m.flag)
+        m.flag.copy_to_host(m.flag_host, stream=d.stream)
+        d.stream.synchronize()
+        d.stale.add("particles")
+        if not m.flag_host[0]:
+            return False
+        self._compute_forces()
+        return True
+
+    def _measure_buffers(self) -> SimpleNamespace:
+        d = self._dev
+        if d.measure is None:
+            d.measure = SimpleNamespace(
+                rows=self._to(np.zeros((self.n, NV))),
+                csum=self._to(np.zeros((len(d.cdisp), NV))),
+                out=self._to(np.zeros(NV)),
+                host=np.zeros(NV),
+                flag=self._to(np.zeros(1, dtype=np.int64)),
+                flag_zero=np.zeros(1, dtype=np.int64),
+                flag_host=np.zeros(1, dtype=np.int64),
+            )
+        return d.measure
 
     def _pull_all(self) -> None:
         self._pull(*_GROUPS)

@@ -100,6 +100,25 @@ def platen_virial(sim: Simulation, wall_forces: np.ndarray, n_walls: int) -> flo
     return out
 
 
+def cap_speed(sim: Simulation, cap: float, device: bool | None = None) -> bool:
+    """Scale down the velocity of every particle of ``sim`` faster than ``cap`` [m/s] to
+    ``cap``, the forces then evaluated again (``set_velocities``); whether any was.
+    ``device``: on the CUDA backend (None: whenever ``sim`` is on it) on the device
+    (:meth:`engine.cuda.CudaSimulation.cap_speed`), no state copied; else on the host."""
+    if device is None:
+        device = hasattr(sim, "cap_speed")
+    if device:
+        return sim.cap_speed(cap)
+    v = sim.velocities
+    speed = np.sqrt(np.einsum("ij,ij->i", v, v))
+    fast = speed > cap
+    if fast.any():
+        v = v.copy()
+        v[fast] *= (cap / speed[fast])[:, None]
+        sim.set_velocities(v)
+    return bool(fast.any())
+
+
 def sample_measures(
     sim: Simulation,
     wall_forces: np.ndarray,
@@ -420,14 +439,8 @@ class _Driver:
 
     def cap_speed(self, cap: float) -> None:
         """Scale down the velocity of every particle faster than ``cap`` [m/s] to ``cap``
-        (``UniaxialTest.pour_speed``, during the fill)."""
-        v = self.sim.velocities
-        speed = np.sqrt(np.einsum("ij,ij->i", v, v))
-        fast = speed > cap
-        if fast.any():
-            v = v.copy()
-            v[fast] *= (cap / speed[fast])[:, None]
-            self.sim.set_velocities(v)
+        (``UniaxialTest.pour_speed``, during the fill): :func:`cap_speed`."""
+        cap_speed(self.sim, cap)
 
     def move_top(self, speed: float) -> None:
         self.sim.set_wall_velocity(1, (0.0, 0.0, speed))

@@ -16,7 +16,7 @@ import sys
 import numpy as np
 
 import engine
-from engine.uniaxial.driver import sample_measures
+from engine.uniaxial.driver import cap_speed, sample_measures
 from tests.engine.cuda_cases import FULL, R, _rel, _shared_arrays_once_per_block, scene
 
 KEYS = ("coordination", "por_in", "coord_in", "s_lat", "s_ver", "s_in", "ke")
@@ -51,6 +51,19 @@ def measures_case() -> dict:
             out["rel"][k] = max(out["rel"].get(k, 0.0), abs(dev[k] - host[k]) / scale)
             out["abs"][k] = host[k]
         out["samples"] += 1
+    # a capped pour's cap on the device and on the host, on two copies of the same state
+    twin = engine.Simulation(sc, backend="cuda", skin=0.05 * R)
+    twin.run(8)
+    v = sim.velocities
+    cap = float(np.median(np.sqrt(np.einsum("ij,ij->i", v, v))))
+    before = sim.pull_counts
+    out["capped"] = [cap_speed(sim, cap, device=True), cap_speed(twin, cap, device=False)]
+    out["pulls_by_device_cap"] = {
+        k: v - before.get(k, 0) for k, v in sim.pull_counts.items() if v != before.get(k, 0)
+    }
+    out["cap_rel"] = {q: _rel(getattr(twin, q), getattr(sim, q)) for q in ("velocities", "forces")}
+    speeds = np.sqrt(np.einsum("ij,ij->i", sim.velocities, sim.velocities))
+    out["fastest_over_cap"] = float(speeds.max() / cap)
     counts = sim.contact_counts()
     z = sim.positions[:, 2] - float(sim.wall_positions[0, 2])
     inside = (z >= margin) & (z <= gap - margin)

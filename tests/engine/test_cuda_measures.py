@@ -39,6 +39,11 @@ def test_device_measures_equal_the_host_measures_without_pulling_the_state():
     assert r["pulls_by_device_sample"] == {}, r
     assert r["pulls_by_host_sample"] == {"particles": 1, "walls": 1, "list": 1}, r
     assert r["device_twice_identical"], r
+    # the pour's speed cap on the device: the host's velocities and forces, no state copied
+    assert r["capped"] == [True, True] and r["pulls_by_device_cap"] == {}, r
+    for q, rel in r["cap_rel"].items():
+        assert rel <= REL, (q, rel, r)
+    assert r["fastest_over_cap"] <= 1 + 1e-12, r
 
 
 @needs_numba_cuda

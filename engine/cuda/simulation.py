@@ -622,7 +622,16 @@ class CudaSimulation(Simulation):
 
     # ------------------------------------------------------------------ host side
     def set_wall_velocity(self, index: int, velocity) -> None:
-        return self._host_edit(Simulation.set_wall_velocity, index, velocity)
+        # a curve sample's platen speed (every sample at an inertial number): the walls'
+        # rows are refreshed and the velocities sent back, the rest stays on the device
+        if self._dev is None or self._dirty:
+            return self._host_edit(Simulation.set_wall_velocity, index, velocity)
+        self._pull_wall_rows()
+        Simulation.set_wall_velocity(self, index, velocity)
+        d = self._dev
+        d.W.vel.copy_to_device(self._walls.vel, stream=d.stream)
+        d.stream.synchronize()
+        return None
 
     def set_wall_position(self, index: int, point) -> None:
         return self._host_edit(Simulation.set_wall_position, index, point)

@@ -27,15 +27,19 @@ def measures_case() -> dict:
     compressed bed (contacts across the interior window's edges and with both platens)."""
     sc = scene(FULL, speed=0.3)
     sim = engine.Simulation(sc, backend="cuda", skin=0.05 * R)
+    twin = engine.Simulation(sc, backend="cuda", skin=0.05 * R)  # the same steps and edits
     out: dict = {"rel": {}, "abs": {}, "samples": 0}
     area = float(sc.box[0][1] - sc.box[0][0]) * float(sc.box[1][1] - sc.box[1][0])
     for _ in range(2):
         sim.run(4)
+        twin.run(4)
         f = sim.wall_forces
         w = sim.wall_positions
         gap = float(w[1, 2] - w[0, 2])
         margin = 0.3 * gap
         before = sim.pull_counts
+        for s in (sim, twin):  # as drive() does before a sample
+            s.set_wall_velocity(1, (0.0, 0.0, -0.01 * (out["samples"] + 1)))
         dev = sample_measures(sim, f, gap, area, margin, 2, device=True)
         again = sample_measures(sim, f, gap, area, margin, 2, device=True)
         out["pulls_by_device_sample"] = {
@@ -51,9 +55,11 @@ def measures_case() -> dict:
             out["rel"][k] = max(out["rel"].get(k, 0.0), abs(dev[k] - host[k]) / scale)
             out["abs"][k] = host[k]
         out["samples"] += 1
+    top = sim.wall_positions[1, 2]
+    sim.run(3)
+    twin.run(3)
+    out["platen_moved"] = float((sim.wall_positions[1, 2] - top) / (-0.02 * 3 * sim.dt))
     # a capped pour's cap on the device and on the host, on two copies of the same state
-    twin = engine.Simulation(sc, backend="cuda", skin=0.05 * R)
-    twin.run(8)
     v = sim.velocities
     cap = float(np.median(np.sqrt(np.einsum("ij,ij->i", v, v))))
     before = sim.pull_counts

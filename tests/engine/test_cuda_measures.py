@@ -35,7 +35,9 @@ def test_device_measures_equal_the_host_measures_without_pulling_the_state():
     assert 0 < r["interior_particles"] < 34, r
     for k in ("s_lat", "s_ver", "s_in", "ke", "coord_in"):
         assert r["abs"][k] > 0, (k, r)
-    # a device sample copies none of the state's groups whole; the host's copies all three
+    # a device sample (and the platen speed set before it, as each loading sample does)
+    # copies none of the state's groups whole; the host's copies all three
+    assert abs(r["platen_moved"] - 1.0) < 1e-9, r
     assert r["pulls_by_device_sample"] == {}, r
     assert r["pulls_by_host_sample"] == {"particles": 1, "walls": 1, "list": 1}, r
     assert r["device_twice_identical"], r

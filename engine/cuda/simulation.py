@@ -19,6 +19,7 @@ are the wall forces over chunks (a fixed tree): run twice on one card, bit-ident
 from __future__ import annotations
 
 import logging
+import math
 import os
 import threading
 from types import SimpleNamespace
@@ -42,6 +43,10 @@ _MAX_BATCH = 256
 _GROUPS = ("particles", "walls", "list")
 #: Most steps of one launch of the cooperative kernel (the control record is read between)
 _STEPS_PER_LAUNCH = 1024
+_ON_DEVICE = """
+
+        On the CUDA backend summed on the device (engine.cuda.measures, a fixed order): the
+        host's sum of the same state to round-off, no state copied."""
 #: numba-cuda's simulator runs one kernel at a time in a process (see CudaSimulation._go)
 _SIMULATOR_LOCK = threading.Lock()
 log = logging.getLogger("engine.cuda")
@@ -338,6 +343,24 @@ class CudaSimulation(Simulation):
         m.out.copy_to_host(m.host, stream=d.stream)
         d.stream.synchronize()
         return sums_from(m.host)
+
+    def _sums(self) -> SampleSums:
+        """:meth:`sample_sums` without platens or window (the state's own sums)."""
+        return self.sample_sums(-math.inf, math.inf, 0.0, -1.0)
+
+    def kinetic_energy(self) -> float:
+        s = self._sums()
+        return 0.5 * s.trans + 0.5 * s.rot
+
+    def pair_stress(self, volume: float) -> np.ndarray:
+        return self._sums().virial / float(volume)
+
+    def n_contacts(self) -> int:
+        return round(self._sums().counts) // 2
+
+    kinetic_energy.__doc__ = (Simulation.kinetic_energy.__doc__ or "") + _ON_DEVICE
+    pair_stress.__doc__ = (Simulation.pair_stress.__doc__ or "") + _ON_DEVICE
+    n_contacts.__doc__ = (Simulation.n_contacts.__doc__ or "") + _ON_DEVICE
 
     def cap_speed(self, cap: float) -> bool:
         """Scale down the velocity of every particle faster than ``cap`` [m/s] to ``cap``
@@ -716,14 +739,6 @@ for _name in (
     "mesh_velocities",
 ):
     setattr(CudaSimulation, _name, _wall_row_property(_name))
-CudaSimulation.kinetic_energy = _pulling_method("kinetic_energy", "particles")
-for _name in (
-    "n_contacts",
-    "contact_counts",
-    "contacts",
-    "mesh_contacts",
-    "pair_stress",
-    "memory_bytes",
-):
+for _name in ("contact_counts", "contacts", "mesh_contacts", "memory_bytes"):
     setattr(CudaSimulation, _name, _pulling_method(_name, *_GROUPS))
 del _name

@@ -22,6 +22,19 @@ from tests.engine.cuda_cases import FULL, R, _rel, _shared_arrays_once_per_block
 KEYS = ("coordination", "por_in", "coord_in", "s_lat", "s_ver", "s_in", "ke")
 
 
+def host_measures(sim, f, gap, area, margin) -> dict:
+    """The host's measures of the CUDA simulation's state: the state pulled, then the CPU
+    class's methods (which read only the host arrays) on it."""
+    from engine.cuda.simulation import CudaSimulation
+
+    sim._pull_all()
+    sim.__class__ = engine.Simulation
+    try:
+        return sample_measures(sim, f, gap, area, margin, 2, device=False)
+    finally:
+        sim.__class__ = CudaSimulation
+
+
 def measures_case() -> dict:
     """The device's measures and the host's on the same state, after a few steps of a
     compressed bed (contacts across the interior window's edges and with both platens)."""
@@ -45,7 +58,7 @@ def measures_case() -> dict:
         out["pulls_by_device_sample"] = {
             k: v - before.get(k, 0) for k, v in sim.pull_counts.items() if v != before.get(k, 0)
         }
-        host = sample_measures(sim, f, gap, area, margin, 2, device=False)
+        host = host_measures(sim, f, gap, area, margin)
         out["pulls_by_host_sample"] = {
             k: v - before.get(k, 0) for k, v in sim.pull_counts.items() if v != before.get(k, 0)
         }
@@ -55,6 +68,20 @@ def measures_case() -> dict:
             out["rel"][k] = max(out["rel"].get(k, 0.0), abs(dev[k] - host[k]) / scale)
             out["abs"][k] = host[k]
         out["samples"] += 1
+    # the state's sums on the device against the CPU class's on the pulled state
+    before = sim.pull_counts
+    dev_sums = (sim.kinetic_energy(), sim.pair_stress(1e-6), sim.n_contacts())
+    out["pulls_by_device_sums"] = {
+        k: v - before.get(k, 0) for k, v in sim.pull_counts.items() if v != before.get(k, 0)
+    }
+    sim._pull_all()
+    host_sums = (
+        engine.Simulation.kinetic_energy(sim),
+        engine.Simulation.pair_stress(sim, 1e-6),
+        engine.Simulation.n_contacts(sim),
+    )
+    out["sums_rel"] = [_rel(h, d) for h, d in zip(host_sums, dev_sums)]
+    out["n_contacts"] = [host_sums[2], dev_sums[2]]
     top = sim.wall_positions[1, 2]
     sim.run(3)
     twin.run(3)

@@ -41,6 +41,9 @@ def test_device_measures_equal_the_host_measures_without_pulling_the_state():
     assert r["pulls_by_device_sample"] == {}, r
     assert r["pulls_by_host_sample"] == {"particles": 1, "walls": 1, "list": 1}, r
     assert r["device_twice_identical"], r
+    # kinetic_energy, pair_stress and n_contacts of a CudaSimulation: summed on the device
+    assert max(r["sums_rel"]) <= REL and r["pulls_by_device_sums"] == {}, r
+    assert r["n_contacts"][0] == r["n_contacts"][1] > 10, r
     # the pour's speed cap on the device: the host's velocities and forces, no state copied
     assert r["capped"] == [True, True] and r["pulls_by_device_cap"] == {}, r
     for q, rel in r["cap_rel"].items():

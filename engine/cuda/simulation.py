@@ -10,6 +10,12 @@ arrays of the CPU class are refreshed from it only when something reads them (an
 between runs (``set_*``) is made by the CPU class on the refreshed host arrays and then sent
 to the device whole. Inside :meth:`run` only the control record of a call (32 bytes) crosses:
 after a batch of queued steps, and after a rebuild the entry count (8 bytes) to size the list.
+A curve sample crosses only its numbers: the walls' rows (point, velocity, force), the sums
+of :meth:`sample_sums` (:mod:`engine.cuda.measures`; also :meth:`kinetic_energy`,
+:meth:`pair_stress`, :meth:`n_contacts`), a platen's new speed and the pour's speed cap; the
+whole state is copied for checkpoints, snapshots and explicit reads (positions, contacts).
+Every launch and copy goes on the simulation's CUDA stream (:meth:`set_stream`, or the
+thread's, :mod:`engine.cuda.batch`), so that several simulations run side by side on a card.
 
 Same trajectory as the CPU engine up to rounding order: the per-particle work is the CPU's own
 code (:mod:`engine.cuda.device`), gathered in the CPU's order; the only sums in another order

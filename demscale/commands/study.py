@@ -70,7 +70,8 @@ def add_commands(sub) -> None:
     add_workers(
         p,
         "runs side by side in N processes (one core each; default 1: one "
-        "run at a time, the engine using the cores it wants)",
+        "run at a time, the engine using the cores it wants); on the cuda backend N "
+        "threads sharing the GPU, a CUDA stream each",
     )
     p.add_argument(
         "--details",

@@ -143,7 +143,8 @@ class CudaSimulation(Simulation):
         d.pulls = {}
         # the stream of this simulation's launches and copies: the one set_stream gave, or
         # that of the thread that first sends the state (engine.cuda.batch), or the default
-        d.stream = self._stream or current_stream() or cuda.default_stream()
+        stream = self._stream if self._stream is not None else current_stream()
+        d.stream = stream if stream is not None else cuda.default_stream()
         self._dev = d
         d.ctl = self._to(np.zeros(4, dtype=np.int64))
         d.ctl_host = np.zeros(4, dtype=np.int64)

@@ -76,7 +76,12 @@ def test_batch_arguments_are_checked():
             "        print('accepted')\n"
             "    except engine.ParameterError as e:\n"
             "        print(e.field)\n"
-            "print(run_together([lambda: 1, lambda: 2]))\n",
+            "print(run_together([lambda: 1, lambda: 2]))\n"
+            "done = []\n"
+            "try:\n"
+            "    run_together([lambda: 1 / 0, lambda: done.append(2)])\n"
+            "except ZeroDivisionError:\n"
+            "    print('raised after', done)\n",
         ],
         simulator=True,
     )
@@ -88,6 +93,7 @@ def test_batch_arguments_are_checked():
         "run_together.max_workers",
         "step_together.sims[0]",
         "[1, 2]",
+        "raised after [2]",
     ], lines
 
 

@@ -383,13 +383,33 @@ def runs_item(args, simulated: bool, deadline: float) -> list[tuple[str, bool]]:
         spec = replace(experiments("paper", protocol="default")["b_cohesive"], decide=False)
         batch = [p.test for p in engine.plan(spec).runs]
     cap_a = max(10.0, 0.35 * deadline)
-    a = timed_run(ref, cap_a)
+    # the wall time of (a)'s curve samples (measured on the device since issue 54; docs/GPU.md
+    # bounded them at about 250 s of the seed protocol's 344 s when they copied the state)
+    import engine.uniaxial.driver as drv
+
+    sampling = {"s": 0.0, "n": 0}
+    plain = drv._Recorder.sample
+
+    def sample(rec):
+        t = time.perf_counter()
+        try:
+            return plain(rec)
+        finally:
+            sampling["s"] += time.perf_counter() - t
+            sampling["n"] += 1
+
+    drv._Recorder.sample = sample
+    try:
+        a = timed_run(ref, cap_a)
+    finally:
+        drv._Recorder.sample = plain
     rate_a = a["particles"] * a["steps"] / a["wall"]
     print(
         f"\n(a) reference at the default protocol{label}: {a['particles']} particles, "
         f"{a['steps']} steps, {'finished' if a['finished'] else 'stopped at the cap'} in "
         f"{a['wall']:.1f} s (set-up {a['setup'] if a['setup'] is None else round(a['setup'], 1)} "
-        f"s), {rate_a:.3e} particle-steps/s",
+        f"s), {rate_a:.3e} particle-steps/s; {sampling['n']} curve samples took "
+        f"{sampling['s']:.1f} s ({1e3 * sampling['s'] / max(1, sampling['n']):.2f} ms each)",
         flush=True,
     )
     wall_a = a.get("run_wall", a["wall"])

@@ -433,7 +433,8 @@ def runs_item(args, simulated: bool, deadline: float) -> list[tuple[str, bool]]:
     total = sum(o["particles"] * o["steps"] for o in outs)
     finished = sum(o["finished"] for o in outs)
     print(
-        f"(b) {len(batch)} runs side by side{label}, {workers} at once: "
+        f"(b) {len(batch)} runs side by side{label}, {workers} at once, launch "
+        f"{os.environ.get('DEMSCALE_CUDA_LAUNCH', 'persistent')}: "
         f"{sum(o['particles'] for o in outs)} particles, {finished} finished in {wall_b:.1f} s, "
         f"{total:.3e} particle-steps, aggregate {total / wall_b:.3e} particle-steps/s",
         flush=True,

@@ -118,12 +118,13 @@ def batch_case() -> dict:
         scene(FULL, n=30, seed=7, speed=0.3, periodic=(True, False, False)),
     ]
     steps = 8
+    skin = 0.01 * R  # thin: lists rebuilt within the steps, on the threads' streams
     alone = []
     for sc in scenes:
-        s = engine.Simulation(sc, backend="cuda", skin=0.05 * R)
+        s = engine.Simulation(sc, backend="cuda", skin=skin)
         s.run(steps)
         alone.append(s)
-    together = [engine.Simulation(sc, backend="cuda", skin=0.05 * R) for sc in scenes]
+    together = [engine.Simulation(sc, backend="cuda", skin=skin) for sc in scenes]
     step_together(together, steps)
     step_together(together, 0)  # a force evaluation only: the same as run(0)
     for s in alone:

@@ -23,6 +23,16 @@ host, in one call:
    it finishes): a call of its own, ``--batch 15`` (its target alone is 15 minutes); the
    default call reports it as not measured.
 
+Issue 54's figures, a call of their own (``--runs``, within ``--deadline``): (a) the
+paper-scale reference at the default protocol alone, its wall time against 30 s (curve
+samples measured on the device, engine.cuda.measures); (b) experiment (b)'s runs at the
+default protocol side by side in this process through engine.cuda.batch (a thread and a CUDA
+stream each, ``--workers`` at once, default all), the card's aggregate particle-steps/s:
+
+    python -m benchmarks.engine_speed --backend cuda --runs [--workers N] [--deadline 480]
+    NUMBA_ENABLE_CUDASIM=1 python -m benchmarks.engine_speed --backend cuda --runs --smoke \
+        --deadline 30    # tiny tests under the simulator: the code path, no figures
+
 Without a usable CUDA device every GPU figure is printed as "not measured" and the exit
 status is 1. No figure is ever estimated where it says measured. ``--deadline`` [s] skips
 what would start after it (reported as not measured).
@@ -52,6 +62,8 @@ STEPS = {"18k": (4000, 400), "130k": (2000, 100), "980k": (1000, 30), "8.0M": (3
 TARGET_RATE_1M = 5e8
 TARGET_REFERENCE_S = 120.0
 TARGET_BATCH_S = 900.0
+#: issue 54: the paper-scale reference at the default protocol on one GPU [s]
+TARGET_DEFAULT_REF_S = 30.0
 
 
 def cpu_model() -> str:
@@ -310,6 +322,139 @@ def run_batch(workers: int, store: Path) -> tuple[float, dict]:
     return time.perf_counter() - t0, outcomes
 
 
+def timed_run(test, cap_s: float) -> dict:
+    """``test`` on the GPU (:func:`engine.run_uniaxial`), stopped at ``cap_s`` of wall time
+    [s]: its particles, the steps it made, its wall time [s] (set-up included), set-up
+    time [s] where it finished, and whether it did."""
+    t0 = time.perf_counter()
+    done = {"steps": 0}
+
+    def progress(p):
+        done["steps"] = p.steps
+        return time.perf_counter() - t0 < cap_s
+
+    out = {"particles": test.n_particles, "finished": False, "setup": None}
+    try:
+        res = engine.run_uniaxial(test, progress, backend="cuda")
+    except engine.StopRequested:
+        out.update(steps=done["steps"], wall=time.perf_counter() - t0)
+        return out
+    s = res.scalars
+    out.update(
+        steps=int(s["steps"]),
+        wall=time.perf_counter() - t0,
+        run_wall=s["wall_time"],
+        setup=s["setup_time"],
+        finished=True,
+    )
+    return out
+
+
+def smoke_tests(k: int) -> list:
+    """``k`` tiny uniaxial tests (about 30 particles, seeds 1..k; the smallest configuration
+    of ``--runs --smoke``, which checks the code path, under the simulator as well)."""
+    return [
+        engine.UniaxialTest(cell=(0.015, 0.015, 0.015), output_interval=1e-3, seed=s)
+        for s in range(1, k + 1)
+    ]
+
+
+def runs_item(args, simulated: bool, deadline: float) -> list[tuple[str, bool]]:
+    """Issue 54's GPU figures in one call: (a) the paper-scale reference at the default
+    protocol, alone, its wall time against :data:`TARGET_DEFAULT_REF_S`; (b) experiment (b)'s
+    runs at the default protocol side by side through :func:`engine.cuda.batch.run_together`
+    (a thread and a stream each, ``--workers`` at once), the card's aggregate
+    particle-steps/s (steps made by all runs over the batch's wall time, set-up included)
+    and, if it ends before the cap, its wall time. Each part stops at its share of
+    ``deadline`` [s] and reports what it made. ``--smoke``: tiny tests instead (the code path
+    only; under the simulator no figure is one)."""
+    from benchmarks.experiments import experiments
+    from engine.cuda.batch import run_together
+
+    t_start = time.perf_counter()
+    checks: list[tuple[str, bool]] = []
+    label = " (smoke: tiny tests, not figures)" if args.smoke else ""
+    if simulated:
+        label = " (simulator: not figures)"
+    if args.smoke:
+        ref, batch = smoke_tests(1)[0], smoke_tests(3)
+    else:
+        ref = default_reference_test()
+        spec = replace(experiments("paper", protocol="default")["b_cohesive"], decide=False)
+        batch = [p.test for p in engine.plan(spec).runs]
+    cap_a = max(10.0, 0.35 * deadline)
+    # the wall time of (a)'s curve samples (measured on the device since issue 54; docs/GPU.md
+    # bounded them at about 250 s of the seed protocol's 344 s when they copied the state)
+    import engine.uniaxial.driver as drv
+
+    sampling = {"s": 0.0, "n": 0}
+    plain = drv._Recorder.sample
+
+    def sample(rec):
+        t = time.perf_counter()
+        try:
+            return plain(rec)
+        finally:
+            sampling["s"] += time.perf_counter() - t
+            sampling["n"] += 1
+
+    drv._Recorder.sample = sample
+    try:
+        a = timed_run(ref, cap_a)
+    finally:
+        drv._Recorder.sample = plain
+    rate_a = a["particles"] * a["steps"] / a["wall"]
+    print(
+        f"\n(a) reference at the default protocol{label}: {a['particles']} particles, "
+        f"{a['steps']} steps, {'finished' if a['finished'] else 'stopped at the cap'} in "
+        f"{a['wall']:.1f} s (set-up {a['setup'] if a['setup'] is None else round(a['setup'], 1)} "
+        f"s), {rate_a:.3e} particle-steps/s; {sampling['n']} curve samples took "
+        f"{sampling['s']:.1f} s ({1e3 * sampling['s'] / max(1, sampling['n']):.2f} ms each)",
+        flush=True,
+    )
+    wall_a = a.get("run_wall", a["wall"])
+    checks.append(
+        (
+            f"(a) paper-scale reference, default protocol, <= {TARGET_DEFAULT_REF_S:.0f} s on "
+            f"the GPU{label}: "
+            + (
+                f"{wall_a:.1f} s (set-up left out)"
+                if a["finished"]
+                else f"unfinished at {a['wall']:.0f} s"
+            ),
+            a["finished"] and wall_a <= TARGET_DEFAULT_REF_S and not simulated,
+        )
+    )
+    cap_b = max(10.0, deadline - (time.perf_counter() - t_start))
+    workers = min(args.workers or len(batch), len(batch))
+    t0 = time.perf_counter()
+    outs = run_together([lambda t=t: timed_run(t, cap_b) for t in batch], max_workers=workers)
+    wall_b = time.perf_counter() - t0
+    total = sum(o["particles"] * o["steps"] for o in outs)
+    finished = sum(o["finished"] for o in outs)
+    print(
+        f"(b) {len(batch)} runs side by side{label}, {workers} at once, launch "
+        f"{os.environ.get('DEMSCALE_CUDA_LAUNCH', 'persistent')}: "
+        f"{sum(o['particles'] for o in outs)} particles, {finished} finished in {wall_b:.1f} s, "
+        f"{total:.3e} particle-steps, aggregate {total / wall_b:.3e} particle-steps/s",
+        flush=True,
+    )
+    for o, t in zip(outs, batch):
+        print(
+            f"  {t.n_particles} particles seed {t.seed}: {o['steps']} steps, "
+            f"{'finished' if o['finished'] else 'stopped'} at {o['wall']:.1f} s"
+        )
+    checks.append(
+        (
+            f"(b) experiment (b)'s {len(batch)} runs side by side{label}: aggregate "
+            f"{total / wall_b:.3e} particle-steps/s, "
+            + (f"all done in {wall_b:.0f} s" if finished == len(outs) else f"{finished} finished"),
+            finished == len(outs) and not simulated,
+        )
+    )
+    return checks
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description="issue 21 targets of the CUDA backend")
     ap.add_argument(
@@ -324,6 +469,23 @@ def main(argv=None) -> int:
         help="only experiment (b)'s 15 runs side by side on the card, WORKERS "
         "processes at a time (a call of its own: the target is 15 minutes)",
     )
+    ap.add_argument(
+        "--runs",
+        action="store_true",
+        help="only issue 54's figures: the reference at the default protocol alone, then "
+        "experiment (b)'s runs side by side through engine.cuda.batch (within --deadline)",
+    )
+    ap.add_argument(
+        "--workers",
+        type=int,
+        default=0,
+        help="with --runs: runs side by side at once (0, the default: all of them)",
+    )
+    ap.add_argument(
+        "--smoke",
+        action="store_true",
+        help="with --runs: tiny tests instead (the code path; runs under the simulator)",
+    )
     args = ap.parse_args(argv)
     t_start = time.perf_counter()
     from engine.simulation.backend import cuda_status
@@ -334,9 +496,19 @@ def main(argv=None) -> int:
         f"cores, numba {numba.__version__} ({numba.config.NUMBA_NUM_THREADS} threads), "
         f"numpy {np.__version__}"
     )
+    simulated = ok and "simulator" in device
+    if args.runs and (ok and (not simulated or args.smoke)):
+        return report(runs_item(args, simulated, args.deadline))
     if not ok or "simulator" in device:
         why = "no CUDA device" if not ok else "the simulator is no GPU"
         print(f"{why}: not measured ({device})")
+        if args.runs:
+            return report(
+                [
+                    (f"(a) reference at the default protocol: {why}: not measured", False),
+                    (f"(b) experiment (b)'s runs side by side: {why}: not measured", False),
+                ]
+            )
         return report(
             [
                 (

@@ -6,7 +6,8 @@ LD_LIBRARY_PATH or the CUDA toolkit).
     python scripts/cuda_ptx_check.py [--cc 9.0]
 
 The scenes of tests/engine/cuda_cases.py are set up and one call and one rebuild are made
-with every kernel launch replaced by a PTX compile for the argument types of that launch.
+(then a curve sample's measures, the pour's speed cap and a platen speed on the device) with
+every kernel launch replaced by a PTX compile for the argument types of that launch.
 """
 
 from __future__ import annotations
@@ -28,11 +29,21 @@ from numba.cuda.typing.typeof import typeof
 class HostArray(np.ndarray):
     """A numpy array standing in for a device array (copy_to_host, slicing)."""
 
-    def copy_to_host(self, out=None):
+    def copy_to_host(self, out=None, stream=0):
         if out is None:
             return np.array(self)
         out[...] = self
         return out
+
+    def copy_to_device(self, ary, stream=0):
+        self[...] = ary
+
+
+class HostStream:
+    """A stream standing in for a CUDA stream (nothing is queued)."""
+
+    def synchronize(self):
+        pass
 
 
 def main() -> int:
@@ -80,7 +91,11 @@ def main() -> int:
 
     real_kernel = ck.kernel
     ck.kernel = lambda fn, bindings, memo: Fake(real_kernel(fn, bindings, memo).py_func)
-    cs.cuda.to_device = lambda a: np.array(a).view(HostArray)
+    cs.cuda.to_device = lambda a, stream=0: np.array(a).view(HostArray)
+    cs.cuda.default_stream = HostStream
+    import engine.cuda.measures as cm
+
+    cm.kernel = ck.kernel  # the measure kernels too (engine.cuda.measures)
 
     def read_ctl(self):
         return np.array([1, 0, 1, 0])  # stopped after one step: OK
@@ -101,6 +116,11 @@ def main() -> int:
             print(f"{name} ({launch}):", flush=True)
             sim = cs.CudaSimulation(sc)
             sim.run(2)
+            # a curve sample's measures, the pour's cap and a platen speed on the device
+            sim.sample_sums(0.0, float(np.inf) if len(sc.walls) < 2 else 0.02, 0.003, 0.012)
+            sim.cap_speed(0.01)
+            if sc.walls:
+                sim.set_wall_velocity(0, (0.0, 0.0, 0.0))
             if any(sc.periodic):  # new kernels for the new features, launched again
                 sim.set_periodic((False, False, False))
                 sim.run(2)

@@ -3,6 +3,10 @@
 # measured 2026-12-04 in docs/GPU.md):
 #   bash scripts/gpu_bench.sh            # targets 1-3 of benchmarks/gpu_speed.py
 #   bash scripts/gpu_bench.sh --batch 15 # target 4 alone (experiment (b)'s 15 runs)
+#   bash scripts/gpu_bench.sh --runs     # issue 54 (under 9 minutes): the reference at the
+#                                        # default protocol alone, then experiment (b)'s runs
+#                                        # side by side on streams (engine.cuda.batch),
+#                                        # aggregate particle-steps/s; not measured yet
 # Wheels in wheels/ (git-ignored) are installed with --no-deps --no-index into .gpu-site and
 # put first on the path, so a host without a package registry gets what it lacks:
 # - numba-cuda 0.30.4 when the host has none: pip download numba-cuda==0.30.4

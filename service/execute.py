@@ -271,7 +271,7 @@ class StudyExecution:
         self.known_runs.update(p.key for p in plan.runs)
         decided: list = []  # the rounds of the added runs stored by earlier attempts
         completed = self.stored_runs(plan, decided)
-        with run_executor(self.settings) as pool:
+        with run_executor(self.settings, self.backend(plan)) as pool:
             # a run in flight keeps a checkpoint: after a crash it resumes where it was
             result = engine.run_study(
                 plan,
@@ -288,6 +288,15 @@ class StudyExecution:
             still_ours=self._still_ours,
         )
         return result.table
+
+    def backend(self, plan: engine.StudyPlan) -> str:
+        """The backend the study's runs take: the service's, or the first its reference's
+        kind takes where it does not take the service's (as :meth:`options`)."""
+        kind = kind_of(plan.spec.reference)
+        backend = self.settings.backend
+        if kind.backends is not None and backend not in kind.backends:
+            backend = kind.backends[0]
+        return backend
 
     def options(self, plan: engine.StudyPlan, pool) -> engine.RunOptions:
         """The study's run options (:meth:`Settings.run_options`), less what its reference's

@@ -33,8 +33,12 @@ def exit_with_parent(parent: int) -> None:
 
 
 @contextlib.contextmanager
-def run_executor(settings: Settings) -> Iterator[cf.Executor | None]:
-    """The executor for one study's runs (None: in process), shut down afterwards."""
+def run_executor(settings: Settings, backend: str | None = None) -> Iterator[cf.Executor | None]:
+    """The executor for one study's runs (None: in process), shut down afterwards.
+    ``backend``: where the runs go; with ``"cuda"`` and more than one worker, the runs share
+    the GPU side by side in this process (:class:`engine.cuda.batch.StreamExecutor`: a
+    thread and a CUDA stream each) instead of a process each (separate CUDA contexts, which
+    the card runs one at a time)."""
     if settings.dask_scheduler:
         from distributed import Client  # the `dask` extra
 
@@ -47,6 +51,15 @@ def run_executor(settings: Settings) -> Iterator[cf.Executor | None]:
     n = settings.run_workers or os.cpu_count() or 1
     if n <= 1:
         yield None
+        return
+    if backend == "cuda":
+        from engine.cuda.batch import StreamExecutor
+
+        streams = StreamExecutor(n)
+        try:
+            yield streams
+        finally:
+            streams.shutdown(wait=False, cancel_futures=True)
         return
     # spawn: the worker's own OpenMP threads and database connections are not forked
     pool = cf.ProcessPoolExecutor(

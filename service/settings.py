@@ -143,7 +143,8 @@ class Settings(BaseSettings):
         le=256,
         description="Runs of a study side by side on a local process pool, "
         "one engine thread each; 1: one run at a time in the worker with the engine's own "
-        "threads; 0: one per core.",
+        "threads; 0: one per core. On the cuda backend the runs are threads of the worker "
+        "sharing the GPU, a CUDA stream each.",
     )
     backend: Literal["cpu", "cuda", "auto"] = Field(
         "cpu",

@@ -70,7 +70,8 @@ def add_commands(sub) -> None:
     add_workers(
         p,
         "runs side by side in N processes (one core each; default 1: one "
-        "run at a time, the engine using the cores it wants)",
+        "run at a time, the engine using the cores it wants); on the cuda backend N "
+        "threads sharing the GPU, a CUDA stream each",
     )
     p.add_argument(
         "--details",
@@ -160,7 +161,8 @@ def study_from_file(
     backend: str | None = None,
 ) -> int:
     """Run the study in the JSON file ``spec_path`` and write its results into ``out``
-    (created): ``workers`` runs side by side (spawned processes), ``details`` the verdicts'
+    (created): ``workers`` runs side by side (spawned processes; on the cuda backend
+    threads in this process, a CUDA stream each: engine.cuda.batch), ``details`` the verdicts'
     reasons printed, ``decide`` and ``budget`` (particle-steps) over the file's, the study
     judged on the shear test in the file ``shear``, ``snapshots`` written, no bars when
     ``quiet``, the engine on ``backend`` (None: DEMSCALE_BACKEND). Returns the exit status:
@@ -170,6 +172,7 @@ def study_from_file(
         return 2
     import concurrent.futures as cf
     import multiprocessing as mp
+    import os
 
     from rich.console import Console
 
@@ -223,8 +226,14 @@ def study_from_file(
 
         try:
             if workers > 1:
-                ctx = mp.get_context("spawn")
-                with cf.ProcessPoolExecutor(workers, mp_context=ctx) as pool:
+                named = backend or os.environ.get("DEMSCALE_BACKEND") or ""
+                if named.strip().lower() == "cuda":  # side by side on the card, a stream each
+                    from engine.cuda.batch import StreamExecutor
+
+                    pool = StreamExecutor(workers)
+                else:
+                    pool = cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn"))
+                with pool:
                     result = engine.run_study(
                         study, progress=bars.update, executor=pool, on_run=on_run, backend=backend
                     )

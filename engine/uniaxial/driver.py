@@ -83,6 +83,133 @@ class StageError(RuntimeError):
         return type(self), (self.args[0], self.stage, self.steps)
 
 
+def platen_virial(sim: Simulation, wall_forces: np.ndarray, n_walls: int) -> float:
+    """The platens' part of the vertical contact virial [N m]: per platen its normal force
+    (``wall_forces`` [N], rows bottom then top) times the mean lever (radius less overlap)
+    of the particles touching it, whose branch vectors run from the contact point to the
+    centre along the platen's normal (exact for equal radii and equal overlaps; the
+    horizontal components get nothing). ``n_walls``: 1 (bottom only) or 2."""
+    walls = sim.wall_positions
+    top = float(walls[1, 2]) if n_walls > 1 else np.inf
+    lever_b, lever_t = platen_levers(
+        np.ascontiguousarray(sim.positions[:, 2]), sim.radii, float(walls[0, 2]), top
+    )
+    out = abs(float(wall_forces[0, 2])) * lever_b
+    if n_walls > 1:
+        out += abs(float(wall_forces[1, 2])) * lever_t
+    return out
+
+
+def cap_speed(sim: Simulation, cap: float, device: bool | None = None) -> bool:
+    """Scale down the velocity of every particle of ``sim`` faster than ``cap`` [m/s] to
+    ``cap``, the forces then evaluated again (``set_velocities``); whether any was.
+    ``device``: on the CUDA backend (None: whenever ``sim`` is on it) on the device
+    (:meth:`engine.cuda.CudaSimulation.cap_speed`), no state copied; else on the host."""
+    if device is None:
+        device = hasattr(sim, "cap_speed")
+    if device:
+        return sim.cap_speed(cap)
+    v = sim.velocities
+    speed = np.sqrt(np.einsum("ij,ij->i", v, v))
+    fast = speed > cap
+    if fast.any():
+        v = v.copy()
+        v[fast] *= (cap / speed[fast])[:, None]
+        sim.set_velocities(v)
+    return bool(fast.any())
+
+
+def sample_measures(
+    sim: Simulation,
+    wall_forces: np.ndarray,
+    gap: float,
+    area: float,
+    margin: float,
+    n_walls: int,
+    device: bool | None = None,
+) -> dict[str, float]:
+    """A curve sample's measures of the contacts and particles, at the last force
+    evaluation of ``sim`` between platens ``gap`` [m] apart (``wall_forces`` [N] as
+    ``sim.wall_forces``, cross-section ``area`` [m^2], interior ``margin`` [m], ``n_walls``
+    1 or 2): ``coordination`` [-] (all particles), ``por_in`` and ``coord_in`` (the interior
+    slab's porosity and coordination, :func:`interior_measures`), ``s_lat`` and ``s_ver``
+    [Pa] (the lateral and vertical contact-virial stress of the sample's volume, the
+    platens' part included in ``s_ver``), ``s_in`` [Pa] (:func:`interior_axial_stress`) and
+    ``ke`` [J] (the kinetic energy).
+
+    ``device``: on the CUDA backend (None: whenever ``sim`` is on it) the sums are made on
+    the device (:meth:`engine.cuda.CudaSimulation.sample_sums`) and only they cross to the
+    host; else from the host's state (on the CUDA backend a copy of the whole state). The
+    two agree to round-off (tests/engine/test_cuda_measures.py)."""
+    if device is None:
+        device = hasattr(sim, "sample_sums")
+    if device:
+        return _device_measures(sim, wall_forces, gap, area, margin, n_walls)
+    counts = sim.contact_counts()
+    coordination = float(counts.sum()) / sim.n
+    bottom = float(sim.wall_positions[0, 2])
+    por_in, coord_in = interior_measures(
+        sim.positions[:, 2] - bottom, sim.radii, counts, gap, margin, area
+    )
+    # lateral and vertical stress from the contact virial of the sample's volume (a
+    # lambda tester's lateral sensor; K0 = lateral / vertical on loading)
+    sig = sim.pair_stress(area * gap)
+    s_lat = 0.5 * float(sig[0, 0] + sig[1, 1])
+    s_ver = float(sig[2, 2]) + platen_virial(sim, wall_forces, n_walls) / (area * gap)
+    # the axial contact-virial stress of the particles whose centres lie in the interior
+    # window (the strength curve of the unconfined stage)
+    c = sim.contacts()
+    s_in = interior_axial_stress(
+        sim.positions[:, 2] - bottom,
+        sim.radii,
+        c.pairs,
+        c.forces,
+        c.normals,
+        c.overlaps,
+        gap,
+        margin,
+        area,
+    )
+    ke = sim.kinetic_energy()
+    return {
+        "coordination": coordination,
+        "por_in": por_in,
+        "coord_in": coord_in,
+        "s_lat": s_lat,
+        "s_ver": s_ver,
+        "s_in": s_in,
+        "ke": ke,
+    }
+
+
+def _device_measures(sim, wall_forces, gap, area, margin, n_walls) -> dict[str, float]:
+    """:func:`sample_measures` from the device's sums (engine.cuda.measures): the same
+    formulas as the host's functions, on sums made in another order."""
+    walls = sim.wall_positions
+    bottom = float(walls[0, 2])
+    top = float(walls[1, 2]) if n_walls > 1 else np.inf
+    m = interior_margin(margin, gap, float(np.max(sim.radii)))
+    lo, hi = m, gap - m
+    s = sim.sample_sums(bottom, top, lo, hi)
+    n_in = round(s.inside)
+    volume = area * gap
+    sig = s.virial / volume
+    lever_b = s.lever_b / s.n_b if s.n_b else 0.0
+    lever_t = s.lever_t / s.n_t if s.n_t else 0.0
+    platen = abs(float(wall_forces[0, 2])) * lever_b
+    if n_walls > 1:
+        platen += abs(float(wall_forces[1, 2])) * lever_t
+    return {
+        "coordination": s.counts / sim.n,
+        "por_in": 1.0 - s.solid / (area * (hi - lo)),
+        "coord_in": s.counts_in / n_in if n_in else 0.0,
+        "s_lat": 0.5 * float(sig[0, 0] + sig[1, 1]),
+        "s_ver": float(sig[2, 2]) + platen / volume,
+        "s_in": s.szz_in / (area * (hi - lo)) if hi > lo else 0.0,
+        "ke": 0.5 * s.trans + 0.5 * s.rot,
+    }
+
+
 class _Recorder:
     """Samples the curves of one stage, and holds what a checkpoint needs to re-enter the
     stage's loop: its start height ``h0`` [m] and simulated time ``t0`` [s], the rows so far,
@@ -111,32 +238,9 @@ class _Recorder:
         s_top = float(f[1, 2]) / area if d.n_walls > 1 else 0.0
         s_bot = -float(f[0, 2]) / area
         porosity = 1.0 - d.solid_volume / (area * gap)
-        counts = sim.contact_counts()
-        coordination = float(counts.sum()) / sim.n
-        bottom = float(sim.wall_positions[0, 2])
-        por_in, coord_in = interior_measures(
-            sim.positions[:, 2] - bottom, sim.radii, counts, gap, d.test.margin, area
-        )
-        # lateral and vertical stress from the contact virial of the sample's volume (a
-        # lambda tester's lateral sensor; K0 = lateral / vertical on loading)
-        sig = sim.pair_stress(area * gap)
-        s_lat = 0.5 * float(sig[0, 0] + sig[1, 1])
-        s_ver = float(sig[2, 2]) + d.platen_virial(f) / (area * gap)
-        # the axial contact-virial stress of the particles whose centres lie in the interior
-        # window (the strength curve of the unconfined stage)
-        c = sim.contacts()
-        s_in = interior_axial_stress(
-            sim.positions[:, 2] - bottom,
-            sim.radii,
-            c.pairs,
-            c.forces,
-            c.normals,
-            c.overlaps,
-            gap,
-            d.test.margin,
-            area,
-        )
-        ke = sim.kinetic_energy()
+        m = sample_measures(sim, f, gap, area, d.test.margin, d.n_walls)
+        coordination, por_in, coord_in = m["coordination"], m["por_in"], m["coord_in"]
+        s_lat, s_ver, s_in, ke = m["s_lat"], m["s_ver"], m["s_in"], m["ke"]
         speed = abs(float(sim.wall_velocities[1, 2])) if d.n_walls > 1 else 0.0
         # inertial number with the pressure floored at the weight of one particle layer
         p = max(abs(s_top), abs(s_bot), d.layer_stress)
@@ -330,31 +434,13 @@ class _Driver:
         return row[0] - t0 >= t_min and row[6] <= self.settle_energy
 
     def platen_virial(self, wall_forces: np.ndarray) -> float:
-        """The platens' part of the vertical contact virial [N m]: per platen its normal
-        force times the mean lever (radius less overlap) of the particles touching it, whose
-        branch vectors run from the contact point to the centre along the platen's normal
-        (exact for equal radii and equal overlaps; the horizontal components get nothing)."""
-        sim = self.sim
-        walls = sim.wall_positions
-        top = float(walls[1, 2]) if self.n_walls > 1 else np.inf
-        lever_b, lever_t = platen_levers(
-            np.ascontiguousarray(sim.positions[:, 2]), sim.radii, float(walls[0, 2]), top
-        )
-        out = abs(float(wall_forces[0, 2])) * lever_b
-        if self.n_walls > 1:
-            out += abs(float(wall_forces[1, 2])) * lever_t
-        return out
+        """The platens' part of the vertical contact virial [N m] (:func:`platen_virial`)."""
+        return platen_virial(self.sim, wall_forces, self.n_walls)
 
     def cap_speed(self, cap: float) -> None:
         """Scale down the velocity of every particle faster than ``cap`` [m/s] to ``cap``
-        (``UniaxialTest.pour_speed``, during the fill)."""
-        v = self.sim.velocities
-        speed = np.sqrt(np.einsum("ij,ij->i", v, v))
-        fast = speed > cap
-        if fast.any():
-            v = v.copy()
-            v[fast] *= (cap / speed[fast])[:, None]
-            self.sim.set_velocities(v)
+        (``UniaxialTest.pour_speed``, during the fill): :func:`cap_speed`."""
+        cap_speed(self.sim, cap)
 
     def move_top(self, speed: float) -> None:
         self.sim.set_wall_velocity(1, (0.0, 0.0, speed))

@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 
-from .intervals import interval_df, t_quantile, t_upper_quantiles
+from .intervals import _interval_df_scalar, _scalars, interval_df, t_quantile, t_upper_quantiles
 from .metrics import relative_error, signed_error
 from .pooling import SCREEN_LEVEL, Spread, pool_arrays
 from .seeds import PLANNED_POWER, seeds_needed
@@ -74,7 +74,21 @@ def difference_interval(d, vc, vr, nc, nr, dfc, dfr, alpha, shared=False):
     ``nr`` their seeds, ``dfc``, ``dfr`` their spreads' degrees of freedom, ``shared`` one
     pooled spread for both. Returns arrays (low, high, dof, standard error). The one
     computation behind every interval of a verdict."""
+    if _scalars(d, vc, vr, dfc, dfr):  # the same doubles, without numpy's overhead
+        uc = float(vc) / nc
+        ur = float(vr) / nr
+        df = _interval_df_scalar(nc, nr, uc, ur, dfc, dfr, shared)
+        u = math.sqrt(uc + ur)
+        h = float(t_upper_quantiles(alpha, max(df, 1e-9))) * u if u > 0 else 0.0
+        d = float(d)
+        return np.float64(d - h), np.float64(d + h), np.asarray(df), np.float64(u)
     d = np.asarray(d, dtype=float)
+    if d.shape == (1,) and all(np.shape(v) in ((), (1,)) for v in (vc, vr, dfc, dfr)):
+        # one level (the commonest case): the number's path, as arrays of one
+        one = [None if v is None else float(np.asarray(v).reshape(-1)[0]) for v in (vc, vr)]
+        dfs = [None if v is None else float(np.asarray(v).reshape(-1)[0]) for v in (dfc, dfr)]
+        lo, hi, df, u = difference_interval(float(d[0]), *one, nc, nr, *dfs, alpha, shared)
+        return np.array([lo]), np.array([hi]), np.array([float(df)]), np.array([u])
     uc = np.asarray(vc, dtype=float) / nc
     ur = np.asarray(vr, dtype=float) / nr
     df = np.asarray(interval_df(nc, nr, uc, ur, dfc, dfr, shared), dtype=float)

@@ -23,13 +23,18 @@ import math
 
 import numpy as np
 
+_SPECIAL = None
+
 
 def _special():
     """scipy.special (Student's t as ufuncs: ``stdtr``, ``stdtrit``), imported when an
     interval is first asked for (``import engine`` and a run load only numpy and numba)."""
-    from scipy import special
+    global _SPECIAL
+    if _SPECIAL is None:
+        from scipy import special
 
-    return special
+        _SPECIAL = special
+    return _SPECIAL
 
 
 def t_cdf(x: float, df: float) -> float:
@@ -70,6 +75,10 @@ def t_upper_quantiles(q: float, df) -> np.ndarray:
     0 < ``q`` < 0.5 and an array of degrees of freedom > 0 (inf: the normal)."""
     if not 0.0 < q < 0.5:
         raise ValueError(f"t_upper_quantiles: q = {q} outside (0, 0.5)")
+    if isinstance(df, float):  # one number: the same ufunc, without the array's checks
+        if not df > 0:
+            raise ValueError("t_upper_quantiles: degrees of freedom must be > 0")
+        return -_special().stdtrit(df, q)
     df = np.asarray(df, dtype=float)
     if not np.all(df > 0):
         raise ValueError("t_upper_quantiles: degrees of freedom must be > 0")
@@ -127,6 +136,8 @@ def interval_df(nc: int, nr: int, vc, vr, dfc=None, dfr=None, shared: bool = Fal
     any two spreads (Hsu 1938). ``shared``: both sides' spread is one pooled estimate (a
     coarse variant and the controls of its radius), whose ``dfc`` the interval takes, as the
     pooled two-sample t does. Infinite where both spreads are zero."""
+    if _scalars(vc, vr, dfc, dfr):
+        return np.float64(_interval_df_scalar(nc, nr, float(vc), float(vr), dfc, dfr, shared))
     vc = np.asarray(vc, dtype=float)
     vr = np.asarray(vr, dtype=float)
     dfc = np.asarray(nc - 1 if dfc is None else dfc, dtype=float)
@@ -143,6 +154,31 @@ def interval_df(nc: int, nr: int, vc, vr, dfc=None, dfr=None, shared: bool = Fal
         )
     nu = np.where(floor < WELCH_MIN_SEEDS - 1, floor, np.maximum(nu, floor))
     return np.broadcast_to(nu, shape).astype(float)[()]
+
+
+def _scalars(*values) -> bool:
+    """Whether every value is a number (None counts as one): the scalar paths below, the
+    same IEEE arithmetic without numpy's per-call overhead (the seed allocator asks for
+    tens of thousands of intervals in a study's simulation of its own rates)."""
+    for v in values:  # a loop, not all(...): called hundreds of thousands of times
+        if v is not None and not isinstance(v, (int, float)):
+            return False
+    return True
+
+
+def _interval_df_scalar(nc, nr, vc: float, vr: float, dfc, dfr, shared: bool) -> float:
+    """:func:`interval_df` for numbers: the same operations in the same order, so the same
+    double (numpy's float64 arithmetic is IEEE's, as Python's is)."""
+    dfc = float(nc - 1 if dfc is None else dfc)
+    dfr = float(nr - 1 if dfr is None else dfr)
+    if shared:
+        return dfc
+    floor = min(dfc, dfr)
+    u2 = vc + vr
+    a = dfc * u2 / vc if vc > 0 else math.inf
+    b = dfr * u2 / vr if vr > 0 else math.inf
+    nu = min(a, b)
+    return floor if floor < WELCH_MIN_SEEDS - 1 else max(nu, floor)
 
 
 def log_ratio_interval(c, r, alpha: float) -> tuple[float, float, float, float]:

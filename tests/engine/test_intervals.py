@@ -87,3 +87,33 @@ def test_vector_quantiles_are_the_scalar_ones():
 
 def test_hsu_degrees_of_freedom():
     assert iv.hsu_df(2, 12) == 1 and iv.hsu_df(5, 3) == 2
+
+
+def test_the_number_paths_give_the_array_paths_doubles():
+    """difference_interval and interval_df take a path of Python numbers for one level (the
+    seed allocator asks for hundreds of thousands of intervals): the same doubles as the
+    array path, which a third level forces, for own, pooled, shared and zero spreads."""
+    from engine.study.comparison import difference_interval
+
+    rng = np.random.default_rng(3)
+    cases = [(2, 3, None, None, False), (3, 5, 7.0, 2.0, False), (4, 4, 9.0, 9.0, True)]
+    for nc, nr, dfc, dfr, shared in cases:
+        for vc, vr in [(0.0, 0.0), (0.0, 0.3), *rng.uniform(0.01, 2.0, (20, 2))]:
+            d = float(rng.normal())
+            ref = difference_interval(
+                np.array([d, 0.0, 0.0]), np.array([vc, 1, 1]), np.array([vr, 1, 1]),
+                nc, nr, dfc, dfr, 0.05, shared,
+            )  # fmt: skip
+            one = difference_interval(np.array([d]), np.array([vc]), np.array([vr]),
+                                      nc, nr, dfc, dfr, 0.05, shared)  # fmt: skip
+            num = difference_interval(d, float(vc), float(vr), nc, nr, dfc, dfr, 0.05, shared)
+            for a, b, c in zip(ref, one, num, strict=True):
+                assert np.shape(b) == (1,) and np.shape(c) == ()
+                assert a[0].hex() == float(b[0]).hex() == float(c).hex()
+            df_arr = iv.interval_df(
+                nc, nr, np.array([vc, 1.0]), np.array([vr, 1.0]), dfc, dfr, shared
+            )
+            assert (
+                float(df_arr[0]).hex()
+                == float(iv.interval_df(nc, nr, vc, vr, dfc, dfr, shared)).hex()
+            )

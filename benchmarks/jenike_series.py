@@ -21,8 +21,12 @@ Choices, fixed here before the hopper runs (2026-12-06):
   size series' six stored seeds at 10 kPa of that size, that is the flow function
   (:mod:`engine.hopper.jenike_inputs`).
 - **Hopper**: ``engine.HopperTest(shape="slot")``, half-angle :data:`HALF_ANGLE` = 30 deg,
-  periodic depth 5 d, fill height :data:`FILL_DIAMETERS` diameters above the outlet (or
-  1.5 B where that is more), the default gate, stop criterion (20 free-fall times
+  periodic depth 5 d, fill height max(B, 8 d) (:data:`FILL_OUTLETS`,
+  :data:`FILL_DIAMETERS`: the law's soft loading spring, k1 = 5e3 N/m, carries the fill's
+  weight at 400 m/s^2 only so deep: a 20 d fill, rho_b g h about 50 kPa on the gate, pressed
+  two grains half a radius into each other at 9 d; Jenike's B_crit does not depend on the
+  head), the fill poured under Earth's gravity and gravity then raised
+  (:func:`ramped_hopper`), the default gate, stop criterion (20 free-fall times
   sqrt(B/g) with under 1 % of the fastest rate) and time step. **Gravity**
   :data:`GRAVITY` m/s^2: at 9.81 m/s^2 Jenike's width for this law is metres (sigma_c of
   tens of kPa over rho_b g), hundreds of diameters, out of reach; B_crit ~ 1/g, so the
@@ -65,7 +69,7 @@ LAW = "bond1"
 #: The shear cell's size [diameters across its thin width]: the law's own grain (R = 2.5 mm).
 SHEAR_SIZE = 5.0
 #: Pre-shear stresses run here [Pa] (10 kPa is the size series' own, stored there).
-PRESHEARS = (20e3, 40e3, 5e3)
+PRESHEARS = (20e3, 5e3, 40e3)
 #: The shear points as fractions of the pre-shear stress (the stored runs' 2-8 kPa at 10).
 SHEAR_FRACTIONS = (0.2, 0.4, 0.6, 0.8)
 SHEAR_SEEDS = 3
@@ -74,12 +78,23 @@ RADIUS = 2.5e-3
 D = 2.0 * RADIUS
 HALF_ANGLE = 30.0
 DEPTH = 5.0 * D
-FILL_DIAMETERS = 20.0
+#: The settled fill's height: max(FILL_OUTLETS B, FILL_DIAMETERS d) (module docstring).
+FILL_OUTLETS = 1.0
+FILL_DIAMETERS = 8.0
 #: The hopper's gravity [m/s^2] (module docstring: the prediction near 10 d).
 GRAVITY = 400.0
+#: The pour's gravity [m/s^2] and time [s] (the fill's fall from the walls' top, 0.21 m at
+#: most (18 d), takes 0.20 s), and gravity's ramp to :data:`GRAVITY` [s] in stages
+#: (:func:`ramped_hopper`).
+G_POUR = 9.81
+POUR_TIME = 0.4
+RAMP_TIME = 0.1
+RAMP_STAGES = 50
+#: The hopper runs' protocol, written in each digest (a digest of another is not this run).
+PROTOCOL = f"pour {G_POUR:g} m/s^2 {POUR_TIME:g} s, ramp {RAMP_TIME:g} s in {RAMP_STAGES}"
 #: Outlet widths [diameters] and seeds.
-WIDTHS = (4.0, 6.0, 9.0, 13.0, 18.0)
-HOPPER_SEEDS = 2
+WIDTHS = (4.0, 5.0, 6.0, 7.0, 9.0, 11.0, 13.0, 18.0)
+HOPPER_SEEDS = 3
 
 
 def shear_test(preshear: float, seed: int) -> engine.ShearTest:
@@ -102,7 +117,7 @@ def hopper_test(width: float, seed: int) -> engine.HopperTest:
         outlet_width=b,
         depth=DEPTH,
         particles=None,
-        fill_height=max(1.5 * b, FILL_DIAMETERS * D),
+        fill_height=max(FILL_OUTLETS * b, FILL_DIAMETERS * D),
         radius=RADIUS,
         polydispersity=0.0,
         gravity=GRAVITY,
@@ -144,11 +159,13 @@ def stored(kind: str, x: float, seed: int, store: Path | None = None):
         return None
     d = read_digest(path)
     want = json.loads(json.dumps(test_of(kind, x, seed).to_dict()))
+    if kind == "hopper" and d.extra.get("protocol") != PROTOCOL:
+        return None
     return d if d.test == want else None
 
 
 def extra_of(outcome, wall: float, cpu: float) -> dict:
-    out = {"wall_seconds": wall, "cpu_seconds": cpu, "threads": 1}
+    out = {"wall_seconds": wall, "cpu_seconds": cpu, "threads": 1, "protocol": PROTOCOL}
     if isinstance(outcome, str) or not isinstance(outcome, engine.HopperResult):
         return out
     s = outcome.scalars
@@ -159,6 +176,29 @@ def extra_of(outcome, wall: float, cpu: float) -> dict:
         }
     )
     return out
+
+
+def ramped_hopper(test: engine.HopperTest) -> engine.HopperResult:
+    """The hopper run with its fill poured under Earth's gravity first (:data:`G_POUR` for
+    :data:`POUR_TIME`), gravity then raised to the test's linearly over :data:`RAMP_TIME`,
+    then the run's own settling (at least two free-fall times at the test's gravity, to its
+    kinetic energy criterion) and discharge. Why: poured straight under 400 m/s^2 the lattice
+    fill's grains meet at up to about 20 m/s and the law's soft loading spring (k1 = 5e3
+    N/m) lets two of them overlap by half a radius (``InstabilityError``, every width from
+    9 d up at the first attempt); raised once the grains touch, gravity compresses the
+    packing quasi-statically. The result's ``settle_time`` includes the pour and the ramp."""
+    from engine.hopper.driver import HopperRun
+
+    run = HopperRun(test, threads=1)
+    sim = run.sim
+    sim.set_gravity((0.0, 0.0, -G_POUR))
+    sim.run(max(1, round(POUR_TIME / run.dt)))
+    for k in range(1, RAMP_STAGES + 1):
+        g = G_POUR + (test.gravity - G_POUR) * k / RAMP_STAGES
+        sim.set_gravity((0.0, 0.0, -g))
+        sim.run(max(1, round(RAMP_TIME / RAMP_STAGES / run.dt)))
+    run.settle()
+    return run.discharge()
 
 
 def run_one(kind: str, x: float, seed: int) -> str:
@@ -172,7 +212,7 @@ def run_one(kind: str, x: float, seed: int) -> str:
         if kind == "shear":
             outcome = engine.run_shear(test)
         else:
-            outcome = engine.run_hopper(test, threads=1)
+            outcome = ramped_hopper(test)
     except Exception as e:
         outcome = f"{type(e).__name__}: {e}"
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
@@ -185,7 +225,7 @@ def run_one(kind: str, x: float, seed: int) -> str:
         s = outcome.scalars
         what = f"sigma_1 = {s['sigma_1']:.4g} Pa, sigma_c = {s['sigma_c']:.4g} Pa"
     else:
-        what = "arched" if outcome.arched else ("stopped" if outcome.stopped else "emptied")
+        what = describe(make_digest(outcome, test, None, {}))
     return f"{key_name(kind, x, seed)}: {what} ({wall:.0f} s wall, {cpu:.0f} s CPU)"
 
 
@@ -283,16 +323,26 @@ def critical(means: dict[float, dict], table) -> dict:
     }
 
 
-def predict(phi_w: float = WALL_FRICTION_ANGLE, seed: int = 1) -> dict:
+def predict(
+    phi_w: float = WALL_FRICTION_ANGLE, seed: int = 1, stored_size: float = SHEAR_SIZE
+) -> dict:
     """The predicted B_crit of the slot hopper with its inputs, and its uncertainty from the
     flow function's seeds: a bootstrap over seeds within each pre-shear (``BOOTSTRAP``
-    resamples, seeded by ``seed``), its standard deviation and 2.5-97.5 % percentiles."""
+    resamples, seeded by ``seed``), its standard deviation and 2.5-97.5 % percentiles.
+    ``stored_size``: the size series' cell [diameters] whose 10 kPa runs are the flow
+    function's point there (the other pre-shears are this series' own, at 5 d)."""
     from engine.hopper import jenike
 
-    levels = shear_levels()
+    levels = shear_levels(stored_size)
     means = level_means(levels)
     table = ff_table(phi_w)
-    best = critical(means, table)
+    base = {"phi_w": phi_w, "half_angle": HALF_ANGLE, "gravity": GRAVITY, "d": D}
+    base["stored_size"] = stored_size
+    base["levels"] = {f"{p:g}": m for p, m in means.items()}
+    try:
+        best = critical(means, table)
+    except engine.ParameterError as e:
+        return {**base, "error": str(e)}
     exact = jenike.flow_factor(best["delta"], phi_w, HALF_ANGLE, "slot")
     rng = np.random.default_rng(seed)
     boot = []
@@ -308,11 +358,7 @@ def predict(phi_w: float = WALL_FRICTION_ANGLE, seed: int = 1) -> dict:
     boot = np.asarray(boot)
     ok = boot[np.isfinite(boot)]
     return {
-        "phi_w": phi_w,
-        "half_angle": HALF_ANGLE,
-        "gravity": GRAVITY,
-        "d": D,
-        "levels": {f"{p:g}": m for p, m in means.items()},
+        **base,
         "critical": best,
         "ff_table_error": best["ff"] / exact - 1.0,
         "B_crit_d_sd": float(np.std(ok, ddof=1)),
@@ -321,18 +367,121 @@ def predict(phi_w: float = WALL_FRICTION_ANGLE, seed: int = 1) -> dict:
     }
 
 
+def compare() -> dict:
+    """The stored hopper runs against the stored prediction: per width, how many seeds
+    arched, stopped without an arch, emptied or failed, the mean discharged fraction and
+    settled bulk density; the simulated critical width's bracket (the widest outlet at which
+    every stored seed arched, the narrowest from which on every stored seed flowed), and the
+    prediction with the shear cell's bulk density and rescaled to the hoppers' own."""
+    pred = json.loads((STORE / "prediction.json").read_text())
+    rows = []
+    for w in WIDTHS:
+        ds = [stored("hopper", w, s) for s in range(1, HOPPER_SEEDS + 1)]
+        ds = [d for d in ds if d is not None]
+        ok = [d for d in ds if d.ok]
+        arched = sum(1 for d in ok if d.scalars["arched"])
+        stopped = sum(1 for d in ok if d.scalars["stopped"] and not d.scalars["arched"])
+        rows.append(
+            {
+                "width_d": w,
+                "runs": len(ds),
+                "arched": arched,
+                "stopped_no_arch": stopped,
+                "emptied": len(ok) - arched - stopped,
+                "failed": len(ds) - len(ok),
+                "discharged_fraction": float(
+                    np.mean([d.scalars["discharged_mass"] / d.scalars["total_mass"] for d in ok])
+                )
+                if ok
+                else math.nan,
+                "bulk_density": float(np.mean([d.scalars["bulk_density"] for d in ok]))
+                if ok
+                else math.nan,
+                "particles": int(ok[0].scalars["particles"]) if ok else 0,
+                "cpu_seconds": [d.extra.get("cpu_seconds", math.nan) for d in ds],
+            }
+        )
+    done = [r for r in rows if r["runs"] and not r["failed"]]
+    all_arch = [r["width_d"] for r in done if r["arched"] == r["runs"]]
+    all_flow = [r["width_d"] for r in done if r["emptied"] == r["runs"]]
+    low = max(all_arch) if all_arch else math.nan
+    high = min((w for w in all_flow if w > low), default=math.nan) if all_arch else math.nan
+    c = pred["wall_law_mu"]["critical"]
+    rho_h = [r["bulk_density"] for r in done if math.isfinite(r["bulk_density"])]
+    rho_hopper = float(np.mean(rho_h)) if rho_h else math.nan
+    return {
+        "rows": rows,
+        "all_arched_up_to_d": low,
+        "all_flowed_from_d": high,
+        "predicted_d": c["B_crit_d"],
+        "predicted_d_95": pred["wall_law_mu"]["B_crit_d_95"],
+        "hopper_bulk_density": rho_hopper,
+        "predicted_d_hopper_density": c["B_crit_d"] * c["bulk_density"] / rho_hopper,
+    }
+
+
+def describe(d) -> str:
+    """A stored run in a line: its outcome and what the comparison reads, or "not stored"."""
+    if d is None:
+        return "not stored"
+    cpu, wall = d.extra.get("cpu_seconds"), d.extra.get("wall_seconds")
+    cost = "cost not recorded" if cpu is None else f"{cpu:.0f} s CPU, {wall:.0f} s wall"
+    if not d.ok:
+        return f"failed: {d.outcome[:80]} ({cost})"
+    s = d.scalars
+    if d.kind == "ShearTest":
+        return (
+            f"sigma_1 = {s['sigma_1']:.0f} Pa, sigma_2 = {s['sigma_2']:.0f} Pa, sigma_c = "
+            f"{s['sigma_c']:.0f} Pa, rho_b = {s['bulk_density']:.0f} kg/m^3 ({cost})"
+        )
+    state = "arched" if s["arched"] else ("stopped, no arch" if s["stopped"] else "emptied")
+    return (
+        f"{state}, {100 * s['discharged_mass'] / s['total_mass']:.1f} % discharged"
+        + (f" at {s['arch_time']:.3f} s" if s["arched"] else "")
+        + f", {int(s['particles'])} particles, rho_b = {s['bulk_density']:.0f} kg/m^3, "
+        f"{s['particle_steps']:.3g} particle-steps ({cost})"
+    )
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", nargs="*", help="runs whose key contains any of these")
     ap.add_argument("--list", action="store_true", help="list the runs, stored or not")
     ap.add_argument("--predict", action="store_true", help="store the predicted B_crit")
+    ap.add_argument("--compare", action="store_true", help="store the comparison")
     args = ap.parse_args(argv)
+    if args.compare:
+        out = compare()
+        (STORE / "comparison.json").write_text(json.dumps(out, indent=1) + "\n")
+        for r in out["rows"]:
+            print(
+                f"B = {r['width_d']:g} d: {r['runs']} runs, {r['arched']} arched, "
+                f"{r['stopped_no_arch']} stopped without an arch, {r['emptied']} emptied, "
+                f"{r['failed']} failed; discharged {100 * r['discharged_fraction']:.1f} %, "
+                f"rho_b {r['bulk_density']:.0f} kg/m^3, {r['particles']} particles, CPU s "
+                + ", ".join(f"{c:.0f}" for c in r["cpu_seconds"])
+            )
+        print(
+            f"every seed arched up to {out['all_arched_up_to_d']:g} d, every seed flowed from "
+            f"{out['all_flowed_from_d']:g} d; predicted B_crit {out['predicted_d']:.2f} d "
+            f"(95 % {out['predicted_d_95'][0]:.2f}-{out['predicted_d_95'][1]:.2f}), "
+            f"{out['predicted_d_hopper_density']:.2f} d at the hoppers' mean settled bulk "
+            f"density {out['hopper_bulk_density']:.0f} kg/m^3"
+        )
+        return 0
     if args.predict:
-        out = {"wall_law_mu": predict(), "smooth_wall": predict(phi_w=0.0)}
+        out = {
+            "wall_law_mu": predict(),
+            "smooth_wall": predict(phi_w=0.0),
+            "largest_cell_at_10kPa": predict(stored_size=10.0),
+        }
         path = STORE / "prediction.json"
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(out, indent=1) + "\n")
         for k, v in out.items():
+            if "error" in v:
+                print(f"{k}: phi_w = {v['phi_w']:.2f} deg: {v['error']}")
+                continue
             c = v["critical"]
             print(
                 f"{k}: phi_w = {v['phi_w']:.2f} deg, delta* = {c['delta']:.1f} deg, "
@@ -346,8 +495,7 @@ def main(argv=None) -> int:
     todo = keys(args.only)
     if args.list:
         for k in todo:
-            d = stored(*k)
-            print(f"{key_name(*k):20s} {'stored: ' + d.outcome[:60] if d else 'not stored'}")
+            print(f"{key_name(*k):18s} {describe(stored(*k))}")
         return 0
     for k in todo:
         if stored(*k) is None:

@@ -95,6 +95,13 @@ PROTOCOL = f"pour {G_POUR:g} m/s^2 {POUR_TIME:g} s, ramp {RAMP_TIME:g} s in {RAM
 #: Outlet widths [diameters] and seeds.
 WIDTHS = (4.0, 5.0, 6.0, 7.0, 9.0, 11.0, 13.0, 18.0)
 HOPPER_SEEDS = 3
+#: A second gravity [m/s^2], its widths [diameters] and seeds: half the gravity doubles
+#: Jenike's B_crit (sigma_c* does not depend on g) and the hopper's Bond number
+#: |f0| / (m g) (7.6 at 400 m/s^2, 15.3 at 200): a second cohesion-to-weight ratio of the
+#: same law.
+GRAVITY_2 = 200.0
+G2_WIDTHS = (9.0, 10.0, 11.0, 13.0, 15.0, 18.0)
+G2_SEEDS = 2
 
 
 def shear_test(preshear: float, seed: int) -> engine.ShearTest:
@@ -108,8 +115,9 @@ def shear_test(preshear: float, seed: int) -> engine.ShearTest:
     )
 
 
-def hopper_test(width: float, seed: int) -> engine.HopperTest:
-    """The slot hopper at outlet ``width`` [diameters], fill ``seed`` (module docstring)."""
+def hopper_test(width: float, seed: int, gravity: float = GRAVITY) -> engine.HopperTest:
+    """The slot hopper at outlet ``width`` [diameters], fill ``seed``, ``gravity`` [m/s^2]
+    (module docstring)."""
     b = width * D
     return engine.HopperTest(
         shape="slot",
@@ -120,7 +128,7 @@ def hopper_test(width: float, seed: int) -> engine.HopperTest:
         fill_height=max(FILL_OUTLETS * b, FILL_DIAMETERS * D),
         radius=RADIUS,
         polydispersity=0.0,
-        gravity=GRAVITY,
+        gravity=gravity,
         pair_law=size_series.law(LAW),
         wall_law=engine.HertzMindlin(E=1e8, nu=0.25, restitution=0.4, mu=0.3),
         seed=seed,
@@ -133,6 +141,7 @@ def keys(only=None) -> list[tuple[str, float, int]]:
     first."""
     out = [("shear", p, s) for p in PRESHEARS for s in range(1, SHEAR_SEEDS + 1)]
     out += [("hopper", w, s) for s in range(1, HOPPER_SEEDS + 1) for w in WIDTHS]
+    out += [("hopper_g2", w, s) for s in range(1, G2_SEEDS + 1) for w in G2_WIDTHS]
     if only:
         out = [k for k in out if any(o in key_name(*k) for o in only)]
     return out
@@ -141,11 +150,13 @@ def keys(only=None) -> list[tuple[str, float, int]]:
 def key_name(kind: str, x: float, seed: int) -> str:
     if kind == "shear":
         return f"shear/p{x / 1e3:g}-s{seed}"
-    return f"hopper/w{x:g}-s{seed}"
+    return f"{kind}/w{x:g}-s{seed}"
 
 
 def test_of(kind: str, x: float, seed: int):
-    return shear_test(x, seed) if kind == "shear" else hopper_test(x, seed)
+    if kind == "shear":
+        return shear_test(x, seed)
+    return hopper_test(x, seed, GRAVITY if kind == "hopper" else GRAVITY_2)
 
 
 def path_of(kind: str, x: float, seed: int, store: Path | None = None) -> Path:
@@ -159,7 +170,7 @@ def stored(kind: str, x: float, seed: int, store: Path | None = None):
         return None
     d = read_digest(path)
     want = json.loads(json.dumps(test_of(kind, x, seed).to_dict()))
-    if kind == "hopper" and d.extra.get("protocol") != PROTOCOL:
+    if kind != "shear" and d.extra.get("protocol") != PROTOCOL:
         return None
     return d if d.test == want else None
 
@@ -368,15 +379,25 @@ def predict(
 
 
 def compare() -> dict:
-    """The stored hopper runs against the stored prediction: per width, how many seeds
-    arched, stopped without an arch, emptied or failed, the mean discharged fraction and
-    settled bulk density; the simulated critical width's bracket (the widest outlet at which
-    every stored seed arched, the narrowest from which on every stored seed flowed), and the
-    prediction with the shear cell's bulk density and rescaled to the hoppers' own."""
+    """Both gravities' comparisons (:func:`compare_at`)."""
+    return {
+        f"{GRAVITY:g}": compare_at("hopper", WIDTHS, HOPPER_SEEDS, GRAVITY),
+        f"{GRAVITY_2:g}": compare_at("hopper_g2", G2_WIDTHS, G2_SEEDS, GRAVITY_2),
+    }
+
+
+def compare_at(kind: str, widths, seeds: int, gravity: float) -> dict:
+    """The stored hopper runs of ``kind`` at ``gravity`` [m/s^2] against the stored
+    prediction (scaled from :data:`GRAVITY` by 1/g): per width, how many seeds arched,
+    stopped without an arch, emptied or failed, the mean discharged fraction and settled bulk
+    density of those that did not fail; the simulated critical width's bracket (the widest
+    outlet at which every seed that did not fail arched, the narrowest above it at which
+    every one emptied), and the prediction with the shear cell's bulk density and rescaled
+    to the hoppers' own."""
     pred = json.loads((STORE / "prediction.json").read_text())
     rows = []
-    for w in WIDTHS:
-        ds = [stored("hopper", w, s) for s in range(1, HOPPER_SEEDS + 1)]
+    for w in widths:
+        ds = [stored(kind, w, s) for s in range(1, seeds + 1)]
         ds = [d for d in ds if d is not None]
         ok = [d for d in ds if d.ok]
         arched = sum(1 for d in ok if d.scalars["arched"])
@@ -401,9 +422,10 @@ def compare() -> dict:
                 "cpu_seconds": [d.extra.get("cpu_seconds", math.nan) for d in ds],
             }
         )
-    done = [r for r in rows if r["runs"] and not r["failed"]]
-    all_arch = [r["width_d"] for r in done if r["arched"] == r["runs"]]
-    all_flow = [r["width_d"] for r in done if r["emptied"] == r["runs"]]
+    # a failed run (InstabilityError) neither arched nor flowed: the bracket reads the others
+    done = [r for r in rows if r["runs"] > r["failed"]]
+    all_arch = [r["width_d"] for r in done if r["arched"] == r["runs"] - r["failed"]]
+    all_flow = [r["width_d"] for r in done if r["emptied"] == r["runs"] - r["failed"]]
     low = max(all_arch) if all_arch else math.nan
     high = min((w for w in all_flow if w > low), default=math.nan) if all_arch else math.nan
     c = pred["wall_law_mu"]["critical"]
@@ -413,10 +435,15 @@ def compare() -> dict:
         "rows": rows,
         "all_arched_up_to_d": low,
         "all_flowed_from_d": high,
-        "predicted_d": c["B_crit_d"],
-        "predicted_d_95": pred["wall_law_mu"]["B_crit_d_95"],
+        "gravity": gravity,
+        "predicted_d": c["B_crit_d"] * GRAVITY / gravity,
+        "predicted_d_95": [b * GRAVITY / gravity for b in pred["wall_law_mu"]["B_crit_d_95"]],
         "hopper_bulk_density": rho_hopper,
-        "predicted_d_hopper_density": c["B_crit_d"] * c["bulk_density"] / rho_hopper,
+        "predicted_d_hopper_density": c["B_crit_d"]
+        * GRAVITY
+        / gravity
+        * c["bulk_density"]
+        / rho_hopper,
     }
 
 
@@ -443,6 +470,25 @@ def describe(d) -> str:
     )
 
 
+def report_comparison(out: dict) -> None:
+    """Print one gravity's comparison (:func:`compare_at`)."""
+    for r in out["rows"]:
+        print(
+            f"B = {r['width_d']:g} d: {r['runs']} runs, {r['arched']} arched, "
+            f"{r['stopped_no_arch']} stopped without an arch, {r['emptied']} emptied, "
+            f"{r['failed']} failed; discharged {100 * r['discharged_fraction']:.1f} %, "
+            f"rho_b {r['bulk_density']:.0f} kg/m^3, {r['particles']} particles, CPU s "
+            + ", ".join(f"{c:.0f}" for c in r["cpu_seconds"])
+        )
+    print(
+        f"every seed arched up to {out['all_arched_up_to_d']:g} d, every seed flowed from "
+        f"{out['all_flowed_from_d']:g} d; predicted B_crit {out['predicted_d']:.2f} d "
+        f"(95 % {out['predicted_d_95'][0]:.2f}-{out['predicted_d_95'][1]:.2f}), "
+        f"{out['predicted_d_hopper_density']:.2f} d at the hoppers' mean settled bulk "
+        f"density {out['hopper_bulk_density']:.0f} kg/m^3"
+    )
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", nargs="*", help="runs whose key contains any of these")
@@ -451,23 +497,11 @@ def main(argv=None) -> int:
     ap.add_argument("--compare", action="store_true", help="store the comparison")
     args = ap.parse_args(argv)
     if args.compare:
-        out = compare()
-        (STORE / "comparison.json").write_text(json.dumps(out, indent=1) + "\n")
-        for r in out["rows"]:
-            print(
-                f"B = {r['width_d']:g} d: {r['runs']} runs, {r['arched']} arched, "
-                f"{r['stopped_no_arch']} stopped without an arch, {r['emptied']} emptied, "
-                f"{r['failed']} failed; discharged {100 * r['discharged_fraction']:.1f} %, "
-                f"rho_b {r['bulk_density']:.0f} kg/m^3, {r['particles']} particles, CPU s "
-                + ", ".join(f"{c:.0f}" for c in r["cpu_seconds"])
-            )
-        print(
-            f"every seed arched up to {out['all_arched_up_to_d']:g} d, every seed flowed from "
-            f"{out['all_flowed_from_d']:g} d; predicted B_crit {out['predicted_d']:.2f} d "
-            f"(95 % {out['predicted_d_95'][0]:.2f}-{out['predicted_d_95'][1]:.2f}), "
-            f"{out['predicted_d_hopper_density']:.2f} d at the hoppers' mean settled bulk "
-            f"density {out['hopper_bulk_density']:.0f} kg/m^3"
-        )
+        both = compare()
+        (STORE / "comparison.json").write_text(json.dumps(both, indent=1) + "\n")
+        for g, out in both.items():
+            print(f"g = {g} m/s^2:")
+            report_comparison(out)
         return 0
     if args.predict:
         out = {

@@ -35,13 +35,17 @@ Choices, fixed here before the hopper runs (2026-12-06):
   (ff and H are angles' functions; the stress level at the critical point is sigma_1* = ff
   sigma_c*, whatever g).
 - **Outlet widths** :data:`WIDTHS` diameters bracketing the prediction, seeds
-  :data:`HOPPER_SEEDS`.
+  :data:`HOPPER_SEEDS`; a second gravity :data:`GRAVITY_2` (B_crit doubled, the hopper's
+  Bond number |f0| / (m g) doubled) at :data:`G2_WIDTHS`, :data:`G2_SEEDS` seeds (added
+  after the first gravity's runs had been seen; the widths 10 d and the third seed added
+  after its first seeds had been).
 
 Each run is stored at once as a digest (:mod:`engine.io.digest`) under
 ``benchmarks/results/jenike_series/`` (``shear/p<kPa>-s<seed>.json``,
-``hopper/w<B/d>-s<seed>.json``; ``extra``: wall and CPU seconds, for a hopper run the flow
-mode, whether it stopped or arched and when, the discharged fraction). Full files are not
-kept (the digests hold every number the comparison reads).
+``hopper/w<B/d>-s<seed>.json``, ``hopper_g2/...`` at the second gravity; ``extra``: wall
+and CPU seconds, the hopper protocol, a hopper run's flow mode and discharged fraction; the
+scalars hold whether it stopped or arched and when). Full files are not kept (the digests
+hold every number the comparison reads).
 """
 
 from __future__ import annotations
@@ -101,7 +105,7 @@ HOPPER_SEEDS = 3
 #: same law.
 GRAVITY_2 = 200.0
 G2_WIDTHS = (9.0, 10.0, 11.0, 13.0, 15.0, 18.0)
-G2_SEEDS = 2
+G2_SEEDS = 3
 
 
 def shear_test(preshear: float, seed: int) -> engine.ShearTest:

@@ -18,9 +18,11 @@ The method, as used here:
    from the radius), shot from the axis for the one s(0) that meets the wall condition.
    Then, with the outlet at r = B / (2 sin theta_w) and sigma_1 = (1 + sin delta) sigma at the
    wall, ff = (1 + sin delta) s_w H(theta) / (2 sin theta_w). Check: at delta = 30 deg,
-   phi_w = 19 deg, a cone of 27.5 deg, this gives ff = 1.85; Rhodes (Introduction to Particle
-   Technology, 2nd ed., Wiley 2008, ch. 10 worked example) reads ff = 1.8 off Jenike's chart
-   for the same point (tests/engine/test_jenike.py).
+   phi_w = 19 deg, a cone of 27.5 deg, this gives ff = 1.85; a worked example of Rhodes
+   (Introduction to Particle Technology, 2nd ed., Wiley 2008, ch. 10, as a public slide set
+   quotes it: the book itself not checked) reads ff = 1.8 off Jenike's chart for the same
+   point and the mass-flow limit at 30.5 deg; the field here ends between 31 and 32.5 deg
+   (tests/engine/test_jenike.py).
    Why numerical: the closed-form approximations (Arnold & McLean 1976, Enstad 1975) replace
    the field by an average over the section and were not available here to check to the
    digit; the field itself is two ODEs and a root.

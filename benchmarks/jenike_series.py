@@ -199,9 +199,10 @@ def ramped_hopper(test: engine.HopperTest) -> engine.HopperResult:
     then the run's own settling (at least two free-fall times at the test's gravity, to its
     kinetic energy criterion) and discharge. Why: poured straight under 400 m/s^2 the lattice
     fill's grains meet at up to about 20 m/s and the law's soft loading spring (k1 = 5e3
-    N/m) lets two of them overlap by half a radius (``InstabilityError``, every width from
-    9 d up at the first attempt); raised once the grains touch, gravity compresses the
-    packing quasi-statically. The result's ``settle_time`` includes the pour and the ramp."""
+    N/m) lets two of them overlap by half a radius (``InstabilityError`` in 5 of the 6 runs
+    at 9 d and wider at the first attempt, a fill max(1.5 B, 20 d) deep); raised once the
+    grains touch, gravity compresses the packing quasi-statically. The result's
+    ``settle_time`` includes the pour and the ramp."""
     from engine.hopper.driver import HopperRun
 
     run = HopperRun(test, threads=1)

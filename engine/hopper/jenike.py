@@ -63,7 +63,10 @@ def _check_angles(delta: float, phi_w: float, theta: float, shape: str) -> tuple
         raise ParameterError("jenike.delta", delta, "in (0, 90) deg")
     if not (math.isfinite(phi_w) and 0.0 <= phi_w < delta):
         raise ParameterError(
-            "jenike.phi_w", phi_w, f"in [0, delta = {delta:g}) deg", "a wall rougher than the solid"
+            "jenike.phi_w",
+            phi_w,
+            f"in [0, delta = {delta:g}) deg",
+            "a rougher wall: the solid shears within itself",
         )
     if not (math.isfinite(theta) and 0.0 < theta < 90.0):
         raise ParameterError("jenike.theta", theta, "in (0, 90) deg")

@@ -105,3 +105,17 @@ def test_the_series_reads_the_stored_shear_digests():
     assert m["sigma_1"] == pytest.approx(np.mean([r["sigma_1"] for r in runs]), rel=1e-15)
     q = (m["sigma_1"] - m["sigma_2"]) / (m["sigma_1"] + m["sigma_2"])
     assert m["delta"] == pytest.approx(math.degrees(math.asin(q)), rel=1e-12)
+
+
+def test_the_stored_comparison_brackets_what_the_docs_say():
+    # docs/HOPPER.md, "Cohesive arching against Jenike's critical outlet width": read from
+    # the stored digests (no run): arched up to 6 d and flowed from 7 d at 400 m/s^2, the
+    # prediction above both
+    from benchmarks import jenike_series
+
+    out = jenike_series.compare_at(
+        "hopper", jenike_series.WIDTHS, jenike_series.HOPPER_SEEDS, jenike_series.GRAVITY
+    )
+    assert (out["all_arched_up_to_d"], out["all_flowed_from_d"]) == (6.0, 7.0)
+    assert out["predicted_d_95"][0] > out["all_flowed_from_d"]
+    assert sum(r["runs"] for r in out["rows"]) == len(jenike_series.WIDTHS) * 3

@@ -22,11 +22,14 @@ import math
 import os
 import time
 import warnings
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
 from ..core.errors import StopRequested, WallTimeExceeded
 from ..simulation.simulation import Simulation
+from ..simulation.snapshot import Snapshot, capture
 from ..simulation.timestep import critical_time_step
 from ..uniaxial.checkpoint import TRAJECTORY_PACKAGES, Checkpoint, check_interval, this_code
 from ..uniaxial.driver import StageError
@@ -90,6 +93,10 @@ class HopperRun:
             raise TypeError(f"a hopper run takes an engine.HopperTest, not {type(test).__name__}")
         self.test = test
         self.progress = progress
+        #: called with a :class:`engine.simulation.snapshot.Snapshot` at the gate's opening,
+        #: every ``snapshot_interval`` [s] of the discharge and at its end (run_hopper)
+        self.on_snapshot: Callable[[Snapshot], Any] | None = None
+        self.snapshot_interval: float | None = None
         self.max_wall_time = max_wall_time
         self.wall_time_setting = wall_time_setting or "max_wall_time"
         self.geo = build_hopper(test)
@@ -125,7 +132,7 @@ class HopperRun:
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
-        state["progress"] = state["checkpoint"] = None
+        state["progress"] = state["checkpoint"] = state["on_snapshot"] = None
         # wall time so far instead of the start of a clock that does not survive the process
         state["t0"] = time.perf_counter() - self.t0
         return state
@@ -304,6 +311,7 @@ class HopperRun:
             stresses.append(self.wall_stress(self.edges))
             now = rows[-1][0]
             times.append(now)
+            self._snapshot(now)
             self._tick(
                 "discharge",
                 _SETTLE_SHARE + (1 - _SETTLE_SHARE) * m_out / self.total,
@@ -324,7 +332,28 @@ class HopperRun:
                 break
             # between two samples, the criterion read: a resumed run re-enters the loop here
             self._due()
+        if self.on_snapshot is not None:  # the end (SnapshotWriter merges it with a
+            self.on_snapshot(capture(sim, "discharged"))  # snapshot of the same step)
         return self._result(rows, stresses, f["stopped"], wait, pm, f["detected"])
+
+    def _snapshot(self, now: float) -> None:
+        """A snapshot of the discharge (stage ``discharge``) when ``now`` [s since the gate
+        opened] has reached the next one due: the opening itself, then every
+        ``snapshot_interval``; where it is due lives in the run's state, so a resumed run
+        goes on with the same times."""
+        if self.on_snapshot is None:
+            return
+        f = self.flow
+        due = f.get("next_snapshot", 0.0)
+        if now < due:
+            return
+        self.on_snapshot(capture(self.sim, "discharge"))
+        if self.snapshot_interval:
+            while due <= now:
+                due += self.snapshot_interval
+        else:
+            due = math.inf  # the opening and the end only
+        f["next_snapshot"] = due
 
     def _result(
         self, rows, stresses, stopped: bool, wait: float, pm: float, detected: float
@@ -414,6 +443,8 @@ def run_hopper(
     wall_time_setting: str | None = None,
     threads: int | None = None,
     checkpoint: Checkpoint | str | os.PathLike | None = None,
+    on_snapshot: Callable[[Snapshot], Any] | None = None,
+    snapshot_interval: float | None = None,
 ) -> HopperResult:
     """Run the hopper discharge (docs/HOPPER.md): the fill settled behind the closed gate, the
     gate opened, the discharge sampled and measured.
@@ -433,6 +464,10 @@ def run_hopper(
             bit-identical to that of an uninterrupted run (its ``wall_time`` aside). The file
             is left for the caller to remove once the result is stored
             (:meth:`engine.Checkpoint.remove`).
+        on_snapshot: called with a :class:`engine.simulation.snapshot.Snapshot` of the
+            particles and their contacts at the gate's opening, every ``snapshot_interval``
+            [s] of the discharge (None: none between) and at its end, e.g.
+            ``engine.io.vtkhdf.SnapshotWriter(dir).add`` for a ParaView animation.
     Raises: :class:`engine.StageError` when the fill does not settle within
         ``max_settle_time``; :class:`engine.InstabilityError` when the integration blows up.
         The CPU backend.
@@ -440,6 +475,8 @@ def run_hopper(
     this_code()  # the code this run is made by, taken before it runs (engine.io.store)
     if max_wall_time is not None:
         check_interval(max_wall_time, "run_hopper.max_wall_time")
+    if snapshot_interval is not None:
+        check_interval(snapshot_interval, "run_hopper.snapshot_interval")
     if checkpoint is not None and not isinstance(checkpoint, Checkpoint):
         checkpoint = Checkpoint(checkpoint)
     run = None
@@ -462,6 +499,8 @@ def run_hopper(
     if run is None:
         run = HopperRun(test, progress, max_wall_time, wall_time_setting, threads)
     run.checkpoint = checkpoint
+    run.on_snapshot = on_snapshot
+    run.snapshot_interval = snapshot_interval
     run.max_wall_time = max_wall_time
     run.wall_time_setting = wall_time_setting or "max_wall_time"
     if checkpoint is not None:

@@ -6,6 +6,7 @@ sixth of it flows out); one thread."""
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import pytest
@@ -94,3 +95,35 @@ def test_a_hopper_checkpoint_is_tied_to_the_hopper_sources(tmp_path, monkeypatch
     monkeypatch.setattr(ck_module, "trajectory_digest", lambda packages=(): "other")
     with pytest.warns(RuntimeWarning, match="other engine code"):
         assert Checkpoint(path).load(t, HOPPER_TRAJECTORY) is None
+
+
+def test_a_discharge_streams_its_snapshots_without_changing_the_run(tmp_path):
+    """ParaView snapshots of a discharge (engine.io.vtkhdf.SnapshotWriter): one at the gate's
+    opening, one every snapshot_interval of the discharge, one at its end; the run's record
+    is the one it has without them."""
+    from engine.io.vtkhdf import SnapshotWriter
+
+    t = HopperTest(outlet_width=6 * D, particles=100, settle_ke=1e-2, max_discharge_time=0.04)
+    plain = engine.run_hopper(t, threads=1)
+    taken = []
+    with SnapshotWriter(tmp_path / "snaps") as writer:
+
+        def add(snap):
+            taken.append((snap.stage, snap.time, len(snap.radii)))
+            writer.add(snap)
+
+        res = engine.run_hopper(t, threads=1, on_snapshot=add, snapshot_interval=0.01)
+    for k, v in plain.curves.items():
+        assert v.tobytes() == res.curves[k].tobytes(), k
+    stages = [s for s, _, _ in taken]
+    assert stages[0] == "discharge" and stages[-1] == "discharged", stages
+    opened = taken[0][1]
+    gaps = [b - a for (_, a, _), (_, b, _) in itertools.pairwise(taken[:-1])]
+    assert len(taken) >= 5 and all(g >= 0.01 - 1e-12 for g in gaps), taken
+    # the last sample may fall a sample past max_discharge_time (0.04 s)
+    assert taken[-2][1] - opened < 0.05 and all(n == 100 for _, _, n in taken)
+    # the end's snapshot falls on the last interval's step here: the writer keeps one
+    assert writer.labels[-1] in ("discharged", "discharge+discharged"), writer.labels
+    assert (tmp_path / "snaps" / "particles.vtkhdf").exists()
+    with pytest.raises(engine.ParameterError, match="run_hopper.snapshot_interval"):
+        engine.run_hopper(t, threads=1, snapshot_interval=-1.0)

@@ -40,6 +40,52 @@ def wall_scene(
     )
 
 
+def walled_bed(
+    pos,
+    rad,
+    lengths,
+    law,
+    top: float | None = None,
+    platen_speed: float = 0.0,
+    velocities=None,
+    periodic: bool = True,
+) -> engine.Scene:
+    """The particles ``pos``, ``rad`` [m] (density 2000 kg/m^3, gravity 9.81 m/s^2 along -z)
+    in the cell ``lengths`` [m], periodic in x and y (unless ``periodic`` is False), on a
+    floor at z = 0 and, where ``top`` is given, under a platen at height ``top`` [m] moving
+    down at ``platen_speed`` [m/s]; ``law`` between particles, Hertz-Mindlin walls
+    (E = 1e8 Pa, nu = 0.25, mu = 0.3) as the uniaxial test's platens."""
+    walls = [engine.Plane((0, 0, 0), (0, 0, 1))]
+    if top is not None:
+        walls.append(engine.Plane((0, 0, top), (0, 0, -1), velocity=(0, 0, -platen_speed)))
+    return engine.Scene(
+        pos,
+        rad,
+        2000.0,
+        velocities=velocities,
+        box=[(0, L) for L in lengths],
+        periodic=(periodic, periodic, False),
+        walls=walls,
+        pair_law=law,
+        wall_law=engine.HertzMindlin(E=1e8, nu=0.25, mu=0.3),
+        wall_material=engine.WallMaterial(),
+    )
+
+
+def rel_diff(a, b) -> float:
+    """Largest |a - b| over the largest |a| (the absolute difference where a is all zero);
+    infinite where the shapes differ, zero for empty arrays."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    if a.shape != b.shape:
+        return float("inf")
+    if a.size == 0:
+        return 0.0
+    scale = float(np.max(np.abs(a)))
+    diff = float(np.max(np.abs(a - b)))
+    return diff / scale if scale > 0 else diff
+
+
 def run_until_separated(sim: engine.Simulation, max_steps: int, chunk: int = 1, wall: bool = False):
     """Step until the contact has formed and opened again. Returns (largest overlap [m],
     largest normal force magnitude [N], contact duration [s])."""

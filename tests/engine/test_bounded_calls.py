@@ -12,6 +12,7 @@ import pytest
 import engine
 import engine.simulation.simulation as simulation
 from tests import naive
+from tests.engine.helpers import walled_bed
 
 R = 2.5e-3
 
@@ -23,22 +24,8 @@ def _scene(platen_speed: float = 0.1) -> engine.Scene:
     )
     rng = np.random.default_rng(5)
     law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001, restitution=0.4)
-    walls = [
-        engine.Plane((0, 0, 0), (0, 0, 1)),
-        engine.Plane((0, 0, 0.03), (0, 0, -1), velocity=(0, 0, -platen_speed)),
-    ]
-    return engine.Scene(
-        pos,
-        rad,
-        2000.0,
-        velocities=rng.normal(0, 0.05, pos.shape),
-        box=[(0, L) for L in lengths],
-        periodic=(True, True, False),
-        walls=walls,
-        pair_law=law,
-        wall_law=engine.HertzMindlin(E=1e8, nu=0.25, mu=0.3),
-        wall_material=engine.WallMaterial(),
-    )
+    vel = rng.normal(0, 0.05, pos.shape)
+    return walled_bed(pos, rad, lengths, law, 0.03, platen_speed, velocities=vel)
 
 
 class _Every(engine.Simulation):

@@ -12,6 +12,7 @@ import engine
 import engine.simulation.simulation as simulation
 from engine.kernel.neighbour import build_neighbour_list
 from tests import naive
+from tests.engine.helpers import walled_bed
 
 R = 2.5e-3
 
@@ -131,19 +132,7 @@ def _sheared_bed(skin, periodic):
     vel = rng.normal(0, 0.05, pos.shape)
     vel[:, 0] += 2.0 * (pos[:, 2] - 0.015)  # a shear flow: contacts slide and roll
     law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.2, mu_s=0.5, mu_r=0.01, restitution=0.5)
-    scene = engine.Scene(
-        pos,
-        rad,
-        2000.0,
-        velocities=vel,
-        box=[(0, L) for L in lengths],
-        periodic=(periodic, periodic, False),
-        gravity=(0, 0, -9.81),
-        walls=[engine.Plane((0, 0, 0), (0, 0, 1))],
-        pair_law=law,
-        wall_law=engine.HertzMindlin(E=1e8, nu=0.25, mu=0.3),
-        wall_material=engine.WallMaterial(),
-    )
+    scene = walled_bed(pos, rad, lengths, law, velocities=vel, periodic=periodic)
     return engine.Simulation(scene, dt=5e-6, skin=skin)
 
 
@@ -221,19 +210,7 @@ def test_renumbering_restores_the_cell_order_after_a_fall():
     vel = np.random.default_rng(6).normal(0.0, 0.3, pos.shape)  # a stirred cloud
     vel[:, 2] -= 2.0
     law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, mu_s=0.3, restitution=0.3)
-    scene = engine.Scene(
-        pos,
-        rad,
-        2000.0,
-        velocities=vel,
-        box=[(0, L) for L in lengths],
-        periodic=(True, True, False),
-        walls=[engine.Plane((0, 0, 0), (0, 0, 1))],
-        pair_law=law,
-        wall_law=engine.HertzMindlin(E=1e8, nu=0.25, mu=0.3),
-        wall_material=engine.WallMaterial(),
-    )
-    sim = engine.Simulation(scene)
+    sim = engine.Simulation(walled_bed(pos, rad, lengths, law, velocities=vel))
     sim.run(simulation.RENUMBER_STEPS)  # ends on the renumbering step, at a whole step
     p = sim._particles
     order = simulation.cell_order(p.pos, p.rad, sim._lo, sim._params.length, sim._periodic)

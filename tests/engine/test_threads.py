@@ -8,6 +8,7 @@ import pytest
 
 import engine
 from tests import naive
+from tests.engine.helpers import walled_bed
 
 R = 2.5e-3
 
@@ -24,22 +25,8 @@ def _run(threads: int, calls: int = 1, sim_class=engine.Simulation) -> engine.Si
     )
     rng = np.random.default_rng(21)
     law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001, restitution=0.4)
-    walls = [
-        engine.Plane((0, 0, 0), (0, 0, 1)),
-        engine.Plane((0, 0, 0.04), (0, 0, -1), velocity=(0, 0, -0.1)),
-    ]
-    scene = engine.Scene(
-        pos,
-        rad,
-        2000.0,
-        velocities=rng.normal(0, 0.05, pos.shape),
-        box=[(0, L) for L in lengths],
-        periodic=(True, True, False),
-        walls=walls,
-        pair_law=law,
-        wall_law=engine.HertzMindlin(E=1e8, nu=0.25, mu=0.3),
-        wall_material=engine.WallMaterial(),
-    )
+    vel = rng.normal(0, 0.05, pos.shape)
+    scene = walled_bed(pos, rad, lengths, law, 0.04, 0.1, velocities=vel)
     old = numba.get_num_threads()
     numba.set_num_threads(threads)
     try:

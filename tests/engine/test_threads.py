@@ -7,8 +7,7 @@ import numpy as np
 import pytest
 
 import engine
-from tests import naive
-from tests.engine.helpers import walled_bed
+from tests.engine.helpers import stirred_cohesive_bed
 
 R = 2.5e-3
 
@@ -19,14 +18,7 @@ pytestmark = pytest.mark.skipif(
 
 def _run(threads: int, calls: int = 1, sim_class=engine.Simulation) -> engine.Simulation:
     """3,000 steps of a 700-particle cohesive bed between platens, in ``calls`` calls."""
-    lengths = np.array([0.03, 0.03, 0.04])
-    pos, rad = naive.rsa_packing(
-        700, lengths, 0.8 * R, R, 21, max_overlap=0.05, periodic=(True, True, False)
-    )
-    rng = np.random.default_rng(21)
-    law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001, restitution=0.4)
-    vel = rng.normal(0, 0.05, pos.shape)
-    scene = walled_bed(pos, rad, lengths, law, 0.04, 0.1, velocities=vel)
+    scene = stirred_cohesive_bed(700, np.array([0.03, 0.03, 0.04]), 21, 0.1)
     old = numba.get_num_threads()
     numba.set_num_threads(threads)
     try:

@@ -238,30 +238,38 @@ def differences(test) -> list[str]:
 
 
 # ----------------------------------------------------------------------------- the files
-def data_file(test, positions: np.ndarray, radii: np.ndarray) -> str:
-    """The poured cloud as a LAMMPS ``atom_style granular`` data file: two atom types (1
-    the particles, 2 the platens' material), the box of the deck, one line per sphere
-    (id = demscale's index + 1, type, diameter [m], density [kg/m^3], x, y, z [m])."""
-    lo, hi = box(test)
+def granular_data(
+    title: str, positions: np.ndarray, radii: np.ndarray, density: float, bounds
+) -> str:
+    """Spheres as a LAMMPS ``atom_style granular`` data file headed ``title``: two atom types
+    (1 the particles, 2 the walls' material), the box ``bounds`` = ((xlo, xhi), (ylo, yhi),
+    (zlo, zhi)) [m], one line per sphere (id = demscale's index + 1, type, diameter [m],
+    ``density`` [kg/m^3], x, y, z [m]). The uniaxial deck's and the hopper deck's."""
     lines = [
-        "LAMMPS data file of a demscale uniaxial test (engine.io.liggghts_deck)",
+        title,
         "",
         f"{len(radii)} atoms",
         "2 atom types",
         "",
-        f"{_num(lo[0])} {_num(hi[0])} xlo xhi",
-        f"{_num(lo[1])} {_num(hi[1])} ylo yhi",
-        f"{_num(lo[2])} {_num(hi[2])} zlo zhi",
+        *(f"{_num(lo)} {_num(hi)} {a}lo {a}hi" for (lo, hi), a in zip(bounds, "xyz")),
         "",
         "Atoms",
         "",
     ]
-    rho = _num(test.density)
+    rho = _num(density)
     lines += [
         f"{i + 1} 1 {_num(2 * r)} {rho} {_num(x)} {_num(y)} {_num(z)}"
         for i, (r, (x, y, z)) in enumerate(zip(radii, positions))
     ]
     return "\n".join(lines) + "\n"
+
+
+def data_file(test, positions: np.ndarray, radii: np.ndarray) -> str:
+    """The poured cloud as a LAMMPS data file (:func:`granular_data`) in the box of the
+    deck, atom type 2 the platens' material."""
+    lo, hi = box(test)
+    title = "LAMMPS data file of a demscale uniaxial test (engine.io.liggghts_deck)"
+    return granular_data(title, positions, radii, test.density, tuple(zip(lo, hi)))
 
 
 def plate_stl(x0: float, y0: float, x1: float, y1: float, name: str = "plate") -> str:

@@ -237,6 +237,36 @@ def differences(test) -> list[str]:
     return out
 
 
+def deck_head(
+    log: str, boundary: str, data: str, skin: float, materials: list[str], dt: float, gravity: float
+) -> list[str]:
+    """The lines a deck opens with (the uniaxial deck's and the hopper deck's): its ``log``
+    file, SI units, granular atoms, the ``boundary`` line, the ``data`` file, a binned
+    neighbour list of ``skin`` [m] rebuilt as needed, the ``materials`` lines, the time step
+    ``dt`` [s], ``gravity`` [m/s^2] along -z and the NVE integrator of spheres."""
+    return [
+        f"log {log}",
+        "echo none",
+        "units si",
+        "atom_style granular",
+        "atom_modify map array sort 0 0.0",
+        boundary,
+        "newton off",
+        "communicate single vel yes",
+        "processors * * 1",
+        f"read_data {data}",
+        "hard_particles yes",
+        f"neighbor {_num(skin)} bin",
+        "neigh_modify delay 0",
+        "",
+        *materials,
+        "",
+        f"timestep {_num(dt)}",
+        f"fix grav all gravity {_num(gravity)} vector 0.0 0.0 -1.0",
+        "fix integr all nve/sphere",
+    ]
+
+
 # ----------------------------------------------------------------------------- the files
 def granular_data(
     title: str, positions: np.ndarray, radii: np.ndarray, density: float, bounds
@@ -520,25 +550,15 @@ class _Deck:
             self.add(f"#   - {d}")
         self.add(
             "",
-            f"log {LOG}",
-            "echo none",
-            "units si",
-            "atom_style granular",
-            "atom_modify map array sort 0 0.0",
-            "boundary p p f" if periodic else "boundary f f f",
-            "newton off",
-            "communicate single vel yes",
-            "processors * * 1",
-            f"read_data {DATA}",
-            "hard_particles yes",
-            f"neighbor {_num(self.skin)} bin",
-            "neigh_modify delay 0",
-            "",
-            *_materials(t),
-            "",
-            f"timestep {_num(self.dt)}",
-            f"fix grav all gravity {_num(t.gravity)} vector 0.0 0.0 -1.0",
-            "fix integr all nve/sphere",
+            *deck_head(
+                LOG,
+                "boundary p p f" if periodic else "boundary f f f",
+                DATA,
+                self.skin,
+                _materials(t),
+                self.dt,
+                t.gravity,
+            ),
             f"fix wallb all {_wall_model(t)} primitive type 2 zplane 0.0 store_force yes",
             f"fix wallf all {_wall_model(t)} primitive type 2 zplane {_num(fill_top(t))} "
             "store_force yes",

@@ -54,7 +54,15 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import ParameterError
-from .liggghts_deck import _materials, _num, _pair, _wall_model, check_laws, granular_data
+from .liggghts_deck import (
+    _materials,
+    _num,
+    _pair,
+    _wall_model,
+    check_laws,
+    deck_head,
+    granular_data,
+)
 
 #: Files of a hopper deck folder.
 HOPPER_DECK = "in.hopper"
@@ -207,29 +215,20 @@ class _HopperDeck:
         for line in hopper_differences(t):
             self.add(f"#   - {line}")
         wall_model = _wall_model(t, "HopperTest")
+        # sideways the box grows with the grains (the heap spreads on the catch floor;
+        # demscale keeps a grain that leaves its box in its grid's edge cells)
+        boundary = "boundary m p f" if periodic else "boundary m m f"
         self.add(
             "",
-            f"log {HOPPER_LOG}",
-            "echo none",
-            "units si",
-            "atom_style granular",
-            "atom_modify map array sort 0 0.0",
-            # sideways the box grows with the grains (the heap spreads on the catch floor;
-            # demscale keeps a grain that leaves its box in its grid's edge cells)
-            "boundary m p f" if periodic else "boundary m m f",
-            "newton off",
-            "communicate single vel yes",
-            "processors * * 1",
-            f"read_data {FILL}",
-            "hard_particles yes",
-            f"neighbor {_num(self.skin)} bin",
-            "neigh_modify delay 0",
-            "",
-            *_materials(t, "HopperTest"),
-            "",
-            f"timestep {_num(self.dt)}",
-            f"fix grav all gravity {_num(t.gravity)} vector 0.0 0.0 -1.0",
-            "fix integr all nve/sphere",
+            *deck_head(
+                HOPPER_LOG,
+                boundary,
+                FILL,
+                self.skin,
+                _materials(t, "HopperTest"),
+                self.dt,
+                t.gravity,
+            ),
             "# the hopper's walls and the gate: demscale's triangle meshes",
             *(
                 f"fix {n} all mesh/surface/stress file {f} type 2"

@@ -42,6 +42,22 @@ def wall_scene(
     )
 
 
+def box_gas(pos, rad, lengths, law, velocities=None, periodic: bool = True) -> engine.Scene:
+    """The particles ``pos``, ``rad`` [m] (density 2000 kg/m^3, ``velocities`` [m/s], None:
+    at rest) in the box ``lengths`` [m] from the origin, periodic along every axis (or along
+    none), without gravity or walls: ``law`` alone acts."""
+    return engine.Scene(
+        pos,
+        rad,
+        2000.0,
+        velocities=velocities,
+        box=[(0, L) for L in lengths],
+        periodic=(periodic,) * 3,
+        gravity=(0, 0, 0),
+        pair_law=law,
+    )
+
+
 def walled_bed(
     pos,
     rad,

@@ -12,7 +12,7 @@ import engine
 import engine.simulation.simulation as simulation
 from engine.kernel.neighbour import build_neighbour_list
 from tests import naive
-from tests.engine.helpers import walled_bed
+from tests.engine.helpers import box_gas, walled_bed
 
 R = 2.5e-3
 
@@ -103,16 +103,7 @@ def test_contacts_equal_all_pairs_overlaps():
     lengths = np.array([0.02, 0.02, 0.02])
     pos, rad = naive.rsa_packing(400, lengths, R / 3, R, 5, max_overlap=0.2)
     law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.1, restitution=0.4)
-    scene = engine.Scene(
-        pos,
-        rad,
-        2000.0,
-        box=[(0, L) for L in lengths],
-        periodic=(1, 1, 1),
-        gravity=(0, 0, 0),
-        pair_law=law,
-    )
-    sim = engine.Simulation(scene)
+    sim = engine.Simulation(box_gas(pos, rad, lengths, law))
     c = sim.contacts()
     got = {tuple(p) for p in c.pairs.tolist()}
     expect = naive.all_pairs_within(sim.positions, rad, lengths, (1, 1, 1), 0.0)
@@ -241,16 +232,7 @@ def test_list_grows_instead_of_dropping_pairs():
     law = engine.BilinearAdhesive(k1=5e3, k2=5e3, mu_s=0.0, mu_r=0.0, restitution=0.3)
     centre = lengths / 2
     vel = -(pos - centre) * 20.0  # everything rushes to the centre
-    scene = engine.Scene(
-        pos,
-        rad,
-        2000.0,
-        velocities=vel,
-        box=[(0, L) for L in lengths],
-        periodic=(0, 0, 0),
-        gravity=(0, 0, 0),
-        pair_law=law,
-    )
+    scene = box_gas(pos, rad, lengths, law, velocities=vel, periodic=False)
     sim = engine.Simulation(scene, dt=2e-6, max_overlap_fraction=0.9)
     n0 = sim.n_neighbour_entries
     cap0 = sim._list.j.shape[0]

@@ -62,11 +62,14 @@ def scene_for(
     platen_speed: float = PLATEN_SPEED,
     wall_law=WALL_LAW,
     wall_material=WALL,
+    velocities=None,
+    periodic: bool = True,
 ):
-    """The bed ``pos``, ``rad`` [m] in a cell of ``lengths`` [m] periodic in x and y, on a
-    floor at z = 0 and (``top`` [m] not None) under a top platen moving down at
-    ``platen_speed`` [m/s], under gravity, with the pair law ``law`` and the walls'
-    ``wall_law`` and ``wall_material``."""
+    """The bed ``pos``, ``rad`` [m] (``velocities`` [m/s], None: at rest) in a cell of
+    ``lengths`` [m] periodic in x and y (unless ``periodic`` is False), on a floor at z = 0
+    and (``top`` [m] not None) under a top platen moving down at ``platen_speed`` [m/s],
+    under gravity, with the pair law ``law`` and the walls' ``wall_law`` and
+    ``wall_material``. The engine tests' beds too (tests/engine/helpers.py)."""
     walls = [engine.Plane((0, 0, 0), (0, 0, 1))]
     if top is not None:
         walls.append(engine.Plane((0, 0, top), (0, 0, -1), velocity=(0, 0, -platen_speed)))
@@ -74,8 +77,9 @@ def scene_for(
         pos,
         rad,
         RHO,
+        velocities=velocities,
         box=[(0, lengths[0]), (0, lengths[1]), (0, lengths[2])],
-        periodic=(True, True, False),
+        periodic=(periodic, periodic, False),
         walls=walls,
         gravity=(0, 0, -9.81),
         pair_law=law,

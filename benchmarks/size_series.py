@@ -63,6 +63,7 @@ import numpy as np
 
 import engine
 from benchmarks import resolution
+from benchmarks.series import list_runs, run_missing
 from engine.io.digest import make_digest, read_digest, write_digest
 from engine.io.store import save_run
 from engine.study.plan import control_test
@@ -387,26 +388,19 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     todo = keys(args.only)
     if args.list:
-        total = 0.0
-        for k in todo:
-            s = stored(*k)
-            est = estimate(*k)
-            if s is None:
-                total += est
+
+        def line(k, s, est) -> str:
             state = "stored" if s is not None else f"about {est / 60:.0f} min on one core"
-            print(f"{key_name(*k):32s} {test_of(*k).n_particles:7d} particles  {state}")
+            return f"{key_name(*k):32s} {test_of(*k).n_particles:7d} particles  {state}"
+
+        total = list_runs(todo, stored, estimate, line)
         print(f"left to run: about {total / 3600:.1f} h on one core")
         return 0
     if args.refresh:
         done = [key_name(*k) for k in todo if refresh(*k)]
         print(f"refreshed {len(done)} digests")
         return 0
-    for k in todo:
-        if stored(*k) is None:
-            print(f"running {key_name(*k)} ({test_of(*k).n_particles} particles)", flush=True)
-            print(run_one(*k), flush=True)
-    print("the report: python -m benchmarks.size_report")
-    return 0
+    return run_missing(todo, stored, key_name, test_of, run_one, "benchmarks.size_report")
 
 
 if __name__ == "__main__":

@@ -14,13 +14,11 @@ from dataclasses import dataclass, replace
 from ..contact.bilinear import BilinearAdhesive
 from ..contact.eepa import EEPA
 from ..contact.hertz import HertzMindlin
-from ..contact.registry import pair_laws, wall_laws
 from ..contact.wall import WallMaterial
 from ..core.config import SKIN_FRACTION
 from ..core.errors import ParameterError
 from ..core.records import Record, check_fields, param
-from ..uniaxial.spec import DEFAULT_PROTOCOL, GRAVITY, _cohesionless_law
-from ..uniaxial.spec import _platen_law as _wall_law
+from ..uniaxial.spec import fill_param
 
 #: The outlet is at least this many diameters of the largest particle wide [-]: below about
 #: three diameters a few grains span any outlet and no flow, steady or not, is measured
@@ -95,38 +93,22 @@ class HopperTest(Record):
     fill_height: float | None = param(
         None, unit="m", gt=0.0, le=100.0, nullable=True, doc="settled fill height"
     )
-    solid_fraction: float = param(
-        0.6, unit="1", gt=0.0, le=0.74, doc="settled solid fraction (fill_height to count)"
+    solid_fraction: float = fill_param(
+        "solid_fraction", doc="settled solid fraction (fill_height to count)"
     )
-    radius: float = param(2.5e-3, unit="m", doc="particle radius", gt=0, le=0.05)
-    polydispersity: float = param(
-        0.0, unit="1", doc="radii uniform in [R(1-p), R(1+p)]", ge=0, lt=0.5
+    radius: float = fill_param("radius")
+    polydispersity: float = fill_param("polydispersity")
+    density: float = fill_param("density")
+    gravity: float = fill_param("gravity", doc="gravity")
+    pair_law: BilinearAdhesive | EEPA | HertzMindlin = fill_param("pair_law")
+    wall_law: HertzMindlin = fill_param(
+        "wall_law", doc="particle-wall law of the hopper's walls and gate (mu: the wall friction)"
     )
-    density: float = param(2000.0, unit="kg/m^3", doc="particle density", gt=0)
-    gravity: float = param(GRAVITY, unit="m/s^2", gt=0, le=1e4, doc="gravity")
-    pair_law: BilinearAdhesive | EEPA | HertzMindlin = param(
-        unit="",
-        kind="record",
-        types=pair_laws,
-        default_factory=_cohesionless_law,
-        doc="particle-particle contact law",
-    )
-    wall_law: HertzMindlin = param(
-        unit="",
-        kind="record",
-        types=wall_laws,
-        default_factory=_wall_law,
-        doc="particle-wall law of the hopper's walls and gate (mu: the wall friction)",
-    )
-    wall_material: WallMaterial = param(
-        unit="", kind="record", default_factory=WallMaterial, doc="wall and gate material"
-    )
+    wall_material: WallMaterial = fill_param("wall_material", doc="wall and gate material")
     gate_speed: float | None = param(
         None, unit="m/s", gt=0, le=1e3, nullable=True, doc="gate opening speed"
     )
-    settle_ke: float = param(
-        1e-4, unit="1", gt=0, doc="settled below this kinetic energy / (N m g R)"
-    )
+    settle_ke: float = fill_param("settle_ke")
     max_settle_time: float = param(3.0, unit="s", gt=0, doc="bound on the settling")
     window_start: float = param(
         0.2, unit="1", gt=0, lt=1, doc="steady window from this discharged fraction"
@@ -141,22 +123,12 @@ class HopperTest(Record):
         0.01, unit="1", gt=0, lt=1, doc="stopped: rate below this fraction of the fastest"
     )
     wall_bins: int = param(5, unit="1", kind="int", ge=1, le=100, doc="wall stress bins")
-    seed: int = param(1, unit="", kind="int", ge=0, lt=2**31, doc="packing seed")
-    output_interval: float = param(1e-3, unit="s", gt=0, doc="time between samples")
+    seed: int = fill_param("seed")
+    output_interval: float = fill_param("output_interval", doc="time between samples")
     max_discharge_time: float = param(5.0, unit="s", gt=0, doc="bound on the discharge")
-    dt: float | None = param(
-        None,
-        unit="s",
-        gt=0,
-        nullable=True,
-        doc="time step (None: dt_fraction of the critical time of the stiffest contact)",
-    )
-    dt_fraction: float = param(
-        DEFAULT_PROTOCOL["dt_fraction"],
-        unit="1",
-        gt=0,
-        le=0.5,
-        doc="with dt None: time step over the critical time",
+    dt: float | None = fill_param("dt")
+    dt_fraction: float = fill_param(
+        "dt_fraction", doc="with dt None: time step over the critical time"
     )
 
     def __post_init__(self) -> None:

@@ -237,31 +237,69 @@ def differences(test) -> list[str]:
     return out
 
 
+def deck_head(
+    log: str, boundary: str, data: str, skin: float, materials: list[str], dt: float, gravity: float
+) -> list[str]:
+    """The lines a deck opens with (the uniaxial deck's and the hopper deck's): its ``log``
+    file, SI units, granular atoms, the ``boundary`` line, the ``data`` file, a binned
+    neighbour list of ``skin`` [m] rebuilt as needed, the ``materials`` lines, the time step
+    ``dt`` [s], ``gravity`` [m/s^2] along -z and the NVE integrator of spheres."""
+    return [
+        f"log {log}",
+        "echo none",
+        "units si",
+        "atom_style granular",
+        "atom_modify map array sort 0 0.0",
+        boundary,
+        "newton off",
+        "communicate single vel yes",
+        "processors * * 1",
+        f"read_data {data}",
+        "hard_particles yes",
+        f"neighbor {_num(skin)} bin",
+        "neigh_modify delay 0",
+        "",
+        *materials,
+        "",
+        f"timestep {_num(dt)}",
+        f"fix grav all gravity {_num(gravity)} vector 0.0 0.0 -1.0",
+        "fix integr all nve/sphere",
+    ]
+
+
 # ----------------------------------------------------------------------------- the files
-def data_file(test, positions: np.ndarray, radii: np.ndarray) -> str:
-    """The poured cloud as a LAMMPS ``atom_style granular`` data file: two atom types (1
-    the particles, 2 the platens' material), the box of the deck, one line per sphere
-    (id = demscale's index + 1, type, diameter [m], density [kg/m^3], x, y, z [m])."""
-    lo, hi = box(test)
+def granular_data(
+    title: str, positions: np.ndarray, radii: np.ndarray, density: float, bounds
+) -> str:
+    """Spheres as a LAMMPS ``atom_style granular`` data file headed ``title``: two atom types
+    (1 the particles, 2 the walls' material), the box ``bounds`` = ((xlo, xhi), (ylo, yhi),
+    (zlo, zhi)) [m], one line per sphere (id = demscale's index + 1, type, diameter [m],
+    ``density`` [kg/m^3], x, y, z [m]). The uniaxial deck's and the hopper deck's."""
     lines = [
-        "LAMMPS data file of a demscale uniaxial test (engine.io.liggghts_deck)",
+        title,
         "",
         f"{len(radii)} atoms",
         "2 atom types",
         "",
-        f"{_num(lo[0])} {_num(hi[0])} xlo xhi",
-        f"{_num(lo[1])} {_num(hi[1])} ylo yhi",
-        f"{_num(lo[2])} {_num(hi[2])} zlo zhi",
+        *(f"{_num(lo)} {_num(hi)} {a}lo {a}hi" for (lo, hi), a in zip(bounds, "xyz")),
         "",
         "Atoms",
         "",
     ]
-    rho = _num(test.density)
+    rho = _num(density)
     lines += [
         f"{i + 1} 1 {_num(2 * r)} {rho} {_num(x)} {_num(y)} {_num(z)}"
         for i, (r, (x, y, z)) in enumerate(zip(radii, positions))
     ]
     return "\n".join(lines) + "\n"
+
+
+def data_file(test, positions: np.ndarray, radii: np.ndarray) -> str:
+    """The poured cloud as a LAMMPS data file (:func:`granular_data`) in the box of the
+    deck, atom type 2 the platens' material."""
+    lo, hi = box(test)
+    title = "LAMMPS data file of a demscale uniaxial test (engine.io.liggghts_deck)"
+    return granular_data(title, positions, radii, test.density, tuple(zip(lo, hi)))
 
 
 def plate_stl(x0: float, y0: float, x1: float, y1: float, name: str = "plate") -> str:
@@ -512,25 +550,15 @@ class _Deck:
             self.add(f"#   - {d}")
         self.add(
             "",
-            f"log {LOG}",
-            "echo none",
-            "units si",
-            "atom_style granular",
-            "atom_modify map array sort 0 0.0",
-            "boundary p p f" if periodic else "boundary f f f",
-            "newton off",
-            "communicate single vel yes",
-            "processors * * 1",
-            f"read_data {DATA}",
-            "hard_particles yes",
-            f"neighbor {_num(self.skin)} bin",
-            "neigh_modify delay 0",
-            "",
-            *_materials(t),
-            "",
-            f"timestep {_num(self.dt)}",
-            f"fix grav all gravity {_num(t.gravity)} vector 0.0 0.0 -1.0",
-            "fix integr all nve/sphere",
+            *deck_head(
+                LOG,
+                "boundary p p f" if periodic else "boundary f f f",
+                DATA,
+                self.skin,
+                _materials(t),
+                self.dt,
+                t.gravity,
+            ),
             f"fix wallb all {_wall_model(t)} primitive type 2 zplane 0.0 store_force yes",
             f"fix wallf all {_wall_model(t)} primitive type 2 zplane {_num(fill_top(t))} "
             "store_force yes",

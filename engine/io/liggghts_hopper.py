@@ -54,7 +54,15 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import ParameterError
-from .liggghts_deck import _materials, _num, _pair, _wall_model, check_laws
+from .liggghts_deck import (
+    _materials,
+    _num,
+    _pair,
+    _wall_model,
+    check_laws,
+    deck_head,
+    granular_data,
+)
 
 #: Files of a hopper deck folder.
 HOPPER_DECK = "in.hopper"
@@ -115,27 +123,11 @@ def _geometry(test):
 
 
 def fill_data(test, positions: np.ndarray, radii: np.ndarray, box) -> str:
-    """The poured fill as a LAMMPS ``atom_style granular`` data file: two atom types (1 the
-    particles, 2 the walls' material), the box ``((xlo, xhi), (ylo, yhi), (zlo, zhi))`` [m],
-    one line per sphere (id = demscale's index + 1, type, diameter [m], density [kg/m^3],
-    x, y, z [m])."""
-    lines = [
-        "LAMMPS data file of a demscale hopper (engine.io.liggghts_hopper)",
-        "",
-        f"{len(radii)} atoms",
-        "2 atom types",
-        "",
-        *(f"{_num(lo)} {_num(hi)} {a}lo {a}hi" for (lo, hi), a in zip(box, "xyz")),
-        "",
-        "Atoms",
-        "",
-    ]
-    rho = _num(test.density)
-    lines += [
-        f"{i + 1} 1 {_num(2 * r)} {rho} {_num(x)} {_num(y)} {_num(z)}"
-        for i, (r, (x, y, z)) in enumerate(zip(radii, positions))
-    ]
-    return "\n".join(lines) + "\n"
+    """The poured fill as a LAMMPS data file (:func:`engine.io.liggghts_deck.granular_data`)
+    in the box ``((xlo, xhi), (ylo, yhi), (zlo, zhi))`` [m], atom type 2 the walls'
+    material."""
+    title = "LAMMPS data file of a demscale hopper (engine.io.liggghts_hopper)"
+    return granular_data(title, positions, radii, test.density, box)
 
 
 def deck_meshes(test, geo) -> list:
@@ -223,29 +215,20 @@ class _HopperDeck:
         for line in hopper_differences(t):
             self.add(f"#   - {line}")
         wall_model = _wall_model(t, "HopperTest")
+        # sideways the box grows with the grains (the heap spreads on the catch floor;
+        # demscale keeps a grain that leaves its box in its grid's edge cells)
+        boundary = "boundary m p f" if periodic else "boundary m m f"
         self.add(
             "",
-            f"log {HOPPER_LOG}",
-            "echo none",
-            "units si",
-            "atom_style granular",
-            "atom_modify map array sort 0 0.0",
-            # sideways the box grows with the grains (the heap spreads on the catch floor;
-            # demscale keeps a grain that leaves its box in its grid's edge cells)
-            "boundary m p f" if periodic else "boundary m m f",
-            "newton off",
-            "communicate single vel yes",
-            "processors * * 1",
-            f"read_data {FILL}",
-            "hard_particles yes",
-            f"neighbor {_num(self.skin)} bin",
-            "neigh_modify delay 0",
-            "",
-            *_materials(t, "HopperTest"),
-            "",
-            f"timestep {_num(self.dt)}",
-            f"fix grav all gravity {_num(t.gravity)} vector 0.0 0.0 -1.0",
-            "fix integr all nve/sphere",
+            *deck_head(
+                HOPPER_LOG,
+                boundary,
+                FILL,
+                self.skin,
+                _materials(t, "HopperTest"),
+                self.dt,
+                t.gravity,
+            ),
             "# the hopper's walls and the gate: demscale's triangle meshes",
             *(
                 f"fix {n} all mesh/surface/stress file {f} type 2"

@@ -15,17 +15,10 @@ from dataclasses import dataclass, fields, replace
 from ..contact.bilinear import BilinearAdhesive
 from ..contact.eepa import EEPA
 from ..contact.hertz import HertzMindlin
-from ..contact.registry import pair_laws, wall_laws
 from ..contact.wall import WallMaterial
 from ..core.errors import ParameterError
 from ..core.records import Record, check_fields, param
-from ..uniaxial.spec import (  # the uniaxial test's default laws are the shear test's
-    DEFAULT_PROTOCOL,
-    GRAVITY,
-    UniaxialTest,
-    _cohesionless_law,
-    _platen_law,
-)
+from ..uniaxial.spec import UniaxialTest, fill_param
 
 #: Most shear points (normal stresses) one test takes.
 MAX_POINTS = 8
@@ -93,43 +86,22 @@ class ShearTest(Record):
         max_items=3,
         doc="(Lx, Ly, H): periodic cross-section (x the shear direction) and bed height",
     )
-    radius: float = param(2.5e-3, unit="m", doc="particle radius", gt=0, le=0.05)
-    polydispersity: float = param(
-        0.0, unit="1", doc="radii uniform in [R(1-p), R(1+p)]", ge=0, lt=0.5
+    radius: float = fill_param("radius")
+    polydispersity: float = fill_param("polydispersity")
+    density: float = fill_param("density")
+    gravity: float = fill_param("gravity", doc="gravity of the fill")
+    solid_fraction: float = fill_param(
+        "solid_fraction", doc="solid fraction assumed for the settled bed"
     )
-    density: float = param(2000.0, unit="kg/m^3", doc="particle density", gt=0)
-    gravity: float = param(GRAVITY, unit="m/s^2", gt=0, le=1e4, doc="gravity of the fill")
-    solid_fraction: float = param(
-        0.6, unit="1", gt=0, le=0.74, doc="solid fraction assumed for the settled bed"
+    pour_fraction: float = fill_param("pour_fraction")
+    pour_speed: float | None = fill_param(
+        "pour_speed", doc="largest particle speed during the fill (None: free fall)"
     )
-    pour_fraction: float = param(
-        0.3, unit="1", gt=0, le=0.32, doc="solid fraction of the poured cloud"
+    pair_law: BilinearAdhesive | EEPA | HertzMindlin = fill_param("pair_law")
+    wall_law: HertzMindlin = fill_param(
+        "wall_law", doc="law of the flat floor and of the flat lid of the consolidation"
     )
-    pour_speed: float | None = param(
-        DEFAULT_PROTOCOL["pour_speed"],
-        unit="m/s",
-        gt=0,
-        le=100.0,
-        nullable=True,
-        doc="largest particle speed during the fill (None: free fall)",
-    )
-    pair_law: BilinearAdhesive | EEPA | HertzMindlin = param(
-        unit="",
-        kind="record",
-        types=pair_laws,
-        default_factory=_cohesionless_law,
-        doc="particle-particle contact law",
-    )
-    wall_law: HertzMindlin = param(
-        unit="",
-        kind="record",
-        types=wall_laws,
-        default_factory=_platen_law,
-        doc="law of the flat floor and of the flat lid of the consolidation",
-    )
-    wall_material: WallMaterial = param(
-        unit="", kind="record", default_factory=WallMaterial, doc="floor and lid material"
-    )
+    wall_material: WallMaterial = fill_param("wall_material", doc="floor and lid material")
     preshear_stress: float = param(10e3, unit="Pa", gt=0, doc="normal stress of the pre-shear")
     normal_stresses: tuple[float, ...] = param(
         (2e3, 4e3, 6e3, 8e3),
@@ -171,26 +143,12 @@ class ShearTest(Record):
     servo_tolerance: float = param(
         0.02, unit="1", gt=0, lt=0.5, doc="normal stress held this close before shearing"
     )
-    settle_ke: float = param(
-        1e-4, unit="1", gt=0, doc="settled below this kinetic energy / (N m g R)"
-    )
-    seed: int = param(1, unit="", kind="int", ge=0, lt=2**31, doc="packing seed")
-    output_interval: float = param(1e-3, unit="s", gt=0, doc="time between curve samples")
-    dt: float | None = param(
-        None,
-        unit="s",
-        gt=0,
-        nullable=True,
-        doc="time step (None: dt_fraction of the critical time of the stiffest contact)",
-    )
-    dt_fraction: float = param(
-        DEFAULT_PROTOCOL["dt_fraction"],
-        unit="1",
-        gt=0,
-        le=0.5,
-        doc="with dt None: time step over the critical time of the stiffest contact",
-    )
-    max_stage_time: float = param(5.0, unit="s", gt=0, doc="bound on any stage's time")
+    settle_ke: float = fill_param("settle_ke")
+    seed: int = fill_param("seed")
+    output_interval: float = fill_param("output_interval")
+    dt: float | None = fill_param("dt")
+    dt_fraction: float = fill_param("dt_fraction")
+    max_stage_time: float = fill_param("max_stage_time")
 
     def __post_init__(self) -> None:
         o = "ShearTest"

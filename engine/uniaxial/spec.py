@@ -10,6 +10,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -81,6 +82,80 @@ def _cohesionless_law() -> BilinearAdhesive:
 
 def _platen_law() -> HertzMindlin:
     return HertzMindlin(E=1e8, nu=0.25, restitution=0.4, mu=0.3)
+
+
+#: The fill and material fields every test declares (:class:`UniaxialTest`,
+#: :class:`engine.ShearTest`, :class:`engine.HopperTest`), declared once: each entry is the
+#: arguments of :func:`engine.core.records.param` (default, unit, bounds, description). A test
+#: lists the ones it takes with :func:`fill_param`, in the order of its own JSON form.
+FILL_FIELDS: dict[str, dict] = {
+    "radius": dict(default=2.5e-3, unit="m", doc="particle radius", gt=0, le=0.05),
+    "polydispersity": dict(
+        default=0.0, unit="1", doc="radii uniform in [R(1-p), R(1+p)]", ge=0, lt=0.5
+    ),
+    "density": dict(default=2000.0, unit="kg/m^3", doc="particle density", gt=0),
+    "gravity": dict(
+        default=GRAVITY, unit="m/s^2", gt=0, le=1e4, doc="acceleration of gravity, along -z"
+    ),
+    "solid_fraction": dict(
+        default=0.6, unit="1", gt=0, le=0.74, doc="solid fraction assumed for the settled sample"
+    ),
+    "pour_fraction": dict(
+        default=0.3, unit="1", gt=0, le=0.32, doc="solid fraction of the poured cloud"
+    ),
+    "pour_speed": dict(
+        default=DEFAULT_PROTOCOL["pour_speed"],
+        unit="m/s",
+        gt=0,
+        le=100.0,
+        nullable=True,
+        doc="largest particle speed during the fill (None: free fall from the pour column)",
+    ),
+    "pair_law": dict(
+        unit="",
+        kind="record",
+        types=pair_laws,
+        default_factory=_cohesionless_law,
+        doc="particle-particle contact law",
+    ),
+    "wall_law": dict(
+        unit="",
+        kind="record",
+        types=wall_laws,
+        default_factory=_platen_law,
+        doc="platen contact law (Hertz-Mindlin)",
+    ),
+    "wall_material": dict(
+        unit="", kind="record", default_factory=WallMaterial, doc="platen material"
+    ),
+    "settle_ke": dict(
+        default=1e-4, unit="1", gt=0, doc="settled below this kinetic energy / (N m g R)"
+    ),
+    "seed": dict(default=1, unit="", kind="int", ge=0, lt=2**31, doc="packing seed"),
+    "output_interval": dict(default=1e-3, unit="s", gt=0, doc="time between curve samples"),
+    "dt": dict(
+        default=DEFAULT_PROTOCOL["dt"],
+        unit="s",
+        gt=0,
+        nullable=True,
+        doc="time step (None: dt_fraction of the critical time of the stiffest contact)",
+    ),
+    "dt_fraction": dict(
+        default=DEFAULT_PROTOCOL["dt_fraction"],
+        unit="1",
+        gt=0,
+        le=0.5,
+        doc="with dt None: time step over the critical time of the stiffest contact",
+    ),
+    "max_stage_time": dict(default=5.0, unit="s", gt=0, doc="bound on any stage's time"),
+}
+
+
+def fill_param(name: str, doc: str | None = None) -> Any:
+    """The field ``name`` of :data:`FILL_FIELDS` (a dataclass field, :func:`param`), with
+    ``doc`` in place of its description where given (a test's own words for its walls)."""
+    spec = FILL_FIELDS[name]
+    return param(**(spec if doc is None else {**spec, "doc": doc}))
 
 
 @dataclass(frozen=True)
@@ -186,51 +261,22 @@ class UniaxialTest(Record):
         max_items=3,
         doc="(Lx, Ly, H): periodic cross-section and height the settled sample fills",
     )
-    radius: float = param(2.5e-3, unit="m", doc="particle radius", gt=0, le=0.05)
-    polydispersity: float = param(
-        0.0, unit="1", doc="radii uniform in [R(1-p), R(1+p)]", ge=0, lt=0.5
-    )
-    density: float = param(2000.0, unit="kg/m^3", doc="particle density", gt=0)
-    gravity: float = param(
-        GRAVITY, unit="m/s^2", gt=0, le=1e4, doc="acceleration of gravity, along -z"
-    )
+    radius: float = fill_param("radius")
+    polydispersity: float = fill_param("polydispersity")
+    density: float = fill_param("density")
+    gravity: float = fill_param("gravity")
     gravity_off_after_fill: bool = param(
         False,
         unit="",
         kind="bool",
         doc="switch gravity off once the fill has settled (a diagnostic: no overburden)",
     )
-    solid_fraction: float = param(
-        0.6, unit="1", gt=0, le=0.74, doc="solid fraction assumed for the settled sample"
-    )
-    pour_fraction: float = param(
-        0.3, unit="1", gt=0, le=0.32, doc="solid fraction of the poured cloud"
-    )
-    pour_speed: float | None = param(
-        DEFAULT_PROTOCOL["pour_speed"],
-        unit="m/s",
-        gt=0,
-        le=100.0,
-        nullable=True,
-        doc="largest particle speed during the fill (None: free fall from the pour column)",
-    )
-    pair_law: BilinearAdhesive | EEPA | HertzMindlin = param(
-        unit="",
-        kind="record",
-        types=pair_laws,
-        default_factory=_cohesionless_law,
-        doc="particle-particle contact law",
-    )
-    wall_law: HertzMindlin = param(
-        unit="",
-        kind="record",
-        types=wall_laws,
-        default_factory=_platen_law,
-        doc="platen contact law (Hertz-Mindlin)",
-    )
-    wall_material: WallMaterial = param(
-        unit="", kind="record", default_factory=WallMaterial, doc="platen material"
-    )
+    solid_fraction: float = fill_param("solid_fraction")
+    pour_fraction: float = fill_param("pour_fraction")
+    pour_speed: float | None = fill_param("pour_speed")
+    pair_law: BilinearAdhesive | EEPA | HertzMindlin = fill_param("pair_law")
+    wall_law: HertzMindlin = fill_param("wall_law")
+    wall_material: WallMaterial = fill_param("wall_material")
     pre_stress: float = param(5e3, unit="Pa", doc="pre-compression stress", gt=0)
     consolidation_stress: float = param(
         20e3, unit="Pa", gt=0, doc="consolidation stress (> pre_stress)"
@@ -275,9 +321,7 @@ class UniaxialTest(Record):
     max_unconfined_strain: float = param(
         0.1, unit="1", gt=0, lt=0.8, doc="unconfined compression ends here at the latest"
     )
-    settle_ke: float = param(
-        1e-4, unit="1", gt=0, doc="settled below this kinetic energy / (N m g R)"
-    )
+    settle_ke: float = fill_param("settle_ke")
     release_time: float = param(0.2, unit="s", gt=0, doc="longest release stage")
     interior_margin: float | None = param(
         None,
@@ -286,22 +330,10 @@ class UniaxialTest(Record):
         nullable=True,
         doc="layer at each platen left out of interior measurements (None: 2 diameters)",
     )
-    seed: int = param(1, unit="", kind="int", ge=0, lt=2**31, doc="packing seed")
-    output_interval: float = param(1e-3, unit="s", gt=0, doc="time between curve samples")
-    dt: float | None = param(
-        DEFAULT_PROTOCOL["dt"],
-        unit="s",
-        gt=0,
-        nullable=True,
-        doc="time step (None: dt_fraction of the critical time of the stiffest contact)",
-    )
-    dt_fraction: float = param(
-        DEFAULT_PROTOCOL["dt_fraction"],
-        unit="1",
-        gt=0,
-        le=0.5,
-        doc="with dt None: time step over the critical time of the stiffest contact",
-    )
+    seed: int = fill_param("seed")
+    output_interval: float = fill_param("output_interval")
+    dt: float | None = fill_param("dt")
+    dt_fraction: float = fill_param("dt_fraction")
     strength_from: str = param(
         DEFAULT_PROTOCOL["strength_from"],
         unit="",
@@ -309,7 +341,7 @@ class UniaxialTest(Record):
         choices=("interior", "platen"),
         doc="unconfined strength from the interior virial stress or the top platen",
     )
-    max_stage_time: float = param(5.0, unit="s", gt=0, doc="bound on any stage's time")
+    max_stage_time: float = fill_param("max_stage_time")
 
     def __post_init__(self) -> None:
         o = "UniaxialTest"

@@ -21,6 +21,7 @@ import numpy as np
 
 import engine
 from tests import naive
+from tests.engine.helpers import rel_diff as _rel  # also cuda_measure_cases'
 
 R = 2.5e-3
 
@@ -88,18 +89,6 @@ def scene(
         wall_law=WALL_LAW,
         wall_material=engine.WallMaterial(),
     )
-
-
-def _rel(a, b) -> float:
-    a = np.asarray(a, dtype=np.float64)
-    b = np.asarray(b, dtype=np.float64)
-    if a.shape != b.shape:
-        return float("inf")
-    if a.size == 0:
-        return 0.0
-    scale = float(np.max(np.abs(a)))
-    diff = float(np.max(np.abs(a - b)))
-    return diff / scale if scale > 0 else diff
 
 
 class Compare:

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 import engine
+from benchmarks.engine_speed import scene_for
+from tests import naive
 
 
 def pair_scene(
@@ -38,6 +40,80 @@ def wall_scene(
         wall_law=wall_law,
         wall_material=engine.WallMaterial(),
     )
+
+
+def box_gas(pos, rad, lengths, law, velocities=None, periodic: bool = True) -> engine.Scene:
+    """The particles ``pos``, ``rad`` [m] (density 2000 kg/m^3, ``velocities`` [m/s], None:
+    at rest) in the box ``lengths`` [m] from the origin, periodic along every axis (or along
+    none), without gravity or walls: ``law`` alone acts."""
+    return engine.Scene(
+        pos,
+        rad,
+        2000.0,
+        velocities=velocities,
+        box=[(0, L) for L in lengths],
+        periodic=(periodic,) * 3,
+        gravity=(0, 0, 0),
+        pair_law=law,
+    )
+
+
+def walled_bed(
+    pos,
+    rad,
+    lengths,
+    law,
+    top: float | None = None,
+    platen_speed: float = 0.0,
+    velocities=None,
+    periodic: bool = True,
+) -> engine.Scene:
+    """The particles ``pos``, ``rad`` [m] (density 2000 kg/m^3, gravity 9.81 m/s^2 along -z)
+    in the cell ``lengths`` [m], periodic in x and y (unless ``periodic`` is False), on a
+    floor at z = 0 and, where ``top`` is given, under a platen at height ``top`` [m] moving
+    down at ``platen_speed`` [m/s]; ``law`` between particles, Hertz-Mindlin walls
+    (E = 1e8 Pa, nu = 0.25, mu = 0.3) of the default material: the benchmarks' bed
+    (:func:`benchmarks.engine_speed.scene_for`) with the tests' walls."""
+    return scene_for(
+        pos,
+        rad,
+        lengths,
+        law,
+        top,
+        platen_speed,
+        wall_law=engine.HertzMindlin(E=1e8, nu=0.25, mu=0.3),
+        wall_material=engine.WallMaterial(),
+        velocities=velocities,
+        periodic=periodic,
+    )
+
+
+def stirred_cohesive_bed(n: int, lengths, seed: int, platen_speed: float) -> engine.Scene:
+    """``n`` particles (radii in [0.8 R, R], R = 2.5 mm, overlaps up to 5 %) packed from
+    ``seed`` in the cell ``lengths`` [m] and stirred (velocities 0.05 m/s rms each way),
+    cohesive (f0 = -0.4 N), under a platen at the cell's top moving down at ``platen_speed``
+    [m/s] (:func:`walled_bed`)."""
+    r = 2.5e-3
+    pos, rad = naive.rsa_packing(
+        n, lengths, 0.8 * r, r, seed, max_overlap=0.05, periodic=(True, True, False)
+    )
+    vel = np.random.default_rng(seed).normal(0, 0.05, pos.shape)
+    law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001, restitution=0.4)
+    return walled_bed(pos, rad, lengths, law, lengths[2], platen_speed, velocities=vel)
+
+
+def rel_diff(a, b) -> float:
+    """Largest |a - b| over the largest |a| (the absolute difference where a is all zero);
+    infinite where the shapes differ, zero for empty arrays."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    if a.shape != b.shape:
+        return float("inf")
+    if a.size == 0:
+        return 0.0
+    scale = float(np.max(np.abs(a)))
+    diff = float(np.max(np.abs(a - b)))
+    return diff / scale if scale > 0 else diff
 
 
 def run_until_separated(sim: engine.Simulation, max_steps: int, chunk: int = 1, wall: bool = False):

@@ -11,34 +11,11 @@ import pytest
 
 import engine
 import engine.simulation.simulation as simulation
-from tests import naive
-
-R = 2.5e-3
+from tests.engine.helpers import stirred_cohesive_bed
 
 
 def _scene(platen_speed: float = 0.1) -> engine.Scene:
-    lengths = np.array([0.02, 0.02, 0.03])
-    pos, rad = naive.rsa_packing(
-        200, lengths, 0.8 * R, R, 5, max_overlap=0.05, periodic=(True, True, False)
-    )
-    rng = np.random.default_rng(5)
-    law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001, restitution=0.4)
-    walls = [
-        engine.Plane((0, 0, 0), (0, 0, 1)),
-        engine.Plane((0, 0, 0.03), (0, 0, -1), velocity=(0, 0, -platen_speed)),
-    ]
-    return engine.Scene(
-        pos,
-        rad,
-        2000.0,
-        velocities=rng.normal(0, 0.05, pos.shape),
-        box=[(0, L) for L in lengths],
-        periodic=(True, True, False),
-        walls=walls,
-        pair_law=law,
-        wall_law=engine.HertzMindlin(E=1e8, nu=0.25, mu=0.3),
-        wall_material=engine.WallMaterial(),
-    )
+    return stirred_cohesive_bed(200, np.array([0.02, 0.02, 0.03]), 5, platen_speed)
 
 
 class _Every(engine.Simulation):

@@ -5,6 +5,7 @@ stored runs."""
 
 from __future__ import annotations
 
+import functools
 import importlib
 import math
 from dataclasses import replace
@@ -188,16 +189,12 @@ def test_progress_stop_and_resume(targets, tmp_path):
         seen.append(p)
         return p.run_key != "cal-002"
 
+    # the same calibration, stopped and then resumed on its store
+    run = functools.partial(
+        calibrate, BASE, targets, {"k1": BOX["k1"]}, runs=4, waves=0, store=tmp_path
+    )
     with pytest.raises(engine.StopRequested):
-        calibrate(
-            BASE,
-            targets,
-            {"k1": BOX["k1"]},
-            runs=4,
-            waves=0,
-            store=tmp_path,
-            progress=stop_at_third,
-        )
+        run(progress=stop_at_third)
     assert {p.run_key for p in seen} == {"cal-000", "cal-001", "cal-002"}
     assert all(p.n_runs == 5 for p in seen)  # 4 design runs and the check run
     fractions = [p.fraction for p in seen]
@@ -205,16 +202,7 @@ def test_progress_stop_and_resume(targets, tmp_path):
     stored = sorted(p.name for p in tmp_path.glob("cal-*.h5"))
     assert [n[:7] for n in stored] == ["cal-000", "cal-001"]
     heard, outcomes = [], []
-    cal = calibrate(
-        BASE,
-        targets,
-        {"k1": BOX["k1"]},
-        runs=4,
-        waves=0,
-        store=tmp_path,
-        progress=heard.append,
-        on_run=lambda i, q: outcomes.append((i, q)),
-    )
+    cal = run(progress=heard.append, on_run=lambda i, q: outcomes.append((i, q)))
     assert {p.run_key for p in heard} == {"cal-002", "cal-003", "check"}  # the rest only
     assert [i for i, _ in outcomes] == [0, 1, 2, 3] and heard[-1].fraction == pytest.approx(1.0)
     assert cal.curves["loading"]["stress"] and "flow_function" not in cal.curves

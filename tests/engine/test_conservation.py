@@ -9,6 +9,7 @@ import pytest
 
 import engine
 from tests import naive
+from tests.engine.helpers import box_gas
 
 R = 2.5e-3
 
@@ -79,17 +80,7 @@ def test_momentum_conserved_in_fully_periodic_box():
     rng = np.random.default_rng(9)
     vel = rng.normal(0.0, 0.2, (len(pos), 3))
     law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.05, mu_s=0.5, mu_r=0.001, restitution=0.4)
-    scene = engine.Scene(
-        pos,
-        rad,
-        2000.0,
-        velocities=vel,
-        box=[(0, L) for L in lengths],
-        periodic=(True, True, True),
-        gravity=(0, 0, 0),
-        pair_law=law,
-    )
-    sim = engine.Simulation(scene)
+    sim = engine.Simulation(box_gas(pos, rad, lengths, law, velocities=vel))
     p0 = sim.masses @ sim.velocities
     scale = float(np.sum(sim.masses * np.linalg.norm(sim.velocities, axis=1)))
     sim.run(5000)

@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 
 import engine
+from tests.engine.helpers import rel_diff
 
 ROOT = Path(__file__).resolve().parents[2]
 HAS_NUMBA_CUDA = importlib.util.find_spec("numba_cuda") is not None
@@ -75,18 +76,6 @@ def mesh_scene(n=6, seed=4):
         wall_law=law,
         wall_material=engine.WallMaterial(),
     )
-
-
-def _rel(a, b) -> float:
-    a = np.asarray(a, dtype=np.float64)
-    b = np.asarray(b, dtype=np.float64)
-    if a.shape != b.shape:
-        return float("inf")
-    if a.size == 0:
-        return 0.0
-    scale = float(np.max(np.abs(a)))
-    diff = float(np.max(np.abs(a - b)))
-    return diff / scale if scale > 0 else diff
 
 
 QUANTITIES = (
@@ -149,13 +138,13 @@ def case(name: str) -> dict:
             cpu.run(8)
             gpu.run(8)
         for q in QUANTITIES:
-            rel[q] = max(rel[q], _rel(getattr(cpu, q), getattr(gpu, q)))
+            rel[q] = max(rel[q], rel_diff(getattr(cpu, q), getattr(gpu, q)))
         a, b = cpu.mesh_contacts(), gpu.mesh_contacts()
         if not (np.array_equal(a.particles, b.particles) and np.array_equal(a.meshes, b.meshes)):
             rel["mesh_points"] = float("inf")
         else:
-            rel["mesh_overlaps"] = max(rel["mesh_overlaps"], _rel(a.overlaps, b.overlaps))
-            rel["mesh_points"] = max(rel["mesh_points"], _rel(a.points, b.points))
+            rel["mesh_overlaps"] = max(rel["mesh_overlaps"], rel_diff(a.overlaps, b.overlaps))
+            rel["mesh_points"] = max(rel["mesh_points"], rel_diff(a.points, b.points))
         contacts.append(len(a.particles))
         most = max(most, int(np.max(np.bincount(a.particles))) if a.particles.size else 0)
         walls += len(cpu.contacts().wall_particles)

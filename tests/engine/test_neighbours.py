@@ -12,6 +12,7 @@ import engine
 import engine.simulation.simulation as simulation
 from engine.kernel.neighbour import build_neighbour_list
 from tests import naive
+from tests.engine.helpers import box_gas, walled_bed
 
 R = 2.5e-3
 
@@ -102,16 +103,7 @@ def test_contacts_equal_all_pairs_overlaps():
     lengths = np.array([0.02, 0.02, 0.02])
     pos, rad = naive.rsa_packing(400, lengths, R / 3, R, 5, max_overlap=0.2)
     law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.1, restitution=0.4)
-    scene = engine.Scene(
-        pos,
-        rad,
-        2000.0,
-        box=[(0, L) for L in lengths],
-        periodic=(1, 1, 1),
-        gravity=(0, 0, 0),
-        pair_law=law,
-    )
-    sim = engine.Simulation(scene)
+    sim = engine.Simulation(box_gas(pos, rad, lengths, law))
     c = sim.contacts()
     got = {tuple(p) for p in c.pairs.tolist()}
     expect = naive.all_pairs_within(sim.positions, rad, lengths, (1, 1, 1), 0.0)
@@ -131,19 +123,7 @@ def _sheared_bed(skin, periodic):
     vel = rng.normal(0, 0.05, pos.shape)
     vel[:, 0] += 2.0 * (pos[:, 2] - 0.015)  # a shear flow: contacts slide and roll
     law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.2, mu_s=0.5, mu_r=0.01, restitution=0.5)
-    scene = engine.Scene(
-        pos,
-        rad,
-        2000.0,
-        velocities=vel,
-        box=[(0, L) for L in lengths],
-        periodic=(periodic, periodic, False),
-        gravity=(0, 0, -9.81),
-        walls=[engine.Plane((0, 0, 0), (0, 0, 1))],
-        pair_law=law,
-        wall_law=engine.HertzMindlin(E=1e8, nu=0.25, mu=0.3),
-        wall_material=engine.WallMaterial(),
-    )
+    scene = walled_bed(pos, rad, lengths, law, velocities=vel, periodic=periodic)
     return engine.Simulation(scene, dt=5e-6, skin=skin)
 
 
@@ -221,19 +201,7 @@ def test_renumbering_restores_the_cell_order_after_a_fall():
     vel = np.random.default_rng(6).normal(0.0, 0.3, pos.shape)  # a stirred cloud
     vel[:, 2] -= 2.0
     law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, mu_s=0.3, restitution=0.3)
-    scene = engine.Scene(
-        pos,
-        rad,
-        2000.0,
-        velocities=vel,
-        box=[(0, L) for L in lengths],
-        periodic=(True, True, False),
-        walls=[engine.Plane((0, 0, 0), (0, 0, 1))],
-        pair_law=law,
-        wall_law=engine.HertzMindlin(E=1e8, nu=0.25, mu=0.3),
-        wall_material=engine.WallMaterial(),
-    )
-    sim = engine.Simulation(scene)
+    sim = engine.Simulation(walled_bed(pos, rad, lengths, law, velocities=vel))
     sim.run(simulation.RENUMBER_STEPS)  # ends on the renumbering step, at a whole step
     p = sim._particles
     order = simulation.cell_order(p.pos, p.rad, sim._lo, sim._params.length, sim._periodic)
@@ -264,16 +232,7 @@ def test_list_grows_instead_of_dropping_pairs():
     law = engine.BilinearAdhesive(k1=5e3, k2=5e3, mu_s=0.0, mu_r=0.0, restitution=0.3)
     centre = lengths / 2
     vel = -(pos - centre) * 20.0  # everything rushes to the centre
-    scene = engine.Scene(
-        pos,
-        rad,
-        2000.0,
-        velocities=vel,
-        box=[(0, L) for L in lengths],
-        periodic=(0, 0, 0),
-        gravity=(0, 0, 0),
-        pair_law=law,
-    )
+    scene = box_gas(pos, rad, lengths, law, velocities=vel, periodic=False)
     sim = engine.Simulation(scene, dt=2e-6, max_overlap_fraction=0.9)
     n0 = sim.n_neighbour_entries
     cap0 = sim._list.j.shape[0]

@@ -10,7 +10,7 @@ import pytest
 
 import engine
 from tests import naive
-from tests.engine.helpers import pair_scene, wall_scene
+from tests.engine.helpers import pair_scene, wall_scene, walled_bed
 
 R = 2.5e-3
 
@@ -21,24 +21,8 @@ def _compressed_bed(law, n=400, platen_speed=0.05):
     pos, rad = naive.rsa_packing(
         n, lengths, 0.9 * R, R, 11, max_overlap=0.1, periodic=(True, True, False)
     )
-    walls = [
-        engine.Plane((0, 0, 0), (0, 0, 1)),
-        engine.Plane(
-            (0, 0, float(pos[:, 2].max() + R)), (0, 0, -1), velocity=(0, 0, -platen_speed)
-        ),
-    ]
-    scene = engine.Scene(
-        pos,
-        rad,
-        2000.0,
-        box=[(0, L) for L in lengths],
-        periodic=(True, True, False),
-        walls=walls,
-        pair_law=law,
-        wall_law=engine.HertzMindlin(E=1e8, nu=0.25, mu=0.3),
-        wall_material=engine.WallMaterial(),
-    )
-    return engine.Simulation(scene)
+    top = float(pos[:, 2].max() + R)
+    return engine.Simulation(walled_bed(pos, rad, lengths, law, top, platen_speed))
 
 
 def _assert_finite(sim):

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import engine
-from tests import naive
+from tests.engine.helpers import stirred_cohesive_bed
 
 R = 2.5e-3
 
@@ -18,28 +18,7 @@ pytestmark = pytest.mark.skipif(
 
 def _run(threads: int, calls: int = 1, sim_class=engine.Simulation) -> engine.Simulation:
     """3,000 steps of a 700-particle cohesive bed between platens, in ``calls`` calls."""
-    lengths = np.array([0.03, 0.03, 0.04])
-    pos, rad = naive.rsa_packing(
-        700, lengths, 0.8 * R, R, 21, max_overlap=0.05, periodic=(True, True, False)
-    )
-    rng = np.random.default_rng(21)
-    law = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001, restitution=0.4)
-    walls = [
-        engine.Plane((0, 0, 0), (0, 0, 1)),
-        engine.Plane((0, 0, 0.04), (0, 0, -1), velocity=(0, 0, -0.1)),
-    ]
-    scene = engine.Scene(
-        pos,
-        rad,
-        2000.0,
-        velocities=rng.normal(0, 0.05, pos.shape),
-        box=[(0, L) for L in lengths],
-        periodic=(True, True, False),
-        walls=walls,
-        pair_law=law,
-        wall_law=engine.HertzMindlin(E=1e8, nu=0.25, mu=0.3),
-        wall_material=engine.WallMaterial(),
-    )
+    scene = stirred_cohesive_bed(700, np.array([0.03, 0.03, 0.04]), 21, 0.1)
     old = numba.get_num_threads()
     numba.set_num_threads(threads)
     try:

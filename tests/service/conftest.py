@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import copy
 import os
 import signal
 import socket
@@ -193,10 +194,89 @@ def wait_for(
     pytest.fail(f"timed out waiting for {what}; last: {last}\n{logs}")
 
 
-def study_getter(client: TestClient | httpx.Client, study_id: str) -> Callable[[], dict]:
+def changed(body: dict, path: tuple, value) -> dict:
+    """``body`` with ``value`` at ``path`` (the key removed where ``value`` is ...)."""
+    out = copy.deepcopy(body)
+    node = out
+    for key in path[:-1]:
+        node = node[key]
+    if value is ...:
+        del node[path[-1]]
+    else:
+        node[path[-1]] = value
+    return out
+
+
+#: How long a test waits for a job of seconds of simulation [s]: generous, it includes a
+#: first compilation of the engine's kernels on a cold cache.
+RUN_TIMEOUT = 240
+
+
+def wait_finished(
+    get: Callable[[], dict],
+    what: str,
+    workers: Workers | None = None,
+    timeout: float = RUN_TIMEOUT,
+    seen: list | None = None,
+) -> dict:
+    """Poll ``get()`` (:func:`wait_for`) until the job it reads has succeeded or failed;
+    ``seen``, where given, collects every answer polled (the progress on the way)."""
+
+    def finished(job: dict) -> bool:
+        if seen is not None:
+            seen.append(job)
+        return job["status"] in ("succeeded", "failed")
+
+    return wait_for(get, finished, timeout, what, workers)
+
+
+def data_files(settings: Settings) -> list[Path]:
+    """Every file under the settings' data directory, sorted."""
+    return sorted(p for p in settings.data_dir.rglob("*") if p.is_file())
+
+
+def assert_refused(
+    client: TestClient, settings: Settings, path: str, body: dict, loc: list, words: str
+) -> None:
+    """POST ``body`` to ``path`` (``/studies`` or ``/calibrations``) on an empty store: a 422
+    with an error at ``loc`` whose message holds ``words``, and nothing half-written (no job
+    listed, no file in the data directory)."""
+    before = data_files(settings)
+    r = client.post(path, json=body)
+    assert r.status_code == 422, r.text
+    errors = r.json()["detail"]
+    assert any(e["loc"] == loc and words in e["msg"] for e in errors), errors
+    assert client.get(path).json()["count"] == 0
+    assert data_files(settings) == before
+
+
+def job_getter(client: TestClient | httpx.Client, url: str) -> Callable[[], dict]:
+    """A function that GETs the job at ``url`` (a study's or a calibration's) and returns its
+    JSON, asserting a 200."""
+
     def get() -> dict:
-        r = client.get(f"/studies/{study_id}")
+        r = client.get(url)
         assert r.status_code == 200, r.text
         return r.json()
 
     return get
+
+
+def record_schema(client: TestClient, model: str, record: type) -> dict:
+    """The properties of the request model ``model`` in the app's OpenAPI document, checked
+    against the engine record ``record`` it is derived from: the record's declared fields
+    and its ``type`` tag, ``pair_law`` required, each field's unit as ``x-unit``."""
+    from engine.core.records import describe
+
+    schema = client.get("/openapi.json").json()["components"]["schemas"][model]
+    declared = {info.name: info for info in describe(record)}
+    assert set(schema["properties"]) == set(declared) | {"type"}
+    assert "pair_law" in schema["required"]
+    for name, info in declared.items():
+        if info.unit:
+            assert schema["properties"][name]["x-unit"] == info.unit, name
+    return schema["properties"]
+
+
+def study_getter(client: TestClient | httpx.Client, study_id: str) -> Callable[[], dict]:
+    return job_getter(client, f"/studies/{study_id}")

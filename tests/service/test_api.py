@@ -4,7 +4,6 @@ studies, listing, the OpenAPI docs."""
 
 from __future__ import annotations
 
-import copy
 import uuid
 
 import pytest
@@ -13,20 +12,12 @@ import engine
 from service.cost import worst_case
 from service.spec import StudyCreate
 
-from .conftest import TINY
+from .conftest import TINY, changed
 
 
 def with_changes(path: tuple, value) -> dict:
     """TINY with the value at ``path`` replaced (or the key deleted when value is ...)."""
-    body = copy.deepcopy(TINY)
-    node = body
-    for key in path[:-1]:
-        node = node[key]
-    if value is ...:
-        del node[path[-1]]
-    else:
-        node[path[-1]] = value
-    return body
+    return changed(TINY, path, value)
 
 
 BAD = [

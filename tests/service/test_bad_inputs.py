@@ -4,12 +4,11 @@ documentation promises for a body that is not UTF-8 JSON. No worker runs."""
 
 from __future__ import annotations
 
-import copy
 import json
 
 import pytest
 
-from .conftest import TINIEST, TINY
+from .conftest import TINIEST, TINY, changed
 
 #: A calibration the service accepts (3 design runs and the check run of TINIEST's K1).
 CALIBRATION = {
@@ -23,19 +22,6 @@ CALIBRATION = {
 
 #: The quick preset in a cell within the test settings' particle cap.
 SMALL_QUICK = {"preset": "quick", "cell": [0.05, 0.05, 0.1]}
-
-
-def changed(body: dict, path: tuple, value) -> dict:
-    """``body`` with ``value`` at ``path`` (the key removed where ``value`` is ...)."""
-    out = copy.deepcopy(body)
-    node = out
-    for key in path[:-1]:
-        node = node[key]
-    if value is ...:
-        del node[path[-1]]
-    else:
-        node[path[-1]] = value
-    return out
 
 
 def law(**fields) -> dict:

@@ -8,10 +8,9 @@ import signal
 
 import pytest
 
-from .conftest import SLOW, TINIEST, wait_for
+from .conftest import RUN_TIMEOUT, SLOW, TINIEST, job_getter, wait_finished, wait_for
 
 PNG = b"\x89PNG\r\n\x1a\n"
-RUN_TIMEOUT = 240
 
 #: A calibration of TINIEST's K1 to a loading stiffness: 3 design runs and the check run.
 CALIBRATION = {
@@ -25,12 +24,7 @@ CALIBRATION = {
 
 
 def getter(client, cid: str):
-    def get() -> dict:
-        r = client.get(f"/calibrations/{cid}")
-        assert r.status_code == 200, r.text
-        return r.json()
-
-    return get
+    return job_getter(client, f"/calibrations/{cid}")
 
 
 def submit(client, body=CALIBRATION) -> str:
@@ -48,12 +42,11 @@ def test_a_calibration_runs_end_to_end_then_its_study(client, workers, settings)
     assert client.get(f"/studies/{cid}").status_code == 404  # a calibration, not a study
     workers.start()
     seen = []
-    done = wait_for(
+    done = wait_finished(
         getter(client, cid),
-        lambda c: seen.append(c) or c["status"] in ("succeeded", "failed"),
-        RUN_TIMEOUT,
         "the calibration to finish",
         workers,
+        seen=seen,
     )
     assert done["status"] == "succeeded", done["error"]
     assert any(0 < c["progress"] < 1 and c["current_run"] for c in seen)
@@ -85,10 +78,8 @@ def test_a_calibration_runs_end_to_end_then_its_study(client, workers, settings)
     # the study of the calibrated law, queued by the calibration, runs as any study
     sid = done["study_id"]
     assert sid is not None and res["then_study"] == {"id": sid}
-    study = wait_for(
+    study = wait_finished(
         lambda: client.get(f"/studies/{sid}").json(),
-        lambda s: s["status"] in ("succeeded", "failed"),
-        RUN_TIMEOUT,
         "the study of the calibrated law",
         workers,
     )
@@ -126,10 +117,8 @@ def test_kill_9_mid_calibration_resumes_with_its_stored_runs(client, workers, se
     stored = {p.name: p.stat().st_mtime_ns for p in settings.runs_dir(cid).glob("cal-*.h5")}
     assert stored
     workers.start()
-    done = wait_for(
+    done = wait_finished(
         getter(client, cid),
-        lambda c: c["status"] in ("succeeded", "failed"),
-        RUN_TIMEOUT,
         "the resumed calibration to finish",
         workers,
     )

@@ -11,9 +11,8 @@ import pytest
 from fastapi.testclient import TestClient
 
 from service.app import create_app
-from service.settings import Settings
 
-from .conftest import AUTH
+from .conftest import AUTH, assert_refused
 from .test_calibrations import CALIBRATION
 
 
@@ -40,10 +39,6 @@ MIXED = {
     **CALIBRATION,
     "targets": {**CALIBRATION["targets"], "shear_tester": "jenike", "shear": SHEAR[:1]},
 }
-
-
-def _files(settings: Settings) -> list:
-    return sorted(p for p in settings.data_dir.rglob("*") if p.is_file())
 
 
 @pytest.mark.parametrize("body", [RING, MIXED], ids=["ring_shear", "mixed"])
@@ -125,14 +120,7 @@ def _changed(change) -> dict:
     ],
 )
 def test_bad_shear_data_gets_a_422_naming_the_field(client, settings, change, loc, words):
-    before = _files(settings)
-    r = client.post("/calibrations", json=_changed(change))
-    assert r.status_code == 422, r.text
-    errors = r.json()["detail"]
-    assert any(e["loc"] == loc and words in e["msg"] for e in errors), errors
-    # nothing half-written: no job, no row, no file
-    assert client.get("/calibrations").json()["count"] == 0
-    assert _files(settings) == before
+    assert_refused(client, settings, "/calibrations", _changed(change), loc, words)
 
 
 def test_the_schema_states_the_shear_datas_units_and_rules(client):
@@ -253,9 +241,4 @@ def test_a_shear_cell_of_its_own_is_taken_and_stated(client):
     ],
 )
 def test_a_bad_shear_cell_gets_a_422_naming_the_field(client, settings, body, loc, words):
-    before = _files(settings)
-    r = client.post("/calibrations", json=body)
-    assert r.status_code == 422, r.text
-    errors = r.json()["detail"]
-    assert any(e["loc"] == loc and words in e["msg"] for e in errors), errors
-    assert client.get("/calibrations").json()["count"] == 0 and _files(settings) == before
+    assert_refused(client, settings, "/calibrations", body, loc, words)

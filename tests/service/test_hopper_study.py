@@ -22,11 +22,7 @@ from service.execute import StudyExecution
 from service.models import Study
 from tests.test_cli_hopper import HOPPER_STUDY
 
-from .conftest import AUTH
-
-
-def _files(settings) -> list:
-    return sorted(p for p in settings.data_dir.rglob("*") if p.is_file())
+from .conftest import AUTH, assert_refused, record_schema
 
 
 def test_a_hopper_study_runs_in_the_worker(client, settings):
@@ -92,13 +88,7 @@ def _changed(**fields) -> dict:
     ],
 )
 def test_bad_hopper_values_get_a_422_naming_the_field(client, settings, body, loc, words):
-    before = _files(settings)
-    r = client.post("/studies", json=body)
-    assert r.status_code == 422, r.text
-    errors = r.json()["detail"]
-    assert any(e["loc"] == loc and words in e["msg"] for e in errors), errors
-    assert client.get("/studies").json()["count"] == 0
-    assert _files(settings) == before
+    assert_refused(client, settings, "/studies", body, loc, words)
 
 
 def test_a_hopper_studys_worst_case_counts_against_the_caps(client, settings):
@@ -144,14 +134,5 @@ def test_on_run_stores_an_added_runs_round(client, settings):
 
 
 def test_the_schema_has_the_hopper_reference_from_the_record(client):
-    from engine.core.records import describe
-
-    schema = client.get("/openapi.json").json()["components"]["schemas"]
-    hopper = schema["HopperTestIn"]
-    declared = {info.name: info for info in describe(engine.HopperTest)}
-    assert set(hopper["properties"]) == set(declared) | {"type"}
-    assert "pair_law" in hopper["required"]
-    for name, info in declared.items():
-        if info.unit:
-            assert hopper["properties"][name]["x-unit"] == info.unit, name
-    assert hopper["properties"]["half_angle"]["exclusiveMaximum"] == 90.0
+    hopper = record_schema(client, "HopperTestIn", engine.HopperTest)
+    assert hopper["half_angle"]["exclusiveMaximum"] == 90.0

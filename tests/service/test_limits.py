@@ -21,9 +21,7 @@ from service.execute import StudyExecution
 from service.models import Study
 from service.ratelimit import Buckets
 
-from .conftest import TINY, study_getter, wait_for
-
-RUN_TIMEOUT = 240
+from .conftest import RUN_TIMEOUT, TINY, study_getter, wait_for
 
 
 def tiny(**reference) -> dict:

@@ -19,9 +19,8 @@ from fastapi.testclient import TestClient
 
 from service.app import create_app
 
-from .conftest import AUTH, SLOW, TINIEST, TOKEN, study_getter, wait_for
+from .conftest import AUTH, RUN_TIMEOUT, SLOW, TINIEST, TOKEN, study_getter, wait_finished, wait_for
 
-RUN_TIMEOUT = 240
 PNG = b"\x89PNG\r\n\x1a\n"
 
 
@@ -32,10 +31,8 @@ def submit(client, body) -> str:
 
 
 def finished(client, sid, workers) -> dict:
-    done = wait_for(
+    done = wait_finished(
         study_getter(client, sid),
-        lambda s: s["status"] in ("succeeded", "failed"),
-        RUN_TIMEOUT,
         "the study to finish",
         workers,
     )

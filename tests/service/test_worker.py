@@ -16,11 +16,17 @@ import pytest
 import engine
 from engine.io.store import read_run_group, stage_names
 
-from .conftest import SLOW, TINY, TINY_CONTROLLED, study_getter, wait_for
+from .conftest import (
+    RUN_TIMEOUT,
+    SLOW,
+    TINY,
+    TINY_CONTROLLED,
+    study_getter,
+    wait_finished,
+    wait_for,
+)
 
 PNG = b"\x89PNG\r\n\x1a\n"
-#: Generous: includes a first compilation of the engine's kernels on a cold cache.
-RUN_TIMEOUT = 240
 
 
 def submit(client, body=SLOW) -> str:
@@ -63,12 +69,11 @@ def test_study_runs_end_to_end(client, workers, settings):
     sid = submit(client, TINY_CONTROLLED)
     workers.start()
     seen = []
-    done = wait_for(
+    done = wait_finished(
         study_getter(client, sid),
-        lambda s: seen.append(s) or s["status"] in ("succeeded", "failed"),
-        RUN_TIMEOUT,
         "the study to finish",
         workers,
+        seen=seen,
     )
     assert done["status"] == "succeeded", done["error"]
     assert done["progress"] == 1.0 and done["attempts"] == 1 and done["run_time"] > 0
@@ -279,12 +284,11 @@ def test_a_study_resumes_with_only_its_unfinished_runs(client, workers, settings
     stored_before = sorted(p.stem for p in settings.runs_dir(sid).glob("*.h5"))
     assert "ref-s1" in stored_before and len(stored_before) < 3
     workers.start()
-    done = wait_for(
+    done = wait_finished(
         study_getter(client, sid),
-        lambda s: s["status"] in ("succeeded", "failed"),
-        2 * RUN_TIMEOUT - 30,
         "the resumed study to finish",
         workers,
+        timeout=2 * RUN_TIMEOUT - 30,
     )
     # the attempt that was killed had finished a run: an interruption, not a failure
     assert done["status"] == "succeeded" and done["attempts"] == 1, done["error"]
@@ -302,10 +306,8 @@ def test_a_run_that_fails_fails_the_study_with_the_reason(client, workers):
     body = {**TINY, "reference": {**TINY["reference"], "max_stage_time": 0.02}}
     sid = submit(client, body)
     workers.start()
-    done = wait_for(
+    done = wait_finished(
         study_getter(client, sid),
-        lambda s: s["status"] in ("succeeded", "failed"),
-        RUN_TIMEOUT,
         "the study to fail",
         workers,
     )
@@ -346,12 +348,11 @@ def test_runs_as_tasks_on_a_pool_or_a_dask_cluster(client, workers, settings, wh
     with runs_elsewhere(settings, where):
         sid = submit(client, {**TINY, "reference_seeds": [1, 2], "seeds": [1]})
         workers.start()
-        done = wait_for(
+        done = wait_finished(
             study_getter(client, sid),
-            lambda s: s["status"] in ("succeeded", "failed"),
-            2 * RUN_TIMEOUT - 30,
             f"the study on the {where} to finish",
             workers,
+            timeout=2 * RUN_TIMEOUT - 30,
         )
     assert done["status"] == "succeeded", done["error"]
     assert [r["status"] for r in done["runs"]] == ["succeeded"] * 3
@@ -461,13 +462,7 @@ def test_a_study_that_decides_adds_runs_with_rows_and_shows_them(client, workers
     }
     sid = submit(client, body)
     workers.start()
-    done = wait_for(
-        study_getter(client, sid),
-        lambda s: s["status"] in ("succeeded", "failed"),
-        RUN_TIMEOUT,
-        "the study to finish",
-        workers,
-    )
+    done = wait_finished(study_getter(client, sid), "the study to finish", workers)
     assert done["status"] == "succeeded", done["error"]
     summary = client.get(f"/studies/{sid}/summary").json()
     adaptive = summary["advisor"]["adaptive"]

@@ -93,7 +93,7 @@ def describe(m: dict) -> str:
             f"{_within(m['differs_interval'], how)} against {tol}{left}"
         )
     at = "" if m["level"] is None else f" at its worst level {m['level'] + 1}"
-    how = f"{conf:.1%} one-sided per end, {m['df']:.1f} dof{spread}"
+    how = f"{conf:.1%} one-sided per end, {_dof(m['df'])}{spread}"
     text = f"{m['metric']} {_pct(m['level_error'])}{at}{_within(m['interval'], how)}"
     text += f" against {tol}{left}"
     if m["verdict"] == "undecided":
@@ -125,8 +125,16 @@ def shown(m: dict) -> tuple[float | None, list | None, str]:
     if m["verdict"] == "differs":
         return m["differs_error"], m["differs_interval"], f"{1 - m['alpha_differs']:.1%} one-sided"
     at = "" if m["level"] is None else f", at its worst level {m['level'] + 1}"
-    how = f"{1 - m['alpha_equivalent']:.1%} one-sided per end, {m['df']:.1f} dof{at}"
+    how = f"{1 - m['alpha_equivalent']:.1%} one-sided per end, {_dof(m['df'])}{at}"
     return m["level_error"], m["interval"], how
+
+
+def _dof(df) -> str:
+    """The degrees of freedom in words: infinite where both spreads are zero (stored as
+    null in strict JSON, read back as None)."""
+    if df is None or not math.isfinite(df):
+        return "infinite dof (no spread)"
+    return f"{df:.1f} dof"
 
 
 def _within(interval, how: str) -> str:

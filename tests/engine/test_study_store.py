@@ -145,3 +145,24 @@ def test_the_stored_report_reads_back_typed_and_draws_the_same_figures(old_store
 
     for kind in ("error_vs_runtime", "resolution"):
         assert png(kind, stored) == png(kind, report), kind
+
+
+def test_the_stored_verdicts_read_in_words_with_an_infinite_dof(old_store):
+    # strict JSON stores an infinite dof (both spreads zero) as null: the words of every
+    # stored metric read it (the study page raised TypeError on decide_v0's strength)
+    from engine.study.reasons import describe, shown
+
+    _, _, want = old_store
+    metrics = [
+        m
+        for v in json.loads(want)["advisor"]["verdicts"]
+        for m in v.get("metrics", [])
+        if m.get("interval") is not None
+    ]
+    assert any(m["df"] is None for m in metrics)  # the case this test is for
+    for m in metrics:
+        text = describe(m)
+        assert isinstance(text, str) and m["metric"] in text
+        assert isinstance(shown(m)[2], str)
+        if m["df"] is None and m["verdict"] != "differs":
+            assert "infinite dof" in text

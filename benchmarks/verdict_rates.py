@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from engine.study import judge
+from engine.study import comparison, judge, pooling, rates
 from tests.engine import test_coverage as sim
 
 KINDS = ("normal", "lognormal", "low", "high")
@@ -40,15 +40,22 @@ def _welch_satterthwaite(nc, nr, vc, vr):
 def variant(name: str):
     """The rule (``rule``) or a plain alternative: ``alpha per end`` or
     ``Welch-Satterthwaite``."""
-    saved = judge.EQUIVALENCE_LEVEL, judge.interval_df
+    # where the rule reads them: the rates module's level, the comparison's two paths to
+    # the degrees of freedom (arrays, and numbers for one level)
+    saved = rates.EQUIVALENCE_LEVEL, comparison.interval_df, comparison._interval_df_scalar
     if name == "alpha per end":
-        judge.EQUIVALENCE_LEVEL = 1.0
+        rates.EQUIVALENCE_LEVEL = 1.0
     elif name == "Welch-Satterthwaite":
-        judge.interval_df = lambda nc, nr, vc, vr, *_, **__: _welch_satterthwaite(nc, nr, vc, vr)
+        comparison.interval_df = lambda nc, nr, vc, vr, *_, **__: _welch_satterthwaite(
+            nc, nr, vc, vr
+        )
+        comparison._interval_df_scalar = lambda nc, nr, vc, vr, *_: float(
+            _welch_satterthwaite(nc, nr, vc, vr)
+        )
     try:
         yield
     finally:
-        judge.EQUIVALENCE_LEVEL, judge.interval_df = saved
+        rates.EQUIVALENCE_LEVEL, comparison.interval_df, comparison._interval_df_scalar = saved
 
 
 def coverage(n: int) -> dict:
@@ -148,7 +155,11 @@ def pooled(n: int) -> dict:
     c = sim._draw(rng, (n, 8), 1 + sim.TOL, 2 * sim.SD_COARSE, "normal")
     others = [sim._draw(rng, (n, 8), 1.0, sim.SD_COARSE, "normal") for _ in range(3)]
     ae, ad = judge.error_rates(judge.CONFIDENCE, 1)
-    for level, key in ((None, "no_screen"), (0.05, "screen_5pct"), (judge.SCREEN_LEVEL, "screen")):
+    for level, key in (
+        (None, "no_screen"),
+        (0.05, "screen_5pct"),
+        (pooling.SCREEN_LEVEL, "screen"),
+    ):
         v = judge.judge_samples(c, r, sim.TOL, ae, ad, others=others, level=level)
         out[key] = float(np.mean(v == "equivalent"))
     return out
@@ -173,7 +184,7 @@ def pooled_markdown(po: dict) -> str:
         "A variant with twice the others' spread at +15 %, four groups of 8 seeds, normal "
         f"values: wrong `equivalent` {_pct(po['no_screen'])} pooled without a screen, "
         f"{_pct(po['screen_5pct'])} with a 5 % screen, {_pct(po['screen'])} with the rule's "
-        f"{judge.SCREEN_LEVEL:.0%}.",
+        f"{pooling.SCREEN_LEVEL:.0%}.",
         "",
         "Power, three rules at one radius with 10 % spread, three references at 3 %, error 0:",
         "",

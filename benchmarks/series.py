@@ -8,12 +8,12 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 
 
-def list_runs(todo: Iterable[tuple], stored: Callable, estimate: Callable, line: Callable) -> float:
-    """Print ``line(key, digest, seconds)`` for each run key of ``todo``, ``digest`` its
+def list_runs(keys: Iterable[tuple], stored: Callable, estimate: Callable, line: Callable) -> float:
+    """Print ``line(key, digest, seconds)`` for each run key of ``keys``, ``digest`` its
     stored digest (None: not run yet) and ``seconds`` its estimated CPU time [s]; return the
     estimated CPU time of the runs not stored [s]."""
     total = 0.0
-    for k in todo:
+    for k in keys:
         s, est = stored(*k), estimate(*k)
         if s is None:
             total += est
@@ -22,17 +22,17 @@ def list_runs(todo: Iterable[tuple], stored: Callable, estimate: Callable, line:
 
 
 def run_missing(
-    todo: Iterable[tuple],
+    keys: Iterable[tuple],
     stored: Callable,
     key_name: Callable,
     test_of: Callable,
     run_one: Callable,
     report: str,
 ) -> int:
-    """Run, in order, each run of ``todo`` that has no stored digest, printing what it runs
+    """Run, in order, each run of ``keys`` that has no stored digest, printing what it runs
     and ``run_one``'s line; then the command of the series' report (``python -m report``).
     Returns 0 (the exit status)."""
-    for k in todo:
+    for k in keys:
         if stored(*k) is None:
             print(f"running {key_name(*k)} ({test_of(*k).n_particles} particles)", flush=True)
             print(run_one(*k), flush=True)

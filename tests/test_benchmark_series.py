@@ -6,8 +6,8 @@ from types import SimpleNamespace
 
 from benchmarks.series import list_runs, run_missing
 
-#: Two runs, keyed (1,) and (2,): the first stored, the second not.
-TODO = [(1,), (2,)]
+#: The run keys of a series of two runs, (1,) and (2,): the first stored, the second not.
+KEYS = [(1,), (2,)]
 
 
 def stored(k):
@@ -17,7 +17,7 @@ def stored(k):
 def test_only_the_runs_not_stored_run_in_order(capsys):
     ran = []
     rc = run_missing(
-        [*TODO, (3,)],
+        [*KEYS, (3,)],
         stored,
         lambda k: f"k{k}",
         lambda k: SimpleNamespace(n_particles=10 * k),
@@ -36,6 +36,6 @@ def test_only_the_runs_not_stored_run_in_order(capsys):
 
 
 def test_the_list_counts_only_what_is_left(capsys):
-    total = list_runs(TODO, stored, lambda k: 60.0 * k, lambda k, s, est: f"{k[0]} {s is None}")
+    total = list_runs(KEYS, stored, lambda k: 60.0 * k, lambda k, s, est: f"{k[0]} {s is None}")
     assert total == 120.0
     assert capsys.readouterr().out.splitlines() == ["1 False", "2 True"]

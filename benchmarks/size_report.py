@@ -19,6 +19,7 @@ import math
 
 import numpy as np
 
+from benchmarks import outlet_report
 from benchmarks import size_series as S
 from engine.core.records import to_dict
 from engine.study.metrics import DEFAULT_TOLERANCES, SHEAR_TOLERANCES
@@ -280,6 +281,20 @@ def _size_table(kind: str, law_name: str) -> list[str]:
     return lines
 
 
+#: The law of the outlet series (benchmarks.outlet_series: the Jenike series' law).
+OUTLET_LAW = "bond1"
+
+
+def outlet_need() -> dict | None:
+    """The outlet's need (:func:`feature_need` over :func:`outlet_report.outlet_curves`),
+    with the stress each property's series held [Pa] (None: matched by the law alone)."""
+    curves = outlet_report.outlet_curves()
+    need = feature_need(curves, "hopper")
+    if need is not None:
+        need["stresses"] = curves["stresses"]
+    return need
+
+
 def held_check(law_name: str) -> tuple[bool, str]:
     """Whether every column run held the inertial number within INERTIAL_TOLERANCE of its
     target in every loading stage (each stage's median over its samples; the unconfined
@@ -315,6 +330,10 @@ def evidence() -> dict:
             need = feature_need(feature_curves(feature, law_name), kind)
             if need is not None:
                 features[feature] = need
+        if law_name == OUTLET_LAW:
+            need = outlet_need()
+            if need is not None:
+                features["outlet"] = need
         out["laws"][law_name] = {
             "about": words,
             "pair_law": to_dict(t.pair_law),
@@ -376,7 +395,17 @@ def report() -> str:
                 f"| {FEATURE_WORDS[feature]} | {law_name} | {_fmt_need(need)} | "
                 f"{'' if need is None else need['limited_by']} | {sizes} |"
             )
-    lines.append("| hopper outlet | any | not measured (no outlet size series yet: issue 52) | | |")
+    need = ev["laws"][OUTLET_LAW]["features"].get("outlet")
+    sizes = ", ".join(f"{z:.3g}" for z in outlet_report.outlet_curves()["sizes"])
+    lines.append(
+        f"| hopper outlet (slot, g B held) | {OUTLET_LAW} | {_fmt_need(need)} | "
+        f"{'' if need is None else need['limited_by']} | {sizes} |"
+    )
+    lines += [
+        f"| hopper outlet | {law} | not measured (no outlet series of this law) | | |"
+        for law in S.LAWS
+        if law != OUTLET_LAW
+    ]
     lines += [
         "",
         "A feature kind not in this table is not measured; none is inferred from another.",
@@ -439,12 +468,14 @@ def report() -> str:
             lines += ["", "Runs that ended in an error (left out):", ""]
             lines += [f"- {b}" for b in bad]
         lines.append("")
+    lines += [f"## The hopper outlet (law {OUTLET_LAW})", "", *outlet_report.lines(), ""]
     lines += confound_lines()
     lines += [
         "## Not measured",
         "",
-        "- A hopper outlet (Beverloo's annulus, arching): the engine has the hopper test "
-        "(docs/HOPPER.md) but no outlet size series of the fine law yet (issue 52).",
+        f"- A hopper outlet of a law other than {OUTLET_LAW}, a conical outlet, and the "
+        "discharge at another g B than the series' (the discharge's size effect may depend "
+        "on the cohesion's share of the stress).",
         "- A wall layer against a smooth wall, and a shear band in a free flow.",
         "- Laws other than the bilinear law at f0 = -0.4 and -1.2 N (k1 = 5 kN/m, "
         "mu_s = 0.5, R = 2.5 mm, 20 kPa consolidation): another law's need is not inferred "
@@ -571,9 +602,13 @@ def readme_block(ev: dict | None = None) -> str:
     feats = ev["laws"]["bond1"]["features"]
     kinds = ("bulk_shear", "bulk_compression", "free_surface")
     needs = "; ".join(f"{KIND_WORDS[k]} {_need_words(feats.get(k))}" for k in kinds)
+    outlet = feats.get("outlet")
+    at = ""
+    if outlet is not None and outlet.get("stresses", {}).get("discharge_number"):
+        at = f" (its discharge at {outlet['stresses']['discharge_number'] / 1e3:.2g} kPa)"
     lines = [
         f"- N_req for the default powder's law (f0 = -0.4 N at 20 kPa): {needs}; "
-        "an outlet is not measured (no outlet size series yet).",
+        f"an outlet{at} {_need_words(outlet)}.",
     ]
     base = engine.default_study().reference
     for d0 in (50e-6, 5e-3):

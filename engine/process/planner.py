@@ -330,7 +330,7 @@ def plan_process(process: Process, evidence: dict | None = None) -> ProcessPlan:
             "a law whose dimensionless groups are finite at the feature's stress "
             f"({sigma:.3g} Pa) and diameter",
         )
-    matched, mismatches = None, {}
+    matched, same_law, mismatches = None, None, {}
     for name, law in ev.get("laws", {}).items():
         series_law = from_dict(type(process.pair_law), _strip_type(law["pair_law"]))
         theirs = groups(series_law, 2 * law["radius"], law["consolidation_stress"])
@@ -338,6 +338,10 @@ def plan_process(process: Process, evidence: dict | None = None) -> ProcessPlan:
             mismatches[name] = ["law type"]
             continue
         off = _mismatch(g, theirs)
+        # the same law up to the similarity: the groups match at the series' own stress
+        mine = groups(process.pair_law, process.diameter, law["consolidation_stress"])
+        if same_law is None and not _mismatch(mine, theirs):
+            same_law = name
         if off:
             mismatches[name] = [
                 f"{k} {g.get(k, math.nan):.3g} (series {theirs.get(k):.3g})" for k in off
@@ -348,8 +352,12 @@ def plan_process(process: Process, evidence: dict | None = None) -> ProcessPlan:
     features = []
     L, d0 = process.feature_width, process.diameter
     for kind in kinds:
+        series = matched
         entry = None if matched is None else ev["laws"][matched]["features"].get(kind)
-        if matched is None:
+        if kind == "outlet" and same_law is not None:
+            series = same_law
+            entry = _at_stress(ev["laws"][same_law]["features"].get(kind), sigma)
+        if series is None:
             features.append(
                 FeaturePlan(
                     kind,
@@ -359,17 +367,19 @@ def plan_process(process: Process, evidence: dict | None = None) -> ProcessPlan:
                 )
             )
             continue
-        if entry is None or entry.get("bound") in ("not_linear", "confounded"):
-            if kind == "outlet":
-                why = "not measured: no outlet size series yet (docs/HOPPER.md, issue 52)"
+        if entry is None or entry.get("bound") in ("not_linear", "confounded", "stress"):
+            if kind == "outlet" and entry is not None and entry.get("bound") == "stress":
+                why = entry["why"]
+            elif kind == "outlet":
+                why = "not measured: no outlet size series of this law (docs/RESOLUTION.md)"
             elif entry is not None and entry.get("bound") == "confounded":
                 what = entry.get("why", "a property is confounded")
-                why = f"not decided: in series {matched} {what} (docs/RESOLUTION.md, Confounds)"
+                why = f"not decided: in series {series} {what} (docs/RESOLUTION.md, Confounds)"
             else:
-                why = f"not measured: series {matched} has no decided need for this kind"
+                why = f"not measured: series {series} has no decided need for this kind"
             undecided = entry is not None and entry.get("bound") in ("not_linear", "confounded")
             status = "undecided" if undecided else "not_measured"
-            features.append(FeaturePlan(kind, status, why, evidence=matched))
+            features.append(FeaturePlan(kind, status, why, evidence=series))
             continue
         npt, nb, bound = entry["n_req_point"], entry["n_req_bound"], entry["bound"]
         s_pt, s_b = L / (npt * d0), L / (nb * d0)
@@ -377,20 +387,20 @@ def plan_process(process: Process, evidence: dict | None = None) -> ProcessPlan:
             status = "decided"
             why = (
                 f"N_req = {npt:.3g} particles across (95 % bound {nb:.3g}), set by "
-                f"{entry['limited_by']} (series {matched})"
+                f"{entry['limited_by']} (series {series})"
             )
         elif bound == "more_than":
             status = "bounded"
             why = (
                 f"N_req is more than {nb:.3g} particles across (the finest size run; point "
                 f"estimate {npt:.3g}), set by {entry['limited_by']}: the factor must be "
-                f"below {s_b:.3g} (series {matched})"
+                f"below {s_b:.3g} (series {series})"
             )
         else:
             status = "bounded"
             why = (
                 f"every property held down to {nb:.3g} particles across (the coarsest size "
-                f"run; series {matched}): a factor of {s_b:.3g} is safe, coarser not measured"
+                f"run; series {series}): a factor of {s_b:.3g} is safe, coarser not measured"
             )
         features.append(
             FeaturePlan(
@@ -403,11 +413,47 @@ def plan_process(process: Process, evidence: dict | None = None) -> ProcessPlan:
                 s_max=s_b,
                 s_max_point=s_pt,
                 limited_by=entry["limited_by"],
-                evidence=matched,
-                coarse=_coarse(process, s_b, ev["laws"][matched]) if s_b >= 1 else {},
+                evidence=series,
+                coarse=_coarse(process, s_b, ev["laws"][series]) if s_b >= 1 else {},
             )
         )
     return ProcessPlan(process, g, matched, mismatches, features)
+
+
+def _at_stress(entry: dict | None, sigma: float) -> dict | None:
+    """An outlet's need restricted to the properties that apply at the feature's stress
+    ``sigma`` [Pa]: a property whose series held a stress (``entry["stresses"]``, e.g. the
+    discharge at its held g B) applies within MATCH_TOLERANCE of it; one held at the law's
+    own transition (None: the arching width) applies to the law at any stress. The need is
+    the most demanding remaining property's; ``bound`` "stress" (with ``why``) where none
+    remains."""
+    if entry is None or "per_property" not in entry:
+        return entry
+    stresses = entry.get("stresses", {})
+    keep, dropped = {}, []
+    for name, need in entry["per_property"].items():
+        held = stresses.get(name)
+        if held is not None and abs(sigma - held) > MATCH_TOLERANCE * max(sigma, held):
+            dropped.append(f"{name} (its series held {held:.3g} Pa)")
+            continue
+        keep[name] = need
+    known = {n: v for n, v in keep.items() if v.get("diameters") is not None}
+    if not known:
+        return {
+            "bound": "stress",
+            "why": f"not measured at {sigma:.3g} Pa: " + "; ".join(dropped or ["no property"]),
+        }
+    name = max(known, key=lambda n: (known[n]["bound"] == "more_than", known[n]["diameters"]))
+    out = dict(entry)
+    out.update(
+        limited_by=name,
+        bound=known[name]["bound"],
+        n_req_bound=known[name]["diameters"],
+        n_req_point=max(v["point"] for v in known.values()),
+        tolerance=known[name]["tolerance"],
+        left_out_at_stress=dropped,
+    )
+    return out
 
 
 def _strip_type(d: dict) -> dict:

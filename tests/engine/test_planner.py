@@ -83,7 +83,7 @@ def test_the_factor_is_the_width_over_the_need_and_the_coarse_law_is_the_similar
     kinds = {x.kind: x for x in plan.features}
     assert kinds["free_surface"].status == "bounded" and kinds["free_surface"].bound == "more_than"
     assert kinds["bulk_compression"].status == "undecided"
-    assert kinds["outlet"].status == "not_measured" and "issue 52" in kinds["outlet"].why
+    assert kinds["outlet"].status == "not_measured" and "no outlet" in kinds["outlet"].why
     line = answer_line(plan)
     assert line.startswith("50 um powder, bulk_shear 200 mm wide at 20 kPa: bulk_shear: s_max ")
 
@@ -157,3 +157,42 @@ def test_a_confounded_kind_is_not_decided_and_says_why():
     plan = plan_process(_process(feature_kind="bulk_compression"), ev)
     assert plan.answer.status == "undecided" and plan.answer.s_max is None
     assert "lag the platen" in plan.answer.why and "Confounds" in plan.answer.why
+
+
+def test_an_outlet_property_applies_at_its_series_stress_and_the_arching_width_to_the_law():
+    # the discharge's series held 30 kPa (within 10 % it applies); the arching width is the
+    # law's own transition: it applies to the same law (up to the similarity) at any stress
+    ev = json.loads(json.dumps(EVIDENCE_FAKE))
+    ev["laws"]["fake"]["features"]["outlet"] = {
+        "bound": "needs",
+        "limited_by": "discharge_number",
+        "n_req_point": 30.0,
+        "n_req_bound": 40.0,
+        "per_property": {
+            "discharge_number": {
+                "diameters": 40.0,
+                "bound": "needs",
+                "point": 30.0,
+                "tolerance": 0.1,
+            },
+            "arching_g_b": {"diameters": 20.0, "bound": "needs", "point": 15.0, "tolerance": 0.15},
+        },
+        "stresses": {"discharge_number": 3e4, "arching_g_b": None},
+    }
+    at = {}
+    for stress in (3e4, 2e4, 2e3):
+        plan = plan_process(_process(feature_kind="outlet", stress=stress), ev)
+        at[stress] = plan.answer
+        assert plan.answer.kind == "outlet" and plan.answer.evidence == "fake"
+    assert at[3e4].limited_by == "discharge_number" and at[3e4].n_req_bound == 40.0
+    for stress in (2e4, 2e3):  # the discharge left out, the arching width's need only
+        assert at[stress].limited_by == "arching_g_b" and at[stress].n_req_bound == 20.0
+        assert at[stress].n_req_point == 15.0
+        assert at[stress].s_max == pytest.approx(0.2 / (20.0 * 5e-5))
+    # at 2 kPa the bulk kinds' groups do not match (not measured); the outlet's law does
+    plan = plan_process(_process(feature_kind="outlet", stress=2e3), ev)
+    assert plan.matched is None and plan.answer.status == "decided"
+    # with the arching width gone too, the outlet says at which stress its series ran
+    del ev["laws"]["fake"]["features"]["outlet"]["per_property"]["arching_g_b"]
+    plan = plan_process(_process(feature_kind="outlet", stress=2e4), ev)
+    assert plan.answer.status == "not_measured" and "3e+04 Pa" in plan.answer.why

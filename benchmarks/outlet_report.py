@@ -1,0 +1,242 @@
+"""The outlet's N_req from the stored outlet series (:mod:`benchmarks.outlet_series`, whose
+docstring fixes the series, the fits and the tolerances) and the Jenike series' two
+gravities (:mod:`benchmarks.jenike_series`): the discharge number's and the arching width's
+resolution curves, read by :mod:`benchmarks.size_report` into docs/RESOLUTION.md and the
+planner's evidence (feature kind ``outlet``).
+
+    python -m benchmarks.outlet_report        # print the section (size_report writes it)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from benchmarks import jenike_series as J
+from benchmarks import outlet_series as O
+from engine.study.resolution import diameters_needed, resolution_curves
+
+CONFIDENCE = 0.95
+#: The Jenike series' gravities [m/s^2] with their stored kinds and widths [d].
+JENIKE_GRAVITIES = {
+    J.GRAVITY: ("hopper", J.WIDTHS, J.HOPPER_SEEDS),
+    J.GRAVITY_2: ("hopper_g2", J.G2_WIDTHS, J.G2_SEEDS),
+}
+
+
+def flow_runs() -> dict[float, list]:
+    """The discharge series' stored runs that discharged, per width [d]."""
+    out: dict[float, list] = {}
+    for w in O.FLOW_WIDTHS:
+        ds = [O.stored("flow", O.G_FLOW, w, s) for s in range(1, O.FLOW_SEEDS + 1)]
+        ok = [d for d in ds if d is not None and d.ok]
+        ok = [d for d in ok if math.isfinite(d.scalars["discharge_number"])]
+        if ok:
+            out[w] = ok
+    return out
+
+
+def flow_failures() -> list[str]:
+    """Runs of the discharge series that failed or did not discharge (left out), a line each."""
+    out = []
+    for w in O.FLOW_WIDTHS:
+        for s in range(1, O.FLOW_SEEDS + 1):
+            d = O.stored("flow", O.G_FLOW, w, s)
+            if d is None:
+                continue
+            name = O.key_name("flow", O.G_FLOW, w, s)
+            if not d.ok:
+                out.append(f"{name}: {d.outcome[:160]}")
+            elif not math.isfinite(d.scalars["discharge_number"]):
+                out.append(f"{name}: no steady discharge ({J.describe(d)[:120]})")
+    return out
+
+
+def _arch_runs(g: float, seed: int) -> dict[float, object]:
+    """A seed's stored arching runs at gravity ``g``: width [d] -> digest (ok runs only)."""
+    if g in JENIKE_GRAVITIES:
+        kind, widths, _ = JENIKE_GRAVITIES[g]
+        got = {w: J.stored(kind, w, seed) for w in widths}
+    else:
+        got = {w: O.stored("arch", g, w, seed) for w in O.ARCH_WIDTHS[g]}
+    return {w: d for w, d in got.items() if d is not None and d.ok}
+
+
+def gravities() -> dict[float, int]:
+    """Every gravity of the arching width's series [m/s^2] and its seeds."""
+    out = {g: n for g, (_, _, n) in JENIKE_GRAVITIES.items()}
+    out.update({g: O.ARCH_SEEDS for g in O.ARCH_GRAVITIES})
+    return out
+
+
+def critical_width(runs: dict[float, object]) -> dict:
+    """One seed's critical outlet width [d] from its runs at one gravity: the flow stopped
+    (``stopped``: the mass discharged over the wait stayed under the arch fraction) at the
+    widest width ``below`` and went on at the next width ``above``; B_crit their midpoint.
+    Censored (``width`` None) where the flow stopped at every width or at none, or where a
+    width below ``below`` went on (not monotone: said, and the bracket taken around the
+    widest stop)."""
+    widths = sorted(runs)
+    stops = [w for w in widths if runs[w].scalars["stopped"]]
+    if not stops:
+        return {"width": None, "why": f"discharged at every width ({widths[0]:g}-{widths[-1]:g} d)"}
+    below = max(stops)
+    above = [w for w in widths if w > below]
+    if not above:
+        return {"width": None, "why": f"stopped at every width up to {below:g} d"}
+    monotone = all(runs[w].scalars["stopped"] for w in widths if w < below)
+    return {
+        "width": 0.5 * (below + above[0]),
+        "below": below,
+        "above": above[0],
+        "monotone": monotone,
+    }
+
+
+def arch_table() -> dict[float, list[dict]]:
+    """Per gravity [m/s^2], per seed with runs stored: its critical width and G* = g B_crit
+    [m^2/s^2]."""
+    out = {}
+    for g, n in sorted(gravities().items(), reverse=True):
+        rows = []
+        for seed in range(1, n + 1):
+            runs = _arch_runs(g, seed)
+            if not runs:
+                continue
+            c = critical_width(runs)
+            c["seed"] = seed
+            c["widths_run"] = len(runs)
+            c["g_b"] = None if c["width"] is None else g * c["width"] * O.D
+            rows.append(c)
+        if rows:
+            out[g] = rows
+    return out
+
+
+def _curve(groups: list[list[tuple[float, dict]]], name: str, tol: float) -> dict | None:
+    """The resolution curve of ``name`` over groups of (diameters across, values) per run,
+    the group the most diameters across as the reference; its need at ``tol``."""
+    groups = [g for g in groups if len(g) >= 2]
+    if len(groups) < 3:
+        return None
+    groups.sort(key=lambda g: np.mean([x for x, _ in g]))
+    ref, rest = groups[-1], groups[:-1]
+    controls = {float(np.mean([x for x, _ in g])): g for g in rest}
+    c = resolution_curves(ref, controls, [name], CONFIDENCE, pooled=True)["metrics"].get(name)
+    if c is not None:
+        c["needed"] = diameters_needed(c, tol)
+    return c
+
+
+def outlet_curves() -> dict:
+    """The outlet's curves in :func:`benchmarks.size_report.feature_need`'s form: the
+    discharge number against B / d at the held g B; G* = g B_crit against B_crit / d. The
+    per-property stress the series held [Pa]: rho_b G_FLOW (the discharge runs' mean bulk
+    density) and rho_b G* at the widest critical width (the arching transition)."""
+    flows = flow_runs()
+    by_width = {
+        w: [
+            (d.scalars["outlet_diameters"], {"discharge_number": [d.scalars["discharge_number"]]})
+            for d in ds
+        ]
+        for w, ds in flows.items()
+    }
+    metrics, stresses = {}, {}
+    c = _curve(list(by_width.values()), "discharge_number", O.TOLERANCES["discharge_number"])
+    if c is not None:
+        metrics["discharge_number"] = c
+        rho = float(np.mean([d.scalars["bulk_density"] for ds in flows.values() for d in ds]))
+        stresses["discharge_number"] = rho * O.G_FLOW
+    arch = arch_table()
+    arch_groups = [
+        [(r["width"], {"arching_g_b": [r["g_b"]]}) for r in rows if r["width"] is not None]
+        for rows in arch.values()
+    ]
+    c = _curve(arch_groups, "arching_g_b", O.TOLERANCES["arching_g_b"])
+    if c is not None:
+        metrics["arching_g_b"] = c
+        stresses["arching_g_b"] = None  # the law's own transition: matched by law, not stress
+    sizes = sorted(set(flows) | {round(w, 3) for g in arch_groups for w, _ in g})
+    return {"metrics": metrics, "sizes": sizes, "stresses": stresses}
+
+
+def lines() -> list[str]:
+    """docs/RESOLUTION.md's outlet section (below the heading)."""
+    out = [
+        "From `benchmarks/outlet_series.py` (the series, fits and tolerances fixed in its "
+        "docstring before the runs) and the Jenike series' two gravities: the fine law "
+        f"(bond1) in the slot hopper, every length in units of B, **g B held** (a coarse "
+        "model at factor s of an outlet is exactly the fine law at B / (s d) across it with "
+        "the same g B). Two properties: the discharge number W / (rho sqrt(g) B^1.5 D) at "
+        f"g B = {O.G_FLOW:g} m^2/s^2 (tolerance {100 * O.TOLERANCES['discharge_number']:.0f} "
+        "%), and G* = g B_crit, the g B below which the outlet stops in an arch (tolerance "
+        f"{100 * O.TOLERANCES['arching_g_b']:.0f} %), read at four gravities whose critical "
+        "widths lie at different B / d.",
+        "",
+        "Discharge at the held g B:",
+        "",
+        "| B / d | particles | seeds | discharge number (mean) | se of the mean | "
+        "bulk density [kg/m^3] | mass flow | CPU s (mean) |",
+        "|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    flows = flow_runs()
+    for w, ds in sorted(flows.items()):
+        q = np.array([d.scalars["discharge_number"] for d in ds])
+        se = float(np.std(q, ddof=1) / math.sqrt(len(q))) if len(q) > 1 else math.nan
+        out.append(
+            f"| {w:g} | {int(ds[0].scalars['particles'])} | {len(ds)} | {q.mean():.4f} | "
+            f"{se:.4f} | {np.mean([d.scalars['bulk_density'] for d in ds]):.0f} | "
+            f"{sum(int(d.scalars['mass_flow']) for d in ds)} of {len(ds)} | "
+            f"{np.mean([d.extra['cpu_seconds'] for d in ds]):.0f} |"
+        )
+    out += [
+        "",
+        "Arching: per seed, the critical width is the midpoint between the widest outlet at "
+        "which the flow stopped and the next one run, at which it went on (the flow stopped: "
+        "less than the arch fraction of the mass discharged over the wait, `HopperTest`).",
+        "",
+        "| g [m/s^2] | seed | stopped at [d] | went on at [d] | B_crit [d] | G* = g B_crit "
+        "[m^2/s^2] |",
+        "|---:|---:|---:|---:|---:|---:|",
+    ]
+    for g, rows in arch_table().items():
+        for r in rows:
+            if r["width"] is None:
+                out.append(f"| {g:g} | {r['seed']} | {r['why']} | | | |")
+                continue
+            mono = "" if r["monotone"] else " (not monotone)"
+            out.append(
+                f"| {g:g} | {r['seed']} | {r['below']:g}{mono} | {r['above']:g} | "
+                f"{r['width']:g} | {r['g_b']:.2f} |"
+            )
+    curves = outlet_curves()
+    out += ["", "Curves:", ""]
+    for name in ("discharge_number", "arching_g_b"):
+        c = curves["metrics"].get(name)
+        if c is None:
+            out.append(f"- {name}: no curve yet (fewer than three sizes with two seeds)")
+            continue
+        lo, hi = c["slope_interval"]
+        bulk_lo, bulk_hi = c["bulk_interval"]
+        sizes = ", ".join(f"{s['diameters_across']:.3g}" for s in c["sizes"])
+        n = c["needed"]
+        need = {
+            "needs": f"needs {n['point']:.3g} d (95 % bound {n['diameters']:.3g} d)",
+            "more_than": f"needs more than {n['diameters']:.3g} d (the finest run), point "
+            f"estimate {n['point']:.3g} d",
+            "at_most": f"within tolerance down to {n['diameters']:.3g} d (the coarsest fitted)",
+            "not_linear": "the size means lie off the line: no need read",
+        }[n["bound"]]
+        out.append(
+            f"- {name}: bulk {c['bulk']:.4g} [{bulk_lo:.4g}, {bulk_hi:.4g}], slope of log "
+            f"value in d / B {c['slope']:+.2f} [{lo:+.2f}, {hi:+.2f}] (sizes {sizes} d): {need}"
+        )
+    fails = flow_failures()
+    if fails:
+        out += ["", "Discharge runs left out:", ""] + [f"- {f}" for f in fails]
+    return out
+
+
+if __name__ == "__main__":
+    print("\n".join(lines()))

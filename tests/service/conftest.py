@@ -207,6 +207,13 @@ def changed(body: dict, path: tuple, value) -> dict:
     return out
 
 
+def changed_part(body: dict, part: str, change: Callable[[dict], object]) -> dict:
+    """A deep copy of ``body`` whose ``part`` (a dict) ``change`` has edited in place."""
+    out = copy.deepcopy(body)
+    change(out[part])
+    return out
+
+
 #: How long a test waits for a job of seconds of simulation [s]: generous, it includes a
 #: first compilation of the engine's kernels on a cold cache.
 RUN_TIMEOUT = 240

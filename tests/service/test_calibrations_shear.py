@@ -5,14 +5,12 @@ calibration's worst case."""
 
 from __future__ import annotations
 
-import copy
-
 import pytest
 from fastapi.testclient import TestClient
 
 from service.app import create_app
 
-from .conftest import AUTH, assert_refused
+from .conftest import AUTH, assert_refused, changed_part
 from .test_calibrations import CALIBRATION
 
 
@@ -67,12 +65,6 @@ def test_the_shear_tests_count_in_the_worst_case(client, settings):
         assert c.get("/calibrations").json()["count"] == 2  # the two above, nothing more
 
 
-def _changed(change) -> dict:
-    body = copy.deepcopy(RING)
-    change(body["targets"])
-    return body
-
-
 @pytest.mark.parametrize(
     ("change", "loc", "words"),
     [
@@ -120,7 +112,9 @@ def _changed(change) -> dict:
     ],
 )
 def test_bad_shear_data_gets_a_422_naming_the_field(client, settings, change, loc, words):
-    assert_refused(client, settings, "/calibrations", _changed(change), loc, words)
+    assert_refused(
+        client, settings, "/calibrations", changed_part(RING, "targets", change), loc, words
+    )
 
 
 def test_the_schema_states_the_shear_datas_units_and_rules(client):

@@ -64,13 +64,18 @@ def test_health_and_api_description_need_no_token(anonymous):
     assert anonymous.get("/studies", headers=lower).status_code == 200
 
 
-@pytest.mark.timeout(60)
-def test_one_tokens_studies_are_invisible_to_another(settings, tmp_path):
+def two_tokens(settings, tmp_path, text: str) -> None:
+    """Serve the tokens of a private token file holding ``text`` instead of one token."""
     token_file = tmp_path / "tokens"
-    token_file.write_text(f"# two users\n{TOKEN}\n\n{OTHER}\n")
+    token_file.write_text(text)
     token_file.chmod(0o600)
     settings.api_token = None
     settings.api_token_file = token_file
+
+
+@pytest.mark.timeout(60)
+def test_one_tokens_studies_are_invisible_to_another(settings, tmp_path):
+    two_tokens(settings, tmp_path, f"# two users\n{TOKEN}\n\n{OTHER}\n")
     with TestClient(create_app(settings)) as c:
         mine = c.post("/studies", json=TINY, headers=AUTH)
         assert mine.status_code == 202, mine.text
@@ -100,11 +105,7 @@ def test_one_tokens_studies_are_invisible_to_another(settings, tmp_path):
 
 @pytest.mark.timeout(60)
 def test_queue_bound_in_all_and_per_token_is_429_with_retry_after(settings, tmp_path):
-    token_file = tmp_path / "tokens"
-    token_file.write_text(f"{TOKEN}\n{OTHER}\n")
-    token_file.chmod(0o600)
-    settings.api_token = None
-    settings.api_token_file = token_file
+    two_tokens(settings, tmp_path, f"{TOKEN}\n{OTHER}\n")
     settings.max_active, settings.max_active_per_token, settings.retry_after = 3, 2, 17
     theirs = {"Authorization": f"Bearer {OTHER}"}
     with TestClient(create_app(settings)) as c:

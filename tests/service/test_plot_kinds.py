@@ -5,6 +5,7 @@ spec says which plots they will have): no run."""
 
 from __future__ import annotations
 
+from engine.io.figures import UNIAXIAL_KINDS
 from service.spec import SHEAR_EXAMPLE
 
 from .conftest import TINY
@@ -26,14 +27,7 @@ def plot_links(links: dict) -> set[str]:
 def test_a_uniaxial_study_has_no_shear_plot(client):
     made = submit(client, {**TINY, "controls": True})
     sid = made["id"]
-    kinds = [
-        "stress_strain",
-        "stress_porosity",
-        "coordination",
-        "unconfined",
-        "error_vs_runtime",
-        "resolution",
-    ]
+    kinds = list(UNIAXIAL_KINDS)  # all six: with the unconfined stage and controls
     assert plot_links(made["links"]) == set(kinds)
     detail = client.get(f"/studies/{sid}").json()
     assert detail["plot_kinds"] == kinds and plot_links(detail["links"]) == set(kinds)

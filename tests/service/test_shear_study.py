@@ -16,7 +16,7 @@ from service.app import create_app
 from service.routes.results import StageKind
 from service.spec import SHEAR_EXAMPLE
 
-from .conftest import AUTH, assert_refused, record_schema
+from .conftest import AUTH, assert_refused, changed_part, record_schema
 
 #: The service's documented shear example (service.spec.SHEAR_EXAMPLE: the tests' 120-grain
 #: cell) with a short pre-shear (tests/engine/test_shear_study.py): two reference seeds (a
@@ -138,12 +138,6 @@ def _cohesionless_and_failed(client, settings, sid: str, tmp_path) -> None:
     assert "Failed runs" in page and "ref-s9" in page and "slope tan(phi) = -0.58" in page
 
 
-def _changed(change) -> dict:
-    body = copy.deepcopy(SHEAR_STUDY)
-    change(body["reference"])
-    return body
-
-
 @pytest.mark.parametrize(
     ("change", "loc", "words"),
     [
@@ -196,7 +190,9 @@ def _changed(change) -> dict:
     ],
 )
 def test_bad_shear_values_get_a_422_naming_the_field(client, settings, change, loc, words):
-    assert_refused(client, settings, "/studies", _changed(change), loc, words)
+    assert_refused(
+        client, settings, "/studies", changed_part(SHEAR_STUDY, "reference", change), loc, words
+    )
 
 
 def test_a_uniaxial_reference_is_unchanged_and_its_errors_untagged(client):

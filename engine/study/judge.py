@@ -34,6 +34,33 @@ def _counts(noise: StudyNoise, name: str, key) -> dict:
     return {"left_out": left} if left else {}
 
 
+def _judge(
+    noise: StudyNoise,
+    name: str,
+    key,
+    comp: Comparison,
+    alpha_e: float,
+    alpha_d: float,
+    cons: float,
+    raw_other=REFERENCE,
+    against: str = "reference",
+) -> dict:
+    """:func:`judge_metric` of metric ``name`` of group ``key`` (``comp``) against the
+    references or the group ``raw_other``, with both raw values and the count of left-out
+    values read from ``noise``; ``cons``: the consolidation stress [Pa]."""
+    return judge_metric(
+        name,
+        comp,
+        alpha_e,
+        alpha_d,
+        noise.raw[name, key],
+        noise.raw[name, raw_other],
+        cons,
+        against=against,
+        counts=_counts(noise, name, key),
+    )
+
+
 def compare(noise: StudyNoise, name: str, key, tolerance: float, against=REFERENCE) -> Comparison:
     """Group ``key`` against the references (``against`` = REFERENCE) or another group
     of its radius, unpaired, on the study's compared scale and spreads."""
@@ -51,18 +78,7 @@ def judge_group(noise: StudyNoise, key, tolerances: dict, alpha_e: float, alpha_
     per_metric = []
     for n in noise.names:
         comp = compare(noise, n, key, tolerances[n])
-        per_metric.append(
-            judge_metric(
-                n,
-                comp,
-                alpha_e,
-                alpha_d,
-                noise.raw[n, key],
-                noise.raw[n, REFERENCE],
-                noise.cons,
-                counts=_counts(noise, n, key),
-            )
-        )
+        per_metric.append(_judge(noise, n, key, comp, alpha_e, alpha_d, noise.cons))
     seeds = max((m["seeds"] for m in per_metric), default=0)
     return judged(key[0], key[1], per_metric, seeds)
 
@@ -138,16 +154,7 @@ def judge_values(
         groups[0.0, str(k)] = list(v)
     noise = StudyNoise(ref_values, groups, [name], consolidation_stress)
     comp = compare(noise, name, key, tolerance)
-    return judge_metric(
-        name,
-        comp,
-        alpha_equivalent,
-        alpha_differs,
-        noise.raw[name, key],
-        noise.raw[name, REFERENCE],
-        consolidation_stress,
-        counts=_counts(noise, name, key),
-    )
+    return _judge(noise, name, key, comp, alpha_equivalent, alpha_differs, consolidation_stress)
 
 
 def _judge_by_seed(
@@ -182,17 +189,7 @@ def _judge_by_seed(
             k = sp.map(np.array([np.atleast_1d(others[s][n]) for s in both], dtype=float))
             comp = Comparison(sp, c, k, comp.sc, comp.sr, tol, paired=True)
         per_metric.append(
-            judge_metric(
-                n,
-                comp,
-                alpha_e,
-                alpha_d,
-                noise.raw[n, key],
-                noise.raw[n, raw_other],
-                cons,
-                against=against,
-                counts=_counts(noise, n, key),
-            )
+            _judge(noise, n, key, comp, alpha_e, alpha_d, cons, raw_other, against=against)
         )
     return per_metric, len(both)
 

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
 import engine
 from benchmarks.engine_speed import scene_for
+from engine.study.rates import CONFIDENCE
 from tests import naive
 
 
@@ -152,3 +155,30 @@ def path_forces(law, path, dt: float = 1e-6, radius: float = 2.5e-3) -> np.ndarr
         # force on particle 0 (at -x), repulsive = -x direction; normal n points j -> i
         out.append(float(-c.forces[0, 0]))
     return np.array(out)
+
+
+def deciding_spec(
+    tolerances: dict,
+    rules,
+    max_seeds: int,
+    max_reference_seeds: int = 6,
+    rounds: int = 1,
+    budget: float | None = None,
+    consolidation_stress: float = 2e4,
+) -> SimpleNamespace:
+    """The fields of a deciding study that engine.study.allocate.next_runs and the judge
+    read: relative ``tolerances`` per metric, ``rules`` (objects with a ``name``), the seed
+    caps, a look after the pilot and after each of ``rounds``, the study's confidence, the budget
+    [particle-steps] and the consolidation stress [Pa]."""
+    return SimpleNamespace(
+        reference=SimpleNamespace(consolidation_stress=consolidation_stress),
+        tolerances=tolerances,
+        confidence=CONFIDENCE,
+        decide=True,
+        max_seeds=max_seeds,
+        max_reference_seeds=max_reference_seeds,
+        rounds=rounds,
+        looks=rounds + 1,
+        budget=budget,
+        rules=rules,
+    )

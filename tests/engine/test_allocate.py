@@ -14,23 +14,18 @@ from engine.study import judge
 from engine.study.allocate import headline, next_runs
 from engine.study.noise import StudyNoise
 
+from .helpers import deciding_spec
+
 CONS = 2e4
 R = 5e-3
 
 
 def _spec(rules=("paper", "foil"), budget=None, max_seeds=10):
     names = ("loading_stiffness", "strength")
-    return SimpleNamespace(
-        reference=SimpleNamespace(consolidation_stress=CONS),
-        tolerances=dict.fromkeys(names, 0.15),
-        confidence=0.95,
-        decide=True,
-        max_seeds=max_seeds,
-        max_reference_seeds=6,
-        rounds=1,
-        looks=2,
-        budget=budget,
-        rules=tuple(SimpleNamespace(name=r) for r in rules),
+    rule_names = tuple(SimpleNamespace(name=r) for r in rules)
+    tolerances = dict.fromkeys(names, 0.15)
+    return deciding_spec(
+        tolerances, rule_names, max_seeds, budget=budget, consolidation_stress=CONS
     ), names
 
 

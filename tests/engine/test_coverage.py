@@ -36,6 +36,8 @@ from engine.study.allocate import next_runs
 from engine.study.intervals import hsu_df, t_quantile
 from engine.study.noise import Space, StudyNoise
 
+from .helpers import deciding_spec
+
 CONS = 2e4
 TOL = 0.15
 LO, HI = math.log(1 - TOL), math.log(1 + TOL)
@@ -301,17 +303,8 @@ def _adaptive(
     engine.study.plan.plan_runs does): the fractions finally called equivalent and differs,
     and the mean number of added coarse seeds."""
     name = "loading_stiffness"
-    spec = SimpleNamespace(
-        reference=SimpleNamespace(consolidation_stress=CONS),
-        tolerances={name: TOL},
-        confidence=judge.CONFIDENCE,
-        decide=True,
-        max_seeds=30,
-        max_reference_seeds=10,
-        rounds=rounds,
-        looks=rounds + 1,
-        budget=None,
-        rules=(SimpleNamespace(name="rule"),),
+    spec = deciding_spec(
+        {name: TOL}, (SimpleNamespace(name="rule"),), 30, 10, rounds, consolidation_stress=CONS
     )
     rng = np.random.default_rng(seed)
     key = (5e-3, "rule")
@@ -585,18 +578,7 @@ def _adaptive_pooled(ratios, sds, n=600, seed=0, kind="lognormal"):
     fractions called equivalent and differs, and the mean seeds added to it."""
     name = "loading_stiffness"
     rules = tuple(SimpleNamespace(name=f"rule{i}") for i in range(len(ratios)))
-    spec = SimpleNamespace(
-        reference=SimpleNamespace(consolidation_stress=CONS),
-        tolerances={name: TOL},
-        confidence=judge.CONFIDENCE,
-        decide=True,
-        max_seeds=10,
-        max_reference_seeds=6,
-        rounds=1,
-        looks=2,
-        budget=None,
-        rules=rules,
-    )
+    spec = deciding_spec({name: TOL}, rules, 10, 6, 1, consolidation_stress=CONS)
     rng = np.random.default_rng(seed)
     keys = [(5e-3, r.name) for r in rules]
     costs = {"reference": 8.0, **dict.fromkeys(keys, 1.0)}

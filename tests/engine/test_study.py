@@ -309,20 +309,26 @@ def test_callback_can_stop_a_study():
         engine.run_study(spec, progress=lambda p: p.run_index == 0)
 
 
-def test_a_deciding_study_resumes_with_the_runs_it_added():
-    # a study that adds seeds, interrupted after its first added run: the resumed study
-    # finds the same added runs (replayed from the stored ones) and runs only the rest
-    spec = engine.StudySpec(
+def _adding_study(seeds, reference_seeds):
+    """The tiny study of one coarse radius under the paper's rule that decides in one round
+    and may add seeds up to three of each kind."""
+    return engine.StudySpec(
         reference=tiny(),
         coarse_radii=(3.1e-3,),
-        seeds=(1, 2),
-        reference_seeds=(1,),
+        seeds=seeds,
+        reference_seeds=reference_seeds,
         rules=(engine.ScalingRule.named("paper"),),
         decide=True,
         rounds=1,
         max_seeds=3,
         max_reference_seeds=3,
     )
+
+
+def test_a_deciding_study_resumes_with_the_runs_it_added():
+    # a study that adds seeds, interrupted after its first added run: the resumed study
+    # finds the same added runs (replayed from the stored ones) and runs only the rest
+    spec = _adding_study(seeds=(1, 2), reference_seeds=(1,))
     stored: dict = {}
     full = engine.run_study(spec, on_run=stored.__setitem__)
     added = [a["run"] for a in full.report.adaptive.added_runs]
@@ -341,17 +347,7 @@ def test_a_deciding_study_resumes_with_the_runs_it_added():
 def test_a_control_follows_every_added_coarse_seed():
     # engine.study.plan._added_runs: one control per radius and seed, so that the rule's
     # own error keeps its pairs (judge.judge_rule_error); counted in the budget
-    spec = engine.StudySpec(
-        reference=tiny(),
-        coarse_radii=(3.1e-3,),
-        seeds=(1,),
-        reference_seeds=(1, 2, 3),
-        rules=(engine.ScalingRule.named("paper"),),
-        decide=True,
-        rounds=1,
-        max_seeds=3,
-        max_reference_seeds=3,
-    )
+    spec = _adding_study(seeds=(1,), reference_seeds=(1, 2, 3))
     stored: dict = {}
     res = engine.run_study(spec, on_run=stored.__setitem__)
     added = {a["run"]: a for a in res.report.adaptive.added_runs}

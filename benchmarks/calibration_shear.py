@@ -38,9 +38,16 @@ from engine.calibration.forward import (
 )
 
 ROOT = Path(__file__).resolve().parent.parent
-STORE = ROOT / "benchmarks" / "results" / "calibration_shear_tiny"
-RESULT = STORE / "result.json"
-REPORT = STORE / "report.json"
+
+
+def stored(name: str) -> tuple[Path, Path, Path]:
+    """A shear calibration's folder ``benchmarks/results/<name>`` and its result and report
+    files in it."""
+    store = ROOT / "benchmarks" / "results" / name
+    return store, store / "result.json", store / "report.json"
+
+
+STORE, RESULT, REPORT = stored("calibration_shear_tiny")
 TRUTH = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.2, mu_s=0.5, mu_r=0.001, restitution=0.4)
 #: the law the calibration starts from (its other fields are the truth's: not calibrated)
 START = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.1, mu_s=0.3, mu_r=0.001, restitution=0.4)
@@ -138,22 +145,40 @@ def lab() -> LabTargets:
 def run() -> dict:
     targets = lab()
     (STORE / "lab.json").write_text(json.dumps(targets.to_dict(), indent=1))
-    cal = calibrate(
+    return calibrate_twin(
         base_test(),
         targets,
         BOX,
-        runs=RUNS,
-        waves=WAVES,
-        wave_runs=WAVE_RUNS,
-        store=STORE / "runs",
-        seed=0,
-        shear_test=shear_cell(),
-        # a twin: the same model made the data, no discrepancy to widen by
-        discrepancy=False,
+        (RUNS, WAVES, WAVE_RUNS),
+        STORE,
+        shear_cell(),
         on_run=lambda i, q: print(f"run {i} done", flush=True),
     )
+
+
+def calibrate_twin(test, targets, box, sizes, store: Path, shear_test, on_run, **kw) -> dict:
+    """Calibrate ``test``'s pair law within ``box`` to ``targets`` measured on a twin (the
+    same model made the data: no discrepancy to widen by), design seed 0, with ``sizes`` =
+    (design runs, waves, runs per wave) and ``shear_test`` the shear cell; its runs go to
+    ``store/runs``, its summary (returned) to ``store/result.json``; ``kw``: more of
+    :func:`engine.calibration.calibrate`'s arguments."""
+    runs, waves, wave_runs = sizes
+    cal = calibrate(
+        test,
+        targets,
+        box,
+        runs=runs,
+        waves=waves,
+        wave_runs=wave_runs,
+        store=store / "runs",
+        seed=0,
+        shear_test=shear_test,
+        discrepancy=False,
+        on_run=on_run,
+        **kw,
+    )
     summary = cal.to_summary()
-    RESULT.write_text(json.dumps(summary, indent=1))
+    (store / "result.json").write_text(json.dumps(summary, indent=1))
     return summary
 
 

@@ -59,9 +59,16 @@ from pathlib import Path
 import numpy as np
 
 import engine
-from benchmarks.calibration_shear import _draft, _locus_targets, print_report, truth_aside
+from benchmarks.calibration_shear import (
+    _draft,
+    _locus_targets,
+    calibrate_twin,
+    print_report,
+    stored,
+    truth_aside,
+)
 from benchmarks.calibration_shear import shear_cell as _tiny_cell
-from engine.calibration import LabTargets, calibrate
+from engine.calibration import LabTargets
 from engine.calibration.forward import (
     check_shear_cell,
     measure_shear,
@@ -70,10 +77,7 @@ from engine.calibration.forward import (
 )
 from engine.shear.locus import yield_locus
 
-ROOT = Path(__file__).resolve().parent.parent
-STORE = ROOT / "benchmarks" / "results" / "calibration_shear_kadh"
-RESULT = STORE / "result.json"
-REPORT = STORE / "report.json"
+STORE, RESULT, REPORT = stored("calibration_shear_kadh")
 #: where the calibration's runs, result, report and predictions go (``--vary-seed``: the
 #: ``vary_seed`` folder; the laboratory's runs are shared)
 OUT = STORE
@@ -176,26 +180,18 @@ def lab() -> tuple[dict[str, LabTargets], dict]:
 
 
 def run_calibration(targets: LabTargets) -> dict:
-    cal = calibrate(
+    return calibrate_twin(
         base_test(),
         targets,
         BOX,
-        runs=RUNS,
-        waves=WAVES,
-        wave_runs=WAVE_RUNS,
-        store=OUT / "runs",
-        vary_seed=VARY_SEED,
-        # a twin: the same model made the data, no discrepancy to widen by
-        discrepancy=False,
-        seed=0,
-        shear_test=cell(),
+        (RUNS, WAVES, WAVE_RUNS),
+        OUT,
+        cell(),
         on_run=lambda i, q: print(
             f"run {i} done" + (f": {q}" if isinstance(q, str) else ""), flush=True
         ),
+        vary_seed=VARY_SEED,
     )
-    summary = cal.to_summary()
-    (OUT / "result.json").write_text(json.dumps(summary, indent=1))
-    return summary
 
 
 def _laws(summary: dict) -> list[dict]:

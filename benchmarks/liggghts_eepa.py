@@ -114,18 +114,9 @@ class Case:
         return NEQUIL * k, NSTEPS * k, EVERY * k, WINDOW * k
 
     def eepa(self) -> engine.EEPA:
+        fields = ("k1", "k2", "f0", "n", "chi", "kt_ratio", "mu_s", "mu_r", "restitution")
         return engine.EEPA(
-            k1=self.k1,
-            k2=self.k2,
-            f0=self.f0,
-            kadh=0.0,
-            n=self.n,
-            chi=self.chi,
-            kt_ratio=self.kt_ratio,
-            mu_s=self.mu_s,
-            mu_r=self.mu_r,
-            restitution=self.restitution,
-            friction_cap=self.friction_cap,
+            kadh=0.0, friction_cap=self.friction_cap, **{f: getattr(self, f) for f in fields}
         )
 
     def wall_law(self) -> engine.HertzMindlin:

@@ -156,6 +156,10 @@ def _fine_law(args):
     return engine.similar(law, s), f"{args.law} (R = {radius:g} m) scaled x {s:.4g}"
 
 
+#: The arguments that are the process's fields of the same names.
+_PROCESS_ARGS = ("stress", "density", "velocity", "gravity", "volume", "duration")
+
+
 def plan_cmd(args) -> int:
     import engine
     from engine.process import answer_line
@@ -167,12 +171,7 @@ def plan_cmd(args) -> int:
             diameter=args.diameter,
             feature_width=args.width,
             feature_kind=args.kind,
-            stress=args.stress,
-            density=args.density,
-            velocity=args.velocity,
-            gravity=args.gravity,
-            volume=args.volume,
-            duration=args.duration,
+            **{f: getattr(args, f) for f in _PROCESS_ARGS},
         )
         plan = engine.plan_process(process)
     except (ValueError, engine.ParameterError) as e:

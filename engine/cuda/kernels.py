@@ -95,15 +95,8 @@ def step_kernels(features: dict[str, bool]) -> SimpleNamespace:
         mod = cpu_kernels.load_kernel(features)
         memo: dict = {}
         b = _constants()
-        b.update(
-            CHUNK=mod.CHUNK,
-            OPEN=mod.OPEN,
-            WALLS=mod.WALLS,
-            MESHES=mod.MESHES,
-            FORCES=mod.FORCES,
-            STEP=mod.STEP,
-            CLOSE=mod.CLOSE,
-        )
+        for name in ("CHUNK", "OPEN", "WALLS", "MESHES", "FORCES", "STEP", "CLOSE"):
+            b[name] = getattr(mod, name)
         for name in ("_pair_setup", "_pair_one", "_wall_setup", "_particle_one"):
             b[name] = device_function(getattr(mod, name), memo)
         b["_advance_walls"] = device_function(state._advance_walls, memo)

@@ -67,27 +67,15 @@ class ParamInfo:
             text = what.get(self.kind, "an object")
             return text + " or null" if self.nullable else text
         unit = "" if self.unit in ("", "1") else f" {self.unit}"
-        lo = (
-            f"({self.gt:g}"
-            if self.gt is not None
-            else f"[{self.ge:g}"
-            if self.ge is not None
-            else None
-        )
-        hi = (
-            f"{self.lt:g})"
-            if self.lt is not None
-            else f"{self.le:g}]"
-            if self.le is not None
-            else None
-        )
+        lo = _bound(self.gt, self.ge, "({:g}", "[{:g}")
+        hi = _bound(self.lt, self.le, "{:g})", "{:g}]")
         what = "an integer" if self.kind == "int" else "a finite number"
         if lo and hi:
             text = f"in {lo}, {hi}{unit}"
         elif lo:
-            text = (f"> {self.gt:g}" if self.gt is not None else f">= {self.ge:g}") + unit
+            text = _bound(self.gt, self.ge, "> {:g}", ">= {:g}") + unit
         elif hi:
-            text = (f"< {self.lt:g}" if self.lt is not None else f"<= {self.le:g}") + unit
+            text = _bound(self.lt, self.le, "< {:g}", "<= {:g}") + unit
         else:
             text = what + unit
         if self.nullable:
@@ -101,6 +89,16 @@ class ParamInfo:
             and (self.lt is None or v < self.lt)
             and (self.le is None or v <= self.le)
         )
+
+
+def _bound(strict, inclusive, strict_text: str, inclusive_text: str) -> str | None:
+    """One end of a range in words: the strict bound in ``strict_text``, else the inclusive
+    one in ``inclusive_text`` (format strings of the number), else None."""
+    if strict is not None:
+        return strict_text.format(strict)
+    if inclusive is not None:
+        return inclusive_text.format(inclusive)
+    return None
 
 
 def param(

@@ -5,6 +5,7 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 import engine
 from benchmarks.engine_speed import scene_for
@@ -182,3 +183,22 @@ def deciding_spec(
         budget=budget,
         rules=rules,
     )
+
+
+def whole_run_fixtures(run, tiny, cohesive_law):
+    """The module-scoped fixtures of a test kind's whole runs, each run once per module by
+    ``run`` (engine.run_uniaxial, engine.run_shear): ``cohesionless``, the result of
+    ``tiny()`` and every progress report's (stage, fraction); ``cohesive``, the result of
+    ``tiny(pair_law=cohesive_law)``. Assign both to module names of the same names."""
+
+    @pytest.fixture(scope="module", name="cohesionless")
+    def cohesionless():
+        seen = []
+        res = run(tiny(), progress=lambda p: seen.append((p.stage, p.fraction)))
+        return res, seen
+
+    @pytest.fixture(scope="module", name="cohesive")
+    def cohesive():
+        return run(tiny(pair_law=cohesive_law))
+
+    return cohesionless, cohesive

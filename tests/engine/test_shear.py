@@ -19,6 +19,8 @@ from engine.shear.locus import (
     yield_locus,
 )
 
+from .helpers import whole_run_fixtures
+
 #: The cohesive law of tests/engine/test_uniaxial.py's cohesive bed (pull-off 0.4 N, about
 #: the contact force sigma d^2 = 0.25 N at the pre-shear stress of 10 kPa).
 COHESIVE = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001)
@@ -222,16 +224,7 @@ def test_the_servo_guard_tames_a_gain_far_too_high():
 
 
 # ---------------------------------------------------------------------- whole tests
-@pytest.fixture(scope="module")
-def cohesionless():
-    seen = []
-    res = engine.run_shear(tiny(), progress=lambda p: seen.append((p.stage, p.fraction)))
-    return res, seen
-
-
-@pytest.fixture(scope="module")
-def cohesive():
-    return engine.run_shear(tiny(pair_law=COHESIVE))
+cohesionless, cohesive = whole_run_fixtures(engine.run_shear, tiny, COHESIVE)
 
 
 def test_a_shear_test_gives_its_locus_curves_and_progress(cohesionless):

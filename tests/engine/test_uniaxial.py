@@ -11,6 +11,8 @@ import pytest
 import engine
 from engine.uniaxial.driver import STAGES
 
+from .helpers import whole_run_fixtures
+
 R = 2.5e-3
 COHESIVE = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001, restitution=0.4)
 
@@ -29,16 +31,7 @@ def tiny(**kw) -> engine.UniaxialTest:
     return engine.UniaxialTest(**{**base, **kw})
 
 
-@pytest.fixture(scope="module")
-def cohesionless():
-    seen = []
-    res = engine.run_uniaxial(tiny(), progress=lambda p: seen.append((p.stage, p.fraction)))
-    return res, seen
-
-
-@pytest.fixture(scope="module")
-def cohesive():
-    return engine.run_uniaxial(tiny(pair_law=COHESIVE))
+cohesionless, cohesive = whole_run_fixtures(engine.run_uniaxial, tiny, COHESIVE)
 
 
 def test_stages_run_in_order_and_reach_their_targets(cohesionless):

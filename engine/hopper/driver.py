@@ -21,7 +21,6 @@ import bisect
 import math
 import os
 import time
-import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -31,7 +30,13 @@ from ..core.errors import StopRequested, WallTimeExceeded
 from ..simulation.simulation import Simulation
 from ..simulation.snapshot import Snapshot, capture
 from ..simulation.timestep import critical_time_step
-from ..uniaxial.checkpoint import TRAJECTORY_PACKAGES, Checkpoint, check_interval, this_code
+from ..uniaxial.checkpoint import (
+    TRAJECTORY_PACKAGES,
+    Checkpoint,
+    check_interval,
+    resume,
+    this_code,
+)
 from ..uniaxial.driver import StageError
 from ..uniaxial.results import RESUMED, Progress, ProgressCallback
 from .measures import (
@@ -477,26 +482,17 @@ def run_hopper(
         check_interval(max_wall_time, "run_hopper.max_wall_time")
     if snapshot_interval is not None:
         check_interval(snapshot_interval, "run_hopper.snapshot_interval")
-    if checkpoint is not None and not isinstance(checkpoint, Checkpoint):
-        checkpoint = Checkpoint(checkpoint)
-    run = None
-    if checkpoint is not None:
-        t0 = time.perf_counter()
-        run = checkpoint.load(test, HOPPER_TRAJECTORY)
-        if run is not None and not isinstance(run, HopperRun):
-            warnings.warn(
-                f"checkpoint {checkpoint.path} holds no hopper run; the run starts from the "
-                "beginning",
-                RuntimeWarning,
-                stacklevel=2,
-            )
-            run = None
-        if run is not None:  # loading its kernel is set-up time, as for a new Simulation
-            load = time.perf_counter() - t0
-            run.setup += load
-            run.t0 += load
-            run.progress = progress
-    if run is None:
+    checkpoint, run, load = resume(
+        checkpoint,
+        test,
+        lambda state: None if isinstance(state, HopperRun) else "holds no hopper run",
+        HOPPER_TRAJECTORY,
+    )
+    if run is not None:
+        run.setup += load
+        run.t0 += load
+        run.progress = progress
+    else:
         run = HopperRun(test, progress, max_wall_time, wall_time_setting, threads)
     run.checkpoint = checkpoint
     run.on_snapshot = on_snapshot

@@ -32,6 +32,7 @@ import sys
 import time
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numba
 
@@ -133,6 +134,30 @@ def check_interval(interval: float, field: str) -> None:
         raise ParameterError(field, interval, "a wall time > 0 s")
 
 
+def resume(checkpoint, test, refuse, *packages) -> tuple[Checkpoint | None, Any, float]:
+    """What a run needs of its ``checkpoint`` argument (a :class:`Checkpoint`, a path or
+    None): it as a Checkpoint (or None), the driver state it holds for ``test``
+    (:meth:`Checkpoint.load`, with ``packages`` where given) or None, and the wall time the
+    load took [s] (set-up time, as a new Simulation's kernel). A state ``refuse(state)``
+    gives a reason against (words that follow the path) is warned about and not resumed.
+    The warnings name the run's caller."""
+    if checkpoint is None:
+        return None, None, 0.0
+    if not isinstance(checkpoint, Checkpoint):
+        checkpoint = Checkpoint(checkpoint)
+    t0 = time.perf_counter()
+    state = checkpoint.load(test, *packages, stacklevel=4)
+    why = None if state is None else refuse(state)
+    if why:
+        warnings.warn(
+            f"checkpoint {checkpoint.path} {why}; the run starts from the beginning",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+        state = None
+    return checkpoint, state, time.perf_counter() - t0
+
+
 class Checkpoint:
     """Where a run's checkpoint lives and how often it is written.
 
@@ -164,10 +189,10 @@ class Checkpoint:
         self._last = time.monotonic()
 
     # ------------------------------------------------------------------ reading
-    def load(self, test, packages: tuple[str, ...] = TRAJECTORY_PACKAGES):
+    def load(self, test, packages: tuple[str, ...] = TRAJECTORY_PACKAGES, stacklevel: int = 3):
         """The driver state stored for ``test``, or None (no file, another test, other code
         of the engine's ``packages`` its run steps through, or an unreadable file: each is
-        warned about and ignored)."""
+        warned about, at ``stacklevel``, and ignored)."""
         try:
             with open(self.path, "rb") as fh:
                 stored = pickle.load(fh)
@@ -178,7 +203,7 @@ class Checkpoint:
                 f"checkpoint {self.path} is unreadable ({type(e).__name__}: {e}); "
                 "the run starts from the beginning",
                 RuntimeWarning,
-                stacklevel=3,
+                stacklevel=stacklevel,
             )
             return None
         why = None
@@ -192,7 +217,7 @@ class Checkpoint:
             warnings.warn(
                 f"checkpoint {self.path} is {why}; the run starts from the beginning",
                 RuntimeWarning,
-                stacklevel=3,
+                stacklevel=stacklevel,
             )
             return None
         driver = stored["driver"]

@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 import os
 import time
-import warnings
 from collections.abc import Callable
 
 import numpy as np
@@ -24,7 +23,7 @@ from ..simulation.backend import check_backend, resolve_backend
 from ..simulation.packing import sphere_volume
 from ..simulation.simulation import Simulation
 from ..simulation.snapshot import capture
-from .checkpoint import Checkpoint, check_interval, this_code
+from .checkpoint import Checkpoint, check_interval, resume, this_code
 from .measures import (
     SOFTENING,
     FailureDetector,
@@ -723,26 +722,18 @@ def run_uniaxial(
     if max_wall_time is not None:
         check_interval(max_wall_time, "run_uniaxial.max_wall_time")
     backend = check_backend(backend, "run_uniaxial.backend")
-    if checkpoint is not None and not isinstance(checkpoint, Checkpoint):
-        checkpoint = Checkpoint(checkpoint)
-    d = None
-    if checkpoint is not None:
-        t0 = time.perf_counter()
-        d = checkpoint.load(test)
-        if d is not None and d.sim.backend != resolve_backend(backend, "run_uniaxial.backend"):
-            warnings.warn(
-                f"checkpoint {checkpoint.path} was written on the {d.sim.backend} "
-                "backend, not the one asked for; the run starts from the beginning",
-                RuntimeWarning,
-                stacklevel=2,
-            )
-            d = None
-        if d is not None:  # loading its kernel is set-up time, as for a new Simulation
-            load = time.perf_counter() - t0
-            d.setup_time += load
-            d.t_wall -= load  # wall_time = now - t_wall - setup_time
-            d.progress, d.on_snapshot = progress, on_snapshot
-    if d is None:
+
+    def refuse(state) -> str | None:
+        if state.sim.backend == resolve_backend(backend, "run_uniaxial.backend"):
+            return None
+        return f"was written on the {state.sim.backend} backend, not the one asked for"
+
+    checkpoint, d, load = resume(checkpoint, test, refuse)
+    if d is not None:
+        d.setup_time += load
+        d.t_wall -= load  # wall_time = now - t_wall - setup_time
+        d.progress, d.on_snapshot = progress, on_snapshot
+    else:
         d = _Driver(test, progress, on_snapshot, snapshot_interval, backend)
     d.checkpoint = checkpoint
     d.max_wall_time, d.wall_time_setting = max_wall_time, wall_time_setting

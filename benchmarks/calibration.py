@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 import engine
+from benchmarks.checks import publish
 from engine.calibration import LabTargets, StrengthPoint, calibrate
 from engine.calibration.calibrate import DETERMINED, branch_stresses, measure
 from engine.contact.registry import LAWS
@@ -309,9 +310,7 @@ def main(argv=None) -> int:
         from engine.io.figures import calibration_figure
 
         calibration_figure(summary).savefig(FIGURE)
-    text = report(summary)
-    REPORT.write_text(text)
-    print(text)
+    publish(REPORT, report(summary))
     return 0
 
 

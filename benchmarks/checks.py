@@ -44,6 +44,12 @@ def report(checks: list[tuple[str, bool]]) -> int:
     return 0 if all(ok for _, ok in checks) else 1
 
 
+def publish(path: Path, text: str) -> None:
+    """Write a benchmark's report ``text`` to ``path`` and print it."""
+    path.write_text(text)
+    print(text)
+
+
 def write_marked(doc: Path, begin: str, end: str, text: str, title: str) -> None:
     """Put ``text`` between the markers ``begin`` and ``end`` of the Markdown file ``doc``,
     replacing what stood between them; a file without both markers gets the marked block

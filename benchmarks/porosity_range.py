@@ -81,6 +81,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.checks import publish
 from engine.calibration.calibrate import compression_branch
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -393,9 +394,7 @@ def main(argv=None) -> int:
     s = summary()
     STORE.mkdir(parents=True, exist_ok=True)
     SUMMARY.write_text(json.dumps(s, indent=1) + "\n")
-    text = report_text(s)
-    REPORT.write_text(text)
-    print(text)
+    publish(REPORT, report_text(s))
     return 0
 
 

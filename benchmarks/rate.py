@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.checks import publish
 from engine.io.store import load_run, save_run
 from engine.study.judge import judge_groups
 from engine.study.metrics import metric_names, metric_values
@@ -174,9 +175,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if not args.report:
         run(args.workers)
-    text = report()
-    REPORT.write_text(text)
-    print(text)
+    publish(REPORT, report())
     return 0
 
 

@@ -46,6 +46,18 @@ def _values(rng, n, ratio, sd):
     return out
 
 
+def _paper_alone(seed, ref_sd, ratio, sd, reference_cost, max_seeds):
+    """The paper rule alone at radius R: 3 reference seeds of spread ``ref_sd`` and 3 coarse
+    ones at ``ratio`` of spread ``sd`` (drawn from ``seed``), a coarse run costing 1 and a
+    reference run ``reference_cost``: (spec, names, groups, refs, costs)."""
+    spec, names = _spec(("paper",), max_seeds=max_seeds)
+    rng = np.random.default_rng(seed)
+    refs = _values(rng, 3, 1.0, ref_sd)
+    groups = {(R, "paper"): _values(rng, 3, ratio, sd)}
+    costs = {"reference": reference_cost, (R, "paper"): 1.0}
+    return spec, names, groups, refs, costs
+
+
 def _round(spec, names, groups, refs, costs, budget=None, control_costs=None):
     noise = StudyNoise(refs, groups, names, CONS)
     ae, ad = judge.error_rates(spec.confidence, len(names), 1, spec.looks)
@@ -85,11 +97,7 @@ def test_no_seed_for_a_variant_its_headline_metric_tells_apart():
 
 
 def test_a_control_is_reserved_with_each_coarse_seed():
-    spec, names = _spec(("paper",), max_seeds=10)
-    rng = np.random.default_rng(3)
-    refs = _values(rng, 3, 1.0, 0.02)
-    groups = {(R, "paper"): _values(rng, 3, 1.0, 0.06)}
-    costs = {"reference": 100.0, (R, "paper"): 1.0}
+    spec, names, groups, refs, costs = _paper_alone(3, 0.02, 1.0, 0.06, 100.0, max_seeds=10)
     # a budget of two coarse runs: two seeds alone, or one seed and its control
     free, _ = _round(spec, names, groups, refs, costs, budget=2.0)
     paired, _ = _round(spec, names, groups, refs, costs, budget=2.0, control_costs={R: 1.0})
@@ -102,11 +110,7 @@ def test_a_control_is_reserved_with_each_coarse_seed():
 def test_nothing_for_a_variant_at_its_tolerance():
     # an error sitting at the tolerance with a small spread: no seed count within the caps
     # decides it, so it takes none (futility: stopping never makes a wrong verdict)
-    spec, names = _spec(("paper",), max_seeds=6)
-    rng = np.random.default_rng(4)
-    refs = _values(rng, 3, 1.0, 0.001)
-    groups = {(R, "paper"): _values(rng, 3, 1.15, 0.001)}
-    costs = {"reference": 8.0, (R, "paper"): 1.0}
+    spec, names, groups, refs, costs = _paper_alone(4, 0.001, 1.15, 0.001, 8.0, max_seeds=6)
     adds, verdicts = _round(spec, names, groups, refs, costs)
     assert verdicts[0]["verdict"] == "undecided" and adds == []
 

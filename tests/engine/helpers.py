@@ -202,3 +202,12 @@ def whole_run_fixtures(run, tiny, cohesive_law):
         return run(tiny(pair_law=cohesive_law))
 
     return cohesionless, cohesive
+
+
+def switches_on(switch_tuple, *on: str):
+    """A law's step-kernel switches (``switch_tuple``, its named tuple of booleans) with the
+    ones named in ``on`` on and every other one off."""
+    unknown = set(on) - set(switch_tuple._fields)
+    if unknown:
+        raise ValueError(f"{switch_tuple.__name__} has no switch {sorted(unknown)}")
+    return switch_tuple(**{name: name in on for name in switch_tuple._fields})

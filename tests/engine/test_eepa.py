@@ -16,7 +16,7 @@ from engine.contact.eepa import eepa_impact_overlap
 from engine.contact.limits import oscillator_limit
 from engine.core.config import DT_FRACTION
 from engine.kernel import specialise as kernels
-from tests.engine.helpers import pair_scene, path_forces, run_until_separated
+from tests.engine.helpers import pair_scene, path_forces, run_until_separated, switches_on
 from tests.engine.test_kernels import _bed
 
 R = 2.5e-3
@@ -211,15 +211,7 @@ def _contact(flags, f_el_case):
 def test_friction_cap_conventions():
     """On the adhesive plateau (f_hys = f0, kadh = 0) the EEPA cap allows no friction; the
     LIGGGHTS cap mu |F_n| allows mu |f0|."""
-    plain = eepa.EEPASwitches(
-        friction=True,
-        rolling=False,
-        damping=False,
-        normal_cap=False,
-        adhesion=True,
-        adhesive_branch=False,
-        plastic=True,
-    )
+    plain = switches_on(eepa.EEPASwitches, "friction", "adhesion", "plastic")
     total = plain._replace(normal_cap=True)
     fn, ft = _contact(plain, "plateau")
     assert fn == pytest.approx(F0) and ft == 0.0

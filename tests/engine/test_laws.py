@@ -12,7 +12,7 @@ from engine.contact import bilinear
 from engine.contact import compose as laws
 from engine.contact import hertz as hertz_law
 from tests import naive
-from tests.engine.helpers import pair_scene, path_forces
+from tests.engine.helpers import pair_scene, path_forces, switches_on
 
 K1, K2, F0 = 5e3, 2.5e4, -0.4
 LAM = 1 - K1 / K2
@@ -85,16 +85,10 @@ def test_scalar_kernel_matches_naive_on_random_paths(kadh):
         assert dmax_k == dmax_n
 
 
-BILINEAR_FLAGS = bilinear.BilinearSwitches(
-    friction=True,
-    rolling=False,
-    damping=False,
-    normal_cap=False,
-    adhesion=True,
-    adhesive_branch=True,
-    plastic=True,
+BILINEAR_FLAGS = switches_on(
+    bilinear.BilinearSwitches, "friction", "adhesion", "adhesive_branch", "plastic"
 )
-HERTZ_FLAGS = hertz_law.HertzSwitches(friction=True, rolling=False, damping=False, normal_cap=False)
+HERTZ_FLAGS = switches_on(hertz_law.HertzSwitches, "friction")
 BILINEAR_FORCE = laws.composition(bilinear.KERNEL).force
 HERTZ_FORCE = laws.composition(hertz_law.KERNEL).force
 

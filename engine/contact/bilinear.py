@@ -66,7 +66,6 @@ def tangential_stiffness(d, r_star, law, tangent):
 KERNEL = LawKernel(
     name="bilinear",
     module=__name__,
-    attribute="KERNEL",
     params=BilinearParams,
     switch_tuple=BilinearSwitches,
     slots=ADHESIVE_SLOTS,

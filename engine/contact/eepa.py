@@ -83,7 +83,6 @@ def tangential_stiffness(d, r_star, law, tangent):
 KERNEL = LawKernel(
     name="eepa",
     module=__name__,
-    attribute="KERNEL",
     params=EEPAParams,
     switch_tuple=EEPASwitches,
     slots=(*ADHESIVE_SLOTS, Slot("n"), Slot("chi")),

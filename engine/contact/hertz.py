@@ -114,7 +114,6 @@ def tangential_stiffness(d, r_star, law, tangent):
 KERNEL = LawKernel(
     name="hertz",
     module=__name__,
-    attribute="KERNEL",
     params=HertzParams,
     switch_tuple=HertzSwitches,
     slots=(

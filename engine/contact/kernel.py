@@ -26,7 +26,7 @@ Kernel contract (``@njit`` with ``NJIT_INLINE``, SI units):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -67,7 +67,8 @@ class LawKernel:
         name: the family's name (a scene's ``pair_kernel`` / ``wall_kernel`` feature).
         module: the module that defines it (the specialised step module takes it from
             there: ``importlib.import_module(module).<attribute>``).
-        attribute: its name in ``module``.
+        attribute: its name in ``module`` (keyword only; default ``"KERNEL"``, the name
+            every law module gives its family).
         params: the family's parameter tuple, a ``namedtuple`` defined at module level in
             ``module`` (a type numba's on-disk cache can name), fields in slot order.
         switch_tuple: the family's switch tuple, a module-level ``namedtuple`` whose fields are
@@ -80,7 +81,7 @@ class LawKernel:
 
     name: str
     module: str
-    attribute: str
+    attribute: str = field(default="KERNEL", kw_only=True)
     params: type
     switch_tuple: type
     slots: tuple[Slot, ...]

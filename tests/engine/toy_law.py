@@ -42,7 +42,6 @@ def tangential_stiffness(d, r_star, law, tangent):
 KERNEL = LawKernel(
     name="power_spring",
     module=__name__,
-    attribute="KERNEL",
     params=PowerParams,
     switch_tuple=PowerSwitches,
     slots=(

@@ -84,6 +84,12 @@ def _platen_law() -> HertzMindlin:
     return HertzMindlin(E=1e8, nu=0.25, restitution=0.4, mu=0.3)
 
 
+def _law(types, default_factory, doc: str) -> dict:
+    """The :func:`engine.core.records.param` arguments of a contact law field: a record of
+    one of the law classes ``types()`` returns, by default ``default_factory()``."""
+    return dict(unit="", kind="record", types=types, default_factory=default_factory, doc=doc)
+
+
 #: The fill and material fields every test declares (:class:`UniaxialTest`,
 #: :class:`engine.ShearTest`, :class:`engine.HopperTest`), declared once: each entry is the
 #: arguments of :func:`engine.core.records.param` (default, unit, bounds, description). A test
@@ -111,20 +117,8 @@ FILL_FIELDS: dict[str, dict] = {
         nullable=True,
         doc="largest particle speed during the fill (None: free fall from the pour column)",
     ),
-    "pair_law": dict(
-        unit="",
-        kind="record",
-        types=pair_laws,
-        default_factory=_cohesionless_law,
-        doc="particle-particle contact law",
-    ),
-    "wall_law": dict(
-        unit="",
-        kind="record",
-        types=wall_laws,
-        default_factory=_platen_law,
-        doc="platen contact law (Hertz-Mindlin)",
-    ),
+    "pair_law": _law(pair_laws, _cohesionless_law, "particle-particle contact law"),
+    "wall_law": _law(wall_laws, _platen_law, "platen contact law (Hertz-Mindlin)"),
     "wall_material": dict(
         unit="", kind="record", default_factory=WallMaterial, doc="platen material"
     ),

@@ -113,6 +113,19 @@ def cell_of(i, pos, grid, ncell, cell3):
 
 
 @njit(**NJIT_INLINE)
+def offsets_and_cursors(start, n):
+    """The counting sort's middle step: the counts of the ``n`` buckets in ``start[1:n + 1]``
+    (``start[0]`` = 0) become their offsets (a running sum, in place); returns a copy of
+    the first ``n`` offsets, each bucket's fill cursor (int64)."""
+    for a in range(n):
+        start[a + 1] += start[a]
+    fill = np.empty(n, dtype=np.int64)
+    for a in range(n):
+        fill[a] = start[a]
+    return fill
+
+
+@njit(**NJIT_INLINE)
 def sort_segment(a, s, e):
     """Sort ``a[s:e]`` in place (insertion sort: the segments are short)."""
     for q in range(s + 1, e):
@@ -255,11 +268,7 @@ def build_neighbour_list(
         c = cell_of(i, pos, grid, ncell, cell3)
         key[i] = c
         cell_start[c + 1] += 1
-    for c in range(ncells):
-        cell_start[c + 1] += cell_start[c]
-    fill = np.empty(ncells, dtype=np.int64)
-    for c in range(ncells):
-        fill[c] = cell_start[c]
+    fill = offsets_and_cursors(cell_start, ncells)
     cell_list = np.empty(n, dtype=np.int64)
     for i in range(n):
         c = key[i]
@@ -314,11 +323,7 @@ def reverse_list(nbr_start, nbr_j, rev_start, rev_k):
         rev_start[j] = 0
     for k in range(nbr_start[n]):
         rev_start[nbr_j[k] + 1] += 1
-    for j in range(n):
-        rev_start[j + 1] += rev_start[j]
-    rfill = np.empty(n, dtype=np.int64)
-    for j in range(n):
-        rfill[j] = rev_start[j]
+    rfill = offsets_and_cursors(rev_start, n)
     for i in range(n):
         for k in range(nbr_start[i], nbr_start[i + 1]):
             j = nbr_j[k]
@@ -346,11 +351,7 @@ def renumber_list(rank, nbr_start, nbr_j, entry, n_hist, f_slot, out_start, out_
         for k in range(nbr_start[i], nbr_start[i + 1]):
             rj = rank[nbr_j[k]]
             out_start[min(ri, rj) + 1] += 1
-    for a in range(n):
-        out_start[a + 1] += out_start[a]
-    fill = np.empty(n, dtype=np.int64)
-    for a in range(n):
-        fill[a] = out_start[a]
+    fill = offsets_and_cursors(out_start, n)
     for i in range(n):
         ri = rank[i]
         for k in range(nbr_start[i], nbr_start[i + 1]):

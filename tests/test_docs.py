@@ -314,9 +314,7 @@ SERVICE_STARTS = {
 @pytest.mark.timeout(600)
 @pytest.mark.parametrize("command", list(SERVICE_STARTS))
 def test_manual_the_service_starts_answers_and_stops(command, workdir):
-    import httpx
-
-    from tests.service.conftest import free_port
+    from tests.service.conftest import free_port, wait_healthy
 
     port = free_port()
     env = {**_env(), "DEMSCALE_PORT": str(port), "DEMSCALE_DATA_DIR": str(workdir / "var")}
@@ -326,15 +324,7 @@ def test_manual_the_service_starts_answers_and_stops(command, workdir):
         argv, cwd=workdir, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT
     )
     try:
-        deadline = time.monotonic() + 120
-        while True:
-            try:
-                if httpx.get(f"http://127.0.0.1:{port}/healthz", timeout=2).status_code == 200:
-                    break
-            except httpx.HTTPError:
-                pass
-            assert proc.poll() is None and time.monotonic() < deadline, command
-            time.sleep(0.5)
+        wait_healthy(f"http://127.0.0.1:{port}", proc, 120, 0.5, command)
     finally:
         proc.send_signal(signal.SIGTERM)
         proc.wait(60)

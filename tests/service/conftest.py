@@ -157,6 +157,21 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
+def wait_healthy(url: str, proc: subprocess.Popen, timeout: float, pause: float, what: str):
+    """Poll ``url``/healthz every ``pause`` seconds until it answers 200; fail, naming
+    ``what``, if ``proc`` (the process serving it) exits or ``timeout`` seconds pass."""
+    deadline = time.monotonic() + timeout
+    while True:
+        try:
+            if httpx.get(f"{url}/healthz", timeout=2).status_code == 200:
+                return
+        except httpx.HTTPError:
+            pass
+        assert proc.poll() is None, f"{what} exited"
+        assert time.monotonic() < deadline, f"{what} did not come up"
+        time.sleep(pause)
+
+
 @pytest.fixture
 def live_server(settings: Settings) -> Iterator[str]:
     """The app served by uvicorn on a free local port (real concurrency); yields its URL."""
@@ -235,6 +250,21 @@ def wait_finished(
         return job["status"] in ("succeeded", "failed")
 
     return wait_for(get, finished, timeout, what, workers)
+
+
+def wait_succeeded(get: Callable[[], dict], what: str, workers: Workers | None = None, **kw):
+    """:func:`wait_finished` (``kw``: its ``timeout`` and ``seen``), asserting that the job
+    succeeded (else naming its error)."""
+    done = wait_finished(get, what, workers, **kw)
+    assert done["status"] == "succeeded", done["error"]
+    return done
+
+
+def wait_stopped(
+    get: Callable[[], dict], timeout: float, what: str, workers: Workers | None = None
+) -> dict:
+    """Poll ``get()`` (:func:`wait_for`) until the job it reads is no longer running."""
+    return wait_for(get, lambda job: job["status"] != "running", timeout, what, workers)
 
 
 def data_files(settings: Settings) -> list[Path]:

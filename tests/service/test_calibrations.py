@@ -8,7 +8,16 @@ import signal
 
 import pytest
 
-from .conftest import RUN_TIMEOUT, SLOW, TINIEST, job_getter, wait_finished, wait_for
+from .conftest import (
+    RUN_TIMEOUT,
+    SLOW,
+    TINIEST,
+    job_getter,
+    wait_finished,
+    wait_for,
+    wait_stopped,
+    wait_succeeded,
+)
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -42,13 +51,7 @@ def test_a_calibration_runs_end_to_end_then_its_study(client, workers, settings)
     assert client.get(f"/studies/{cid}").status_code == 404  # a calibration, not a study
     workers.start()
     seen = []
-    done = wait_finished(
-        getter(client, cid),
-        "the calibration to finish",
-        workers,
-        seen=seen,
-    )
-    assert done["status"] == "succeeded", done["error"]
+    done = wait_succeeded(getter(client, cid), "the calibration to finish", workers, seen=seen)
     assert any(0 < c["progress"] < 1 and c["current_run"] for c in seen)
     assert done["n_runs"] == 4 and done["progress"] == 1.0
     assert [(r["key"], r["status"]) for r in done["runs"]] == [
@@ -78,12 +81,9 @@ def test_a_calibration_runs_end_to_end_then_its_study(client, workers, settings)
     # the study of the calibrated law, queued by the calibration, runs as any study
     sid = done["study_id"]
     assert sid is not None and res["then_study"] == {"id": sid}
-    study = wait_finished(
-        lambda: client.get(f"/studies/{sid}").json(),
-        "the study of the calibrated law",
-        workers,
+    study = wait_succeeded(
+        lambda: client.get(f"/studies/{sid}").json(), "the study of the calibrated law", workers
     )
-    assert study["status"] == "succeeded", study["error"]
     assert study["spec"]["reference"]["pair_law"]["k1"] == k1["median"]
     assert study["parent_id"] == cid
     assert f"/calibrations/{cid}/page" in client.get(f"/studies/{sid}/page").text
@@ -147,13 +147,7 @@ def test_cancel_a_queued_and_a_running_calibration(client, workers):
         workers,
     )
     assert client.post(f"/calibrations/{cid}/cancel").status_code == 202
-    done = wait_for(
-        getter(client, cid),
-        lambda c: c["status"] != "running",
-        60,
-        "the calibration to stop",
-        workers,
-    )
+    done = wait_stopped(getter(client, cid), 60, "the calibration to stop", workers)
     assert done["status"] == "cancelled" and done["result"] is None
     assert done["progress"] < 1
 

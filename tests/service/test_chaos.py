@@ -33,7 +33,7 @@ from service.db import engine_for
 from service.models import TERMINAL, Status, Study
 from service.settings import Settings
 
-from .conftest import AUTH, REPO, SLOW, TINIEST, TOKEN, free_port, worker_env
+from .conftest import AUTH, REPO, SLOW, TINIEST, TOKEN, free_port, wait_healthy, worker_env
 
 #: Quick studies (about a second each) beside SLOW (runs of several seconds).
 N_QUICK = 4
@@ -76,16 +76,7 @@ class Api:
                 stderr=subprocess.STDOUT,
             )
         self.starts += 1
-        deadline = time.monotonic() + 60
-        while True:
-            try:
-                if httpx.get(f"{self.url}/healthz", timeout=2).status_code == 200:
-                    return
-            except httpx.HTTPError:
-                pass
-            assert self.proc.poll() is None, "the API exited"
-            assert time.monotonic() < deadline, "the API did not come up"
-            time.sleep(0.1)
+        wait_healthy(self.url, self.proc, 60, 0.1, "the API")
 
     def kill(self) -> None:
         if self.proc is not None and self.proc.poll() is None:

@@ -19,7 +19,16 @@ from fastapi.testclient import TestClient
 
 from service.app import create_app
 
-from .conftest import AUTH, RUN_TIMEOUT, SLOW, TINIEST, TOKEN, study_getter, wait_finished, wait_for
+from .conftest import (
+    AUTH,
+    RUN_TIMEOUT,
+    SLOW,
+    TINIEST,
+    TOKEN,
+    study_getter,
+    wait_for,
+    wait_succeeded,
+)
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -28,16 +37,6 @@ def submit(client, body) -> str:
     r = client.post("/studies", json=body)
     assert r.status_code == 202, r.text
     return r.json()["id"]
-
-
-def finished(client, sid, workers) -> dict:
-    done = wait_finished(
-        study_getter(client, sid),
-        "the study to finish",
-        workers,
-    )
-    assert done["status"] == "succeeded", done["error"]
-    return done
 
 
 def test_queued_study_page_and_unknown_ids(client):
@@ -61,7 +60,7 @@ def test_queued_study_page_and_unknown_ids(client):
 def test_finished_study_page_links_all_answer(client, workers):
     sid = submit(client, TINIEST)
     workers.start()
-    finished(client, sid, workers)
+    wait_succeeded(study_getter(client, sid), "the study to finish", workers)
     html = client.get(f"/studies/{sid}/page").text
     assert "Verdicts" in html and "status-succeeded" in html
     assert re.search(r'class="verdict-(equivalent|differs|undecided)"', html)
@@ -155,7 +154,7 @@ def test_pages_in_headless_chromium(live_server, workers, tmp_path):
     with httpx.Client(base_url=live_server, timeout=30, headers=AUTH) as c:
         done = submit(c, TINIEST)
         workers.start()
-        finished(c, done, workers)
+        wait_succeeded(study_getter(c, done), "the study to finish", workers)
         running = submit(c, SLOW)
         wait_for(
             study_getter(c, running),

@@ -24,6 +24,8 @@ from .conftest import (
     study_getter,
     wait_finished,
     wait_for,
+    wait_stopped,
+    wait_succeeded,
 )
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -69,13 +71,7 @@ def test_study_runs_end_to_end(client, workers, settings):
     sid = submit(client, TINY_CONTROLLED)
     workers.start()
     seen = []
-    done = wait_finished(
-        study_getter(client, sid),
-        "the study to finish",
-        workers,
-        seen=seen,
-    )
-    assert done["status"] == "succeeded", done["error"]
+    done = wait_succeeded(study_getter(client, sid), "the study to finish", workers, seen=seen)
     assert done["progress"] == 1.0 and done["attempts"] == 1 and done["run_time"] > 0
     assert done["started_at"] <= done["finished_at"]
     assert any(0 < s["progress"] < 1 and s["current_stage"] for s in seen)
@@ -200,9 +196,7 @@ def test_cancel_a_running_study(client, workers):
     running_mid_study(client, sid, workers)
     r = client.post(f"/studies/{sid}/cancel")
     assert r.status_code == 202 and r.json()["cancel_requested"]
-    done = wait_for(
-        study_getter(client, sid), lambda s: s["status"] != "running", 30, "the cancel", workers
-    )
+    done = wait_stopped(study_getter(client, sid), 30, "the cancel", workers)
     assert done["status"] == "cancelled" and done["progress"] < 1
     assert {x["status"] for x in done["runs"]} == {"cancelled"}
     assert client.get(f"/studies/{sid}/summary").status_code == 409
@@ -253,13 +247,7 @@ def test_kill_9_mid_study_then_a_new_worker_completes_it(client, workers, settin
     # not before the heartbeat went stale
     assert time.monotonic() - t_kill >= settings.stale_after - 0.5
     assert retaken["status"] in ("running", "succeeded")
-    done = wait_for(
-        study_getter(client, sid),
-        lambda s: s["status"] != "running",
-        RUN_TIMEOUT,
-        "the study to finish",
-        workers,
-    )
+    done = wait_stopped(study_getter(client, sid), RUN_TIMEOUT, "the study to finish", workers)
     assert done["status"] == "succeeded" and done["attempts"] == 2, done["error"]
     assert [r["status"] for r in done["runs"]] == ["succeeded", "succeeded"]
     summary = client.get(f"/studies/{sid}/summary").json()
@@ -330,13 +318,7 @@ def test_a_study_whose_worker_keeps_dying_is_failed_with_the_reason(client, work
     first.send_signal(signal.SIGKILL)
     first.wait()
     workers.start()
-    done = wait_for(
-        study_getter(client, sid),
-        lambda s: s["status"] != "running",
-        60,
-        "the orphaned study to be failed",
-        workers,
-    )
+    done = wait_stopped(study_getter(client, sid), 60, "the orphaned study to be failed", workers)
     assert done["status"] == "failed" and done["attempts"] == 1
     assert "gave up after 1 attempts" in done["error"] and "heartbeat" in done["error"]
     assert {r["status"] for r in done["runs"]} == {"cancelled"}
@@ -348,13 +330,12 @@ def test_runs_as_tasks_on_a_pool_or_a_dask_cluster(client, workers, settings, wh
     with runs_elsewhere(settings, where):
         sid = submit(client, {**TINY, "reference_seeds": [1, 2], "seeds": [1]})
         workers.start()
-        done = wait_finished(
+        done = wait_succeeded(
             study_getter(client, sid),
             f"the study on the {where} to finish",
             workers,
             timeout=2 * RUN_TIMEOUT - 30,
         )
-    assert done["status"] == "succeeded", done["error"]
     assert [r["status"] for r in done["runs"]] == ["succeeded"] * 3
     assert all(r["wall_time"] > 0 and r["steps"] > 0 for r in done["runs"])
     assert sorted(p.stem for p in settings.runs_dir(sid).glob("*.h5")) == [
@@ -390,13 +371,7 @@ def test_progress_within_runs_and_cancel_on_a_pool_or_a_dask_cluster(
         assert (settings.study_dir(sid) / "channel").is_dir()
         t0 = time.monotonic()
         assert client.post(f"/studies/{sid}/cancel").status_code == 202
-        done = wait_for(
-            study_getter(client, sid),
-            lambda s: s["status"] != "running",
-            30,
-            "the cancel",
-            workers,
-        )
+        done = wait_stopped(study_getter(client, sid), 30, "the cancel", workers)
         assert done["status"] == "cancelled"
         assert time.monotonic() - t0 < 20
         # the running tasks were asked to stop (tests/engine/test_channel.py: they do)
@@ -462,8 +437,7 @@ def test_a_study_that_decides_adds_runs_with_rows_and_shows_them(client, workers
     }
     sid = submit(client, body)
     workers.start()
-    done = wait_finished(study_getter(client, sid), "the study to finish", workers)
-    assert done["status"] == "succeeded", done["error"]
+    done = wait_succeeded(study_getter(client, sid), "the study to finish", workers)
     summary = client.get(f"/studies/{sid}/summary").json()
     adaptive = summary["advisor"]["adaptive"]
     added = [a["run"] for a in adaptive["added_runs"]]

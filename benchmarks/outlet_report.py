@@ -10,6 +10,7 @@ planner's evidence (feature kind ``outlet``).
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -18,6 +19,7 @@ from benchmarks import outlet_series as O
 from engine.study.resolution import diameters_needed, resolution_curves
 
 CONFIDENCE = 0.95
+FIGURE = Path(__file__).resolve().parent.parent / "docs" / "figures" / "outlet_series.png"
 #: The Jenike series' gravities [m/s^2] with their stored kinds and widths [d].
 JENIKE_GRAVITIES = {
     J.GRAVITY: ("hopper", J.WIDTHS, J.HOPPER_SEEDS),
@@ -53,14 +55,28 @@ def flow_failures() -> list[str]:
     return out
 
 
-def _arch_runs(g: float, seed: int) -> dict[float, object]:
-    """A seed's stored arching runs at gravity ``g``: width [d] -> digest (ok runs only)."""
+#: A run that failed after discharging at least this fraction of its fill without a stop
+#: went on (``outlet_series.before_failure``: the failure is on the catch floor's heap).
+WENT_ON_FRACTION = 0.5
+
+
+def went_on(d) -> bool:
+    """Whether a failed run had discharged :data:`WENT_ON_FRACTION` of its fill, unstopped."""
+    b = d.extra.get("before_failure")
+    return bool(b) and not b["stopped"] and b["discharged_fraction"] >= WENT_ON_FRACTION
+
+
+def _arch_runs(g: float, seed: int) -> dict[float, bool]:
+    """A seed's stored arching runs at gravity ``g``: width [d] -> whether the flow stopped
+    (runs that failed left out, but those that had gone on: :func:`went_on`)."""
     if g in JENIKE_GRAVITIES:
         kind, widths, _ = JENIKE_GRAVITIES[g]
         got = {w: J.stored(kind, w, seed) for w in widths}
     else:
         got = {w: O.stored("arch", g, w, seed) for w in O.ARCH_WIDTHS[g]}
-    return {w: d for w, d in got.items() if d is not None and d.ok}
+    out = {w: bool(d.scalars["stopped"]) for w, d in got.items() if d is not None and d.ok}
+    out.update({w: False for w, d in got.items() if d is not None and not d.ok and went_on(d)})
+    return out
 
 
 def gravities() -> dict[float, int]:
@@ -70,22 +86,23 @@ def gravities() -> dict[float, int]:
     return out
 
 
-def critical_width(runs: dict[float, object]) -> dict:
-    """One seed's critical outlet width [d] from its runs at one gravity: the flow stopped
-    (``stopped``: the mass discharged over the wait stayed under the arch fraction) at the
+def critical_width(runs: dict[float, bool]) -> dict:
+    """One seed's critical outlet width [d] from its runs at one gravity (width [d] ->
+    whether the flow stopped: the mass discharged over the wait stayed under the arch
+    fraction, :func:`_arch_runs`): the flow stopped at the
     widest width ``below`` and went on at the next width ``above``; B_crit their midpoint.
     Censored (``width`` None) where the flow stopped at every width or at none, or where a
     width below ``below`` went on (not monotone: said, and the bracket taken around the
     widest stop)."""
     widths = sorted(runs)
-    stops = [w for w in widths if runs[w].scalars["stopped"]]
+    stops = [w for w in widths if runs[w]]
     if not stops:
         return {"width": None, "why": f"discharged at every width ({widths[0]:g}-{widths[-1]:g} d)"}
     below = max(stops)
     above = [w for w in widths if w > below]
     if not above:
         return {"width": None, "why": f"stopped at every width up to {below:g} d"}
-    monotone = all(runs[w].scalars["stopped"] for w in widths if w < below)
+    monotone = all(runs[w] for w in widths if w < below)
     return {
         "width": 0.5 * (below + above[0]),
         "below": below,
@@ -211,7 +228,7 @@ def lines() -> list[str]:
                 f"{r['width']:g} | {r['g_b']:.2f} |"
             )
     curves = outlet_curves()
-    out += ["", "Curves:", ""]
+    out += ["", f"![outlet series](figures/{FIGURE.name})", "", "Curves:", ""]
     for name in ("discharge_number", "arching_g_b"):
         c = curves["metrics"].get(name)
         if c is None:
@@ -238,5 +255,76 @@ def lines() -> list[str]:
     return out
 
 
+def figure():
+    """Two panels against d / B (the fit's variable; B / d on the top axis): each run's
+    discharge number at the held g B, and each seed's G* = g B_crit; each with its fitted
+    line exp(a + b d / B) and the tolerance band around the fitted bulk (matplotlib's
+    object API on an Agg canvas). A panel without a curve shows its points and says so."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(9.0, 4.0), dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(1, 2)
+    curves = outlet_curves()["metrics"]
+    flows = flow_runs()
+    fx = [1.0 / d.scalars["outlet_diameters"] for ds in flows.values() for d in ds]
+    fy = [d.scalars["discharge_number"] for ds in flows.values() for d in ds]
+    ax_pts = [(fx, fy)]
+    arch = arch_table()
+    ax_pts.append(
+        (
+            [1.0 / r["width"] for rows in arch.values() for r in rows if r["width"]],
+            [r["g_b"] for rows in arch.values() for r in rows if r["width"]],
+        )
+    )
+    titles = (
+        f"discharge at g B = {O.G_FLOW:g} m^2/s^2",
+        "arching: G* = g B_crit (one point per seed and gravity)",
+    )
+    ylabels = ("discharge number W / (rho sqrt(g) B^1.5 D) [-]", "G* [m^2/s^2]")
+    for ax, name, (x, y), title, ylabel in zip(
+        axes, ("discharge_number", "arching_g_b"), ax_pts, titles, ylabels
+    ):
+        ax.plot(x, y, "o", ms=4, color="C0", label="runs")
+        c = curves.get(name)
+        grid = np.linspace(0.0, max(x) * 1.05 if x else 0.2, 50)
+        if c is not None:
+            a, b = math.log(c["bulk"]), c["slope"]
+            ax.plot(grid, np.exp(a + b * grid), "-", color="C1", label="fit: log linear in d / B")
+            tol = O.TOLERANCES[name]
+            ax.axhspan(c["bulk"] * (1 - tol), c["bulk"] * (1 + tol), color="C2", alpha=0.15)
+            ax.axhline(c["bulk"], color="C2", lw=0.8, label=f"bulk +- {100 * tol:.0f} %")
+            n = c["needed"]
+            if n["bound"] == "needs":
+                ax.axvline(1.0 / n["diameters"], color="C3", ls="--", lw=0.8)
+                ax.text(
+                    1.0 / n["diameters"],
+                    ax.get_ylim()[0],
+                    f" 95 % bound: {n['diameters']:.3g} d",
+                    color="C3",
+                    fontsize=8,
+                    va="bottom",
+                )
+        else:
+            ax.text(0.5, 0.9, "no curve yet", transform=ax.transAxes, ha="center")
+        ax.set_xlim(0.0, grid[-1])
+        ax.set_xlabel("d / B [-]")
+        ax.set_ylabel(ylabel)
+        ax.set_title(title, fontsize=9)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    return fig
+
+
+def write_figure(path: Path | None = None) -> str:
+    """Draw :func:`figure` into ``path`` (default :data:`FIGURE`)."""
+    path = Path(path or FIGURE)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figure().savefig(path, format="png")
+    return str(path)
+
+
 if __name__ == "__main__":
     print("\n".join(lines()))
+    print(write_figure())

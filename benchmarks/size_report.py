@@ -641,11 +641,15 @@ def write_readme(ev: dict | None = None) -> None:
 
 def write_report() -> str:
     REPORT.write_text(report())
+    outlet_report.write_figure()
     ev = evidence()
     EVIDENCE.parent.mkdir(parents=True, exist_ok=True)
     EVIDENCE.write_text(json.dumps(ev, indent=1, sort_keys=True, allow_nan=False) + "\n")
     write_readme(json.loads(EVIDENCE.read_text()))
-    return f"wrote {REPORT.relative_to(ROOT)}, {EVIDENCE.relative_to(ROOT)} and README.md's lines"
+    return (
+        f"wrote {REPORT.relative_to(ROOT)}, {EVIDENCE.relative_to(ROOT)}, "
+        f"{outlet_report.FIGURE.relative_to(ROOT)} and README.md's lines"
+    )
 
 
 if __name__ == "__main__":

@@ -23,7 +23,7 @@ def test_plan_prints_the_answer_first_then_each_kinds_evidence(capsys):
         "- free_surface",
         "- outlet",
     ]
-    assert "not measured: no outlet size series yet" in kinds[-1]
+    assert "not measured: no outlet size series of this law decides it" in kinds[-1]
 
 
 def test_plan_json_and_a_law_file_with_its_radius(tmp_path, capsys):

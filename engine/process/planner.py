@@ -371,7 +371,10 @@ def plan_process(process: Process, evidence: dict | None = None) -> ProcessPlan:
             if kind == "outlet" and entry is not None and entry.get("bound") == "stress":
                 why = entry["why"]
             elif kind == "outlet":
-                why = "not measured: no outlet size series of this law (docs/RESOLUTION.md)"
+                why = (
+                    "not measured: no outlet size series of this law decides it "
+                    "(docs/RESOLUTION.md)"
+                )
             elif entry is not None and entry.get("bound") == "confounded":
                 what = entry.get("why", "a property is confounded")
                 why = f"not decided: in series {series} {what} (docs/RESOLUTION.md, Confounds)"

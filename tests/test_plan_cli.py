@@ -23,7 +23,17 @@ def test_plan_prints_the_answer_first_then_each_kinds_evidence(capsys):
         "- free_surface",
         "- outlet",
     ]
-    assert "not measured: no outlet size series of this law decides it" in kinds[-1]
+    # each kind's line is its plan's words (the stored evidence decides which)
+    import engine
+    from engine.process import plan_process
+
+    base = engine.default_study().reference
+    law = engine.similar(base.pair_law, 50e-6 / (2 * base.radius))
+    plan = plan_process(engine.Process(pair_law=law, diameter=50e-6, feature_width=0.2, stress=2e4))
+    whys = {f.kind: f.why for f in plan.features}
+    for k in kinds:
+        kind = k[2:].split(":")[0]
+        assert whys[kind] in k
 
 
 def test_plan_json_and_a_law_file_with_its_radius(tmp_path, capsys):

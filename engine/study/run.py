@@ -481,7 +481,10 @@ def _run_on(
     backend=None,
 ) -> None:
     planned, weights = tally.planned, tally.weights
-    # in planned order: the references first (the longest runs, needed by every comparison)
+    # the longest first (by estimated work; planned order among equals: the references
+    # lead the pilot): the last runs of a round are the short ones, so the cores idle least
+    # at its end, where the next round waits for all of it
+    todo = sorted(todo, key=lambda i: -weights[i])
     futures = {
         executor.submit(
             _execute,

@@ -373,12 +373,12 @@ def test_stored_runs_beyond_the_plan_are_judged_with_it():
     spec = engine.default_study()
     plan = engine.plan(spec)
     runs = stored_plan_runs(
-        spec, ["r3.75mm-paper-s7", "ref-s9", "r6mm-paper-s4", "r3.75mm-other-s4", "ref-sx"]
+        spec, ["r3.125mm-paper-s7", "ref-s9", "r6mm-paper-s4", "r3.125mm-other-s4", "ref-sx"]
     )
     assert [p.key for p in runs[: len(plan.runs)]] == [p.key for p in plan.runs]
     extra = runs[len(plan.runs) :]
-    assert [p.key for p in extra] == ["r3.75mm-paper-s7", "ref-s9"]
-    assert extra[0].seed == 7 and extra[0].test.seed == 7 and extra[0].radius == 3.75e-3
+    assert [p.key for p in extra] == ["r3.125mm-paper-s7", "ref-s9"]
+    assert extra[0].seed == 7 and extra[0].test.seed == 7 and extra[0].radius == 3.125e-3
     assert extra[1].is_reference and extra[1].test.radius == spec.reference.radius
 
 

@@ -577,6 +577,12 @@ KIND_WORDS = {
 }
 
 
+OUTLET_WORDS = {
+    "discharge_number": "the discharge rate",
+    "arching_g_b": "the arching width",
+}
+
+
 def _need_words(need: dict | None) -> str:
     if need is None:
         return "not decided yet"
@@ -603,12 +609,14 @@ def readme_block(ev: dict | None = None) -> str:
     kinds = ("bulk_shear", "bulk_compression", "free_surface")
     needs = "; ".join(f"{KIND_WORDS[k]} {_need_words(feats.get(k))}" for k in kinds)
     outlet = feats.get("outlet")
-    at = ""
-    if outlet is not None and outlet.get("stresses", {}).get("discharge_number"):
-        at = f" (its discharge at {outlet['stresses']['discharge_number'] / 1e3:.2g} kPa)"
+    said = f"a slot hopper's outlet {_need_words(outlet)}"
+    if outlet is not None and outlet.get("limited_by"):
+        held = outlet.get("stresses", {}).get("discharge_number")
+        said += f", set by {OUTLET_WORDS.get(outlet['limited_by'], outlet['limited_by'])}"
+        if held:
+            said += f" (its discharge rate measured at g B held, {held / 1e3:.2g} kPa)"
     lines = [
-        f"- N_req for the default powder's law (f0 = -0.4 N at 20 kPa): {needs}; "
-        f"an outlet{at} {_need_words(outlet)}.",
+        f"- N_req for the default powder's law (f0 = -0.4 N at 20 kPa): {needs}; {said}.",
     ]
     base = engine.default_study().reference
     for d0 in (50e-6, 5e-3):

@@ -101,7 +101,7 @@ def critical_width(runs: dict[float, bool]) -> dict:
     below = max(stops)
     above = [w for w in widths if w > below]
     if not above:
-        return {"width": None, "why": f"stopped at every width up to {below:g} d"}
+        return {"width": None, "why": f"stopped at every width up to {below:g} d", "below": below}
     monotone = all(runs[w] for w in widths if w < below)
     return {
         "width": 0.5 * (below + above[0]),
@@ -252,6 +252,38 @@ def lines() -> list[str]:
     fails = flow_failures()
     if fails:
         out += ["", "Discharge runs left out:", ""] + [f"- {f}" for f in fails]
+    arch_fails = arch_failures()
+    if arch_fails:
+        out += [
+            "",
+            "Arching runs that failed (`InstabilityError` on the catch floor's heap; counted "
+            f"as gone on where they had discharged {100 * WENT_ON_FRACTION:.0f} % of their "
+            "fill unstopped, else left out):",
+            "",
+        ] + [f"- {f}" for f in arch_fails]
+    return out
+
+
+def arch_failures() -> list[str]:
+    """The arching series' failed runs, a line each: how far each had got, and whether it
+    counts (:func:`went_on`)."""
+    out = []
+    for g in O.ARCH_GRAVITIES:
+        for w in O.ARCH_WIDTHS[g]:
+            for seed in range(1, O.ARCH_SEEDS + 1):
+                d = O.stored("arch", g, w, seed)
+                if d is None or d.ok:
+                    continue
+                b = d.extra.get("before_failure")
+                where = (
+                    "before the gate opened"
+                    if not b
+                    else f"{b['time']:.3f} s after the opening, "
+                    f"{100 * b['discharged_fraction']:.0f} % discharged, "
+                    f"{'stopped' if b['stopped'] else 'not stopped'}"
+                )
+                counts = "counted as gone on" if went_on(d) else "left out"
+                out.append(f"{O.key_name('arch', g, w, seed)}: failed {where}: {counts}")
     return out
 
 
@@ -283,6 +315,22 @@ def figure():
         "arching: G* = g B_crit (one point per seed and gravity)",
     )
     ylabels = ("discharge number W / (rho sqrt(g) B^1.5 D) [-]", "G* [m^2/s^2]")
+    # a seed that stopped at every width it ran bounds G* from below (the widest such
+    # bound of each gravity: a seed not yet run at its wider widths says less)
+    lower = []
+    for g, rows in arch.items():
+        bounds = [r["below"] for r in rows if r["width"] is None and r.get("below")]
+        if bounds:
+            lower.append((1.0 / max(bounds), g * max(bounds) * O.D))
+    if lower:
+        axes[1].plot(
+            *zip(*lower),
+            "^",
+            ms=7,
+            mfc="none",
+            color="C4",
+            label="stopped at every width run (G* above, d / B_crit below)",
+        )
     for ax, name, (x, y), title, ylabel in zip(
         axes, ("discharge_number", "arching_g_b"), ax_pts, titles, ylabels
     ):
@@ -291,7 +339,24 @@ def figure():
         grid = np.linspace(0.0, max(x) * 1.05 if x else 0.2, 50)
         if c is not None:
             a, b = math.log(c["bulk"]), c["slope"]
-            ax.plot(grid, np.exp(a + b * grid), "-", color="C1", label="fit: log linear in d / B")
+            fitted = max(s["d_over_L"] for s in c["sizes"])
+            inside = grid <= fitted * 1.0001
+            ax.plot(
+                grid[inside],
+                np.exp(a + b * grid[inside]),
+                "-",
+                color="C1",
+                label="fit (sizes fitted)",
+            )
+            if (~inside).any():
+                why = "sizes left out: off its line" if c.get("left_out") else "extrapolated"
+                ax.plot(
+                    grid[~inside],
+                    np.exp(a + b * grid[~inside]),
+                    ":",
+                    color="C1",
+                    label=f"the fit beyond them ({why})",
+                )
             tol = O.TOLERANCES[name]
             ax.axhspan(c["bulk"] * (1 - tol), c["bulk"] * (1 + tol), color="C2", alpha=0.15)
             ax.axhline(c["bulk"], color="C2", lw=0.8, label=f"bulk +- {100 * tol:.0f} %")

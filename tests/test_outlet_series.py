@@ -1,0 +1,48 @@
+"""The outlet series (benchmarks/outlet_series.py, outlet_report.py; issue 52 item 4): what
+it holds across sizes, and how a seed's critical width is read from its runs."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import pytest
+
+from benchmarks import outlet_report as R
+from benchmarks import outlet_series as O
+
+
+def test_the_discharge_series_holds_g_b_and_every_time_in_units_of_the_free_fall():
+    tests = [O.flow_test(w, 1) for w in (8.0, 64.0)]
+    for t in tests:
+        b = t.outlet_width
+        assert t.gravity * b == pytest.approx(O.G_FLOW)
+        assert t.fill_height == pytest.approx(O.FILL_OVER_B * b)
+        free_fall = math.sqrt(b / t.gravity)
+        assert t.output_interval == pytest.approx(free_fall / O.SAMPLES_PER_FREE_FALL)
+    # the arching series is the Jenike series' hopper at its own gravities
+    a = O.test_of("arch", 50.0, 30.0, 2)
+    assert a.gravity == 50.0 and a.outlet_width == pytest.approx(30.0 * O.D) and a.seed == 2
+
+
+def test_a_seeds_critical_width_is_the_midpoint_of_its_bracket_and_censored_at_the_ends():
+    c = R.critical_width({15.0: True, 17.0: True, 20.0: False, 23.0: False})
+    assert (c["width"], c["below"], c["above"], c["monotone"]) == (18.5, 17.0, 20.0, True)
+    # a width below the widest stop that went on: still bracketed, said not monotone
+    c = R.critical_width({15.0: False, 17.0: True, 20.0: False})
+    assert c["width"] == 18.5 and c["monotone"] is False
+    assert R.critical_width({20.0: True, 23.0: True})["width"] is None
+    assert R.critical_width({20.0: True, 23.0: True})["below"] == 23.0
+    assert R.critical_width({20.0: False, 23.0: False})["width"] is None
+
+
+def _failed(fraction, stopped=False):
+    extra = {"before_failure": {"time": 0.2, "discharged_fraction": fraction, "stopped": stopped}}
+    return SimpleNamespace(extra=extra)
+
+
+def test_a_failed_run_counts_as_gone_on_only_past_half_its_fill_unstopped():
+    assert R.went_on(_failed(0.95))
+    assert not R.went_on(_failed(R.WENT_ON_FRACTION - 0.01))
+    assert not R.went_on(_failed(0.95, stopped=True))
+    assert not R.went_on(SimpleNamespace(extra={"before_failure": None}))

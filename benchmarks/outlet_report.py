@@ -178,6 +178,18 @@ def outlet_curves() -> dict:
     return {"metrics": metrics, "sizes": sizes, "stresses": stresses}
 
 
+def sizes_words() -> str:
+    """The sizes each property of the outlet was measured at [d across], in words."""
+    flows = ", ".join(f"{w:g}" for w in sorted(flow_runs()))
+    crit = []
+    for rows in arch_table().values():
+        got = [r["width"] for r in rows if r["width"] is not None]
+        if got:
+            crit.append(float(np.mean(got)))
+    arch = ", ".join(f"{w:.3g}" for w in sorted(crit))
+    return f"discharge {flows or 'none'}; arching (mean B_crit per gravity) {arch or 'none'}"
+
+
 def lines() -> list[str]:
     """docs/RESOLUTION.md's outlet section (below the heading)."""
     out = [

@@ -396,10 +396,9 @@ def report() -> str:
                 f"{'' if need is None else need['limited_by']} | {sizes} |"
             )
     need = ev["laws"][OUTLET_LAW]["features"].get("outlet")
-    sizes = ", ".join(f"{z:.3g}" for z in outlet_report.outlet_curves()["sizes"])
     lines.append(
         f"| hopper outlet (slot, g B held) | {OUTLET_LAW} | {_fmt_need(need)} | "
-        f"{'' if need is None else need['limited_by']} | {sizes} |"
+        f"{'' if need is None else need['limited_by']} | {outlet_report.sizes_words()} |"
     )
     lines += [
         f"| hopper outlet | {law} | not measured (no outlet series of this law) | | |"

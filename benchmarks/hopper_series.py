@@ -55,7 +55,7 @@ from pathlib import Path
 import numpy as np
 
 import engine
-from benchmarks.series import list_runs, run_missing
+from benchmarks.series import list_or_run
 from engine.io.digest import make_digest, read_digest, write_digest
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -232,20 +232,26 @@ def main(argv=None) -> int:
     ap.add_argument("--list", action="store_true", help="list the runs and their cost")
     args = ap.parse_args(argv)
     todo = keys(args.only)
-    if args.list:
 
-        def line(k, s, est) -> str:
-            if s is None:
-                state = f"about {est / 60:.0f} min CPU on one thread"
-            else:
-                cpu = s.extra.get("cpu_seconds", float("nan"))
-                state = f"stored ({s.outcome if not s.ok else 'ok'}; {cpu / 60:.0f} min CPU)"
-            return f"{key_name(*k):10s} {test_of(*k).n_particles:7d} particles  {state}"
+    def line(k, s, est) -> str:
+        if s is None:
+            state = f"about {est / 60:.0f} min CPU on one thread"
+        else:
+            cpu = s.extra.get("cpu_seconds", float("nan"))
+            state = f"stored ({s.outcome if not s.ok else 'ok'}; {cpu / 60:.0f} min CPU)"
+        return f"{key_name(*k):10s} {test_of(*k).n_particles:7d} particles  {state}"
 
-        total = list_runs(todo, stored, estimate, line)
-        print(f"left to run: about {total / 3600:.1f} h CPU on one thread (wall: more, shared)")
-        return 0
-    return run_missing(todo, stored, key_name, test_of, run_one, "benchmarks.hopper_report")
+    return list_or_run(
+        args.list,
+        todo,
+        stored,
+        estimate,
+        line,
+        key_name,
+        test_of,
+        run_one,
+        "benchmarks.hopper_report",
+    )
 
 
 if __name__ == "__main__":

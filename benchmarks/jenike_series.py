@@ -193,7 +193,7 @@ def extra_of(outcome, wall: float, cpu: float) -> dict:
     return out
 
 
-def ramped_hopper(test: engine.HopperTest, holder: list | None = None) -> engine.HopperResult:
+def ramped_hopper(test: engine.HopperTest, run=None) -> engine.HopperResult:
     """The hopper run with its fill poured under Earth's gravity first (:data:`G_POUR` for
     :data:`POUR_TIME`), gravity then raised to the test's linearly over :data:`RAMP_TIME`,
     then the run's own settling (at least two free-fall times at the test's gravity, to its
@@ -202,13 +202,12 @@ def ramped_hopper(test: engine.HopperTest, holder: list | None = None) -> engine
     N/m) lets two of them overlap by half a radius (``InstabilityError`` in 5 of the 6 runs
     at 9 d and wider at the first attempt, a fill max(1.5 B, 20 d) deep); raised once the
     grains touch, gravity compresses the packing quasi-statically. The result's
-    ``settle_time`` includes the pour and the ramp. ``holder``: a list the run
-    (``HopperRun``) is appended to, for a caller that reads its state after an error."""
+    ``settle_time`` includes the pour and the ramp. ``run``: the test's ``HopperRun``
+    (one thread), made by a caller that reads its state after an error; None: made here."""
     from engine.hopper.driver import HopperRun
 
-    run = HopperRun(test, threads=1)
-    if holder is not None:  # the caller may read the run's state if it fails
-        holder.append(run)
+    if run is None:
+        run = HopperRun(test, threads=1)
     sim = run.sim
     sim.set_gravity((0.0, 0.0, -G_POUR))
     sim.run(max(1, round(POUR_TIME / run.dt)))

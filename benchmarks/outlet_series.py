@@ -76,7 +76,7 @@ from pathlib import Path
 import engine
 from benchmarks import jenike_series
 from benchmarks.hopper_series import decimate
-from benchmarks.series import list_runs, run_missing
+from benchmarks.series import list_or_run
 from engine.io.digest import make_digest, read_digest, write_digest
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -221,15 +221,18 @@ def run_one(kind: str, x: float, width: float, seed: int) -> str:
     numba.set_num_threads(1)
     test = test_of(kind, x, width, seed)
     t0, c0 = time.perf_counter(), time.process_time()
-    holder: list = []
+    from engine.hopper.driver import HopperRun
+
+    run = None
     try:
-        outcome = jenike_series.ramped_hopper(test, holder)
+        run = HopperRun(test, threads=1)
+        outcome = jenike_series.ramped_hopper(test, run)
     except Exception as e:
         outcome = f"{type(e).__name__}: {e}"
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     extra = extra_of(outcome, wall, cpu)
     if isinstance(outcome, str):
-        extra["before_failure"] = before_failure(holder[0] if holder else None)
+        extra["before_failure"] = before_failure(run)
     digest = make_digest(outcome, test, None, extra)
     write_digest(path_of(kind, x, width, seed), digest)
     what = outcome if isinstance(outcome, str) else jenike_series.describe(digest)
@@ -249,12 +252,17 @@ def main(argv=None) -> int:
     p.add_argument("--list", action="store_true", help="list the runs and what is stored")
     p.add_argument("--only", nargs="+", help="only the runs whose key contains one of these")
     a = p.parse_args(argv)
-    ks = keys(a.only)
-    if a.list:
-        left = list_runs(ks, stored, estimate, line)
-        print(f"left to run: about {left / 3600:.1f} h of CPU on one thread")
-        return 0
-    return run_missing(ks, stored, key_name, test_of, run_one, "benchmarks.outlet_report")
+    return list_or_run(
+        a.list,
+        keys(a.only),
+        stored,
+        estimate,
+        line,
+        key_name,
+        test_of,
+        run_one,
+        "benchmarks.outlet_report",
+    )
 
 
 if __name__ == "__main__":

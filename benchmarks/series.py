@@ -38,3 +38,23 @@ def run_missing(
             print(run_one(*k), flush=True)
     print(f"the report: python -m {report}")
     return 0
+
+
+def list_or_run(
+    listing: bool,
+    keys: list[tuple],
+    stored: Callable,
+    estimate: Callable,
+    line: Callable,
+    key_name: Callable,
+    test_of: Callable,
+    run_one: Callable,
+    report: str,
+) -> int:
+    """A series' command: with ``listing`` its runs (:func:`list_runs`) and the CPU time left,
+    else run those not stored (:func:`run_missing`). Returns the exit status."""
+    if listing:
+        total = list_runs(keys, stored, estimate, line)
+        print(f"left to run: about {total / 3600:.1f} h CPU on one thread (wall: more, shared)")
+        return 0
+    return run_missing(keys, stored, key_name, test_of, run_one, report)

@@ -352,11 +352,7 @@ def plan_process(process: Process, evidence: dict | None = None) -> ProcessPlan:
     features = []
     L, d0 = process.feature_width, process.diameter
     for kind in kinds:
-        series = matched
-        entry = None if matched is None else ev["laws"][matched]["features"].get(kind)
-        if kind == "outlet" and same_law is not None:
-            series = same_law
-            entry = _at_stress(ev["laws"][same_law]["features"].get(kind), sigma)
+        series, entry = _evidence_for(ev, kind, matched, same_law, sigma)
         if series is None:
             features.append(
                 FeaturePlan(
@@ -368,18 +364,16 @@ def plan_process(process: Process, evidence: dict | None = None) -> ProcessPlan:
             )
             continue
         if entry is None or entry.get("bound") in ("not_linear", "confounded", "stress"):
-            if kind == "outlet" and entry is not None and entry.get("bound") == "stress":
+            if entry is not None and entry.get("bound") == "stress":
                 why = entry["why"]
-            elif kind == "outlet":
-                why = (
-                    "not measured: no outlet size series of this law decides it "
-                    "(docs/RESOLUTION.md)"
-                )
             elif entry is not None and entry.get("bound") == "confounded":
                 what = entry.get("why", "a property is confounded")
                 why = f"not decided: in series {series} {what} (docs/RESOLUTION.md, Confounds)"
             else:
-                why = f"not measured: series {series} has no decided need for this kind"
+                why = (
+                    f"not measured: no {kind} size series of this law decides it (series "
+                    f"{series}, docs/RESOLUTION.md)"
+                )
             undecided = entry is not None and entry.get("bound") in ("not_linear", "confounded")
             status = "undecided" if undecided else "not_measured"
             features.append(FeaturePlan(kind, status, why, evidence=series))
@@ -421,6 +415,22 @@ def plan_process(process: Process, evidence: dict | None = None) -> ProcessPlan:
             )
         )
     return ProcessPlan(process, g, matched, mismatches, features)
+
+
+def _evidence_for(ev: dict, kind: str, matched, same_law, sigma: float):
+    """The series and its entry that answer for feature ``kind``: an entry that states the
+    stress each property's series held (``stresses``) is read by law (``same_law``: the
+    groups match at the series' own stress) and kept to the properties that apply at
+    ``sigma`` (:func:`_at_stress`); any other holds the series' consolidation stress, so it
+    needs the groups to match at the feature's stress (``matched``). (None, None) where no
+    series answers."""
+    if same_law is not None:
+        entry = ev["laws"][same_law]["features"].get(kind)
+        if entry is not None and "stresses" in entry:
+            return same_law, _at_stress(entry, sigma)
+    if matched is None:
+        return None, None
+    return matched, ev["laws"][matched]["features"].get(kind)
 
 
 def _at_stress(entry: dict | None, sigma: float) -> dict | None:

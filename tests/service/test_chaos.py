@@ -35,8 +35,12 @@ from service.settings import Settings
 
 from .conftest import AUTH, REPO, SLOW, TINIEST, TOKEN, free_port, wait_healthy, worker_env
 
-#: Quick studies (about a second each) beside SLOW (runs of several seconds).
-N_QUICK = 4
+#: Quick studies (about a second each) beside SLOW (runs of several seconds): with SLOW,
+#: about 18 s of work on this machine after the first study, more than the latest kill
+#: (KILL_AFTER), so that at least one kill falls in a study on a machine up to 1.5 times
+#: faster than this one (usually two or three: SLOW's first attempt writes no checkpoint at
+#: 60 s, so a kill in it loses its run and the next attempt has more to do).
+N_QUICK = 6
 #: SLOW at a quarter of its time step: runs of about 30 s on a core, longer than a worker
 #: lives (KILL_AFTER), so that only checkpoints carry them (at 60 s none is written before
 #: the kill: DEMSCALE_CHECKPOINT_INTERVAL_AFTER_CRASH=60 makes the manual test below fail).
@@ -168,7 +172,7 @@ def chaos(settings, workers, tmp_path, bodies: list[dict], api_kills: int) -> di
 @pytest.mark.timeout(BOUND_S + 60)
 def test_studies_survive_sigkills_at_default_settings(settings, workers, tmp_path):
     got = chaos(settings, workers, tmp_path, [TINIEST, SLOW, *[TINIEST] * (N_QUICK - 1)], 2)
-    assert got["kills"] >= 2, "the studies ended before the chaos began: nothing was tested"
+    assert got["kills"] >= 1, "the studies ended before the chaos began: nothing was tested"
 
 
 @pytest.mark.manual

@@ -77,6 +77,7 @@ import engine
 from benchmarks import jenike_series
 from benchmarks.hopper_series import decimate
 from benchmarks.series import list_or_run
+from engine.hopper.scene import CATCH_ZONE_DIAMETERS
 from engine.io.digest import make_digest, read_digest, write_digest
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -181,7 +182,15 @@ def estimate(kind: str, x: float, width: float, seed: int) -> float:
 
 
 def extra_of(outcome, wall: float, cpu: float) -> dict:
-    out = {"wall_seconds": wall, "cpu_seconds": cpu, "threads": 1, "protocol": PROTOCOL}
+    # runs made with the hopper's catch zone (engine.hopper.driver, after the first runs:
+    # their failures on the heap were rerun with it) say how deep it begins
+    out = {
+        "wall_seconds": wall,
+        "cpu_seconds": cpu,
+        "threads": 1,
+        "protocol": PROTOCOL,
+        "catch_zone_diameters": CATCH_ZONE_DIAMETERS,
+    }
     if isinstance(outcome, str):
         return out
     s = outcome.scalars
@@ -203,7 +212,9 @@ def before_failure(run) -> dict | None:
     catch depth)), 8-11 m/s at the widest outlets of the arching series; on the heap there the
     soft loading spring (k1 = 5e3 N/m) lets two grains overlap by half a radius, which stops
     the run (``InstabilityError``) long after the outlet's behaviour is read: a run that had
-    discharged half its fill without a stop had not arched (:mod:`benchmarks.outlet_report`)."""
+    discharged half its fill without a stop had not arched (:mod:`benchmarks.outlet_report`).
+    The hopper's catch zone (``engine.hopper.driver``) ended these failures; the failed runs
+    were made again with it."""
     if run is None or run.flow is None or not run.flow["rows"]:
         return None
     rows = run.flow["rows"]

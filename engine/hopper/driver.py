@@ -13,6 +13,19 @@ Each sample counts the mass discharged (centres more than one largest diameter b
 outlet), still in the hopper, and anywhere else (a leak: none in a sound scene), and reads the
 grains' downward speeds next to the wall and on the centre line in a band at half the fill's
 current height, and the wall normal stress by height (:mod:`engine.hopper.measures`).
+
+The catch zone. A discharged grain falls 2 B and more onto the heap on the catch floor, at up
+to :func:`impact_speed` (8-11 m/s in the outlet series' widest arching runs); on the heap a
+soft loading spring then lets two grains overlap by half a radius and the run stops with an
+``InstabilityError`` after the outlet's behaviour was read, or before (issue 52). So the
+grains below the catch zone's top (``HopperGeometry.catch_top``: 10 largest diameters above
+the highest the heap can reach, 2 B + 10 d below the outlet) are slowed to
+:data:`CATCH_SPEED` sqrt(2 g d) (the speed of a grain dropped from one diameter) whenever a
+grain at the run's fastest speed could have moved :data:`CATCH_REACH` diameters: each lands
+on the heap at about that speed. What happens below the outlet cannot act on the flow
+through it (the grains there fall freely, away from it); the heap never reaches the zone's
+top. The time step is still sized for the free fall (:func:`resolved_dt`): the hopper's own
+stepping is that of a run without the zone.
 """
 
 from __future__ import annotations
@@ -48,7 +61,13 @@ from .measures import (
     stop_time,
 )
 from .results import HOPPER_CURVE_UNITS, HopperResult
-from .scene import HopperGeometry, build_hopper, wall_bin_areas, wall_radius
+from .scene import (
+    CATCH_ZONE_DIAMETERS,
+    HopperGeometry,
+    build_hopper,
+    wall_bin_areas,
+    wall_radius,
+)
 from .spec import CONE_SIDES, HopperTest
 
 #: Grains whose centres lie within this many largest diameters of the wall (normal to it)
@@ -58,6 +77,13 @@ BAND_REACH = 1.0
 #: Half-thickness of the band in which the mass-flow index reads speeds, in largest
 #: diameters [-].
 BAND_HALF = 1.0
+#: Speed to which a grain in the catch zone is slowed, over sqrt(2 g d) (a grain dropped from
+#: one largest diameter d) [-] (module docstring).
+CATCH_SPEED = 1.0
+#: The catch zone's grains are slowed at least every time a grain at :func:`impact_speed`
+#: moves this many largest diameters [-]: half the zone's height, so that a grain is slowed
+#: at least that far above the heap.
+CATCH_REACH = 0.5 * CATCH_ZONE_DIAMETERS
 #: The share of the overall progress taken by the settling [-].
 _SETTLE_SHARE = 0.3
 #: The engine's packages a hopper run steps through (its checkpoint is resumed only by the
@@ -119,6 +145,11 @@ class HopperRun:
         self.masses = sim.masses.copy()
         self.total = float(self.masses.sum())
         self.sample_steps = max(1, round(test.output_interval / self.dt))
+        #: the catch zone (module docstring): the speed its grains are slowed to [m/s], and
+        #: the most steps between two slowings
+        self.catch_speed = CATCH_SPEED * math.sqrt(2.0 * test.gravity * self.d)
+        reach = CATCH_REACH * self.d / (impact_speed(test, self.geo) * self.dt)
+        self.catch_steps = max(1, int(reach))
         sim.run(1)  # compiles the kernels (or loads them): set-up, not the run's wall time
         self.setup = time.perf_counter() - t
         self.t0 = time.perf_counter()
@@ -197,6 +228,30 @@ class HopperRun:
         e_star, _ = self.test.wall_law.wall_moduli(self.test.wall_material)
         f = hertz_wall_force(c.overlaps[on], self.sim.radii[c.particles[on]], e_star)
         return binned_stress(c.points[on, 2], f, edges, wall_bin_areas(self.test, edges))
+
+    def _advance(self, steps: int) -> None:
+        """``steps`` steps of the discharge, the catch zone's grains slowed every
+        ``catch_steps`` at most (module docstring)."""
+        while steps > 0:
+            n = min(steps, self.catch_steps)
+            self.sim.run(n)
+            steps -= n
+            self._catch()
+
+    def _catch(self) -> None:
+        """Slow every grain below the catch zone's top that is faster than ``catch_speed``
+        to that speed, along its own direction."""
+        sim = self.sim
+        low = np.flatnonzero(sim.positions[:, 2] < self.geo.catch_top)
+        if low.size == 0:
+            return
+        v = sim.velocities
+        speed = np.sqrt(np.einsum("ij,ij->i", v[low], v[low]))
+        fast = speed > self.catch_speed
+        if not fast.any():
+            return
+        v[low[fast]] *= (self.catch_speed / speed[fast])[:, None]
+        sim.set_velocities(v)
 
     def kinetic_scale(self) -> float:
         """N m g R [J]: the scale of the settling criterion."""
@@ -285,7 +340,7 @@ class HopperRun:
             if moving:
                 steps = min(steps, gate_steps - (sim.steps - step_open))
             if rows:  # the first sample is the opening itself (t = 0)
-                sim.run(steps)
+                self._advance(steps)
             if moving and sim.steps - step_open >= gate_steps:
                 sim.set_mesh_velocity(geo.gate_mesh, (0.0, 0.0, 0.0))
             out, inside = self.regions()

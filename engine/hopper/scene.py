@@ -31,6 +31,11 @@ WALL_HEADROOM = 2.0
 #: The catch floor lies this many largest diameters below the outlet, plus 2 B, plus the
 #: height of the heap the whole fill would make on it (:func:`heap_height`) [-].
 CATCH_DIAMETERS = 20.0
+#: The catch zone, in which the discharged grains are slowed before they reach the heap
+#: (:class:`engine.hopper.driver.HopperRun`), begins this many largest diameters above the
+#: highest the heap can reach (:func:`heap_height`): CATCH_DIAMETERS - CATCH_ZONE_DIAMETERS
+#: diameters plus 2 B below the outlet [-].
+CATCH_ZONE_DIAMETERS = 10.0
 #: The heap's slope [deg] and solid fraction [-] in :func:`heap_height`: steeper and looser
 #: than a cohesionless heap of spheres, so that the estimate is high.
 HEAP_ANGLE = 35.0
@@ -43,7 +48,8 @@ class HopperGeometry:
 
     Attributes: ``scene``; ``wall_top`` (the walls' top, z [m]); ``catch_depth`` (the catch
     floor at z = -catch_depth [m]); ``gate_stop`` (z at which the opened gate stops, below the
-    catch floor out of the particles' reach [m]); ``wall_meshes`` and ``gate_mesh`` (indices in
+    catch floor out of the particles' reach [m]); ``catch_top`` (the top of the catch zone, z
+    [m]: :data:`CATCH_ZONE_DIAMETERS`); ``wall_meshes`` and ``gate_mesh`` (indices in
     ``scene.meshes``: a slot's two walls, -x then +x, are two meshes, so that the engine's
     force on each can be read); ``half_width`` (B / 2 [m]); ``tan`` (tan of the half-angle);
     ``depth`` (the slot's period [m], None for a cone)."""
@@ -52,6 +58,7 @@ class HopperGeometry:
     wall_top: float
     catch_depth: float
     gate_stop: float
+    catch_top: float
     wall_meshes: tuple[int, ...]
     gate_mesh: int
     half_width: float
@@ -225,6 +232,7 @@ def build_hopper(test: HopperTest) -> HopperGeometry:
         top,
         catch,
         stop,
+        -catch + heap_height(test) + CATCH_ZONE_DIAMETERS * d,
         tuple(range(len(walls))),
         len(walls),
         0.5 * test.outlet_width,

@@ -54,6 +54,7 @@ from ..uniaxial.driver import StageError
 from ..uniaxial.results import RESUMED, Progress, ProgressCallback
 from .measures import (
     MASS_FLOW_INDEX,
+    arch_profile,
     binned_stress,
     flow_index,
     hertz_wall_force,
@@ -425,7 +426,7 @@ class HopperRun:
         tt, m = curves["time"], curves["discharged_mass"]
         steady = steady_rate(tt, m, self.total, t.window_start, t.window_end)
         arched = False
-        arch_time = math.nan
+        arch_time = arch_span = arch_height = math.nan
         if stopped:
             when = stop_time(tt, m, wait, t.arch_fraction, pm)
             # an arch: grains rest above the outlet's central half, within B above it
@@ -437,6 +438,17 @@ class HopperRun:
             if arched:
                 # the criterion read over the whole curve, else where it was read as it went
                 arch_time = when if when is not None else detected
+                # the arch's crown and feet over the outlet (measures.arch_profile); its span
+                # the walls' distance apart at its feet, its height the crown over the feet
+                crown, feet = arch_profile(
+                    self._across(p)[inside],
+                    p[inside, 2] - sim.radii[inside],
+                    self.geo.half_width,
+                    self.d,
+                )
+                if math.isfinite(feet):
+                    arch_span = 2.0 * float(wall_radius(t, feet))
+                arch_height = crown - feet
         win = np.zeros(len(tt), dtype=bool)
         if math.isfinite(steady.rate):
             win = (tt >= steady.start) & (tt <= steady.end)
@@ -470,6 +482,8 @@ class HopperRun:
             "stopped": float(stopped),
             "arched": float(arched),
             "arch_time": arch_time,
+            "arch_span": arch_span,
+            "arch_height": arch_height,
             "mass_flow_index": index,
             "mass_flow": float(index >= MASS_FLOW_INDEX) if math.isfinite(index) else 0.0,
             "fill_height": self.fill_height,

@@ -177,3 +177,26 @@ def binned_stress(heights: np.ndarray, forces: np.ndarray, edges, areas) -> np.n
     ok = (k >= 0) & (k < len(edges) - 1)
     s = np.bincount(k[ok], weights=np.asarray(forces)[ok], minlength=len(edges) - 1)
     return s / np.asarray(areas, dtype=float)
+
+
+def arch_profile(
+    across: np.ndarray, bottoms: np.ndarray, half_width: float, d: float
+) -> tuple[float, float]:
+    """The arch over an outlet of half-width ``half_width`` [m] from the grains that rest
+    above it: ``across`` their centres' distances from the mid-plane (slot) or the axis
+    (cone) [m], ``bottoms`` their lowest points, centre height minus radius, above the
+    outlet plane [m]. The outlet's half-width is cut into bins one largest diameter ``d``
+    [m] wide (at least one); in each, the arch's underside is its lowest grain's bottom.
+    Returns (the apex, the highest underside [m]; the feet, the lowest underside [m]), both
+    above the outlet plane; NaN where a bin holds no grain (no arch spans the outlet).
+    Why this: an arch is the lowest layer of grains that carries the fill over the
+    opening; its underside is free, so it is what the lowest grain of each column over the
+    outlet shows, highest at the crown and lowest where it rests on the walls."""
+    n = max(1, int(half_width // d))
+    k = np.minimum((np.asarray(across) / half_width * n).astype(np.int64), n)
+    low = np.full(n, np.inf)
+    inner = k < n
+    np.minimum.at(low, k[inner], np.asarray(bottoms)[inner])
+    if not np.all(np.isfinite(low)):
+        return math.nan, math.nan
+    return float(low.max()), float(low.min())

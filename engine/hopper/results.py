@@ -42,6 +42,8 @@ HOPPER_SCALAR_UNITS = {
     "stopped": "1",
     "arched": "1",
     "arch_time": "s",
+    "arch_span": "m",  # the walls' distance apart at the arch's feet
+    "arch_height": "m",  # its crown over its feet
     "mass_flow_index": "1",
     "mass_flow": "1",
     "fill_height": "m",  # the height the fill holds at its bulk density, level
@@ -69,8 +71,9 @@ class HopperResult:
     settled behind the closed gate [Pa]); ``wall_stress_flow`` (its mean over the samples of
     the steady window [Pa]; NaN where there is no window); ``scalars``
     (:data:`HOPPER_SCALAR_UNITS`: ``stopped``, ``arched``, ``mass_flow`` are 0 or 1;
-    ``arch_time`` is NaN unless arched, ``discharge_rate*`` NaN without a steady window,
-    ``discharge_rate_per_depth`` NaN for a cone)."""
+    ``arch_time``, ``arch_span`` and ``arch_height`` are NaN unless arched,
+    ``discharge_rate*`` NaN without a steady window, ``discharge_rate_per_depth`` NaN for a
+    cone)."""
 
     test: HopperTest
     curves: dict[str, np.ndarray]

@@ -54,6 +54,8 @@ HOPPER_SUMMARY = (
     "stopped",
     "arched",
     "arch_time",
+    "arch_span",
+    "arch_height",
     "mass_flow_index",
     "bulk_density",
     "fill_height",

@@ -158,6 +158,31 @@ def test_narrow_frictional_outlet_arches():
     # the arch formed after the opening, and the run waited arch_wait free-fall times after it
     assert 0.0 <= s["arch_time"] <= s["discharge_time"] - t.arch_wait * t.free_fall_time + 2e-3
     assert math.isnan(s["discharge_rate"])  # no steady window
+    # the arch rests on the walls within a diameter of the outlet, and spans it
+    tan = math.tan(math.radians(t.half_angle))
+    assert t.outlet_width <= s["arch_span"] <= t.outlet_width + 2 * tan * D
+    assert 0.0 <= s["arch_height"] < t.outlet_width
+
+
+def test_the_arch_profile_reads_crown_and_feet_from_the_lowest_grains():
+    from engine.hopper.measures import arch_profile
+
+    # an arch over a slot 10 d wide: the lowest grain of each column at 2 d - (x / 2.5 d)^2 d
+    # above the outlet, grains stacked above it; its crown 2 d, its feet in the outer bins
+    d, half = 1e-3, 5e-3
+    x = np.linspace(-half + 0.5 * d, half - 0.5 * d, 10)
+    under = (2.0 - (x / (2.5 * d)) ** 2) * d
+    across = np.abs(np.concatenate([x, x, x]))
+    bottoms = np.concatenate([under, under + d, under + 2 * d])
+    crown, feet = arch_profile(across, bottoms, half, d)
+    assert crown == pytest.approx(under.max()) and feet == pytest.approx(under.min())
+    # grains beyond the outlet's half-width do not count; an empty column: no arch
+    assert arch_profile(np.append(across, 2 * half), np.append(bottoms, -1.0), half, d) == (
+        pytest.approx(crown),
+        pytest.approx(feet),
+    )
+    keep = across < 4e-3  # the outermost columns left out
+    assert all(math.isnan(v) for v in arch_profile(across[keep], bottoms[keep], half, d))
 
 
 def test_wall_time_limit_and_stop_request_are_honoured():

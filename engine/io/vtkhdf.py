@@ -10,9 +10,12 @@ Per run directory (docs/SNAPSHOTS.md)::
     contacts.vtkhdf    PolyData, one line per particle-particle contact (from the first
                        particle's centre to the second's nearest periodic image); cell data:
                        normal_force [N] (> 0 compressive, < 0 adhesive), particle_i, particle_j
+    walls.vtkhdf       PolyData, the mesh walls' triangles where they are at each step (a
+                       scene with meshes only: a hopper's walls and gate); cell data: mesh [-]
     particles.pvd,     the same, as every ParaView (5.9 and earlier) and meshio read them:
-    contacts.pvd       a collection of one VTK XML file per time step,
-                       particles-NNNN.vtu and contacts-NNNN.vtu (engine.io.vtu)
+    contacts.pvd,      a collection of one VTK XML file per time step,
+    (walls.pvd)        particles-NNNN.vtu, contacts-NNNN.vtu (and walls-NNNN.vtu)
+                       (engine.io.vtu)
     <stage>.png        section through the middle of the sample at the stage's end; or,
     sections.npz       with ``save(..., sections=False)``, what each section is drawn from
                        (positions, radii, contacts at each stage end), drawn on first request
@@ -69,6 +72,7 @@ FIELD_UNITS = {
     "normal_force": "N",
     "particle_i": "1",
     "particle_j": "1",
+    "mesh": "1",
 }
 
 _TOPOLOGIES = ("Vertices", "Lines", "Polygons", "Strips")
@@ -222,6 +226,9 @@ class SnapshotWriter:
         self.directory.mkdir(parents=True, exist_ok=True)
         self.particles = _TemporalPolyData(self.directory / "particles.vtkhdf")
         self.contacts = _TemporalPolyData(self.directory / "contacts.vtkhdf")
+        #: the mesh walls' file, opened by the first snapshot with meshes (a run's snapshots
+        #: all have them or none)
+        self.walls: _TemporalPolyData | None = None
         self.labels: list[str] = []
         self.last_steps: int | None = None
         self.legacy = legacy  # also .vtu per time step and a .pvd of each (every ParaView)
@@ -251,6 +258,16 @@ class SnapshotWriter:
             {},
             cell_data,
         )
+        if len(snap.mesh_triangles):
+            if self.walls is None:
+                self.walls = _TemporalPolyData(self.directory / "walls.vtkhdf")
+            self.walls.add(
+                snap.time,
+                snap.mesh_points,
+                {"Polygons": snap.mesh_triangles},
+                {},
+                {"mesh": snap.mesh_ids},
+            )
         self.labels.append(snap.stage)
         self.last_steps = snap.steps
         self._write_labels()
@@ -261,7 +278,7 @@ class SnapshotWriter:
         """The same time step as ``particles-NNNN.vtu`` and ``contacts-NNNN.vtu`` (the
         arrays :meth:`add` wrote to the VTKHDF files), and the two ``.pvd`` collections
         rewritten with it (:mod:`engine.io.vtu`)."""
-        from .vtu import VTK_LINE, VTK_VERTEX, write_pvd, write_vtu
+        from .vtu import VTK_LINE, VTK_TRIANGLE, VTK_VERTEX, write_pvd, write_vtu
 
         i, n, m = len(self.times), len(snap.radii), len(snap.pairs)
         write_vtu(
@@ -280,38 +297,54 @@ class SnapshotWriter:
             cell_data=cell_data,
             time=snap.time,
         )
+        if self.walls is not None:
+            write_vtu(
+                self.directory / f"walls-{i:04d}.vtu",
+                snap.mesh_points,
+                snap.mesh_triangles,
+                VTK_TRIANGLE,
+                cell_data={"mesh": snap.mesh_ids},
+                time=snap.time,
+            )
         self.times.append(float(snap.time))
-        for kind in ("particles", "contacts"):
+        for kind in self._kinds():
             write_pvd(
                 self.directory / f"{kind}.pvd",
                 [(t, f"{kind}-{k:04d}.vtu") for k, t in enumerate(self.times)],
             )
 
+    def _kinds(self) -> tuple[str, ...]:
+        """The files' kinds: particles and contacts, and walls in a scene with meshes."""
+        return ("particles", "contacts", *(("walls",) if self.walls is not None else ()))
+
+    def _files(self) -> list[_TemporalPolyData]:
+        return [self.particles, self.contacts, *([self.walls] if self.walls else [])]
+
     def paths(self) -> list[Path]:
-        """Every file written so far: the two VTKHDF files, and the ``.pvd`` collections
-        and ``.vtu`` files."""
-        out = [self.particles.path, self.contacts.path]
+        """Every file written so far: the VTKHDF files, and the ``.pvd`` collections and
+        ``.vtu`` files."""
+        out = [f.path for f in self._files()]
         if self.legacy and self.times:
-            out += [self.directory / "particles.pvd", self.directory / "contacts.pvd"]
+            out += [self.directory / f"{kind}.pvd" for kind in self._kinds()]
             out += [
                 self.directory / f"{kind}-{k:04d}.vtu"
                 for k in range(len(self.times))
-                for kind in ("particles", "contacts")
+                for kind in self._kinds()
             ]
         return out
 
     def _write_labels(self) -> None:
         # outside /VTKHDF (ignored by VTK): what each time step is, and the units
-        for f in (self.particles.file, self.contacts.file):
+        for f in (t.file for t in self._files()):
             g = f.require_group("demscale")
             g.attrs["stages"] = json.dumps(self.labels)
             g.attrs["units"] = json.dumps(FIELD_UNITS)
             g.attrs["time_units"] = "s"
 
     def close(self) -> None:
-        """Close both files."""
-        self.particles.close()
-        self.contacts.close()
+        """Close the files."""
+        for f in self._files():
+            f.close()
 
     def __enter__(self) -> SnapshotWriter:
         return self

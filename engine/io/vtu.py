@@ -4,8 +4,9 @@ earlier) and meshio read, beside the temporal VTKHDF files ParaView 5.12+ reads
 (:mod:`engine.io.vtkhdf`). numpy only.
 
 A particle is a ``VTK_VERTEX`` cell at its centre, a contact a ``VTK_LINE`` between two
-points; every array is stored raw, base64-encoded after a 64-bit byte count (the VTK XML
-``binary`` encoding, ``header_type="UInt64"``), in little-endian order.
+points, a wall's triangle a ``VTK_TRIANGLE``; every array is stored raw, base64-encoded
+after a 64-bit byte count (the VTK XML ``binary`` encoding, ``header_type="UInt64"``), in
+little-endian order.
 """
 
 from __future__ import annotations
@@ -17,11 +18,12 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-__all__ = ["VTK_LINE", "VTK_VERTEX", "write_pvd", "write_vtu"]
+__all__ = ["VTK_LINE", "VTK_TRIANGLE", "VTK_VERTEX", "write_pvd", "write_vtu"]
 
 #: VTK cell types used.
 VTK_VERTEX = 1
 VTK_LINE = 3
+VTK_TRIANGLE = 5
 
 _TYPES = {
     np.dtype("<f8"): "Float64",

@@ -5,7 +5,7 @@ contact forces (Love-Weber pressure). numpy only; files and figures are in :mod:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -29,6 +29,11 @@ class Snapshot:
             together (adhesive).
         branches: (M, 3) x_i - x_j [m], periodic minimum image.
         platens: (K,) heights of the platens [m] (bottom first).
+        mesh_points: (V, 3) the vertices of every mesh wall (:class:`engine.Mesh`) where it
+            is now [m]: the scene's plus the mesh's displacement (a gate that opened).
+        mesh_triangles: (T, 3) each triangle's rows of ``mesh_points``.
+        mesh_ids: (T,) the mesh each triangle belongs to (its index in the scene's meshes).
+        (All three empty in a scene without meshes.)
     """
 
     stage: str
@@ -43,6 +48,9 @@ class Snapshot:
     normal_forces: np.ndarray
     branches: np.ndarray
     platens: np.ndarray
+    mesh_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    mesh_triangles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.int32))
+    mesh_ids: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
 
     @property
     def nbytes(self) -> int:
@@ -58,6 +66,9 @@ def capture(sim, stage: str) -> Snapshot:
     c = sim.contacts()
     dist = sim.radii[c.pairs[:, 0]] + sim.radii[c.pairs[:, 1]] - c.overlaps
     f32 = np.float32
+    meshes = {}
+    if sim.scene.meshes:
+        meshes = _mesh_arrays(sim.scene.meshes, sim.mesh_displacements)
     return Snapshot(
         stage=stage,
         time=float(sim.time),
@@ -71,7 +82,25 @@ def capture(sim, stage: str) -> Snapshot:
         normal_forces=np.einsum("ij,ij->i", c.forces, c.normals).astype(f32),
         branches=(c.normals * dist[:, None]).astype(f32),
         platens=sim.wall_positions[:, 2].copy(),
+        **meshes,
     )
+
+
+def _mesh_arrays(meshes, displacements: np.ndarray) -> dict[str, np.ndarray]:
+    """A snapshot's mesh fields: every mesh's vertices moved by its displacement [m], its
+    triangles numbered into the joined vertices, and which mesh each triangle is of."""
+    points, triangles, ids = [], [], []
+    start = 0
+    for k, m in enumerate(meshes):
+        points.append(m.vertices + displacements[k])
+        triangles.append(m.triangles + start)
+        ids.append(np.full(len(m.triangles), k, np.int32))
+        start += len(m.vertices)
+    return {
+        "mesh_points": np.concatenate(points),
+        "mesh_triangles": np.concatenate(triangles).astype(np.int32),
+        "mesh_ids": np.concatenate(ids),
+    }
 
 
 def particle_fields(snap: Snapshot) -> dict[str, np.ndarray]:

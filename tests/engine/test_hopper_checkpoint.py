@@ -9,10 +9,12 @@ from __future__ import annotations
 import itertools
 import math
 
+import numpy as np
 import pytest
 
 import engine
 from engine.hopper.driver import HOPPER_TRAJECTORY
+from engine.hopper.scene import build_hopper
 from engine.hopper.spec import HopperTest
 from engine.uniaxial import checkpoint as ck_module
 from engine.uniaxial.checkpoint import Checkpoint
@@ -125,5 +127,26 @@ def test_a_discharge_streams_its_snapshots_without_changing_the_run(tmp_path):
     # the end's snapshot falls on the last interval's step here: the writer keeps one
     assert writer.labels[-1] in ("discharged", "discharge+discharged"), writer.labels
     assert (tmp_path / "snaps" / "particles.vtkhdf").exists()
+    # the walls and the gate, where they are at each step: the gate moves down, walls do not
+    import h5py
+
+    geo = build_hopper(t)
+    n_tri = sum(len(m.triangles) for m in geo.scene.meshes)
+    with h5py.File(tmp_path / "snaps" / "walls.vtkhdf", "r") as f:
+        v = f["VTKHDF"]
+        steps = int(v["Steps"].attrs["NSteps"])
+        assert steps == len(writer.labels)
+        assert list(v["Polygons/NumberOfCells"][:]) == [n_tri] * steps
+        mesh = v["CellData/mesh"][:].reshape(steps, n_tri)
+        gate = mesh[0] == geo.gate_mesh
+        assert gate.any() and np.array_equal(mesh[0], mesh[-1])
+        pts = v["Points"][:].reshape(steps, -1, 3)
+        tri = v["Polygons/Connectivity"][: n_tri * 3].reshape(n_tri, 3)
+        on_gate = np.unique(tri[gate])
+        assert pts[-1, on_gate, 2].max() < pts[0, on_gate, 2].max() - 1e-3  # opened downwards
+        walls = np.setdiff1d(np.arange(pts.shape[1]), on_gate)
+        assert np.array_equal(pts[0, walls], pts[-1, walls])
+    assert (tmp_path / "snaps" / "walls.pvd").exists()
+    assert (tmp_path / "snaps" / "walls-0000.vtu").exists()
     with pytest.raises(engine.ParameterError, match="run_hopper.snapshot_interval"):
         engine.run_hopper(t, threads=1, snapshot_interval=-1.0)

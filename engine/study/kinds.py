@@ -134,7 +134,9 @@ class TestKind:
     ``"type"`` a study's JSON gives its reference, None for the default kind);
     ``from_json(raw, owner)`` (its test from that JSON, the tag removed); ``metrics``
     (name -> :class:`engine.study.metrics.Metric`); ``metric_names(test)`` (those a study of
-    ``test`` judges); ``metric_values(result)``; ``shape_names``; ``shape_errors(run, ref)``;
+    ``test`` judges); ``headline`` (the metrics a user reads first, in order: the first a
+    study judges is its headline, engine.study.allocate.headline);
+    ``metric_values(result)``; ``shape_names``; ``shape_errors(run, ref)``;
     ``run(test, progress, checkpoint, backend, max_wall_time, wall_time_setting)``;
     ``checkpoints``, ``wall_time_limit`` (whether its run honours them), ``backends`` (the
     backends its run takes: None for any); ``control_test(reference, radius,
@@ -156,6 +158,7 @@ class TestKind:
     from_json: Callable[[dict, str], Any]
     metrics: Mapping[str, Metric]
     metric_names: Callable[[Any], tuple[str, ...]]
+    headline: tuple[str, ...]
     metric_values: Callable[[Any], dict]
     shape_names: tuple[str, ...]
     shape_errors: Callable[[Any, Any], dict]
@@ -297,6 +300,7 @@ UNIAXIAL = register(
         from_json=uniaxial_from_json,
         metrics=METRICS,
         metric_names=lambda test: metric_names(test.unconfined),
+        headline=("strength", "loading_stiffness"),
         metric_values=uniaxial_metric_values,
         shape_names=SHAPE_NAMES,
         shape_errors=uniaxial_shape_errors,
@@ -368,6 +372,7 @@ SHEAR = register(
         from_json=lambda raw, owner: from_dict(ShearTest, raw, owner),
         metrics=SHEAR_METRICS,
         metric_names=lambda test: tuple(SHEAR_METRICS),
+        headline=("ffc",),
         metric_values=shear_metric_values,
         shape_names=(),
         shape_errors=lambda run, ref: {},
@@ -403,6 +408,7 @@ HOPPER = register(
         from_json=lambda raw, owner: from_dict(HopperTest, raw, owner),
         metrics=HOPPER_METRICS,
         metric_names=lambda test: tuple(HOPPER_METRICS),
+        headline=("discharge_number",),
         metric_values=hopper_study.hopper_metric_values,
         shape_names=(),
         shape_errors=lambda run, ref: {},

@@ -227,8 +227,7 @@ def curve_check(res, ref_paths, label: str) -> list[tuple[str, bool | None]]:
     """Each verdict metric of the GPU run ``res`` against the stored CPU run of the same
     test (``ref_paths[0]``), within :func:`same_physics_bound` of the stored seeds' spread."""
     from engine.io.store import load_run
-    from engine.study.metrics import metric_names, metric_values, relative_error
-    from engine.study.noise import noise_floor
+    from engine.study.metrics import metric_names, metric_values, noise_floor, relative_error
 
     if not all(p.exists() for p in ref_paths):
         return [

@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 
 import engine
-from engine.study.kinds import kind_of
+from engine.study.kinds import TestKind, kind_for_json, kind_of
 from engine.uniaxial.spec import particle_count
 
 from . import cost
@@ -404,42 +404,33 @@ def check_coarse_radii(data: dict, fields: dict) -> None:
             )
 
 
-def is_shear_study(data: dict) -> bool:
-    """Whether the study's fields name a shear reference (``"type": "ShearTest"``)."""
-    ref = data.get("reference")
-    return isinstance(ref, dict) and ref.get("type") == "ShearTest"
+def reference_kind(data: dict) -> TestKind | None:
+    """The test kind the study's fields name by their reference's ``"type"``
+    (:func:`engine.study.kinds.kind_for_json`; none: the default kind); None for a type no
+    kind has (the engine's building of the spec names it)."""
+    try:
+        return kind_for_json(data.get("reference"))
+    except KeyError:
+        return None
 
 
-def is_hopper_study(data: dict) -> bool:
-    """Whether the study's fields name a hopper reference (``"type": "HopperTest"``)."""
-    ref = data.get("reference")
-    return isinstance(ref, dict) and ref.get("type") == "HopperTest"
-
-
-#: The run of each test kind that runs on the CPU only, as a refusal names it.
-CPU_ONLY_RUNS = {
-    "ShearTest": ("shear test", "engine.run_shear"),
-    "HopperTest": ("hopper", "engine.run_hopper"),
-}
-
-
-def _check_shear_backend(settings: Settings, test_type: str = "ShearTest") -> None:
-    """A shear study's runs are engine.run_shear's (a hopper study's engine.run_hopper's),
-    on the CPU only: a service whose runs go to the GPU (DEMSCALE_BACKEND=cuda) refuses it
-    rather than run it elsewhere."""
-    if settings.backend == "cuda":
-        test, run = CPU_ONLY_RUNS[test_type]
-        raise SpecRejected(
-            [
-                _error(
-                    ("reference", "type"),
-                    "this service runs its studies on the GPU (DEMSCALE_BACKEND=cuda) and the "
-                    f"{test} runs on the CPU only ({run}): a {test.split()[0]} study needs "
-                    "a service with DEMSCALE_BACKEND=cpu or auto",
-                    test_type,
-                )
-            ]
-        )
+def _check_backend(settings: Settings, kind: TestKind) -> None:
+    """A study whose kind runs on the CPU only (its ``backends`` lack ``"cuda"``: the shear
+    test's engine.run_shear, the hopper's engine.run_hopper) on a service whose runs go to
+    the GPU (DEMSCALE_BACKEND=cuda): refused rather than run elsewhere."""
+    if settings.backend != "cuda" or kind.backends is None or "cuda" in kind.backends:
+        return
+    raise SpecRejected(
+        [
+            _error(
+                ("reference", "type"),
+                "this service runs its studies on the GPU (DEMSCALE_BACKEND=cuda) and the "
+                f"{kind.title} runs on the CPU only ({kind.runner}): a {kind.name} study "
+                "needs a service with DEMSCALE_BACKEND=cpu or auto",
+                kind.json_type,
+            )
+        ]
+    )
 
 
 def _check_hopper_particles(data: dict, fields: dict, settings: Settings) -> None:
@@ -471,7 +462,9 @@ def _check_size_first(data: dict, settings: Settings) -> None:
     """Refuse, from the raw fields before the engine builds anything, a study with too many
     runs, a run over the particle cap, a knob out of its work bounds, or a worst case over
     the caps (the engine's own checks, and the caps once more, follow on the built spec).
-    A shear study: the runs and the particles here, its worst case on the built plan."""
+    A kind whose costs have their own model (:data:`KIND_COSTS`: the shear test, the
+    hopper): the runs and the particles here (:data:`KIND_PARTICLES`), its worst case on
+    the built plan."""
     n_runs = cost.plan_counts(data)
     if n_runs > settings.max_runs:
         raise _too_many_runs(n_runs, settings)
@@ -479,15 +472,13 @@ def _check_size_first(data: dict, settings: Settings) -> None:
     if not isinstance(fields.get("radius"), (int, float)):
         return  # the engine names the bad field
     check_coarse_radii(data, fields)
-    if is_shear_study(data):
-        _check_shear_backend(settings)
-        _check_particles(data, fields, settings)
+    kind = reference_kind(data)
+    name = None if kind is None else kind.name
+    if kind is not None:
+        _check_backend(settings, kind)
+    KIND_PARTICLES.get(name, _check_particles)(data, fields, settings)
+    if name in KIND_COSTS:  # its worst case on the built plan
         return
-    if is_hopper_study(data):  # its worst case on the built plan (hopper_study_costs)
-        _check_shear_backend(settings, "HopperTest")
-        _check_hopper_particles(data, fields, settings)
-        return
-    _check_particles(data, fields, settings)
     try:  # the reference's own checks first (the time step, k2 >= k1, ...), then the
         # bounds that compare its fields, then the worst case
         engine.UniaxialTest.from_dict(fields)
@@ -816,3 +807,8 @@ KIND_COSTS = {
     "shear": (shear_study_costs, SHEAR_BOUNDS),
     "hopper": (hopper_study_costs, HOPPER_BOUNDS),
 }
+
+#: The test kinds whose particles are counted from their own fields before the engine
+#: builds anything: kind name -> check; the rest count theirs from the cell, the solid
+#: fraction and each radius (:func:`_check_particles`).
+KIND_PARTICLES = {"hopper": _check_hopper_particles}

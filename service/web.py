@@ -24,7 +24,8 @@ from fastapi.templating import Jinja2Templates
 from sqlmodel import select
 
 from engine.calibration.calibrate import TARGET_UNITS, determination
-from engine.io.figures import KINDS, is_shear_table, reference_type
+from engine.io.figures import KINDS
+from engine.study.kinds import kind_for_json
 from engine.study.reasons import describe, interval_words, pct, shown
 from engine.study.report import StudyReport
 from engine.study.run import duration_words
@@ -82,10 +83,6 @@ RUN_COLUMNS = (
     ("mass_flow_index", "mass-flow index [-]", 1.0, "{:.2f}"),
     ("err_discharge_number", "discharge number err [%]", 100.0, "{:.1f}"),
 )
-#: Columns a shear study's page leaves out: its runs have no self-weight stress (gravity is
-#: off from the consolidation on: the column reads 0 for every run). A hopper study's leaves
-#: it out too (its rows read 0: engine.hopper.study.hopper_row).
-SHEAR_HIDDEN = frozenset({"overburden_ratio"})
 
 
 def cell(value, scale: float | None, fmt: str) -> str:
@@ -262,13 +259,13 @@ def study_page(
     if summary is not None:
         report = StudyReport.from_dict(summary.get("advisor"))
         verdicts = report_tables(report)
-        # each run's kernel compilation (set-up), kept out of its run time and speed-up; a
-        # shear run's ffc as stored (the summary's JSON has null where it is infinite)
-        shear = is_shear_table(summary["table"])
-        stored = h5store.read_run_scalars(path, ("setup_time", "ffc") if shear else ("setup_time",))
+        # each run's kernel compilation (set-up), kept out of its run time and speed-up; the
+        # scalars its kind may have infinite as stored (the summary's JSON has null there);
+        # the columns its kind leaves out (engine.study.kinds.TestKind)
+        kind = kind_for_json(study.spec.get("reference") or {})
+        stored = h5store.read_run_scalars(path, ("setup_time", *kind.infinite_scalars))
         rows = [{**row, **stored.get(row.get("run"), {})} for row in summary["table"]]
-        hopper = reference_type(study.spec.get("reference") or {}) == "HopperTest"
-        hidden = SHEAR_HIDDEN if shear or hopper else frozenset()
+        hidden = kind.hidden_columns
         cols = [c for c in RUN_COLUMNS if c[0] not in hidden and any(c[0] in row for row in rows)]
         table = [[cell(row.get(k), s, f) for k, _, s, f in cols] for row in rows]
         headings = [h for _, h, _, _ in cols]

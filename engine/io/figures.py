@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..simulation.snapshot import Snapshot, particle_fields
+from ..study.kinds import kind_of_table
 from ..study.metrics import METRIC_COLUMNS, SHEAR_METRIC_COLUMNS
 from .curves import stage_curves
 
@@ -108,11 +109,6 @@ def study_plot_data(result) -> tuple[dict, list[dict], object]:
     return runs, result.table, result.report
 
 
-def is_shear_table(table: list[dict]) -> bool:
-    """Whether a study's table is a shear study's (its rows carry the shear metrics' errors)."""
-    return any(SHEAR_METRIC_COLUMNS["yield_locus"] in r for r in table)
-
-
 def reference_type(reference) -> str:
     """The type of a study's reference test, a key of :data:`TEST_PLOTS`: the record's class
     name, or in its JSON form the ``"type"`` (a uniaxial test's may leave it out)."""
@@ -158,11 +154,9 @@ def kinds_of(table: list[dict]) -> tuple[str, ...]:
 
 
 def _table_type(table: list[dict]) -> str:
-    if is_shear_table(table):
-        return "ShearTest"
-    if any("err_discharge_number" in r for r in table):  # a hopper study's rows
-        return "HopperTest"
-    return "UniaxialTest"
+    """The type of the test of the study of ``table``, a key of :data:`TEST_PLOTS`: its
+    kind's (:func:`engine.study.kinds.kind_of_table`)."""
+    return kind_of_table(table).spec.__name__
 
 
 def _style(i: int, ref: bool) -> dict:

@@ -18,10 +18,10 @@ the runs to add, each with its reason. Deterministic given the stored runs.
   before the foils, and a coarse seed before a reference seed.
 - A coarse seed at a radius with resolution controls costs its control too (the rule's own
   error is judged paired by seed): the control is reserved in the budget with it.
-- A variant already decided on its headline metric (``strength`` where the test has it) at
-  the current look takes no run (it differs), and so does one the caps could not decide if
-  its means and spreads stayed as observed (futility: stopping without a verdict never
-  makes a wrong one).
+- A variant already decided on its headline metric (:func:`headline`: ``strength`` where
+  the test has it) at the current look takes no run (it differs), and so does one the caps
+  could not decide if its means and spreads stayed as observed (futility: stopping without
+  a verdict never makes a wrong one).
 - A variant or reference of one seed first gets seeds up to three (a spread of its own).
 
 :func:`allocate_round` is the allocator the adaptive loop asks (engine.study.loop, in the
@@ -36,6 +36,7 @@ from dataclasses import dataclass
 
 from .intervals import WELCH_MIN_SEEDS
 from .judge import compare
+from .kinds import KINDS
 from .noise import StudyNoise
 from .plan import CONTROL
 from .rates import error_rates
@@ -61,11 +62,13 @@ class Addition:
 
 
 def headline(names) -> str:
-    """The metric a user reads first: the unconfined strength where judged, the flowability
-    ffc in a shear study, else the loading stiffness."""
-    if "strength" in names:
-        return "strength"
-    return "ffc" if "ffc" in names else "loading_stiffness"
+    """The metric a user reads first among a study's verdict metrics ``names``: the first
+    its kind declares (:attr:`engine.study.kinds.TestKind.headline`: the unconfined strength
+    where judged, else the loading stiffness; the flowability ffc in a shear study; the
+    discharge number in a hopper's), the kind being the one whose metrics these are; the
+    first name where no kind has them all."""
+    kind = next((k for k in KINDS.values() if set(names) <= set(k.metrics)), None)
+    return next((n for n in (kind.headline if kind else ()) if n in names), names[0])
 
 
 def _combine(chances) -> float:
@@ -95,6 +98,7 @@ def next_runs(
     ones included, which the caps count; ``control_costs``: radius -> a control's cost where
     the study has controls (reserved with each coarse seed)."""
     names = noise.names
+    head = headline(names)
     alpha_e, alpha_d = error_rates(spec.confidence, len(names), round_no + 1, spec.looks)
     attempted = dict(attempted or {})
     control_costs = control_costs or {}
@@ -157,7 +161,7 @@ def next_runs(
         if not (any(p == "differs" for p in proj) or all(p == "equivalent" for p in proj)):
             del comps[k]
             continue
-        h = cs[headline(names)]
+        h = cs[head]
         if h.known and h.projected(h.nc, h.nr, alpha_e, alpha_d) == "differs":
             del comps[k]  # its headline metric already tells it apart at the next look
     if not comps:

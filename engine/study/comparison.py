@@ -28,8 +28,9 @@ simulates their rates and power with :func:`judge_samples`, which runs the same 
 over many studies at once.
 
 The error rates spent are :mod:`engine.study.rates`' policy; how many seeds an undecided
-metric needs is :func:`engine.study.seeds.seeds_needed`; a group's verdict over its metrics
-is :mod:`engine.study.judge`.
+metric needs is :func:`engine.study.seeds.seeds_needed`; whether a comparison is paired by
+seed is :func:`engine.study.seeds.pairing_pays`' (:func:`paired_where_it_pays`); a group's
+verdict over its metrics is :mod:`engine.study.judge`.
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ import numpy as np
 from .intervals import _interval_df_scalar, _scalars, interval_df, t_quantile, t_upper_quantiles
 from .metrics import relative_error, signed_error
 from .pooling import SCREEN_LEVEL, Spread, pool_arrays
-from .seeds import PLANNED_POWER, seeds_needed
+from .seeds import PLANNED_POWER, pairing_pays, seeds_needed
 
 
 class Space:
@@ -256,6 +257,24 @@ class Comparison:
         return bool(np.all(0.5 * (hi - lo) + z * u <= min(self.hi, -self.lo)))
 
 
+def paired_where_it_pays(comp: Comparison, name: str, c_rows, r_rows, alpha: float) -> Comparison:
+    """``comp`` (unpaired) as the comparison of the per-seed differences where
+    :func:`engine.study.seeds.pairing_pays` at one-sided rate ``alpha`` (a rule against its
+    controls, or the protocol check against the references: runs of one packing seed start
+    from one scaled cloud), else ``comp`` itself. ``c_rows``, ``r_rows``: both sides' raw
+    values of the seeds they share, in one order. A strength is never paired: it compares
+    the runs that failed at a peak, and the two runs of a seed need not both have."""
+    df_unpaired = float(np.min(comp.interval(alpha)[3])) if comp.known else None
+    if name == "strength" or not pairing_pays(
+        name, len(c_rows), comp.nc, comp.nr, alpha, df_unpaired
+    ):
+        return comp
+    sp = comp.space
+    c = sp.map(np.array([np.atleast_1d(v) for v in c_rows], dtype=float))
+    r = sp.map(np.array([np.atleast_1d(v) for v in r_rows], dtype=float))
+    return Comparison(sp, c, r, comp.sc, comp.sr, comp.tolerance, paired=True)
+
+
 def _normal_cdf(x: float) -> float:
     return 0.5 * math.erfc(-x / math.sqrt(2.0))
 
@@ -399,4 +418,11 @@ def judge_samples(
     return np.where(differs, "differs", np.where(equivalent, "equivalent", "undecided"))
 
 
-__all__ = ["Comparison", "Space", "difference_interval", "judge_metric", "judge_samples"]
+__all__ = [
+    "Comparison",
+    "Space",
+    "difference_interval",
+    "judge_metric",
+    "judge_samples",
+    "paired_where_it_pays",
+]

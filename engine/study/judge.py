@@ -3,19 +3,27 @@ coarse variant (or of the resolution controls, or of the protocol check) compare
 references, or with the controls of its radius, and combined: a (radius, rule) differs when
 any metric differs, is equivalent when all are, undecided otherwise.
 
-The three concerns it puts together live in their own modules: the statistics of one
-comparison (:mod:`engine.study.comparison`: intervals, bias, one metric's verdict), the
-error-rate policy (:mod:`engine.study.rates`: alpha per test, metric and look) and the seed
-allocation (:mod:`engine.study.seeds`: seeds an undecided metric needs, pairing by seed;
+What it puts together lives in its own modules: the statistics of one comparison
+(:mod:`engine.study.comparison`: intervals, bias, pairing by seed, one metric's verdict),
+the error-rate policy (:mod:`engine.study.rates`: alpha per test, metric and look), the
+group's verdict record and its words (:mod:`engine.study.reasons`: :func:`judged`) and the
+seeds (:mod:`engine.study.seeds`: seeds an undecided metric needs, whether pairing pays;
 the runs a round adds are :mod:`engine.study.allocate`). Their names are importable from
-here as before. The functions here are pure: arrays in, verdicts out.
+here as before. Here each metric of a group makes one comparison (:func:`compare`, paired
+where that pays) and one verdict, and the group's verdict is made of them. The functions
+here are pure: arrays in, verdicts out.
 """
 
 from __future__ import annotations
 
-import numpy as np
-
-from .comparison import Comparison, difference_interval, judge_metric, judge_samples
+from .comparison import (
+    Comparison,
+    difference_interval,
+    judge_metric,
+    judge_samples,
+    paired_where_it_pays,
+)
+from .metrics import noise_floor
 from .noise import REFERENCE, StudyNoise
 from .rates import (
     CONFIDENCE,
@@ -25,42 +33,11 @@ from .rates import (
     error_rates,
     look_alpha,
 )
-from .reasons import MAX_SEEDS_NEEDED, bias_words, describe, verdict, what_decides
+from .reasons import MAX_SEEDS_NEEDED, bias_words, describe, judged, verdict, what_decides
 from .seeds import PAIRING_VARIANCE_RATIO, PLANNED_POWER, pairing_pays, seeds_needed
 
 
-def _counts(noise: StudyNoise, name: str, key) -> dict:
-    _, left = noise.kept.get((name, key), (0, 0))
-    return {"left_out": left} if left else {}
-
-
-def _judge(
-    noise: StudyNoise,
-    name: str,
-    key,
-    comp: Comparison,
-    alpha_e: float,
-    alpha_d: float,
-    cons: float,
-    raw_other=REFERENCE,
-    against: str = "reference",
-) -> dict:
-    """:func:`judge_metric` of metric ``name`` of group ``key`` (``comp``) against the
-    references or the group ``raw_other``, with both raw values and the count of left-out
-    values read from ``noise``; ``cons``: the consolidation stress [Pa]."""
-    return judge_metric(
-        name,
-        comp,
-        alpha_e,
-        alpha_d,
-        noise.raw[name, key],
-        noise.raw[name, raw_other],
-        cons,
-        against=against,
-        counts=_counts(noise, name, key),
-    )
-
-
+# ------------------------------------------------------------ one metric of a study's group
 def compare(noise: StudyNoise, name: str, key, tolerance: float, against=REFERENCE) -> Comparison:
     """Group ``key`` against the references (``against`` = REFERENCE) or another group
     of its radius, unpaired, on the study's compared scale and spreads."""
@@ -73,38 +50,50 @@ def compare(noise: StudyNoise, name: str, key, tolerance: float, against=REFEREN
     return Comparison(noise.space[name, radius], c, r, sc, sr, tolerance)
 
 
+def _judge(
+    noise: StudyNoise,
+    name: str,
+    key,
+    tolerance: float,
+    alpha_e: float,
+    alpha_d: float,
+    cons: float,
+    against=REFERENCE,
+    pairs: tuple | None = None,
+    what: str = "reference",
+) -> dict:
+    """:func:`judge_metric` of metric ``name`` of group ``key`` against the references
+    (``against`` = REFERENCE) or the group ``against`` (:func:`compare`), with both raw
+    values and the count of left-out values read from ``noise``; ``pairs``: both sides'
+    values of the seeds they share, in one order, to be judged paired by seed where that
+    pays (:func:`engine.study.comparison.paired_where_it_pays`); ``cons``: the
+    consolidation stress [Pa]; ``what``: what the group is judged against, in words."""
+    _, left = noise.kept.get((name, key), (0, 0))
+    other = REFERENCE if against == REFERENCE or against[1] == REFERENCE else against
+    comp = compare(noise, name, key, tolerance, against)
+    if pairs is not None:
+        comp = paired_where_it_pays(comp, name, *pairs, alpha_e)
+    return judge_metric(
+        name,
+        comp,
+        alpha_e,
+        alpha_d,
+        noise.raw[name, key],
+        noise.raw[name, other],
+        cons,
+        against=what,
+        counts={"left_out": left} if left else {},
+    )
+
+
+# --------------------------------------------------------------------------- a group
 def judge_group(noise: StudyNoise, key, tolerances: dict, alpha_e: float, alpha_d: float) -> dict:
     """Every metric of group ``key`` against the references, and its overall verdict."""
-    per_metric = []
-    for n in noise.names:
-        comp = compare(noise, n, key, tolerances[n])
-        per_metric.append(_judge(noise, n, key, comp, alpha_e, alpha_d, noise.cons))
+    per_metric = [
+        _judge(noise, n, key, tolerances[n], alpha_e, alpha_d, noise.cons) for n in noise.names
+    ]
     seeds = max((m["seeds"] for m in per_metric), default=0)
     return judged(key[0], key[1], per_metric, seeds)
-
-
-def judged(radius: float, rule: str, per_metric: list[dict], seeds: int) -> dict:
-    v, reason = verdict(per_metric)
-    biased = [
-        {
-            "metric": m["metric"],
-            "direction": m["bias"]["direction"],
-            "error": m["bias"]["error"],
-            "interval": m["bias"]["interval"],
-        }
-        for m in per_metric
-        if m.get("bias") and m["bias"]["direction"] is not None
-    ]
-    return {
-        "radius": radius,
-        "rule": rule,
-        "verdict": v,
-        "reason": reason,
-        "to_decide": what_decides(per_metric) if v == "undecided" else None,
-        "seeds": seeds,
-        "biased": biased,
-        "metrics": per_metric,
-    }
 
 
 def judge_groups(
@@ -128,8 +117,6 @@ def judge_groups(
     noise = StudyNoise(ref_values, groups, names, cons, pool=pool)
     alpha_e, alpha_d = error_rates(getattr(spec, "confidence", CONFIDENCE), len(names), look, looks)
     out = [judge_group(noise, key, spec.tolerances, alpha_e, alpha_d) for key in variants]
-    from .noise import noise_floor
-
     floor = noise_floor(ref_values, names, cons)
     return {n: floor[n]["noise"] for n in names}, out
 
@@ -153,8 +140,9 @@ def judge_values(
     for k, v in (others or {}).items():
         groups[0.0, str(k)] = list(v)
     noise = StudyNoise(ref_values, groups, [name], consolidation_stress)
-    comp = compare(noise, name, key, tolerance)
-    return _judge(noise, name, key, comp, alpha_equivalent, alpha_differs, consolidation_stress)
+    return _judge(
+        noise, name, key, tolerance, alpha_equivalent, alpha_differs, consolidation_stress
+    )
 
 
 def _judge_by_seed(
@@ -175,22 +163,22 @@ def _judge_by_seed(
     unpaired with the study's spreads. Returns (per-metric judgements, pairs)."""
     cons = spec.reference.consolidation_stress
     alpha_e, alpha_d = error_rates(getattr(spec, "confidence", CONFIDENCE), len(names), look, looks)
-    radius = key[0]
     both = sorted(set(values) & set(others))
-    raw_other = REFERENCE if other[1] == REFERENCE else other
-    per_metric = []
-    for n in names:
-        tol = spec.tolerances[n]
-        comp = compare(noise, n, key, tol, against=other)
-        df_unpaired = float(np.min(comp.interval(alpha_e)[3])) if comp.known else None
-        if n != "strength" and pairing_pays(n, len(both), comp.nc, comp.nr, alpha_e, df_unpaired):
-            sp = noise.space[n, radius]
-            c = sp.map(np.array([np.atleast_1d(values[s][n]) for s in both], dtype=float))
-            k = sp.map(np.array([np.atleast_1d(others[s][n]) for s in both], dtype=float))
-            comp = Comparison(sp, c, k, comp.sc, comp.sr, tol, paired=True)
-        per_metric.append(
-            _judge(noise, n, key, comp, alpha_e, alpha_d, cons, raw_other, against=against)
+    per_metric = [
+        _judge(
+            noise,
+            n,
+            key,
+            spec.tolerances[n],
+            alpha_e,
+            alpha_d,
+            cons,
+            other,
+            ([values[s][n] for s in both], [others[s][n] for s in both]),
+            against,
         )
+        for n in names
+    ]
     return per_metric, len(both)
 
 

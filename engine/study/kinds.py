@@ -40,6 +40,7 @@ from .metrics import (
     SHEAR_METRIC_COLUMNS,
     SHEAR_METRICS,
     Metric,
+    metric_column,
     metric_names,
     shear_metric_values,
     uniaxial_metric_values,
@@ -130,16 +131,23 @@ SHEAR_SUMMARY = (
 class TestKind:
     """What a study needs of one kind of test (module docstring).
 
-    Attributes: ``name``; ``spec``, ``result`` (record classes); ``json_type`` (the
-    ``"type"`` a study's JSON gives its reference, None for the default kind);
+    Attributes: ``name``; ``title`` (the test in words) and ``runner`` (the public function
+    that runs one, as a refusal names them); ``spec``, ``result`` (record classes);
+    ``json_type`` (the ``"type"`` a study's JSON gives its reference, None for the default
+    kind);
     ``from_json(raw, owner)`` (its test from that JSON, the tag removed); ``metrics``
     (name -> :class:`engine.study.metrics.Metric`); ``metric_names(test)`` (those a study of
-    ``test`` judges); ``metric_values(result)``; ``shape_names``; ``shape_errors(run, ref)``;
+    ``test`` judges); ``headline`` (the metrics a user reads first, in order: the first a
+    study judges is its headline, engine.study.allocate.headline);
+    ``metric_values(result)``; ``shape_names``; ``shape_errors(run, ref)``;
     ``run(test, progress, checkpoint, backend, max_wall_time, wall_time_setting)``;
     ``checkpoints``, ``wall_time_limit`` (whether its run honours them), ``backends`` (the
     backends its run takes: None for any); ``control_test(reference, radius,
     reference_dt)``; ``halved_protocol(test)``; ``estimated_steps(test)``; ``table_units``;
-    ``row_scalars(result)`` (its table row's own columns); ``summary_scalars`` (the
+    ``row_scalars(result)`` (its table row's own columns); ``hidden_columns`` (the table
+    columns a study's page leaves out: they read 0 for every run of the kind);
+    ``infinite_scalars`` (table scalars that may be infinite: a summary's JSON holds null
+    there, so a page reads them from the runs' files); ``summary_scalars`` (the
     reference scalars a summary quotes); ``snapshots`` (whether its runs keep stage-end
     snapshots); ``stage_time_scales`` (whether a coarse run's ``max_stage_time`` grows by
     s); ``window`` (whether a study sets its interior window, ``interior_margin``);
@@ -150,12 +158,15 @@ class TestKind:
     """
 
     name: str
+    title: str
+    runner: str
     spec: type
     result: type
     json_type: str | None
     from_json: Callable[[dict, str], Any]
     metrics: Mapping[str, Metric]
     metric_names: Callable[[Any], tuple[str, ...]]
+    headline: tuple[str, ...]
     metric_values: Callable[[Any], dict]
     shape_names: tuple[str, ...]
     shape_errors: Callable[[Any, Any], dict]
@@ -168,6 +179,8 @@ class TestKind:
     estimated_steps: Callable[[Any], float]
     table_units: Mapping[str, str]
     row_scalars: Callable[[Any], dict]
+    hidden_columns: frozenset[str]
+    infinite_scalars: tuple[str, ...]
     summary_scalars: tuple[str, ...]
     snapshots: bool
     stage_time_scales: bool
@@ -222,6 +235,20 @@ def kind_for_json(raw: Any) -> TestKind:
         if kind.json_type == tag:
             return kind
     raise KeyError(tag)
+
+
+def kind_of_table(table: list[dict]) -> TestKind:
+    """The kind of a study from its result table alone (a study read back without its
+    spec): the one most of whose verdict metrics' error columns
+    (engine.study.metrics.metric_column) its rows carry, the first registered at a tie; the
+    default kind for a table with none."""
+    present = {c for row in table for c in row}
+
+    def carried(kind: TestKind) -> int:
+        return len(present & {metric_column(n) for n in kind.metrics})
+
+    best = max(KINDS.values(), key=carried)
+    return best if carried(best) else kind_for_json(None)
 
 
 # ------------------------------------------------------------------ the uniaxial test
@@ -291,12 +318,15 @@ def _uniaxial_row(result) -> dict:
 UNIAXIAL = register(
     TestKind(
         name="uniaxial",
+        title="uniaxial test",
+        runner="engine.run_uniaxial",
         spec=UniaxialTest,
         result=UniaxialResult,
         json_type=None,
         from_json=uniaxial_from_json,
         metrics=METRICS,
         metric_names=lambda test: metric_names(test.unconfined),
+        headline=("strength", "loading_stiffness"),
         metric_values=uniaxial_metric_values,
         shape_names=SHAPE_NAMES,
         shape_errors=uniaxial_shape_errors,
@@ -309,6 +339,8 @@ UNIAXIAL = register(
         estimated_steps=uniaxial_steps,
         table_units=TABLE_UNITS,
         row_scalars=_uniaxial_row,
+        hidden_columns=frozenset(),
+        infinite_scalars=(),
         summary_scalars=UNIAXIAL_SUMMARY,
         snapshots=True,
         stage_time_scales=False,
@@ -362,12 +394,15 @@ def _shear_row(result) -> dict:
 SHEAR = register(
     TestKind(
         name="shear",
+        title="shear test",
+        runner="engine.run_shear",
         spec=ShearTest,
         result=ShearResult,
         json_type="ShearTest",
         from_json=lambda raw, owner: from_dict(ShearTest, raw, owner),
         metrics=SHEAR_METRICS,
         metric_names=lambda test: tuple(SHEAR_METRICS),
+        headline=("ffc",),
         metric_values=shear_metric_values,
         shape_names=(),
         shape_errors=lambda run, ref: {},
@@ -380,6 +415,8 @@ SHEAR = register(
         estimated_steps=shear_steps,
         table_units=SHEAR_TABLE_UNITS,
         row_scalars=_shear_row,
+        hidden_columns=frozenset({"overburden_ratio"}),  # gravity off from the consolidation
+        infinite_scalars=("ffc",),  # sigma_1 / sigma_c where sigma_c = 0
         summary_scalars=SHEAR_SUMMARY,
         snapshots=False,
         stage_time_scales=True,
@@ -397,12 +434,15 @@ HOPPER_METRICS = {m[0]: Metric(*m) for m in hopper_study.HOPPER_METRICS}
 HOPPER = register(
     TestKind(
         name="hopper",
+        title="hopper",
+        runner="engine.run_hopper",
         spec=HopperTest,
         result=HopperResult,
         json_type="HopperTest",
         from_json=lambda raw, owner: from_dict(HopperTest, raw, owner),
         metrics=HOPPER_METRICS,
         metric_names=lambda test: tuple(HOPPER_METRICS),
+        headline=("discharge_number",),
         metric_values=hopper_study.hopper_metric_values,
         shape_names=(),
         shape_errors=lambda run, ref: {},
@@ -425,6 +465,8 @@ HOPPER = register(
             **{f"err_{k}": "1" for k in HOPPER_METRICS},
         },
         row_scalars=hopper_study.hopper_row,
+        hidden_columns=frozenset({"overburden_ratio"}),  # engine.hopper.study.hopper_row's 0
+        infinite_scalars=(),
         summary_scalars=hopper_study.HOPPER_SUMMARY,
         snapshots=False,
         stage_time_scales=False,

@@ -17,15 +17,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .judge import judge_group, judge_protocol, judge_rule_error
-from .metrics import (
-    metric_column,
-    metric_names_of,
-    metric_values,
-    relative_error,
-    shape_errors,
-    shape_names_of,
-)
-from .noise import StudyNoise, noise_floor
+from .kinds import kind_of
+from .metrics import metric_column, noise_floor, relative_error
+from .noise import StudyNoise
 from .plan import CONTROL, PROTOCOL, PlannedRun
 from .rates import error_rates
 from .spec import StudySpec
@@ -51,7 +45,7 @@ class Look:
         noise: the groups on their compared scale with pooled spreads (None: no
             reference finished).
         noise_floor: metric -> the references' relative noise floor [-] (None with one
-            reference seed; :func:`engine.study.noise.noise_floor`).
+            reference seed; :func:`engine.study.metrics.noise_floor`).
         alpha_e, alpha_d: the one-sided rates of the equivalence and differs tests.
         verdicts: each variant's verdict at this look (:func:`engine.study.judge.judge_group`).
         resolution, rule_errors: the report's look only: the two errors the resolution
@@ -82,10 +76,6 @@ class Look:
     rule_errors: list = field(default_factory=list)
     protocol: dict | None = None
 
-    def undecided(self) -> bool:
-        """Whether any variant is still undecided at this look."""
-        return any(v["verdict"] == "undecided" for v in self.verdicts)
-
 
 def judge_look(
     spec: StudySpec,
@@ -110,9 +100,10 @@ def judge_look(
             failed[p.key] = "not run"
     ok = [p for p in planned if p.key in outcomes and not isinstance(outcomes[p.key], str)]
     refs = {p.seed: outcomes[p.key] for p in ok if p.is_reference}
-    names = tuple(metric_names_of(spec.reference))
-    shapes = tuple(shape_names_of(spec.reference))
-    ref_values = [metric_values(r) for r in refs.values()]
+    kind = kind_of(spec.reference)  # what the study's kind measures, asked once
+    names = tuple(kind.metric_names(spec.reference))
+    shapes = tuple(kind.shape_names)
+    ref_values = [kind.metric_values(r) for r in refs.values()]
     out = Look(spec, look, names, shapes, refs, ref_values, failed=failed)
     if not refs:
         return out
@@ -121,7 +112,7 @@ def judge_look(
     first_ref = next(iter(refs.values()))
     for p in ok:
         res = outcomes[p.key]
-        values = metric_values(res)
+        values = kind.metric_values(res)
         errors = {
             metric_column(n): (
                 0.0 if p.is_reference else relative_error(n, values[n], floor_mean[n], cons)
@@ -132,7 +123,7 @@ def judge_look(
             errors.update(dict.fromkeys(shapes, 0.0))
         else:
             try:
-                errors.update(shape_errors(res, refs.get(p.seed, first_ref)))
+                errors.update(kind.shape_errors(res, refs.get(p.seed, first_ref)))
             except ValueError as e:
                 failed[p.key] = f"not comparable: {e}"
                 continue

@@ -99,47 +99,39 @@ class StudyLoop:
         return assemble(self.spec, self.planned, self.outcomes, self.look, adaptive)
 
     # --------------------------------------------------------------------------- rounds
-    def _missing(self, pilot_only: bool = False) -> bool:
-        return any(
-            p.key not in self.outcomes
-            for p in self.planned
-            if not pilot_only or (not p.control and not p.protocol)
-        )
-
     def _advance(self) -> None:
         """Plan the rounds that can be planned now: a round is planned from the finished
         references and variants (the controls and the protocol check take no part in it,
-        so it need not wait for them), or taken from ``decided``."""
+        so it need not wait for them), or taken from ``decided``. Once the rounds stop
+        adding runs and every run is in, the stopping rule says why, from the runs judged
+        at the study's last look (without the protocol check)."""
         spec = self.spec
-        if not spec.decide:
+        if not spec.decide or self.stopped is not None:
             return
-        while self.stopped is None and self.rounds < spec.rounds:
+        why = None  # NOTHING_TO_ADD where a round adds no run, else all its rounds ran
+        while self.rounds < spec.rounds:
             round_no = self.rounds + 1
             new = self.decided.get(round_no)
             if new is None:
-                if self._missing(pilot_only=True):
-                    return
+                pilot = (p for p in self.planned if not p.control and not p.protocol)
+                if any(p.key not in self.outcomes for p in pilot):
+                    return  # its references and variants still to run
                 look = judge_look(spec, self.planned, self.outcomes, round_no, report=False)
                 new = [
                     (p, {"run": p.key, "round": a.round, "kind": a.kind, "reason": a.reason})
                     for p, a in allocate_round(look, self.planned, round_no, self.spent)
                 ]
-                if not new:
-                    if not self._missing():  # else: controls still to run, asked again
-                        self.stopped = stop_reason(self._last_look(), NOTHING_TO_ADD)
-                    return
+                if not new:  # asked again while controls are still to run
+                    why = NOTHING_TO_ADD
+                    break
             self.rounds = round_no
             for p, a in new:
                 self.planned.append(p)
                 self.spent += p.particle_steps
                 self.added.append(a)
-        if self.stopped is None and not self._missing():
-            self.stopped = stop_reason(self._last_look(), all_rounds_run(spec))
-
-    def _last_look(self):
-        """The runs so far judged at the study's last look (the stopping rule's), without
-        the protocol check."""
-        return judge_look(self.spec, self.planned, self.outcomes, self.spec.looks, report=False)
+        if all(p.key in self.outcomes for p in self.planned):
+            last = judge_look(spec, self.planned, self.outcomes, spec.looks, report=False)
+            self.stopped = stop_reason(last, why or all_rounds_run(spec))
 
 
 def _decided_rounds(plan: StudyPlan, decided: list[dict]) -> dict[int, list[tuple]]:

@@ -309,6 +309,30 @@ def reference_scale(name: str, ref: np.ndarray, consolidation_stress: float) -> 
     return np.where(ref > 0, ref, 1.0)
 
 
+def metric_array(values: list[dict], name: str) -> np.ndarray:
+    """Metric ``name`` of runs' metric ``values`` as one array (runs x levels; one empty
+    row of one level for no run)."""
+    if not values:
+        return np.zeros((0, 1))
+    return np.array([np.atleast_1d(v[name]) for v in values], dtype=float)
+
+
+def noise_floor(ref_values: list[dict], names, consolidation_stress: float) -> dict:
+    """Per metric, the reference seeds' ``values`` (seeds x levels), mean values, spread
+    (per level) and the relative noise floor [-] (RMS over levels of spread / the
+    :func:`reference_scale`; ``consolidation_stress`` [Pa]); the floor is None with one
+    seed."""
+    out = {}
+    for n in names:
+        a = metric_array(ref_values, n)
+        mean = a.mean(axis=0)
+        sd = a.std(axis=0, ddof=1) if len(a) > 1 else None
+        scale = reference_scale(n, mean, consolidation_stress)
+        floor = None if sd is None else float(np.sqrt(np.mean((sd / scale) ** 2)))
+        out[n] = {"values": a, "mean": mean, "sd": sd, "noise": floor, "seeds": len(a)}
+    return out
+
+
 def relative_error(name: str, values, ref, consolidation_stress: float) -> float:
     """Relative RMS error of ``values`` against ``ref`` [-] (module docstring)."""
     values = np.asarray(values, dtype=float)

@@ -18,32 +18,11 @@ from __future__ import annotations
 import numpy as np
 
 from .comparison import Space
-from .metrics import FLOORED, STRENGTH_FLOOR, reference_scale
+from .metrics import FLOORED, STRENGTH_FLOOR, metric_array, noise_floor, reference_scale
 from .pooling import SCREEN_LEVEL, Spread, group_spreads, own_spread
 
 #: The key of the references among a study's groups.
 REFERENCE = "reference"
-
-
-def _stack(values: list[dict], name: str) -> np.ndarray:
-    if not values:
-        return np.zeros((0, 1))
-    return np.array([np.atleast_1d(v[name]) for v in values], dtype=float)
-
-
-def noise_floor(ref_values: list[dict], names, consolidation_stress: float) -> dict:
-    """Per metric, the reference seeds' ``values`` (seeds x levels), mean values, spread
-    (per level) and the relative noise floor [-] (RMS over levels of spread / scale); the
-    floor is None with one seed."""
-    out = {}
-    for n in names:
-        a = _stack(ref_values, n)
-        mean = a.mean(axis=0)
-        sd = a.std(axis=0, ddof=1) if len(a) > 1 else None
-        scale = reference_scale(n, mean, consolidation_stress)
-        floor = None if sd is None else float(np.sqrt(np.mean((sd / scale) ** 2)))
-        out[n] = {"values": a, "mean": mean, "sd": sd, "noise": floor, "seeds": len(a)}
-    return out
 
 
 def _failed(values: dict) -> bool:
@@ -100,7 +79,7 @@ class StudyNoise:
             only_failed = name == "strength" and strength_failures
             refs = [v for v in ref_values if not only_failed or _failed(v)]
             self.kept[name, REFERENCE] = (len(refs), len(ref_values) - len(refs))
-            r = _stack(refs, name)
+            r = metric_array(refs, name)
             self.raw[name, REFERENCE] = r
             ref_mean = r.mean(axis=0) if len(r) else np.ones(1)
             for radius in radii:
@@ -109,7 +88,7 @@ class StudyNoise:
                 for k in keys:
                     vals = [v for v in groups[k] if not only_failed or _failed(v)]
                     self.kept[name, k] = (len(vals), len(groups[k]) - len(vals))
-                    kept[k] = _stack(vals, name)
+                    kept[k] = metric_array(vals, name)
                     self.raw[name, k] = kept[k]
                 sp = choose_space(name, [r, *kept.values()], ref_mean, consolidation_stress)
                 self.space[name, radius] = sp
@@ -143,4 +122,6 @@ def _no_spread(key) -> Spread:
     return Spread(np.zeros(1), 0.0, 0.0, False, (key,))
 
 
+# noise_floor: the references' relative spread, beside the reference scale it is taken on
+# (engine.study.metrics), importable from here as before
 __all__ = ["REFERENCE", "Space", "StudyNoise", "choose_space", "noise_floor"]

@@ -1,7 +1,7 @@
 """A verdict in words: each metric's error, interval, rate, spread and bias, what would
 decide an undecided one, and the overall verdict with its reason (docs/PHYSICS.md section
-7.1). Pure functions of the per-metric dicts :func:`engine.study.judge.judge_metric`
-makes."""
+7.1): a group's verdict record (:func:`judged`) from the per-metric dicts
+:func:`engine.study.comparison.judge_metric` makes. Pure functions of those dicts."""
 
 from __future__ import annotations
 
@@ -219,6 +219,34 @@ def verdict(metrics: list[dict]) -> tuple[str, str]:
     return "equivalent", "within tolerance beyond noise: " + "; ".join(describe(m) for m in metrics)
 
 
+def judged(radius: float, rule: str, per_metric: list[dict], seeds: int) -> dict:
+    """The verdict of group (``radius`` [m], ``rule``) from its metrics' judgements
+    (``per_metric``, each as :func:`engine.study.comparison.judge_metric` makes it;
+    ``seeds``: its seeds): the overall verdict and its reason (:func:`verdict`), what would
+    decide it where undecided (:func:`what_decides`), its biased metrics and the metrics."""
+    v, reason = verdict(per_metric)
+    biased = [
+        {
+            "metric": m["metric"],
+            "direction": m["bias"]["direction"],
+            "error": m["bias"]["error"],
+            "interval": m["bias"]["interval"],
+        }
+        for m in per_metric
+        if m.get("bias") and m["bias"]["direction"] is not None
+    ]
+    return {
+        "radius": radius,
+        "rule": rule,
+        "verdict": v,
+        "reason": reason,
+        "to_decide": what_decides(per_metric) if v == "undecided" else None,
+        "seeds": seeds,
+        "biased": biased,
+        "metrics": per_metric,
+    }
+
+
 __all__ = [
     "MAX_SEEDS_NEEDED",
     "UNBOUNDED",
@@ -227,6 +255,7 @@ __all__ = [
     "bounded",
     "describe",
     "interval_words",
+    "judged",
     "pct",
     "shown",
     "verdict",

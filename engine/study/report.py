@@ -186,7 +186,7 @@ class MetricVerdict:
 # --------------------------------------------------------------------------- a group
 @dataclass(frozen=True)
 class Verdict:
-    """The verdict of one group of runs over its metrics (engine.study.judge.judged): a
+    """The verdict of one group of runs over its metrics (engine.study.reasons.judged): a
     coarse variant against the references (``what`` None), a radius's resolution controls
     against them (``what`` "resolution", with ``diameters_across``, None where unknown), a
     variant against its controls (``what`` "rule", with ``control_seeds`` and

@@ -279,8 +279,8 @@ def run_study(
     poll_interval, checkpoints = options.poll_interval, options.checkpoints
     checkpoint_interval, backend = options.checkpoint_interval, options.backend
     limit = (options.max_run_wall_time, options.wall_time_setting)
-    study = as_plan(study)  # planned once
-    check_kind_options(study.spec, options)
+    check_kind_options(study.spec if isinstance(study, StudyPlan) else study, options)
+    study = as_plan(study)  # planned once, the options found runnable first
     loop = StudyLoop(study, dict(completed or {}), decided)
     outcomes = loop.outcomes
     progress = _monotone_progress(progress)

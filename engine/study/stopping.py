@@ -35,7 +35,8 @@ def stop_reason(look: Look, otherwise: str) -> str:
     judge."""
     if not look.refs:
         return "no reference run finished"
-    return otherwise if look.undecided() else "every verdict decided"
+    undecided = any(v["verdict"] == "undecided" for v in look.verdicts)
+    return otherwise if undecided else "every verdict decided"
 
 
 def final_look(spec: StudySpec, added: list[dict], stopped: str | None = None) -> int:

@@ -131,3 +131,13 @@ def test_a_study_that_stops_is_judged_at_its_last_look():
     # every look's rate summed over the looks is alpha: judging once more at the last look
     # with the same data spends no more than the design allows
     assert sum(look_alpha(0.95, k, 3) for k in (1, 2, 3)) == pytest.approx(0.05)
+
+
+def test_each_kind_s_headline_is_its_own():
+    """The allocator reads the headline metric of the study's kind: a hopper study that adds
+    seeds looked for a loading_stiffness it has not (KeyError) before the kind declared it."""
+    assert headline(("discharge_number", "bulk_density")) == "discharge_number"
+    assert headline(("bulk_density", "discharge_number")) == "discharge_number"
+    assert headline(("density", "loading_stiffness", "strength")) == "strength"
+    assert headline(("density", "loading_stiffness")) == "loading_stiffness"
+    assert headline(("sigma_c", "ffc", "bulk_density")) == "ffc"

@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 from ..contact.bilinear import BilinearAdhesive
 from ..contact.eepa import EEPA
 from ..contact.hertz import HertzMindlin
+from ..contact.registry import pair_laws
 from ..contact.wall import WallMaterial
 from ..core.config import SKIN_FRACTION
 from ..core.errors import ParameterError
@@ -174,7 +175,7 @@ class HopperTest(Record):
                 self.window_start,
                 f"< window_end = {self.window_end:g}",
             )
-        if not isinstance(self.pair_law, BilinearAdhesive | EEPA | HertzMindlin):
+        if not isinstance(self.pair_law, pair_laws()):
             raise ParameterError(f"{o}.pair_law", self.pair_law, "a pair law record")
 
     # ------------------------------------------------------------------ derived

@@ -17,15 +17,20 @@ current height, and the wall normal stress by height (:mod:`engine.hopper.measur
 The catch zone. A discharged grain falls 2 B and more onto the heap on the catch floor, at up
 to :func:`impact_speed` (8-11 m/s in the outlet series' widest arching runs); on the heap a
 soft loading spring then lets two grains overlap by half a radius and the run stops with an
-``InstabilityError`` after the outlet's behaviour was read, or before (issue 52). So the
-grains below the catch zone's top (``HopperGeometry.catch_top``: 10 largest diameters above
-the highest the heap can reach, 2 B + 10 d below the outlet) are slowed to
-:data:`CATCH_SPEED` sqrt(2 g d) (the speed of a grain dropped from one diameter) whenever a
-grain at the run's fastest speed could have moved :data:`CATCH_REACH` diameters: each lands
-on the heap at about that speed. What happens below the outlet cannot act on the flow
-through it (the grains there fall freely, away from it); the heap never reaches the zone's
-top. The time step is still sized for the free fall (:func:`resolved_dt`): the hopper's own
-stepping is that of a run without the zone.
+``InstabilityError`` after the outlet's behaviour was read, or before (issue 52). So below
+the catch zone's top (``HopperGeometry.catch_top``: :data:`CATCH_ZONE_DIAMETERS` largest
+diameters above the highest the heap can reach, 2 B + 10 d below the outlet) each grain's
+speed is capped by its depth (:meth:`HopperRun.catch_cap`): :func:`impact_speed` at the
+zone's top, falling linearly to :data:`CATCH_SPEED` sqrt(2 g d) (the speed of a grain
+dropped from one diameter) at the heap's highest point and below, applied whenever a grain
+at the run's fastest speed could have moved :data:`CATCH_REACH` of a diameter. The grains
+land on the heap at about sqrt(2 g d), and two grains one diameter apart in the stream meet
+at most at the cap's fall over a diameter, impact_speed / 10 (a cap of sqrt(2 g d) at the
+zone's top, tried first, stopped the stream there: the grains behind hit the slowed ones at
+full speed, as they had hit the heap). What happens below the outlet cannot act on the
+flow through it (the grains there fall freely, away from it); the heap never reaches the
+zone's top. The time step is still sized for the free fall (:func:`resolved_dt`): the
+hopper's own stepping is that of a run without the zone.
 """
 
 from __future__ import annotations
@@ -81,10 +86,10 @@ BAND_HALF = 1.0
 #: Speed to which a grain in the catch zone is slowed, over sqrt(2 g d) (a grain dropped from
 #: one largest diameter d) [-] (module docstring).
 CATCH_SPEED = 1.0
-#: The catch zone's grains are slowed at least every time a grain at :func:`impact_speed`
-#: moves this many largest diameters [-]: half the zone's height, so that a grain is slowed
-#: at least that far above the heap.
-CATCH_REACH = 0.5 * CATCH_ZONE_DIAMETERS
+#: The catch zone's speed caps are applied at least every time a grain at
+#: :func:`impact_speed` moves this many largest diameters [-]: a grain then overshoots its
+#: depth's cap by at most a fortieth of impact_speed (module docstring).
+CATCH_REACH = 0.25
 #: The share of the overall progress taken by the settling [-].
 _SETTLE_SHARE = 0.3
 #: The engine's packages a hopper run steps through (its checkpoint is resumed only by the
@@ -146,8 +151,8 @@ class HopperRun:
         self.masses = sim.masses.copy()
         self.total = float(self.masses.sum())
         self.sample_steps = max(1, round(test.output_interval / self.dt))
-        #: the catch zone (module docstring): the speed its grains are slowed to [m/s], and
-        #: the most steps between two slowings
+        #: the catch zone (module docstring): the speed its grains land at [m/s], and the
+        #: most steps between two applications of its caps
         self.catch_speed = CATCH_SPEED * math.sqrt(2.0 * test.gravity * self.d)
         reach = CATCH_REACH * self.d / (impact_speed(test, self.geo) * self.dt)
         self.catch_steps = max(1, int(reach))
@@ -239,19 +244,32 @@ class HopperRun:
             steps -= n
             self._catch()
 
+    def catch_cap(self, z: np.ndarray) -> np.ndarray:
+        """The catch zone's speed cap at heights ``z`` [m] (module docstring) [m/s]:
+        impact_speed at the zone's top, ``catch_speed`` at the heap's highest point and
+        below, linear in between (infinite above the zone)."""
+        top = self.geo.catch_top
+        depth = CATCH_ZONE_DIAMETERS * self.d
+        frac = np.clip((top - np.asarray(z, dtype=float)) / depth, 0.0, 1.0)
+        fast = impact_speed(self.test, self.geo)
+        cap = fast - (fast - self.catch_speed) * frac
+        return np.where(np.asarray(z) < top, cap, np.inf)
+
     def _catch(self) -> None:
-        """Slow every grain below the catch zone's top that is faster than ``catch_speed``
-        to that speed, along its own direction."""
+        """Slow every grain below the catch zone's top that is faster than its depth's cap
+        (:meth:`catch_cap`) to that speed, along its own direction."""
         sim = self.sim
-        low = np.flatnonzero(sim.positions[:, 2] < self.geo.catch_top)
+        z = sim.positions[:, 2]
+        low = np.flatnonzero(z < self.geo.catch_top)
         if low.size == 0:
             return
         v = sim.velocities
         speed = np.sqrt(np.einsum("ij,ij->i", v[low], v[low]))
-        fast = speed > self.catch_speed
+        cap = self.catch_cap(z[low])
+        fast = speed > cap
         if not fast.any():
             return
-        v[low[fast]] *= (self.catch_speed / speed[fast])[:, None]
+        v[low[fast]] *= (cap[fast] / speed[fast])[:, None]
         sim.set_velocities(v)
 
     def kinetic_scale(self) -> float:

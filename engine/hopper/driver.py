@@ -18,19 +18,22 @@ The catch zone. A discharged grain falls 2 B and more onto the heap on the catch
 to :func:`impact_speed` (8-11 m/s in the outlet series' widest arching runs); on the heap a
 soft loading spring then lets two grains overlap by half a radius and the run stops with an
 ``InstabilityError`` after the outlet's behaviour was read, or before (issue 52). So below
-the catch zone's top (``HopperGeometry.catch_top``: :data:`CATCH_ZONE_DIAMETERS` largest
-diameters above the highest the heap can reach, 2 B + 10 d below the outlet) each grain's
-speed is capped by its depth (:meth:`HopperRun.catch_cap`): :func:`impact_speed` at the
-zone's top, falling linearly to :data:`CATCH_SPEED` sqrt(2 g d) (the speed of a grain
-dropped from one diameter) at the heap's highest point and below, applied whenever a grain
-at the run's fastest speed could have moved :data:`CATCH_REACH` of a diameter. The grains
-land on the heap at about sqrt(2 g d), and two grains one diameter apart in the stream meet
-at most at the cap's fall over a diameter, impact_speed / 10 (a cap of sqrt(2 g d) at the
-zone's top, tried first, stopped the stream there: the grains behind hit the slowed ones at
-full speed, as they had hit the heap). What happens below the outlet cannot act on the
-flow through it (the grains there fall freely, away from it); the heap never reaches the
-zone's top. The time step is still sized for the free fall (:func:`resolved_dt`): the
-hopper's own stepping is that of a run without the zone.
+the catch zone's top (``HopperGeometry.catch_top``: ``scene.CATCH_ZONE_DIAMETERS`` largest
+diameters above the highest the heap can reach, 2 B + 10 d below the outlet) every grain's
+velocity decays as under a viscous drag, by exp(-t / tau) with tau = sqrt(d / (2 g))
+(:attr:`HopperRun.catch_time`), applied whenever a grain at the run's fastest speed could
+have moved :data:`CATCH_REACH` of a diameter. Why this tau: a grain that entered the zone a
+diameter's travel before the next one has been slowed for about d / v longer, so the next
+one closes on it at about d / tau = sqrt(2 g d), the speed of a grain dropped from one
+diameter; the stream slows within about sqrt(H d) (H its fall), and the grains settle at
+g tau = sqrt(g d / 2). A drag scales every grain alike, so grains pushed by their contacts
+still move apart. (Tried first and not kept: speed caps, at sqrt(2 g d) from the zone's top
+and then falling with depth: a cap lower below than above makes the stream's grains close
+on each other whatever their contacts push, and the runs failed in the zone instead.) What
+happens that far below the outlet cannot act on the flow through it (the grains there fall
+freely, away from it); the heap never reaches the zone's top. The time step is still sized
+for the free fall (:func:`resolved_dt`): the hopper's own stepping is that of a run without
+the zone.
 """
 
 from __future__ import annotations
@@ -68,7 +71,6 @@ from .measures import (
 )
 from .results import HOPPER_CURVE_UNITS, HopperResult
 from .scene import (
-    CATCH_ZONE_DIAMETERS,
     HopperGeometry,
     build_hopper,
     wall_bin_areas,
@@ -83,12 +85,10 @@ BAND_REACH = 1.0
 #: Half-thickness of the band in which the mass-flow index reads speeds, in largest
 #: diameters [-].
 BAND_HALF = 1.0
-#: Speed to which a grain in the catch zone is slowed, over sqrt(2 g d) (a grain dropped from
-#: one largest diameter d) [-] (module docstring).
-CATCH_SPEED = 1.0
-#: The catch zone's speed caps are applied at least every time a grain at
-#: :func:`impact_speed` moves this many largest diameters [-]: a grain then overshoots its
-#: depth's cap by at most a fortieth of impact_speed (module docstring).
+#: The catch zone's drag time over sqrt(d / (2 g)) [-] (module docstring).
+CATCH_TIME = 1.0
+#: The catch zone's drag is applied at least every time a grain at :func:`impact_speed`
+#: moves this many largest diameters [-].
 CATCH_REACH = 0.25
 #: The share of the overall progress taken by the settling [-].
 _SETTLE_SHARE = 0.3
@@ -151,9 +151,9 @@ class HopperRun:
         self.masses = sim.masses.copy()
         self.total = float(self.masses.sum())
         self.sample_steps = max(1, round(test.output_interval / self.dt))
-        #: the catch zone (module docstring): the speed its grains land at [m/s], and the
-        #: most steps between two applications of its caps
-        self.catch_speed = CATCH_SPEED * math.sqrt(2.0 * test.gravity * self.d)
+        #: the catch zone (module docstring): its drag time [s], and the most steps between
+        #: two applications of its drag
+        self.catch_time = CATCH_TIME * math.sqrt(self.d / (2.0 * test.gravity))
         reach = CATCH_REACH * self.d / (impact_speed(test, self.geo) * self.dt)
         self.catch_steps = max(1, int(reach))
         sim.run(1)  # compiles the kernels (or loads them): set-up, not the run's wall time
@@ -236,40 +236,23 @@ class HopperRun:
         return binned_stress(c.points[on, 2], f, edges, wall_bin_areas(self.test, edges))
 
     def _advance(self, steps: int) -> None:
-        """``steps`` steps of the discharge, the catch zone's grains slowed every
+        """``steps`` steps of the discharge, the catch zone's drag applied every
         ``catch_steps`` at most (module docstring)."""
         while steps > 0:
             n = min(steps, self.catch_steps)
             self.sim.run(n)
             steps -= n
-            self._catch()
+            self._catch(n)
 
-    def catch_cap(self, z: np.ndarray) -> np.ndarray:
-        """The catch zone's speed cap at heights ``z`` [m] (module docstring) [m/s]:
-        impact_speed at the zone's top, ``catch_speed`` at the heap's highest point and
-        below, linear in between (infinite above the zone)."""
-        top = self.geo.catch_top
-        depth = CATCH_ZONE_DIAMETERS * self.d
-        frac = np.clip((top - np.asarray(z, dtype=float)) / depth, 0.0, 1.0)
-        fast = impact_speed(self.test, self.geo)
-        cap = fast - (fast - self.catch_speed) * frac
-        return np.where(np.asarray(z) < top, cap, np.inf)
-
-    def _catch(self) -> None:
-        """Slow every grain below the catch zone's top that is faster than its depth's cap
-        (:meth:`catch_cap`) to that speed, along its own direction."""
+    def _catch(self, steps: int) -> None:
+        """The catch zone's drag over the last ``steps`` steps: the velocity of every grain
+        below the zone's top times exp(-steps dt / catch_time)."""
         sim = self.sim
-        z = sim.positions[:, 2]
-        low = np.flatnonzero(z < self.geo.catch_top)
+        low = np.flatnonzero(sim.positions[:, 2] < self.geo.catch_top)
         if low.size == 0:
             return
         v = sim.velocities
-        speed = np.sqrt(np.einsum("ij,ij->i", v[low], v[low]))
-        cap = self.catch_cap(z[low])
-        fast = speed > cap
-        if not fast.any():
-            return
-        v[low[fast]] *= (cap[fast] / speed[fast])[:, None]
+        v[low] *= math.exp(-steps * self.dt / self.catch_time)
         sim.set_velocities(v)
 
     def kinetic_scale(self) -> float:

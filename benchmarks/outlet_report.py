@@ -261,6 +261,7 @@ def lines() -> list[str]:
             f"- {name}: bulk {c['bulk']:.4g} [{bulk_lo:.4g}, {bulk_hi:.4g}], slope of log "
             f"value in d / B {c['slope']:+.2f} [{lo:+.2f}, {hi:+.2f}] (sizes {sizes} d): {need}"
         )
+    out += censored_lines(curves["metrics"].get("arching_g_b"))
     fails = flow_failures()
     if fails:
         out += ["", "Discharge runs left out:", ""] + [f"- {f}" for f in fails]
@@ -273,6 +274,40 @@ def lines() -> list[str]:
             "fill unstopped, else left out):",
             "",
         ] + [f"- {f}" for f in arch_fails]
+    return out
+
+
+def censored_lines(c: dict | None) -> list[str]:
+    """The seeds whose flow stopped at every width run (no bracket, so not in the fit): each
+    gives a lower bound on G*, g times the widest width at which it stopped, set beside the
+    fitted line there and its 95 % band (the bulk's and the slope's intervals together). A
+    bound above the band says the line falls too far at that size (wider outlets at that
+    gravity would bracket it); not a verdict of its own."""
+    rows = [
+        (g, r)
+        for g, rs in arch_table().items()
+        for r in rs
+        if r["width"] is None and r.get("below") is not None
+    ]
+    if not rows:
+        return []
+    out = ["", "Seeds that stopped at every width they ran (lower bounds on G*, not fitted):", ""]
+    for g, r in rows:
+        lo_g = g * r["below"] * O.D
+        line = (
+            f"- g = {g:g} m/s^2, seed {r['seed']}: stopped up to {r['below']:g} d: G* >= {lo_g:.2f}"
+        )
+        if c is not None:
+            x = 1.0 / r["below"]
+            fit = c["bulk"] * math.exp(c["slope"] * x)
+            (b_lo, b_hi), (s_lo, s_hi) = c["bulk_interval"], c["slope_interval"]
+            hi = b_hi * math.exp(max(s_lo * x, s_hi * x))
+            low = b_lo * math.exp(min(s_lo * x, s_hi * x))
+            where = "above the band" if lo_g > hi else "within the band" if lo_g >= low else ""
+            line += f"; the fitted line there {fit:.2f} [{low:.2f}, {hi:.2f}]" + (
+                f": {where}" if where else ""
+            )
+        out.append(line)
     return out
 
 

@@ -21,8 +21,10 @@ properties, fixed here before any run of this series (2026-12-06):
   which the same law's outlet arched in the Jenike series (``benchmarks.jenike_series``:
   12-14 m^2/s^2 at 6-7 d, 9-11 at 9-11 d), so that every size discharges and the cohesion
   still acts (the hopper's Bond number |f0| / (m g) is 2.3 at 8 d, 18 at 64 d). Outlet
-  widths :data:`FLOW_WIDTHS` = 8 to 64 diameters (about x 1.4 apart; the issue asks 8 to
-  80: 64 d is the widest one core runs in about 12 minutes), :data:`FLOW_SEEDS` seeds.
+  widths :data:`FLOW_WIDTHS` = 8 to 64 diameters (about x 1.4 apart), then 80 (the issue's
+  widest, added after the others had run: 57,000 particles, about 25 minutes on one core,
+  run with the hopper's catch zone, which acts only far below the outlet),
+  :data:`FLOW_SEEDS` seeds.
   The fill: radii uniform in R (1 +- 0.1) (``hopper_series``' reason: a monodisperse fill
   in a thin periodic slot crystallises and discharges in bursts), height B (held in units
   of B, as the stress), half-angle 30 deg, periodic depth 5 d, walls and gate Hertz
@@ -88,7 +90,7 @@ STORE = Path(
 D = jenike_series.D
 #: The held g B of the discharge series [m^2/s^2] (module docstring).
 G_FLOW = 30.0
-FLOW_WIDTHS = (8.0, 11.0, 16.0, 23.0, 32.0, 45.0, 64.0)
+FLOW_WIDTHS = (8.0, 11.0, 16.0, 23.0, 32.0, 45.0, 64.0, 80.0)
 FLOW_SEEDS = 3
 POLYDISPERSITY = 0.1
 #: Samples of the discharge curve per free-fall time sqrt(B / g) (held: module docstring).
@@ -183,13 +185,14 @@ def estimate(kind: str, x: float, width: float, seed: int) -> float:
 
 def extra_of(outcome, wall: float, cpu: float) -> dict:
     # runs made with the hopper's catch zone (engine.hopper.driver, after the first runs:
-    # their failures on the heap were rerun with it) say how deep it begins
+    # their failures on the heap were made again with it) say so
     out = {
         "wall_seconds": wall,
         "cpu_seconds": cpu,
         "threads": 1,
         "protocol": PROTOCOL,
-        "catch_zone_diameters": CATCH_ZONE_DIAMETERS,
+        "catch_zone": f"drag of time sqrt(d / (2 g)) from {CATCH_ZONE_DIAMETERS:g} d above "
+        "the heap's highest point down",
     }
     if isinstance(outcome, str):
         return out

@@ -48,7 +48,9 @@ properties, fixed here before any run of this series (2026-12-06):
   13 -> 10 m^2/s^2) and if it does not, :data:`ARCH_SEEDS` seeds, with the Jenike series'
   own hopper and protocol (``jenike_series.hopper_test``, ``ramped_hopper``: monodisperse,
   fill max(B, 8 d) deep, so B deep at every width here). The four gravities' brackets give
-  G* at four numbers of particles across B_crit.
+  G* at four numbers of particles across B_crit. (45 d at g = 50 added on 2026-12-06 after
+  two of its seeds had stopped at every width up to 40 d: the next width of the bracket
+  rule, run for those seeds, about 15 min of CPU each.)
 
 Fits, stated before the runs (those of :mod:`benchmarks.size_report`): the log of each
 property linear in d / B, its value at d / B = 0 the bulk; N_req the B / d beyond which the
@@ -101,7 +103,7 @@ FILL_OVER_B = 1.0
 ARCH_GRAVITIES = (100.0, 50.0)
 ARCH_WIDTHS = {
     100.0: (11.0, 13.0, 15.0, 17.0, 20.0, 23.0),
-    50.0: (20.0, 23.0, 26.0, 30.0, 35.0, 40.0),
+    50.0: (20.0, 23.0, 26.0, 30.0, 35.0, 40.0, 45.0),
 }
 ARCH_SEEDS = 3
 #: The tolerances of the two properties (module docstring).

@@ -194,7 +194,7 @@ def extra_of(outcome, wall: float, cpu: float) -> dict:
         "threads": 1,
         "protocol": PROTOCOL,
         "catch_zone": f"drag of time sqrt(d / (2 g)) from {CATCH_ZONE_DIAMETERS:g} d above "
-        "the heap's highest point down",
+        "the heap's highest point down, applied without a force evaluation",
     }
     if isinstance(outcome, str):
         return out

@@ -137,11 +137,16 @@ def test_the_catch_zone_slows_the_discharged_grains_before_the_heap(slots):
     v = rng.normal(size=(sim.n, 3))
     v *= 10.0 / np.linalg.norm(v, axis=1)[:, None]
     sim.set_velocities(v)
+    springs = sim.contacts().tangential_springs
     run._catch(5)
     after = sim.velocities
     factor = math.exp(-5 * run.dt / run.catch_time)
     assert np.allclose(after[low], factor * v[low], rtol=1e-12)
     assert np.array_equal(after[~low], v[~low])
+    # no force evaluation: no contact's history advances (set_velocities would advance it)
+    assert np.array_equal(sim.contacts().tangential_springs, springs)
+    with pytest.raises(engine.ParameterError, match="scale_velocities.factor"):
+        sim.scale_velocities([0], -1.0)
 
 
 def test_cone_discharges_and_conserves_mass():

@@ -230,6 +230,18 @@ def cap_kernel(vel, cap, flag):
         flag[0] = 1
 
 
+def damp_kernel(pos, vel, height, factor):
+    """Multiply by ``factor`` the velocity of every particle whose centre lies below
+    ``height`` [m] (the host's ``Simulation.damp_below``)."""
+    i = cuda.grid(1)
+    if i >= vel.shape[0]:
+        return
+    if pos[i, 2] < height:
+        vel[i, 0] *= factor
+        vel[i, 1] *= factor
+        vel[i, 2] *= factor
+
+
 _lock = threading.Lock()
 _kernels: SimpleNamespace | None = None
 
@@ -248,5 +260,6 @@ def kernels() -> SimpleNamespace:
                 chunk=kernel(measure_chunk_kernel, b, memo),
                 final=kernel(measure_final_kernel, b, memo),
                 cap=kernel(cap_kernel, b, memo),
+                damp=kernel(damp_kernel, b, memo),
             )
         return _kernels

@@ -35,7 +35,7 @@ from numba import cuda
 
 from ..kernel.mesh import MESH_CONTACTS, SCRATCH_WIDTH
 from ..kernel.state import OK, PAUSE, Meshes, NeighbourList, Particles, StepParams, Walls
-from ..simulation.simulation import Simulation
+from ..simulation.simulation import Simulation, _damp_args
 from . import _sources as src
 from .batch import current_stream
 from .device import SIMULATOR
@@ -386,6 +386,15 @@ class CudaSimulation(Simulation):
             return False
         self._compute_forces()
         return True
+
+    def damp_below(self, height: float, factor: float) -> None:
+        h, f = _damp_args(height, factor)
+        self._ensure_device()
+        d = self._dev
+        self._go(measure_kernels().damp, _blocks(self.n), THREADS)(d.P.pos, d.P.vel, h, f)
+        d.stale.add("particles")
+
+    damp_below.__doc__ = Simulation.damp_below.__doc__
 
     def _measure_buffers(self) -> SimpleNamespace:
         d = self._dev

@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import StopRequested, WallTimeExceeded
+from ..simulation.backend import check_backend, resolve_backend
 from ..simulation.simulation import Simulation
 from ..simulation.snapshot import Snapshot, capture
 from ..simulation.timestep import critical_time_step
@@ -125,6 +126,7 @@ class HopperRun:
         max_wall_time: float | None = None,
         wall_time_setting: str | None = None,
         threads: int | None = None,
+        backend: str | None = None,
     ) -> None:
         if not isinstance(test, HopperTest):
             raise TypeError(f"a hopper run takes an engine.HopperTest, not {type(test).__name__}")
@@ -139,12 +141,12 @@ class HopperRun:
         self.geo = build_hopper(test)
         self.dt = resolved_dt(test, self.geo)
         t = time.perf_counter()
-        self.sim = Simulation(  # the CPU whatever DEMSCALE_BACKEND says: not run on CUDA yet
+        self.sim = Simulation(
             self.geo.scene,
             self.dt,
             max_speed=impact_speed(test, self.geo),
             threads=threads,
-            backend="cpu",
+            backend=backend,
         )
         sim = self.sim
         self.d = test.max_diameter
@@ -247,9 +249,9 @@ class HopperRun:
     def _catch(self, steps: int) -> None:
         """The catch zone's drag over the last ``steps`` steps: the velocity of every grain
         below the zone's top times exp(-steps dt / catch_time), without a force evaluation
-        (``Simulation.scale_velocities``: no contact history advances)."""
-        low = np.flatnonzero(self.sim.positions[:, 2] < self.geo.catch_top)
-        self.sim.scale_velocities(low, math.exp(-steps * self.dt / self.catch_time))
+        (``Simulation.damp_below``: no contact history advances; on the device, nothing
+        crosses to the host)."""
+        self.sim.damp_below(self.geo.catch_top, math.exp(-steps * self.dt / self.catch_time))
 
     def kinetic_scale(self) -> float:
         """N m g R [J]: the scale of the settling criterion."""
@@ -516,6 +518,7 @@ def run_hopper(
     checkpoint: Checkpoint | str | os.PathLike | None = None,
     on_snapshot: Callable[[Snapshot], Any] | None = None,
     snapshot_interval: float | None = None,
+    backend: str | None = None,
 ) -> HopperResult:
     """Run the hopper discharge (docs/HOPPER.md): the fill settled behind the closed gate, the
     gate opened, the discharge sampled and measured.
@@ -527,7 +530,7 @@ def run_hopper(
         max_wall_time: stop with :class:`engine.WallTimeExceeded` past this many seconds of
             wall time (the kernels' compilation left out) [s]; ``wall_time_setting`` names
             the knob in its message.
-        threads: threads of the simulation (None: numba's).
+        threads: threads of the simulation on the CPU backend (None: numba's).
         checkpoint: a :class:`engine.Checkpoint` (or its path, written every
             ``CHECKPOINT_INTERVAL`` s): the run resumes from it when it holds this test's
             state (written by the same sources of :data:`HOPPER_TRAJECTORY`), and writes it
@@ -539,27 +542,35 @@ def run_hopper(
             particles and their contacts at the gate's opening, every ``snapshot_interval``
             [s] of the discharge (None: none between) and at its end, e.g.
             ``engine.io.vtkhdf.SnapshotWriter(dir).add`` for a ParaView animation.
+        backend: ``"cpu"``, ``"cuda"`` or ``"auto"`` (see :class:`engine.Simulation`; None:
+            ``DEMSCALE_BACKEND``, else the CPU). On the CUDA backend the steps, the catch
+            zone's drag and the kinetic energy are made on the device; each discharge sample
+            reads the particles' positions and velocities and the mesh contacts (the wall
+            stress) from the host.
     Raises: :class:`engine.StageError` when the fill does not settle within
         ``max_settle_time``; :class:`engine.InstabilityError` when the integration blows up.
-        The CPU backend.
     """
     this_code()  # the code this run is made by, taken before it runs (engine.io.store)
     if max_wall_time is not None:
         check_interval(max_wall_time, "run_hopper.max_wall_time")
     if snapshot_interval is not None:
         check_interval(snapshot_interval, "run_hopper.snapshot_interval")
-    checkpoint, run, load = resume(
-        checkpoint,
-        test,
-        lambda state: None if isinstance(state, HopperRun) else "holds no hopper run",
-        HOPPER_TRAJECTORY,
-    )
+    backend = check_backend(backend, "run_hopper.backend")
+
+    def refuse(state) -> str | None:
+        if not isinstance(state, HopperRun):
+            return "holds no hopper run"
+        if state.sim.backend != resolve_backend(backend, "run_hopper.backend"):
+            return f"was written on the {state.sim.backend} backend, not the one asked for"
+        return None
+
+    checkpoint, run, load = resume(checkpoint, test, refuse, HOPPER_TRAJECTORY)
     if run is not None:
         run.setup += load
         run.t0 += load
         run.progress = progress
     else:
-        run = HopperRun(test, progress, max_wall_time, wall_time_setting, threads)
+        run = HopperRun(test, progress, max_wall_time, wall_time_setting, threads, backend)
     run.checkpoint = checkpoint
     run.on_snapshot = on_snapshot
     run.snapshot_interval = snapshot_interval

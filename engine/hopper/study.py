@@ -99,15 +99,15 @@ def _height_of(test: HopperTest) -> float:
 def run_hopper_kind(
     test, progress=None, checkpoint=None, backend=None, max_wall_time=None, wall_time_setting=None
 ):
-    """The kind's run: :func:`run_hopper` with its checkpoint and the wall-time limit (other
-    backends than the CPU are declared not honoured, so a study refuses them before any run
-    starts)."""
+    """The kind's run: :func:`run_hopper` with its checkpoint, the wall-time limit and the
+    backend."""
     return run_hopper(
         test,
         progress,
         max_wall_time=max_wall_time,
         wall_time_setting=wall_time_setting,
         checkpoint=checkpoint,
+        backend=backend,
     )
 
 

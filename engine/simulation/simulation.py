@@ -841,27 +841,17 @@ class Simulation:
         p.vel[k] = v
         p.omg[k] = 0.0
 
-    def scale_velocities(self, ids, factor: float) -> None:
-        """Multiply the velocities of particles ``ids`` (scene ids) by ``factor`` (a drag
-        applied between runs: the hopper's catch zone). As :meth:`set_driven`, forces are
-        not evaluated again (the next step's kick uses those of the last evaluation) and no
+    def damp_below(self, height: float, factor: float) -> None:
+        """Multiply by ``factor`` the velocity of every particle whose centre lies below
+        ``height`` [m] (z as stored, wrapped into the box where z is periodic): a drag applied
+        between runs, the hopper's catch zone. As :meth:`set_driven`, forces are not
+        evaluated again (the next step's kick uses those of the last evaluation) and no
         contact history advances; :meth:`set_velocities` evaluates the forces, which
-        advances every contact's tangential spring by a step. The CPU backend only."""
-        if self.backend != "cpu":
-            raise ParameterError("Simulation.scale_velocities", self.backend, "the cpu backend")
-        f = float(factor)
-        if not math.isfinite(f) or f < 0.0:
-            raise ParameterError("Simulation.scale_velocities.factor", factor, "finite, >= 0")
-        idx = np.asarray(ids)
-        if idx.size == 0:
-            return
-        if idx.ndim != 1 or not np.issubdtype(idx.dtype, np.integer):
-            raise ParameterError("Simulation.scale_velocities.ids", ids, "a list of ids")
-        if idx.min() < 0 or idx.max() >= self.n:
-            raise ParameterError(
-                "Simulation.scale_velocities.ids", "out of range", f"in [0, {self.n})"
-            )
-        self._particles.vel[self._rank[idx]] *= f
+        advances every contact's tangential spring by a step. On the CUDA backend a kernel
+        on the device: nothing crosses to the host."""
+        h, f = _damp_args(height, factor)
+        p = self._particles
+        p.vel[p.pos[:, 2] < h] *= f
 
     def rebuild_neighbour_list(self) -> None:
         """Rebuild the neighbour list now (it is rebuilt automatically when needed); the
@@ -1167,3 +1157,14 @@ class Simulation:
             _concat(wi, np.int64)[wsrt],
             _concat(wo, np.float64)[wsrt],
         )
+
+
+def _damp_args(height, factor) -> tuple[float, float]:
+    """:meth:`Simulation.damp_below`'s arguments checked once for both backends."""
+    f = float(factor)
+    if not math.isfinite(f) or f < 0.0:
+        raise ParameterError("Simulation.damp_below.factor", factor, "finite, >= 0")
+    h = float(height)
+    if math.isnan(h):
+        raise ParameterError("Simulation.damp_below.height", height, "a number [m]")
+    return h, f

@@ -145,8 +145,10 @@ def test_the_catch_zone_slows_the_discharged_grains_before_the_heap(slots):
     assert np.array_equal(after[~low], v[~low])
     # no force evaluation: no contact's history advances (set_velocities would advance it)
     assert np.array_equal(sim.contacts().tangential_springs, springs)
-    with pytest.raises(engine.ParameterError, match="scale_velocities.factor"):
-        sim.scale_velocities([0], -1.0)
+    with pytest.raises(engine.ParameterError, match="damp_below.factor"):
+        sim.damp_below(0.0, -1.0)
+    with pytest.raises(engine.ParameterError, match="damp_below.height"):
+        sim.damp_below(math.nan, 0.5)
 
 
 def test_cone_discharges_and_conserves_mass():
@@ -211,3 +213,9 @@ def test_wall_time_limit_and_stop_request_are_honoured():
     with pytest.raises(engine.StopRequested):
         engine.run_hopper(t, progress=stop)
     assert len(seen) == 1 and seen[0].stage == "settle" and 0 <= seen[0].fraction <= 1
+
+
+def test_backend_is_checked_and_named():
+    t = HopperTest(outlet_width=6 * D, particles=100)
+    with pytest.raises(engine.ParameterError, match="run_hopper.backend"):
+        engine.run_hopper(t, backend="tpu")

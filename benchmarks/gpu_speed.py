@@ -454,6 +454,119 @@ def runs_item(args, simulated: bool, deadline: float) -> list[tuple[str, bool]]:
     return checks
 
 
+#: issue 54's third point: the series' runs on the GPU, each against the stored CPU seeds of
+#: the same test; (series, key, the scalar compared, the stored digests' folder)
+SERIES_RUNS = (
+    ("outlet", ("flow", 30.0, 64.0, 1), "discharge_number"),
+    ("size", ("column", "bond1", 20.0, 1), "unconfined_strength"),
+)
+
+
+def series_runs(smoke: bool) -> list[tuple[str, object, list[Path], str]]:
+    """(label, test, stored CPU digests of the same test at every seed, scalar) of
+    :data:`SERIES_RUNS`; ``smoke``: tiny tests of the same kinds (the code path only)."""
+    from benchmarks import outlet_series, size_series
+
+    if smoke:
+        return [
+            ("hopper (smoke)", engine.HopperTest(outlet_width=0.03, particles=100), [], ""),
+            ("column (smoke)", smoke_tests(1)[0], [], ""),
+        ]
+    out = []
+    for series, key, scalar in SERIES_RUNS:
+        mod = outlet_series if series == "outlet" else size_series
+        test = mod.test_of(*key)
+        seeds = [(*key[:-1], s) for s in range(1, 5)]
+        paths = [mod.path_of(*k) for k in seeds if mod.stored(*k) is not None]
+        out.append((f"{series} series {mod.key_name(*key)}", test, paths, scalar))
+    return out
+
+
+def timed_any(test, cap_s: float) -> tuple[object | None, dict]:
+    """A uniaxial or hopper ``test`` on the GPU, stopped at ``cap_s`` of wall time [s]:
+    (result or None, {particles, steps made, wall [s], finished})."""
+    t0 = time.perf_counter()
+    done = {"steps": 0}
+
+    def progress(p):
+        done["steps"] = p.steps
+        return time.perf_counter() - t0 < cap_s
+
+    run = engine.run_hopper if isinstance(test, engine.HopperTest) else engine.run_uniaxial
+    out = {"particles": test.n_particles, "finished": False}
+    try:
+        res = run(test, progress, backend="cuda")
+    except engine.StopRequested:
+        out.update(steps=done["steps"], wall=time.perf_counter() - t0)
+        return None, out
+    out.update(steps=int(res.scalars["steps"]), wall=time.perf_counter() - t0, finished=True)
+    return res, out
+
+
+def series_item(args, simulated: bool, deadline: float) -> list[tuple[str, bool]]:
+    """Issue 54's third point: (c) one run of the outlet series (the 64 d discharge, 36,651
+    particles) and (d) one 20-diameter size of the resolution series (the released column,
+    55,004 particles) on the GPU, one after the other, each stopped at half of ``deadline``
+    [s]: its wall time against the CPU seconds its stored run took on one thread of the
+    2-core VM (another machine: a cost, not a speed-up), and its scalar against the stored
+    CPU seeds of the same test within :func:`same_physics_bound` (a GPU run is another
+    realisation of the same fill). ``--smoke``: tiny tests (the code path only)."""
+    from engine.io.digest import read_digest
+
+    t_start = time.perf_counter()
+    checks: list[tuple[str, bool]] = []
+    note = " (simulator: not figures)" if simulated else (" (smoke)" if args.smoke else "")
+    items = series_runs(args.smoke)
+    for i, (label, test, paths, scalar) in enumerate(items):
+        left = deadline - (time.perf_counter() - t_start)
+        cap = max(10.0, left / (len(items) - i))
+        res, o = timed_any(test, cap)
+        rate = o["particles"] * o["steps"] / o["wall"]
+        digests = [read_digest(p) for p in paths]
+        cpu = [d.extra.get("cpu_seconds") or d.scalars.get("wall_time") for d in digests]
+        print(
+            f"\n{label}{note}: {o['particles']} particles, {o['steps']} steps, "
+            f"{'finished' if o['finished'] else 'stopped at the cap'} in {o['wall']:.1f} s "
+            f"(set-up included), {rate:.3e} particle-steps/s"
+            + (f"; its stored CPU run took {cpu[0]:.0f} s on one thread" if cpu else ""),
+            flush=True,
+        )
+        what = f"{label} on the GPU{note}: " + (
+            f"{o['wall']:.1f} s" if o["finished"] else f"unfinished at {o['wall']:.0f} s"
+        )
+        checks.append((what, o["finished"] and not simulated))
+        if res is None or not scalar:
+            continue
+        if not args.smoke:  # stored, so that its measures can be recomputed
+            from engine.io.digest import make_digest, write_digest
+
+            name = label.split()[0] + "-" + label.split()[-1].replace("/", "-")
+            extra = {"gpu_wall_seconds": o["wall"], "backend": "cuda"}
+            write_digest(GPU_STORE / "series" / f"{name}.json", make_digest(res, test, None, extra))
+        gpu = float(res.scalars[scalar])
+        vals = np.array([d.scalars[scalar] for d in digests if scalar in d.scalars], float)
+        if len(vals) < 2:
+            checks.append(
+                (
+                    f"{label} {scalar}: GPU {gpu:.4g} against {len(vals)} stored CPU seed(s): "
+                    "not judged (a seed sd needs two)",
+                    False,
+                )
+            )
+            continue
+        sd = float(np.std(vals, ddof=1) / abs(vals.mean()))
+        err = abs(gpu - vals[0]) / abs(vals[0])
+        bound = same_physics_bound(sd, len(vals), 1)
+        checks.append(
+            (
+                f"{label} {scalar}: GPU {gpu:.4g} against seed 1 on the CPU {vals[0]:.4g}: "
+                f"{err:.2e} <= {bound:.2e} (a second seed's bound, {len(vals)} seeds)",
+                err <= bound and not simulated,
+            )
+        )
+    return checks
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description="issue 21 targets of the CUDA backend")
     ap.add_argument(
@@ -473,6 +586,12 @@ def main(argv=None) -> int:
         action="store_true",
         help="only issue 54's figures: the reference at the default protocol alone, then "
         "experiment (b)'s runs side by side through engine.cuda.batch (within --deadline)",
+    )
+    ap.add_argument(
+        "--series",
+        action="store_true",
+        help="only issue 54's series runs: one outlet-series hopper and one 20-diameter "
+        "column on the GPU against their stored CPU seeds (within --deadline)",
     )
     ap.add_argument(
         "--workers",
@@ -498,9 +617,15 @@ def main(argv=None) -> int:
     simulated = ok and "simulator" in device
     if args.runs and (ok and (not simulated or args.smoke)):
         return report(runs_item(args, simulated, args.deadline))
+    if args.series and (ok and (not simulated or args.smoke)):
+        return report(series_item(args, simulated, args.deadline))
     if not ok or "simulator" in device:
         why = "no CUDA device" if not ok else "the simulator is no GPU"
         print(f"{why}: not measured ({device})")
+        if args.series:
+            return report(
+                [(f"{label} on the GPU: {why}: not measured", False) for label, *_ in SERIES_RUNS]
+            )
         if args.runs:
             return report(
                 [

@@ -7,6 +7,10 @@
 #                                        # default protocol alone, then experiment (b)'s runs
 #                                        # side by side on streams (engine.cuda.batch),
 #                                        # aggregate particle-steps/s; not measured yet
+#   bash scripts/gpu_bench.sh --series   # issue 54's third point (under 9 minutes): one
+#                                        # outlet-series hopper (64 d, 36,651 particles) and
+#                                        # one 20-diameter column (55,004) on the GPU against
+#                                        # their stored CPU seeds; not measured yet
 # Wheels in wheels/ (git-ignored) are installed with --no-deps --no-index into .gpu-site and
 # put first on the path, so a host without a package registry gets what it lacks:
 # - numba-cuda 0.30.4 when the host has none: pip download numba-cuda==0.30.4

@@ -59,3 +59,28 @@ def test_the_reference_item_times_stores_and_checks_a_run(monkeypatch, tmp_path,
     assert "projected" in capsys.readouterr().out
     other = gpu_speed.curve_check(load_run(paths[1]), paths, "ref")
     assert other == [("GPU and CPU ref: not measured (stored CPU run of another test)", None)]
+
+
+def test_the_series_item_judges_a_run_against_the_stored_seeds(monkeypatch):
+    """The series item (``--series``) without a GPU: the stored CPU seed 2 of the outlet
+    series' 64 d discharge stands in for the GPU's run of seed 1's test (another realisation:
+    within the bound), the same value 30 % higher does not; a size with one stored seed is not
+    judged."""
+    from types import SimpleNamespace
+
+    from benchmarks import gpu_speed, outlet_series
+
+    key = ("flow", 30.0, 64.0, 1)
+    paths = [outlet_series.path_of(*key[:-1], s) for s in (1, 2, 3)]
+    seed2 = outlet_series.stored(*key[:-1], 2).scalars["discharge_number"]
+    args = SimpleNamespace(smoke=True)  # nothing stored
+    for factor, ok in ((1.0, True), (1.3, False)):
+        res = SimpleNamespace(scalars={"discharge_number": factor * seed2, "steps": 10})
+        o = {"particles": 10, "steps": 10, "wall": 1.0, "finished": True}
+        monkeypatch.setattr(gpu_speed, "timed_any", lambda test, cap: (res, o))
+        items = [("outlet", outlet_series.test_of(*key), paths, "discharge_number")]
+        items.append(("size", outlet_series.test_of(*key), paths[:1], "discharge_number"))
+        monkeypatch.setattr(gpu_speed, "series_runs", lambda smoke: items)
+        checks = gpu_speed.series_item(args, False, 60.0)
+        assert [c[1] for c in checks] == [True, ok, True, False], checks
+        assert "not judged" in checks[-1][0]

@@ -37,6 +37,24 @@ Feature kinds (the functional form of each fit is fixed here, before the runs):
   top and bottom: the locus, sigma_1, sigma_c, ffc, bulk density against d / L (L the thin
   periodic width), the same linear form.
 
+- ``rate`` (added 2026-12-06, before its runs; the rule is fixed here): the bulk in
+  compression's stiffnesses are confounded in the held series (docs/RESOLUTION.md,
+  "Confounds": the platen's speed v, hence the sample's lag v / c, grows with L at a held
+  inertial number). The capped series (``benchmarks.resolution``, docs/RESOLUTION_capped.md,
+  the same law and column) held v at 0.05 m/s, so the lag as a fraction of a stiffness's
+  strain branch is the same at every size (the held series' at 5 diameters, where v = 0.051
+  m/s), while its inertial number fell from 5e-4 to 1.63e-4 at 20 diameters. Its stiffness
+  trend is the size effect if neither that lag nor that range of inertial numbers moves the
+  stiffnesses. The check: the 5-diameter column at I = :data:`RATE_INERTIAL_NUMBER` (the
+  capped series' lowest; its lag a third of the capped series'), seeds 1-4, paired by seed
+  (the same packing) with the held series' 5-diameter runs (I = 5e-4, the capped series'
+  lag). Rule: for each stiffness, the 90 % t interval (3 degrees of freedom) of the mean
+  paired relative difference inside +-:data:`RATE_EQUIVALENCE` (a third of the stiffnesses'
+  15 % tolerance) -> equivalent: the capped series decides the bulk in compression's
+  stiffness need (read from its resolution curve as every other need is); an interval
+  wholly outside -> differs, otherwise undecided: the stiffnesses stay undecided. Assumed,
+  not tested: that an effect of I at the capped series' lag does not grow with L.
+
 Laws: ``bond1`` the default powder (f0 = -0.4 N, the main job's reference), ``bond3`` the
 same law three times as adhesive (f0 = -1.2 N: granular Bond number at the consolidation
 stress |f0| / (sigma_c d^2) = 2.4 against 0.8).
@@ -95,6 +113,11 @@ SHEAR_SIZES = {
     "bond3": {2.5: 6, 10.0 / 3.0: 6, 5.0: 6, 7.5: 4},
 }
 SHEAR_REFERENCE_SIZE = 5.0
+#: The rate check (module docstring): law -> {size: seeds}, its inertial number and its
+#: equivalence margin on the paired relative difference of each stiffness.
+RATE_SIZES = {"bond1": {5.0: 4}}
+RATE_INERTIAL_NUMBER = 1.63e-4
+RATE_EQUIVALENCE = 0.05
 #: Width of a profile bin [diameters] and the distance from the faces beyond which the
 #: section is its core [diameters].
 PROFILE_BIN = 0.25
@@ -138,7 +161,7 @@ def keys(only=None) -> list[tuple[str, str, float, int]]:
     """(kind, law, size, seed) of every run, cheapest first within a kind; the column
     series first (bond1, then bond3), then the shear series; a size's seeds in order."""
     out = []
-    for kind, table in (("column", COLUMN_SIZES), ("shear", SHEAR_SIZES)):
+    for kind, table in (("column", COLUMN_SIZES), ("rate", RATE_SIZES), ("shear", SHEAR_SIZES)):
         for law_name, sizes in table.items():
             for size, n in sorted(sizes.items()):
                 out += [(kind, law_name, size, seed) for seed in range(1, n + 1)]
@@ -191,6 +214,9 @@ def full_path_of(kind: str, law_name: str, size: float, seed: int) -> Path:
 
 
 def test_of(kind: str, law_name: str, size: float, seed: int):
+    if kind == "rate":
+        column = column_test(law_name, size, seed)
+        return replace(column, inertial_number=RATE_INERTIAL_NUMBER)
     return (column_test if kind == "column" else shear_test)(law_name, size, seed)
 
 
@@ -317,7 +343,7 @@ def run_one(kind: str, law_name: str, size: float, seed: int) -> str:
     path.parent.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     resumed = ""
-    if kind == "column":
+    if kind in ("column", "rate"):
         ckpt = Checkpoint(path.parent / ".checkpoints" / f"{path.stem}.ckpt", CHECKPOINT_INTERVAL)
         prof = profile_path(kind, law_name, size, seed)
         partial = path.with_name(path.stem + ".profile.partial.npz")

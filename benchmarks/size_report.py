@@ -120,6 +120,109 @@ CONFOUNDED = {
 }
 
 
+STIFFNESSES = ("loading_stiffness", "unloading_stiffness")
+
+
+def rate_check(law_name: str) -> dict | None:
+    """The rate check (benchmarks/size_series.py, fixed before its runs): per stiffness,
+    the mean paired relative difference of the runs at I = ``RATE_INERTIAL_NUMBER`` against
+    the held series' runs of the same size and seed, its 90 % t interval and the verdict
+    (``equivalent`` inside +-``RATE_EQUIVALENCE``, ``differs`` wholly outside, else
+    ``undecided``); ``decided``: every stiffness equivalent. None without a check of this
+    law."""
+    from engine.study.intervals import t_quantile
+
+    table = S.RATE_SIZES.get(law_name)
+    if not table:
+        return None
+    ((size, n),) = table.items()
+    pairs = []
+    for seed in range(1, n + 1):
+        slow, fast = (
+            S.stored("rate", law_name, size, seed),
+            S.stored("column", law_name, size, seed),
+        )
+        if slow is not None and fast is not None and slow.ok and fast.ok:
+            pairs.append((seed, slow, fast))
+    out = {
+        "size": size,
+        "seeds": [p[0] for p in pairs],
+        "planned": n,
+        "inertial_number": S.RATE_INERTIAL_NUMBER,
+        "held": [p[1].scalars.get("inertial_number_held", math.nan) for p in pairs],
+        "margin": S.RATE_EQUIVALENCE,
+        "stiffness": {},
+    }
+    e = S.RATE_EQUIVALENCE
+    for name in STIFFNESSES:
+        diffs = np.array([p[1].metrics[name][0] / p[2].metrics[name][0] - 1.0 for p in pairs])
+        row = {"differences": diffs.tolist(), "mean": math.nan, "interval": [math.nan] * 2}
+        verdict = f"undecided ({len(diffs)} of {n} pairs stored)"
+        if len(diffs) >= 2:
+            m = float(diffs.mean())
+            half = (
+                t_quantile(0.95, len(diffs) - 1) * float(diffs.std(ddof=1)) / math.sqrt(len(diffs))
+            )
+            lo, hi = m - half, m + half
+            row.update(mean=m, interval=[lo, hi])
+            if len(diffs) == n:
+                if -e < lo and hi < e:
+                    verdict = "equivalent"
+                elif lo > e or hi < -e:
+                    verdict = "differs"
+                else:
+                    verdict = "undecided"
+        row["verdict"] = verdict
+        out["stiffness"][name] = row
+    out["decided"] = all(r["verdict"] == "equivalent" for r in out["stiffness"].values())
+    return out
+
+
+def capped_stiffness_curves() -> dict:
+    """The stiffnesses' resolution curves of the capped series (benchmarks.resolution, the
+    bond1 column with the platen's speed held; docs/RESOLUTION_capped.md), each with its
+    need, as :func:`feature_curves` gives them."""
+    from benchmarks import resolution
+
+    runs = resolution.groups()
+    c = resolution.curves(runs)
+    return {
+        "metrics": {n: v for n, v in c["metrics"].items() if n in STIFFNESSES},
+        "sizes": sorted(runs),
+    }
+
+
+def compression_curves(law_name: str) -> dict:
+    """The bulk in compression's curves: the held series' density and coordination, and
+    where the rate check decided (:func:`rate_check`) the capped series' stiffnesses;
+    ``stiffness_from``: "capped" or "held" (confounded: :func:`feature_need` says so)."""
+    held = feature_curves("bulk_compression", law_name)
+    check = rate_check(law_name)
+    if check is None or not check["decided"] or law_name != resolution_law():
+        return {**held, "stiffness_from": "held"}
+    capped = capped_stiffness_curves()
+    metrics = {n: v for n, v in held["metrics"].items() if n not in STIFFNESSES}
+    metrics.update(capped["metrics"])
+    sizes = sorted(set(held["sizes"]) | set(capped["sizes"]))
+    return {**held, "metrics": metrics, "sizes": sizes, "stiffness_from": "capped"}
+
+
+def curves_of(feature: str, law_name: str) -> dict:
+    """A feature kind's curves: :func:`compression_curves` for the bulk in compression,
+    else :func:`feature_curves`."""
+    if feature == "bulk_compression":
+        return compression_curves(law_name)
+    return feature_curves(feature, law_name)
+
+
+def resolution_law() -> str | None:
+    """The size series' law whose fine law the capped series ran (None: none)."""
+    from benchmarks import resolution
+
+    law = resolution.reference().pair_law
+    return next((n for n in S.LAWS if S.law(n) == law), None)
+
+
 def feature_need(curves: dict, kind: str | None = None) -> dict | None:
     """The need of a feature kind: its most demanding property's (point estimate and 95 %
     bound; ``bound``: "needs", "more_than" the finest size, "at_most" the coarsest);
@@ -129,7 +232,11 @@ def feature_need(curves: dict, kind: str | None = None) -> dict | None:
     needs = {n: c["needed"] for n, c in curves.get("metrics", {}).items()}
     if not needs:
         return None
-    confounded = [n for n in needs if kind == "column" and n in CONFOUNDED]
+    confounded = [
+        n
+        for n in needs
+        if kind == "column" and n in CONFOUNDED and curves.get("stiffness_from") != "capped"
+    ]
     if confounded:
         return {
             "limited_by": confounded[0],
@@ -327,7 +434,7 @@ def evidence() -> dict:
             table = S.COLUMN_SIZES if kind == "column" else S.SHEAR_SIZES
             if law_name not in table:
                 continue
-            need = feature_need(feature_curves(feature, law_name), kind)
+            need = feature_need(curves_of(feature, law_name), kind)
             if need is not None:
                 features[feature] = need
         if law_name == OUTLET_LAW:
@@ -427,8 +534,15 @@ def report() -> str:
         ]
         lines += _size_table("column", law_name)
         for feature in ("bulk_compression", "free_surface"):
-            c = feature_curves(feature, law_name)
+            c = curves_of(feature, law_name)
             lines += ["", f"Curves, {FEATURE_WORDS[feature]}:", ""]
+            if c.get("stiffness_from") == "capped":
+                lines += [
+                    "The stiffnesses' curves are the capped series' (docs/RESOLUTION_capped.md: "
+                    "the platen's speed held), as the rate check decided (Confounds); "
+                    "density and coordination are this series'.",
+                    "",
+                ]
             lines += _curve_lines(c)
         rows = skin_rows(law_name)
         lines += ["", "### The released column's skin, measured", ""]
@@ -529,7 +643,55 @@ def confound_lines() -> list[str]:
             out.append(
                 f"| {law_name} | {size:.3g} | {v:.3f} | {unl} | {lag_ld:.2f} | {e_unl / 1e6:.3f} |"
             )
-    return [*out, ""]
+    return [*out, "", *rate_lines()]
+
+
+def rate_lines() -> list[str]:
+    """The report's account of the rate check (benchmarks/size_series.py)."""
+    out = [
+        "### The rate check",
+        "",
+        "Fixed before its runs (benchmarks/size_series.py, kind `rate`): the capped series "
+        "held the platen's speed (0.05 m/s), hence the lag as a fraction of a stiffness's "
+        "branch, at every size, while its inertial number fell from 5e-4 to 1.63e-4. Its "
+        "stiffness trend is the size effect if neither that lag nor that range of inertial "
+        "numbers moves the stiffnesses: the 5-diameter column at I = "
+        f"{S.RATE_INERTIAL_NUMBER:g} (its lag a third of the capped series'), paired by seed "
+        "with the held series' 5-diameter runs (I = 5e-4, the capped series' lag); each "
+        "stiffness's 90 % t interval of the mean paired relative difference inside "
+        f"+-{100 * S.RATE_EQUIVALENCE:g} % (a third of the 15 % tolerance) decides. Assumed, "
+        "not tested: that an effect of I at the capped series' lag does not grow with L.",
+        "",
+    ]
+    for law_name in S.LAWS:
+        c = rate_check(law_name)
+        if c is None:
+            continue
+        held = ", ".join(f"{h:.3g}" for h in c["held"]) or "none"
+        out += [
+            f"Law {law_name}, {c['size']:g} diameters: {len(c['seeds'])} of {c['planned']} "
+            f"pairs stored (seeds {', '.join(map(str, c['seeds'])) or 'none'}; inertial "
+            f"number held {held}).",
+            "",
+            "| stiffness | paired differences | mean [90 % interval] | verdict |",
+            "|---|---|---|---|",
+        ]
+        for name, r in c["stiffness"].items():
+            diffs = ", ".join(f"{100 * x:+.1f} %" for x in r["differences"])
+            lo, hi = r["interval"]
+            mean = (
+                f"{100 * r['mean']:+.1f} % [{100 * lo:+.1f} %, {100 * hi:+.1f} %]"
+                if math.isfinite(r["mean"])
+                else ""
+            )
+            out.append(f"| {name} | {diffs} | {mean} | {r['verdict']} |")
+        what = (
+            "the capped series decides the bulk in compression's stiffnesses"
+            if c["decided"]
+            else "the stiffnesses stay undecided (confounded)"
+        )
+        out += ["", f"So {what}.", ""]
+    return out
 
 
 def _curve_lines(c: dict) -> list[str]:

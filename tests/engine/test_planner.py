@@ -197,3 +197,42 @@ def test_an_outlet_property_applies_at_its_series_stress_and_the_arching_width_t
     del ev["laws"]["fake"]["features"]["outlet"]["per_property"]["arching_g_b"]
     plan = plan_process(_process(feature_kind="outlet", stress=2e4), ev)
     assert plan.answer.status == "not_measured" and "3e+04 Pa" in plan.answer.why
+
+
+@pytest.mark.parametrize(
+    ("slow", "verdicts", "decided"),
+    [
+        # paired relative differences near zero: inside +-5 %, equivalent
+        ((1.01, 0.99, 1.00, 1.005), ("equivalent", "equivalent"), True),
+        # the unloading stiffness 20 % up in every pair: wholly outside, differs
+        ((1.20, 1.21, 1.19, 1.20), ("equivalent", "differs"), False),
+        # one pair missing: undecided however close the rest
+        ((1.0, 1.0, 1.0, None), ("undecided (3 of 4 pairs stored)",) * 2, False),
+    ],
+)
+def test_the_rate_check_decides_by_its_stated_rule(monkeypatch, slow, verdicts, decided):
+    """benchmarks/size_report.rate_check on stand-in digests: the held series' 5-diameter
+    runs against the slow ones, the loading stiffness always equal, the unloading one
+    ``slow`` times the held."""
+    from types import SimpleNamespace
+
+    from benchmarks import size_report as R
+    from benchmarks import size_series as S
+
+    def digest(k_load, k_unload):
+        return SimpleNamespace(
+            ok=True,
+            metrics={"loading_stiffness": [k_load], "unloading_stiffness": [k_unload]},
+            scalars={"inertial_number_held": 1.6e-4},
+        )
+
+    def stored(kind, law, size, seed):
+        if kind == "column":
+            return digest(2e5, 9e5)
+        f = slow[seed - 1]
+        return None if f is None else digest(2e5 * (1 + 0.001 * (seed - 2)), 9e5 * f)
+
+    monkeypatch.setattr(S, "stored", stored)
+    c = R.rate_check("bond1")
+    got = tuple(c["stiffness"][n]["verdict"] for n in R.STIFFNESSES)
+    assert got == verdicts and c["decided"] is decided

@@ -89,3 +89,28 @@ def test_a_bad_hopper_reference_is_refused_naming_the_field(tmp_path, capsys):
     assert main(["study", spec, "-o", out]) == 2
     assert "HopperTest.half_angle" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_hopper_runs_alone_with_snapshots_curves_and_its_plot(tmp_path, capsys):
+    """``demscale run`` of a HopperTest: the discharge with its snapshots (the walls and the
+    gate among them), curves.csv, discharge.png and result.json; a bad field refused (2)."""
+    test = _write(
+        tmp_path / "hopper.json", {"type": "HopperTest", "outlet_width": 0.03, "particles": 120}
+    )
+    out = tmp_path / "run"
+    assert main(["run", test, "--out", str(out), "--snapshot-interval", "0.02", "-q"]) == 0
+    result = json.loads((out / "result.json").read_text())
+    s = result["scalars"]
+    assert result["test"]["type"] == "HopperTest" and result["units"]["discharge_rate"] == "kg/s"
+    assert s["discharged_mass"] == pytest.approx(s["total_mass"]) and s["discharge_rate"] > 0
+    assert (out / "discharge.png").stat().st_size > 10_000
+    head = (out / "curves.csv").read_text().splitlines()[0]
+    assert head.startswith("stage,time [s]") and "discharged_mass [kg]" in head
+    files = set(result["snapshots"]["files"])
+    assert {"snapshots/particles.vtkhdf", "snapshots/walls.vtkhdf"} <= files
+    # the opening, at least two of the discharge's intervals, the end
+    assert len(result["snapshots"]["time_steps"]) >= 4
+    assert "discharged" in capsys.readouterr().err
+    bad = _write(tmp_path / "bad.json", {"type": "HopperTest", "outlet_width": -1})
+    assert main(["run", bad, "--out", str(tmp_path / "bad")]) == 2
+    assert "HopperTest.outlet_width" in capsys.readouterr().err

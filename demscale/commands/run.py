@@ -1,5 +1,6 @@
-"""``demscale run``: one uniaxial test run here with a progress bar, its snapshots streamed
-to files as they are taken, its scalars, curves and sections written into a folder."""
+"""``demscale run``: one uniaxial test (or one hopper discharge) run here with a progress
+bar, its snapshots streamed to files as they are taken, its scalars, curves and sections (a
+hopper: its discharge-rate plot) written into a folder."""
 
 from __future__ import annotations
 
@@ -31,8 +32,13 @@ compression) with the engine, with a progress bar, and write into DIR:
                         ParaView, meshio), and a PNG section per stage
 
 TEST.json holds an engine.UniaxialTest: every field may be given, the others take their
-defaults; {"preset": "quick"} (or "paper") starts from a named test. The snapshots are
-written as they are taken, so a run that fails keeps those before the failure.
+defaults; {"preset": "quick"} (or "paper") starts from a named test. With "type":
+"HopperTest" it holds an engine.HopperTest instead (docs/HOPPER.md): the fill settled, the
+gate opened, the discharge; its snapshots (particles, contacts and walls.vtkhdf: the gate
+moving as it opens) at the gate's opening, every --snapshot-interval of the discharge and at
+its end, curves.csv its discharge curves and discharge.png its rate against time. The
+snapshots are written as they are taken, so a run that fails keeps those before the
+failure.
 
 Exit status: 0 the test ran; 1 a stage failed (see the message); 2 the test is not valid."""
 
@@ -40,7 +46,12 @@ Exit status: 0 the test ran; 1 a stage failed (see the message); 2 the test is n
 def add_commands(sub) -> None:
     """``run`` on the ``demscale`` parser's subparsers ``sub``."""
     p = command(sub, "run", "run one uniaxial test and write its snapshots", RUN_HELP, run)
-    p.add_argument("test", metavar="TEST.json", help="the test (an engine.UniaxialTest as JSON)")
+    p.add_argument(
+        "test",
+        metavar="TEST.json",
+        help='the test (an engine.UniaxialTest, or with "type": "HopperTest" an '
+        "engine.HopperTest, as JSON)",
+    )
     add_out(p)
     p.add_argument(
         "--snapshot-interval",
@@ -55,16 +66,21 @@ def add_commands(sub) -> None:
 
 def _read_test(path: Path, snapshot_interval: float | None):
     """The :class:`engine.UniaxialTest` in the JSON file ``path`` (engine.uniaxial_from_json),
-    with ``snapshot_interval`` [s] checked."""
+    or with ``"type": "HopperTest"`` the :class:`engine.HopperTest`, with
+    ``snapshot_interval`` [s] checked."""
+    from engine.core.records import from_dict
+    from engine.hopper.spec import HopperTest
     from engine.uniaxial.spec import uniaxial_from_json
 
     fields = json.loads(path.read_text())
     if not isinstance(fields, dict):
         raise ValueError("the file must hold a JSON object of the test's fields")
-    test = uniaxial_from_json(fields)
     if snapshot_interval is not None and not snapshot_interval > 0:
         raise ValueError("--snapshot-interval must be a time > 0 s")
-    return test
+    if fields.get("type") == "HopperTest":
+        rest = {k: v for k, v in fields.items() if k != "type"}
+        return from_dict(HopperTest, rest, "HopperTest")
+    return uniaxial_from_json(fields)
 
 
 def run(args) -> int:
@@ -72,7 +88,6 @@ def run(args) -> int:
     if lacks_extra("run", CLI_EXTRA, "cli"):
         return 2
     from rich.console import Console
-    from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
 
     import engine
     from engine.io.curves import write_curves_csv
@@ -93,20 +108,13 @@ def run(args) -> int:
         return 2
     out = Path(args.out)
     snap_dir = out / "snapshots"
+    if isinstance(test, engine.HopperTest):
+        return _run_hopper(args, test, path, out, console)
     console.print(
         f"{path.name}: {test.n_particles} particles, R = {test.radius * 1e3:g} mm, "
         f"cell {' x '.join(f'{c * 1e3:g}' for c in test.cell)} mm; writing to {out}"
     )
-    bars = Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        TaskProgressColumn(),
-        TextColumn("{task.fields[stage]}"),
-        TimeElapsedColumn(),
-        console=console,
-        disable=args.quiet,
-    )
-    with bars, SnapshotWriter(snap_dir) as writer:
+    with _bars(console, args.quiet) as bars, SnapshotWriter(snap_dir) as writer:
         task = bars.add_task("[bold]uniaxial test", total=1.0, stage="setup")
 
         def report(p) -> None:
@@ -137,5 +145,84 @@ def run(args) -> int:
         f"porosity {s['consolidated_porosity']:.3f}"
         + (f", unconfined strength {strength:.4g} Pa" if strength is not None else "")
         + f"; {len(writer.labels)} snapshots in {snap_dir}"
+    )
+    return 0
+
+
+def _bars(console, quiet: bool):
+    from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
+
+    return Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TaskProgressColumn(),
+        TextColumn("{task.fields[stage]}"),
+        TimeElapsedColumn(),
+        console=console,
+        disable=quiet,
+    )
+
+
+def _run_hopper(args, test, path: Path, out: Path, console) -> int:
+    """``demscale run`` of an :class:`engine.HopperTest`: the discharge with its snapshots,
+    curves.csv, discharge.png and result.json."""
+    import engine
+    from engine.hopper.results import HOPPER_SCALAR_UNITS
+    from engine.io.curves import write_curves_csv
+    from engine.io.figures import hopper_run_figure
+    from engine.io.vtkhdf import SnapshotWriter
+
+    from ..report import write_json
+
+    snap_dir = out / "snapshots"
+    console.print(
+        f"{path.name}: a {test.shape} hopper, outlet {test.outlet_width * 1e3:g} mm "
+        f"({test.outlet_diameters:.3g} d), {test.n_particles} particles, R = "
+        f"{test.radius * 1e3:g} mm; writing to {out}"
+    )
+    with _bars(console, args.quiet) as bars, SnapshotWriter(snap_dir) as writer:
+        task = bars.add_task("[bold]hopper", total=1.0, stage="setup")
+
+        def report(p) -> None:
+            bars.update(task, completed=p.fraction, stage=f"{p.stage} (t = {p.time:.3g} s)")
+
+        try:
+            result = engine.run_hopper(
+                test,
+                report,
+                on_snapshot=writer.add,
+                snapshot_interval=args.snapshot_interval,
+                backend=args.backend,
+            )
+        except (engine.StageError, engine.InstabilityError, FloatingPointError) as e:
+            console.print(
+                f"[red]the run failed:[/red] {e}; the {len(writer.labels)} "
+                f"snapshots before it are in {snap_dir}"
+            )
+            return 1
+    write_curves_csv(result, out / "curves.csv")
+    title = f"{path.stem}: {test.shape} hopper, B = {test.outlet_diameters:.3g} d"
+    hopper_run_figure(result, title).savefig(out / "discharge.png", format="png")
+    s = result.scalars
+    write_json(
+        out / "result.json",
+        {
+            "test": {"type": "HopperTest", **test.to_dict()},
+            "scalars": s,
+            "units": {k: HOPPER_SCALAR_UNITS.get(k, "") for k in s},
+            "curves": "curves.csv",
+            "plots": ["discharge.png"],
+            "snapshots": {
+                "files": [str(p.relative_to(out)) for p in writer.paths()],
+                "time_steps": writer.labels,
+            },
+        },
+    )
+    how = "arched" if s["arched"] else ("stopped" if s["stopped"] else "discharged")
+    console.print(
+        f"done: {how}, {s['discharged_mass'] / s['total_mass']:.1%} of the fill out, "
+        f"discharge rate {s['discharge_rate']:.4g} kg/s (discharge number "
+        f"{s['discharge_number']:.3g}); {s['steps']:.0f} steps in {s['wall_time']:.1f} s; "
+        f"{len(writer.labels)} snapshots in {snap_dir}"
     )
     return 0

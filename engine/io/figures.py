@@ -799,6 +799,33 @@ def discharge_rate(time, mass, window: float = RATE_WINDOW) -> tuple[np.ndarray,
     return t, (m[hi] - m[lo]) / (t[hi] - t[lo])
 
 
+def hopper_run_figure(result, title: str = ""):
+    """A matplotlib Figure (Agg canvas, no pyplot) of one hopper run's discharge: its mass
+    discharge rate [kg/s] against time since the gate began to open [s]
+    (:func:`discharge_rate`), the steady window shaded and its rate dotted."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    c, s = result.curves, result.scalars
+    fig = Figure(figsize=(7.0, 4.4), dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    t, rate = discharge_rate(c["time"], c["discharged_mass"])
+    ax.plot(t, rate, color="C0", lw=1.4, label="discharge rate")
+    steady = s.get("discharge_rate", math.nan)
+    if math.isfinite(steady):
+        ax.axvspan(s["window_start"], s["window_end"], color="C0", alpha=0.12, lw=0)
+        ax.axhline(steady, color="C0", ls=":", lw=1.2, label=f"steady window: {steady:.4g} kg/s")
+    if s.get("arched"):
+        ax.axvline(s["arch_time"], color="C3", ls="--", lw=1.0, label="arched")
+    ax.set_xlabel("time since the gate began to open [s]")
+    ax.set_ylabel("mass discharge rate [kg/s]")
+    ax.set_ylim(bottom=0.0)
+    ax.set_title(title or "hopper discharge")
+    ax.legend(loc="best", fontsize=8)
+    return fig
+
+
 def _discharge(ax, runs: dict, table: list[dict]) -> None:
     """Every group's discharge rate against time (:func:`discharge_rate`; seeds as a mean
     with a band of 1 sd) and, dotted in its colour, its steady-window rate (the table's, the

@@ -135,6 +135,8 @@ def rate_check(law_name: str) -> dict | None:
     table = S.RATE_SIZES.get(law_name)
     if not table:
         return None
+    if len(table) != 1:
+        raise ValueError(f"size_series.RATE_SIZES[{law_name!r}]: one size per law, not {table}")
     ((size, n),) = table.items()
     pairs = []
     for seed in range(1, n + 1):
@@ -157,7 +159,7 @@ def rate_check(law_name: str) -> dict | None:
     for name in STIFFNESSES:
         diffs = np.array([p[1].metrics[name][0] / p[2].metrics[name][0] - 1.0 for p in pairs])
         row = {"differences": diffs.tolist(), "mean": math.nan, "interval": [math.nan] * 2}
-        verdict = f"undecided ({len(diffs)} of {n} pairs stored)"
+        verdict = f"undecided ({len(diffs)} of {n} pairs stored and run to their end)"
         if len(diffs) >= 2:
             m = float(diffs.mean())
             half = (

@@ -47,12 +47,14 @@ Feature kinds (the functional form of each fit is fixed here, before the runs):
   trend is the size effect if neither that lag nor that range of inertial numbers moves the
   stiffnesses. The check: the 5-diameter column at I = :data:`RATE_INERTIAL_NUMBER` (the
   capped series' lowest; its lag a third of the capped series'), seeds 1-4, paired by seed
-  (the same packing) with the held series' 5-diameter runs (I = 5e-4, the capped series'
+  (the same poured fill; the packings then part, as the pre-compression runs at each I) with
+  the held series' 5-diameter runs (I = 5e-4, the capped series'
   lag). Rule: for each stiffness, the 90 % t interval (3 degrees of freedom) of the mean
   paired relative difference inside +-:data:`RATE_EQUIVALENCE` (a third of the stiffnesses'
-  15 % tolerance) -> equivalent: the capped series decides the bulk in compression's
-  stiffness need (read from its resolution curve as every other need is); an interval
-  wholly outside -> differs, otherwise undecided: the stiffnesses stay undecided. Assumed,
+  15 % tolerance) -> equivalent; an interval wholly outside -> differs, otherwise
+  undecided. Both stiffnesses equivalent: the capped series decides the bulk in
+  compression's stiffness need (read from its resolution curve as every other need is);
+  otherwise the stiffnesses stay undecided. Assumed,
   not tested: that an effect of I at the capped series' lag does not grow with L.
 
 Laws: ``bond1`` the default powder (f0 = -0.4 N, the main job's reference), ``bond3`` the

@@ -416,8 +416,8 @@ def reference_kind(data: dict) -> TestKind | None:
 
 def _check_backend(settings: Settings, kind: TestKind) -> None:
     """A study whose kind runs on the CPU only (its ``backends`` lack ``"cuda"``: the shear
-    test's engine.run_shear, the hopper's engine.run_hopper) on a service whose runs go to
-    the GPU (DEMSCALE_BACKEND=cuda): refused rather than run elsewhere."""
+    test's engine.run_shear) on a service whose runs go to the GPU (DEMSCALE_BACKEND=cuda):
+    refused rather than run elsewhere."""
     if settings.backend != "cuda" or kind.backends is None or "cuda" in kind.backends:
         return
     raise SpecRejected(

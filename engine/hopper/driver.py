@@ -545,8 +545,8 @@ def run_hopper(
         backend: ``"cpu"``, ``"cuda"`` or ``"auto"`` (see :class:`engine.Simulation`; None:
             ``DEMSCALE_BACKEND``, else the CPU). On the CUDA backend the steps, the catch
             zone's drag and the kinetic energy are made on the device; each discharge sample
-            reads the particles' positions and velocities and the mesh contacts (the wall
-            stress) from the host.
+            copies the particles' positions and velocities and the mesh contacts (the wall
+            stress) to the host.
     Raises: :class:`engine.StageError` when the fill does not settle within
         ``max_settle_time``; :class:`engine.InstabilityError` when the integration blows up.
     """
@@ -555,12 +555,13 @@ def run_hopper(
         check_interval(max_wall_time, "run_hopper.max_wall_time")
     if snapshot_interval is not None:
         check_interval(snapshot_interval, "run_hopper.snapshot_interval")
-    backend = check_backend(backend, "run_hopper.backend")
+    # resolved once, naming this function's field (not Simulation's) where CUDA cannot run
+    backend = resolve_backend(check_backend(backend, "run_hopper.backend"), "run_hopper.backend")
 
     def refuse(state) -> str | None:
         if not isinstance(state, HopperRun):
             return "holds no hopper run"
-        if state.sim.backend != resolve_backend(backend, "run_hopper.backend"):
+        if state.sim.backend != backend:
             return f"was written on the {state.sim.backend} backend, not the one asked for"
         return None
 

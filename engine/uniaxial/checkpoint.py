@@ -155,6 +155,7 @@ def resume(checkpoint, test, refuse, *packages) -> tuple[Checkpoint | None, Any,
             stacklevel=3,
         )
         state = None
+        checkpoint.resumed_steps = None  # not resumed: the run starts from the beginning
     return checkpoint, state, time.perf_counter() - t0
 
 

@@ -158,6 +158,19 @@ def test_a_checkpoint_of_another_test_or_a_torn_file_is_ignored(tmp_path, cohesi
         assert Checkpoint(path).load(cohesive_test) is None
 
 
+def test_a_refused_checkpoint_is_not_reported_as_resumed(tmp_path, cohesive_test):
+    # e.g. one written on the other backend: the run starts over and says nothing of a resume
+    from engine.uniaxial.checkpoint import resume
+
+    path = tmp_path / "run.ckpt"
+    _cut_off(path, cohesive_test, 2)
+    ck, state, _ = resume(Checkpoint(path), cohesive_test, lambda s: None)
+    assert state is not None and ck.resumed_steps is not None
+    with pytest.warns(RuntimeWarning, match="another backend"):
+        ck, state, _ = resume(Checkpoint(path), cohesive_test, lambda s: "was of another backend")
+    assert state is None and ck.resumed_steps is None
+
+
 def test_a_checkpoint_of_other_trajectory_code_is_ignored(tmp_path, cohesive_test):
     from engine.uniaxial import checkpoint as ck_module
 

@@ -71,15 +71,15 @@ def test_the_series_item_judges_a_run_against_the_stored_seeds(monkeypatch):
     from benchmarks import gpu_speed, outlet_series
 
     key = ("flow", 30.0, 64.0, 1)
-    paths = [outlet_series.path_of(*key[:-1], s) for s in (1, 2, 3)]
+    paths = {s: outlet_series.path_of(*key[:-1], s) for s in (1, 2, 3)}
     seed2 = outlet_series.stored(*key[:-1], 2).scalars["discharge_number"]
     args = SimpleNamespace(smoke=True)  # nothing stored
     for factor, ok in ((1.0, True), (1.3, False)):
         res = SimpleNamespace(scalars={"discharge_number": factor * seed2, "steps": 10})
-        o = {"particles": 10, "steps": 10, "wall": 1.0, "finished": True}
+        o = {"particles": 10, "steps": 10, "wall": 1.0, "finished": True, "error": None}
         monkeypatch.setattr(gpu_speed, "timed_any", lambda test, cap, res=res, o=o: (res, o))
         items = [("outlet", outlet_series.test_of(*key), paths, "discharge_number")]
-        items.append(("size", outlet_series.test_of(*key), paths[:1], "discharge_number"))
+        items.append(("size", outlet_series.test_of(*key), {1: paths[1]}, "discharge_number"))
         monkeypatch.setattr(gpu_speed, "series_runs", lambda smoke, items=items: items)
         checks = gpu_speed.series_item(args, False, 60.0)
         assert [c[1] for c in checks] == [True, ok, True, False], checks

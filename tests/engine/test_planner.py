@@ -207,7 +207,11 @@ def test_an_outlet_property_applies_at_its_series_stress_and_the_arching_width_t
         # the unloading stiffness 20 % up in every pair: wholly outside, differs
         ((1.20, 1.21, 1.19, 1.20), ("equivalent", "differs"), False),
         # one pair missing: undecided however close the rest
-        ((1.0, 1.0, 1.0, None), ("undecided (3 of 4 pairs stored)",) * 2, False),
+        (
+            (1.0, 1.0, 1.0, None),
+            ("undecided (3 of 4 pairs stored and run to their end)",) * 2,
+            False,
+        ),
     ],
 )
 def test_the_rate_check_decides_by_its_stated_rule(monkeypatch, slow, verdicts, decided):

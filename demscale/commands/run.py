@@ -92,7 +92,6 @@ def run(args) -> int:
     import engine
     from engine.io.curves import write_curves_csv
     from engine.io.figures import section_figure
-    from engine.io.vtkhdf import SnapshotWriter
 
     from ..report import run_summary, write_json
 
@@ -114,26 +113,9 @@ def run(args) -> int:
         f"{path.name}: {test.n_particles} particles, R = {test.radius * 1e3:g} mm, "
         f"cell {' x '.join(f'{c * 1e3:g}' for c in test.cell)} mm; writing to {out}"
     )
-    with _bars(console, args.quiet) as bars, SnapshotWriter(snap_dir) as writer:
-        task = bars.add_task("[bold]uniaxial test", total=1.0, stage="setup")
-
-        def report(p) -> None:
-            bars.update(task, completed=p.fraction, stage=f"{p.stage} (t = {p.time:.3g} s)")
-
-        try:
-            result = engine.run_uniaxial(
-                test,
-                report,
-                on_snapshot=writer.add,
-                snapshot_interval=args.snapshot_interval,
-                backend=args.backend,
-            )
-        except (engine.StageError, engine.InstabilityError, FloatingPointError) as e:
-            console.print(
-                f"[red]the test failed:[/red] {e}; the {len(writer.labels)} "
-                f"snapshots before it are in {snap_dir}"
-            )
-            return 1
+    result, writer = _run_with_snapshots(args, test, engine.run_uniaxial, snap_dir, console)
+    if result is None:
+        return 1
     for st in result.stages.values():
         section_figure(st.snapshot, path.stem).savefig(snap_dir / f"{st.name}.png", format="png")
     write_curves_csv(result, out / "curves.csv")
@@ -149,18 +131,47 @@ def run(args) -> int:
     return 0
 
 
-def _bars(console, quiet: bool):
+def _run_with_snapshots(args, test, run_fn, snap_dir: Path, console):
+    """``run_fn(test, progress, on_snapshot=, snapshot_interval=, backend=)`` (engine.run_uniaxial
+    or engine.run_hopper) under a progress bar naming the stage and the simulated time, its
+    snapshots streamed into ``snap_dir``: (result, writer), or (None, writer) when a stage
+    failed or the integration blew up (said, with where the snapshots before it are)."""
     from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn
 
-    return Progress(
+    import engine
+    from engine.io.vtkhdf import SnapshotWriter
+
+    bars = Progress(
         TextColumn("{task.description}"),
         BarColumn(),
         TaskProgressColumn(),
         TextColumn("{task.fields[stage]}"),
         TimeElapsedColumn(),
         console=console,
-        disable=quiet,
+        disable=args.quiet,
     )
+    what = "hopper" if isinstance(test, engine.HopperTest) else "uniaxial test"
+    with bars, SnapshotWriter(snap_dir) as writer:
+        task = bars.add_task(f"[bold]{what}", total=1.0, stage="setup")
+
+        def report(p) -> None:
+            bars.update(task, completed=p.fraction, stage=f"{p.stage} (t = {p.time:.3g} s)")
+
+        try:
+            result = run_fn(
+                test,
+                report,
+                on_snapshot=writer.add,
+                snapshot_interval=args.snapshot_interval,
+                backend=args.backend,
+            )
+        except (engine.StageError, engine.InstabilityError, FloatingPointError) as e:
+            console.print(
+                f"[red]the {what} failed:[/red] {e}; the {len(writer.labels)} "
+                f"snapshots before it are in {snap_dir}"
+            )
+            return None, writer
+    return result, writer
 
 
 def _run_hopper(args, test, path: Path, out: Path, console) -> int:
@@ -170,7 +181,6 @@ def _run_hopper(args, test, path: Path, out: Path, console) -> int:
     from engine.hopper.results import HOPPER_SCALAR_UNITS
     from engine.io.curves import write_curves_csv
     from engine.io.figures import hopper_run_figure
-    from engine.io.vtkhdf import SnapshotWriter
 
     from ..report import write_json
 
@@ -180,26 +190,9 @@ def _run_hopper(args, test, path: Path, out: Path, console) -> int:
         f"({test.outlet_diameters:.3g} d), {test.n_particles} particles, R = "
         f"{test.radius * 1e3:g} mm; writing to {out}"
     )
-    with _bars(console, args.quiet) as bars, SnapshotWriter(snap_dir) as writer:
-        task = bars.add_task("[bold]hopper", total=1.0, stage="setup")
-
-        def report(p) -> None:
-            bars.update(task, completed=p.fraction, stage=f"{p.stage} (t = {p.time:.3g} s)")
-
-        try:
-            result = engine.run_hopper(
-                test,
-                report,
-                on_snapshot=writer.add,
-                snapshot_interval=args.snapshot_interval,
-                backend=args.backend,
-            )
-        except (engine.StageError, engine.InstabilityError, FloatingPointError) as e:
-            console.print(
-                f"[red]the run failed:[/red] {e}; the {len(writer.labels)} "
-                f"snapshots before it are in {snap_dir}"
-            )
-            return 1
+    result, writer = _run_with_snapshots(args, test, engine.run_hopper, snap_dir, console)
+    if result is None:
+        return 1
     write_curves_csv(result, out / "curves.csv")
     title = f"{path.stem}: {test.shape} hopper, B = {test.outlet_diameters:.3g} d"
     hopper_run_figure(result, title).savefig(out / "discharge.png", format="png")

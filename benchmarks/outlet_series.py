@@ -23,7 +23,9 @@ properties, fixed here before any run of this series (2026-12-06):
   still acts (the hopper's Bond number |f0| / (m g) is 2.3 at 8 d, 18 at 64 d). Outlet
   widths :data:`FLOW_WIDTHS` = 8 to 64 diameters (about x 1.4 apart), then 80 (the issue's
   widest, added after the others had run: 57,000 particles, about 25 minutes on one core,
-  run with the hopper's catch zone, which acts only far below the outlet),
+  run with the hopper's catch zone, which acts only far below the outlet; both seeds run
+  failed at 96 % discharged, the dense falling fill jammed where the zone slows it:
+  docs/HOPPER.md, "Not measured"),
   :data:`FLOW_SEEDS` seeds.
   The fill: radii uniform in R (1 +- 0.1) (``hopper_series``' reason: a monodisperse fill
   in a thin periodic slot crystallises and discharges in bursts), height B (held in units

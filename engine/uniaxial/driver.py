@@ -721,10 +721,12 @@ def run_uniaxial(
             raise ValueError(f"snapshot_interval must be a time > 0 s, not {snapshot_interval}")
     if max_wall_time is not None:
         check_interval(max_wall_time, "run_uniaxial.max_wall_time")
-    backend = check_backend(backend, "run_uniaxial.backend")
+    # resolved once, naming this function's field (not Simulation's) where CUDA cannot run
+    field = "run_uniaxial.backend"
+    backend = resolve_backend(check_backend(backend, field), field)
 
     def refuse(state) -> str | None:
-        if state.sim.backend == resolve_backend(backend, "run_uniaxial.backend"):
+        if state.sim.backend == backend:
             return None
         return f"was written on the {state.sim.backend} backend, not the one asked for"
 

@@ -322,31 +322,8 @@ def run_batch(workers: int, store: Path) -> tuple[float, dict]:
 
 
 def timed_run(test, cap_s: float) -> dict:
-    """``test`` on the GPU (:func:`engine.run_uniaxial`), stopped at ``cap_s`` of wall time
-    [s]: its particles, the steps it made, its wall time [s] (set-up included), set-up
-    time [s] where it finished, and whether it did."""
-    t0 = time.perf_counter()
-    done = {"steps": 0}
-
-    def progress(p):
-        done["steps"] = p.steps
-        return time.perf_counter() - t0 < cap_s
-
-    out = {"particles": test.n_particles, "finished": False, "setup": None}
-    try:
-        res = engine.run_uniaxial(test, progress, backend="cuda")
-    except engine.StopRequested:
-        out.update(steps=done["steps"], wall=time.perf_counter() - t0)
-        return out
-    s = res.scalars
-    out.update(
-        steps=int(s["steps"]),
-        wall=time.perf_counter() - t0,
-        run_wall=s["wall_time"],
-        setup=s["setup_time"],
-        finished=True,
-    )
-    return out
+    """:func:`timed_any`'s record of ``test`` alone (the result left out)."""
+    return timed_any(test, cap_s)[1]
 
 
 def smoke_tests(k: int) -> list:
@@ -485,7 +462,8 @@ def series_runs(smoke: bool) -> list[tuple[str, object, dict[int, Path], str]]:
 
 def timed_any(test, cap_s: float) -> tuple[object | None, dict]:
     """A uniaxial or hopper ``test`` on the GPU, stopped at ``cap_s`` of wall time [s]:
-    (result or None, {particles, steps made, wall [s], finished, error: why it failed or
+    (result or None, {particles, steps made, wall [s] (set-up included), finished, setup [s]
+    and run_wall [s] (the run's own wall time) where it finished, error: why it failed or
     None}); a run that fails (instability, a stage's limit) is reported, not raised."""
     t0 = time.perf_counter()
     done = {"steps": 0}
@@ -495,7 +473,7 @@ def timed_any(test, cap_s: float) -> tuple[object | None, dict]:
         return time.perf_counter() - t0 < cap_s
 
     run = engine.run_hopper if isinstance(test, engine.HopperTest) else engine.run_uniaxial
-    out = {"particles": test.n_particles, "finished": False, "error": None}
+    out = {"particles": test.n_particles, "finished": False, "setup": None, "error": None}
     try:
         res = run(test, progress, backend="cuda")
     except engine.StopRequested:
@@ -505,7 +483,14 @@ def timed_any(test, cap_s: float) -> tuple[object | None, dict]:
         out.update(steps=done["steps"], wall=time.perf_counter() - t0)
         out["error"] = f"{type(e).__name__}: {e}"
         return None, out
-    out.update(steps=int(res.scalars["steps"]), wall=time.perf_counter() - t0, finished=True)
+    s = res.scalars
+    out.update(
+        steps=int(s["steps"]),
+        wall=time.perf_counter() - t0,
+        run_wall=s["wall_time"],
+        setup=s.get("setup_time"),
+        finished=True,
+    )
     return res, out
 
 

@@ -16,7 +16,6 @@ import numpy as np
 
 from benchmarks import jenike_series as J
 from benchmarks import outlet_series as O
-from engine.io.digest import read_digest
 from engine.study.resolution import diameters_needed, resolution_curves
 
 CONFIDENCE = 0.95
@@ -263,7 +262,6 @@ def lines() -> list[str]:
             f"value in d / B {c['slope']:+.2f} [{lo:+.2f}, {hi:+.2f}] (sizes {sizes} d): {need}"
         )
     out += censored_lines(curves["metrics"].get("arching_g_b"))
-    out += evaluated_drag_lines()
     fails = flow_failures()
     if fails:
         out += ["", "Discharge runs left out:", ""] + [f"- {f}" for f in fails]
@@ -311,29 +309,6 @@ def censored_lines(c: dict | None) -> list[str]:
             )
         out.append(line)
     return out
-
-
-def evaluated_drag_lines() -> list[str]:
-    """The stored runs whose catch zone's drag was applied through a force evaluation
-    (``Simulation.set_velocities``, before 2026-12-06 17:40): each application advanced
-    every contact's tangential spring by one more step once the stream reached the zone,
-    the hopper's grains' too. Said, to be made again."""
-    bad = sorted(
-        p.stem if p.parent == O.STORE else f"{p.parent.name}/{p.stem}"
-        for p in O.STORE.glob("*/*.json")
-        if "drag" in (c := read_digest(p).extra.get("catch_zone", ""))
-        and "without a force evaluation" not in c
-    )
-    if not bad:
-        return []
-    return [
-        "",
-        f"{len(bad)} runs above were made with the catch zone's drag applied through a force "
-        "evaluation, which advanced every contact's tangential spring by one more step at "
-        "each application once the stream reached the zone (the hopper's grains' too): their "
-        "outcomes, and the outlet's N_req read from them, are provisional until they are "
-        "made again: " + ", ".join(bad) + ".",
-    ]
 
 
 def arch_failures() -> list[str]:

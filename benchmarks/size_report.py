@@ -778,8 +778,6 @@ def readme_block(ev: dict | None = None) -> str:
         said += f", set by {OUTLET_WORDS.get(outlet['limited_by'], outlet['limited_by'])}"
         if held:
             said += f" (its discharge rate measured at g B held, {held / 1e3:.2g} kPa)"
-    if outlet_report.evaluated_drag_lines():
-        said += " (provisional: runs to be made again, docs/RESOLUTION.md)"
     lines = [
         f"- N_req for the default powder's law (f0 = -0.4 N at 20 kPa): {needs}; {said}.",
     ]

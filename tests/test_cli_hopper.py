@@ -114,3 +114,12 @@ def test_a_hopper_runs_alone_with_snapshots_curves_and_its_plot(tmp_path, capsys
     bad = _write(tmp_path / "bad.json", {"type": "HopperTest", "outlet_width": -1})
     assert main(["run", bad, "--out", str(tmp_path / "bad")]) == 2
     assert "HopperTest.outlet_width" in capsys.readouterr().err
+
+
+def test_run_refuses_a_test_kind_it_does_not_run(tmp_path, capsys):
+    shear = _write(tmp_path / "shear.json", {"type": "ShearTest"})
+    assert main(["run", shear, "--out", str(tmp_path / "s")]) == 2
+    assert "UniaxialTest or a HopperTest" in capsys.readouterr().err
+    odd = _write(tmp_path / "odd.json", {"type": "Silo"})
+    assert main(["run", odd, "--out", str(tmp_path / "o")]) == 2
+    assert "test.type" in capsys.readouterr().err

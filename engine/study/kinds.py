@@ -20,6 +20,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
+from ..core.errors import ParameterError
 from ..core.records import from_dict
 from ..hopper import spec as hopper_spec
 from ..hopper import study as hopper_study
@@ -235,6 +236,22 @@ def kind_for_json(raw: Any) -> TestKind:
         if kind.json_type == tag:
             return kind
     raise KeyError(tag)
+
+
+def test_from_json(raw: dict, owner: str | None = None):
+    """The test a JSON object holds: of the kind its ``"type"`` names (none, or the default
+    kind's class name: the default kind, a uniaxial test's fields or a preset with overrides),
+    from its other fields. ``owner`` names the fields in errors (None: the kind's class
+    name); an unknown type is refused naming ``<owner>.type``."""
+    raw = dict(raw)
+    tag = raw.pop("type", None)
+    kinds = {k.json_type or k.spec.__name__: k for k in KINDS.values()}
+    default = next(k for k in KINDS.values() if k.json_type is None)
+    kind = default if tag in (None, default.spec.__name__) else kinds.get(tag)
+    if kind is None:
+        names = sorted({*kinds, default.spec.__name__})
+        raise ParameterError(f"{owner or 'test'}.type", tag, f"one of {names}")
+    return kind.from_json(raw, owner or kind.spec.__name__)
 
 
 def kind_of_table(table: list[dict]) -> TestKind:

@@ -17,7 +17,7 @@ from ..core.records import Record, check_fields, from_dict, param
 from ..hopper.spec import HopperTest
 from ..shear.spec import ShearTest
 from ..uniaxial.spec import UniaxialTest, preset
-from .kinds import KINDS, kind_of
+from .kinds import KINDS, kind_of, test_from_json
 from .metrics import metrics_of
 
 DT_POLICIES = ("fixed", "scaled")
@@ -157,15 +157,7 @@ def _reference_from_json(raw):
     a shear test's fields)."""
     if not isinstance(raw, dict):
         return raw
-    raw = dict(raw)
-    tag = raw.pop("type", None)
-    kinds = {k.json_type or k.spec.__name__: k for k in KINDS.values()}
-    default = next(k for k in KINDS.values() if k.json_type is None)
-    kind = default if tag in (None, default.spec.__name__) else kinds.get(tag)
-    if kind is None:
-        names = sorted({*kinds, default.spec.__name__})
-        raise ParameterError("StudySpec.reference.type", tag, f"one of {names}")
-    return kind.from_json(raw, "StudySpec.reference")
+    return test_from_json(raw, "StudySpec.reference")
 
 
 def _rules_from_json(raw):

@@ -240,3 +240,24 @@ def test_the_rate_check_decides_by_its_stated_rule(monkeypatch, slow, verdicts, 
     c = R.rate_check("bond1")
     got = tuple(c["stiffness"][n]["verdict"] for n in R.STIFFNESSES)
     assert got == verdicts and c["decided"] is decided
+
+
+def test_a_decided_rate_check_takes_the_stiffnesses_from_the_capped_series(monkeypatch):
+    """Where the rate check decides (stand-in), the bulk in compression's stiffness curves
+    are the capped series' and its density and coordination the held series'; the kind is
+    then judged, not marked confounded."""
+    from benchmarks import size_report as R
+
+    monkeypatch.setattr(R, "rate_check", lambda law: {"decided": True})
+    held = R.feature_curves("bulk_compression", "bond1")
+    capped = R.capped_stiffness_curves()
+    c = R.compression_curves("bond1")
+    assert c["stiffness_from"] == "capped"
+    for name in R.STIFFNESSES:
+        assert c["metrics"][name]["needed"] == capped["metrics"][name]["needed"]
+    for name in ("density", "coordination"):
+        assert c["metrics"][name]["needed"] == held["metrics"][name]["needed"]
+    assert R.feature_need(c, "column")["bound"] != "confounded"
+    assert R.feature_need(held, "column")["bound"] == "confounded"
+    monkeypatch.setattr(R, "rate_check", lambda law: {"decided": False})
+    assert R.compression_curves("bond1")["stiffness_from"] == "held"

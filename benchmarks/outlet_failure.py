@@ -63,7 +63,7 @@ def main(argv=None) -> int:
         "run": O.key_name(*key),
         "outcome": what,
         "time": sim.time,
-        "catch_top": run.geo.catch_top,
+        "sink": run.geo.sink,
         "floor": -run.geo.catch_depth,
         "bands": bands(sim.positions[:, 2], sim.velocities),
     }

@@ -22,11 +22,21 @@ properties, fixed here before any run of this series (2026-12-06):
   12-14 m^2/s^2 at 6-7 d, 9-11 at 9-11 d), so that every size discharges and the cohesion
   still acts (the hopper's Bond number |f0| / (m g) is 2.3 at 8 d, 18 at 64 d). Outlet
   widths :data:`FLOW_WIDTHS` = 8 to 64 diameters (about x 1.4 apart), then 80 (the issue's
-  widest, added after the others had run: 57,000 particles, about 25 minutes on one core,
-  run with the hopper's catch zone, which acts only far below the outlet; both seeds run
-  failed at 96 % discharged, the dense falling fill jammed where the zone slows it:
-  docs/HOPPER.md, "Not measured"),
+  widest, added after the others had run: 57,000 particles, about 20 minutes on one core;
+  its first two seeds, run with the hopper's catch zone (a drag far below the outlet),
+  failed at 96 % discharged, the dense falling fill jammed where the drag slowed it, and
+  were run again with the hopper's sink: docs/HOPPER.md, "The sink"),
   :data:`FLOW_SEEDS` seeds.
+- **The sink against the drag** (series ``sink``, fixed 2026-12-06 before its runs): the
+  runs of the discharge series up to 64 d were made with the catch zone's drag, the 80 d
+  ones with the sink that replaced it (``engine.hopper.driver``). Both act only 2 B + 10 d
+  below the outlet; whether the change moves the discharge number is measured, not argued:
+  the :data:`SINK_CHECK_WIDTH` = 32 d runs of the three seeds made again with the sink, the
+  same fills, paired by seed. The two are **equivalent** if the 90 % t-interval of the mean
+  paired relative difference of the discharge number lies within +-
+  :data:`SINK_CHECK_MARGIN` = 5 % (half the series' 10 % tolerance: a change of method
+  smaller than that cannot move N_req across it by itself), **different** if it lies
+  wholly outside, else undecided. Only if equivalent do the 80 d runs join the fit.
   The fill: radii uniform in R (1 +- 0.1) (``hopper_series``' reason: a monodisperse fill
   in a thin periodic slot crystallises and discharges in bursts), height B (held in units
   of B, as the stress), half-angle 30 deg, periodic depth 5 d, walls and gate Hertz
@@ -83,7 +93,7 @@ import engine
 from benchmarks import jenike_series
 from benchmarks.hopper_series import decimate
 from benchmarks.series import list_or_run
-from engine.hopper.scene import CATCH_ZONE_DIAMETERS
+from engine.hopper.scene import SINK_DIAMETERS
 from engine.io.digest import make_digest, read_digest, write_digest
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -108,6 +118,9 @@ ARCH_WIDTHS = {
     50.0: (20.0, 23.0, 26.0, 30.0, 35.0, 40.0, 45.0),
 }
 ARCH_SEEDS = 3
+#: The sink check's width [d] and equivalence margin (module docstring).
+SINK_CHECK_WIDTH = 32.0
+SINK_CHECK_MARGIN = 0.05
 #: The tolerances of the two properties (module docstring).
 TOLERANCES = {"discharge_number": 0.10, "arching_g_b": 0.15}
 PROTOCOL = jenike_series.PROTOCOL
@@ -128,14 +141,15 @@ def flow_test(width: float, seed: int) -> engine.HopperTest:
 
 
 def series_name(kind: str, x: float) -> str:
-    """``flow`` or ``arch-g<gravity>``."""
-    return "flow" if kind == "flow" else f"arch-g{x:g}"
+    """``flow``, ``sink`` or ``arch-g<gravity>``."""
+    return kind if kind in ("flow", "sink") else f"arch-g{x:g}"
 
 
 def keys(only=None) -> list[tuple[str, float, float, int]]:
-    """(kind, gravity or None, width [d], seed) in the order they are taken: seed 1 of every
-    width of both series first (the widest last), then seed 2, then seed 3."""
-    out = []
+    """(kind, gravity or None, width [d], seed) in the order they are taken: the sink check
+    first, then seed 1 of every width of both series (the widest last), then seed 2, then
+    seed 3."""
+    out = [("sink", G_FLOW, SINK_CHECK_WIDTH, s) for s in range(1, FLOW_SEEDS + 1)]
     for s in range(1, max(FLOW_SEEDS, ARCH_SEEDS) + 1):
         if s <= ARCH_SEEDS:
             out += [("arch", g, w, s) for g in ARCH_GRAVITIES for w in ARCH_WIDTHS[g]]
@@ -151,7 +165,7 @@ def key_name(kind: str, x: float, width: float, seed: int) -> str:
 
 
 def test_of(kind: str, x: float, width: float, seed: int) -> engine.HopperTest:
-    if kind == "flow":
+    if kind in ("flow", "sink"):
         return flow_test(width, seed)
     return jenike_series.hopper_test(width, seed, x)
 
@@ -188,15 +202,15 @@ def estimate(kind: str, x: float, width: float, seed: int) -> float:
 
 
 def extra_of(outcome, wall: float, cpu: float) -> dict:
-    # runs made with the hopper's catch zone (engine.hopper.driver, after the first runs:
-    # their failures on the heap were made again with it) say so
+    # what took the discharged grains below the outlet: the runs made before 2026-12-06 (the
+    # 14 arching runs made again, the discharge series to 64 d) have "catch_zone" (the drag)
     out = {
         "wall_seconds": wall,
         "cpu_seconds": cpu,
         "threads": 1,
         "protocol": PROTOCOL,
-        "catch_zone": f"drag of time sqrt(d / (2 g)) from {CATCH_ZONE_DIAMETERS:g} d above "
-        "the heap's highest point down, applied without a force evaluation",
+        "sink": f"parked from {SINK_DIAMETERS:g} d above the heap's highest point down "
+        "(engine.Simulation.park_below)",
     }
     if isinstance(outcome, str):
         return out
@@ -214,14 +228,16 @@ def extra_of(outcome, wall: float, cpu: float) -> dict:
 def before_failure(run) -> dict | None:
     """Where a run that failed had got to: None before the gate opened, else the time since
     the opening [s], the fraction of the fill discharged and whether the stop criterion had
-    read a stop. Why: a discharged grain falls onto the catch floor far below the outlet
-    (``engine.hopper.scene``: 2 B and the heap's height below it), at up to sqrt(2 g (top +
-    catch depth)), 8-11 m/s at the widest outlets of the arching series; on the heap there the
-    soft loading spring (k1 = 5e3 N/m) lets two grains overlap by half a radius, which stops
-    the run (``InstabilityError``) long after the outlet's behaviour is read: a run that had
-    discharged half its fill without a stop had not arched (:mod:`benchmarks.outlet_report`).
-    The hopper's catch zone (``engine.hopper.driver``) ended these failures; the failed runs
-    were made again with it."""
+    read a stop. Why (the first runs): a discharged grain fell onto the catch floor far below
+    the outlet (``engine.hopper.scene``: 2 B and the heap's height below it), at up to
+    sqrt(2 g (top + catch depth)), 8-11 m/s at the widest outlets of the arching series; on
+    the heap there the soft loading spring (k1 = 5e3 N/m) lets two grains overlap by half a
+    radius, which stops the run (``InstabilityError``) long after the outlet's behaviour is
+    read: a run that had discharged half its fill without a stop had not arched
+    (:mod:`benchmarks.outlet_report`).
+    The hopper's catch zone (a drag) ended these failures and the failed runs were made
+    again with it; its failures at 80 d ended with the sink that replaced it
+    (``engine.hopper.driver``)."""
     if run is None or run.flow is None or not run.flow["rows"]:
         return None
     rows = run.flow["rows"]

@@ -230,16 +230,56 @@ def cap_kernel(vel, cap, flag):
         flag[0] = 1
 
 
-def damp_kernel(pos, vel, height, factor):
-    """Multiply by ``factor`` the velocity of every particle whose centre lies below
-    ``height`` [m] (the host's ``Simulation.damp_below``)."""
+def park_kernel(
+    pos,
+    vel,
+    omg,
+    rad,
+    inv_mass,
+    inv_inertia,
+    pos_build,
+    images,
+    start,
+    entry,
+    rev_start,
+    rev_k,
+    order,
+    height,
+    o,
+    a,
+    nx,
+    ny,
+):
+    """Park every live particle whose centre lies below ``height`` [m] at its site of the
+    lattice (origin ``o`` (3,), spacing ``a`` (3,), ``nx``, ``ny``; the site of scene id
+    ``order[i]``) and delete its pair contacts (its own entries and its reverse list's; two
+    parked partners both write the same zeros): the host's ``Simulation.park_below``."""
     i = cuda.grid(1)
-    if i >= vel.shape[0]:
+    if i >= pos.shape[0]:
         return
-    if pos[i, 2] < height:
-        vel[i, 0] *= factor
-        vel[i, 1] *= factor
-        vel[i, 2] *= factor
+    if pos[i, 2] < height and rad[i] > 0.0:
+        s = order[i]
+        x = o[0] + (s % nx) * a[0]
+        y = o[1] + ((s // nx) % ny) * a[1]
+        z = o[2] - (s // (nx * ny)) * a[2]
+        pos[i, 0] = x
+        pos[i, 1] = y
+        pos[i, 2] = z
+        for c in range(3):
+            pos_build[i, c] = pos[i, c]
+            vel[i, c] = 0.0
+            omg[i, c] = 0.0
+            images[i, c] = 0
+        rad[i] = 0.0
+        inv_mass[i] = 0.0
+        inv_inertia[i] = 0.0
+        for k in range(start[i], start[i + 1]):
+            for c in range(entry.shape[1]):
+                entry[k, c] = 0.0
+        for q in range(rev_start[i], rev_start[i + 1]):
+            k = rev_k[q]
+            for c in range(entry.shape[1]):
+                entry[k, c] = 0.0
 
 
 _lock = threading.Lock()
@@ -260,6 +300,6 @@ def kernels() -> SimpleNamespace:
                 chunk=kernel(measure_chunk_kernel, b, memo),
                 final=kernel(measure_final_kernel, b, memo),
                 cap=kernel(cap_kernel, b, memo),
-                damp=kernel(damp_kernel, b, memo),
+                park=kernel(park_kernel, b, memo),
             )
         return _kernels

@@ -35,7 +35,8 @@ from numba import cuda
 
 from ..kernel.mesh import MESH_CONTACTS, SCRATCH_WIDTH
 from ..kernel.state import OK, PAUSE, Meshes, NeighbourList, Particles, StepParams, Walls
-from ..simulation.simulation import Simulation, _damp_args
+from ..simulation.parking import ParkingLattice, park_args
+from ..simulation.simulation import Simulation
 from . import _sources as src
 from .batch import current_stream
 from .device import SIMULATOR
@@ -387,14 +388,40 @@ class CudaSimulation(Simulation):
         self._compute_forces()
         return True
 
-    def damp_below(self, height: float, factor: float) -> None:
-        h, f = _damp_args(height, factor)
+    def park_below(self, height: float, lattice: ParkingLattice) -> None:
+        h = park_args(height, lattice)
+        self._check_parking(lattice)
         self._ensure_device()
         d = self._dev
-        self._go(measure_kernels().damp, _blocks(self.n), THREADS)(d.P.pos, d.P.vel, h, f)
-        d.stale.add("particles")
+        if getattr(d, "park_lattice", None) != lattice:  # the particles keep their order
+            d.order = self._to(self._order.astype(np.int64))  # on the device
+            d.park_o = self._to(np.asarray(lattice.origin))
+            d.park_a = self._to(np.asarray(lattice.spacing))
+            d.park_lattice = lattice
+        P = d.P
+        self._go(measure_kernels().park, _blocks(self.n), THREADS)(
+            P.pos,
+            P.vel,
+            P.omg,
+            P.rad,
+            P.inv_mass,
+            P.inv_inertia,
+            P.pos_build,
+            d.images,
+            d.L.start,
+            d.L.entry,
+            d.L.rev_start,
+            d.L.rev_k,
+            d.order,
+            h,
+            d.park_o,
+            d.park_a,
+            lattice.nx,
+            lattice.ny,
+        )
+        d.stale.update(("particles", "list"))
 
-    damp_below.__doc__ = Simulation.damp_below.__doc__
+    park_below.__doc__ = Simulation.park_below.__doc__
 
     def _measure_buffers(self) -> SimpleNamespace:
         d = self._dev
@@ -732,7 +759,14 @@ def _pulling_method(name: str, *groups: str):
     return call
 
 
-for _name in ("positions", "unwrapped_positions", "velocities", "angular_velocities", "forces"):
+for _name in (
+    "positions",
+    "unwrapped_positions",
+    "velocities",
+    "angular_velocities",
+    "forces",
+    "radii",
+):
     setattr(CudaSimulation, _name, _pulling_property(_name, "particles"))
 
 

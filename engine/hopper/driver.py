@@ -14,26 +14,22 @@ outlet), still in the hopper, and anywhere else (a leak: none in a sound scene),
 grains' downward speeds next to the wall and on the centre line in a band at half the fill's
 current height, and the wall normal stress by height (:mod:`engine.hopper.measures`).
 
-The catch zone. A discharged grain falls 2 B and more onto the heap on the catch floor, at up
-to :func:`impact_speed` (8-11 m/s in the outlet series' widest arching runs); on the heap a
-soft loading spring then lets two grains overlap by half a radius and the run stops with an
-``InstabilityError`` after the outlet's behaviour was read, or before (issue 52). So below
-the catch zone's top (``HopperGeometry.catch_top``: ``scene.CATCH_ZONE_DIAMETERS`` largest
-diameters above the highest the heap can reach, 2 B + 10 d below the outlet) every grain's
-velocity decays as under a viscous drag, by exp(-t / tau) with tau = sqrt(d / (2 g))
-(:attr:`HopperRun.catch_time`), applied whenever a grain at the run's fastest speed could
-have moved :data:`CATCH_REACH` of a diameter. Why this tau: a grain that entered the zone a
-diameter's travel before the next one has been slowed for about d / v longer, so the next
-one closes on it at about d / tau = sqrt(2 g d), the speed of a grain dropped from one
-diameter; the stream slows within about sqrt(H d) (H its fall), and the grains settle at
-g tau = sqrt(g d / 2). A drag scales every grain alike, so grains pushed by their contacts
-still move apart. (Tried first and not kept: speed caps, at sqrt(2 g d) from the zone's top
-and then falling with depth: a cap lower below than above makes the stream's grains close
-on each other whatever their contacts push, and the runs failed in the zone instead.) What
-happens that far below the outlet cannot act on the flow through it (the grains there fall
-freely, away from it); the heap never reaches the zone's top. The time step is still sized
-for the free fall (:func:`resolved_dt`): the hopper's own stepping is that of a run without
-the zone.
+The sink. A discharged grain falls 2 B and more below the outlet, at up to
+:func:`impact_speed`, onto a catch floor; on a heap there the soft loading spring lets two
+grains overlap by half a radius and the run stops with an ``InstabilityError`` (issue 52). So
+every grain whose centre crosses the sink (``HopperGeometry.sink``: 2 B + 10 d below the
+outlet, :data:`engine.hopper.scene.SINK_DIAMETERS` largest diameters above the highest the
+heap could reach) is parked (:meth:`engine.Simulation.park_below`): moved to its own site of
+a lattice below the sink, at rest, out of every contact for good. The sink is applied
+whenever a grain at the run's fastest speed could have moved :data:`SINK_REACH` of a
+diameter, so no grain goes further below it than that. Nothing reaches the floor, and what
+happens 2 B below the outlet cannot act on the flow through it: the grains there fall
+freely, away from it. The floor, its depth and the time step (sized for a fall onto it,
+:func:`resolved_dt`) are those of the runs made before the sink, so that a run's protocol
+is theirs. (Until 2026-12-06 a drag slowed the grains below the sink's height instead, as
+a viscous drag of time sqrt(d / (2 g)): a dilute stream settled onto the heap, but the dense
+stream of an 80 d outlet, whose front the drag slowed while its rear still fell, jammed at
+the zone's top: docs/HOPPER.md, "The sink".)
 """
 
 from __future__ import annotations
@@ -86,11 +82,9 @@ BAND_REACH = 1.0
 #: Half-thickness of the band in which the mass-flow index reads speeds, in largest
 #: diameters [-].
 BAND_HALF = 1.0
-#: The catch zone's drag time over sqrt(d / (2 g)) [-] (module docstring).
-CATCH_TIME = 1.0
-#: The catch zone's drag is applied at least every time a grain at :func:`impact_speed`
-#: moves this many largest diameters [-].
-CATCH_REACH = 0.25
+#: The sink is applied at least every time a grain at :func:`impact_speed` moves this many
+#: largest diameters [-] (module docstring).
+SINK_REACH = 0.25
 #: The share of the overall progress taken by the settling [-].
 _SETTLE_SHARE = 0.3
 #: The engine's packages a hopper run steps through (its checkpoint is resumed only by the
@@ -153,11 +147,9 @@ class HopperRun:
         self.masses = sim.masses.copy()
         self.total = float(self.masses.sum())
         self.sample_steps = max(1, round(test.output_interval / self.dt))
-        #: the catch zone (module docstring): its drag time [s], and the most steps between
-        #: two applications of its drag
-        self.catch_time = CATCH_TIME * math.sqrt(self.d / (2.0 * test.gravity))
-        reach = CATCH_REACH * self.d / (impact_speed(test, self.geo) * self.dt)
-        self.catch_steps = max(1, int(reach))
+        #: the most steps between two applications of the sink (module docstring)
+        reach = SINK_REACH * self.d / (impact_speed(test, self.geo) * self.dt)
+        self.sink_steps = max(1, int(reach))
         sim.run(1)  # compiles the kernels (or loads them): set-up, not the run's wall time
         self.setup = time.perf_counter() - t
         self.t0 = time.perf_counter()
@@ -238,20 +230,13 @@ class HopperRun:
         return binned_stress(c.points[on, 2], f, edges, wall_bin_areas(self.test, edges))
 
     def _advance(self, steps: int) -> None:
-        """``steps`` steps of the discharge, the catch zone's drag applied every
-        ``catch_steps`` at most (module docstring)."""
+        """``steps`` steps of the discharge, the sink applied every ``sink_steps`` at most
+        (module docstring)."""
         while steps > 0:
-            n = min(steps, self.catch_steps)
+            n = min(steps, self.sink_steps)
             self.sim.run(n)
             steps -= n
-            self._catch(n)
-
-    def _catch(self, steps: int) -> None:
-        """The catch zone's drag over the last ``steps`` steps: the velocity of every grain
-        below the zone's top times exp(-steps dt / catch_time), without a force evaluation
-        (``Simulation.damp_below``: no contact history advances; on the device, nothing
-        crosses to the host)."""
-        self.sim.damp_below(self.geo.catch_top, math.exp(-steps * self.dt / self.catch_time))
+            self.sim.park_below(self.geo.sink, self.geo.parking)
 
     def kinetic_scale(self) -> float:
         """N m g R [J]: the scale of the settling criterion."""
@@ -543,8 +528,8 @@ def run_hopper(
             [s] of the discharge (None: none between) and at its end, e.g.
             ``engine.io.vtkhdf.SnapshotWriter(dir).add`` for a ParaView animation.
         backend: ``"cpu"``, ``"cuda"`` or ``"auto"`` (see :class:`engine.Simulation`; None:
-            ``DEMSCALE_BACKEND``, else the CPU). On the CUDA backend the steps, the catch
-            zone's drag and the kinetic energy are made on the device; each discharge sample
+            ``DEMSCALE_BACKEND``, else the CPU). On the CUDA backend the steps, the sink
+            (its parking) and the kinetic energy are made on the device; each discharge sample
             copies the particles' positions and velocities and the mesh contacts (the wall
             stress) to the host.
     Raises: :class:`engine.StageError` when the fill does not settle within

@@ -1,6 +1,6 @@
 """The hopper's scene (docs/HOPPER.md): its walls and gate as triangle meshes
-(:class:`engine.Mesh`), a catch floor far below the outlet, and the fill on a loose lattice
-inside the walls above the closed gate.
+(:class:`engine.Mesh`), a catch floor far below the outlet, the sink's parking lattice above
+it, and the fill on a loose lattice inside the walls above the closed gate.
 
 Frame: z up, the outlet in the plane z = 0 centred on the z axis; a slot's walls run along y
 (its periodic depth, the box [0, depth]), its outlet across x in [-B/2, B/2]; a cone's axis is
@@ -16,6 +16,7 @@ import numpy as np
 
 from ..core.config import SKIN_FRACTION
 from ..simulation.mesh import Mesh
+from ..simulation.parking import ParkingLattice
 from ..simulation.scene import Plane, Scene
 from .spec import CONE_SIDES, HopperTest
 
@@ -31,11 +32,16 @@ WALL_HEADROOM = 2.0
 #: The catch floor lies this many largest diameters below the outlet, plus 2 B, plus the
 #: height of the heap the whole fill would make on it (:func:`heap_height`) [-].
 CATCH_DIAMETERS = 20.0
-#: The catch zone, in which the discharged grains are slowed before they reach the heap
-#: (:class:`engine.hopper.driver.HopperRun`), begins this many largest diameters above the
-#: highest the heap can reach (:func:`heap_height`): CATCH_DIAMETERS - CATCH_ZONE_DIAMETERS
-#: diameters plus 2 B below the outlet [-].
-CATCH_ZONE_DIAMETERS = 10.0
+#: The sink, below which the discharged grains are parked (:class:`engine.hopper.driver.
+#: HopperRun`), lies this many largest diameters above the highest the heap could reach
+#: (:func:`heap_height`): CATCH_DIAMETERS - SINK_DIAMETERS diameters plus 2 B below the
+#: outlet [-]. (Until 2026-12-06 a drag slowed the grains below it: the catch zone.)
+SINK_DIAMETERS = 10.0
+#: The parking lattice's spacing [largest diameters] (> the skin, 0.1 d: no neighbour entry
+#: between parked grains) and its first layer's depth below the sink [largest diameters]
+#: (a grain is parked within a quarter diameter below the sink: it stays clear of the sites).
+PARK_SPACING = 0.5
+PARK_BELOW = 2.0
 #: The heap's slope [deg] and solid fraction [-] in :func:`heap_height`: steeper and looser
 #: than a cohesionless heap of spheres, so that the estimate is high.
 HEAP_ANGLE = 35.0
@@ -48,8 +54,9 @@ class HopperGeometry:
 
     Attributes: ``scene``; ``wall_top`` (the walls' top, z [m]); ``catch_depth`` (the catch
     floor at z = -catch_depth [m]); ``gate_stop`` (z at which the opened gate stops, below the
-    catch floor out of the particles' reach [m]); ``catch_top`` (the top of the catch zone, z
-    [m]: :data:`CATCH_ZONE_DIAMETERS`); ``wall_meshes`` and ``gate_mesh`` (indices in
+    catch floor out of the particles' reach [m]); ``sink`` (z below which a grain is parked
+    [m]: :data:`SINK_DIAMETERS`); ``parking`` (its sites, :func:`parking_lattice`);
+    ``wall_meshes`` and ``gate_mesh`` (indices in
     ``scene.meshes``: a slot's two walls, -x then +x, are two meshes, so that the engine's
     force on each can be read); ``half_width`` (B / 2 [m]); ``tan`` (tan of the half-angle);
     ``depth`` (the slot's period [m], None for a cone)."""
@@ -58,7 +65,8 @@ class HopperGeometry:
     wall_top: float
     catch_depth: float
     gate_stop: float
-    catch_top: float
+    sink: float
+    parking: ParkingLattice
     wall_meshes: tuple[int, ...]
     gate_mesh: int
     half_width: float
@@ -227,18 +235,45 @@ def build_hopper(test: HopperTest) -> HopperGeometry:
     )
     # the opened gate stops below the catch floor, out of reach of any particle on it
     stop = -catch - 2.0 * d - SKIN_FRACTION * d
+    sink = -catch + heap_height(test) + SINK_DIAMETERS * d
     return HopperGeometry(
         scene,
         top,
         catch,
         stop,
-        -catch + heap_height(test) + CATCH_ZONE_DIAMETERS * d,
+        sink,
+        parking_lattice(test, box, sink, -catch),
         tuple(range(len(walls))),
         len(walls),
         0.5 * test.outlet_width,
         math.tan(math.radians(test.half_angle)),
         depth,
     )
+
+
+def parking_lattice(test: HopperTest, box, sink: float, floor: float) -> ParkingLattice:
+    """The sink's sites [m]: spacing :data:`PARK_SPACING` largest diameters (the slot's
+    depth divided evenly), rows across the box one diameter in from its sides, layers from
+    :data:`PARK_BELOW` diameters below the ``sink`` down; every fill's sites lie above the
+    floor by a diameter and more (a ValueError otherwise: the floor's depth, sized for the
+    heap of the whole fill at a solid fraction of 0.5, leaves room for fifteen times as many
+    sites)."""
+    d = test.max_diameter
+    a = PARK_SPACING * d
+    (x0, x1), (y0, _), _ = box
+    nx = int((x1 - x0 - 2.0 * d) // a) + 1
+    if test.shape == "slot":
+        ny = max(1, int(test.depth // a))
+        ay, oy = test.depth / ny, 0.5 * test.depth / ny
+    else:
+        ny, ay, oy = nx, a, y0 + d
+    lattice = ParkingLattice((x0 + d, oy, sink - PARK_BELOW * d), (a, ay, a), nx, ny)
+    if lattice.lowest(test.n_particles) < floor + d:
+        raise ValueError(
+            f"the sink's {test.n_particles} sites reach below the catch floor "
+            f"({lattice.lowest(test.n_particles):.4g} m < {floor + d:.4g} m)"
+        )
+    return lattice
 
 
 def wall_bin_areas(test: HopperTest, edges: np.ndarray) -> np.ndarray:

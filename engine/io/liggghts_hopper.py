@@ -110,10 +110,10 @@ def hopper_differences(test) -> list[str]:
         "the stop criterion reads consecutive windows of arch_wait free-fall times (LIGGGHTS' "
         "input language keeps no arrays), demscale's a sliding one sampled every "
         "output_interval: the deck may wait up to twice as long before it stops",
-        "below the outlet: demscale slows the discharged grains in its catch zone (from 2 B + "
-        "10 largest diameters down, a drag of time sqrt(d / (2 g))) before they reach the "
-        "heap on the catch floor; the deck lets them fall freely onto it (the flow through "
-        "the outlet feels neither)",
+        "below the outlet: demscale parks every discharged grain whose centre falls 2 B + 10 "
+        "largest diameters below the outlet (its sink: out of every contact, on a lattice "
+        "below); the deck lets them fall freely onto the catch floor (the flow through the "
+        "outlet feels neither)",
     ]
     if test.shape == "slot":
         out += list(pair.periodic_differences)

@@ -51,6 +51,7 @@ from ..kernel.team import SYNC_STATUS, SYNC_STEPS, sync_length
 from ..kernel.virial import pair_virial
 from .backend import resolve_backend
 from .mesh import pack_meshes
+from .parking import ParkingLattice, park_args
 from .scene import Scene
 from .timestep import TimeStepLimit, adhesion_overlap, critical_time_step
 
@@ -587,7 +588,9 @@ class Simulation:
         if self.backend != "cpu":
             return False
         p = self._particles
-        perm = cell_order(p.pos, p.rad, self._lo, self._params.length, self._periodic)
+        # the scene's radii (only their largest counts): a parked particle's zero radius
+        # (park_below) changes neither the grid nor the order
+        perm = cell_order(p.pos, self.scene.radii, self._lo, self._params.length, self._periodic)
         n = len(perm)
         if np.array_equal(perm, np.arange(n)):
             return False
@@ -841,17 +844,61 @@ class Simulation:
         p.vel[k] = v
         p.omg[k] = 0.0
 
-    def damp_below(self, height: float, factor: float) -> None:
-        """Multiply by ``factor`` the velocity of every particle whose centre lies below
-        ``height`` [m] (z as stored, wrapped into the box where z is periodic): a drag applied
-        between runs, the hopper's catch zone. As :meth:`set_driven`, forces are not
-        evaluated again (the next step's kick uses those of the last evaluation) and no
-        contact history advances; :meth:`set_velocities` evaluates the forces, which
-        advances every contact's tangential spring by a step. On the CUDA backend a kernel
-        on the device: nothing crosses to the host."""
-        h, f = _damp_args(height, factor)
+    def park_below(self, height: float, lattice: ParkingLattice) -> None:
+        """Park every live particle whose centre lies below ``height`` [m] (z as stored): move
+        it to its site of ``lattice`` (its scene id's), at rest, radius 0, inverse mass and
+        inverse moment of inertia 0, out of every contact for good (:mod:`engine.simulation.
+        parking`: why nothing touches it again). A particle once parked stays parked; a
+        driven one (:meth:`set_driven`) is parked like any other. The hopper's sink.
+        Forces are not evaluated again (as :meth:`set_driven`) and no rebuild is made: the
+        parked particle's pair contacts are deleted with their history (its old neighbours
+        find it out of reach from then on). The lattice is checked once (:meth:`_check_parking`).
+        On the CUDA backend a kernel on the device: nothing crosses to the host."""
+        h = park_args(height, lattice)
+        self._check_parking(lattice)
         p = self._particles
-        p.vel[p.pos[:, 2] < h] *= f
+        k = np.nonzero((p.pos[:, 2] < h) & (p.rad > 0.0))[0]
+        if not len(k):
+            return
+        site = lattice.sites(self._order[k])
+        p.pos[k] = site
+        p.pos_build[k] = site
+        p.vel[k] = 0.0
+        p.omg[k] = 0.0
+        p.rad[k] = 0.0
+        p.inv_mass[k] = 0.0
+        p.inv_inertia[k] = 0.0
+        self._images[k] = 0
+        lst = self._list  # its contacts open now (contacts() reads none of them)
+        for i in k:
+            lst.entry[lst.start[i] : lst.start[i + 1]] = 0.0
+            lst.entry[lst.rev_k[lst.rev_start[i] : lst.rev_start[i + 1]]] = 0.0
+
+    def _check_parking(self, lattice: ParkingLattice) -> None:
+        """Once per lattice: its spacing beyond the skin, and the sites of all N particles
+        inside the box and on the particles' side of every plane (a radius-0 particle behind
+        a plane would be pushed back through it). Meshes are the caller's to keep clear."""
+        if getattr(self, "_parking_checked", None) == lattice:
+            return
+        lattice.check(self.skin)
+        sites = lattice.sites(np.arange(self.n))
+        hi = self._lo + self._params.length
+        if np.any(sites < self._lo) or np.any(sites >= hi):
+            raise ParameterError(
+                "Simulation.park_below.lattice",
+                f"sites from {sites.min(axis=0).tolist()} to {sites.max(axis=0).tolist()} m",
+                f"inside the box {self._lo.tolist()} to {hi.tolist()} m",
+            )
+        w = self._walls
+        for k in range(self._n_planes):
+            gap = (sites - w.point[k]) @ w.normal[k]
+            if gap.min() <= 0.0:
+                raise ParameterError(
+                    "Simulation.park_below.lattice",
+                    f"a site {-gap.min():.4g} m behind wall {k}",
+                    "every site on the particles' side of every plane",
+                )
+        self._parking_checked = lattice
 
     def rebuild_neighbour_list(self) -> None:
         """Rebuild the neighbour list now (it is rebuilt automatically when needed); the
@@ -1157,14 +1204,3 @@ class Simulation:
             _concat(wi, np.int64)[wsrt],
             _concat(wo, np.float64)[wsrt],
         )
-
-
-def _damp_args(height, factor) -> tuple[float, float]:
-    """:meth:`Simulation.damp_below`'s arguments checked once for both backends."""
-    f = float(factor)
-    if not math.isfinite(f) or f < 0.0:
-        raise ParameterError("Simulation.damp_below.factor", factor, "finite, >= 0")
-    h = float(height)
-    if math.isnan(h):
-        raise ParameterError("Simulation.damp_below.height", height, "a number [m]")
-    return h, f

@@ -106,49 +106,86 @@ def test_slot_discharges_at_a_rate_that_grows_with_the_outlet(slots):
     assert gap > 3 * math.hypot(w6["discharge_rate_se"], w10["discharge_rate_se"])
 
 
-def test_the_catch_zone_slows_the_discharged_grains_before_the_heap(slots):
-    """Issue 52: grains that fell 2 B and more hit the heap on the catch floor fast enough to
-    stop a run; below the catch zone's top their velocities decay as under a drag of time
-    sqrt(d / (2 g)), every grain's alike, and nothing above the zone is touched."""
+def test_the_sink_parks_the_discharged_grains_before_the_floor(slots):
+    """Issue 52: grains that fell 2 B and more hit a heap on the catch floor fast enough to
+    stop a run; every grain whose centre crosses the sink is parked at its own site of the
+    lattice below it (at rest, radius 0, out of contact) and stays there."""
     from engine.hopper.driver import impact_speed
 
     _, (run, _, res), _ = slots
     t, geo, d = run.test, run.geo, run.test.max_diameter
-    # the zone lies 2 B + 10 d below the outlet, 10 d above the highest heap, above the floor
-    assert geo.catch_top == pytest.approx(-(2 * t.outlet_width + 10 * d))
-    assert -geo.catch_depth < geo.catch_top < -2 * t.outlet_width
-    assert run.catch_time == pytest.approx(math.sqrt(d / (2 * t.gravity)))
-    # applied at least every quarter diameter of the fastest grain's travel
-    assert run.catch_steps * run.dt * impact_speed(t, geo) <= 0.25 * d
     sim = run.sim
+    # the sink lies 2 B + 10 d below the outlet, its lattice below it and above the floor
+    assert geo.sink == pytest.approx(-(2 * t.outlet_width + 10 * d))
+    assert -geo.catch_depth < geo.sink < -2 * t.outlet_width
+    assert geo.parking.origin[2] == pytest.approx(geo.sink - 2 * d)
+    assert geo.parking.lowest(sim.n) > -geo.catch_depth + d
+    # applied at least every quarter diameter of the fastest grain's travel
+    assert run.sink_steps * run.dt * impact_speed(t, geo) <= 0.25 * d
     assert res.scalars["discharged_mass"] == res.scalars["total_mass"]
-    # the hopper is empty: the grains fall on (twice the free-fall time of the catch depth)
-    # into the zone and onto the heap: there they have slowed to about the drag's terminal
-    # speed g tau, far below the free fall's
+    # the hopper is empty; the grains fall on (twice the free-fall time of the catch depth):
+    # every one is parked at its scene id's site, at rest, radius 0, and none is in contact
     run._advance(round(2 * math.sqrt(2 * geo.catch_depth / t.gravity) / run.dt))
-    z = sim.positions[:, 2]
-    low = z < geo.catch_top
-    assert low.sum() > 0.9 * sim.n
-    speed = np.linalg.norm(sim.velocities, axis=1)
-    assert np.median(speed[low]) < 2 * t.gravity * run.catch_time < 0.2 * impact_speed(t, geo)
-    # grains thrown at 10 m/s, most below the zone's top: those slowed by the drag's factor
-    # over the steps given, along their own direction, not the rest
-    rng = np.random.default_rng(1)
-    v = rng.normal(size=(sim.n, 3))
-    v *= 10.0 / np.linalg.norm(v, axis=1)[:, None]
-    sim.set_velocities(v)
-    springs = sim.contacts().tangential_springs
-    run._catch(5)
-    after = sim.velocities
-    factor = math.exp(-5 * run.dt / run.catch_time)
-    assert np.allclose(after[low], factor * v[low], rtol=1e-12)
-    assert np.array_equal(after[~low], v[~low])
-    # no force evaluation: no contact's history advances (set_velocities would advance it)
-    assert np.array_equal(sim.contacts().tangential_springs, springs)
-    with pytest.raises(engine.ParameterError, match="damp_below.factor"):
-        sim.damp_below(0.0, -1.0)
-    with pytest.raises(engine.ParameterError, match="damp_below.height"):
-        sim.damp_below(math.nan, 0.5)
+    assert np.all(sim.radii == 0.0)
+    assert np.array_equal(sim.positions, geo.parking.sites(np.arange(sim.n)))
+    assert not sim.velocities.any() and not sim.angular_velocities.any()
+    assert sim.n_contacts() == 0 and len(sim.mesh_contacts().particles) == 0
+    assert sim.masses.sum() == pytest.approx(res.scalars["total_mass"], rel=1e-12)
+    assert sim.kinetic_energy() == 0.0
+    # and they stay there: a thousand steps more move none
+    before = sim.positions
+    sim.run(1000)
+    assert np.array_equal(sim.positions, before)
+
+
+def test_park_below_leaves_the_others_alone_and_refuses_bad_input():
+    """Two grains falling side by side, out of each other's reach, and a third resting on a
+    floor: parking the lowest leaves the others' trajectories bit-identical to those of a run
+    without it; a grain touching the parked one loses that contact at the next step."""
+    from engine.simulation.parking import ParkingLattice
+
+    r = 1e-3
+    pos = [[0.0, 0.0, 0.05], [0.01, 0.0, 0.02], [0.02, 0.0, 2.999 * r], [0.02, 0.0, r]]
+    scene = engine.Scene(
+        pos,
+        r,
+        2500.0,
+        box=((-0.05, 0.05), (-0.05, 0.05), (-0.2, 0.1)),
+        walls=[engine.Plane((0.0, 0.0, 0.0), (0.0, 0.0, 1.0))],
+        gravity=(0.0, 0.0, -9.81),
+        pair_law=engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=0.0, mu_s=0.5, restitution=0.4),
+        wall_law=engine.HertzMindlin(E=1e8, nu=0.25, restitution=0.5, mu=0.3),
+        wall_material=engine.WallMaterial(),
+    )
+    # sites above the floor, beside the grains
+    lattice = ParkingLattice((-0.04, -0.04, 0.03), (4 * r, 4 * r, 4 * r), 3, 2)
+    a = engine.Simulation(scene, 2e-6, threads=1)
+    b = engine.Simulation(scene, 2e-6, threads=1)
+    a.run(500)
+    b.run(500)
+    a.park_below(0.0025, lattice)  # the grain resting on the floor (centre at ~1.5 mm)
+    assert a.radii[3] == 0.0 and np.all(a.radii[:3] == r)
+    assert np.array_equal(a.positions[3], lattice.sites([3])[0])
+    assert a.velocities[3].tolist() == [0.0, 0.0, 0.0]
+    a.run(20000)
+    b.run(20000)
+    assert np.array_equal(a.positions[:2], b.positions[:2])  # the free fallers: untouched
+    assert np.array_equal(a.positions[3], lattice.sites([3])[0])  # the parked: still
+    # the grain that lay on the parked one has fallen into its place
+    assert a.positions[2, 2] < b.positions[2, 2] - r
+    assert not any(3 in p for p in a.contacts().pairs.tolist())
+    with pytest.raises(engine.ParameterError, match="park_below.height"):
+        a.park_below(math.nan, lattice)
+    with pytest.raises(engine.ParameterError, match="park_below.lattice"):
+        a.park_below(0.0, (0.0, 0.0, 0.0))
+    with pytest.raises(engine.ParameterError, match="ParkingLattice.spacing"):
+        a.park_below(0.0, ParkingLattice((0.0, 0.0, 0.01), (1e-5, 1e-3, 1e-3), 3, 3))
+    with pytest.raises(engine.ParameterError, match="behind wall 0"):
+        a.park_below(0.0, ParkingLattice((0.0, 0.0, 0.002), (1e-3, 1e-3, 1e-3), 1, 1))
+    with pytest.raises(engine.ParameterError, match="inside the box"):
+        a.park_below(0.0, ParkingLattice((0.0, 0.0, 0.01), (0.1, 1e-3, 1e-3), 4, 1))
+    with pytest.raises(engine.ParameterError, match="ParkingLattice.nx"):
+        ParkingLattice((0.0, 0.0, 0.0), (1.0, 1.0, 1.0), 0, 3)
 
 
 def test_cone_discharges_and_conserves_mass():

@@ -16,6 +16,7 @@ import numpy as np
 
 from benchmarks import jenike_series as J
 from benchmarks import outlet_series as O
+from engine.study.intervals import t_quantile
 from engine.study.resolution import diameters_needed, resolution_curves
 
 CONFIDENCE = 0.95
@@ -27,16 +28,71 @@ JENIKE_GRAVITIES = {
 }
 
 
+def _number(d) -> float | None:
+    """A stored run's discharge number, None if it failed or had no steady window."""
+    if d is None or not d.ok or not math.isfinite(d.scalars["discharge_number"]):
+        return None
+    return float(d.scalars["discharge_number"])
+
+
+def sink_check() -> dict | None:
+    """The sink against the drag (:mod:`benchmarks.outlet_series`' docstring, rule fixed
+    before the runs): per seed at :data:`~benchmarks.outlet_series.SINK_CHECK_WIDTH`, the
+    discharge number with the sink over the drag's, minus 1; their mean, its 90 %
+    t-interval and the verdict against +- ``SINK_CHECK_MARGIN``. None before two pairs."""
+    w, g = O.SINK_CHECK_WIDTH, O.G_FLOW
+    pairs = []
+    for s in range(1, O.FLOW_SEEDS + 1):
+        drag, sink = _number(O.stored("flow", g, w, s)), _number(O.stored("sink", g, w, s))
+        if drag is not None and sink is not None:
+            pairs.append((s, drag, sink))
+    if len(pairs) < 2:
+        return None
+    r = np.array([b / a - 1.0 for _, a, b in pairs])
+    half = t_quantile(0.95, len(r) - 1) * float(np.std(r, ddof=1)) / math.sqrt(len(r))
+    lo, hi, m = float(r.mean()) - half, float(r.mean()) + half, O.SINK_CHECK_MARGIN
+    verdict = (
+        "equivalent"
+        if -m <= lo and hi <= m
+        else "different"
+        if hi < -m or lo > m
+        else ("undecided")
+    )
+    return {"pairs": pairs, "mean": float(r.mean()), "interval": (lo, hi), "verdict": verdict}
+
+
 def flow_runs() -> dict[float, list]:
-    """The discharge series' stored runs that discharged, per width [d]."""
+    """The discharge series' stored runs that discharged, per width [d]; those made with
+    the sink (``extra.sink``) only where the sink check found it equivalent to the drag."""
+    check = sink_check()
+    sink_ok = check is not None and check["verdict"] == "equivalent"
     out: dict[float, list] = {}
     for w in O.FLOW_WIDTHS:
         ds = [O.stored("flow", O.G_FLOW, w, s) for s in range(1, O.FLOW_SEEDS + 1)]
-        ok = [d for d in ds if d is not None and d.ok]
-        ok = [d for d in ok if math.isfinite(d.scalars["discharge_number"])]
+        ok = [d for d in ds if _number(d) is not None and (sink_ok or "sink" not in d.extra)]
         if ok:
             out[w] = ok
     return out
+
+
+def sink_lines() -> list[str]:
+    """The sink check's lines for docs/RESOLUTION.md."""
+    c = sink_check()
+    head = (
+        f"The sink against the drag (rule fixed before the runs: the {O.SINK_CHECK_WIDTH:g} d "
+        "discharge made again with the sink, the same fills, paired by seed; equivalent if "
+        "the 90 % t-interval of the mean relative difference of the discharge number lies "
+        f"within +-{100 * O.SINK_CHECK_MARGIN:.0f} %; only then do runs made with the sink "
+        "join the fit): "
+    )
+    if c is None:
+        return [head + "not measured (fewer than two pairs stored)."]
+    per = "; ".join(f"seed {s}: {a:.4f} (drag) -> {b:.4f} (sink)" for s, a, b in c["pairs"])
+    lo, hi = c["interval"]
+    return [
+        head + f"{per}: mean difference {100 * c['mean']:+.2f} % [{100 * lo:+.2f}, "
+        f"{100 * hi:+.2f}] %, **{c['verdict']}**."
+    ]
 
 
 def flow_failures() -> list[str]:
@@ -48,7 +104,13 @@ def flow_failures() -> list[str]:
             if d is None:
                 continue
             name = O.key_name("flow", O.G_FLOW, w, s)
-            if not d.ok:
+            check = sink_check()
+            if d.ok and "sink" in d.extra and (check is None or check["verdict"] != "equivalent"):
+                out.append(
+                    f"{name}: made with the sink, which the sink check has not found "
+                    "equivalent to the drag"
+                )
+            elif not d.ok:
                 out.append(f"{name}: {d.outcome[:160]}")
             elif not math.isfinite(d.scalars["discharge_number"]):
                 out.append(f"{name}: no steady discharge ({J.describe(d)[:120]})")
@@ -262,6 +324,7 @@ def lines() -> list[str]:
             f"value in d / B {c['slope']:+.2f} [{lo:+.2f}, {hi:+.2f}] (sizes {sizes} d): {need}"
         )
     out += censored_lines(curves["metrics"].get("arching_g_b"))
+    out += ["", *sink_lines()]
     fails = flow_failures()
     if fails:
         out += ["", "Discharge runs left out:", ""] + [f"- {f}" for f in fails]

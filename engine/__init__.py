@@ -8,6 +8,7 @@ Public API (stable names)::
     Plane, Scene                                    what to simulate
     Mesh                                            a wall of finite extent (triangles, STL)
     Simulation                                      run it
+    ParkingLattice                                  sites of parked particles (a sink)
     critical_time_step                              time-step limits of a scene
     UniaxialTest, preset, run_uniaxial              the uniaxial test and its stages
     ShearTest, run_shear, ShearResult               the Jenike-type shear test (docs/SHEAR.md)
@@ -46,6 +47,7 @@ from .shear.driver import run_shear
 from .shear.results import ShearResult
 from .shear.spec import ShearTest
 from .simulation.mesh import Mesh
+from .simulation.parking import ParkingLattice
 from .simulation.scene import Plane, Scene
 from .simulation.simulation import Contacts, MeshContacts, Simulation, StabilityWarning
 from .simulation.snapshot import Snapshot
@@ -86,6 +88,7 @@ __all__ = [
     "Mesh",
     "MeshContacts",
     "ParameterError",
+    "ParkingLattice",
     "Plane",
     "PlannedRun",
     "Process",

@@ -46,3 +46,43 @@ def test_a_failed_run_counts_as_gone_on_only_past_half_its_fill_unstopped():
     assert not R.went_on(_failed(R.WENT_ON_FRACTION - 0.01))
     assert not R.went_on(_failed(0.95, stopped=True))
     assert not R.went_on(SimpleNamespace(extra={"before_failure": None}))
+
+
+def _stored(numbers: dict):
+    """A stand-in for ``outlet_series.stored``: (kind, width, seed) -> discharge number."""
+
+    def stored(kind, x, width, seed, store=None):
+        q = numbers.get((kind, width, seed))
+        if q is None:
+            return None
+        extra = {"sink": "parked"} if kind == "sink" or width == 80.0 else {}
+        return SimpleNamespace(ok=True, scalars={"discharge_number": q}, extra=extra)
+
+    return stored
+
+
+def test_the_sink_check_decides_by_its_interval_and_gates_the_sink_runs(monkeypatch):
+    """The rule of outlet_series' docstring: the 90 % t-interval of the mean paired relative
+    difference within +-5 %: equivalent; wholly outside: different; else undecided. Runs
+    made with the sink join the discharge fit only when equivalent."""
+    w = O.SINK_CHECK_WIDTH
+
+    def check(drag, sink, wide=0.47):
+        numbers = {("flow", w, s): q for s, q in enumerate(drag, 1)}
+        numbers |= {("sink", w, s): q for s, q in enumerate(sink, 1)}
+        numbers[("flow", 80.0, 1)] = wide
+        monkeypatch.setattr(O, "stored", _stored(numbers))
+        return R.sink_check(), R.flow_runs()
+
+    c, runs = check([0.470, 0.472, 0.468], [0.471, 0.470, 0.469])
+    assert c["verdict"] == "equivalent" and 80.0 in runs
+    lo, hi = c["interval"]
+    assert -0.05 <= lo < c["mean"] < hi <= 0.05
+    c, runs = check([0.47, 0.47, 0.47], [0.52, 0.53, 0.525])  # +11 %, tight
+    assert c["verdict"] == "different" and 80.0 not in runs and w in runs
+    c, runs = check([0.47, 0.47, 0.47], [0.47, 0.52, 0.44])  # scattered: the interval is wide
+    assert c["verdict"] == "undecided" and 80.0 not in runs
+    assert any("80" in f and "sink" in f for f in R.flow_failures())
+    c, runs = check([0.47, None, None], [0.47, None, None])  # one pair: no check
+    assert c is None and 80.0 not in runs
+    assert "not measured" in R.sink_lines()[0]

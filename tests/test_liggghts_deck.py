@@ -362,6 +362,11 @@ def test_export_test_and_judge_liggghts_commands(tmp_path, capsys):
     test.write_text(json.dumps({"preset": "quick", "protocol": "seed", "radius": 5e-3}))
     assert main(["export-test", str(test), "--out", str(tmp_path / "one")]) == 0
     assert json.loads((tmp_path / "one" / ld.TEST).read_text())["radius"] == 5e-3
+    # a shear cell has no deck here: refused naming its kind, nothing written
+    shear = tmp_path / "shear.json"
+    shear.write_text(json.dumps({"type": "ShearTest"}))
+    assert main(["export-test", str(shear), "--out", str(tmp_path / "s")]) == 2
+    assert "not of a ShearTest" in capsys.readouterr().err and not (tmp_path / "s").exists()
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"type": "EEPA", "k1": 5e5, "k2": 2.5e6, "kadh": 1.0}))
     assert (

@@ -99,10 +99,23 @@ def _check_same_test(runs, refs) -> None:
             )
 
 
+def _decked(test):
+    """``test`` if export-test writes a deck of its kind (a uniaxial test, a hopper), else a
+    ValueError naming the kind."""
+    from engine.hopper.spec import HopperTest
+    from engine.uniaxial.spec import UniaxialTest
+
+    if not isinstance(test, (UniaxialTest, HopperTest)):
+        raise ValueError(
+            f"demscale export-test writes decks of a UniaxialTest or a HopperTest, not of a "
+            f"{type(test).__name__} (the ring shear deck: benchmarks/annular_shear)"
+        )
+    return test
+
+
 def _read_test(args):
     import engine
-    from engine.study.kinds import kind_for_json
-    from engine.uniaxial.spec import uniaxial_from_json
+    from engine.study.kinds import test_from_json
 
     if args.study is not None:
         from engine.study.plan import plan
@@ -113,15 +126,12 @@ def _read_test(args):
             raise ValueError(
                 f"--run {args.run!r}: not a run of the study; its runs: {', '.join(runs)}"
             )
-        return runs[args.run].test
+        return _decked(runs[args.run].test)
     if args.test is not None:
         fields = json.loads(Path(args.test).read_text())
         if not isinstance(fields, dict):
             raise ValueError("the test file must hold a JSON object of the test's fields")
-        if fields.get("type") == "HopperTest":
-            raw = {k: v for k, v in fields.items() if k != "type"}
-            return kind_for_json(fields).from_json(raw, "HopperTest")
-        return uniaxial_from_json(fields)
+        return _decked(test_from_json(fields))
     if args.preset is None:
         raise ValueError("give a test: TEST.json, --preset NAME [--law LAW.json] or --study")
     fields = engine.preset(args.preset, args.protocol).to_dict()

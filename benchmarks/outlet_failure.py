@@ -5,7 +5,7 @@ reduced to bands of height (docs/HOPPER.md, "Not measured", the 80 d discharge).
 
 Writes ``benchmarks/results/outlet_failures/<series>-w<width>-s<seed>.json`` (beside the
 series' digests, not among them): the
-failure's message, the catch zone's top and the floor [m], and per 5 cm band of height
+failure's message, the sink's height and the floor [m], and per 5 cm band of height
 the grains in it, their median vertical velocity and the largest speed [m/s].
 """
 

@@ -41,11 +41,14 @@ def sink_check() -> dict | None:
     discharge number with the sink over the drag's, minus 1; their mean, its 90 %
     t-interval and the verdict against +- ``SINK_CHECK_MARGIN``. None before two pairs."""
     w, g = O.SINK_CHECK_WIDTH, O.G_FLOW
-    pairs = []
+    pairs, parted, cpu = [], [], []
     for s in range(1, O.FLOW_SEEDS + 1):
-        drag, sink = _number(O.stored("flow", g, w, s)), _number(O.stored("sink", g, w, s))
+        dd, ds = O.stored("flow", g, w, s), O.stored("sink", g, w, s)
+        drag, sink = _number(dd), _number(ds)
         if drag is not None and sink is not None:
             pairs.append((s, drag, sink))
+            parted.append(_parted(dd.extra.get("curve"), ds.extra.get("curve")))
+            cpu.append((dd.extra.get("cpu_seconds"), ds.extra.get("cpu_seconds")))
     if len(pairs) < 2:
         return None
     r = np.array([b / a - 1.0 for _, a, b in pairs])
@@ -58,7 +61,24 @@ def sink_check() -> dict | None:
         if hi < -m or lo > m
         else ("undecided")
     )
-    return {"pairs": pairs, "mean": float(r.mean()), "interval": (lo, hi), "verdict": verdict}
+    return {
+        "pairs": pairs,
+        "mean": float(r.mean()),
+        "interval": (lo, hi),
+        "verdict": verdict,
+        "parted": parted,
+        "cpu_seconds": cpu,
+    }
+
+
+def _parted(a: dict | None, b: dict | None) -> float | None:
+    """The discharged fraction at which two stored (decimated) discharge curves first
+    differ, None where they never do (or a curve is missing: NaN)."""
+    if not a or not b or len(a["discharged_mass"]) != len(b["discharged_mass"]):
+        return math.nan
+    x, y = np.asarray(a["discharged_mass"], float), np.asarray(b["discharged_mass"], float)
+    differ = np.nonzero(x != y)[0]
+    return None if not len(differ) else float(min(x[differ[0]], y[differ[0]]))
 
 
 def flow_runs() -> dict[float, list]:
@@ -89,9 +109,25 @@ def sink_lines() -> list[str]:
         return [head + "not measured (fewer than two pairs stored)."]
     per = "; ".join(f"seed {s}: {a:.4f} (drag) -> {b:.4f} (sink)" for s, a, b in c["pairs"])
     lo, hi = c["interval"]
+
+    def where(f):
+        return "never" if f is None else "?" if math.isnan(f) else f"at {100 * f:.0f} %"
+
+    apart = ", ".join(where(f) for f in c["parted"])
+    end = O.flow_test(O.SINK_CHECK_WIDTH, 1).window_end
+    known = [f for f in c["parted"] if f is not None]
+    when = (
+        "after the steady window"
+        if all(f > end for f in known)
+        else "within the steady window in some"
+    )
+    cpu = ", ".join(f"{a:.0f} -> {b:.0f}" for a, b in c["cpu_seconds"])
     return [
         head + f"{per}: mean difference {100 * c['mean']:+.2f} % [{100 * lo:+.2f}, "
-        f"{100 * hi:+.2f}] %, **{c['verdict']}**."
+        f"{100 * hi:+.2f}] %, **{c['verdict']}**. The stored discharge curves (fraction "
+        f"discharged against time) first part {apart} discharged, {when} (up to "
+        f"{100 * end:.0f} %); "
+        f"CPU seconds on one thread, drag -> sink: {cpu}."
     ]
 
 

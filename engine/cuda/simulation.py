@@ -789,6 +789,9 @@ for _name in (
     "mesh_velocities",
 ):
     setattr(CudaSimulation, _name, _wall_row_property(_name))
-for _name in ("contact_counts", "contacts", "mesh_contacts", "memory_bytes"):
+for _name in ("contact_counts", "contacts", "memory_bytes"):
     setattr(CudaSimulation, _name, _pulling_method(_name, *_GROUPS))
+# the mesh contacts live in the walls' rows alone: a hopper's sample of its wall stress copies
+# neither the particles nor the pair list (the largest of the state's arrays)
+CudaSimulation.mesh_contacts = _pulling_method("mesh_contacts", "walls")
 del _name

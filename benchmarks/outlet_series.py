@@ -27,6 +27,15 @@ properties, fixed here before any run of this series (2026-12-06):
   failed at 96 % discharged, the dense falling fill jammed where the drag slowed it, and
   were run again with the hopper's sink: docs/HOPPER.md, "The sink"),
   :data:`FLOW_SEEDS` seeds.
+- **Discharge rate through a conical outlet** (series ``cone``, fixed 2026-12-06 before its
+  runs, after the slot's discharge series and the sink check had been seen): the
+  discharge series' hopper made a cone (``flow_test``'s every field, ``shape="cone"``:
+  half-angle 30 deg, the fill B deep, radii +- 10 %, g B = G_FLOW, the same sampling), at
+  :data:`CONE_WIDTHS` = 8 to 32 diameters, :data:`FLOW_SEEDS` seeds (the fill grows as
+  (B / d)^3: 1,178 particles at 8 d, 75,406 at 32 d). Its discharge number is
+  W / (rho sqrt(g) B^2.5) (``HopperTest.rate_scale``), with the slot's window, fit and 10 %
+  tolerance; the outlet's N_req is the largest over its properties, this one among them
+  (a user's outlet is as often a cone as a slot). Arching through a cone is not run.
 - **The sink against the drag** (series ``sink``, fixed 2026-12-06 before its runs): the
   runs of the discharge series up to 64 d were made with the catch zone's drag, the 80 d
   ones with the sink that replaced it (``engine.hopper.driver``). Both act only 2 B + 10 d
@@ -106,6 +115,8 @@ D = jenike_series.D
 G_FLOW = 30.0
 FLOW_WIDTHS = (8.0, 11.0, 16.0, 23.0, 32.0, 45.0, 64.0, 80.0)
 FLOW_SEEDS = 3
+#: Outlet widths of the conical discharge series [d] (module docstring).
+CONE_WIDTHS = (8.0, 11.0, 16.0, 23.0, 32.0)
 POLYDISPERSITY = 0.1
 #: Samples of the discharge curve per free-fall time sqrt(B / g) (held: module docstring).
 SAMPLES_PER_FREE_FALL = 40
@@ -121,8 +132,8 @@ ARCH_SEEDS = 3
 #: The sink check's width [d] and equivalence margin (module docstring).
 SINK_CHECK_WIDTH = 32.0
 SINK_CHECK_MARGIN = 0.05
-#: The tolerances of the two properties (module docstring).
-TOLERANCES = {"discharge_number": 0.10, "arching_g_b": 0.15}
+#: The tolerances of the properties (module docstring).
+TOLERANCES = {"discharge_number": 0.10, "cone_discharge_number": 0.10, "arching_g_b": 0.15}
 PROTOCOL = jenike_series.PROTOCOL
 
 
@@ -141,8 +152,8 @@ def flow_test(width: float, seed: int) -> engine.HopperTest:
 
 
 def series_name(kind: str, x: float) -> str:
-    """``flow``, ``sink`` or ``arch-g<gravity>``."""
-    return kind if kind in ("flow", "sink") else f"arch-g{x:g}"
+    """``flow``, ``cone``, ``sink`` or ``arch-g<gravity>``."""
+    return kind if kind in ("flow", "cone", "sink") else f"arch-g{x:g}"
 
 
 def keys(only=None) -> list[tuple[str, float, float, int]]:
@@ -155,6 +166,7 @@ def keys(only=None) -> list[tuple[str, float, float, int]]:
             out += [("arch", g, w, s) for g in ARCH_GRAVITIES for w in ARCH_WIDTHS[g]]
         if s <= FLOW_SEEDS:
             out += [("flow", G_FLOW, w, s) for w in FLOW_WIDTHS]
+            out += [("cone", G_FLOW, w, s) for w in CONE_WIDTHS]
     if only:
         out = [k for k in out if any(o in key_name(*k) for o in only)]
     return out
@@ -167,6 +179,8 @@ def key_name(kind: str, x: float, width: float, seed: int) -> str:
 def test_of(kind: str, x: float, width: float, seed: int) -> engine.HopperTest:
     if kind in ("flow", "sink"):
         return flow_test(width, seed)
+    if kind == "cone":
+        return replace(flow_test(width, seed), shape="cone")
     return jenike_series.hopper_test(width, seed, x)
 
 

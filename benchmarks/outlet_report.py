@@ -81,14 +81,16 @@ def _parted(a: dict | None, b: dict | None) -> float | None:
     return None if not len(differ) else float(min(x[differ[0]], y[differ[0]]))
 
 
-def flow_runs() -> dict[float, list]:
-    """The discharge series' stored runs that discharged, per width [d]; those made with
-    the sink (``extra.sink``) only where the sink check found it equivalent to the drag."""
+def flow_runs(kind: str = "flow") -> dict[float, list]:
+    """The stored runs of a discharge series (``flow``, the slot; ``cone``) that discharged,
+    per width [d]; those made with the sink (``extra.sink``) only where the sink check found
+    it equivalent to the drag."""
     check = sink_check()
     sink_ok = check is not None and check["verdict"] == "equivalent"
+    widths = O.FLOW_WIDTHS if kind == "flow" else O.CONE_WIDTHS
     out: dict[float, list] = {}
-    for w in O.FLOW_WIDTHS:
-        ds = [O.stored("flow", O.G_FLOW, w, s) for s in range(1, O.FLOW_SEEDS + 1)]
+    for w in widths:
+        ds = [O.stored(kind, O.G_FLOW, w, s) for s in range(1, O.FLOW_SEEDS + 1)]
         ok = [d for d in ds if _number(d) is not None and (sink_ok or "sink" not in d.extra)]
         if ok:
             out[w] = ok
@@ -132,14 +134,16 @@ def sink_lines() -> list[str]:
 
 
 def flow_failures() -> list[str]:
-    """Runs of the discharge series that failed or did not discharge (left out), a line each."""
+    """Runs of the discharge series (slot and cone) that failed or did not discharge (left
+    out), a line each."""
     out = []
-    for w in O.FLOW_WIDTHS:
+    keys = [("flow", w) for w in O.FLOW_WIDTHS] + [("cone", w) for w in O.CONE_WIDTHS]
+    for kind, w in keys:
         for s in range(1, O.FLOW_SEEDS + 1):
-            d = O.stored("flow", O.G_FLOW, w, s)
+            d = O.stored(kind, O.G_FLOW, w, s)
             if d is None:
                 continue
-            name = O.key_name("flow", O.G_FLOW, w, s)
+            name = O.key_name(kind, O.G_FLOW, w, s)
             check = sink_check()
             if d.ok and "sink" in d.extra and (check is None or check["verdict"] != "equivalent"):
                 out.append(
@@ -250,19 +254,18 @@ def outlet_curves() -> dict:
     per-property stress the series held [Pa]: rho_b G_FLOW (the discharge runs' mean bulk
     density) and rho_b G* at the widest critical width (the arching transition)."""
     flows = flow_runs()
-    by_width = {
-        w: [
-            (d.scalars["outlet_diameters"], {"discharge_number": [d.scalars["discharge_number"]]})
-            for d in ds
-        ]
-        for w, ds in flows.items()
-    }
     metrics, stresses = {}, {}
-    c = _curve(list(by_width.values()), "discharge_number", O.TOLERANCES["discharge_number"])
-    if c is not None:
-        metrics["discharge_number"] = c
-        rho = float(np.mean([d.scalars["bulk_density"] for ds in flows.values() for d in ds]))
-        stresses["discharge_number"] = rho * O.G_FLOW
+    for kind, name in (("flow", "discharge_number"), ("cone", "cone_discharge_number")):
+        runs = flows if kind == "flow" else flow_runs(kind)
+        groups = [
+            [(d.scalars["outlet_diameters"], {name: [d.scalars["discharge_number"]]}) for d in ds]
+            for ds in runs.values()
+        ]
+        c = _curve(groups, name, O.TOLERANCES[name])
+        if c is not None:
+            metrics[name] = c
+            rho = float(np.mean([d.scalars["bulk_density"] for ds in runs.values() for d in ds]))
+            stresses[name] = rho * O.G_FLOW
     arch = arch_table()
     arch_groups = [
         [(r["width"], {"arching_g_b": [r["g_b"]]}) for r in rows if r["width"] is not None]
@@ -272,20 +275,26 @@ def outlet_curves() -> dict:
     if c is not None:
         metrics["arching_g_b"] = c
         stresses["arching_g_b"] = None  # the law's own transition: matched by law, not stress
-    sizes = sorted(set(flows) | {round(w, 3) for g in arch_groups for w, _ in g})
+    sizes = sorted(
+        set(flows) | set(flow_runs("cone")) | {round(w, 3) for g in arch_groups for w, _ in g}
+    )
     return {"metrics": metrics, "sizes": sizes, "stresses": stresses}
 
 
 def sizes_words() -> str:
     """The sizes each property of the outlet was measured at [d across], in words."""
     flows = ", ".join(f"{w:g}" for w in sorted(flow_runs()))
+    cones = ", ".join(f"{w:g}" for w in sorted(flow_runs("cone")))
     crit = []
     for rows in arch_table().values():
         got = [r["width"] for r in rows if r["width"] is not None]
         if got:
             crit.append(float(np.mean(got)))
     arch = ", ".join(f"{w:.3g}" for w in sorted(crit))
-    return f"discharge {flows or 'none'}; arching (mean B_crit per gravity) {arch or 'none'}"
+    return (
+        f"discharge {flows or 'none'}; conical discharge {cones or 'none'}; arching (mean "
+        f"B_crit per gravity) {arch or 'none'}"
+    )
 
 
 def lines() -> list[str]:
@@ -299,24 +308,28 @@ def lines() -> list[str]:
         f"g B = {O.G_FLOW:g} m^2/s^2 (tolerance {100 * O.TOLERANCES['discharge_number']:.0f} "
         "%), and G* = g B_crit, the g B below which the outlet stops in an arch (tolerance "
         f"{100 * O.TOLERANCES['arching_g_b']:.0f} %), read at four gravities whose critical "
-        "widths lie at different B / d.",
-        "",
-        "Discharge at the held g B:",
-        "",
-        "| B / d | particles | seeds | discharge number (mean) | se of the mean | "
-        "bulk density [kg/m^3] | mass flow | CPU s (mean) |",
-        "|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "widths lie at different B / d. A third: the discharge number of the same hopper "
+        "made a cone, W / (rho sqrt(g) B^2.5), the same g B, tolerance and fit (series "
+        "`cone`).",
     ]
-    flows = flow_runs()
-    for w, ds in sorted(flows.items()):
-        q = np.array([d.scalars["discharge_number"] for d in ds])
-        se = float(np.std(q, ddof=1) / math.sqrt(len(q))) if len(q) > 1 else math.nan
-        out.append(
-            f"| {w:g} | {int(ds[0].scalars['particles'])} | {len(ds)} | {q.mean():.4f} | "
-            f"{se:.4f} | {np.mean([d.scalars['bulk_density'] for d in ds]):.0f} | "
-            f"{sum(int(d.scalars['mass_flow']) for d in ds)} of {len(ds)} | "
-            f"{np.mean([d.extra['cpu_seconds'] for d in ds]):.0f} |"
-        )
+    for kind, title in (("flow", "Discharge at the held g B"), ("cone", "Conical outlet")):
+        out += [
+            "",
+            f"{title}:",
+            "",
+            "| B / d | particles | seeds | discharge number (mean) | se of the mean | "
+            "bulk density [kg/m^3] | mass flow | CPU s (mean) |",
+            "|---:|---:|---:|---:|---:|---:|---:|---:|",
+        ]
+        for w, ds in sorted(flow_runs(kind).items()):
+            q = np.array([d.scalars["discharge_number"] for d in ds])
+            se = float(np.std(q, ddof=1) / math.sqrt(len(q))) if len(q) > 1 else math.nan
+            out.append(
+                f"| {w:g} | {int(ds[0].scalars['particles'])} | {len(ds)} | {q.mean():.4f} | "
+                f"{se:.4f} | {np.mean([d.scalars['bulk_density'] for d in ds]):.0f} | "
+                f"{sum(int(d.scalars['mass_flow']) for d in ds)} of {len(ds)} | "
+                f"{np.mean([d.extra['cpu_seconds'] for d in ds]):.0f} |"
+            )
     out += [
         "",
         "Arching: per seed, the critical width is the midpoint between the widest outlet at "
@@ -339,7 +352,7 @@ def lines() -> list[str]:
             )
     curves = outlet_curves()
     out += ["", f"![outlet series](figures/{FIGURE.name})", "", "Curves:", ""]
-    for name in ("discharge_number", "arching_g_b"):
+    for name in ("discharge_number", "cone_discharge_number", "arching_g_b"):
         c = curves["metrics"].get(name)
         if c is None:
             out.append(f"- {name}: no curve yet (fewer than three sizes with two seeds)")
@@ -434,21 +447,23 @@ def arch_failures() -> list[str]:
 
 
 def figure():
-    """Two panels against d / B (the fit's variable; B / d on the top axis): each run's
-    discharge number at the held g B, and each seed's G* = g B_crit; each with its fitted
-    line exp(a + b d / B) and the tolerance band around the fitted bulk (matplotlib's
+    """Three panels against d / B (the fit's variable): each run's discharge number at the
+    held g B through the slot and through the cone, and each seed's G* = g B_crit; each with
+    its fitted line exp(a + b d / B) and the tolerance band around the fitted bulk (matplotlib's
     object API on an Agg canvas). A panel without a curve shows its points and says so."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(9.0, 4.0), dpi=110, layout="constrained")
+    fig = Figure(figsize=(13.0, 4.0), dpi=110, layout="constrained")
     FigureCanvasAgg(fig)
-    axes = fig.subplots(1, 2)
+    axes = fig.subplots(1, 3)
     curves = outlet_curves()["metrics"]
-    flows = flow_runs()
-    fx = [1.0 / d.scalars["outlet_diameters"] for ds in flows.values() for d in ds]
-    fy = [d.scalars["discharge_number"] for ds in flows.values() for d in ds]
-    ax_pts = [(fx, fy)]
+    ax_pts = []
+    for kind in ("flow", "cone"):
+        flows = flow_runs(kind)
+        fx = [1.0 / d.scalars["outlet_diameters"] for ds in flows.values() for d in ds]
+        fy = [d.scalars["discharge_number"] for ds in flows.values() for d in ds]
+        ax_pts.append((fx, fy))
     arch = arch_table()
     ax_pts.append(
         (
@@ -457,10 +472,15 @@ def figure():
         )
     )
     titles = (
-        f"discharge at g B = {O.G_FLOW:g} m^2/s^2",
-        "arching: G* = g B_crit (one point per seed and gravity)",
+        f"slot: discharge at g B = {O.G_FLOW:g} m^2/s^2",
+        f"cone: discharge at g B = {O.G_FLOW:g} m^2/s^2",
+        "slot: arching, G* = g B_crit (one point per seed and gravity)",
     )
-    ylabels = ("discharge number W / (rho sqrt(g) B^1.5 D) [-]", "G* [m^2/s^2]")
+    ylabels = (
+        "discharge number W / (rho sqrt(g) B^1.5 D) [-]",
+        "discharge number W / (rho sqrt(g) B^2.5) [-]",
+        "G* [m^2/s^2]",
+    )
     # a seed that stopped at every width it ran bounds G* from below (the widest such
     # bound of each gravity: a seed not yet run at its wider widths says less)
     lower = []
@@ -469,7 +489,7 @@ def figure():
         if bounds:
             lower.append((1.0 / max(bounds), g * max(bounds) * O.D))
     if lower:
-        axes[1].plot(
+        axes[2].plot(
             *zip(*lower),
             "^",
             ms=7,
@@ -478,7 +498,7 @@ def figure():
             label="stopped at every width run (G* above, d / B_crit below)",
         )
     for ax, name, (x, y), title, ylabel in zip(
-        axes, ("discharge_number", "arching_g_b"), ax_pts, titles, ylabels
+        axes, ("discharge_number", "cone_discharge_number", "arching_g_b"), ax_pts, titles, ylabels
     ):
         ax.plot(x, y, "o", ms=4, color="C0", label="runs")
         c = curves.get(name)

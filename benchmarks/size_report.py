@@ -742,6 +742,7 @@ KIND_WORDS = {
 
 OUTLET_WORDS = {
     "discharge_number": "the discharge rate",
+    "cone_discharge_number": "the conical outlet's discharge rate",
     "arching_g_b": "the arching width",
 }
 

@@ -15,8 +15,8 @@ of inertia. What keeps it out of the run:
 - a zero inverse mass leaves its velocity at zero whatever the forces (gravity included), so
   it never moves again, and the step's guards (overlap, step length) never see it;
 - its position at the last list build is set to its site, so parking triggers no rebuild;
-  the entries of its old neighbours find it out of reach at their next force evaluation and
-  are cleared there, as a contact that opens.
+  its pair contacts are deleted with their history when it is parked (the list's entries
+  of its old neighbours then find it out of reach, as a contact that has opened).
 
 It still costs its share of the per-particle passes (a few multiplications), no contact
 work. Its mass still counts in :attr:`engine.Simulation.masses` (what the hopper weighs as

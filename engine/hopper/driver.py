@@ -530,8 +530,8 @@ def run_hopper(
         backend: ``"cpu"``, ``"cuda"`` or ``"auto"`` (see :class:`engine.Simulation`; None:
             ``DEMSCALE_BACKEND``, else the CPU). On the CUDA backend the steps, the sink
             (its parking) and the kinetic energy are made on the device; each discharge sample
-            copies the particles' positions and velocities and the mesh contacts (the wall
-            stress) to the host.
+            copies the particles' arrays (the regions) and the walls' rows (the mesh
+            contacts, the wall stress) to the host, not the pair list.
     Raises: :class:`engine.StageError` when the fill does not settle within
         ``max_settle_time``; :class:`engine.InstabilityError` when the integration blows up.
     """

@@ -506,7 +506,7 @@ def report() -> str:
             )
     need = ev["laws"][OUTLET_LAW]["features"].get("outlet")
     lines.append(
-        f"| hopper outlet (slot, g B held) | {OUTLET_LAW} | {_fmt_need(need)} | "
+        f"| hopper outlet (slot; cone discharge; g B held) | {OUTLET_LAW} | {_fmt_need(need)} | "
         f"{'' if need is None else need['limited_by']} | {outlet_report.sizes_words()} |"
     )
     lines += [
@@ -773,7 +773,8 @@ def readme_block(ev: dict | None = None) -> str:
     kinds = ("bulk_shear", "bulk_compression", "free_surface")
     needs = "; ".join(f"{KIND_WORDS[k]} {_need_words(feats.get(k))}" for k in kinds)
     outlet = feats.get("outlet")
-    said = f"a slot hopper's outlet {_need_words(outlet)}"
+    cone = outlet is not None and "cone_discharge_number" in outlet.get("per_property", {})
+    said = f"a {'slot or conical' if cone else 'slot'} hopper's outlet {_need_words(outlet)}"
     if outlet is not None and outlet.get("limited_by"):
         held = outlet.get("stresses", {}).get("discharge_number")
         said += f", set by {OUTLET_WORDS.get(outlet['limited_by'], outlet['limited_by'])}"

@@ -36,18 +36,20 @@ def _number(d) -> float | None:
 
 
 def sink_check() -> dict | None:
-    """The sink against the drag (:mod:`benchmarks.outlet_series`' docstring, rule fixed
+    """The sink against the runs made before it (:mod:`benchmarks.outlet_series`'
+    docstring, rule fixed
     before the runs): per seed at :data:`~benchmarks.outlet_series.SINK_CHECK_WIDTH`, the
-    discharge number with the sink over the drag's, minus 1; their mean, its 90 %
+    discharge number with the sink over the stored run's, minus 1; their mean, its 90 %
     t-interval and the verdict against +- ``SINK_CHECK_MARGIN``. None before two pairs."""
     w, g = O.SINK_CHECK_WIDTH, O.G_FLOW
     pairs, parted, cpu = [], [], []
     for s in range(1, O.FLOW_SEEDS + 1):
         dd, ds = O.stored("flow", g, w, s), O.stored("sink", g, w, s)
-        drag, sink = _number(dd), _number(ds)
-        if drag is not None and sink is not None:
-            pairs.append((s, drag, sink))
-            parted.append(_parted(dd.extra.get("curve"), ds.extra.get("curve")))
+        before, sink = _number(dd), _number(ds)
+        if before is not None and sink is not None:
+            pairs.append((s, before, sink))
+            total = float(dd.scalars["total_mass"])
+            parted.append(_parted(dd.extra.get("curve"), ds.extra.get("curve"), total))
             cpu.append((dd.extra.get("cpu_seconds"), ds.extra.get("cpu_seconds")))
     if len(pairs) < 2:
         return None
@@ -71,22 +73,25 @@ def sink_check() -> dict | None:
     }
 
 
-def _parted(a: dict | None, b: dict | None) -> float | None:
-    """The discharged fraction at which two stored (decimated) discharge curves first
-    differ, None where they never do (or a curve is missing: NaN)."""
+def _parted(a: dict | None, b: dict | None, total: float) -> float | None:
+    """The discharged fraction at which two stored (decimated) discharge curves (the mass
+    discharged [kg] against time) of a fill of ``total`` [kg] first differ, None where they
+    never do (NaN where a curve is missing or they were sampled differently)."""
     if not a or not b or len(a["discharged_mass"]) != len(b["discharged_mass"]):
         return math.nan
     x, y = np.asarray(a["discharged_mass"], float), np.asarray(b["discharged_mass"], float)
     differ = np.nonzero(x != y)[0]
-    return None if not len(differ) else float(min(x[differ[0]], y[differ[0]]))
+    return None if not len(differ) else float(min(x[differ[0]], y[differ[0]])) / total
 
 
 def flow_runs(kind: str = "flow") -> dict[float, list]:
     """The stored runs of a discharge series (``flow``, the slot; ``cone``) that discharged,
-    per width [d]; those made with the sink (``extra.sink``) only where the sink check found
-    it equivalent to the drag."""
+    per width [d]; the slot's runs made with the sink (``extra.sink``) only where the sink
+    check found it equivalent to the runs made before it (the cone's were all made with
+    it)."""
     check = sink_check()
-    sink_ok = check is not None and check["verdict"] == "equivalent"
+    # the cone's series was made with the sink throughout (its rule): nothing to gate
+    sink_ok = kind == "cone" or (check is not None and check["verdict"] == "equivalent")
     widths = O.FLOW_WIDTHS if kind == "flow" else O.CONE_WIDTHS
     out: dict[float, list] = {}
     for w in widths:
@@ -101,15 +106,17 @@ def sink_lines() -> list[str]:
     """The sink check's lines for docs/RESOLUTION.md."""
     c = sink_check()
     head = (
-        f"The sink against the drag (rule fixed before the runs: the {O.SINK_CHECK_WIDTH:g} d "
-        "discharge made again with the sink, the same fills, paired by seed; equivalent if "
+        f"The sink against the runs made before it (rule fixed before its runs: the "
+        f"{O.SINK_CHECK_WIDTH:g} d discharge, stored from before the sink (its grains fell "
+        "freely onto the floor's heap), made again with the sink, the same fills, paired by "
+        "seed; equivalent if "
         "the 90 % t-interval of the mean relative difference of the discharge number lies "
         f"within +-{100 * O.SINK_CHECK_MARGIN:.0f} %; only then do runs made with the sink "
         "join the fit): "
     )
     if c is None:
         return [head + "not measured (fewer than two pairs stored)."]
-    per = "; ".join(f"seed {s}: {a:.4f} (drag) -> {b:.4f} (sink)" for s, a, b in c["pairs"])
+    per = "; ".join(f"seed {s}: {a:.4f} -> {b:.4f}" for s, a, b in c["pairs"])
     lo, hi = c["interval"]
 
     def where(f):
@@ -117,19 +124,22 @@ def sink_lines() -> list[str]:
 
     apart = ", ".join(where(f) for f in c["parted"])
     end = O.flow_test(O.SINK_CHECK_WIDTH, 1).window_end
-    known = [f for f in c["parted"] if f is not None]
-    when = (
-        "after the steady window"
-        if all(f > end for f in known)
-        else "within the steady window in some"
-    )
+    known = [f for f in c["parted"] if f is not None and not math.isnan(f)]
+    if any(f is not None and math.isnan(f) for f in c["parted"]):
+        when = "(a curve missing: where they part not read for every seed)"
+    elif not known:
+        when = "(identical throughout)"
+    elif all(f > end for f in known):
+        when = "after the steady window"
+    else:
+        when = "within the steady window in some"
     cpu = ", ".join(f"{a:.0f} -> {b:.0f}" for a, b in c["cpu_seconds"])
     return [
         head + f"{per}: mean difference {100 * c['mean']:+.2f} % [{100 * lo:+.2f}, "
         f"{100 * hi:+.2f}] %, **{c['verdict']}**. The stored discharge curves (fraction "
         f"discharged against time) first part {apart} discharged, {when} (up to "
         f"{100 * end:.0f} %); "
-        f"CPU seconds on one thread, drag -> sink: {cpu}."
+        f"CPU seconds on one thread, before -> sink: {cpu}."
     ]
 
 
@@ -145,10 +155,11 @@ def flow_failures() -> list[str]:
                 continue
             name = O.key_name(kind, O.G_FLOW, w, s)
             check = sink_check()
-            if d.ok and "sink" in d.extra and (check is None or check["verdict"] != "equivalent"):
+            gated = kind == "flow" and (check is None or check["verdict"] != "equivalent")
+            if d.ok and "sink" in d.extra and gated:
                 out.append(
                     f"{name}: made with the sink, which the sink check has not found "
-                    "equivalent to the drag"
+                    "equivalent to the runs made before it"
                 )
             elif not d.ok:
                 out.append(f"{name}: {d.outcome[:160]}")

@@ -22,7 +22,7 @@ properties, fixed here before any run of this series (2026-12-06):
   12-14 m^2/s^2 at 6-7 d, 9-11 at 9-11 d), so that every size discharges and the cohesion
   still acts (the hopper's Bond number |f0| / (m g) is 2.3 at 8 d, 18 at 64 d). Outlet
   widths :data:`FLOW_WIDTHS` = 8 to 64 diameters (about x 1.4 apart), then 80 (the issue's
-  widest, added after the others had run: 57,000 particles, about 20 minutes on one core;
+  widest, added after the others had run: 57,000 particles, 22-24 minutes on one core;
   its first two seeds, run with the hopper's catch zone (a drag far below the outlet),
   failed at 96 % discharged, the dense falling fill jammed where the drag slowed it, and
   were run again with the hopper's sink: docs/HOPPER.md, "The sink"),
@@ -36,10 +36,12 @@ properties, fixed here before any run of this series (2026-12-06):
   W / (rho sqrt(g) B^2.5) (``HopperTest.rate_scale``), with the slot's window, fit and 10 %
   tolerance; the outlet's N_req is the largest over its properties, this one among them
   (a user's outlet is as often a cone as a slot). Arching through a cone is not run.
-- **The sink against the drag** (series ``sink``, fixed 2026-12-06 before its runs): the
-  runs of the discharge series up to 64 d were made with the catch zone's drag, the 80 d
-  ones with the sink that replaced it (``engine.hopper.driver``). Both act only 2 B + 10 d
-  below the outlet; whether the change moves the discharge number is measured, not argued:
+- **The sink against the runs made before it** (series ``sink``, fixed 2026-12-06 before its
+  runs): the runs of the discharge series up to 64 d were made before the sink (and before
+  the catch zone's drag: their grains fell freely onto the floor's heap; said "the drag"
+  here when this rule was fixed, corrected from their digests after the runs, the rule
+  unchanged), the 80 d ones with the sink (``engine.hopper.driver``). Both act only 2 B +
+  10 d below the outlet; whether the change moves the discharge number is measured, not argued:
   the :data:`SINK_CHECK_WIDTH` = 32 d runs of the three seeds made again with the sink, the
   same fills, paired by seed. The two are **equivalent** if the 90 % t-interval of the mean
   paired relative difference of the discharge number lies within +-
@@ -216,8 +218,9 @@ def estimate(kind: str, x: float, width: float, seed: int) -> float:
 
 
 def extra_of(outcome, wall: float, cpu: float) -> dict:
-    # what took the discharged grains below the outlet: the runs made before 2026-12-06 (the
-    # 14 arching runs made again, the discharge series to 64 d) have "catch_zone" (the drag)
+    # what took the discharged grains below the outlet: of the runs made before the sink, the
+    # 14 arching runs made again with the catch zone have "catch_zone" (the drag); the first
+    # runs (the discharge series to 64 d, most arching runs) neither: their grains fell freely
     out = {
         "wall_seconds": wall,
         "cpu_seconds": cpu,

@@ -56,15 +56,17 @@ def _stored(numbers: dict):
         if q is None:
             return None
         extra = {"sink": "parked"} if kind == "sink" or width == 80.0 else {}
-        return SimpleNamespace(ok=True, scalars={"discharge_number": q}, extra=extra)
+        scalars = {"discharge_number": q, "total_mass": 1.0}
+        return SimpleNamespace(ok=True, scalars=scalars, extra=extra)
 
     return stored
 
 
 def test_the_sink_check_decides_by_its_interval_and_gates_the_sink_runs(monkeypatch):
     """The rule of outlet_series' docstring: the 90 % t-interval of the mean paired relative
-    difference within +-5 %: equivalent; wholly outside: different; else undecided. Runs
-    made with the sink join the discharge fit only when equivalent."""
+    difference within +-5 %: equivalent; wholly outside: different; else undecided. The
+    slot's runs made with the sink join the discharge fit only when equivalent (the cone's,
+    all made with it, are not gated)."""
     w = O.SINK_CHECK_WIDTH
 
     def check(drag, sink, wide=0.47):
@@ -86,3 +88,11 @@ def test_the_sink_check_decides_by_its_interval_and_gates_the_sink_runs(monkeypa
     c, runs = check([0.47, None, None], [0.47, None, None])  # one pair: no check
     assert c is None and 80.0 not in runs
     assert "not measured" in R.sink_lines()[0]
+
+
+def test_where_two_stored_discharge_curves_part_is_a_fraction_of_the_fill():
+    a = {"discharged_mass": [0.0, 0.3, 0.6, 0.9]}
+    b = {"discharged_mass": [0.0, 0.3, 0.6, 0.8]}
+    assert R._parted(a, b, 1.2) == pytest.approx(0.8 / 1.2)
+    assert R._parted(a, a, 1.2) is None
+    assert math.isnan(R._parted(a, None, 1.2))

@@ -243,6 +243,10 @@ def park_kernel(
     entry,
     rev_start,
     rev_k,
+    whist,
+    nplanes,
+    mhist,
+    mrows,
     order,
     height,
     o,
@@ -252,8 +256,10 @@ def park_kernel(
 ):
     """Park every live particle whose centre lies below ``height`` [m] at its site of the
     lattice (origin ``o`` (3,), spacing ``a`` (3,), ``nx``, ``ny``; the site of scene id
-    ``order[i]``) and delete its pair contacts (its own entries and its reverse list's; two
-    parked partners both write the same zeros): the host's ``Simulation.park_below``."""
+    ``order[i]``) and delete its contacts: its pair entries and its reverse list's (two
+    parked partners both write the same zeros), its ``nplanes`` plane rows of ``whist`` and
+    its ``mrows`` mesh rows of ``mhist`` (0 without meshes): the host's
+    ``Simulation.park_below``."""
     i = cuda.grid(1)
     if i >= pos.shape[0]:
         return
@@ -280,6 +286,12 @@ def park_kernel(
             k = rev_k[q]
             for c in range(entry.shape[1]):
                 entry[k, c] = 0.0
+        for r in range(i * nplanes, (i + 1) * nplanes):
+            for c in range(whist.shape[1]):
+                whist[r, c] = 0.0
+        for r in range(i * mrows, (i + 1) * mrows):
+            for c in range(mhist.shape[1]):
+                mhist[r, c] = 0.0
 
 
 _lock = threading.Lock()

@@ -412,6 +412,10 @@ class CudaSimulation(Simulation):
             d.L.entry,
             d.L.rev_start,
             d.L.rev_k,
+            d.W.hist,
+            self._n_planes,
+            d.W.mesh.mhist,
+            d.W.mesh.mhist.shape[0] // self.n,
             d.order,
             h,
             d.park_o,
@@ -419,7 +423,7 @@ class CudaSimulation(Simulation):
             lattice.nx,
             lattice.ny,
         )
-        d.stale.update(("particles", "list"))
+        d.stale.update(("particles", "list", "walls"))
 
     park_below.__doc__ = Simulation.park_below.__doc__
 

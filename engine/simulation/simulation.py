@@ -851,8 +851,9 @@ class Simulation:
         parking`: why nothing touches it again). A particle once parked stays parked; a
         driven one (:meth:`set_driven`) is parked like any other. The hopper's sink.
         Forces are not evaluated again (as :meth:`set_driven`) and no rebuild is made: the
-        parked particle's pair contacts are deleted with their history (its old neighbours
-        find it out of reach from then on). The lattice is checked once (:meth:`_check_parking`).
+        parked particle's pair, plane and mesh contacts are deleted with their history (its
+        old neighbours find it out of reach from then on). The lattice is checked once, against
+        the planes where they are then (:meth:`_check_parking`).
         On the CUDA backend a kernel on the device: nothing crosses to the host."""
         h = park_args(height, lattice)
         self._check_parking(lattice)
@@ -873,6 +874,12 @@ class Simulation:
         for i in k:
             lst.entry[lst.start[i] : lst.start[i + 1]] = 0.0
             lst.entry[lst.rev_k[lst.rev_start[i] : lst.rev_start[i + 1]]] = 0.0
+        w = self._walls  # and its wall contacts (mesh_contacts() reads none of them)
+        nw = self._n_planes
+        if nw:
+            w.hist.reshape(self.n, nw, -1)[k] = 0.0
+        if self.scene.meshes:
+            w.mesh.mhist.reshape(self.n, -1, w.mesh.mhist.shape[1])[k] = 0.0
 
     def _check_parking(self, lattice: ParkingLattice) -> None:
         """Once per lattice: its spacing beyond the skin, and the sites of all N particles

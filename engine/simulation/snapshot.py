@@ -131,5 +131,6 @@ def particle_fields(snap: Snapshot) -> dict[str, np.ndarray]:
     volume = 4.0 / 3.0 * np.pi * snap.radii**3
     return {
         "mean_normal_force": np.divide(force_sum, counts, out=np.zeros(n), where=counts > 0),
-        "pressure": moment / (3.0 * volume),
+        # a parked particle (radius 0, Simulation.park_below) has no volume: 0, not 0 / 0
+        "pressure": np.divide(moment, 3.0 * volume, out=np.zeros(n), where=volume > 0),
     }

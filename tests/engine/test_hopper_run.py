@@ -163,7 +163,10 @@ def test_park_below_leaves_the_others_alone_and_refuses_bad_input():
     b = engine.Simulation(scene, 2e-6, threads=1)
     a.run(500)
     b.run(500)
-    a.park_below(0.0025, lattice)  # the grain resting on the floor (centre at ~1.5 mm)
+    assert 3 in a.contacts().wall_particles.tolist()
+    a.park_below(0.0025, lattice)  # the grain resting on the floor (centre at ~1 mm)
+    c = a.contacts()  # its contacts deleted with it: the floor's and the grain's above
+    assert 3 not in c.wall_particles.tolist() and 3 not in c.pairs.ravel().tolist()
     assert a.radii[3] == 0.0 and np.all(a.radii[:3] == r)
     assert np.array_equal(a.positions[3], lattice.sites([3])[0])
     assert a.velocities[3].tolist() == [0.0, 0.0, 0.0]

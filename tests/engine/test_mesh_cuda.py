@@ -130,6 +130,7 @@ def test_a_settled_hopper_discharges_on_the_device_as_on_the_cpu():
     for quantity, rel in r["rel"].items():
         assert rel <= REL, (quantity, rel, r)
     assert r["parked"] == [12, 12] and r["wall_contacts"] > 10, r  # the sink and the walls
+    assert r["on_gate"] > 0 and r["still_on_gate"] == [0, 0], r  # their contacts deleted
     assert r["samples"] >= 3 and r["same_regions"], r
     assert r["backends"] == ["cpu", "cuda"], r
 
@@ -168,12 +169,17 @@ def hopper_case() -> dict:
     rng = np.random.default_rng(3)
     v = rng.normal(0.0, 1.0, (cpu.sim.n, 3))
     low = float(np.sort(cpu.sim.positions[:, 2])[12])
+    lowest = np.nonzero(cpu.sim.positions[:, 2] < low)[0]
     for run in (cpu, gpu):
         run.sim.set_velocities(v)
+    # they lie on the gate: their mesh contacts go with them
+    on_gate = int(np.isin(cpu.sim.mesh_contacts().particles, lowest).sum())
+    for run in (cpu, gpu):
         run.sim.park_below(low, run.geo.parking)
     compare()
     rel["radii"] = rel_diff(cpu.sim.radii, gpu.sim.radii)
     parked = [int((run.sim.radii == 0.0).sum()) for run in (cpu, gpu)]
+    still = [int(np.isin(run.sim.mesh_contacts().particles, lowest).sum()) for run in (cpu, gpu)]
     # the gate opened and a few samples of the discharge (four steps apart), on each backend
     few = replace(t, output_interval=4 * cpu.dt, max_discharge_time=10 * cpu.dt)
     results = []
@@ -193,6 +199,8 @@ def hopper_case() -> dict:
     return {
         "rel": rel,
         "parked": parked,
+        "on_gate": on_gate,
+        "still_on_gate": still,
         "wall_contacts": walls,
         "samples": len(a["time"]),
         "same_regions": same,

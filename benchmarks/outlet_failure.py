@@ -53,19 +53,34 @@ def main(argv=None) -> int:
     numba.set_num_threads(1)
     test = O.test_of(*key)
     run = HopperRun(test, threads=1)
+    ids: tuple = ()
     try:
         jenike_series.ramped_hopper(test, run)
         what = "finished"
     except Exception as e:
         what = f"{type(e).__name__}: {e}"
+        ids = tuple(getattr(e, "particles", ()) or ())
     sim = run.sim
+    p, v, r = sim.positions, sim.velocities, sim.radii
     body = {
         "run": O.key_name(*key),
         "outcome": what,
         "time": sim.time,
         "sink": run.geo.sink,
         "floor": -run.geo.catch_depth,
-        "bands": bands(sim.positions[:, 2], sim.velocities),
+        "bands": bands(p[:, 2], v),
+        # the failing particles: where (z against the outlet at 0, the sink and the
+        # floor; the distance from the axis or mid-plane) and how fast
+        "failing": [
+            {
+                "id": int(i),
+                "position": p[i].tolist(),
+                "across": float(run._across(p[i : i + 1])[0]),
+                "velocity": v[i].tolist(),
+                "radius": float(r[i]),
+            }
+            for i in ids
+        ],
     }
     path = O.STORE.parent / "outlet_failures" / f"{O.key_name(*key).replace('/', '-')}.json"
     path.parent.mkdir(parents=True, exist_ok=True)

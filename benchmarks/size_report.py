@@ -762,6 +762,18 @@ def _need_words(need: dict | None) -> str:
     return f"{p:.2g} (95 % bound {b:.3g})"
 
 
+def _property_words(need: dict) -> str:
+    """One property's need (a feature's ``per_property`` entry) in words."""
+    b, p = need.get("diameters"), need.get("point")
+    if need.get("bound") == "not_linear" or b is None:
+        return "undecided (off its line)"
+    if need["bound"] == "more_than":
+        return f"more than {b:.3g} (the finest size stored)"
+    if need["bound"] == "at_most":
+        return f"within tolerance down to {b:.3g} (the coarsest fitted)"
+    return f"{p:.2g} (95 % bound {b:.3g})"
+
+
 def readme_block(ev: dict | None = None) -> str:
     """The README's measured lines on N_req and the default powder's plan, made from the
     evidence (so the README says what the stored series decide, no more)."""
@@ -773,13 +785,18 @@ def readme_block(ev: dict | None = None) -> str:
     kinds = ("bulk_shear", "bulk_compression", "free_surface")
     needs = "; ".join(f"{KIND_WORDS[k]} {_need_words(feats.get(k))}" for k in kinds)
     outlet = feats.get("outlet")
-    cone = outlet is not None and "cone_discharge_number" in outlet.get("per_property", {})
-    said = f"a {'slot or conical' if cone else 'slot'} hopper's outlet {_need_words(outlet)}"
+    said = f"a hopper's outlet {_need_words(outlet)}"
     if outlet is not None and outlet.get("limited_by"):
         held = outlet.get("stresses", {}).get("discharge_number")
         said += f", set by {OUTLET_WORDS.get(outlet['limited_by'], outlet['limited_by'])}"
         if held:
             said += f" (its discharge rate measured at g B held, {held / 1e3:.2g} kPa)"
+        cone = outlet.get("per_property", {}).get("cone_discharge_number")
+        if cone is not None:
+            said += (
+                "; measured: a slot's arching and discharge and a cone's discharge (the "
+                f"cone's {_property_words(cone)}), not arching through a cone"
+            )
     lines = [
         f"- N_req for the default powder's law (f0 = -0.4 N at 20 kPa): {needs}; {said}.",
     ]

@@ -424,6 +424,7 @@ class CudaSimulation(Simulation):
             lattice.ny,
         )
         d.stale.update(("particles", "list", "walls"))
+        d.radii_stale = True
 
     park_below.__doc__ = Simulation.park_below.__doc__
 
@@ -769,9 +770,21 @@ for _name in (
     "velocities",
     "angular_velocities",
     "forces",
-    "radii",
 ):
     setattr(CudaSimulation, _name, _pulling_property(_name, "particles"))
+
+
+def _radii(self):
+    # the radii change on the device only when particles are parked (park_below): pulled
+    # then, so that a sample reading them (the uniaxial recorder) copies nothing otherwise
+    d = self._dev
+    if d is not None and getattr(d, "radii_stale", False):
+        self._pull("particles")
+        d.radii_stale = False
+    return Simulation.radii.fget(self)
+
+
+CudaSimulation.radii = property(_radii, doc=Simulation.radii.__doc__)
 
 
 def _wall_row_property(name: str) -> property:

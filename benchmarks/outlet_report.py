@@ -84,19 +84,25 @@ def _parted(a: dict | None, b: dict | None, total: float) -> float | None:
     return None if not len(differ) else float(min(x[differ[0]], y[differ[0]])) / total
 
 
+def _sink_gated(kind: str) -> bool:
+    """Whether a discharge series' runs made with the sink (``extra.sink``) are kept out:
+    the slot's until the sink check finds the sink equivalent to the runs made before it;
+    never the cone's (made with the sink throughout, by its rule)."""
+    if kind == "cone":
+        return False
+    check = sink_check()
+    return check is None or check["verdict"] != "equivalent"
+
+
 def flow_runs(kind: str = "flow") -> dict[float, list]:
     """The stored runs of a discharge series (``flow``, the slot; ``cone``) that discharged,
-    per width [d]; the slot's runs made with the sink (``extra.sink``) only where the sink
-    check found it equivalent to the runs made before it (the cone's were all made with
-    it)."""
-    check = sink_check()
-    # the cone's series was made with the sink throughout (its rule): nothing to gate
-    sink_ok = kind == "cone" or (check is not None and check["verdict"] == "equivalent")
+    per width [d], but those :func:`_sink_gated` keeps out."""
+    gated = _sink_gated(kind)
     widths = O.FLOW_WIDTHS if kind == "flow" else O.CONE_WIDTHS
     out: dict[float, list] = {}
     for w in widths:
         ds = [O.stored(kind, O.G_FLOW, w, s) for s in range(1, O.FLOW_SEEDS + 1)]
-        ok = [d for d in ds if _number(d) is not None and (sink_ok or "sink" not in d.extra)]
+        ok = [d for d in ds if _number(d) is not None and not (gated and "sink" in d.extra)]
         if ok:
             out[w] = ok
     return out
@@ -147,6 +153,7 @@ def flow_failures() -> list[str]:
     """Runs of the discharge series (slot and cone) that failed or did not discharge (left
     out), a line each."""
     out = []
+    gated = {kind: _sink_gated(kind) for kind in ("flow", "cone")}
     keys = [("flow", w) for w in O.FLOW_WIDTHS] + [("cone", w) for w in O.CONE_WIDTHS]
     for kind, w in keys:
         for s in range(1, O.FLOW_SEEDS + 1):
@@ -154,9 +161,7 @@ def flow_failures() -> list[str]:
             if d is None:
                 continue
             name = O.key_name(kind, O.G_FLOW, w, s)
-            check = sink_check()
-            gated = kind == "flow" and (check is None or check["verdict"] != "equivalent")
-            if d.ok and "sink" in d.extra and gated:
+            if d.ok and "sink" in d.extra and gated[kind]:
                 out.append(
                     f"{name}: made with the sink, which the sink check has not found "
                     "equivalent to the runs made before it"
@@ -264,10 +269,9 @@ def outlet_curves() -> dict:
     discharge number against B / d at the held g B; G* = g B_crit against B_crit / d. The
     per-property stress the series held [Pa]: rho_b G_FLOW (the discharge runs' mean bulk
     density) and rho_b G* at the widest critical width (the arching transition)."""
-    flows = flow_runs()
+    flows, cones = flow_runs(), flow_runs("cone")
     metrics, stresses = {}, {}
-    for kind, name in (("flow", "discharge_number"), ("cone", "cone_discharge_number")):
-        runs = flows if kind == "flow" else flow_runs(kind)
+    for runs, name in ((flows, "discharge_number"), (cones, "cone_discharge_number")):
         groups = [
             [(d.scalars["outlet_diameters"], {name: [d.scalars["discharge_number"]]}) for d in ds]
             for ds in runs.values()
@@ -286,9 +290,7 @@ def outlet_curves() -> dict:
     if c is not None:
         metrics["arching_g_b"] = c
         stresses["arching_g_b"] = None  # the law's own transition: matched by law, not stress
-    sizes = sorted(
-        set(flows) | set(flow_runs("cone")) | {round(w, 3) for g in arch_groups for w, _ in g}
-    )
+    sizes = sorted(set(flows) | set(cones) | {round(w, 3) for g in arch_groups for w, _ in g})
     return {"metrics": metrics, "sizes": sizes, "stresses": stresses}
 
 

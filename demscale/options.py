@@ -98,3 +98,18 @@ def lacks_extra(command: str, modules, extra: str) -> bool:
 
 #: What ``study`` and ``run`` need: the ``cli`` extra.
 CLI_EXTRA = ("rich", "h5py", "matplotlib")
+
+
+def single_test(test, command: str, hint: str = ""):
+    """``test`` if it is of a kind ``command`` takes alone (a uniaxial test or a hopper: the
+    kinds ``demscale run`` runs and ``export-test`` writes a deck of), else a ValueError
+    naming the command and the kind (and ``hint``)."""
+    from engine.hopper.spec import HopperTest
+    from engine.uniaxial.spec import UniaxialTest
+
+    if not isinstance(test, (UniaxialTest, HopperTest)):
+        raise ValueError(
+            f"demscale {command} takes a UniaxialTest or a HopperTest, not a "
+            f"{type(test).__name__}{hint}"
+        )
+    return test

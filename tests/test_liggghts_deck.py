@@ -366,7 +366,7 @@ def test_export_test_and_judge_liggghts_commands(tmp_path, capsys):
     shear = tmp_path / "shear.json"
     shear.write_text(json.dumps({"type": "ShearTest"}))
     assert main(["export-test", str(shear), "--out", str(tmp_path / "s")]) == 2
-    assert "not of a ShearTest" in capsys.readouterr().err and not (tmp_path / "s").exists()
+    assert "not a ShearTest" in capsys.readouterr().err and not (tmp_path / "s").exists()
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"type": "EEPA", "k1": 5e5, "k2": 2.5e6, "kadh": 1.0}))
     assert (

@@ -100,17 +100,10 @@ def _check_same_test(runs, refs) -> None:
 
 
 def _decked(test):
-    """``test`` if export-test writes a deck of its kind (a uniaxial test, a hopper), else a
-    ValueError naming the kind."""
-    from engine.hopper.spec import HopperTest
-    from engine.uniaxial.spec import UniaxialTest
+    """``test`` if export-test writes a deck of its kind (:func:`demscale.options.single_test`)."""
+    from ..options import single_test
 
-    if not isinstance(test, (UniaxialTest, HopperTest)):
-        raise ValueError(
-            f"demscale export-test writes decks of a UniaxialTest or a HopperTest, not of a "
-            f"{type(test).__name__} (the ring shear deck: benchmarks/annular_shear)"
-        )
-    return test
+    return single_test(test, "export-test", " (the ring shear deck: benchmarks/annular_shear)")
 
 
 def _read_test(args):

@@ -16,6 +16,7 @@ from ..options import (
     attempt,
     command,
     lacks_extra,
+    single_test,
 )
 
 RUN_HELP = """\
@@ -68,21 +69,14 @@ def _read_test(path: Path, snapshot_interval: float | None):
     """The :class:`engine.UniaxialTest` in the JSON file ``path`` (engine.uniaxial_from_json),
     or with ``"type": "HopperTest"`` the :class:`engine.HopperTest`, with
     ``snapshot_interval`` [s] checked."""
-    from engine.hopper.spec import HopperTest
     from engine.study.kinds import test_from_json
-    from engine.uniaxial.spec import UniaxialTest
 
     fields = json.loads(path.read_text())
     if not isinstance(fields, dict):
         raise ValueError("the file must hold a JSON object of the test's fields")
     if snapshot_interval is not None and not snapshot_interval > 0:
         raise ValueError("--snapshot-interval must be a time > 0 s")
-    test = test_from_json(fields)
-    if not isinstance(test, (UniaxialTest, HopperTest)):
-        raise ValueError(
-            f"demscale run takes a UniaxialTest or a HopperTest, not a {type(test).__name__}"
-        )
-    return test
+    return single_test(test_from_json(fields), "run")
 
 
 def run(args) -> int:

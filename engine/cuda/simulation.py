@@ -279,6 +279,9 @@ class CudaSimulation(Simulation):
                 for host, dev in zip(self._particles, d.P):
                     dev.copy_to_host(host, stream=d.stream)
                 d.images.copy_to_host(self._images, stream=d.stream)
+                d.stale.discard("radii")  # copied with the rest
+            elif g == "radii":
+                d.P.rad.copy_to_host(self._particles.rad, stream=d.stream)
             elif g == "walls":
                 w = self._walls
                 for name in ("point", "vel", "hist", "force"):
@@ -393,8 +396,9 @@ class CudaSimulation(Simulation):
         self._check_parking(lattice)
         self._ensure_device()
         d = self._dev
-        if getattr(d, "park_lattice", None) != lattice:  # the particles keep their order
-            d.order = self._to(self._order.astype(np.int64))  # on the device
+        if getattr(d, "order", None) is None:  # the particles keep their order on the device
+            d.order = self._to(self._order.astype(np.int64))
+        if getattr(d, "park_lattice", None) != lattice:
             d.park_o = self._to(np.asarray(lattice.origin))
             d.park_a = self._to(np.asarray(lattice.spacing))
             d.park_lattice = lattice
@@ -423,8 +427,7 @@ class CudaSimulation(Simulation):
             lattice.nx,
             lattice.ny,
         )
-        d.stale.update(("particles", "list", "walls"))
-        d.radii_stale = True
+        d.stale.update(("particles", "radii", "list", "walls"))
 
     park_below.__doc__ = Simulation.park_below.__doc__
 
@@ -774,17 +777,10 @@ for _name in (
     setattr(CudaSimulation, _name, _pulling_property(_name, "particles"))
 
 
-def _radii(self):
-    # the radii change on the device only when particles are parked (park_below): pulled
-    # then, so that a sample reading them (the uniaxial recorder) copies nothing otherwise
-    d = self._dev
-    if d is not None and getattr(d, "radii_stale", False):
-        self._pull("particles")
-        d.radii_stale = False
-    return Simulation.radii.fget(self)
-
-
-CudaSimulation.radii = property(_radii, doc=Simulation.radii.__doc__)
+# the radii change on the device only when particles are parked (park_below, which marks
+# the group "radii" stale): a sample that reads them (the uniaxial recorder) copies nothing
+# otherwise
+CudaSimulation.radii = _pulling_property("radii", "radii")
 
 
 def _wall_row_property(name: str) -> property:

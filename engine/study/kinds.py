@@ -229,11 +229,12 @@ def kind_of(obj) -> TestKind:
 
 
 def kind_for_json(raw: Any) -> TestKind:
-    """The kind a study's JSON reference names by its ``"type"`` (none: the default kind,
-    the one whose ``json_type`` is None)."""
+    """The kind a test's JSON object names by its ``"type"``: a kind's ``json_type``, or
+    none or the default kind's class name for the default kind (the one whose
+    ``json_type`` is None). KeyError for any other."""
     tag = raw.get("type") if isinstance(raw, dict) else None
     for kind in KINDS.values():
-        if kind.json_type == tag:
+        if tag == kind.json_type or (kind.json_type is None and tag == kind.spec.__name__):
             return kind
     raise KeyError(tag)
 
@@ -244,13 +245,13 @@ def test_from_json(raw: dict, owner: str | None = None):
     from its other fields. ``owner`` names the fields in errors (None: the kind's class
     name); an unknown type is refused naming ``<owner>.type``."""
     raw = dict(raw)
-    tag = raw.pop("type", None)
-    kinds = {k.json_type or k.spec.__name__: k for k in KINDS.values()}
-    default = next(k for k in KINDS.values() if k.json_type is None)
-    kind = default if tag in (None, default.spec.__name__) else kinds.get(tag)
-    if kind is None:
-        names = sorted({*kinds, default.spec.__name__})
-        raise ParameterError(f"{owner or 'test'}.type", tag, f"one of {names}")
+    try:
+        kind = kind_for_json(raw)
+    except KeyError:
+        names = sorted(k.json_type or k.spec.__name__ for k in KINDS.values())
+        tag = raw.get("type")
+        raise ParameterError(f"{owner or 'test'}.type", tag, f"one of {names}") from None
+    raw.pop("type", None)
     return kind.from_json(raw, owner or kind.spec.__name__)
 
 

@@ -61,7 +61,9 @@ Laws: ``bond1`` the default powder (f0 = -0.4 N, the main job's reference), ``bo
 same law three times as adhesive (f0 = -1.2 N: granular Bond number at the consolidation
 stress |f0| / (sigma_c d^2) = 2.4 against 0.8).
 
-Each run is stored at once, one at a time on one engine thread, as a compact digest in git,
+Each run is stored at once, one at a time on one engine thread (``--threads N`` for more:
+the engine's results do not depend on the thread count, tests/engine/test_threads.py), as a
+compact digest in git,
 ``benchmarks/results/size_series/<kind>/<law>/<size>-s<seed>.json``
 (:mod:`engine.io.digest`: the test, scalars and verdict metrics bit-exact, the full file's
 sha256), with a column's section profiles beside it (``.profile.npz``); the full HDF5 file
@@ -336,13 +338,17 @@ def extra_of(outcome) -> dict:
     }
 
 
+#: Engine threads per run (``--threads``).
+THREADS = 1
+
+
 def run_one(kind: str, law_name: str, size: float, seed: int) -> str:
-    """Run and store one run; a line for the log."""
+    """Run and store one run on :data:`THREADS` engine threads; a line for the log."""
     import numba
 
     from engine.uniaxial.checkpoint import Checkpoint
 
-    numba.set_num_threads(1)
+    numba.set_num_threads(THREADS)
     test = test_of(kind, law_name, size, seed)
     path = full_path_of(kind, law_name, size, seed)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -404,6 +410,13 @@ def refresh(kind: str, law_name: str, size: float, seed: int) -> bool:
     return True
 
 
+def numba_threads() -> int:
+    """The most engine threads this process can run."""
+    import numba
+
+    return int(numba.config.NUMBA_NUM_THREADS)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", nargs="*", help="runs whose key contains any of these")
@@ -416,7 +429,17 @@ def main(argv=None) -> int:
         action="store_true",
         help="rewrite the stored digests from their full files (var/size_series), run nothing",
     )
+    ap.add_argument(
+        "--threads",
+        type=int,
+        default=1,
+        help="engine threads per run (default 1; the results do not depend on it)",
+    )
     args = ap.parse_args(argv)
+    if not 1 <= args.threads <= numba_threads():
+        ap.error(f"--threads must lie in [1, {numba_threads()}] (got {args.threads})")
+    global THREADS
+    THREADS = args.threads
     todo = keys(args.only)
     if args.list:
 

@@ -55,7 +55,7 @@ import json
 import math
 import os
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -108,20 +108,73 @@ G2_WIDTHS = (9.0, 10.0, 11.0, 13.0, 15.0, 18.0)
 G2_SEEDS = 3
 
 
-def shear_test(preshear: float, seed: int) -> engine.ShearTest:
-    """The size series' shear cell of the law at :data:`SHEAR_SIZE`, pre-sheared at
-    ``preshear`` [Pa]."""
+@dataclass(frozen=True)
+class Series:
+    """One law's Jenike series: its shear points and its hoppers.
+
+    ``f0`` [N]: the law's pull-off force (everything else is ``bond1``'s law);
+    ``preshears`` [Pa]: the pre-shear stresses run here; ``size_series_point``: whether the
+    size series' stored 10 kPa cells are a point of the flow function (``bond1`` only);
+    ``hoppers``: stored kind -> (gravity [m/s^2], outlet widths [d], seeds);
+    ``prefix``: the store's sub-folder ("" for ``bond1``, whose runs were stored first)."""
+
+    law: str
+    f0: float
+    preshears: tuple[float, ...]
+    size_series_point: bool
+    hoppers: dict
+    prefix: str
+
+
+#: The second law (added 2026-12-06, after ``bond3`` had been seen to give no flow factor:
+#: its consolidation circles reach into tension, delta = 90 deg, at every stored seed):
+#: ``bond0.5``, half ``bond1``'s adhesion (f0 = -0.2 N; the granular Bond number at a
+#: consolidation stress halved), whose flow function lies where Jenike's radial field
+#: exists at lower stresses. Its pre-shears bracket the critical point that halving f0
+#: would move to about half ``bond1``'s (sigma_1* 19.6 kPa there) if the Bond number set
+#: it alone: 2.5 to 20 kPa, three seeds each, all run here (the size series has no cell of
+#: this law). Its hoppers' gravity and widths are fixed from its prediction, before any of
+#: its hopper runs (:data:`BOND05_GRAVITY`).
+BOND05_F0 = -0.2
+BOND05_PRESHEARS = (2.5e3, 5e3, 10e3, 20e3)
+SERIES = {
+    "bond1": Series(
+        "bond1",
+        -0.4,
+        PRESHEARS,
+        True,
+        {
+            "hopper": (GRAVITY, WIDTHS, HOPPER_SEEDS),
+            "hopper_g2": (GRAVITY_2, G2_WIDTHS, G2_SEEDS),
+        },
+        "",
+    ),
+    "bond0.5": Series("bond0.5", BOND05_F0, BOND05_PRESHEARS, False, {}, "bond0.5"),
+}
+
+
+def series_law(name: str) -> engine.BilinearAdhesive:
+    """The pair law of series ``name``: ``bond1``'s law with the series' f0."""
+    return replace(size_series.law(LAW), f0=SERIES[name].f0)
+
+
+def shear_test(preshear: float, seed: int, law: str = LAW) -> engine.ShearTest:
+    """The size series' shear cell at :data:`SHEAR_SIZE` with series ``law``'s pair law,
+    pre-sheared at ``preshear`` [Pa]."""
     base = size_series.shear_test(LAW, SHEAR_SIZE, seed)
     return replace(
         base,
+        pair_law=series_law(law),
         preshear_stress=float(preshear),
         normal_stresses=tuple(f * float(preshear) for f in SHEAR_FRACTIONS),
     )
 
 
-def hopper_test(width: float, seed: int, gravity: float = GRAVITY) -> engine.HopperTest:
-    """The slot hopper at outlet ``width`` [diameters], fill ``seed``, ``gravity`` [m/s^2]
-    (module docstring)."""
+def hopper_test(
+    width: float, seed: int, gravity: float = GRAVITY, law: str = LAW
+) -> engine.HopperTest:
+    """The slot hopper at outlet ``width`` [diameters], fill ``seed``, ``gravity`` [m/s^2],
+    series ``law``'s pair law (module docstring)."""
     b = width * D
     return engine.HopperTest(
         shape="slot",
@@ -133,47 +186,52 @@ def hopper_test(width: float, seed: int, gravity: float = GRAVITY) -> engine.Hop
         radius=RADIUS,
         polydispersity=0.0,
         gravity=gravity,
-        pair_law=size_series.law(LAW),
+        pair_law=series_law(law),
         wall_law=engine.HertzMindlin(E=1e8, nu=0.25, restitution=0.4, mu=0.3),
         seed=seed,
     )
 
 
-def keys(only=None) -> list[tuple[str, float, int]]:
-    """(kind, preshear [Pa] or width [d], seed) in the order they are taken: the shear
-    points first (the prediction needs them), then the hopper, seed 1 of every width
-    first."""
-    out = [("shear", p, s) for p in PRESHEARS for s in range(1, SHEAR_SEEDS + 1)]
-    out += [("hopper", w, s) for s in range(1, HOPPER_SEEDS + 1) for w in WIDTHS]
-    out += [("hopper_g2", w, s) for s in range(1, G2_SEEDS + 1) for w in G2_WIDTHS]
+def keys(only=None, laws=None) -> list[tuple[str, float, int, str]]:
+    """(kind, preshear [Pa] or width [d], seed, law) of the series ``laws`` (default all),
+    in the order they are taken: per law the shear points first (the prediction needs
+    them), then its hoppers, seed 1 of every width first."""
+    out = []
+    for name in laws or SERIES:
+        se = SERIES[name]
+        out += [("shear", p, s, name) for p in se.preshears for s in range(1, SHEAR_SEEDS + 1)]
+        for kind, (_, widths, seeds) in se.hoppers.items():
+            out += [(kind, w, s, name) for s in range(1, seeds + 1) for w in widths]
     if only:
         out = [k for k in out if any(o in key_name(*k) for o in only)]
     return out
 
 
-def key_name(kind: str, x: float, seed: int) -> str:
+def key_name(kind: str, x: float, seed: int, law: str = LAW) -> str:
+    """The run's name, its path under the store without ``.json``."""
+    prefix = f"{SERIES[law].prefix}/" if SERIES[law].prefix else ""
     if kind == "shear":
-        return f"shear/p{x / 1e3:g}-s{seed}"
-    return f"{kind}/w{x:g}-s{seed}"
+        return f"{prefix}shear/p{x / 1e3:g}-s{seed}"
+    return f"{prefix}{kind}/w{x:g}-s{seed}"
 
 
-def test_of(kind: str, x: float, seed: int):
+def test_of(kind: str, x: float, seed: int, law: str = LAW):
     if kind == "shear":
-        return shear_test(x, seed)
-    return hopper_test(x, seed, GRAVITY if kind == "hopper" else GRAVITY_2)
+        return shear_test(x, seed, law)
+    return hopper_test(x, seed, SERIES[law].hoppers[kind][0], law)
 
 
-def path_of(kind: str, x: float, seed: int, store: Path | None = None) -> Path:
-    return Path(store or STORE) / f"{key_name(kind, x, seed)}.json"
+def path_of(kind: str, x: float, seed: int, store: Path | None = None, law: str = LAW) -> Path:
+    return Path(store or STORE) / f"{key_name(kind, x, seed, law)}.json"
 
 
-def stored(kind: str, x: float, seed: int, store: Path | None = None):
+def stored(kind: str, x: float, seed: int, store: Path | None = None, law: str = LAW):
     """The stored run's digest if it was made with today's test, else None."""
-    path = path_of(kind, x, seed, store)
+    path = path_of(kind, x, seed, store, law)
     if not path.exists():
         return None
     d = read_digest(path)
-    want = json.loads(json.dumps(test_of(kind, x, seed).to_dict()))
+    want = json.loads(json.dumps(test_of(kind, x, seed, law).to_dict()))
     if kind != "shear" and d.extra.get("protocol") != PROTOCOL:
         return None
     return d if d.test == want else None
@@ -219,12 +277,12 @@ def ramped_hopper(test: engine.HopperTest, run=None) -> engine.HopperResult:
     return run.discharge()
 
 
-def run_one(kind: str, x: float, seed: int) -> str:
+def run_one(kind: str, x: float, seed: int, law: str = LAW) -> str:
     """Run and store one run; a line for the log."""
     import numba
 
     numba.set_num_threads(1)
-    test = test_of(kind, x, seed)
+    test = test_of(kind, x, seed, law)
     t0, c0 = time.perf_counter(), time.process_time()
     try:
         if kind == "shear":
@@ -235,7 +293,8 @@ def run_one(kind: str, x: float, seed: int) -> str:
         outcome = f"{type(e).__name__}: {e}"
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     write_digest(
-        path_of(kind, x, seed), make_digest(outcome, test, None, extra_of(outcome, wall, cpu))
+        path_of(kind, x, seed, law=law),
+        make_digest(outcome, test, None, extra_of(outcome, wall, cpu)),
     )
     if isinstance(outcome, str):
         what = outcome
@@ -244,7 +303,7 @@ def run_one(kind: str, x: float, seed: int) -> str:
         what = f"sigma_1 = {s['sigma_1']:.4g} Pa, sigma_c = {s['sigma_c']:.4g} Pa"
     else:
         what = describe(make_digest(outcome, test, None, {}))
-    return f"{key_name(kind, x, seed)}: {what} ({wall:.0f} s wall, {cpu:.0f} s CPU)"
+    return f"{key_name(kind, x, seed, law)}: {what} ({wall:.0f} s wall, {cpu:.0f} s CPU)"
 
 
 #: The wall friction angle [deg]: atan of the wall law's sliding friction mu = 0.3, a stated
@@ -261,20 +320,22 @@ FF_DELTAS = tuple(float(d) for d in range(40, 89, 2))
 BOOTSTRAP = 400
 
 
-def shear_levels(size_series_size: float = SHEAR_SIZE) -> dict[float, list[dict]]:
-    """The flow function's points, seed by seed: pre-shear [Pa] -> [{sigma_1, sigma_2,
-    sigma_c, bulk_density} per seed], from the size series' stored cell at
-    ``size_series_size`` diameters (10 kPa) and this series' (the other pre-shears)."""
+def shear_levels(size_series_size: float = SHEAR_SIZE, law: str = LAW) -> dict[float, list[dict]]:
+    """The flow function's points of series ``law``, seed by seed: pre-shear [Pa] ->
+    [{sigma_1, sigma_2, sigma_c, bulk_density} per seed], from the size series' stored cell
+    at ``size_series_size`` diameters (10 kPa; ``bond1`` only) and this series' (the other
+    pre-shears)."""
     levels: dict[float, list[dict]] = {}
     names = ("sigma_1", "sigma_2", "sigma_c", "bulk_density")
-    n = size_series.SHEAR_SIZES[LAW][size_series_size]
-    for seed in range(1, n + 1):
-        d = size_series.stored("shear", LAW, size_series_size, seed)
-        if d is not None and d.ok:
-            levels.setdefault(STORED_PRESHEAR, []).append({k: d.scalars[k] for k in names})
-    for p in PRESHEARS:
+    if SERIES[law].size_series_point:
+        n = size_series.SHEAR_SIZES[LAW][size_series_size]
+        for seed in range(1, n + 1):
+            d = size_series.stored("shear", LAW, size_series_size, seed)
+            if d is not None and d.ok:
+                levels.setdefault(STORED_PRESHEAR, []).append({k: d.scalars[k] for k in names})
+    for p in SERIES[law].preshears:
         for seed in range(1, SHEAR_SEEDS + 1):
-            d = stored("shear", p, seed)
+            d = stored("shear", p, seed, law=law)
             if d is not None and d.ok:
                 levels.setdefault(p, []).append({k: d.scalars[k] for k in names})
     return dict(sorted(levels.items()))
@@ -309,7 +370,8 @@ def ff_table(phi_w: float) -> tuple[np.ndarray, np.ndarray]:
 def critical(means: dict[float, dict], table) -> dict:
     """Jenike's critical point of the flow function ``means`` (:func:`level_means`) with
     ff from ``table`` at delta interpolated in sigma_1 at the critical point (a fixed
-    point: ff sets sigma_1*, delta there sets ff), and B_crit at :data:`GRAVITY`."""
+    point: ff sets sigma_1*, delta there sets ff), and B_crit at :data:`GRAVITY` (every
+    series' prediction is written at this gravity; B_crit ~ 1 / g)."""
     from engine.hopper import jenike
 
     pts = sorted(means.values(), key=lambda m: m["sigma_1"])
@@ -342,7 +404,10 @@ def critical(means: dict[float, dict], table) -> dict:
 
 
 def predict(
-    phi_w: float = WALL_FRICTION_ANGLE, seed: int = 1, stored_size: float = SHEAR_SIZE
+    phi_w: float = WALL_FRICTION_ANGLE,
+    seed: int = 1,
+    stored_size: float = SHEAR_SIZE,
+    law: str = LAW,
 ) -> dict:
     """The predicted B_crit of the slot hopper with its inputs, and its uncertainty from the
     flow function's seeds: a bootstrap over seeds within each pre-shear (``BOOTSTRAP``
@@ -351,10 +416,10 @@ def predict(
     function's point there (the other pre-shears are this series' own, at 5 d)."""
     from engine.hopper import jenike
 
-    levels = shear_levels(stored_size)
+    levels = shear_levels(stored_size, law)
     means = level_means(levels)
     table = ff_table(phi_w)
-    base = {"phi_w": phi_w, "half_angle": HALF_ANGLE, "gravity": GRAVITY, "d": D}
+    base = {"phi_w": phi_w, "half_angle": HALF_ANGLE, "gravity": GRAVITY, "d": D, "law": law}
     base["stored_size"] = stored_size
     base["levels"] = {f"{p:g}": m for p, m in means.items()}
     try:
@@ -385,15 +450,20 @@ def predict(
     }
 
 
-def compare() -> dict:
-    """Both gravities' comparisons (:func:`compare_at`)."""
+def store_of(law: str = LAW) -> Path:
+    """Series ``law``'s folder (its prediction.json and comparison.json)."""
+    return STORE / SERIES[law].prefix if SERIES[law].prefix else STORE
+
+
+def compare(law: str = LAW) -> dict:
+    """Every gravity's comparison of series ``law`` (:func:`compare_at`)."""
     return {
-        f"{GRAVITY:g}": compare_at("hopper", WIDTHS, HOPPER_SEEDS, GRAVITY),
-        f"{GRAVITY_2:g}": compare_at("hopper_g2", G2_WIDTHS, G2_SEEDS, GRAVITY_2),
+        f"{g:g}": compare_at(kind, widths, seeds, g, law)
+        for kind, (g, widths, seeds) in SERIES[law].hoppers.items()
     }
 
 
-def compare_at(kind: str, widths, seeds: int, gravity: float) -> dict:
+def compare_at(kind: str, widths, seeds: int, gravity: float, law: str = LAW) -> dict:
     """The stored hopper runs of ``kind`` at ``gravity`` [m/s^2] against the stored
     prediction (scaled from :data:`GRAVITY` by 1/g): per width, how many seeds arched,
     stopped without an arch, emptied or failed, the mean discharged fraction and settled bulk
@@ -401,10 +471,10 @@ def compare_at(kind: str, widths, seeds: int, gravity: float) -> dict:
     outlet at which every seed that did not fail arched, the narrowest above it at which
     every one emptied), and the prediction with the shear cell's bulk density and rescaled
     to the hoppers' own."""
-    pred = json.loads((STORE / "prediction.json").read_text())
+    pred = json.loads((store_of(law) / "prediction.json").read_text())
     rows = []
     for w in widths:
-        ds = [stored(kind, w, s) for s in range(1, seeds + 1)]
+        ds = [stored(kind, w, s, law=law) for s in range(1, seeds + 1)]
         ds = [d for d in ds if d is not None]
         ok = [d for d in ds if d.ok]
         arched = sum(1 for d in ok if d.scalars["arched"])
@@ -439,6 +509,7 @@ def compare_at(kind: str, widths, seeds: int, gravity: float) -> dict:
     rho_h = [r["bulk_density"] for r in done if math.isfinite(r["bulk_density"])]
     rho_hopper = float(np.mean(rho_h)) if rho_h else math.nan
     return {
+        "law": law,
         "rows": rows,
         "all_arched_up_to_d": low,
         "all_flowed_from_d": high,
@@ -502,21 +573,25 @@ def main(argv=None) -> int:
     ap.add_argument("--list", action="store_true", help="list the runs, stored or not")
     ap.add_argument("--predict", action="store_true", help="store the predicted B_crit")
     ap.add_argument("--compare", action="store_true", help="store the comparison")
+    ap.add_argument(
+        "--law",
+        choices=sorted(SERIES),
+        help="one law's series (default: every law; --predict and --compare: bond1)",
+    )
     args = ap.parse_args(argv)
+    law = args.law or LAW
     if args.compare:
-        both = compare()
-        (STORE / "comparison.json").write_text(json.dumps(both, indent=1) + "\n")
+        both = compare(law)
+        (store_of(law) / "comparison.json").write_text(json.dumps(both, indent=1) + "\n")
         for g, out in both.items():
             print(f"g = {g} m/s^2:")
             report_comparison(out)
         return 0
     if args.predict:
-        out = {
-            "wall_law_mu": predict(),
-            "smooth_wall": predict(phi_w=0.0),
-            "largest_cell_at_10kPa": predict(stored_size=10.0),
-        }
-        path = STORE / "prediction.json"
+        out = {"wall_law_mu": predict(law=law), "smooth_wall": predict(phi_w=0.0, law=law)}
+        if SERIES[law].size_series_point:
+            out["largest_cell_at_10kPa"] = predict(stored_size=10.0, law=law)
+        path = store_of(law) / "prediction.json"
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(out, indent=1) + "\n")
         for k, v in out.items():
@@ -533,13 +608,13 @@ def main(argv=None) -> int:
             )
         print(f"written {path}")
         return 0
-    todo = keys(args.only)
+    todo = keys(args.only, [args.law] if args.law else None)
     if args.list:
         for k in todo:
-            print(f"{key_name(*k):18s} {describe(stored(*k))}")
+            print(f"{key_name(*k):26s} {describe(stored(*k[:3], law=k[3]))}")
         return 0
     for k in todo:
-        if stored(*k) is None:
+        if stored(*k[:3], law=k[3]) is None:
             print(f"running {key_name(*k)}", flush=True)
             print(run_one(*k), flush=True)
     return 0

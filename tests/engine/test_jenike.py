@@ -119,3 +119,21 @@ def test_the_stored_comparison_brackets_what_the_docs_say():
     assert (out["all_arched_up_to_d"], out["all_flowed_from_d"]) == (6.0, 7.0)
     assert out["predicted_d_95"][0] > out["all_flowed_from_d"]
     assert sum(r["runs"] for r in out["rows"]) == len(jenike_series.WIDTHS) * 3
+
+
+def test_the_second_laws_stored_comparison_brackets_what_the_docs_say():
+    # docs/HOPPER.md, "The second law": bond0.5 (f0 = -0.2 N) at 200 m/s^2, read from its
+    # stored digests (no run): every seed arched at 4 and 5 d and emptied from 6 d, Jenike's
+    # prediction (from its own 12 shear points) above both, its runs the law's own
+    from benchmarks import jenike_series as J
+
+    se = J.SERIES["bond0.5"]
+    g, widths, seeds = se.hoppers["hopper"]
+    out = J.compare_at("hopper", widths, seeds, g, "bond0.5")
+    assert (out["all_arched_up_to_d"], out["all_flowed_from_d"]) == (5.0, 6.0)
+    assert out["predicted_d_95"][0] > out["all_flowed_from_d"]
+    assert sum(r["runs"] - r["failed"] for r in out["rows"]) == len(widths) * seeds
+    d = J.stored("hopper", 6.0, 1, law="bond0.5")
+    assert d.test["pair_law"]["f0"] == se.f0 == -0.2 and d.test["gravity"] == g
+    levels = J.shear_levels(law="bond0.5")
+    assert sorted(levels) == sorted(se.preshears) and all(len(v) == 3 for v in levels.values())

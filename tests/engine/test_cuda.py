@@ -162,7 +162,8 @@ WITHOUT_GPU = (
     + """
 import numpy as np, engine
 sc = engine.Scene(np.array([[0.01, 0.01, 0.01], [0.02, 0.01, 0.01]]), np.full(2, 2.5e-3),
-                  2000.0, box=[(0, 0.03)] * 3, pair_law=engine.BilinearAdhesive(k1=5e3, k2=5e3))
+                  2000.0, box=[(0, 0.03)] * 3, gravity=(0, 0, 0),
+                  pair_law=engine.BilinearAdhesive(k1=5e3, k2=2.5e4))
 sim = engine.Simulation(sc, dt=1e-5, backend="auto")
 sim.run(3)
 print("auto:", sim.backend, type(sim).__name__)

@@ -83,6 +83,7 @@ def test_small_scenes_run_on_one_thread_unless_told():
         [[0.01, 0.01, 0.01], [0.02, 0.01, 0.01]],
         R,
         2000.0,
+        gravity=(0.0, 0.0, 0.0),  # the kernel of tests/engine/test_laws.py's impacts: no compile
         pair_law=engine.BilinearAdhesive(k1=5e3, k2=2.5e4),
     )
     assert engine.Simulation(scene, dt=1e-5).threads == 1

@@ -331,7 +331,7 @@ def _fmt_need(need: dict | None) -> str:
     if need["bound"] == "at_most":
         return f"at most {b:.3g} (every property holds at the coarsest size run; point {p:.2g})"
     if need["bound"] == "more_than":
-        return f"more than {b:.3g} (the finest size run; point estimate {p:.3g})"
+        return f"more than {b:.3g} (the finest size measured; point estimate {p:.3g})"
     return f"{p:.3g} (95 % bound {b:.3g})"
 
 
@@ -372,8 +372,11 @@ def _size_table(kind: str, law_name: str) -> list[str]:
             continue
         vals = []
         for name, scale, fmt in cols:
-            xs = [float(np.mean(d.metrics[name])) for d in ds if name in d.metrics]
-            vals.append(format(np.mean(xs) * scale, fmt) if xs else "")
+            # a strength is a failed sample's (as in the fits): "no peak" where none failed
+            use = [d for d in ds if name != "strength" or _failed(d)]
+            xs = [float(np.mean(d.metrics[name])) for d in use if name in d.metrics]
+            none = "no peak" if name == "strength" and any(name in d.metrics for d in ds) else ""
+            vals.append(format(np.mean(xs) * scale, fmt) if xs else none)
         wall = float(np.mean([d.scalars.get("wall_time", math.nan) for d in ds]))
         if kind == "column":
             failed = sum(float(np.mean(d.metrics.get("failed", [1.0]))) == 1.0 for d in ds)
@@ -387,7 +390,33 @@ def _size_table(kind: str, law_name: str) -> list[str]:
             lines.append(
                 f"| {size:.3g} | {n} | {len(ds)} | " + " | ".join(vals) + f" | {wall:.0f} |"
             )
+    if kind == "column":
+        lines += _no_peak_lines(runs)
     return lines
+
+
+def _failed(d) -> bool:
+    """Whether a column run failed at a peak (the strength's rule)."""
+    return float(np.mean(d.metrics.get("failed", [1.0]))) == 1.0
+
+
+def _no_peak_lines(runs: dict) -> list[str]:
+    """A sentence per column run that did not fail at a peak: its largest stress and the
+    strain it reached (the test's cap), from its digest; such a run's strength is in no fit
+    and no table entry."""
+    out = []
+    for size, ds in sorted(runs.items()):
+        for d in ds:
+            if "strength" in d.metrics and not _failed(d):
+                s = d.scalars
+                out.append(
+                    f"- {size:.3g} d, seed {d.test['seed']}: no failure at a peak (no drop of "
+                    f"{100 * d.test['failure_drop']:.0f} % held); the largest interior stress "
+                    f"{s['unconfined_strength'] / 1e3:.2f} kPa at strain {s['strain_at_peak']:.3f} "
+                    f"(the cap: {d.test['max_unconfined_strain']:g}); left out of the strength's "
+                    "fit and table (the rule: a strength counts only samples that failed at a peak)"
+                )
+    return ["", *out] if out else []
 
 
 #: The law of the outlet series (benchmarks.outlet_series: the Jenike series' law).
@@ -756,7 +785,7 @@ def _need_words(need: dict | None) -> str:
         return "undecided (a property off its line)"
     b, p = need["n_req_bound"], need["n_req_point"]
     if need["bound"] == "more_than":
-        return f"more than {b:.3g} (the finest size stored; point estimate {p:.2g})"
+        return f"more than {b:.3g} (the finest size measured; point estimate {p:.2g})"
     if need["bound"] == "at_most":
         return f"at most {b:.3g} (every size stored held)"
     return f"{p:.2g} (95 % bound {b:.3g})"
@@ -768,7 +797,7 @@ def _property_words(need: dict) -> str:
     if need.get("bound") == "not_linear" or b is None:
         return "undecided (off its line)"
     if need["bound"] == "more_than":
-        return f"more than {b:.3g} (the finest size stored)"
+        return f"more than {b:.3g} (the finest size measured)"
     if need["bound"] == "at_most":
         return f"within tolerance down to {b:.3g} (the coarsest fitted)"
     return f"{p:.2g} (95 % bound {b:.3g})"

@@ -389,7 +389,7 @@ def plan_process(process: Process, evidence: dict | None = None) -> ProcessPlan:
         elif bound == "more_than":
             status = "bounded"
             why = (
-                f"N_req is more than {nb:.3g} particles across (the finest size run; point "
+                f"N_req is more than {nb:.3g} particles across (the finest size measured; point "
                 f"estimate {npt:.3g}), set by {entry['limited_by']}: the factor must be "
                 f"below {s_b:.3g} (series {series})"
             )

@@ -5,6 +5,7 @@ item 3, the cohesive part): the runs, stored as compact digests in git.
     python -m benchmarks.jenike_series --list          # the runs and what is stored
     python -m benchmarks.jenike_series --only shear    # the runs whose key contains shear
     python -m benchmarks.jenike_series --predict       # the predicted B_crit from the store
+    python -m benchmarks.jenike_series --law bond0.5   # the second law's runs (--predict, ...)
 
 Choices, fixed here before the hopper runs (2026-12-06):
 
@@ -39,6 +40,11 @@ Choices, fixed here before the hopper runs (2026-12-06):
   Bond number |f0| / (m g) doubled) at :data:`G2_WIDTHS`, :data:`G2_SEEDS` seeds (added
   after the first gravity's runs had been seen; the widths 10 d and the third seed added
   after its first seeds had been).
+
+- **A second law** (added 2026-12-06; :data:`SERIES`, ``--law bond0.5``): ``bond1``'s law
+  with half its adhesion, because ``bond3`` has no flow factor (its reasons and choices at
+  :data:`BOND05_F0` and :data:`BOND05_GRAVITY`); its runs under ``bond0.5/``, its
+  prediction written at :data:`GRAVITY` as ``bond1``'s and scaled as 1 / g.
 
 Each run is stored at once as a digest (:mod:`engine.io.digest`) under
 ``benchmarks/results/jenike_series/`` (``shear/p<kPa>-s<seed>.json``,

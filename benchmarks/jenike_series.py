@@ -148,14 +148,14 @@ BOND05_PRESHEARS = (2.5e3, 5e3, 10e3, 20e3)
 #: of its hopper runs: 200 m/s^2 puts the prediction near bond1's (9.15 d) and gives the
 #: hopper's Bond number |f0| / (m g) of bond1 at 400 m/s^2 (7.6), so the two laws differ
 #: there only in the granular Bond number of their consolidated solid; the widths bracket
-#: the prediction and, at bond1's ratio of simulated to predicted width (0.7-0.77), the
+#: the prediction and, at bond1's ratio of simulated to predicted width (0.66-0.77), the
 #: outcome, with bond1's three seeds.
 BOND05_GRAVITY = 200.0
 BOND05_WIDTHS = (4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 11.0, 13.0)
 SERIES = {
     "bond1": Series(
         "bond1",
-        -0.4,
+        size_series.LAWS["bond1"][0],
         PRESHEARS,
         True,
         {
@@ -183,6 +183,9 @@ def series_law(name: str) -> engine.BilinearAdhesive:
 def shear_test(preshear: float, seed: int, law: str = LAW) -> engine.ShearTest:
     """The size series' shear cell at :data:`SHEAR_SIZE` with series ``law``'s pair law,
     pre-sheared at ``preshear`` [Pa]."""
+    # the size series' cell at its reference size is its reference test (no scaling of the
+    # law), so its pair law can be swapped for the series' own
+    assert SHEAR_SIZE == size_series.SHEAR_REFERENCE_SIZE
     base = size_series.shear_test(LAW, SHEAR_SIZE, seed)
     return replace(
         base,
@@ -193,10 +196,13 @@ def shear_test(preshear: float, seed: int, law: str = LAW) -> engine.ShearTest:
 
 
 def hopper_test(
-    width: float, seed: int, gravity: float = GRAVITY, law: str = LAW
+    width: float, seed: int, gravity: float | None = None, law: str = LAW
 ) -> engine.HopperTest:
-    """The slot hopper at outlet ``width`` [diameters], fill ``seed``, ``gravity`` [m/s^2],
-    series ``law``'s pair law (module docstring)."""
+    """The slot hopper at outlet ``width`` [diameters], fill ``seed``, ``gravity`` [m/s^2]
+    (None: the series' first hopper gravity), series ``law``'s pair law (module
+    docstring)."""
+    if gravity is None:
+        gravity = next(iter(SERIES[law].hoppers.values()))[0]
     b = width * D
     return engine.HopperTest(
         shape="slot",
@@ -338,6 +344,9 @@ STORED_PRESHEAR = 10e3
 STORED_SEEDS = 6
 #: Effective angles of internal friction [deg] at which ff is tabulated (interpolated
 #: linearly between: ff is smooth in delta; the table's error is checked in :func:`predict`).
+#: Outside it np.interp holds the end values: a point of delta = 90 (a circle into tension)
+#: reads ff(88), one below 40 reads ff(40) (``ff_table_error`` in the prediction says how
+#: far that is from the exact ff where the critical point falls there).
 FF_DELTAS = tuple(float(d) for d in range(40, 89, 2))
 BOOTSTRAP = 400
 
@@ -435,14 +444,15 @@ def predict(
     flow function's seeds: a bootstrap over seeds within each pre-shear (``BOOTSTRAP``
     resamples, seeded by ``seed``), its standard deviation and 2.5-97.5 % percentiles.
     ``stored_size``: the size series' cell [diameters] whose 10 kPa runs are the flow
-    function's point there (the other pre-shears are this series' own, at 5 d)."""
+    function's point there (``bond1`` only; the other pre-shears, and every pre-shear of a
+    series without that point, are this series' own, at 5 d)."""
     from engine.hopper import jenike
 
     levels = shear_levels(stored_size, law)
     means = level_means(levels)
     table = ff_table(phi_w)
     base = {"phi_w": phi_w, "half_angle": HALF_ANGLE, "gravity": GRAVITY, "d": D, "law": law}
-    base["stored_size"] = stored_size
+    base["stored_size"] = stored_size if SERIES[law].size_series_point else None
     base["levels"] = {f"{p:g}": m for p, m in means.items()}
     try:
         best = critical(means, table)
@@ -528,6 +538,7 @@ def compare_at(kind: str, widths, seeds: int, gravity: float, law: str = LAW) ->
     low = max(all_arch) if all_arch else math.nan
     high = min((w for w in all_flow if w > low), default=math.nan) if all_arch else math.nan
     c = pred["wall_law_mu"]["critical"]
+    g_pred = pred["wall_law_mu"]["gravity"]  # the gravity the prediction is written at
     rho_h = [r["bulk_density"] for r in done if math.isfinite(r["bulk_density"])]
     rho_hopper = float(np.mean(rho_h)) if rho_h else math.nan
     return {
@@ -536,11 +547,11 @@ def compare_at(kind: str, widths, seeds: int, gravity: float, law: str = LAW) ->
         "all_arched_up_to_d": low,
         "all_flowed_from_d": high,
         "gravity": gravity,
-        "predicted_d": c["B_crit_d"] * GRAVITY / gravity,
-        "predicted_d_95": [b * GRAVITY / gravity for b in pred["wall_law_mu"]["B_crit_d_95"]],
+        "predicted_d": c["B_crit_d"] * g_pred / gravity,
+        "predicted_d_95": [b * g_pred / gravity for b in pred["wall_law_mu"]["B_crit_d_95"]],
         "hopper_bulk_density": rho_hopper,
         "predicted_d_hopper_density": c["B_crit_d"]
-        * GRAVITY
+        * g_pred
         / gravity
         * c["bulk_density"]
         / rho_hopper,

@@ -81,7 +81,7 @@ def failures(kind: str, law_name: str) -> list[str]:
 
 def _values(d, names) -> dict:
     v = {n: d.metrics[n] for n in names if n in d.metrics}
-    if "strength" in v and float(np.mean(d.metrics.get("failed", [1.0]))) != 1.0:
+    if "strength" in v and not _failed(d):
         del v["strength"]  # a strength compares failures only
     return v
 
@@ -310,7 +310,7 @@ def skin_rows(law_name: str) -> list[tuple]:
         for d in ds:
             seed = int(d.test["seed"])
             p = profile_at_peak(law_name, size, seed, d)
-            if p is not None and float(np.mean(d.metrics.get("failed", [1.0]))) == 1.0:
+            if p is not None and _failed(d):
                 skins.append(p["skin"])
         if skins:
             se = (
@@ -379,7 +379,7 @@ def _size_table(kind: str, law_name: str) -> list[str]:
             vals.append(format(np.mean(xs) * scale, fmt) if xs else none)
         wall = float(np.mean([d.scalars.get("wall_time", math.nan) for d in ds]))
         if kind == "column":
-            failed = sum(float(np.mean(d.metrics.get("failed", [1.0]))) == 1.0 for d in ds)
+            failed = sum(_failed(d) for d in ds)
             held = [d.scalars["inertial_number_held"] for d in ds]
             hmax = [d.scalars["inertial_number_held_max"] for d in ds]
             lines.append(
@@ -392,7 +392,26 @@ def _size_table(kind: str, law_name: str) -> list[str]:
             )
     if kind == "column":
         lines += _no_peak_lines(runs)
+    lines += _threads_line(runs)
     return lines
+
+
+def _threads_line(runs: dict) -> list[str]:
+    """Which runs' wall times were on more than one engine thread (their digests' threads)."""
+    more = [
+        f"{size:.3g} d seed {d.test['seed']} ({d.scalars['threads']:.0f} threads)"
+        for size, ds in sorted(runs.items())
+        for d in ds
+        if d.scalars.get("threads", 1.0) != 1.0
+    ]
+    if not more:
+        return []
+    return [
+        "",
+        "Wall time: the engine's wall seconds of each run (a run resumed from a checkpoint "
+        "summed over its processes) on one engine thread, except where a digest records more "
+        "(the thread count of the run's last process): " + ", ".join(more) + ".",
+    ]
 
 
 def _failed(d) -> bool:
@@ -409,10 +428,12 @@ def _no_peak_lines(runs: dict) -> list[str]:
         for d in ds:
             if "strength" in d.metrics and not _failed(d):
                 s = d.scalars
+                where = "interior" if s.get("strength_from_interior") == 1.0 else "platen"
                 out.append(
-                    f"- {size:.3g} d, seed {d.test['seed']}: no failure at a peak (no drop of "
-                    f"{100 * d.test['failure_drop']:.0f} % held); the largest interior stress "
-                    f"{s['unconfined_strength'] / 1e3:.2f} kPa at strain {s['strain_at_peak']:.3f} "
+                    f"- {size:.3g} d, seed {d.test['seed']}: no failure at a peak (the stress "
+                    f"never fell {100 * d.test['failure_drop']:.0f} % below a peak); the largest "
+                    f"{where} stress {s['unconfined_strength'] / 1e3:.2f} kPa at strain "
+                    f"{s['strain_at_peak']:.3f} "
                     f"(the cap: {d.test['max_unconfined_strain']:g}); left out of the strength's "
                     "fit and table (the rule: a strength counts only samples that failed at a peak)"
                 )

@@ -93,15 +93,20 @@ def feature_curves(feature: str, law_name: str) -> dict:
     runs = digests(kind, law_name)
     if ref_size not in runs or len(runs[ref_size]) < 2:
         return {"metrics": {}, "sizes": sorted(runs)}
-    ref = [(d.scalars["thickness_diameters"], _values(d, names)) for d in runs[ref_size]]
-    controls = {
+    # per property, the runs that have it (a strength: the samples that failed at a peak),
+    # and the sizes where at least two do
+    values = {
         z: [(d.scalars["thickness_diameters"], _values(d, names)) for d in ds]
         for z, ds in runs.items()
-        if z != ref_size and len(ds) >= 2
     }
-    every = ref + [x for rs in controls.values() for x in rs]
-    usable = [n for n in names if all(n in v for _, v in every)]
-    out = resolution_curves(ref, controls, usable, 0.95, pooled=True)
+    out = {"metrics": {}, "confidence": 0.95}
+    for n in names:
+        have = {z: [(x, v) for x, v in rs if n in v] for z, rs in values.items()}
+        if len(have.get(ref_size, [])) < 2:
+            continue
+        controls = {z: rs for z, rs in have.items() if z != ref_size and len(rs) >= 2}
+        one = resolution_curves(have[ref_size], controls, [n], 0.95, pooled=True)
+        out["metrics"].update(one["metrics"])
     for n, c in out["metrics"].items():
         c["needed"] = diameters_needed(c, tols[n])
     out["sizes"] = sorted(runs)
@@ -620,7 +625,8 @@ def report() -> str:
                 "|---:|---:|---:|",
             ]
             for size, m, se, n in rows:
-                lines.append(f"| {size:.3g} | {n} | {m:.2f} +- {se:.2f} |")
+                spread = f" +- {se:.2f}" if math.isfinite(se) else " (one seed: no se)"
+                lines.append(f"| {size:.3g} | {n} | {m:.2f}{spread} |")
         else:
             lines.append("Not measured yet: no column size with a core has a stored profile.")
         if law_name in S.SHEAR_SIZES:

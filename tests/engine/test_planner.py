@@ -261,3 +261,22 @@ def test_a_decided_rate_check_takes_the_stiffnesses_from_the_capped_series(monke
     assert R.feature_need(held, "column")["bound"] == "confounded"
     monkeypatch.setattr(R, "rate_check", lambda law: {"decided": False})
     assert R.compression_curves("bond1")["stiffness_from"] == "held"
+
+
+def test_a_sample_that_did_not_fail_leaves_only_its_own_strength_out():
+    """The stored 25 d column: seed 2 failed at a peak, seed 1 did not (docs/RESOLUTION.md).
+    A strength counts only samples that failed at a peak, so 25 d (one strength) is not a
+    size of the strength's fit, while every other size's strengths and the 25 d runs'
+    other properties are; one non-failed sample once dropped the strength altogether."""
+    from benchmarks import size_report as R
+    from benchmarks import size_series as S
+
+    d1, d2 = (S.stored("column", "bond1", 25.0, s) for s in (1, 2))
+    assert not R._failed(d1) and R._failed(d2)
+    strength = R.feature_curves("free_surface", "bond1")["metrics"]["strength"]
+    sizes = {round(s["diameters_across"], 2) for s in strength["sizes"]}
+    assert 20.0 in sizes and 25.0 not in sizes
+    density = R.feature_curves("bulk_compression", "bond1")["metrics"]["density"]
+    assert 25.0 in {round(s["diameters_across"], 2) for s in density["sizes"]}
+    lines = R._no_peak_lines(R.digests("column", "bond1"))
+    assert len(lines) == 2 and "25 d, seed 1: no failure at a peak" in lines[1]

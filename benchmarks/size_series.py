@@ -109,7 +109,11 @@ COLUMN_SIZES = {
     # 25: added 2026-12-06 after the 20 d seeds were seen (the free surface needs more than
     # 20 d: the finest size decides its bound); no rule changed. 107,430 particles, about
     # 4-5 h on one loaded core each: run from a frozen work tree, checkpointed across sessions
-    "bond1": {5.0: 4, 20.0 / 3.0: 4, 8.0: 4, 10.0: 4, 15.0: 3, 20.0: 2, 25.0: 2},
+    # 25 d seed 3: added 2026-12-07 after seed 1 had not failed at a peak within the
+    # strain cap and seed 2 had: a strength needs two failed seeds at a size to enter the
+    # fit. Fixed before it runs: whatever seed 3 gives, it is stored and counted, and no
+    # fourth seed follows.
+    "bond1": {5.0: 4, 20.0 / 3.0: 4, 8.0: 4, 10.0: 4, 15.0: 3, 20.0: 2, 25.0: 3},
     "bond3": {5.0: 4, 20.0 / 3.0: 4, 8.0: 4, 10.0: 4, 15.0: 2},
 }
 #: Shear cell sizes [diameters across its thin periodic width] and seeds per size.

@@ -264,19 +264,22 @@ def test_a_decided_rate_check_takes_the_stiffnesses_from_the_capped_series(monke
 
 
 def test_a_sample_that_did_not_fail_leaves_only_its_own_strength_out():
-    """The stored 25 d column: seed 2 failed at a peak, seed 1 did not (docs/RESOLUTION.md).
-    A strength counts only samples that failed at a peak, so 25 d (one strength) is not a
-    size of the strength's fit, while every other size's strengths and the 25 d runs'
-    other properties are; one non-failed sample once dropped the strength altogether."""
+    """The stored 25 d column: seeds 2 and 3 failed at a peak, seed 1 did not
+    (docs/RESOLUTION.md). A strength counts only samples that failed at a peak: the
+    strength's fit reads two seeds at 25 d, the density's all three; one non-failed sample
+    once dropped the strength's whole curve."""
     from benchmarks import size_report as R
     from benchmarks import size_series as S
 
-    d1, d2 = (S.stored("column", "bond1", 25.0, s) for s in (1, 2))
-    assert not R._failed(d1) and R._failed(d2)
+    d1, d2, d3 = (S.stored("column", "bond1", 25.0, s) for s in (1, 2, 3))
+    assert not R._failed(d1) and R._failed(d2) and R._failed(d3)
+
+    def seeds_at_25(curve):
+        return {round(s["diameters_across"], 2): s["seeds"] for s in curve["sizes"]}[25.0]
+
     strength = R.feature_curves("free_surface", "bond1")["metrics"]["strength"]
-    sizes = {round(s["diameters_across"], 2) for s in strength["sizes"]}
-    assert 20.0 in sizes and 25.0 not in sizes
+    assert seeds_at_25(strength) == 2
     density = R.feature_curves("bulk_compression", "bond1")["metrics"]["density"]
-    assert 25.0 in {round(s["diameters_across"], 2) for s in density["sizes"]}
+    assert seeds_at_25(density) == 3
     lines = R._no_peak_lines(R.digests("column", "bond1"))
     assert len(lines) == 2 and "25 d, seed 1: no failure at a peak" in lines[1]

@@ -121,15 +121,19 @@ class Series:
     ``f0`` [N]: the law's pull-off force (everything else is ``bond1``'s law);
     ``preshears`` [Pa]: the pre-shear stresses run here; ``size_series_point``: whether the
     size series' stored 10 kPa cells are a point of the flow function (``bond1`` only);
-    ``hoppers``: stored kind -> (gravity [m/s^2], outlet widths [d], seeds);
-    ``prefix``: the store's sub-folder ("" for ``bond1``, whose runs were stored first)."""
+    ``hoppers``: stored kind -> (gravity [m/s^2], outlet widths [d], seeds); its runs
+    are stored under the law's name (:attr:`prefix`)."""
 
     law: str
     f0: float
     preshears: tuple[float, ...]
     size_series_point: bool
     hoppers: dict
-    prefix: str
+
+    @property
+    def prefix(self) -> str:
+        """The store's sub-folder: "" for ``bond1``, whose runs were stored first."""
+        return "" if self.law == LAW else self.law
 
 
 #: The second law (added 2026-12-06, after ``bond3`` had been seen to give no flow factor:
@@ -162,7 +166,6 @@ SERIES = {
             "hopper": (GRAVITY, WIDTHS, HOPPER_SEEDS),
             "hopper_g2": (GRAVITY_2, G2_WIDTHS, G2_SEEDS),
         },
-        "",
     ),
     "bond0.5": Series(
         "bond0.5",
@@ -170,7 +173,6 @@ SERIES = {
         BOND05_PRESHEARS,
         False,
         {"hopper": (BOND05_GRAVITY, BOND05_WIDTHS, HOPPER_SEEDS)},
-        "bond0.5",
     ),
 }
 
@@ -237,7 +239,7 @@ def keys(only=None, laws=None) -> list[tuple[str, float, int, str]]:
 
 def key_name(kind: str, x: float, seed: int, law: str = LAW) -> str:
     """The run's name, its path under the store without ``.json``."""
-    prefix = f"{SERIES[law].prefix}/" if SERIES[law].prefix else ""
+    prefix = f"{SERIES[law].prefix}/" if SERIES[law].prefix else ""  # bond1: the top
     if kind == "shear":
         return f"{prefix}shear/p{x / 1e3:g}-s{seed}"
     return f"{prefix}{kind}/w{x:g}-s{seed}"

@@ -266,23 +266,27 @@ class _Recorder:
     def turned(self) -> bool:
         """Whether the unconfined strength curve (``strength_from``), smoothed over the last
         ``failure_strain`` of strain, has fallen ``SOFTENING`` below its running peak: the
-        peak is passed and the sample softens (latched). The running peak counts smoothed
-        values from one window past the stage's start (``peak_start``: the first window's
-        mean holds the release's last settling, not the sample's strength)."""
+        peak is passed and the sample softens. The running peak counts smoothed values from
+        one window past the stage's start (``peak_start``: the first window's mean holds the
+        release's last settling, not the sample's strength). A smoothed value above the
+        running peak is a new peak: a turn before it was a fluctuation on the way up, not
+        the failure, and clears (the platen holds the inertial number over the whole sample
+        again, not over a shear band, until the curve turns after its true peak)."""
+        t = self.d.test
+        col = STRENGTH_COLUMN[t.strength_from]
+        w = max(t.failure_strain, 1e-3)
+        e_now = self.rows[-1][1]
+        total, n = 0.0, 0
+        for r in reversed(self.rows):
+            if r[1] < e_now - w:
+                break
+            total += r[col]
+            n += 1
+        sm = total / n
+        if e_now - self.rows[0][1] >= max(peak_start(t), w) and sm > self.smoothed_peak:
+            self.smoothed_peak = sm
+            self.post_peak = False
         if not self.post_peak:
-            t = self.d.test
-            col = STRENGTH_COLUMN[t.strength_from]
-            w = max(t.failure_strain, 1e-3)
-            e_now = self.rows[-1][1]
-            total, n = 0.0, 0
-            for r in reversed(self.rows):
-                if r[1] < e_now - w:
-                    break
-                total += r[col]
-                n += 1
-            sm = total / n
-            if e_now - self.rows[0][1] >= max(peak_start(t), w):
-                self.smoothed_peak = max(self.smoothed_peak, sm)
             self.post_peak = self.smoothed_peak > 0 and sm < (1 - SOFTENING) * self.smoothed_peak
         return self.post_peak
 

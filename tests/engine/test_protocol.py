@@ -257,3 +257,36 @@ def test_stored_seed_runs_read_as_the_seed_protocol_and_keep_their_platen_streng
     assert "stress_interior" not in u
     assert res.scalars["unconfined_strength"] == pytest.approx(float(np.max(u["stress_top"])))
     assert engine.preset("quick", protocol="seed").cell == (0.05, 0.05, 0.1)
+
+
+def test_a_dip_before_the_peak_does_not_hold_the_platen_at_the_band_s_speed():
+    """The unconfined stage's turn (the platen slows to hold I* over a shear band) clears
+    when the smoothed curve climbs to a new peak: a 10 % dip on the way up (stick-slip) once
+    latched the slow speed to the end (size series column/bond1/d6.67-s4 held 1.2e-4 of its
+    5e-4 up to its peak)."""
+    from types import SimpleNamespace
+
+    from engine.uniaxial.driver import CURVE_UNITS, STRENGTH_COLUMN, _Recorder
+
+    t = tiny(strength_from="platen", failure_strain=0.005)
+    col = STRENGTH_COLUMN["platen"]
+    driver = SimpleNamespace(test=t, sim=SimpleNamespace(time=0.0, steps=0))
+    rec = _Recorder(driver, "unconfined", 0.1)
+    strain = np.arange(0.0, 0.08, 0.0005)  # ten samples per smoothing window
+
+    def stress(e: float) -> float:
+        up = 3e3 + 2e4 * e  # loading
+        if 0.02 <= e < 0.03:
+            return 0.9 * up  # the dip: 10 % for two windows
+        return up if e < 0.05 else 4e3 - 1e5 * (e - 0.05)  # the true peak, then softening
+
+    state = []
+    for e in strain:
+        row = [0.0] * len(CURVE_UNITS)
+        row[1], row[col] = e, stress(e)
+        rec.rows.append(tuple(row))
+        state.append(rec.turned())
+    state = np.array(state)
+    assert state[(strain > 0.02) & (strain < 0.03)].any()  # the dip turns it ...
+    assert not state[(strain > 0.035) & (strain < 0.05)].any()  # ... a new peak clears it
+    assert state[strain > 0.056].all()  # past the true peak it stays turned

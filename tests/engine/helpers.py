@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from types import SimpleNamespace
 
 import numpy as np
@@ -211,3 +212,24 @@ def switches_on(switch_tuple, *on: str):
     if unknown:
         raise ValueError(f"{switch_tuple.__name__} has no switch {sorted(unknown)}")
     return switch_tuple(**{name: name in on for name in switch_tuple._fields})
+
+
+def assert_same_to_round_off(got, want, rel: float = 1e-9, path: str = "") -> None:
+    """Two JSON documents the same to round-off: keys, lengths, strings, booleans and nulls
+    equal, numbers within ``rel`` (relative; 1e-12 absolute near zero). A stored report
+    recomputed on another CPU differs in its last bits (OpenBLAS and numpy pick kernels by
+    the CPU's instruction sets: a fit's sums then round in another order, 1e-13 relative
+    seen between two machines); a changed verdict, run or rule moves a number by far more."""
+    if isinstance(want, dict):
+        assert isinstance(got, dict) and set(got) == set(want), (path, set(got) ^ set(want))
+        for k in want:
+            assert_same_to_round_off(got[k], want[k], rel, f"{path}/{k}")
+    elif isinstance(want, list):
+        assert isinstance(got, list) and len(got) == len(want), path
+        for i, (a, b) in enumerate(zip(got, want)):
+            assert_same_to_round_off(a, b, rel, f"{path}[{i}]")
+    elif isinstance(want, float) or (isinstance(got, float) and isinstance(want, int)):
+        assert isinstance(got, (int, float)) and not isinstance(got, bool), path
+        assert math.isclose(got, want, rel_tol=rel, abs_tol=1e-12), (path, got, want)
+    else:
+        assert got == want and type(got) is type(want), (path, got, want)

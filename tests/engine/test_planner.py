@@ -13,6 +13,7 @@ import engine
 from engine.core.errors import ParameterError
 from engine.process import answer_line, plan_process
 from engine.process.planner import EVIDENCE, groups, load_evidence
+from tests.engine.helpers import assert_same_to_round_off
 
 LAW = engine.BilinearAdhesive(k1=5e3, k2=2.5e4, f0=-0.4, mu_s=0.5, mu_r=0.001, restitution=0.4)
 
@@ -128,9 +129,11 @@ def test_bad_input_is_refused_naming_the_field(change, field):
 
 def test_the_stored_evidence_is_what_the_stored_series_give():
     # engine/process/evidence.json is generated from the digests: recomputed here, equal
+    # (to round-off: the fits' last bits depend on the CPU's BLAS and numpy kernels)
     from benchmarks.size_report import evidence
 
-    assert json.loads(json.dumps(evidence(), allow_nan=False)) == load_evidence(EVIDENCE)
+    want = load_evidence(EVIDENCE)
+    assert_same_to_round_off(json.loads(json.dumps(evidence(), allow_nan=False)), want)
 
 
 def test_the_default_powder_counterpart_matches_the_stored_default_series():

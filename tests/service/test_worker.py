@@ -235,20 +235,27 @@ def test_kill_9_mid_study_then_a_new_worker_completes_it(client, workers, settin
     first.wait()
     orphan = client.get(f"/studies/{sid}").json()
     assert orphan["status"] == "running" and orphan["attempts"] == 1
+    # the kill is meant to come mid-fill, before any checkpoint; on a loaded machine the
+    # fill can end first, and its checkpoint means the attempt moved the study on: it does
+    # not count (the poison rule), and the new worker resumes from that checkpoint
+    moved_on = any(settings.checkpoints_dir(sid).glob("*.ckpt"))
+    attempts = 1 if moved_on else 2
     t_kill = time.monotonic()
     workers.start()
+    second = workers.log_dir / "worker-1.log"
     retaken = wait_for(
         study_getter(client, sid),
-        lambda s: s["attempts"] == 2,
+        lambda s: second.exists() and f"claimed study {sid}" in second.read_text(),
         60,
         "the new worker to take the study over",
         workers,
     )
     # not before the heartbeat went stale
     assert time.monotonic() - t_kill >= settings.stale_after - 0.5
-    assert retaken["status"] in ("running", "succeeded")
+    assert retaken["status"] in ("running", "succeeded") and retaken["attempts"] == attempts
     done = wait_stopped(study_getter(client, sid), RUN_TIMEOUT, "the study to finish", workers)
-    assert done["status"] == "succeeded" and done["attempts"] == 2, done["error"]
+    assert done["status"] == "succeeded" and done["attempts"] == attempts, done["error"]
+    assert ("resuming run ref-s1 from its checkpoint" in second.read_text()) == moved_on
     assert [r["status"] for r in done["runs"]] == ["succeeded", "succeeded"]
     summary = client.get(f"/studies/{sid}/summary").json()
     assert [row["run"] for row in summary["table"]] == ["ref-s1", "r3.1mm-paper-s1"]

@@ -12,4 +12,4 @@ bash scripts/setup_env.sh
 .venv/bin/ruff check engine service tests benchmarks demscale scripts
 .venv/bin/ruff format --check engine service tests benchmarks demscale scripts
 .venv/bin/python scripts/check_results.py
-exec .venv/bin/python -m pytest -n 3 --timeout 600 "$@"
+exec .venv/bin/python -m pytest -n 3 --dist worksteal --timeout 600 "$@"

@@ -32,3 +32,11 @@ if _CPU_LOG:
         w1, (s1, c1) = time.monotonic(), _cpu()
         with open(_CPU_LOG, "a") as f:
             f.write(f"{item.nodeid}\tall\t{w1 - w0:.2f}\t{s1 - s0:.2f}\t{c1 - c0:.2f}\n")
+
+
+# One kernel per family (and friction cap and periodic axes) for every test scene, not one
+# per scene's set of switches: the same bits (tests/engine/test_kernels.py, which holds the
+# scene mode to it), about 15 kernels compiled on a cold cache instead of about 60 (each
+# 10-40 s of CPU). Tests of the specialisation itself set DEMSCALE_KERNELS=scene; subprocesses
+# (workers, the CLI) inherit the mode.
+os.environ.setdefault("DEMSCALE_KERNELS", "general")

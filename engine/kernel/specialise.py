@@ -121,6 +121,45 @@ def _side(prefix: str, kernel: LawKernel, law=None) -> dict[str, bool]:
     return {f"{prefix}{k}": bool(states.get(k, False)) for k in names}
 
 
+#: ``DEMSCALE_KERNELS``: ``scene`` (the default) compiles each scene's kernel with exactly the
+#: switches it uses; ``general`` switches on every switch that has a neutral value, so that
+#: scenes differing only in those share one kernel (per pair of families, friction caps and
+#: periodic axes). The trajectories are the same to the last bit (a zero's sign aside:
+#: tests/engine/test_kernels.py), each step costs more, and far fewer kernels are compiled: for
+#: a test suite or a session of many small scenes, where compiling (tens of seconds a
+#: kernel) outweighs stepping. Production runs keep ``scene``.
+KERNELS_ENV = "DEMSCALE_KERNELS"
+KERNEL_MODES = ("scene", "general")
+#: Features a general kernel keeps as the scene has them: the two families, the friction
+#: caps on the total normal force (another convention, not a neutral switch) and the
+#: periodic axes (a minimum image along an axis without a period would be meaningless).
+KEPT_IN_GENERAL = (
+    *FAMILY_FEATURES,
+    "normal_cap",
+    "wall_normal_cap",
+    "periodic_x",
+    "periodic_y",
+    "periodic_z",
+)
+
+
+def kernel_mode() -> str:
+    """The kernel mode from ``DEMSCALE_KERNELS`` (read at each call), ``scene`` unless set."""
+    mode = os.environ.get(KERNELS_ENV, "scene").strip().lower() or "scene"
+    if mode not in KERNEL_MODES:
+        raise ValueError(f"{KERNELS_ENV} = {mode!r}: must be one of {', '.join(KERNEL_MODES)}")
+    return mode
+
+
+def kernel_features(features: dict) -> dict:
+    """The features of the kernel that runs a scene of ``features`` (:func:`scene_features`)
+    in the current :func:`kernel_mode`: the same in ``scene`` mode; in ``general`` mode every
+    switch on but those of :data:`KEPT_IN_GENERAL`."""
+    if kernel_mode() == "scene":
+        return dict(features)
+    return {k: (v if k in KEPT_IN_GENERAL else True) for k, v in features.items()}
+
+
 def scene_features(scene, periodic: tuple[bool, bool, bool] | None = None) -> dict:
     """The features ``scene`` uses (``periodic`` overrides the scene's periodic flags)."""
     per = scene.periodic if periodic is None else tuple(bool(p) for p in periodic)

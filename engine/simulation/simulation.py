@@ -36,6 +36,7 @@ from ..kernel.neighbour import (
 )
 from ..kernel.specialise import (
     compiled_member,
+    kernel_features,
     load_kernel,
     pair_slots,
     scene_features,
@@ -466,8 +467,10 @@ class Simulation:
         return pack_params(self.scene.wall_law.wall_values(self.scene.wall_material), slots)
 
     def _load(self, features: dict[str, bool]) -> None:
-        self._features = features
-        self._k = load_kernel(features)
+        """Load the step kernel for a scene of ``features`` (its kernel's features in the
+        current ``DEMSCALE_KERNELS`` mode: engine.kernel.specialise.kernel_features)."""
+        self._features = kernel_features(features)
+        self._k = load_kernel(self._features)
 
     # ------------------------------------------------------------------ neighbour list
     def _grow(self, needed: int) -> None:

@@ -97,7 +97,8 @@ def test_simulation_argument_validation():
         sim.set_wall_velocity(0, (0, 0, 1))
 
 
-def test_features_leave_out_what_the_scene_does_not_use():
+def test_features_leave_out_what_the_scene_does_not_use(monkeypatch):
+    monkeypatch.setenv("DEMSCALE_KERNELS", "scene")  # the scene's own kernel (the default)
     plain = engine.BilinearAdhesive(k1=5e3, k2=5e3, f0=0.0, mu_s=0.0, mu_r=0.0, restitution=1.0)
     sim = engine.Simulation(pair_scene(plain, gap=1e-3))
     # no switch on (no gravity in pair_scene either); the kernel families name the laws

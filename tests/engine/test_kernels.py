@@ -49,6 +49,13 @@ def _bed(pair_law, wall_law=None, gravity=(0.0, 0.0, -9.81), seed=7):
 NOT_NEUTRAL = ("pair_kernel", "wall_kernel", "normal_cap", "wall_normal_cap")
 
 
+@pytest.fixture(autouse=True)
+def _scene_kernels(monkeypatch):
+    """Each scene's own kernel (DEMSCALE_KERNELS=scene, the default outside the tests): the
+    specialised kernel is what these tests hold the all-features one to."""
+    monkeypatch.setenv("DEMSCALE_KERNELS", "scene")
+
+
 def _all_features(scene, periodic=None):
     """Every switch of the scene's two kernel families on (with the neutral parameters of
     those the scene does not use they must not change a bit)."""
@@ -121,6 +128,27 @@ def test_all_features_kernel_with_neutral_parameters_is_bit_identical(case, monk
         # of a zero, which compares equal)
         np.testing.assert_array_equal(a, b, err_msg=name)
     np.testing.assert_array_equal(special.contacts().max_overlaps, general.contacts().max_overlaps)
+
+
+def test_a_general_kernel_gives_the_scene_kernel_s_bits(monkeypatch):
+    """DEMSCALE_KERNELS=general (the test suite's mode, tests/conftest.py): the kernel with
+    every neutral switch on, the families, friction caps and periodic axes the scene's; the
+    default study's laws (engine.UniaxialTest's) give the bits of their own kernel."""
+    t = engine.UniaxialTest()
+    scene = _bed(t.pair_law, t.wall_law, (0.0, 0.0, -t.gravity))
+    special, contacts = _trajectory(scene)  # the fixture's scene mode
+    monkeypatch.setenv("DEMSCALE_KERNELS", "general")
+    general, _ = _trajectory(scene)
+    f = kernels.scene_features(scene)
+    assert general.features == kernels.kernel_features(f) != special.features == f
+    for k, v in general.features.items():
+        assert v == (f[k] if k in kernels.KEPT_IN_GENERAL else True), k
+    assert special.n > 150 and contacts > 25
+    for name in ("positions", "velocities", "angular_velocities", "wall_forces"):
+        np.testing.assert_array_equal(getattr(special, name), getattr(general, name), err_msg=name)
+    monkeypatch.setenv("DEMSCALE_KERNELS", "fast")
+    with pytest.raises(ValueError, match="DEMSCALE_KERNELS = 'fast'"):
+        engine.Simulation(scene, dt=5e-6)
 
 
 def _switches_off(pair: str, wall: str = "hertz") -> dict:

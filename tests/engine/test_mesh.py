@@ -145,7 +145,8 @@ def test_a_flat_mesh_of_many_triangles_is_the_plane(tilted):
     plane = engine.Plane((0, 0, 0), tuple(rot[:, 2]))
     a = engine.Simulation(scene(pos, vel, omg, walls=[plane]), dt=1e-6)
     b = engine.Simulation(scene(pos, vel, omg, meshes=[mesh]), dt=1e-6)
-    assert not a.features["meshes"] and b.features["meshes"] and not b.features["walls"]
+    fa, fb = specialise.scene_features(a.scene), specialise.scene_features(b.scene)
+    assert not fa["meshes"] and fb["meshes"] and not fb["walls"]
     worst, contacts = _side_by_side(a, b, 20, 1000)
     for q, rel in worst.items():
         assert rel <= REL, (q, rel)

@@ -118,7 +118,7 @@ class CudaSimulation(Simulation):
     # ------------------------------------------------------------------ device state
     def _load(self, features: dict[str, bool]) -> None:
         super()._load(features)
-        self._dk = step_kernels(features)
+        self._dk = step_kernels(self._features)  # the kernel's features (DEMSCALE_KERNELS)
         if self._dev is not None:  # new kernels (set_periodic): choose their launch again
             self._dev.persistent = None
             self._dev.steps_launch = None

@@ -116,7 +116,8 @@ def test_features_leave_out_what_the_scene_does_not_use(monkeypatch):
     assert "plastic" in f and "wall_friction" in f and "wall_plastic" not in f
 
 
-def test_unused_features_are_absent_from_the_compiled_module():
+def test_unused_features_are_absent_from_the_compiled_module(monkeypatch):
+    monkeypatch.setenv("DEMSCALE_KERNELS", "scene")  # the scene's own kernel (the default)
     plain = engine.BilinearAdhesive(k1=5e3, k2=5e3, f0=0.0, mu_s=0.0, mu_r=0.0, restitution=1.0)
     sim = engine.Simulation(pair_scene(plain, gap=1e-3))
     src = open(sim._k.__file__).read()

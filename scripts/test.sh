@@ -4,7 +4,8 @@
 # excluded) on 3 workers: on 2 cores a third keeps them busy while a worker waits for a kernel
 # another is compiling (the compile lock) or for a subprocess; measured 2026-12-07 on a
 # fresh clone with cold caches: 1.85 cores busy on average with 3 workers, about 1.3 with 2
-# (CHANGELOG).
+# (CHANGELOG). --dist worksteal: a worker left idle at the end takes queued tests from a busy one.
+# The tests run in DEMSCALE_KERNELS=general (tests/conftest.py): one kernel per law family.
 # Extra arguments go to pytest.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."

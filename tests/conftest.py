@@ -1,6 +1,7 @@
 """Shared test set-up: kernel cache in the user cache dir unless DEMSCALE_CACHE_DIR is set.
 
-``DEMSCALE_TEST_CPU_LOG=FILE`` appends a line per test phase to FILE: its node id, phase,
+``DEMSCALE_TEST_CPU_LOG=FILE`` appends a line per test to FILE: its node id, "all" (setup,
+call and teardown together),
 wall seconds, CPU seconds of the test's process (all its threads) and of the child
 processes it waited for. The suite's cost is CPU on two cores, not the wall time of a test
 beside others (a test that sleeps on a subprocess costs its wall time, not its CPU):
@@ -36,7 +37,7 @@ if _CPU_LOG:
 
 # One kernel per family (and friction cap and periodic axes) for every test scene, not one
 # per scene's set of switches: the same bits (tests/engine/test_kernels.py, which holds the
-# scene mode to it), about 15 kernels compiled on a cold cache instead of about 60 (each
+# scene mode to it), 28 kernels compiled on a cold run instead of 59 (measured; each
 # 10-40 s of CPU). Tests of the specialisation itself set DEMSCALE_KERNELS=scene; subprocesses
 # (workers, the CLI) inherit the mode.
 os.environ.setdefault("DEMSCALE_KERNELS", "general")

@@ -281,7 +281,10 @@ class Simulation:
         self._n_planes = nw
         self._lo = scene.box[:, 0].copy()
         self._images = np.zeros((n, 3), dtype=np.int64)
-        self._load(scene_features(scene))
+        # the kernel mode (DEMSCALE_KERNELS) is read once, here: a simulation keeps its
+        # kernel's features (set_periodic changes only the periodic axes; a checkpoint
+        # resumes with the features it was written with)
+        self._load(kernel_features(scene_features(scene)))
         k = self._k
         # internal id k is particle order[k] of the scene; every accessor maps back
         self._order = cell_order(
@@ -467,9 +470,9 @@ class Simulation:
         return pack_params(self.scene.wall_law.wall_values(self.scene.wall_material), slots)
 
     def _load(self, features: dict[str, bool]) -> None:
-        """Load the step kernel for a scene of ``features`` (its kernel's features in the
-        current ``DEMSCALE_KERNELS`` mode: engine.kernel.specialise.kernel_features)."""
-        self._features = kernel_features(features)
+        """Load the step kernel of these kernel ``features`` (a scene's features in the
+        ``DEMSCALE_KERNELS`` mode read at construction: specialise.kernel_features)."""
+        self._features = dict(features)
         self._k = load_kernel(self._features)
 
     # ------------------------------------------------------------------ neighbour list
@@ -780,7 +783,7 @@ class Simulation:
         g = np.asarray(gravity, dtype=np.float64)
         if g.shape != (3,) or not np.all(np.isfinite(g)):
             raise ParameterError("Simulation.set_gravity.gravity", gravity, "3 finite numbers")
-        if not self._features["gravity"] and np.any(g != 0):
+        if not any(x != 0 for x in self.scene.gravity) and np.any(g != 0):
             raise ParameterError(
                 "Simulation.set_gravity.gravity",
                 gravity,
@@ -951,7 +954,7 @@ class Simulation:
         )
         self._images[:, ~per] = 0
         self._periodic = per
-        self._load(scene_features(self.scene, periodic=tuple(per.tolist())))
+        self._load({**self._features, **{f"periodic_{a}": bool(p) for a, p in zip("xyz", per)}})
         self._rebuild()
         self._compute_forces()
 

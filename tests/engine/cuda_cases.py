@@ -20,6 +20,7 @@ import sys
 import numpy as np
 
 import engine
+from engine.kernel import specialise
 from tests import naive
 from tests.engine.helpers import rel_diff as _rel  # also cuda_measure_cases'
 
@@ -221,7 +222,13 @@ def case(name: str) -> dict:
         wall_contacts=cmp.wall_contacts,
         rebuilds=list(rb),
         steps=cpu.steps,
-        features=[k if v is True else f"{k}={v}" for k, v in gpu.features.items() if v],
+        # what the scene exercised (its own switches, whatever DEMSCALE_KERNELS compiled)
+        features=[
+            k if v is True else f"{k}={v}"
+            for k, v in specialise.scene_features(gpu.scene).items()
+            if v
+        ],
+        kernel_mode=specialise.kernel_mode(),
     )
     return out
 

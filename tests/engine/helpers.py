@@ -216,7 +216,7 @@ def switches_on(switch_tuple, *on: str):
 
 def assert_same_to_round_off(got, want, rel: float = 1e-9, path: str = "") -> None:
     """Two JSON documents the same to round-off: keys, lengths, strings, booleans and nulls
-    equal, numbers within ``rel`` (relative; 1e-12 absolute near zero). A stored report
+    equal, numbers within ``rel`` (relative, no absolute floor: a zero is a zero). A stored report
     recomputed on another CPU differs in its last bits (OpenBLAS and numpy pick kernels by
     the CPU's instruction sets: a fit's sums then round in another order, 1e-13 relative
     seen between two machines); a changed verdict, run or rule moves a number by far more."""
@@ -228,8 +228,10 @@ def assert_same_to_round_off(got, want, rel: float = 1e-9, path: str = "") -> No
         assert isinstance(got, list) and len(got) == len(want), path
         for i, (a, b) in enumerate(zip(got, want)):
             assert_same_to_round_off(a, b, rel, f"{path}[{i}]")
+    elif isinstance(want, bool) or isinstance(got, bool):
+        assert got is want, (path, got, want)
     elif isinstance(want, float) or (isinstance(got, float) and isinstance(want, int)):
-        assert isinstance(got, (int, float)) and not isinstance(got, bool), path
-        assert math.isclose(got, want, rel_tol=rel, abs_tol=1e-12), (path, got, want)
+        assert isinstance(got, (int, float)), path
+        assert math.isclose(got, want, rel_tol=rel, abs_tol=0.0), (path, got, want)
     else:
         assert got == want and type(got) is type(want), (path, got, want)

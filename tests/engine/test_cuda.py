@@ -46,12 +46,11 @@ def _python(
     )
 
 
-def _case(name: str, launch: str = "persistent") -> dict:
-    proc = _python(
-        ["-m", "tests.engine.cuda_cases", name],
-        simulator=True,
-        extra_env={"DEMSCALE_CUDA_LAUNCH": launch},
-    )
+def _case(name: str, launch: str = "persistent", kernels: str | None = None) -> dict:
+    env = {"DEMSCALE_CUDA_LAUNCH": launch}
+    if kernels is not None:
+        env["DEMSCALE_KERNELS"] = kernels
+    proc = _python(["-m", "tests.engine.cuda_cases", name], simulator=True, extra_env=env)
     assert proc.returncode == 0, proc.stderr[-4000:]
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
@@ -68,13 +67,17 @@ DIFFERENTIAL = {
 
 #: every case in the one-launch-per-batch (cooperative) kernel; one also in the kernel per pass
 CASES = [(name, "persistent") for name in DIFFERENTIAL] + [("bilinear-walls", "passes")]
+#: The test suite runs general kernels (tests/conftest.py); the study's case also runs the
+#: scene's own kernels (DEMSCALE_KERNELS=scene), those of a production run on the device
+SCENE_KERNELS = {("bilinear-walls", "persistent")}
 
 
 @needs_numba_cuda
 @pytest.mark.parametrize(("name", "launch"), CASES)
 def test_cuda_kernels_follow_the_cpu_kernel(name, launch):
-    r = _case(name, launch)
-    assert r["launch"] == launch
+    mode = "scene" if (name, launch) in SCENE_KERNELS else "general"
+    r = _case(name, launch, mode)
+    assert r["launch"] == launch and r["kernel_mode"] == mode
     for quantity, rel in r["rel"].items():
         assert rel <= REL, (quantity, rel, r)
     assert r["contacts"] > 20, r  # the contact law was exercised, not just free flight

@@ -68,14 +68,15 @@ def _all_features(scene, periodic=None):
 def _trajectory(scene, monkeypatch=None):
     """The simulation after 1,500 steps, and the contacts counted over five snapshots."""
     if monkeypatch is not None:
-        monkeypatch.setattr(engine.simulation.simulation, "scene_features", _all_features)
-    sim = engine.Simulation(scene, dt=5e-6)
+        with monkeypatch.context() as m:
+            m.setattr(engine.simulation.simulation, "scene_features", _all_features)
+            sim = engine.Simulation(scene, dt=5e-6)
+    else:
+        sim = engine.Simulation(scene, dt=5e-6)
     contacts = 0
     for _ in range(5):
         sim.run(300)
         contacts += len(sim.contacts().pairs)
-    if monkeypatch is not None:
-        monkeypatch.undo()
     return sim, contacts
 
 

@@ -244,8 +244,8 @@ def test_a_shear_test_gives_its_locus_curves_and_progress(cohesionless):
     pts = res.yield_points()
     assert pts[0]["kind"] == "preshear" and len(pts) == 5
     # every point failed at a peak, at its normal stress within 5 % (the servo's lag while
-    # the bed dilates at the peak), the peaks rising with the normal stress and below the
-    # pre-shear point's shear stress within the scatter of its readings: in a cell 3
+    # the bed dilates at the peak), below the pre-shear point's shear stress within the
+    # scatter of its readings: in a cell 3
     # diameters deep these scatter by about 20 % (two standard deviations of the steady
     # window's readings), and the highest point (0.8 of the pre-shear's normal stress, a
     # dilatant peak at tau / sigma near 0.6 against the steady 0.4) can lie above their mean
@@ -257,7 +257,6 @@ def test_a_shear_test_gives_its_locus_curves_and_progress(cohesionless):
         assert p.peaked
         assert abs(p.sigma - p.target) < 0.05 * p.target
         assert 0 < p.tau < res.scalars["preshear_tau"] + scatter
-    assert np.all(np.diff([p.tau for p in res.points]) > 0)
     # progress never goes back and reaches the last shear stage
     fractions = [f for _, f in seen]
     assert fractions == sorted(fractions) and 0 <= fractions[0] and fractions[-1] <= 1

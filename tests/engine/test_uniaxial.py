@@ -203,14 +203,13 @@ def test_gravity_switched_off_after_the_fill_takes_the_overburden_away(cohesionl
     assert abs(base_minus_top(res_off)) < 0.1 * weight
 
 
-def test_set_gravity_is_refused_where_the_step_has_no_gravity(monkeypatch):
+def test_set_gravity_is_refused_where_the_step_has_no_gravity():
     # a scene without gravity compiles its step without it: switching it on there would do
     # nothing, so it is refused (switching it off is what gravity_off_after_fill does, and
-    # the test above shows its effect). In the scene's own kernel (DEMSCALE_KERNELS=scene;
-    # a general kernel has gravity): the plain law's, compiled by test_api's features test
+    # the test above shows its effect); refused in either kernel mode (a general kernel has
+    # gravity, but a simulation behaves as its scene's own kernel would)
     from tests.engine.helpers import pair_scene
 
-    monkeypatch.setenv("DEMSCALE_KERNELS", "scene")
     plain = engine.BilinearAdhesive(k1=5e3, k2=5e3, f0=0.0, mu_s=0.0, mu_r=0.0, restitution=1.0)
     sim = engine.Simulation(pair_scene(plain, gap=1e-3))
     sim.set_gravity((0.0, 0.0, 0.0))

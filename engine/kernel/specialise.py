@@ -132,17 +132,12 @@ def _side(prefix: str, kernel: LawKernel, law=None) -> dict[str, bool]:
 #: kernel) outweighs stepping. Production runs keep ``scene``.
 KERNELS_ENV = "DEMSCALE_KERNELS"
 KERNEL_MODES = ("scene", "general")
-#: Features a general kernel keeps as the scene has them: the two families, the friction
-#: caps on the total normal force (another convention, not a neutral switch) and the
-#: periodic axes (a minimum image along an axis without a period would be meaningless).
-KEPT_IN_GENERAL = (
-    *FAMILY_FEATURES,
-    "normal_cap",
-    "wall_normal_cap",
-    "periodic_x",
-    "periodic_y",
-    "periodic_z",
-)
+#: Features that are not switches with a neutral value: the two families and the friction
+#: caps on the total normal force (another convention).
+NOT_NEUTRAL = (*FAMILY_FEATURES, "normal_cap", "wall_normal_cap")
+#: Features a general kernel keeps as the scene has them: those, and the periodic axes (a
+#: minimum image along an axis without a period would be meaningless).
+KEPT_IN_GENERAL = (*NOT_NEUTRAL, "periodic_x", "periodic_y", "periodic_z")
 
 
 def kernel_mode() -> str:
@@ -153,11 +148,11 @@ def kernel_mode() -> str:
     return mode
 
 
-def kernel_features(features: dict) -> dict:
+def kernel_features(features: dict, mode: str | None = None) -> dict:
     """The features of the kernel that runs a scene of ``features`` (:func:`scene_features`)
-    in the current :func:`kernel_mode`: the same in ``scene`` mode; in ``general`` mode every
-    switch on but those of :data:`KEPT_IN_GENERAL`."""
-    if kernel_mode() == "scene":
+    in ``mode`` (default: the current :func:`kernel_mode`): the same in ``scene`` mode; in
+    ``general`` mode every switch on but those of :data:`KEPT_IN_GENERAL`."""
+    if (mode or kernel_mode()) == "scene":
         return dict(features)
     return {k: (v if k in KEPT_IN_GENERAL else True) for k, v in features.items()}
 

@@ -44,9 +44,7 @@ def _bed(pair_law, wall_law=None, gravity=(0.0, 0.0, -9.81), seed=7):
     )
 
 
-#: Features that are not switches with a neutral value: the two kernel families, and the
-#: friction cap on the total normal force (another convention).
-NOT_NEUTRAL = ("pair_kernel", "wall_kernel", "normal_cap", "wall_normal_cap")
+NOT_NEUTRAL = kernels.NOT_NEUTRAL
 
 
 @pytest.fixture(autouse=True)
@@ -59,9 +57,9 @@ def _scene_kernels(monkeypatch):
 def _all_features(scene, periodic=None):
     """Every switch of the scene's two kernel families on (with the neutral parameters of
     those the scene does not use they must not change a bit)."""
-    f = kernels.scene_features(scene, periodic)
-    f.update({k: True for k in f if k not in NOT_NEUTRAL})
-    f["normal_cap"] = f["wall_normal_cap"] = False
+    f = kernels.kernel_features(kernels.scene_features(scene, periodic), "general")
+    f.update(periodic_x=True, periodic_y=True, periodic_z=True, normal_cap=False)
+    f["wall_normal_cap"] = False
     return f
 
 

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Create ./.venv (once) and install demscale with the service, test and cli extras into it.
 # Sourced by main_job.sh and test.sh; re-running only reinstalls when pyproject.toml changed.
-# Quiet unless something fails: pip's output (and setuptools' notes on editable installs)
+# Installs with uv (itself pip-installed into .venv), or with pip when that fails.
+# Quiet unless something fails: the installer's output (and setuptools' notes on editable installs)
 # goes to .venv/setup.log, printed whole if the install fails. The `demscale` command lives
 # in ./.venv/bin: `source .venv/bin/activate` puts it on a shell's PATH (said once, when
 # installed).
@@ -15,13 +16,24 @@ stamp=.venv/.demscale-installed
 log=.venv/setup.log
 if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
   echo "setup: installing demscale and its service, test and cli extras into ./.venv ..."
-  if ! {
+  # uv resolves and installs the same releases as pip in about a quarter of the time (its
+  # downloads in parallel; measured on a fresh clone: CHANGELOG); pip when uv cannot be had
+  install_uv() {
+    .venv/bin/python -m pip install --quiet uv &&
+      .venv/bin/python -m uv pip install --quiet --python .venv/bin/python -e '.[service,test,cli]'
+  }
+  install_pip() {
     .venv/bin/python -m pip install --quiet --upgrade pip &&
       .venv/bin/python -m pip install --quiet -e '.[service,test,cli]'
-  } >"$log" 2>&1; then
-    cat "$log" >&2
-    echo "setup: the install into ./.venv failed (pip's output above, kept in $log)" >&2
-    exit 1
+  }
+  if ! install_uv >"$log" 2>&1; then
+    echo "setup: uv could not install (its output in $log.uv); installing with pip" >&2
+    mv "$log" "$log.uv"
+    if ! install_pip >"$log" 2>&1; then
+      cat "$log" >&2
+      echo "setup: the install into ./.venv failed (pip's output above, kept in $log)" >&2
+      exit 1
+    fi
   fi
   touch "$stamp"
   echo "setup: done. The demscale command is in ./.venv/bin: run 'source .venv/bin/activate'"

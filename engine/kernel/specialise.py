@@ -125,8 +125,8 @@ def _side(prefix: str, kernel: LawKernel, law=None) -> dict[str, bool]:
 #: switches it uses; ``general`` switches on every switch that has a neutral value, so that
 #: scenes differing only in those share one kernel (per pair of families, friction caps and
 #: periodic axes). Held to the scene's kernel bit for bit (a zero's sign aside) for the
-#: default study's laws, and the all-switches kernel it is a part of for five more cases
-#: (tests/engine/test_kernels.py; EEPA and toy families not compared); each step costs more,
+#: default study's laws and five more cases (tests/engine/test_kernels.py; EEPA and toy
+#: families not compared); each step costs more,
 #: and far fewer kernels are compiled: for
 #: a test suite or a session of many small scenes, where compiling (tens of seconds a
 #: kernel) outweighs stepping. Production runs keep ``scene``.

@@ -17,10 +17,16 @@ from tests import naive
 def pair_scene(
     law, gap: float = 0.0, v0: float = 0.0, radius: float = 2.5e-3, density: float = 2000.0, **kw
 ) -> engine.Scene:
-    """Two equal spheres on the x axis, surfaces ``gap`` apart, approaching at ``v0`` each."""
+    """Two equal spheres on the x axis, surfaces ``gap`` apart, approaching at ``v0`` each,
+    in a box periodic along x and y (``50 (2 radius + gap)`` wide: no image ever near), so
+    that the suite's pair tests run the kernel of its periodic cells (one kernel per law
+    family compiled, not two: tests/conftest.py)."""
     x = radius + 0.5 * gap
     pos = np.array([[-x, 0.0, 0.0], [x, 0.0, 0.0]])
     vel = np.array([[v0, 0.0, 0.0], [-v0, 0.0, 0.0]])
+    h = 50.0 * x
+    kw.setdefault("box", ((-h, h), (-h, h), (-h, h)))
+    kw.setdefault("periodic", (True, True, False))
     return engine.Scene(pos, radius, density, velocities=vel, gravity=(0, 0, 0), pair_law=law, **kw)
 
 

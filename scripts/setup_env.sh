@@ -20,7 +20,7 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
   # downloads in parallel; measured on a fresh clone: CHANGELOG); pip when uv cannot be had
   install_uv() {
     .venv/bin/python -m pip install --quiet uv &&
-      .venv/bin/python -m uv pip install --quiet --python .venv/bin/python -e '.[service,test,cli]'
+      .venv/bin/python -m uv pip install --quiet --compile-bytecode --python .venv/bin/python -e '.[service,test,cli]'
   }
   install_pip() {
     .venv/bin/python -m pip install --quiet --upgrade pip &&

@@ -152,10 +152,10 @@ def test_a_costly_body_within_the_run_count_is_refused_before_any_packing(
     body = {**body, "reference": {"preset": "quick"}}
     settings.max_runs = 64
     settings.max_particles_per_run = 50_000  # the service's default: the quick preset's 6,875 pass
-    t0 = time.perf_counter()
+    # refused from the spec's estimate, before any packing is placed (the patch above fails
+    # the test if one is); no wall-clock bound, which a loaded machine breaks (1.7 s seen)
     r = client.post("/studies", json=body)
     assert r.status_code == 422 and "particle-steps" in r.text, r.text
-    assert time.perf_counter() - t0 < 1.0
 
 
 @pytest.mark.timeout(60)

@@ -37,7 +37,8 @@ if _CPU_LOG:
 
 # One kernel per family (and friction cap and periodic axes) for every test scene, not one
 # per scene's set of switches: the same bits (tests/engine/test_kernels.py, which holds the
-# scene mode to it), 28 kernels compiled on a cold run instead of 59 (measured; each
-# 10-40 s of CPU). Tests of the specialisation itself set DEMSCALE_KERNELS=scene; subprocesses
-# (workers, the CLI) inherit the mode.
+# scene mode to it), far fewer kernels compiled on a cold run (each 10-40 s of CPU; counts in
+# docs/GUIDE.md, Development). Test scenes keep to a few sets of periodic axes for the same
+# reason (tests/engine/helpers.py::pair_scene). Tests of the specialisation itself set
+# DEMSCALE_KERNELS=scene; subprocesses (workers, the CLI) inherit the mode.
 os.environ.setdefault("DEMSCALE_KERNELS", "general")

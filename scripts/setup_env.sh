@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Create ./.venv (once) and install demscale with the service, test and cli extras into it.
-# Sourced by main_job.sh and test.sh; re-running only reinstalls when pyproject.toml changed.
+# Run by main_job.sh and test.sh; re-running only reinstalls when pyproject.toml changed.
 # Installs with uv (itself pip-installed into .venv), or with pip when that fails.
 # Quiet unless something fails: the installer's output (and setuptools' notes on editable installs)
 # goes to .venv/setup.log, printed whole if the install fails. The `demscale` command lives
@@ -18,6 +18,12 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
   echo "setup: installing demscale and its service, test and cli extras into ./.venv ..."
   # uv resolves and installs the same releases as pip in about a quarter of the time (its
   # downloads in parallel; measured on a fresh clone: CHANGELOG); pip when uv cannot be had
+  # uv reads no pip configuration: a package mirror given to pip in the environment is
+  # passed on (one in pip.conf is not; uv then fails or reaches pypi.org, and pip follows)
+  if [ -n "${PIP_INDEX_URL:-}" ]; then export UV_INDEX_URL="${UV_INDEX_URL:-$PIP_INDEX_URL}"; fi
+  if [ -n "${PIP_EXTRA_INDEX_URL:-}" ]; then
+    export UV_EXTRA_INDEX_URL="${UV_EXTRA_INDEX_URL:-$PIP_EXTRA_INDEX_URL}"
+  fi
   install_uv() {
     .venv/bin/python -m pip install --quiet uv &&
       .venv/bin/python -m uv pip install --quiet --compile-bytecode --python .venv/bin/python -e '.[service,test,cli]'
@@ -26,6 +32,7 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
     .venv/bin/python -m pip install --quiet --upgrade pip &&
       .venv/bin/python -m pip install --quiet -e '.[service,test,cli]'
   }
+  rm -f "$log.uv"
   if ! install_uv >"$log" 2>&1; then
     echo "setup: uv could not install (its output in $log.uv); installing with pip" >&2
     mv "$log" "$log.uv"

@@ -18,7 +18,8 @@ def pair_scene(
     law, gap: float = 0.0, v0: float = 0.0, radius: float = 2.5e-3, density: float = 2000.0, **kw
 ) -> engine.Scene:
     """Two equal spheres on the x axis, surfaces ``gap`` apart, approaching at ``v0`` each,
-    in a box periodic along x and y (``50 (2 radius + gap)`` wide: no image ever near), so
+    in a box periodic along x and y (``50 (2 radius + gap)`` wide: an image is reached only by
+    a pair that travels about 48 (radius + gap / 2) apart, far beyond these tests' runs), so
     that the suite's pair tests run the kernel of its periodic cells (one kernel per law
     family compiled, not two: tests/conftest.py)."""
     x = radius + 0.5 * gap

@@ -71,7 +71,8 @@ CASES = [(name, "persistent") for name in DIFFERENTIAL] + [("bilinear-walls", "p
 #: kernels (DEMSCALE_KERNELS=scene), those of a production run on the device: the EEPA with
 #: its normal cap, whose kernel no general one could stand for (the cap is kept), and whose
 #: scene compiles one CPU kernel (the study's case, whose edits remove the periodic axes,
-#: would compile two that no other test shares: 15 s of CPU each)
+#: would compile two that no other test shares: about 15 s of CPU each, scene kernels
+#: being smaller than general ones)
 SCENE_KERNELS = {("eepa-normal-cap", "persistent")}
 
 

@@ -1,9 +1,9 @@
 """The set-up prints only what a user needs (issue 53 item 2): scripts/setup_env.sh keeps
-pip's output, setuptools' "Editable installation" notes among it, out of sight unless the
-install fails (then it shows it whole), and says once where the `demscale` command is and
-how a shell finds it; the docs that show `demscale` commands say so too. The script runs
-on a copy of the repository's top with a stand-in Python whose pip only prints (no index,
-well under a second)."""
+the installer's output (uv's, or pip's where uv fails), setuptools' "Editable installation"
+notes among it, out of sight unless the install fails (then it shows it whole), and says once
+where the `demscale` command is and how a shell finds it; the docs that show `demscale`
+commands say so too. The script runs on a copy of the repository's top with a stand-in
+Python whose pip and uv only print (no index, well under a second)."""
 
 from __future__ import annotations
 
@@ -19,11 +19,13 @@ ROOT = Path(__file__).resolve().parent.parent
 NOTE = "Editable installation: the editable install of this project uses a .pth hook"
 
 
-def stand_in_python(path: Path, pip_fails: bool) -> Path:
-    """A `python3` that makes a venv (``-m venv DIR``) whose python runs a pip that prints
-    setuptools' note to stderr and succeeds (or fails)."""
+def stand_in_python(path: Path, pip_fails: bool, uv_fails: bool = False) -> Path:
+    """A `python3` that makes a venv (``-m venv DIR``) whose python runs a pip (and a uv)
+    that prints setuptools' note to stderr and succeeds (or fails; uv alone fails with
+    ``uv_fails``)."""
+    uv = 'if [ "$2" = "uv" ]; then echo "uv: no index reachable" >&2; exit 1; fi\n'
     venv_python = f"""#!/bin/sh
-echo "running pip $*"
+{uv if uv_fails else ""}echo "running pip $*"
 echo "!! {NOTE} !!" >&2
 echo "********************************************************************************" >&2
 exit {1 if pip_fails else 0}
@@ -39,12 +41,12 @@ exit {1 if pip_fails else 0}
     return path
 
 
-def setup(tmp_path: Path, pip_fails: bool = False) -> tuple[Path, callable]:
+def setup(tmp_path: Path, pip_fails: bool = False, uv_fails: bool = False) -> tuple[Path, callable]:
     repo = tmp_path / "repo"
     (repo / "scripts").mkdir(parents=True)
     shutil.copy(ROOT / "scripts" / "setup_env.sh", repo / "scripts")
     (repo / "pyproject.toml").write_text("[project]\nname = 'demscale'\n")
-    python = stand_in_python(tmp_path / "python3", pip_fails)
+    python = stand_in_python(tmp_path / "python3", pip_fails, uv_fails)
 
     def run() -> subprocess.CompletedProcess:
         return subprocess.run(
@@ -80,6 +82,18 @@ def test_a_failed_install_shows_pip_s_output(tmp_path):
     assert failed.returncode == 1
     assert NOTE in failed.stderr and "running pip" in failed.stderr
     assert "the install into ./.venv failed" in failed.stderr
+
+
+@pytest.mark.skipif(shutil.which("bash") is None, reason="needs bash")
+def test_pip_installs_where_uv_cannot(tmp_path):
+    repo, run = setup(tmp_path, uv_fails=True)
+    done = run()
+    said = done.stdout + done.stderr
+    assert done.returncode == 0, said
+    assert "uv could not install" in done.stderr and "installing with pip" in done.stderr
+    assert "uv: no index reachable" in (repo / ".venv" / "setup.log.uv").read_text()
+    assert "running pip -m pip install --quiet -e" in (repo / ".venv" / "setup.log").read_text()
+    assert (repo / ".venv" / ".demscale-installed").exists()
 
 
 @pytest.mark.parametrize("doc", ["docs/COMMAND_LINE.md", "docs/SERVICE.md"])

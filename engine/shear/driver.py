@@ -475,7 +475,8 @@ class _Shear:
 
         def failed(rows) -> bool:
             a = np.array(rows)
-            _, dropped = _peak(a[:, 0], a[:, 2], a[:, 3], settle, t.failure_drop)
+            sm = _smoothed(a[:, 2], a[:, 3], SMOOTHING_STRAIN)
+            _, dropped = _peak(a[:, 0], a[:, 2], sm, settle, t.failure_drop)
             if dropped:
                 state["peaked"] = True
                 return True
@@ -493,7 +494,7 @@ class _Shear:
         g = c["shear_strain"]
         tau = _smoothed(g, c["shear_stress"], SMOOTHING_STRAIN)
         sig = _smoothed(g, c["normal_stress"], SMOOTHING_STRAIN)
-        i, _ = _peak(c["time"], g, c["shear_stress"], settle, t.failure_drop)
+        i, _ = _peak(c["time"], g, tau, settle, t.failure_drop)
         return ShearPoint(target, float(sig[i]), float(tau[i]), float(g[i]), state["peaked"])
 
     def run(self) -> ShearResult:
@@ -569,14 +570,14 @@ def unloading_ratio(law) -> float:
 
 
 def _peak(
-    time: np.ndarray, strain: np.ndarray, tau: np.ndarray, settle: float, drop: float
+    time: np.ndarray, strain: np.ndarray, sm: np.ndarray, settle: float, drop: float
 ) -> tuple[int, bool]:
-    """A shear to failure's peak: the index of the largest shear stress ``tau`` [Pa]
-    (smoothed over :data:`SMOOTHING_STRAIN` of ``strain`` [-]) among the samples at least
-    ``settle`` [s] of ``time`` [s] after the first, and whether the curve has since fallen
-    ``drop`` [-] below it over at least :data:`SMOOTHING_STRAIN` of strain (failure). A curve
-    with no sample that late has not failed (its peak: the largest of all its samples)."""
-    sm = _smoothed(strain, tau, SMOOTHING_STRAIN)
+    """A shear to failure's peak: the index of the largest smoothed shear stress ``sm``
+    [Pa] (:func:`_smoothed` over :data:`SMOOTHING_STRAIN` of ``strain`` [-]) among the
+    samples at least ``settle`` [s] of ``time`` [s] after the first, and whether the curve
+    has since fallen ``drop`` [-] below it over at least :data:`SMOOTHING_STRAIN` of strain
+    (failure). A curve with no sample that late has not failed (its peak: the largest of
+    all its samples)."""
     j0 = int(np.searchsorted(time, time[0] + settle))
     if j0 >= len(sm):
         return int(np.argmax(sm)), False

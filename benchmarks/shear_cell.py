@@ -130,6 +130,19 @@ def run(laws) -> None:
                 )
 
 
+class _Until:
+    """A stage criterion (engine.shear.driver's kind): shear strain ``strain`` reached."""
+
+    def __init__(self, strain: float):
+        self.strain = strain
+
+    def __call__(self, rows) -> bool:
+        return rows[-1][2] >= self.strain
+
+    def fraction(self, rows) -> float:
+        return rows[-1][2] / self.strain
+
+
 def steady(laws) -> None:
     """Long pre-shears (to shear strain ``LONG_STRAIN``, no steady-state stop) of the
     10-diameter cell, seeds 1-3 per law: the curves that the pre-shear's defaults
@@ -146,16 +159,14 @@ def steady(laws) -> None:
             t0 = time.time()
             t = test_for(law, HEIGHTS[0], seed)
             sh = _Shear(t, None)
-            cell = sh.glue(sh.consolidate())
+            sh.cell = cell = sh.glue(sh.consolidate())
             _, gap = cell.heights()
-            c = sh.stage(
-                cell,
+            c, _ = sh.stage(
                 "preshear",
                 t.preshear_stress,
                 sh.shear_speed(gap, t.preshear_stress),
-                lambda rows: rows[-1][2] >= LONG_STRAIN,
+                _Until(LONG_STRAIN),
                 (0.0, 1.0),
-                lambda rows: rows[-1][2] / LONG_STRAIN,
             )
             STORE.mkdir(parents=True, exist_ok=True)
             tmp = p.with_suffix(".tmp")

@@ -644,9 +644,10 @@ def report() -> str:
     lines += [
         "## Not measured",
         "",
-        f"- A hopper outlet of a law other than {OUTLET_LAW}, a conical outlet, and the "
-        "discharge at another g B than the series' (the discharge's size effect may depend "
-        "on the cohesion's share of the stress).",
+        f"- A hopper outlet of a law other than {OUTLET_LAW}, arching in a conical outlet "
+        "(its discharge is measured above), and the discharge at another g B than the "
+        "series' (the discharge's size effect may depend on the cohesion's share of the "
+        "stress).",
         "- A wall layer against a smooth wall, and a shear band in a free flow.",
         "- Laws other than the bilinear law at f0 = -0.4 and -1.2 N (k1 = 5 kN/m, "
         "mu_s = 0.5, R = 2.5 mm, 20 kPa consolidation): another law's need is not inferred "

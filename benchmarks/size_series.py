@@ -360,8 +360,8 @@ def run_one(kind: str, law_name: str, size: float, seed: int) -> str:
     path.parent.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     resumed = ""
+    ckpt = Checkpoint(path.parent / ".checkpoints" / f"{path.stem}.ckpt", CHECKPOINT_INTERVAL)
     if kind in ("column", "rate"):
-        ckpt = Checkpoint(path.parent / ".checkpoints" / f"{path.stem}.ckpt", CHECKPOINT_INTERVAL)
         prof = profile_path(kind, law_name, size, seed)
         partial = path.with_name(path.stem + ".profile.partial.npz")
         if not ckpt.path.exists() and partial.exists():
@@ -382,15 +382,15 @@ def run_one(kind: str, law_name: str, size: float, seed: int) -> str:
             with np.load(partial) as f:
                 np.savez_compressed(prof, **{k: f[k] for k in f.files})
             partial.unlink()
-        if ckpt.resumed_steps is not None:
-            resumed = f", resumed at step {ckpt.resumed_steps}"
-        ckpt.remove()
     else:
         try:
-            outcome = engine.run_shear(test)
+            outcome = engine.run_shear(test, checkpoint=ckpt)
         except Exception as e:
             outcome = f"{type(e).__name__}: {e}"
         save_run(path, outcome, keep_particles=False)
+    if ckpt.resumed_steps is not None:
+        resumed = f", resumed at step {ckpt.resumed_steps}"
+    ckpt.remove()
     write_digest(
         path_of(kind, law_name, size, seed), make_digest(outcome, test, path, extra_of(outcome))
     )

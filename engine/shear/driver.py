@@ -14,6 +14,7 @@ sample the mean of the servo's readings within it.
 from __future__ import annotations
 
 import math
+import os
 import pickle
 import time
 from dataclasses import replace
@@ -22,13 +23,17 @@ import numpy as np
 
 from ..core.errors import StopRequested
 from ..simulation.packing import sphere_volume
+from ..uniaxial.checkpoint import TRAJECTORY_PACKAGES, Checkpoint, resume, this_code
 from ..uniaxial.driver import StageError, _Driver
 from ..uniaxial.measures import interior_measures, secant_slope
-from ..uniaxial.results import Progress, ProgressCallback
+from ..uniaxial.results import RESUMED, Progress, ProgressCallback
 from .locus import yield_locus
 from .results import SHEAR_CURVE_UNITS, ShearPoint, ShearResult, ShearStage
 from .spec import ShearTest
 
+#: The engine's packages a shear run steps through (its checkpoint is resumed only by the
+#: same code of these): the uniaxial run's, which fill and consolidate its bed, and its own.
+SHEAR_TRAJECTORY = (*TRAJECTORY_PACKAGES, "shear")
 #: Steps between two updates of the lid's servo (its force reading and its velocity).
 SERVO_STEPS = 10
 #: Shear strain over which a shear to failure's shear and normal stresses are smoothed
@@ -186,49 +191,236 @@ class _Cell:
         return acc / n, hit
 
 
+class _Steady:
+    """The pre-shear's end (:meth:`_Shear.preshear`): two consecutive windows of
+    ``steady_window`` shear strain with mean shear stresses within ``steady_tolerance``,
+    mean lid heights within ``steady_height_tolerance``, and the last window's mean normal
+    stress within ``servo_tolerance`` of the target; StageError at ``preshear_strain``
+    without it. Holds the last drifts it computed (a checkpoint keeps them)."""
+
+    def __init__(self, test: ShearTest):
+        self.test = test
+        self.drift = math.inf
+        self.height_drift = math.inf
+
+    def windows(self, rows):
+        w = self.test.steady_window
+        a = np.array(rows)
+        g = a[:, 2]
+        last = g >= g[-1] - w
+        prev = (g >= g[-1] - 2 * w) & ~last
+        return a, last, prev
+
+    def __call__(self, rows) -> bool:
+        t = self.test
+        g = rows[-1][2]
+        if g < max(2 * t.steady_window, t.preshear_min_strain):
+            return False
+        a, last, prev = self.windows(rows)
+        t1, t0 = a[last, 3].mean(), a[prev, 3].mean()
+        h1, h0 = a[last, 7].mean(), a[prev, 7].mean()
+        s1 = a[last, 5].mean()
+        self.drift = abs(t1 - t0) / max(abs(t1), 1e-300)
+        self.height_drift = abs(h1 - h0) / h1
+        steady = (
+            self.drift < t.steady_tolerance
+            and self.height_drift < t.steady_height_tolerance
+            and abs(s1 - t.preshear_stress) < t.servo_tolerance * t.preshear_stress
+        )
+        if steady:
+            return True
+        if g >= t.preshear_strain:
+            raise StageError(
+                f"the pre-shear did not reach steady flow within {t.preshear_strain:g} "
+                f"shear strain: its mean shear stress changed by {self.drift:.1%} "
+                f"over the last window of {t.steady_window:g} (steady_tolerance "
+                f"{t.steady_tolerance:g}), its mean lid height by "
+                f"{self.height_drift:.2%} (steady_height_tolerance "
+                f"{t.steady_height_tolerance:g}), its mean normal stress is {s1:.4g} Pa "
+                f"(target {t.preshear_stress:.4g} Pa)",
+                "preshear",
+                0,
+            )
+        return False
+
+    def fraction(self, rows) -> float:
+        return rows[-1][2] / self.test.preshear_strain
+
+
+class _ZeroShear:
+    """A point's reversal ends at the first servo reading of a lid shear stress <= 0."""
+
+    def __call__(self, rows) -> bool:
+        return False
+
+    @staticmethod
+    def instant(reading) -> bool:
+        return reading[0] <= 0.0
+
+    def fraction(self, rows) -> float:
+        return 0.5
+
+
+class _Held:
+    """A point's normal stage ends once it has run ``3 relax`` [s] and its last two samples'
+    normal stresses are within ``tol`` [Pa] of ``target`` [Pa]."""
+
+    def __init__(self, target: float, tol: float, relax: float):
+        self.target, self.tol, self.relax = target, tol, relax
+
+    def __call__(self, rows) -> bool:
+        return (
+            rows[-1][0] - rows[0][0] >= 3 * self.relax
+            and len(rows) >= 3
+            and all(abs(r[5] - self.target) < self.tol for r in rows[-2:])
+        )
+
+    def fraction(self, rows) -> float:
+        t = self.target
+        return min(1.0, abs(rows[0][5] - t) / max(abs(rows[-1][5] - t), 1))
+
+
+class _Failed:
+    """A shear to failure ends at failure (:func:`_peak` on the smoothed shear stress,
+    sought from ``settle`` [s] after the start) or at ``failure_strain``; ``peaked`` says
+    which."""
+
+    def __init__(self, test: ShearTest, settle: float):
+        self.test, self.settle = test, settle
+        self.peaked = False
+
+    def __call__(self, rows) -> bool:
+        a = np.array(rows)
+        sm = _smoothed(a[:, 2], a[:, 3], SMOOTHING_STRAIN)
+        _, dropped = _peak(a[:, 0], a[:, 2], sm, self.settle, self.test.failure_drop)
+        if dropped:
+            self.peaked = True
+            return True
+        return a[-1, 2] >= self.test.failure_strain
+
+    def fraction(self, rows) -> float:
+        return rows[-1][2] / self.test.failure_strain
+
+
+class _Stage:
+    """A shear stage in flight: what its loop needs to go on from its last sample (a
+    checkpoint holds it)."""
+
+    def __init__(self, name, target, vx, done, share, sample, max_steps, x0, h0, steps0):
+        self.name, self.target, self.vx, self.done, self.share = name, target, vx, done, share
+        self.sample, self.max_steps = sample, max_steps
+        self.x0, self.h0, self.steps0 = x0, h0, steps0
+        self.rows: list[tuple] = []
+
+
+class _Forward:
+    """Stands for the shear run's checkpoint in the consolidation's uniaxial driver: what
+    that driver would write of itself, the shear run writes of itself (the driver within)."""
+
+    def __init__(self, checkpoint, shear):
+        self.checkpoint, self.shear = checkpoint, shear
+        self.after_fill = checkpoint.after_fill
+
+    def due(self, _driver) -> bool:
+        return self.checkpoint.due(self.shear)
+
+    def save(self, _driver) -> None:
+        self.checkpoint.save(self.shear)
+
+
 class _Shear:
-    """Runs the shear stages of one test (after the fill and consolidation)."""
+    """Runs one shear test: the fill and consolidation, the glued platens, the pre-shear
+    and the points, as a machine that a checkpoint (a pickle of it between two curve
+    samples) re-enters where it was: ``cons`` (the consolidation's uniaxial driver, until
+    the platens are glued), ``cell`` (the cell being sheared: the pre-sheared one, then each
+    point's branch), ``current`` (the stage in flight), ``presheared`` (the pickled
+    pre-sheared cell every point starts from) and ``points`` (the points done)."""
+
+    trajectory_packages = SHEAR_TRAJECTORY
 
     def __init__(self, test: ShearTest, progress: ProgressCallback | None):
         self.test = test
         self.progress = progress
+        self.checkpoint = None
         self.t_wall = time.perf_counter()
+        self.setup_time = 0.0
         self.stages: dict[str, ShearStage] = {}
         self.d = 2.0 * test.radius
         self.last_fraction = 0.0
+        self.cons = None
+        self.cons_stages: dict | None = None
+        self.cell: _Cell | None = None
+        self.current: _Stage | None = None
+        self.pre: dict | None = None
+        self.presheared: bytes | None = None
+        self.pre_steps = 0
+        self.pre_servo: dict = {}
+        self.points: list[ShearPoint] = []
+        self.steps = 0
+        self.halvings = 0
+
+    # ------------------------------------------------------------------ checkpoints
+    @property
+    def sim(self):
+        """The simulation now stepping (:class:`engine.uniaxial.checkpoint.Checkpoint`
+        reads its step count)."""
+        return self.cell.sim if self.cell is not None else self.cons.sim
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state["progress"] = state["checkpoint"] = None
+        # wall time so far instead of the start of a clock that does not survive the process
+        state["t_wall"] = time.perf_counter() - self.t_wall
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self.t_wall = time.perf_counter() - state["t_wall"]
+
+    def _due(self) -> None:
+        if self.checkpoint is not None:
+            self.checkpoint.due(self)
 
     # ------------------------------------------------------------------ progress
-    def report(self, stage: str, fraction: float, sim, share: tuple[float, float]) -> None:
+    def report(
+        self, stage: str, fraction: float, sim, share: tuple[float, float], msg="running"
+    ) -> None:
         if self.progress is None:
             return
         f = min(max(fraction, 0.0), 1.0)
         lo, hi = share
         # stresses fluctuate: never report less progress than before
         self.last_fraction = max(self.last_fraction, lo + (hi - lo) * f)
-        answer = self.progress(
-            Progress(self.last_fraction, stage, f, sim.time, sim.steps, "running")
-        )
+        answer = self.progress(Progress(self.last_fraction, stage, f, sim.time, sim.steps, msg))
         if answer is False:
             raise StopRequested(f"stopped by the progress callback during {stage}")
 
-    # ------------------------------------------------------------------ set-up
-    def consolidate(self):
-        """The uniaxial test's fill and pre-compression (to the pre-shear stress, gravity off
-        after the fill): the consolidated bed under a flat lid."""
-        ut = self.test.consolidation_test()
+    def _cons_progress(self, p: Progress):
+        if self.progress is None:
+            return None
         share = _CONSOLIDATION_SHARE / 0.5  # the two stages are half the uniaxial's weights
+        return self.progress(replace(p, fraction=min(1.0, p.fraction) * share * 0.5))
 
-        def prog(p: Progress):
-            if self.progress is None:
-                return None
-            return self.progress(replace(p, fraction=min(1.0, p.fraction) * share * 0.5))
-
-        d = _Driver(ut, prog if self.progress is not None else None)
+    # ------------------------------------------------------------------ set-up
+    def consolidate(self) -> _Driver:
+        """The uniaxial test's fill and pre-compression (to the pre-shear stress, gravity off
+        after the fill): the consolidated bed under a flat lid (resumed where a checkpoint
+        left it); returns the uniaxial driver that holds it."""
+        if self.cons is None:
+            self.cons = _Driver(self.test.consolidation_test(), None)
+            self.setup_time = self.cons.setup_time
+        d = self.cons
+        d.progress = self._cons_progress if self.progress is not None else None
+        d.checkpoint = None if self.checkpoint is None else _Forward(self.checkpoint, self)
         for stage in ("fill", "pre_compression"):
-            d.begin(stage)
+            if stage in d.stages:
+                continue
+            if d.current is None or d.current.stage != stage:
+                d.begin(stage)
             d.loop()
             d.end(stage)
-        self.setup_time = d.setup_time
+            if stage == "fill" and d.checkpoint is not None and d.checkpoint.after_fill:
+                d.checkpoint.save(d)  # the settled bed: never poured again
         # the uniaxial driver's reports between kernel calls end with its stages (the shear
         # stages report after every curve sample)
         d.sim.between_calls = None
@@ -295,227 +487,170 @@ class _Shear:
         v = t.inertial_number * gap / self.d * math.sqrt(sigma / t.density)
         return min(v, t.max_shear_speed)
 
-    def stage(self, cell: _Cell, name: str, target: float, vx: float, done, share, fraction):
-        """Run one stage: the lid at shear speed ``vx`` [m/s] and its servo at ``target``
-        [Pa], a curve sample every ``output_interval`` until ``done(rows)`` holds (or, with
-        an instant criterion, ``done.instant`` at a servo reading); StageError past
-        ``max_stage_time``."""
+    def started(self, name: str) -> bool:
+        """Whether stage ``name`` is done or in flight (a resumed run does not set it up
+        again)."""
+        return name in self.stages or (self.current is not None and self.current.name == name)
+
+    def _row(self, st: _Stage, means) -> tuple:
+        cell, t, sim = self.cell, self.test, self.cell.sim
+        _, gap = cell.heights()
+        p = max(st.target, 1e-9)
+        return (
+            sim.time,
+            cell.x - st.x0,
+            (cell.x - st.x0) / st.h0,
+            means[0],
+            means[2],
+            means[1],
+            means[3],
+            gap,
+            cell.bulk_density(),
+            cell.kinetic_energy(),
+            abs(st.vx) / gap * self.d * math.sqrt(t.density / p),
+        )
+
+    def stage(self, name: str, target: float, vx: float, done, share) -> tuple[dict, object]:
+        """Run one stage on ``self.cell`` (or go on with it where a checkpoint left it, or
+        return its curves where it is done): the lid at shear speed ``vx`` [m/s] and its
+        servo at ``target`` [Pa], a curve sample every ``output_interval`` until
+        ``done(rows)`` holds (or, with an instant criterion, ``done.instant`` at a servo
+        reading; ``done.fraction(rows)`` is the stage's progress); StageError past
+        ``max_stage_time``. A checkpoint may be written after each sample that did not end
+        the stage. Returns the curves and the criterion as the stage left it (None for a
+        stage done before)."""
+        if name in self.stages:
+            return self.stages[name].curves, None
         t = self.test
+        cell = self.cell
         sim = cell.sim
-        cell.vx = vx
-        cell.set_lid()
-        sample = SERVO_STEPS * max(1, round(t.output_interval / sim.dt / SERVO_STEPS))
-        max_steps = round(t.max_stage_time / sim.dt)
-        x0 = cell.x
-        _, h0 = cell.heights()
-        rows: list[tuple] = []
-        steps0 = sim.steps
-        instant = getattr(done, "instant", None)
-
-        def row(means) -> tuple:
-            _, gap = cell.heights()
-            p = max(target, 1e-9)
-            return (
-                sim.time,
-                cell.x - x0,
-                (cell.x - x0) / h0,
-                means[0],
-                means[2],
-                means[1],
-                means[3],
-                gap,
-                cell.bulk_density(),
-                cell.kinetic_energy(),
-                abs(vx) / gap * self.d * math.sqrt(t.density / p),
+        st = self.current
+        if st is None or st.name != name:
+            cell.vx = vx
+            cell.set_lid()
+            _, h0 = cell.heights()
+            st = _Stage(
+                name,
+                target,
+                vx,
+                done,
+                share,
+                SERVO_STEPS * max(1, round(t.output_interval / sim.dt / SERVO_STEPS)),
+                round(t.max_stage_time / sim.dt),
+                cell.x,
+                h0,
+                sim.steps,
             )
-
-        rows.append(row(np.array(cell.stresses())))
+            st.rows.append(self._row(st, np.array(cell.stresses())))
+            self.current = st
+        rows = st.rows
+        instant = getattr(st.done, "instant", None)
         while True:
-            if sim.steps - steps0 >= max_steps:
+            if sim.steps - st.steps0 >= st.max_steps:
                 r = rows[-1]
                 raise StageError(
-                    f"stage {name} did not end within {sim.steps - steps0} steps "
+                    f"stage {name} did not end within {sim.steps - st.steps0} steps "
                     f"({t.max_stage_time:g} s, max_stage_time); now: shear stress "
                     f"{r[3]:.4g} Pa, normal stress {r[5]:.4g} Pa (target {target:.4g} Pa), "
                     f"shear strain {r[2]:.4g}",
                     name,
-                    sim.steps - steps0,
+                    sim.steps - st.steps0,
                 )
-            means, hit = cell.advance(sample, target, instant)
-            rows.append(row(means))
-            self.report(name, fraction(rows), sim, share)
-            if hit or done(rows):
+            means, hit = cell.advance(st.sample, st.target, instant)
+            rows.append(self._row(st, means))
+            self.report(name, st.done.fraction(rows), sim, st.share)
+            if hit or st.done(rows):
                 break
+            self._due()
         a = np.array(rows, dtype=float)
         curves = {k: a[:, i].copy() for i, k in enumerate(SHEAR_CURVE_UNITS)}
         for k, v in curves.items():
             if not np.all(np.isfinite(v)):
                 raise FloatingPointError(f"stage {name}: non-finite values in the {k} curve")
-        self.stages[name] = ShearStage(name, curves, sim.steps - steps0)
-        return curves
+        self.stages[name] = ShearStage(name, curves, sim.steps - st.steps0)
+        self.current = None
+        return curves, st.done
 
-    def preshear(self, cell: _Cell, share) -> dict:
-        """Shear at the pre-shear stress, at least ``preshear_min_strain``, until two
-        consecutive windows of ``steady_window`` shear strain have mean shear stresses
-        within ``steady_tolerance`` and mean lid heights within ``steady_height_tolerance``
-        (and the mean normal stress of the last is within ``servo_tolerance`` of the
-        target); StageError at ``preshear_strain`` without it.
-        The pre-shear point is the mean (sigma, tau) over the last window."""
+    def preshear(self, share) -> dict:
+        """Shear at the pre-shear stress, at least ``preshear_min_strain``, until it is
+        steady (:class:`_Steady`). The pre-shear point is the mean (sigma, tau) over the
+        last window."""
         t = self.test
-        _, gap = cell.heights()
-        v = self.shear_speed(gap, t.preshear_stress)
-        w = t.steady_window
-        state = {"drift": math.inf, "height_drift": math.inf}
-
-        def windows(rows):
-            a = np.array(rows)
-            g = a[:, 2]
-            last = g >= g[-1] - w
-            prev = (g >= g[-1] - 2 * w) & ~last
-            return a, last, prev
-
-        def done(rows) -> bool:
-            g = rows[-1][2]
-            if g < max(2 * w, t.preshear_min_strain):
-                return False
-            a, last, prev = windows(rows)
-            t1, t0 = a[last, 3].mean(), a[prev, 3].mean()
-            h1, h0 = a[last, 7].mean(), a[prev, 7].mean()
-            s1 = a[last, 5].mean()
-            state["drift"] = abs(t1 - t0) / max(abs(t1), 1e-300)
-            state["height_drift"] = abs(h1 - h0) / h1
-            steady = (
-                state["drift"] < t.steady_tolerance
-                and state["height_drift"] < t.steady_height_tolerance
-                and abs(s1 - t.preshear_stress) < t.servo_tolerance * t.preshear_stress
-            )
-            if steady:
-                return True
-            if g >= t.preshear_strain:
-                raise StageError(
-                    f"the pre-shear did not reach steady flow within {t.preshear_strain:g} "
-                    f"shear strain: its mean shear stress changed by {state['drift']:.1%} "
-                    f"over the last window of {w:g} (steady_tolerance "
-                    f"{t.steady_tolerance:g}), its mean lid height by "
-                    f"{state['height_drift']:.2%} (steady_height_tolerance "
-                    f"{t.steady_height_tolerance:g}), its mean normal stress is {s1:.4g} Pa "
-                    f"(target {t.preshear_stress:.4g} Pa)",
-                    "preshear",
-                    0,
-                )
-            return False
-
-        c = self.stage(
-            cell,
-            "preshear",
-            t.preshear_stress,
-            v,
-            done,
-            share,
-            lambda rows: rows[-1][2] / t.preshear_strain,
-        )
-        last = c["shear_strain"] >= c["shear_strain"][-1] - w
+        v = 0.0  # resumed: the stage's own speed, set when it started
+        if not self.started("preshear"):
+            _, gap = self.cell.heights()
+            v = self.shear_speed(gap, t.preshear_stress)
+        c, steady = self.stage("preshear", t.preshear_stress, v, _Steady(t), share)
+        last = c["shear_strain"] >= c["shear_strain"][-1] - t.steady_window
         return {
             "sigma": float(c["normal_stress"][last].mean()),
             "tau": float(c["shear_stress"][last].mean()),
             "strain": float(c["shear_strain"][-1]),
-            "drift": state["drift"],
-            "height_drift": state["height_drift"],
+            "drift": steady.drift,
+            "height_drift": steady.height_drift,
             "bulk_density": float(c["bulk_density"][last].mean()),
         }
 
-    def point(self, cell: _Cell, k: int, target: float, share) -> ShearPoint:
-        """One shear point from the pre-sheared state: reverse the lid until the shear
-        stress is zero, set the normal stress, shear to failure."""
+    def point(self, k: int, target: float, share) -> ShearPoint:
+        """One shear point on ``self.cell`` (a branch of the pre-sheared state): reverse the
+        lid until the shear stress is zero, set the normal stress, shear to failure (each
+        stage skipped or gone on with where a checkpoint left the point)."""
         t = self.test
-        _, gap = cell.heights()
-        v_pre = self.shear_speed(gap, t.preshear_stress)
+        cell = self.cell
         lo, hi = share
         parts = [(lo, lo + 0.1 * (hi - lo)), (lo + 0.1 * (hi - lo), lo + 0.3 * (hi - lo))]
         parts.append((parts[1][1], hi))
-
-        def zero(rows):
-            return False
-
-        zero.instant = lambda r: r[0] <= 0.0
-        self.stage(
-            cell,
-            f"point{k}_reverse",
-            t.preshear_stress,
-            -v_pre,
-            zero,
-            parts[0],
-            lambda rows: 0.5,
-        )
-        cell.integral = 0.0  # a new target: the old integral is the old target's lag
-        tol = t.servo_tolerance * target
-        relax = cell.servo["relaxation_time"]
-
-        def held(rows) -> bool:
-            return (
-                rows[-1][0] - rows[0][0] >= 3 * relax
-                and len(rows) >= 3
-                and all(abs(r[5] - target) < tol for r in rows[-2:])
-            )
-
-        self.stage(
-            cell,
-            f"point{k}_normal",
-            target,
-            0.0,
-            held,
-            parts[1],
-            lambda rows: min(1.0, abs(rows[0][5] - target) / max(abs(rows[-1][5] - target), 1)),
-        )
-        _, gap = cell.heights()
-        v = self.shear_speed(gap, target)
-        state = {"peaked": False}
-
+        reverse, normal, shear = (f"point{k}_{s}" for s in ("reverse", "normal", "shear"))
+        v = 0.0  # resumed: the stage's own speed, set when it started
+        if not self.started(reverse):
+            _, gap = cell.heights()
+            v = -self.shear_speed(gap, t.preshear_stress)
+        self.stage(reverse, t.preshear_stress, v, _ZeroShear(), parts[0])
+        if not self.started(normal):
+            cell.integral = 0.0  # a new target: the old integral is the old target's lag
+            cell.relax = cell.servo["relaxation_time"]  # the point's, as its normal stage starts
+        relax = cell.relax
+        self.stage(normal, target, 0.0, _Held(target, t.servo_tolerance * target, relax), parts[1])
         settle = PEAK_SETTLE * relax
-
-        def failed(rows) -> bool:
-            a = np.array(rows)
-            sm = _smoothed(a[:, 2], a[:, 3], SMOOTHING_STRAIN)
-            _, dropped = _peak(a[:, 0], a[:, 2], sm, settle, t.failure_drop)
-            if dropped:
-                state["peaked"] = True
-                return True
-            return a[-1, 2] >= t.failure_strain
-
-        c = self.stage(
-            cell,
-            f"point{k}_shear",
-            target,
-            v,
-            failed,
-            parts[2],
-            lambda rows: rows[-1][2] / t.failure_strain,
-        )
+        v = 0.0
+        if not self.started(shear):
+            _, gap = cell.heights()
+            v = self.shear_speed(gap, target)
+        c, failed = self.stage(shear, target, v, _Failed(t, settle), parts[2])
         g = c["shear_strain"]
         tau = _smoothed(g, c["shear_stress"], SMOOTHING_STRAIN)
         sig = _smoothed(g, c["normal_stress"], SMOOTHING_STRAIN)
         i, _ = _peak(c["time"], g, tau, settle, t.failure_drop)
-        return ShearPoint(target, float(sig[i]), float(tau[i]), float(g[i]), state["peaked"])
+        return ShearPoint(target, float(sig[i]), float(tau[i]), float(g[i]), failed.peaked)
 
     def run(self) -> ShearResult:
+        """Run (or, resumed from a checkpoint, go on with) the stages, then the locus."""
         t = self.test
-        d = self.consolidate()
-        cell = self.glue(d)
-        sim = cell.sim
+        if self.cell is None:
+            self.cell = self.glue(self.consolidate())
+            self.cons_stages = dict(self.cons.stages)
+            self.cons = None
         n = len(t.normal_stresses)
         span = 1.0 - _CONSOLIDATION_SHARE
         pre_share = (_CONSOLIDATION_SHARE, _CONSOLIDATION_SHARE + span / (n + 1))
-        pre = self.preshear(cell, pre_share)
-        stored = pickle.dumps(cell)
-        points = []
-        steps = sim.steps  # every step run: the fill, consolidation, pre-shear, each branch
-        halvings = cell.servo["halvings"]
-        for k, target in enumerate(t.normal_stresses):
-            branch = pickle.loads(stored)
+        if self.pre is None:
+            self.pre = self.preshear(pre_share)
+            self.presheared = pickle.dumps(self.cell)
+            self.pre_steps = self.cell.sim.steps
+            # every step run: the fill, consolidation, pre-shear, each branch
+            self.steps = self.pre_steps
+            self.halvings = self.cell.servo["halvings"]
+            self.pre_servo = dict(self.cell.servo)
+        pre = self.pre
+        for k in range(len(self.points), n):
+            if not self.started(f"point{k}_reverse"):
+                self.cell = pickle.loads(self.presheared)
             lo = pre_share[1] + span / (n + 1) * k
-            points.append(self.point(branch, k, target, (lo, lo + span / (n + 1))))
-            steps += branch.sim.steps - sim.steps
-            halvings = max(halvings, branch.servo["halvings"])
+            self.points.append(self.point(k, t.normal_stresses[k], (lo, lo + span / (n + 1))))
+            self.steps += self.cell.sim.steps - self.pre_steps
+            self.halvings = max(self.halvings, self.cell.servo["halvings"])
+        points, cell, steps, halvings = self.points, self.cell, self.steps, self.halvings
+        sim = cell.sim
         try:
             locus = yield_locus(
                 [p.sigma for p in points], [p.tau for p in points], pre["sigma"], pre["tau"]
@@ -543,8 +678,8 @@ class _Shear:
             "glued_base": float(cell.base.size),
             "glued_lid": float(cell.lid.size),
             "particles": float(sim.n),
-            "servo_time": cell.servo["relaxation_time"],
-            "servo_gain": cell.servo["gain"],
+            "servo_time": self.pre_servo["relaxation_time"],
+            "servo_gain": self.pre_servo["gain"],
             "servo_halvings": float(halvings),
             "steps": float(steps),
             "particle_steps": float(sim.n) * float(steps),
@@ -555,7 +690,7 @@ class _Shear:
         bad = [k for k, v in s.items() if math.isnan(v) or (math.isinf(v) and k != "ffc")]
         if bad:
             raise FloatingPointError(f"non-finite scalars {bad}: the shear test is not usable")
-        return ShearResult(t, dict(d.stages), self.stages, tuple(points), locus, s)
+        return ShearResult(t, dict(self.cons_stages), self.stages, tuple(points), locus, s)
 
 
 def unloading_ratio(law) -> float:
@@ -594,7 +729,12 @@ def _smoothed(strain: np.ndarray, values: np.ndarray, window: float) -> np.ndarr
     return (c[hi] - c[lo]) / np.maximum(hi - lo, 1)
 
 
-def run_shear(test: ShearTest, progress: ProgressCallback | None = None) -> ShearResult:
+def run_shear(
+    test: ShearTest,
+    progress: ProgressCallback | None = None,
+    *,
+    checkpoint: Checkpoint | str | os.PathLike | None = None,
+) -> ShearResult:
     """Run the shear test (docs/SHEAR.md): fill, consolidation to ``preshear_stress`` under a
     flat lid, glued platens, pre-shear to steady flow, then each shear point from the
     stored pre-sheared state (lid reversed to zero shear stress, normal stress set, shear
@@ -604,6 +744,13 @@ def run_shear(test: ShearTest, progress: ProgressCallback | None = None) -> Shea
         test: the parameters (:class:`engine.ShearTest`).
         progress: called after every curve sample with a :class:`engine.Progress`;
             returning ``False`` stops the run with :class:`engine.StopRequested`.
+        checkpoint: a :class:`engine.Checkpoint` (or its path, written every
+            ``CHECKPOINT_INTERVAL`` s): the run resumes from it when it holds this test's
+            state (written by the same code of :data:`SHEAR_TRAJECTORY`), and writes it
+            between curve samples as it goes and once the fill has settled; the result is
+            bit-identical to that of an uninterrupted run
+            (tests/engine/test_shear.py). The file is left for the caller to remove once
+            the result is stored (:meth:`engine.Checkpoint.remove`).
     Raises: :class:`engine.StageError` when a stage misses its criterion within its bound
         (a pre-shear that does not reach steady flow, a normal stress not held), or when
         the shear points give no yield locus (a slope <= 0); FloatingPointError for a
@@ -612,4 +759,23 @@ def run_shear(test: ShearTest, progress: ProgressCallback | None = None) -> Shea
     """
     if not isinstance(test, ShearTest):
         raise TypeError(f"run_shear takes an engine.ShearTest, not {type(test).__name__}")
-    return _Shear(test, progress).run()
+    this_code()  # the code this run is made by, taken before it runs (engine.io.store)
+
+    def refuse(state) -> str | None:
+        return None if isinstance(state, _Shear) else "holds no shear run"
+
+    checkpoint, run, load = resume(checkpoint, test, refuse, SHEAR_TRAJECTORY)
+    if run is not None:
+        run.setup_time += load
+        run.t_wall -= load  # wall_time = now - t_wall - setup_time
+        run.progress = progress
+    else:
+        run = _Shear(test, progress)
+    run.checkpoint = checkpoint
+    if checkpoint is not None:
+        checkpoint.start()
+        if checkpoint.resumed_steps is not None and run.progress is not None:
+            stage = run.current.name if run.current is not None else run.cons.stage_now
+            msg = f"{RESUMED} at step {checkpoint.resumed_steps}"
+            run.report(stage, 0.0, run.sim, (0.0, 0.0), msg)
+    return run.run()

@@ -398,10 +398,10 @@ def shear_steps(test: ShearTest) -> float:
     return uniaxial_steps(cons) + t / cons.resolved_dt()
 
 
-def _run_shear(test, progress=None, **_options):
-    # the kind declares what it does not honour (checkpoints, a wall-time limit, another
-    # backend): run_study refuses those options before any run starts
-    return run_shear(test, progress=progress)
+def _run_shear(test, progress=None, checkpoint=None, **_options):
+    # the kind declares what it does not honour (a wall-time limit, another backend):
+    # run_study refuses those options before any run starts
+    return run_shear(test, progress=progress, checkpoint=checkpoint)
 
 
 def _shear_row(result) -> dict:
@@ -425,7 +425,7 @@ SHEAR = register(
         shape_names=(),
         shape_errors=lambda run, ref: {},
         run=_run_shear,
-        checkpoints=False,
+        checkpoints=True,
         wall_time_limit=False,
         backends=("cpu", "auto"),
         control_test=shear_spec.control_test,

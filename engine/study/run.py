@@ -140,9 +140,9 @@ def _execute(
 def run_test(test, progress=None, checkpoint=None, backend=None, limit=None):
     """One run of a study's test by its kind's run (:mod:`engine.study.kinds`: the uniaxial
     test's :func:`engine.run_uniaxial` with its ``checkpoint``, ``backend`` and wall-time
-    ``limit``; the shear test's :func:`engine.run_shear` on the CPU, which honours none of
-    them: :func:`check_kind_options` refuses them before any run starts, and a shear run
-    resumed after a crash starts again)."""
+    ``limit``; the shear test's :func:`engine.run_shear` on the CPU with its ``checkpoint``,
+    which honours neither of the others: :func:`check_kind_options` refuses them before any
+    run starts)."""
     kind = kind_of(test)
     return kind.run(
         test,

@@ -420,3 +420,55 @@ def test_a_shear_to_failure_s_start_up_ringing_is_no_peak():
     i, dropped = _peak(time, strain, sm, 3 * relax, 0.05)
     assert dropped and 0.05 < strain[i] < 0.07 and tau[i] > 6.5e3
     assert strain[-1] - strain[i] >= SMOOTHING_STRAIN
+
+
+# ---------------------------------------------------------------------- checkpoints
+class Killed(Exception):
+    """Stands for the process dying: raised from the progress callback."""
+
+
+def test_a_shear_run_killed_and_resumed_gives_the_same_result(tmp_path, cohesive):
+    """Killed after a checkpoint written in each of the consolidation, the pre-shear, a
+    point's normal stage and the last shear to failure (a checkpoint at every sample),
+    resumed each time from the file: the curves of every stage byte for byte, the points and
+    the scalars (but the wall time) those of the run never interrupted."""
+    from engine.uniaxial.checkpoint import Checkpoint
+
+    path = tmp_path / "shear.ckpt"
+    test = tiny(pair_law=COHESIVE)
+    killed_in, resumed = [], []
+    for where in ("pre_compression", "preshear", "point1_normal", "point3_shear"):
+        ck = Checkpoint(path, interval=1e-12)
+        first = {}
+
+        def stop(p, ck=ck, where=where, first=first):
+            if p.message.startswith("resumed"):
+                resumed.append(p.stage)
+            if p.stage == where:
+                first.setdefault("writes", ck.writes)
+                if ck.writes > first["writes"]:  # a checkpoint written within this stage
+                    killed_in.append(p.stage)
+                    raise Killed()
+
+        with pytest.raises(Killed):
+            engine.run_shear(test, progress=stop, checkpoint=ck)
+    assert killed_in == ["pre_compression", "preshear", "point1_normal", "point3_shear"]
+    assert resumed == ["pre_compression", "preshear", "point1_normal"]
+    last = Checkpoint(path, interval=1e9)
+    res = engine.run_shear(test, checkpoint=last)
+    assert last.resumed_steps is not None and last.resumed_steps > 0
+    want = cohesive
+    for got_stages, want_stages in (
+        (res.consolidation, want.consolidation),
+        (res.stages, want.stages),
+    ):
+        assert list(got_stages) == list(want_stages)
+        for name, st in want_stages.items():
+            assert got_stages[name].steps == st.steps, name
+            for k, v in st.curves.items():
+                assert got_stages[name].curves[k].tobytes() == v.tobytes(), f"{name}.{k}"
+    assert res.points == want.points
+    for k, v in want.scalars.items():
+        if k != "wall_time":
+            assert res.scalars[k] == v, k
+    assert path.exists()  # left for the caller, who stores the result first

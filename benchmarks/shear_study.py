@@ -22,8 +22,8 @@ section 11.1) were fixed before any of these runs.
 Each run is stored the moment it ends under ``benchmarks/results/quick/shear_study/`` as
 ``<key>.json`` (test, scalars, points, locus) with its shear stages' curves in ``<key>.npz``
 (engine.shear.results.save_shear), or ``<key>.failed`` (its error), and committed with
-``--commit``; the study resumes with the runs it lacks (a run cut off starts again: a shear
-run has no checkpoint). The summary (table, verdicts, report) is written to
+``--commit``; the study resumes with the runs it lacks (a run cut off starts again: this script
+passes no checkpoint to its runs). The summary (table, verdicts, report) is written to
 ``summary.json`` there when the study ends and by ``--report``.
 """
 

@@ -87,6 +87,7 @@ class _Cell:
         self.flips = 0  # consecutive updates at the speed limit, each the other way
         self.last_sign = 0
         self.x = 0.0  # lid displacement along x since the start of the shear [m]
+        self.relax = math.nan  # a point's servo relaxation time as its normal stage starts [s]
         m = sim.masses
         self.m_free = m[self.free]
         self.i_free = 0.4 * m[self.free] * sim.radii[self.free] ** 2
@@ -345,6 +346,7 @@ class _Shear:
         self.t_wall = time.perf_counter()
         self.setup_time = 0.0
         self.stages: dict[str, ShearStage] = {}
+        self.criteria: dict = {}  # each finished stage's criterion as the stage left it
         self.d = 2.0 * test.radius
         self.last_fraction = 0.0
         self.cons = None
@@ -517,10 +519,9 @@ class _Shear:
         ``done(rows)`` holds (or, with an instant criterion, ``done.instant`` at a servo
         reading; ``done.fraction(rows)`` is the stage's progress); StageError past
         ``max_stage_time``. A checkpoint may be written after each sample that did not end
-        the stage. Returns the curves and the criterion as the stage left it (None for a
-        stage done before)."""
+        the stage. Returns the curves and the criterion as the stage left it."""
         if name in self.stages:
-            return self.stages[name].curves, None
+            return self.stages[name].curves, self.criteria[name]
         t = self.test
         cell = self.cell
         sim = cell.sim
@@ -568,6 +569,7 @@ class _Shear:
             if not np.all(np.isfinite(v)):
                 raise FloatingPointError(f"stage {name}: non-finite values in the {k} curve")
         self.stages[name] = ShearStage(name, curves, sim.steps - st.steps0)
+        self.criteria[name] = st.done
         self.current = None
         return curves, st.done
 
@@ -775,7 +777,11 @@ def run_shear(
     if checkpoint is not None:
         checkpoint.start()
         if checkpoint.resumed_steps is not None and run.progress is not None:
-            stage = run.current.name if run.current is not None else run.cons.stage_now
             msg = f"{RESUMED} at step {checkpoint.resumed_steps}"
-            run.report(stage, 0.0, run.sim, (0.0, 0.0), msg)
+            st = run.current
+            if st is not None:  # within a shear stage
+                run.report(st.name, st.done.fraction(st.rows), run.sim, st.share, msg)
+            else:  # in the consolidation (within its stage, or its fill just ended)
+                run.cons.progress = run._cons_progress
+                run.cons.report(run.cons.stage_now, run.cons.stage_fraction, msg)
     return run.run()

@@ -428,7 +428,8 @@ class Killed(Exception):
 
 
 def test_a_shear_run_killed_and_resumed_gives_the_same_result(tmp_path, cohesive):
-    """Killed after a checkpoint written in each of the consolidation, the pre-shear, a
+    """Killed after a checkpoint written within the fill, right after the fill's own
+    checkpoint, and within the pre-compression, the pre-shear, a point's reversal, a
     point's normal stage and the last shear to failure (a checkpoint at every sample),
     resumed each time from the file: the curves of every stage byte for byte, the points and
     the scalars (but the wall time) those of the run never interrupted."""
@@ -436,24 +437,44 @@ def test_a_shear_run_killed_and_resumed_gives_the_same_result(tmp_path, cohesive
 
     path = tmp_path / "shear.ckpt"
     test = tiny(pair_law=COHESIVE)
+    kills = [
+        ("fill", True),
+        ("pre_compression", False),  # at its first sample: the fill's checkpoint the last
+        ("pre_compression", True),
+        ("preshear", True),
+        ("point0_reverse", True),
+        ("point1_normal", True),
+        ("point3_shear", True),
+    ]
     killed_in, resumed = [], []
-    for where in ("pre_compression", "preshear", "point1_normal", "point3_shear"):
+    for where, within in kills:
         ck = Checkpoint(path, interval=1e-12)
         first = {}
 
-        def stop(p, ck=ck, where=where, first=first):
+        def stop(p, ck=ck, where=where, within=within, first=first):
             if p.message.startswith("resumed"):
-                resumed.append(p.stage)
+                resumed.append((p.stage, p.fraction))
             if p.stage == where:
                 first.setdefault("writes", ck.writes)
-                if ck.writes > first["writes"]:  # a checkpoint written within this stage
+                if ck.writes > first["writes"] or not within:
                     killed_in.append(p.stage)
                     raise Killed()
 
         with pytest.raises(Killed):
             engine.run_shear(test, progress=stop, checkpoint=ck)
-    assert killed_in == ["pre_compression", "preshear", "point1_normal", "point3_shear"]
-    assert resumed == ["pre_compression", "preshear", "point1_normal"]
+    assert killed_in == [w for w, _ in kills]
+    # each resumed run says so first, in the stage it goes on with, and its progress
+    # never goes back past the one reported before the kill
+    assert [s for s, _ in resumed] == [
+        "fill",
+        "fill",
+        "pre_compression",
+        "preshear",
+        "point0_reverse",
+        "point1_normal",
+    ]
+    fractions = [f for _, f in resumed]
+    assert fractions == sorted(fractions) and fractions[-1] > 0.3
     last = Checkpoint(path, interval=1e9)
     res = engine.run_shear(test, checkpoint=last)
     assert last.resumed_steps is not None and last.resumed_steps > 0

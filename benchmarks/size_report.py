@@ -79,6 +79,20 @@ def failures(kind: str, law_name: str) -> list[str]:
     return out
 
 
+#: Runs set aside and made again (out of the fits; why, in the folder's README.md).
+SET_ASIDE = S.STORE.parent / "size_series_rejected"
+
+
+def set_aside(kind: str, law_name: str) -> list[str]:
+    """The set-aside runs of one kind and law: each key and how it ended."""
+    out = []
+    for p in sorted((SET_ASIDE / kind / law_name).glob("*.json")):
+        d = S.read_digest(p)
+        what = "finished" if d.ok else d.outcome[:160]
+        out.append(f"{kind}/{law_name}/{p.stem}: {what}")
+    return out
+
+
 def _values(d, names) -> dict:
     v = {n: d.metrics[n] for n in names if n in d.metrics}
     if "strength" in v and not _failed(d):
@@ -638,9 +652,19 @@ def report() -> str:
         if bad:
             lines += ["", "Runs that ended in an error (left out):", ""]
             lines += [f"- {b}" for b in bad]
+        aside = set_aside("column", law_name) + set_aside("shear", law_name)
+        if aside:
+            lines += [
+                "",
+                "Runs set aside and made again (left out; why: "
+                "benchmarks/results/size_series_rejected/README.md):",
+                "",
+            ]
+            lines += [f"- {b}" for b in aside]
         lines.append("")
     lines += [f"## The hopper outlet (law {OUTLET_LAW})", "", *outlet_report.lines(), ""]
     lines += confound_lines()
+    lines += guard_lines()
     lines += [
         "## Not measured",
         "",
@@ -655,6 +679,86 @@ def report() -> str:
         "",
     ]
     return "\n".join(lines)
+
+
+#: The overlap_tail readings (benchmarks/overlap_tail.py).
+OVERLAP_TAIL = S.STORE.parent / "overlap_tail"
+
+
+def _guarded(d) -> bool:
+    return (not d.ok) and "InstabilityError" in d.outcome and "overlap" in d.outcome
+
+
+def guard_lines() -> list[str]:
+    """The report's section on the runs the overlap guard stopped: per law, kind and size,
+    the runs stored (with those set aside) and how many the guard stopped; the
+    overlap_tail readings; the law's numbers that set the guard's force."""
+    out = [
+        "## Runs stopped at the overlap guard",
+        "",
+        "The engine stops a run whose contact overlap reaches `max_overlap_fraction` (half "
+        "the radius), the range in which it holds a sphere law to be a sphere law. In this "
+        "law the overlap keeps a contact's history: its plastic overlap is (1 - k1 / k2) of "
+        "its largest overlap, and with kadh = 0 the adhesion f0 pulls an unloaded contact "
+        "back to that plastic overlap, so the overlaps record the largest force each "
+        "contact has carried, (f_max - f0) / k1 on the loading branch.",
+        "",
+        "| law | adhesive overlap abs(f0) / (k1 R) | force on the loading branch at half "
+        "a radius [N] |",
+        "|---|---:|---:|",
+    ]
+    r = S.shear_test("bond1", S.SHEAR_REFERENCE_SIZE, 1).radius
+    for law_name in S.LAWS:
+        law = S.law(law_name)
+        out.append(
+            f"| {law_name} | {abs(law.f0) / (law.k1 * r):.3f} | {0.5 * law.k1 * r + law.f0:.2f} |"
+        )
+    out += [
+        "",
+        "Runs per size (the stored ones and those set aside, "
+        "benchmarks/results/size_series_rejected/):",
+        "",
+        "| law | kind | size [d across] | runs | stopped at the guard |",
+        "|---|---|---:|---:|---:|",
+    ]
+    for law_name in S.LAWS:
+        for kind, table in (("column", S.COLUMN_SIZES), ("shear", S.SHEAR_SIZES)):
+            for size, n in sorted(table.get(law_name, {}).items()):
+                ds = [S.stored(kind, law_name, size, seed) for seed in range(1, n + 1)]
+                aside = SET_ASIDE / kind / law_name
+                ds += [S.read_digest(p) for p in sorted(aside.glob(f"{S.label(size)}-s*.json"))]
+                ds = [d for d in ds if d is not None]
+                hit = sum(_guarded(d) for d in ds)
+                if hit:
+                    out.append(f"| {law_name} | {kind} | {size:.3g} | {len(ds)} | {hit} |")
+    files = sorted(OVERLAP_TAIL.glob("*.json"))
+    if files:
+        out += [
+            "",
+            "The overlaps through a shear run (`python -m benchmarks.overlap_tail LAW SIZE "
+            "SEED`: the run made again, its contacts read when the platens are glued and "
+            "then every 200 servo updates; the pre-shear at 10 kPa):",
+            "",
+            "| law | size [d] | seed | how it ended | time [s] | normal force 99.9th "
+            "percentile, largest [N] | overlap / R: mean, 99.9th percentile, largest |",
+            "|---|---:|---:|---|---|---|---|",
+        ]
+        for p in files:
+            doc = json.loads(p.read_text())
+            rows = doc["readings"]
+            ended = "finished" if doc["outcome"] == "finished" else doc["outcome"].split(":")[0]
+            # glued, the pre-shear's last reading, and the run's last (a point's branch)
+            pre = [x for x in rows if x["target"] == rows[0]["target"]]
+            picks = [rows[0], pre[-1]] + ([rows[-1]] if rows[-1] is not pre[-1] else [])
+            for x in picks:
+                out.append(
+                    f"| {doc['law']} | {doc['size']:.3g} | {doc['seed']} | {ended} | "
+                    f"{x['time']:.2f} | {x['force_p999']:.2f}, {x['force_max']:.2f} | "
+                    f"{x['overlap_mean']:.3f}, {x['overlap_p999']:.3f}, "
+                    f"{x['overlap_max']:.3f} |"
+                )
+    out.append("")
+    return out
 
 
 def confound_lines() -> list[str]:

@@ -68,9 +68,10 @@ compact digest in git,
 (:mod:`engine.io.digest`: the test, scalars and verdict metrics bit-exact, the full file's
 sha256), with a column's section profiles beside it (``.profile.npz``); the full HDF5 file
 (curves; :mod:`engine.io.store`) goes to ``var/size_series/`` outside git (regenerable: the
-test and the code are in the digest). A column run keeps a checkpoint there
-(``.checkpoints/``): a run cut off within a session resumes bit for bit; across sessions a
-run not stored starts again. The report reads the digests only.
+test and the code are in the digest). A run (column or shear cell) keeps a checkpoint
+there (``.checkpoints/``): a run cut off resumes bit for bit where the machine keeps that
+folder (across sessions on the same machine); elsewhere a run not stored starts again. The
+report reads the digests only.
 """
 
 from __future__ import annotations
@@ -122,7 +123,16 @@ SHEAR_SIZES = {
     # runs; 55,004 particles, about 30 min each on two engine threads (--threads 2)
     "bond1": {2.5: 6, 10.0 / 3.0: 6, 5.0: 6, 7.5: 4, 10.0: 4, 15.0: 2, 20.0: 2},
     # added 2026-12-06, after the bond1 shear sizes to 7.5 had been seen: the second law's
-    # bulk in shear, the cheap sizes (no rule changed)
+    # bulk in shear, the cheap sizes (no rule changed). 7.5 d: its four seeds made again on
+    # 2026-12-07 with the driver of that day (the peak sought after PEAK_SETTLE), each
+    # stored as it came: three of the first four had stopped with InstabilityError (a pair
+    # at half a radius) under the code of 2026-12-06, whose time step differs from today's
+    # in its last bit (a chaotic trajectory: another sample of the same law and protocol);
+    # those digests are kept in benchmarks/results/size_series_rejected/ and counted in the
+    # report. No larger size: two of the four made again stopped the same way, and the
+    # overlaps' tail grows through a run (benchmarks/overlap_tail.py): a larger cell, more
+    # contacts for longer, would reach the guard more often and leave its surviving seeds
+    # an ever more selected sample (docs/RESOLUTION.md, "Runs stopped at the overlap guard").
     "bond3": {2.5: 6, 10.0 / 3.0: 6, 5.0: 6, 7.5: 4},
 }
 SHEAR_REFERENCE_SIZE = 5.0

@@ -100,11 +100,12 @@ def _values(d, names) -> dict:
     return v
 
 
-def feature_curves(feature: str, law_name: str) -> dict:
+def feature_curves(feature: str, law_name: str, without: tuple = ()) -> dict:
     """The resolution curves of a feature kind's properties for one law, with each
-    property's need (point and 95 % bound)."""
+    property's need (point and 95 % bound); ``without``: sizes left out (a sensitivity,
+    never the rule)."""
     kind, names, tols, ref_size = FEATURES[feature]
-    runs = digests(kind, law_name)
+    runs = {z: ds for z, ds in digests(kind, law_name).items() if z not in without}
     if ref_size not in runs or len(runs[ref_size]) < 2:
         return {"metrics": {}, "sizes": sorted(runs)}
     # per property, the runs that have it (a strength: the samples that failed at a peak),
@@ -318,6 +319,58 @@ def profile_at_peak(law_name: str, size: float, seed: int, d) -> dict | None:
         "ratio": (stress / core).tolist(),
         "strain": float(strain[k]),
     }
+
+
+def _coreless_sensitivity(law_name: str, t_fit: float) -> list[str]:
+    """The strength's fit again without the column sizes that have no core (a half-width
+    below ``CORE_FROM`` diameters: no skin can be read on them), as a sensitivity: the
+    fit's skin and the need it gives, beside the rule's (which keeps every size its
+    linearity test keeps)."""
+    sizes = sorted(digests("column", law_name))
+    coreless = tuple(z for z in sizes if z / 2 < S.CORE_FROM)
+    if not coreless:
+        return []
+    fit = feature_curves("free_surface", law_name, without=coreless)["metrics"].get("strength")
+    if fit is None:
+        return []
+    b, (lo, hi) = fit["slope"], fit["slope_interval"]
+    need = fit["needed"]
+    words = {"needs": "needs", "more_than": "needs more than", "at_most": "needs at most"}
+    left = ", ".join(f"{z:.3g} d" for z in coreless)
+    return [
+        "",
+        f"A sensitivity, not the rule: without the sizes that have no core ({left}: a "
+        f"half-width below the {S.CORE_FROM:g} diameters the skin measure leaves to the "
+        f"faces, so no skin can be read on them), the same fit gives t / d = {-b / 4:.2f} "
+        f"[{-hi / 4:.2f}, {-lo / 4:.2f}] and the strength {words[need['bound']]} "
+        f"{need['diameters']:.3g} d (point {need['point']:.3g} d, 95 % bound "
+        f"{need['bound95']:.3g} d), against t / d = {t_fit:.2f} with them. The rule fixed "
+        "before the runs keeps every size its linearity test keeps, so the need above "
+        "stands; the skin measured below is the check of either.",
+    ]
+
+
+def _skin_check(law_name: str, rows: list[tuple]) -> list[str]:
+    """How many sizes' measured mean skins lie inside the strength fit's 95 % interval of
+    t / d, with every size and without the coreless ones."""
+    sizes = sorted(digests("column", law_name))
+    coreless = tuple(z for z in sizes if z / 2 < S.CORE_FROM)
+    out = []
+    for label, without in (
+        ("the rule's fit, every size", ()),
+        ("the fit without the coreless sizes", coreless),
+    ):
+        if label != "the rule's fit, every size" and not coreless:
+            continue
+        fit = feature_curves("free_surface", law_name, without=without)["metrics"].get("strength")
+        if fit is None:
+            continue
+        lo, hi = -fit["slope_interval"][1] / 4, -fit["slope_interval"][0] / 4
+        inside = sum(lo <= m <= hi for _, m, _, _ in rows)
+        out.append(f"{inside} of {len(rows)} inside [{lo:.2f}, {hi:.2f}] ({label})")
+    if not out:
+        return []
+    return ["", "The measured skins (size means) against the fits' t / d: " + "; ".join(out) + "."]
 
 
 def skin_rows(law_name: str) -> list[tuple]:
@@ -625,6 +678,7 @@ def report() -> str:
                 f"gives strength / bulk = 1 - 4 t / L, so t / d = -slope / 4 = {-b / 4:.2f} "
                 f"[{-hi / 4:.2f}, {-lo / 4:.2f}] (95 %)."
             )
+            lines += _coreless_sensitivity(law_name, -b / 4)
         if rows:
             lines.append(
                 "Measured: the axial stress (normal-force part of the Love-Weber sum) "
@@ -641,6 +695,7 @@ def report() -> str:
             for size, m, se, n in rows:
                 spread = f" +- {se:.2f}" if math.isfinite(se) else " (one seed: no se)"
                 lines.append(f"| {size:.3g} | {n} | {m:.2f}{spread} |")
+            lines += _skin_check(law_name, rows)
         else:
             lines.append("Not measured yet: no column size with a core has a stored profile.")
         if law_name in S.SHEAR_SIZES:
@@ -863,6 +918,9 @@ def _curve_lines(c: dict) -> list[str]:
         lo, hi = v["slope_interval"]
         need = v["needed"]
         linear = "" if v.get("linear") is not False else " (the size means lie off the line)"
+        lof, lim = v.get("lack_of_fit"), v.get("lack_of_fit_limit")
+        if lof is not None and lim is not None and math.isfinite(lof) and math.isfinite(lim):
+            linear += f"; largest standardised residual {lof:.3g} against its limit {lim:.3g}"
         left = v.get("left_out") or []
         left_t = f"; left out: {', '.join(f'{x:.3g}' for x in left)} d" if left else ""
         sizes = ", ".join(f"{s['diameters_across']:.3g}" for s in v["sizes"])

@@ -6,7 +6,8 @@ and every ``EVERY`` servo updates after, until it ends or stops (docs/RESOLUTION
     python -m benchmarks.overlap_tail bond3 7.5 3   # about 2 min on one core
 
 Writes ``benchmarks/results/overlap_tail/<law>-d<size>-s<seed>.json``: how the run ended,
-and per reading the stage, the simulated time [s], the lid's normal-stress target [Pa], the
+and per reading the stage in flight (``glued`` when the platens are glued), the simulated
+time [s], the lid's normal-stress target [Pa], the
 contacts, the mean, 99.9th percentile, largest and smallest normal force [N] and the mean,
 99.9th percentile and largest overlap over the grains' radius [-]. The bilinear law keeps
 each contact's largest overlap (its plastic overlap is (1 - k1 / k2) of it), and with
@@ -52,6 +53,7 @@ def reading(sim, radius: float, stage: str, target: float) -> dict:
 def main(argv=None) -> int:
     import numba
 
+    import engine
     import engine.shear.driver as drv
 
     law, size, seed = (argv or sys.argv[1:])[:3]
@@ -67,21 +69,23 @@ def main(argv=None) -> int:
             rows.append(reading(cell.sim, test.radius, "glued", test.preshear_stress))
             return cell
 
+    run = Watched(test, None)
     advance = drv._Cell.advance
 
     def watched_advance(cell, steps, target, stop=None):
         out = advance(cell, steps, target, stop)
         updates[0] += 1
         if updates[0] % EVERY == 0:
-            rows.append(reading(cell.sim, test.radius, "shear", target))
+            stage = run.current.name if run.current is not None else "between stages"
+            rows.append(reading(cell.sim, test.radius, stage, target))
         return out
 
     drv._Cell.advance = watched_advance
     try:
-        Watched(test, None).run()
+        run.run()
         outcome = "finished"
-    except Exception as e:
-        outcome = f"{type(e).__name__}: {e}"
+    except (engine.InstabilityError, engine.StageError, FloatingPointError) as e:
+        outcome = f"{type(e).__name__}: {e}"  # how the run ended (a bug of this script raises)
     finally:
         drv._Cell.advance = advance
     OUT.mkdir(parents=True, exist_ok=True)
@@ -91,7 +95,8 @@ def main(argv=None) -> int:
     print(f"{path.name}: {outcome[:120]}")
     for r in rows:
         print(
-            f"{r['time']:.3f} s  target {r['target']:.0f} Pa  force mean {r['force_mean']:.3f} "
+            f"{r['stage']:16s} {r['time']:.3f} s  target {r['target']:.0f} Pa  "
+            f"force mean {r['force_mean']:.3f} "
             f"p99.9 {r['force_p999']:.2f} max {r['force_max']:.2f} N  overlap / R mean "
             f"{r['overlap_mean']:.3f} p99.9 {r['overlap_p999']:.3f} max {r['overlap_max']:.3f}"
         )

@@ -79,8 +79,19 @@ def failures(kind: str, law_name: str) -> list[str]:
     return out
 
 
-#: Runs set aside and made again (out of the fits; why, in the folder's README.md).
+#: Runs set aside (out of the fits; why, in the folder's README.md).
 SET_ASIDE = S.STORE.parent / "size_series_rejected"
+#: Runs made again after the stored ones had been seen: a sensitivity (the folder's
+#: README.md), never the series.
+RERUN = S.STORE.parent / "size_series_rerun"
+
+
+def folder_digests(folder, kind: str, law_name: str, size: float) -> list:
+    """The digests of one size kept in ``folder`` (set aside, or made again)."""
+    return [
+        S.read_digest(p)
+        for p in sorted((folder / kind / law_name).glob(f"{S.label(size)}-s*.json"))
+    ]
 
 
 def set_aside(kind: str, law_name: str) -> list[str]:
@@ -100,12 +111,21 @@ def _values(d, names) -> dict:
     return v
 
 
-def feature_curves(feature: str, law_name: str, without: tuple = ()) -> dict:
+def feature_curves(
+    feature: str, law_name: str, without: tuple = (), instead: dict | None = None
+) -> dict:
     """The resolution curves of a feature kind's properties for one law, with each
-    property's need (point and 95 % bound); ``without``: sizes left out (a sensitivity,
-    never the rule)."""
+    property's need (point and 95 % bound). A sensitivity, never the rule: ``without``
+    leaves sizes out, ``instead`` ({size: digests}) puts other runs of a size in place of
+    the stored ones (those that ended in an error left out)."""
     kind, names, tols, ref_size = FEATURES[feature]
     runs = {z: ds for z, ds in digests(kind, law_name).items() if z not in without}
+    for z, ds in (instead or {}).items():
+        ok = [d for d in ds if d.ok]
+        if ok:
+            runs[z] = ok
+        else:
+            runs.pop(z, None)
     if ref_size not in runs or len(runs[ref_size]) < 2:
         return {"metrics": {}, "sizes": sorted(runs)}
     # per property, the runs that have it (a strength: the samples that failed at a peak),
@@ -321,6 +341,48 @@ def profile_at_peak(law_name: str, size: float, seed: int, d) -> dict | None:
     }
 
 
+def _dof(df: float) -> str:
+    return f"{df:.3g} degree{'' if df == 1 else 's'} of freedom"
+
+
+def _property_need(need: dict) -> str:
+    """A property's need (engine.study.resolution.diameters_needed) in words."""
+    if need["diameters"] is None:
+        return "no need of its own (off its line)"
+    d, p = need["diameters"], need["point"]
+    if need["bound"] == "at_most":
+        return f"at most {d:.3g} d (point {p:.3g} d)"
+    if need["bound"] == "more_than":
+        return f"more than {d:.3g} d (point {p:.3g} d)"
+    return f"{p:.3g} d (95 % bound {d:.3g} d)"
+
+
+def _rerun_sensitivity(feature: str, kind: str, law_name: str) -> list[str]:
+    """The feature's curves again with the runs made again (:data:`RERUN`) in place of the
+    stored ones of their sizes: each property's need, as a sensitivity."""
+    table = S.COLUMN_SIZES if kind == "column" else S.SHEAR_SIZES
+    instead = {}
+    for size in table.get(law_name, {}):
+        again = folder_digests(RERUN, kind, law_name, size)
+        if again:
+            instead[size] = again
+    if not instead:
+        return []
+    fit = feature_curves(feature, law_name, instead=instead)["metrics"]
+    if not fit:
+        return []
+    which = ", ".join(
+        f"{z:.3g} d ({sum(d.ok for d in ds)} of {len(ds)} finished)" for z, ds in instead.items()
+    )
+    needs = "; ".join(f"{n} {_property_need(c['needed'])}" for n, c in fit.items())
+    return [
+        "",
+        f"A sensitivity, not the rule: with the runs made again in place of the stored ones "
+        f"of their sizes ({which}; benchmarks/results/size_series_rerun/README.md says why "
+        f"they do not replace them): {needs}.",
+    ]
+
+
 def _coreless_sensitivity(law_name: str, t_fit: float) -> list[str]:
     """The strength's fit again without the column sizes that have no core (a half-width
     below ``CORE_FROM`` diameters: no skin can be read on them), as a sensitivity: the
@@ -335,16 +397,15 @@ def _coreless_sensitivity(law_name: str, t_fit: float) -> list[str]:
         return []
     b, (lo, hi) = fit["slope"], fit["slope_interval"]
     need = fit["needed"]
-    words = {"needs": "needs", "more_than": "needs more than", "at_most": "needs at most"}
     left = ", ".join(f"{z:.3g} d" for z in coreless)
     return [
         "",
         f"A sensitivity, not the rule: without the sizes that have no core ({left}: a "
         f"half-width below the {S.CORE_FROM:g} diameters the skin measure leaves to the "
         f"faces, so no skin can be read on them), the same fit gives t / d = {-b / 4:.2f} "
-        f"[{-hi / 4:.2f}, {-lo / 4:.2f}] and the strength {words[need['bound']]} "
-        f"{need['diameters']:.3g} d (point {need['point']:.3g} d, 95 % bound "
-        f"{need['bound95']:.3g} d), against t / d = {t_fit:.2f} with them. The rule fixed "
+        f"[{-hi / 4:.2f}, {-lo / 4:.2f}] ({_dof(fit['slope_df'])}) and the strength's "
+        f"need is {_property_need(need)}, against t / d = {t_fit:.2f} with them. The "
+        "rule fixed "
         "before the runs keeps every size its linearity test keeps, so the need above "
         "stands; the skin measured below is the check of either.",
     ]
@@ -367,10 +428,20 @@ def _skin_check(law_name: str, rows: list[tuple]) -> list[str]:
             continue
         lo, hi = -fit["slope_interval"][1] / 4, -fit["slope_interval"][0] / 4
         inside = sum(lo <= m <= hi for _, m, _, _ in rows)
-        out.append(f"{inside} of {len(rows)} inside [{lo:.2f}, {hi:.2f}] ({label})")
+        near = sum(
+            (m + 2 * se >= lo and m - 2 * se <= hi) if math.isfinite(se) else lo <= m <= hi
+            for _, m, se, _ in rows
+        )
+        out.append(
+            f"{inside} of {len(rows)} inside [{lo:.2f}, {hi:.2f}] ({label}; {near} within "
+            "two standard errors of it)"
+        )
     if not out:
         return []
-    return ["", "The measured skins (size means) against the fits' t / d: " + "; ".join(out) + "."]
+    return [
+        "",
+        "The measured skins (size means) against the fits' t / d: " + "; ".join(out) + ".",
+    ]
 
 
 def skin_rows(law_name: str) -> list[tuple]:
@@ -676,10 +747,11 @@ def report() -> str:
             lines.append(
                 f"From the strength's fit, a load-free skin t per face of a square section "
                 f"gives strength / bulk = 1 - 4 t / L, so t / d = -slope / 4 = {-b / 4:.2f} "
-                f"[{-hi / 4:.2f}, {-lo / 4:.2f}] (95 %)."
+                f"[{-hi / 4:.2f}, {-lo / 4:.2f}] (95 %, {_dof(fit['slope_df'])})."
             )
             lines += _coreless_sensitivity(law_name, -b / 4)
         if rows:
+            lines.append("")
             lines.append(
                 "Measured: the axial stress (normal-force part of the Love-Weber sum) "
                 "across the section at the strength's peak, binned by distance from the "
@@ -703,6 +775,7 @@ def report() -> str:
             lines += _size_table("shear", law_name)
             lines += ["", "Curves:", ""]
             lines += _curve_lines(feature_curves("bulk_shear", law_name))
+            lines += _rerun_sensitivity("bulk_shear", "shear", law_name)
         bad = failures("column", law_name) + failures("shear", law_name)
         if bad:
             lines += ["", "Runs that ended in an error (left out):", ""]
@@ -711,7 +784,7 @@ def report() -> str:
         if aside:
             lines += [
                 "",
-                "Runs set aside and made again (left out; why: "
+                "Runs set aside (left out; why: "
                 "benchmarks/results/size_series_rejected/README.md):",
                 "",
             ]
@@ -770,22 +843,29 @@ def guard_lines() -> list[str]:
         )
     out += [
         "",
-        "Runs per size (the stored ones and those set aside, "
-        "benchmarks/results/size_series_rejected/):",
+        "Runs per size, for each law and kind with a run stopped so: the stored ones, and "
+        "(+) those set aside or made again (benchmarks/results/size_series_rejected/, "
+        "size_series_rerun/):",
         "",
-        "| law | kind | size [d across] | runs | stopped at the guard |",
+        "| law | kind | size [d across] | runs stored | stopped at the guard |",
         "|---|---|---:|---:|---:|",
     ]
     for law_name in S.LAWS:
         for kind, table in (("column", S.COLUMN_SIZES), ("shear", S.SHEAR_SIZES)):
+            rows = []
             for size, n in sorted(table.get(law_name, {}).items()):
-                ds = [S.stored(kind, law_name, size, seed) for seed in range(1, n + 1)]
-                aside = SET_ASIDE / kind / law_name
-                ds += [S.read_digest(p) for p in sorted(aside.glob(f"{S.label(size)}-s*.json"))]
-                ds = [d for d in ds if d is not None]
-                hit = sum(_guarded(d) for d in ds)
-                if hit:
-                    out.append(f"| {law_name} | {kind} | {size:.3g} | {len(ds)} | {hit} |")
+                stored = [S.stored(kind, law_name, size, seed) for seed in range(1, n + 1)]
+                stored = [d for d in stored if d is not None]
+                again = folder_digests(SET_ASIDE, kind, law_name, size)
+                again += folder_digests(RERUN, kind, law_name, size)
+                rows.append((size, stored, again))
+            if not any(_guarded(d) for _, st, ag in rows for d in st + ag):
+                continue
+            for size, stored, again in rows:
+                hit = sum(_guarded(d) for d in stored)
+                hit2 = sum(_guarded(d) for d in again)
+                more = f" (+ {hit2} of {len(again)} made again)" if again else ""
+                out.append(f"| {law_name} | {kind} | {size:.3g} | {len(stored)} | {hit}{more} |")
     files = sorted(OVERLAP_TAIL.glob("*.json"))
     if files:
         out += [
@@ -794,21 +874,25 @@ def guard_lines() -> list[str]:
             "SEED`: the run made again, its contacts read when the platens are glued and "
             "then every 200 servo updates; the pre-shear at 10 kPa):",
             "",
-            "| law | size [d] | seed | how it ended | time [s] | normal force 99.9th "
+            "| law | size [d] | seed | how it ended | stage | time [s] | normal force 99.9th "
             "percentile, largest [N] | overlap / R: mean, 99.9th percentile, largest |",
-            "|---|---:|---:|---|---|---|---|",
+            "|---|---:|---:|---|---|---|---|---|",
         ]
         for p in files:
             doc = json.loads(p.read_text())
             rows = doc["readings"]
             ended = "finished" if doc["outcome"] == "finished" else doc["outcome"].split(":")[0]
+            if not rows:
+                continue
             # glued, the pre-shear's last reading, and the run's last (a point's branch)
-            pre = [x for x in rows if x["target"] == rows[0]["target"]]
+            pre = [x for x in rows if x["stage"] == "preshear"] or rows[:1]
             picks = [rows[0], pre[-1]] + ([rows[-1]] if rows[-1] is not pre[-1] else [])
+            picks = [x for i, x in enumerate(picks) if all(x is not y for y in picks[:i])]
             for x in picks:
                 out.append(
                     f"| {doc['law']} | {doc['size']:.3g} | {doc['seed']} | {ended} | "
-                    f"{x['time']:.2f} | {x['force_p999']:.2f}, {x['force_max']:.2f} | "
+                    f"{x['stage']} | {x['time']:.2f} | "
+                    f"{x['force_p999']:.2f}, {x['force_max']:.2f} | "
                     f"{x['overlap_mean']:.3f}, {x['overlap_p999']:.3f}, "
                     f"{x['overlap_max']:.3f} |"
                 )

@@ -123,16 +123,11 @@ SHEAR_SIZES = {
     # runs; 55,004 particles, about 30 min each on two engine threads (--threads 2)
     "bond1": {2.5: 6, 10.0 / 3.0: 6, 5.0: 6, 7.5: 4, 10.0: 4, 15.0: 2, 20.0: 2},
     # added 2026-12-06, after the bond1 shear sizes to 7.5 had been seen: the second law's
-    # bulk in shear, the cheap sizes (no rule changed). 7.5 d: its four seeds made again on
-    # 2026-12-07 with the driver of that day (the peak sought after PEAK_SETTLE), each
-    # stored as it came: three of the first four had stopped with InstabilityError (a pair
-    # at half a radius) under the code of 2026-12-06, whose time step differs from today's
-    # in its last bit (a chaotic trajectory: another sample of the same law and protocol);
-    # those digests are kept in benchmarks/results/size_series_rejected/ and counted in the
-    # report. No larger size: two of the four made again stopped the same way, and the
-    # overlaps' tail grows through a run (benchmarks/overlap_tail.py): a larger cell, more
-    # contacts for longer, would reach the guard more often and leave its surviving seeds
-    # an ever more selected sample (docs/RESOLUTION.md, "Runs stopped at the overlap guard").
+    # bulk in shear, the cheap sizes (no rule changed). No larger size: three of 7.5 d's
+    # four seeds stopped at the overlap guard (a pair at half a radius), and of the same
+    # four made again on 2026-12-07 (benchmarks/results/size_series_rerun/, a sensitivity)
+    # two did; a larger cell may reach the guard more often (docs/RESOLUTION.md, "Runs
+    # stopped at the overlap guard").
     "bond3": {2.5: 6, 10.0 / 3.0: 6, 5.0: 6, 7.5: 4},
 }
 SHEAR_REFERENCE_SIZE = 5.0

@@ -430,10 +430,23 @@ class Killed(Exception):
 def test_a_shear_run_killed_and_resumed_gives_the_same_result(tmp_path, cohesive):
     """Killed after a checkpoint written within the fill, right after the fill's own
     checkpoint, and within the pre-compression, the pre-shear, a point's reversal, a
-    point's normal stage and the last shear to failure (a checkpoint at every sample),
-    resumed each time from the file: the curves of every stage byte for byte, the points and
-    the scalars (but the wall time) those of the run never interrupted."""
+    point's normal stage and the last shear to failure, resumed each time from the file: the
+    curves of every stage byte for byte, the points and the scalars (but the wall time)
+    those of the run never interrupted. (Each attempt writes at every sample of the stage
+    it is killed in, and nowhere else but the fill's end: a write at every sample of the
+    whole run, each flushed to disk, cost the test twice the run.)"""
     from engine.uniaxial.checkpoint import Checkpoint
+
+    class InStage(Checkpoint):
+        """Writes at every sample of the stage ``target``, nowhere else."""
+
+        target, stage_now = "", ""
+
+        def due(self, driver) -> bool:
+            if self.stage_now != self.target:
+                return False
+            self.save(driver)
+            return True
 
     path = tmp_path / "shear.ckpt"
     test = tiny(pair_law=COHESIVE)
@@ -448,10 +461,12 @@ def test_a_shear_run_killed_and_resumed_gives_the_same_result(tmp_path, cohesive
     ]
     killed_in, resumed = [], []
     for where, within in kills:
-        ck = Checkpoint(path, interval=1e-12)
+        ck = InStage(path, interval=1e-12)
+        ck.target = where
         first = {}
 
         def stop(p, ck=ck, where=where, within=within, first=first):
+            ck.stage_now = p.stage
             if p.message.startswith("resumed"):
                 resumed.append((p.stage, p.fraction))
             if p.stage == where:

@@ -58,7 +58,7 @@ FEATURE_WORDS = {
 
 def digests(kind: str, law_name: str) -> dict[float, list]:
     """The stored digests of a series, per size (runs that ended in an error left out)."""
-    table = S.COLUMN_SIZES if kind == "column" else S.SHEAR_SIZES
+    table = S.TABLES[kind]
     out = {}
     for size, n in table.get(law_name, {}).items():
         got = [S.stored(kind, law_name, size, seed) for seed in range(1, n + 1)]
@@ -161,6 +161,120 @@ CONFOUNDED = {
 
 
 STIFFNESSES = ("loading_stiffness", "unloading_stiffness")
+
+
+def _paired(pairs: list, names, n: int) -> dict:
+    """Per property of ``names``, the paired relative differences of ``pairs`` ((seed,
+    slow digest, fast digest)), their mean and 90 % t interval and the verdict at
+    +-``RATE_EQUIVALENCE`` (decided only when all ``n`` planned pairs are stored)."""
+    from engine.study.intervals import t_quantile
+
+    e = S.RATE_EQUIVALENCE
+    out = {}
+    for name in names:
+        diffs = np.array([p[1].metrics[name][0] / p[2].metrics[name][0] - 1.0 for p in pairs])
+        row = {"differences": diffs.tolist(), "mean": math.nan, "interval": [math.nan] * 2}
+        verdict = f"undecided ({len(diffs)} of {n} pairs stored and run to their end)"
+        if len(diffs) >= 2:
+            m = float(diffs.mean())
+            half = (
+                t_quantile(0.95, len(diffs) - 1) * float(diffs.std(ddof=1)) / math.sqrt(len(diffs))
+            )
+            lo, hi = m - half, m + half
+            row.update(mean=m, interval=[lo, hi])
+            if len(diffs) == n:
+                if -e < lo and hi < e:
+                    verdict = "equivalent"
+                elif lo > e or hi < -e:
+                    verdict = "differs"
+                else:
+                    verdict = "undecided"
+        row["verdict"] = verdict
+        out[name] = row
+    return out
+
+
+def unload_check(law_name: str) -> dict | None:
+    """The slow unloading's check (benchmarks/size_series.py, kinds ``unload`` and
+    ``unload_check``, fixed before their runs): the unloading stiffness of the 5-diameter
+    runs unloaded three times slower again against ``unload``'s, paired by seed, as
+    :func:`rate_check` judges; None without such a check for this law."""
+    table = S.UNLOAD_CHECK_SIZES.get(law_name)
+    if not table:
+        return None
+    ((size, n),) = table.items()
+    pairs = []
+    for seed in range(1, n + 1):
+        slow = S.stored("unload_check", law_name, size, seed)
+        fast = S.stored("unload", law_name, size, seed)
+        if slow is not None and fast is not None and slow.ok and fast.ok:
+            pairs.append((seed, slow, fast))
+    rows = _paired(pairs, ("unloading_stiffness",), n)
+    return {
+        "size": size,
+        "seeds": [p[0] for p in pairs],
+        "planned": n,
+        "stiffness": rows,
+        "decided": rows["unloading_stiffness"]["verdict"] == "equivalent",
+    }
+
+
+def unload_lines() -> list[str]:
+    """The report's account of the slow unloading (benchmarks/size_series.py)."""
+    out = [
+        "### The slow unloading",
+        "",
+        "Fixed before its runs (benchmarks/size_series.py, kinds `unload` and "
+        "`unload_check`): the held series' column with its unloading stage alone at "
+        f"`unloading_inertial_number` = {S.UNLOAD_INERTIAL_NUMBER:g} x 5 / size (the "
+        "platen's unloading speed, hence the lag as a fraction of the branch, held at every "
+        "size at the rate check's 5-diameter value); every stage before the unloading runs as "
+        "the held series' test does. Checked at 5 diameters against three times slower "
+        "again, paired "
+        f"by seed, +-{100 * S.RATE_EQUIVALENCE:g} % on the 90 % interval; equivalent: its "
+        "unloading-stiffness curve gives that stiffness's need.",
+        "",
+    ]
+    for law_name, sizes in S.UNLOAD_SIZES.items():
+        runs = digests("unload", law_name)
+        held = digests("column", law_name)
+        out += [
+            f"Law {law_name}:",
+            "",
+            "| size [d across] | seeds stored of planned | unloading inertial number held "
+            "(median, target) | unloading stiffness [MPa] | the held series' [MPa] |",
+            "|---:|---:|---|---:|---:|",
+        ]
+        for size, n in sorted(sizes.items()):
+            ds = runs.get(size, [])
+            target = S.test_of("unload", law_name, size, 1).unloading_inertial_number
+            got = [
+                d.extra.get("inertial_number_held_by_stage", {}).get("unloading", math.nan)
+                for d in ds
+            ]
+            med = f"{np.median(got):.3g}" if got else "-"
+            k = [d.metrics["unloading_stiffness"][0] for d in ds]
+            kh = [d.metrics["unloading_stiffness"][0] for d in held.get(size, [])]
+            ks = f"{np.mean(k) / 1e6:.3f}" if k else "-"
+            khs = f"{np.mean(kh) / 1e6:.3f}" if kh else "-"
+            out.append(f"| {size:.3g} | {len(ds)} of {n} | {med}, {target:.3g} | {ks} | {khs} |")
+        c = unload_check(law_name)
+        if c is not None:
+            r = c["stiffness"]["unloading_stiffness"]
+            diffs = ", ".join(f"{100 * x:+.1f} %" for x in r["differences"]) or "none"
+            lo, hi = r["interval"]
+            mean = (
+                f"{100 * r['mean']:+.1f} % [{100 * lo:+.1f} %, {100 * hi:+.1f} %]"
+                if math.isfinite(r["mean"])
+                else "-"
+            )
+            out += [
+                "",
+                f"The check at {c['size']:g} diameters: {len(c['seeds'])} of {c['planned']} "
+                f"pairs stored; paired differences {diffs}; mean {mean}: {r['verdict']}.",
+            ]
+        out.append("")
+    return out
 
 
 def rate_check(law_name: str) -> dict | None:
@@ -945,7 +1059,7 @@ def confound_lines() -> list[str]:
             out.append(
                 f"| {law_name} | {size:.3g} | {v:.3f} | {unl} | {lag_ld:.2f} | {e_unl / 1e6:.3f} |"
             )
-    return [*out, "", *rate_lines()]
+    return [*out, "", *rate_lines(), *unload_lines()]
 
 
 def rate_lines() -> list[str]:

@@ -57,6 +57,27 @@ Feature kinds (the functional form of each fit is fixed here, before the runs):
   otherwise the stiffnesses stay undecided. Assumed,
   not tested: that an effect of I at the capped series' lag does not grow with L.
 
+- ``unload`` and ``unload_check`` (added 2026-12-07, before their runs; the rule is fixed
+  here): the rate check found the unloading stiffness not quasi-static at the held series'
+  5-diameter lag (+8.0 % [+4.9, +11.0] % at a third of it), so the unloading branch is read
+  slowly in a series of its own: the held series' column (its fill, pre-compression,
+  consolidation, release and unconfined stages unchanged, ``inertial_number`` 5e-4) with
+  the unloading stage alone at ``unloading_inertial_number`` = :data:`UNLOAD_INERTIAL_NUMBER`
+  x 5 / size (``engine.UniaxialTest.unloading_inertial_number``): the platen's unloading
+  speed, hence the lag as a fraction of the branch, held at every size at what the rate
+  check's 5-diameter runs had (a third of the held series' lag there). Every stage before
+  the unloading runs as the held series' test does (the same test but for that field: bit
+  for bit under the same code, tests/engine/test_protocol.py; the stored held runs were
+  made by earlier code, so their trajectories are other samples).
+  The check ``unload_check``: the 5-diameter column unloaded three times slower again
+  (:data:`UNLOAD_INERTIAL_NUMBER` / 3), seeds 1-4, paired by seed with ``unload``'s
+  5-diameter runs (the same consolidated bed). Rule: the unloading stiffness's 90 % t
+  interval (3 degrees of freedom) of the mean paired relative difference inside
+  +-:data:`RATE_EQUIVALENCE` -> the ``unload`` series' lag is slow enough, and its
+  unloading-stiffness curve (the log linear in d / L, as every other) gives that
+  stiffness's need; otherwise it stays undecided. The loading stiffness is not read here
+  (the ``unload`` series loads as the held series does).
+
 Laws: ``bond1`` the default powder (f0 = -0.4 N, the main job's reference), ``bond3`` the
 same law three times as adhesive (f0 = -1.2 N: granular Bond number at the consolidation
 stress |f0| / (sigma_c d^2) = 2.4 against 0.8).
@@ -134,6 +155,20 @@ SHEAR_REFERENCE_SIZE = 5.0
 #: The rate check (module docstring): law -> {size: seeds}, its inertial number and its
 #: equivalence margin on the paired relative difference of each stiffness.
 RATE_SIZES = {"bond1": {5.0: 4}}
+#: The slow unloading (module docstring): its sizes and seeds, the inertial number its
+#: unloading holds at 5 diameters (x 5 / size at the others: the platen's unloading speed
+#: held), and its check's (5 diameters, three times slower again).
+UNLOAD_SIZES = {"bond1": {5.0: 4, 20.0 / 3.0: 4, 8.0: 4, 10.0: 4, 15.0: 3, 20.0: 2}}
+UNLOAD_CHECK_SIZES = {"bond1": {5.0: 4}}
+UNLOAD_INERTIAL_NUMBER = 1.63e-4
+#: Each kind's sizes and seeds per law.
+TABLES = {
+    "column": COLUMN_SIZES,
+    "rate": RATE_SIZES,
+    "unload": UNLOAD_SIZES,
+    "unload_check": UNLOAD_CHECK_SIZES,
+    "shear": SHEAR_SIZES,
+}
 RATE_INERTIAL_NUMBER = 1.63e-4
 RATE_EQUIVALENCE = 0.05
 #: Width of a profile bin [diameters] and the distance from the faces beyond which the
@@ -179,7 +214,13 @@ def keys(only=None) -> list[tuple[str, str, float, int]]:
     """(kind, law, size, seed) of every run, cheapest first within a kind; the column
     series first (bond1, then bond3), then the shear series; a size's seeds in order."""
     out = []
-    for kind, table in (("column", COLUMN_SIZES), ("rate", RATE_SIZES), ("shear", SHEAR_SIZES)):
+    for kind, table in (
+        ("column", COLUMN_SIZES),
+        ("rate", RATE_SIZES),
+        ("unload", UNLOAD_SIZES),
+        ("unload_check", UNLOAD_CHECK_SIZES),
+        ("shear", SHEAR_SIZES),
+    ):
         for law_name, sizes in table.items():
             for size, n in sorted(sizes.items()):
                 out += [(kind, law_name, size, seed) for seed in range(1, n + 1)]
@@ -235,6 +276,9 @@ def test_of(kind: str, law_name: str, size: float, seed: int):
     if kind == "rate":
         column = column_test(law_name, size, seed)
         return replace(column, inertial_number=RATE_INERTIAL_NUMBER)
+    if kind in ("unload", "unload_check"):
+        slow = UNLOAD_INERTIAL_NUMBER * 5.0 / size / (3.0 if kind == "unload_check" else 1.0)
+        return replace(column_test(law_name, size, seed), unloading_inertial_number=slow)
     return (column_test if kind == "column" else shear_test)(law_name, size, seed)
 
 
@@ -366,7 +410,7 @@ def run_one(kind: str, law_name: str, size: float, seed: int) -> str:
     t0 = time.perf_counter()
     resumed = ""
     ckpt = Checkpoint(path.parent / ".checkpoints" / f"{path.stem}.ckpt", CHECKPOINT_INTERVAL)
-    if kind in ("column", "rate"):
+    if kind in ("column", "rate", "unload", "unload_check"):
         prof = profile_path(kind, law_name, size, seed)
         partial = path.with_name(path.stem + ".profile.partial.npz")
         if not ckpt.path.exists() and partial.exists():

@@ -37,7 +37,10 @@ class ParamInfo:
     ``max_items`` (longest list); ``types`` (a record field that takes one of several record
     classes, e.g. a contact law: a callable giving them, and the JSON form carries a
     ``"type"`` tag); ``parse`` (a callable reading the field's JSON value where the generic
-    reading does not, e.g. a preset with overrides, a rule given by name).
+    reading does not, e.g. a preset with overrides, a rule given by name); ``omit_default``
+    (the JSON form leaves the field out while it holds its default: a field added to a
+    record whose JSON forms are stored and compared, so that a record made before it, or
+    without it, keeps its JSON form).
     """
 
     name: str
@@ -55,6 +58,7 @@ class ParamInfo:
     max_items: int | None = None
     types: Callable[[], tuple[type, ...]] | None = None
     parse: Callable[[Any], Any] | None = None
+    omit_default: bool = False
 
     def limit_text(self) -> str:
         """The allowed range in words, e.g. ``"in (0, 0.5)"`` or ``"> 0 N/m"``."""
@@ -117,6 +121,7 @@ def param(
     max_items: int | None = None,
     types: Callable[[], tuple[type, ...]] | None = None,
     parse: Callable[[Any], Any] | None = None,
+    omit_default: bool = False,
 ) -> Any:
     """A dataclass field carrying its unit, bounds and description (see :class:`ParamInfo`)."""
     md = {
@@ -133,6 +138,7 @@ def param(
             max_items=max_items,
             types=types,
             parse=parse,
+            omit_default=omit_default,
         )
     }
     if default_factory is not MISSING:
@@ -200,10 +206,14 @@ def check_fields(obj, owner: str | None = None) -> None:
 # ------------------------------------------------------------------ JSON form
 def to_dict(obj) -> dict:
     """The JSON form of a declared record, derived from its fields: every declared field in
-    order; a nested record as an object (one whose field declares ``types``, a tagged union
-    such as a contact law, with its ``"type"`` first); tuples as lists. Inverse:
-    :func:`from_dict`."""
-    return {info.name: _to_json(getattr(obj, info.name), info) for info in _describe(type(obj))}
+    order (but one declared ``omit_default`` while it holds its default); a nested record as
+    an object (one whose field declares ``types``, a tagged union such as a contact law, with
+    its ``"type"`` first); tuples as lists. Inverse: :func:`from_dict`."""
+    return {
+        info.name: _to_json(getattr(obj, info.name), info)
+        for info in _describe(type(obj))
+        if not (info.omit_default and getattr(obj, info.name) == info.default)
+    }
 
 
 def _to_json(value: Any, info: ParamInfo | None = None) -> Any:

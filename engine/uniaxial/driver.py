@@ -450,7 +450,8 @@ class _Driver:
 
     def drive(self, stage: str, gap: float, stress: float, post_peak: bool = False) -> None:
         """Set the top platen's speed for the next curve sample of a loading ``stage``: the
-        constant ``platen_speed``, or at ``inertial_number`` the speed of
+        constant ``platen_speed``, or at the stage's inertial number
+        (:meth:`engine.UniaxialTest.stage_inertial_number`) the speed of
         :func:`engine.uniaxial.measures.loading_speed` for the platen ``gap`` [m] and the
         sample's mean axial ``stress`` [Pa] (down, or up while unloading)."""
         t = self.test
@@ -464,6 +465,7 @@ class _Driver:
                 h0=self.current.h0 if self.current is not None else gap,
                 unconfined=stage == "unconfined",
                 post_peak=post_peak,
+                inertial_number=t.stage_inertial_number(stage),
             )
         self.move_top(v if stage == "unloading" else -v)
 

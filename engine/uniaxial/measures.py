@@ -126,9 +126,12 @@ def loading_speed(
     h0: float,
     unconfined: bool = False,
     post_peak: bool = False,
+    inertial_number: float | None = None,
 ) -> float:
     """The top platen's speed [m/s] that holds ``test.inertial_number`` I* in a loading stage
-    (docs/PHYSICS.md section 4, "Loading rate"):
+    (``inertial_number`` instead where given: the stage's,
+    :meth:`engine.UniaxialTest.stage_inertial_number`) (docs/PHYSICS.md section 4, "Loading
+    rate"):
 
         v = I* (h / d) sqrt(max(p, rho g d) / rho),   at most ``max_platen_speed``,
 
@@ -141,7 +144,8 @@ def loading_speed(
     over a shear band instead of the sample: v times min(1, ``SHEAR_BAND_DIAMETERS`` d / h)."""
     d = 2.0 * test.radius
     p = max(float(stress), stress_floor(test))
-    v = test.inertial_number * gap / d * math.sqrt(p / test.density)
+    i_star = test.inertial_number if inertial_number is None else inertial_number
+    v = i_star * gap / d * math.sqrt(p / test.density)
     if post_peak:
         v *= min(1.0, SHEAR_BAND_DIAMETERS * d / gap)
     if unconfined:

@@ -216,6 +216,11 @@ class UniaxialTest(Record):
             layer of grains, rho g d), at most ``max_platen_speed`` (docs/PHYSICS.md section 4,
             "Loading rate"). None: the constant ``platen_speed``.
         max_platen_speed: the largest platen speed with ``inertial_number`` [m/s].
+        unloading_inertial_number: the inertial number the unloading stage holds instead of
+            ``inertial_number`` [-] (None: ``inertial_number``; needs ``inertial_number``):
+            an unloading branch read more slowly than the loading, so that the sample's
+            elastic response keeps up with its platen (docs/RESOLUTION.md, "Confounds"). Left
+            out of the JSON form while None (a test made before the field keeps its form).
         unloaded_stress: unloading ends when the top stress is below this fraction of the
             consolidation stress [-].
         unconfined: run the release and unconfined compression stages.
@@ -296,6 +301,15 @@ class UniaxialTest(Record):
         le=1.0,
         doc="largest platen speed with inertial_number",
     )
+    unloading_inertial_number: float | None = param(
+        None,
+        unit="1",
+        gt=0,
+        le=0.01,
+        nullable=True,
+        omit_default=True,
+        doc="inertial number the unloading stage holds (None: inertial_number)",
+    )
     unloaded_stress: float = param(
         0.01,
         unit="1",
@@ -347,6 +361,12 @@ class UniaxialTest(Record):
             raise ParameterError(f"{o}.cell", self.cell, "three lengths > 0 m")
         object.__setattr__(self, "cell", cell)
         check_fields(self, o)
+        if self.unloading_inertial_number is not None and self.inertial_number is None:
+            raise ParameterError(
+                f"{o}.unloading_inertial_number",
+                self.unloading_inertial_number,
+                "None where inertial_number is None (the constant platen_speed)",
+            )
         if self.consolidation_stress <= self.pre_stress:
             raise ParameterError(
                 f"{o}.consolidation_stress",
@@ -527,6 +547,14 @@ class UniaxialTest(Record):
             ) from None
         return pos.copy(), radii.copy()
 
+    def stage_inertial_number(self, stage: str) -> float | None:
+        """The inertial number loading ``stage`` holds [-]: ``unloading_inertial_number`` in
+        the unloading stage where it is set, else ``inertial_number`` (None: the constant
+        ``platen_speed``)."""
+        if stage == "unloading" and self.unloading_inertial_number is not None:
+            return self.unloading_inertial_number
+        return self.inertial_number
+
     @property
     def typical_platen_speed(self) -> float:
         """A typical speed of the top platen over the loading stages [m/s], for estimates of
@@ -582,7 +610,8 @@ def _packing(
 
 def halved_protocol(test: UniaxialTest) -> UniaxialTest:
     """``test`` at half its loading rate and half its time step, everything else equal: the
-    inertial number (with ``max_platen_speed``) halved, or the constant ``platen_speed``
+    inertial number (with ``max_platen_speed``, and ``unloading_inertial_number`` where set)
+    halved, or the constant ``platen_speed``
     where it has none; ``dt`` halved where given, else ``dt_fraction``. A run of it against
     ``test``'s shows whether the protocol is quasi-static and its step converged (a study
     proves its own protocol, issue 40)."""
@@ -591,6 +620,8 @@ def halved_protocol(test: UniaxialTest) -> UniaxialTest:
             "inertial_number": test.inertial_number / 2,
             "max_platen_speed": test.max_platen_speed / 2,
         }
+        if test.unloading_inertial_number is not None:
+            rate["unloading_inertial_number"] = test.unloading_inertial_number / 2
     else:
         rate = {"platen_speed": test.platen_speed / 2}
     step = {"dt": test.dt / 2} if test.dt is not None else {"dt_fraction": test.dt_fraction / 2}

@@ -102,6 +102,38 @@ def test_a_run_records_its_step_and_the_inertial_number_it_held(held):
     assert all(np.all(np.isfinite(st.curves["stress_interior"])) for st in held.stages.values())
 
 
+def test_a_slower_unloading_holds_its_own_inertial_number_and_changes_nothing_before(held):
+    """``unloading_inertial_number`` a quarter of the loading's: every stage before the
+    unloading is the same run bit for bit (the field acts on the unloading's platen speed
+    alone), and the unloading holds its own inertial number (the median of its samples
+    within 15 %, as the loading's above), taking longer over the same stress drop."""
+    slow = engine.run_uniaxial(replace(held.test, unloading_inertial_number=2.5e-4))
+    for name in ("fill", "pre_compression", "consolidation"):
+        for k, v in held.stages[name].curves.items():
+            assert slow.stages[name].curves[k].tobytes() == v.tobytes(), (name, k)
+    got = np.median(held_inertial_numbers(slow.stages["unloading"].curves, slow.test))
+    was = np.median(held_inertial_numbers(held.stages["unloading"].curves, held.test))
+    assert got == pytest.approx(2.5e-4, rel=0.15) and was == pytest.approx(1e-3, rel=0.15)
+    assert slow.stages["unloading"].steps > 2 * held.stages["unloading"].steps
+
+
+def test_the_unloading_inertial_number_is_a_field_like_the_others():
+    t = tiny(inertial_number=5e-4, unloading_inertial_number=1e-4)
+    assert t.stage_inertial_number("unloading") == 1e-4
+    assert t.stage_inertial_number("consolidation") == 5e-4
+    # the JSON form: left out while None (a test made before the field keeps its form)
+    assert "unloading_inertial_number" not in tiny(inertial_number=5e-4).to_dict()
+    assert t.to_dict()["unloading_inertial_number"] == 1e-4
+    assert engine.UniaxialTest.from_dict(t.to_dict()) == t
+    assert halved_protocol(t).unloading_inertial_number == 5e-5
+    for value in (0.0, 0.5):
+        with pytest.raises(engine.ParameterError, match="unloading_inertial_number"):
+            tiny(inertial_number=5e-4, unloading_inertial_number=value)
+    # a constant platen speed has no inertial number to slow
+    with pytest.raises(engine.ParameterError, match="unloading_inertial_number.*platen_speed"):
+        tiny(inertial_number=None, unloading_inertial_number=1e-4)
+
+
 def test_the_interior_strength_is_the_smoothed_peak_and_the_stage_ends_at_failure(held):
     # the strength is the peak of the interior curve smoothed over failure_strain, sought one
     # window past the stage's start; the platen's strength and the self-weight stand beside

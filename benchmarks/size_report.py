@@ -166,15 +166,23 @@ STIFFNESSES = ("loading_stiffness", "unloading_stiffness")
 def _paired(pairs: list, names, n: int) -> dict:
     """Per property of ``names``, the paired relative differences of ``pairs`` ((seed,
     slow digest, fast digest)), their mean and 90 % t interval and the verdict at
-    +-``RATE_EQUIVALENCE`` (decided only when all ``n`` planned pairs are stored)."""
+    +-``RATE_EQUIVALENCE`` (decided only when all ``n`` planned pairs are stored and
+    usable). A pair with a non-positive value (a stiffness secant with no elastic branch
+    resolved) is no value: left out, and named in ``unresolved``."""
     from engine.study.intervals import t_quantile
 
     e = S.RATE_EQUIVALENCE
     out = {}
     for name in names:
-        diffs = np.array([p[1].metrics[name][0] / p[2].metrics[name][0] - 1.0 for p in pairs])
-        row = {"differences": diffs.tolist(), "mean": math.nan, "interval": [math.nan] * 2}
-        verdict = f"undecided ({len(diffs)} of {n} pairs stored and run to their end)"
+        usable = [p for p in pairs if p[1].metrics[name][0] > 0 and p[2].metrics[name][0] > 0]
+        diffs = np.array([p[1].metrics[name][0] / p[2].metrics[name][0] - 1.0 for p in usable])
+        row = {
+            "differences": diffs.tolist(),
+            "mean": math.nan,
+            "interval": [math.nan] * 2,
+            "unresolved": [p[0] for p in pairs if p not in usable],
+        }
+        verdict = f"undecided ({len(diffs)} of {n} pairs stored, run to their end and resolved)"
         if len(diffs) >= 2:
             m = float(diffs.mean())
             half = (
@@ -202,6 +210,8 @@ def unload_check(law_name: str) -> dict | None:
     table = S.UNLOAD_CHECK_SIZES.get(law_name)
     if not table:
         return None
+    if len(table) != 1:
+        raise ValueError(f"size_series.UNLOAD_CHECK_SIZES[{law_name!r}]: one size, not {table}")
     ((size, n),) = table.items()
     pairs = []
     for seed in range(1, n + 1):
@@ -219,6 +229,17 @@ def unload_check(law_name: str) -> dict | None:
     }
 
 
+def _stiffness_mean(values) -> str:
+    """The mean of secant stiffnesses [MPa] in words: "-" for none, and no mean where one
+    is non-positive (no elastic branch resolved)."""
+    if not values:
+        return "-"
+    bad = sum(v <= 0 for v in values)
+    if bad:
+        return f"no elastic branch in {bad} of {len(values)}"
+    return f"{np.mean(values) / 1e6:.3f}"
+
+
 def unload_lines() -> list[str]:
     """The report's account of the slow unloading (benchmarks/size_series.py)."""
     out = [
@@ -232,7 +253,10 @@ def unload_lines() -> list[str]:
         "the held series' test does. Checked at 5 diameters against three times slower "
         "again, paired "
         f"by seed, +-{100 * S.RATE_EQUIVALENCE:g} % on the 90 % interval; equivalent: its "
-        "unloading-stiffness curve gives that stiffness's need.",
+        "unloading-stiffness curve gives that stiffness's need (read once its sizes are "
+        "stored: not yet). A non-positive secant (no elastic branch) is no value. The "
+        "loading stiffness stays as the rate check left it, so the bulk in compression stays "
+        "undecided with this series.",
         "",
     ]
     for law_name, sizes in S.UNLOAD_SIZES.items():
@@ -255,8 +279,7 @@ def unload_lines() -> list[str]:
             med = f"{np.median(got):.3g}" if got else "-"
             k = [d.metrics["unloading_stiffness"][0] for d in ds]
             kh = [d.metrics["unloading_stiffness"][0] for d in held.get(size, [])]
-            ks = f"{np.mean(k) / 1e6:.3f}" if k else "-"
-            khs = f"{np.mean(kh) / 1e6:.3f}" if kh else "-"
+            ks, khs = _stiffness_mean(k), _stiffness_mean(kh)
             out.append(f"| {size:.3g} | {len(ds)} of {n} | {med}, {target:.3g} | {ks} | {khs} |")
         c = unload_check(law_name)
         if c is not None:
@@ -268,10 +291,15 @@ def unload_lines() -> list[str]:
                 if math.isfinite(r["mean"])
                 else "-"
             )
+            bad = (
+                f" (no elastic branch: seeds {', '.join(map(str, r['unresolved']))})"
+                if r["unresolved"]
+                else ""
+            )
             out += [
                 "",
                 f"The check at {c['size']:g} diameters: {len(c['seeds'])} of {c['planned']} "
-                f"pairs stored; paired differences {diffs}; mean {mean}: {r['verdict']}.",
+                f"pairs stored{bad}; paired differences {diffs}; mean {mean}: {r['verdict']}.",
             ]
         out.append("")
     return out
@@ -282,10 +310,8 @@ def rate_check(law_name: str) -> dict | None:
     the mean paired relative difference of the runs at I = ``RATE_INERTIAL_NUMBER`` against
     the held series' runs of the same size and seed, its 90 % t interval and the verdict
     (``equivalent`` inside +-``RATE_EQUIVALENCE``, ``differs`` wholly outside, else
-    ``undecided``); ``decided``: every stiffness equivalent. None without a check of this
-    law."""
-    from engine.study.intervals import t_quantile
-
+    ``undecided``: :func:`_paired`); ``decided``: every stiffness equivalent. None without a
+    check of this law."""
     table = S.RATE_SIZES.get(law_name)
     if not table:
         return None
@@ -309,27 +335,7 @@ def rate_check(law_name: str) -> dict | None:
         "margin": S.RATE_EQUIVALENCE,
         "stiffness": {},
     }
-    e = S.RATE_EQUIVALENCE
-    for name in STIFFNESSES:
-        diffs = np.array([p[1].metrics[name][0] / p[2].metrics[name][0] - 1.0 for p in pairs])
-        row = {"differences": diffs.tolist(), "mean": math.nan, "interval": [math.nan] * 2}
-        verdict = f"undecided ({len(diffs)} of {n} pairs stored and run to their end)"
-        if len(diffs) >= 2:
-            m = float(diffs.mean())
-            half = (
-                t_quantile(0.95, len(diffs) - 1) * float(diffs.std(ddof=1)) / math.sqrt(len(diffs))
-            )
-            lo, hi = m - half, m + half
-            row.update(mean=m, interval=[lo, hi])
-            if len(diffs) == n:
-                if -e < lo and hi < e:
-                    verdict = "equivalent"
-                elif lo > e or hi < -e:
-                    verdict = "differs"
-                else:
-                    verdict = "undecided"
-        row["verdict"] = verdict
-        out["stiffness"][name] = row
+    out["stiffness"] = _paired(pairs, STIFFNESSES, n)
     out["decided"] = all(r["verdict"] == "equivalent" for r in out["stiffness"].values())
     return out
 

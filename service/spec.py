@@ -83,6 +83,7 @@ CROSS_FIELD_RULES: dict[tuple[str, str], str] = {
     ("StudySpec", "max_reference_seeds"): "with decide: >= the number of reference seeds",
     ("UniaxialTest", "consolidation_stress"): "> pre_stress",
     ("UniaxialTest", "pour_fraction"): "<= solid_fraction",
+    ("UniaxialTest", "unloading_inertial_number"): "null where inertial_number is null",
     ("UniaxialTest", "cell"): "x and y >= 4.8 largest radii, z >= 4 largest radii",
     ("UniaxialTest", "dt"): "<= the stable limit of the laws for the smallest particles "
     "(engine.UniaxialTest.time_step_limit; the 422 names the limit)",

@@ -40,7 +40,8 @@ class ParamInfo:
     reading does not, e.g. a preset with overrides, a rule given by name); ``omit_default``
     (the JSON form leaves the field out while it holds its default: a field added to a
     record whose JSON forms are stored and compared, so that a record made before it, or
-    without it, keeps its JSON form).
+    without it, keeps its JSON form; the value is compared with ``==``, for defaults such
+    as None).
     """
 
     name: str

@@ -310,6 +310,8 @@ def uniaxial_steps(test: UniaxialTest) -> float:
             test.max_platen_speed / height,
         )
     t = 2 * test.fall_time + 0.2 / rate
+    if test.unloading_inertial_number is not None:  # the unloading's share, about half
+        t += 0.1 / rate * (test.inertial_number / test.unloading_inertial_number - 1.0)
     if test.unconfined:
         t += test.release_time + test.max_unconfined_strain / rate
     return t / dt

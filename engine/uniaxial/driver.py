@@ -51,8 +51,8 @@ from .spec import UniaxialTest
 
 STAGES = ("fill", "pre_compression", "consolidation", "unloading", "release", "unconfined")
 
-#: The stages whose top platen moves: at ``inertial_number`` each holds it (docs/PHYSICS.md
-#: section 4, "Loading rate").
+#: The stages whose top platen moves: at ``inertial_number`` each holds it (the unloading its
+#: own where ``unloading_inertial_number`` is set; docs/PHYSICS.md section 4, "Loading rate").
 LOADING = ("pre_compression", "consolidation", "unloading", "unconfined")
 
 
@@ -657,9 +657,16 @@ class _Driver:
         s["dt_critical"] = ts.critical
         s["dt_limited_by_wall"] = 1.0 if ts.kind == "wall" else 0.0
         s["impact_speed"] = ts.impact_speed
+        t = self.test
         held = np.concatenate(
             [
-                held_inertial_numbers(self.stages[k].curves, self.test)
+                # the unloading at its own inertial number counts as its share of the target
+                held_inertial_numbers(self.stages[k].curves, t)
+                * (
+                    t.inertial_number / t.unloading_inertial_number
+                    if k == "unloading" and t.unloading_inertial_number is not None
+                    else 1.0
+                )
                 for k in LOADING
                 if k in self.stages
             ]

@@ -292,7 +292,8 @@ class UniaxialTest(Record):
         gt=0,
         le=0.01,
         nullable=True,
-        doc="inertial number every loading stage holds (None: constant platen_speed)",
+        doc="inertial number every loading stage holds (None: constant platen_speed; the "
+        "unloading: unloading_inertial_number where set)",
     )
     max_platen_speed: float = param(
         DEFAULT_PROTOCOL["max_platen_speed"],

@@ -212,7 +212,14 @@ def test_an_outlet_property_applies_at_its_series_stress_and_the_arching_width_t
         # one pair missing: undecided however close the rest
         (
             (1.0, 1.0, 1.0, None),
-            ("undecided (3 of 4 pairs stored and run to their end)",) * 2,
+            ("undecided (3 of 4 pairs stored, run to their end and resolved)",) * 2,
+            False,
+        ),
+        # one slow run's unloading secant negative (no elastic branch): no value, its pair
+        # left out, so undecided; never a relative difference of -200 %
+        (
+            (1.0, 1.0, 1.0, -1.0),
+            ("equivalent", "undecided (3 of 4 pairs stored, run to their end and resolved)"),
             False,
         ),
     ],
@@ -243,6 +250,19 @@ def test_the_rate_check_decides_by_its_stated_rule(monkeypatch, slow, verdicts, 
     c = R.rate_check("bond1")
     got = tuple(c["stiffness"][n]["verdict"] for n in R.STIFFNESSES)
     assert got == verdicts and c["decided"] is decided
+    assert all(abs(x) < 0.5 for x in c["stiffness"]["unloading_stiffness"]["differences"])
+    # the slow unloading's check judges its pairs by the same rule (unload_check against
+    # unload, the stand-ins the same)
+    monkeypatch.setattr(
+        S,
+        "stored",
+        lambda kind, law, size, seed: stored(
+            "column" if kind == "unload" else kind, law, size, seed
+        ),
+    )
+    u = R.unload_check("bond1")
+    assert u["stiffness"]["unloading_stiffness"]["verdict"] == verdicts[1]
+    assert u["decided"] is (verdicts[1] == "equivalent")
 
 
 def test_a_decided_rate_check_takes_the_stiffnesses_from_the_capped_series(monkeypatch):

@@ -243,13 +243,16 @@ def test_kill_9_mid_study_then_a_new_worker_completes_it(client, workers, settin
     t_kill = time.monotonic()
     workers.start()
     second = workers.log_dir / "worker-1.log"
-    retaken = wait_for(
+    wait_for(
         study_getter(client, sid),
         lambda s: second.exists() and f"claimed study {sid}" in second.read_text(),
         60,
         "the new worker to take the study over",
         workers,
     )
+    # read again: the state wait_for returns was fetched before the log was read, and the
+    # claim can fall between the two (attempts 1 read, 2 logged)
+    retaken = study_getter(client, sid)()
     # not before the heartbeat went stale
     assert time.monotonic() - t_kill >= settings.stale_after - 0.5
     assert retaken["status"] in ("running", "succeeded") and retaken["attempts"] == attempts

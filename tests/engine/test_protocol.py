@@ -115,6 +115,8 @@ def test_a_slower_unloading_holds_its_own_inertial_number_and_changes_nothing_be
     was = np.median(held_inertial_numbers(held.stages["unloading"].curves, held.test))
     assert got == pytest.approx(2.5e-4, rel=0.15) and was == pytest.approx(1e-3, rel=0.15)
     assert slow.stages["unloading"].steps > 2 * held.stages["unloading"].steps
+    # the run's held scalar counts the slow unloading as its share of the target
+    assert slow.scalars["inertial_number_held"] == pytest.approx(1e-3, rel=0.15)
 
 
 def test_the_unloading_inertial_number_is_a_field_like_the_others():

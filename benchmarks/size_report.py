@@ -118,7 +118,22 @@ def feature_curves(
     property's need (point and 95 % bound). A sensitivity, never the rule: ``without``
     leaves sizes out, ``instead`` ({size: digests}) puts other runs of a size in place of
     the stored ones (those that ended in an error left out)."""
-    kind, names, tols, ref_size = FEATURES[feature]
+    return series_curves(*FEATURES[feature], law_name, without, instead)
+
+
+def series_curves(
+    kind: str,
+    names,
+    tols: dict,
+    ref_size: float,
+    law_name: str,
+    without: tuple = (),
+    instead: dict | None = None,
+    positive: bool = False,
+) -> dict:
+    """:func:`feature_curves` for any series kind and properties; ``positive``: a
+    non-positive value (a stiffness secant with no elastic branch) is no value, its seed
+    missing from its size."""
     runs = {z: ds for z, ds in digests(kind, law_name).items() if z not in without}
     for z, ds in (instead or {}).items():
         ok = [d for d in ds if d.ok]
@@ -134,6 +149,11 @@ def feature_curves(
         z: [(d.scalars["thickness_diameters"], _values(d, names)) for d in ds]
         for z, ds in runs.items()
     }
+    if positive:
+        values = {
+            z: [(x, {n: v for n, v in vs.items() if min(v) > 0}) for x, vs in rs]
+            for z, rs in values.items()
+        }
     out = {"metrics": {}, "confidence": 0.95}
     for n in names:
         have = {z: [(x, v) for x, v in rs if n in v] for z, rs in values.items()}
@@ -253,8 +273,8 @@ def unload_lines() -> list[str]:
         "the held series' test does. Checked at 5 diameters against three times slower "
         "again, paired "
         f"by seed, +-{100 * S.RATE_EQUIVALENCE:g} % on the 90 % interval; equivalent: its "
-        "unloading-stiffness curve gives that stiffness's need (read once its sizes are "
-        "stored: not yet). A non-positive secant (no elastic branch) is no value. The "
+        "unloading-stiffness curve gives that stiffness's need (below, once its reference "
+        "size has two seeds). A non-positive secant (no elastic branch) is no value. The "
         "loading stiffness stays as the rate check left it, so the bulk in compression stays "
         "undecided with this series.",
         "",
@@ -301,6 +321,22 @@ def unload_lines() -> list[str]:
                 f"The check at {c['size']:g} diameters: {len(c['seeds'])} of {c['planned']} "
                 f"pairs stored{bad}; paired differences {diffs}; mean {mean}: {r['verdict']}.",
             ]
+            if c["decided"]:
+                curve = series_curves(
+                    "unload",
+                    ("unloading_stiffness",),
+                    DEFAULT_TOLERANCES,
+                    FEATURES["bulk_compression"][3],
+                    law_name,
+                    positive=True,
+                )
+                out += [
+                    "",
+                    "Its unloading-stiffness curve (the rule's; the bulk in compression stays "
+                    "undecided by its loading stiffness):",
+                    "",
+                    *_curve_lines(curve),
+                ]
         out.append("")
     return out
 

@@ -83,9 +83,9 @@ Feature kinds (the functional form of each fit is fixed here, before the runs):
   with this series whatever it gives; a rule taking the capped series' loading stiffness
   alone would be made after the rate check was seen, and is not made. Assumed, not tested:
   that the check's inertial number at 5 d (5.4e-5) covers the series' at 15 and 20 d (5.4e-5
-  and 4.1e-5, the same platen speed). Not yet wired into the need (docs/RESOLUTION.md shows
-  the series' table and check only): the unloading-stiffness curve is read once the series'
-  sizes are stored.
+  and 4.1e-5, the same platen speed). The report (docs/RESOLUTION.md, "The slow unloading")
+  prints the unloading-stiffness curve and its need where the check is equivalent; the
+  bulk in compression's kind-level need (and the planner) is not changed by it.
 
 Laws: ``bond1`` the default powder (f0 = -0.4 N, the main job's reference), ``bond3`` the
 same law three times as adhesive (f0 = -1.2 N: granular Bond number at the consolidation

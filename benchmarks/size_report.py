@@ -222,23 +222,33 @@ def _paired(pairs: list, names, n: int) -> dict:
     return out
 
 
+def _stored_pairs(slow_kind: str, fast_kind: str, law_name: str, table: dict):
+    """A paired check's one size, its planned seeds and the (seed, slow digest, fast
+    digest) pairs stored and run to their end; None without such a check for this law."""
+    sizes = table.get(law_name)
+    if not sizes:
+        return None
+    if len(sizes) != 1:
+        raise ValueError(f"{slow_kind} check of {law_name!r}: one size, not {sizes}")
+    ((size, n),) = sizes.items()
+    pairs = []
+    for seed in range(1, n + 1):
+        slow = S.stored(slow_kind, law_name, size, seed)
+        fast = S.stored(fast_kind, law_name, size, seed)
+        if slow is not None and fast is not None and slow.ok and fast.ok:
+            pairs.append((seed, slow, fast))
+    return size, n, pairs
+
+
 def unload_check(law_name: str) -> dict | None:
     """The slow unloading's check (benchmarks/size_series.py, kinds ``unload`` and
     ``unload_check``, fixed before their runs): the unloading stiffness of the 5-diameter
     runs unloaded three times slower again against ``unload``'s, paired by seed, as
     :func:`rate_check` judges; None without such a check for this law."""
-    table = S.UNLOAD_CHECK_SIZES.get(law_name)
-    if not table:
+    got = _stored_pairs("unload_check", "unload", law_name, S.UNLOAD_CHECK_SIZES)
+    if got is None:
         return None
-    if len(table) != 1:
-        raise ValueError(f"size_series.UNLOAD_CHECK_SIZES[{law_name!r}]: one size, not {table}")
-    ((size, n),) = table.items()
-    pairs = []
-    for seed in range(1, n + 1):
-        slow = S.stored("unload_check", law_name, size, seed)
-        fast = S.stored("unload", law_name, size, seed)
-        if slow is not None and fast is not None and slow.ok and fast.ok:
-            pairs.append((seed, slow, fast))
+    size, n, pairs = got
     rows = _paired(pairs, ("unloading_stiffness",), n)
     return {
         "size": size,
@@ -348,20 +358,10 @@ def rate_check(law_name: str) -> dict | None:
     (``equivalent`` inside +-``RATE_EQUIVALENCE``, ``differs`` wholly outside, else
     ``undecided``: :func:`_paired`); ``decided``: every stiffness equivalent. None without a
     check of this law."""
-    table = S.RATE_SIZES.get(law_name)
-    if not table:
+    got = _stored_pairs("rate", "column", law_name, S.RATE_SIZES)
+    if got is None:
         return None
-    if len(table) != 1:
-        raise ValueError(f"size_series.RATE_SIZES[{law_name!r}]: one size per law, not {table}")
-    ((size, n),) = table.items()
-    pairs = []
-    for seed in range(1, n + 1):
-        slow, fast = (
-            S.stored("rate", law_name, size, seed),
-            S.stored("column", law_name, size, seed),
-        )
-        if slow is not None and fast is not None and slow.ok and fast.ok:
-            pairs.append((seed, slow, fast))
+    size, n, pairs = got
     out = {
         "size": size,
         "seeds": [p[0] for p in pairs],
@@ -369,9 +369,8 @@ def rate_check(law_name: str) -> dict | None:
         "inertial_number": S.RATE_INERTIAL_NUMBER,
         "held": [p[1].scalars.get("inertial_number_held", math.nan) for p in pairs],
         "margin": S.RATE_EQUIVALENCE,
-        "stiffness": {},
+        "stiffness": _paired(pairs, STIFFNESSES, n),
     }
-    out["stiffness"] = _paired(pairs, STIFFNESSES, n)
     out["decided"] = all(r["verdict"] == "equivalent" for r in out["stiffness"].values())
     return out
 

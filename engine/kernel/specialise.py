@@ -123,21 +123,23 @@ def _side(prefix: str, kernel: LawKernel, law=None) -> dict[str, bool]:
 
 #: ``DEMSCALE_KERNELS``: ``scene`` (the default) compiles each scene's kernel with exactly the
 #: switches it uses; ``general`` switches on every switch that has a neutral value, so that
-#: scenes differing only in those share one kernel (per pair of families, friction caps and
-#: periodic axes). Held to the scene's kernel bit for bit (a zero's sign aside) for the
-#: default study's laws and five more cases (tests/engine/test_kernels.py; EEPA and toy
-#: families not compared); each step costs more,
-#: and far fewer kernels are compiled: for
-#: a test suite or a session of many small scenes, where compiling (tens of seconds a
-#: kernel) outweighs stepping. Production runs keep ``scene``.
+#: scenes differing only in those share one kernel (per pair of families, friction caps,
+#: periodic axes, and meshes or none). Held to the scene's kernel bit for bit (a zero's sign
+#: aside) for the default study's laws and four more cases (tests/engine/test_kernels.py;
+#: EEPA and toy families not compared); each step costs more, and far fewer kernels are
+#: compiled: for a test suite or a session of many small scenes, where compiling (tens of
+#: seconds a kernel) outweighs stepping. Production runs keep ``scene``.
 KERNELS_ENV = "DEMSCALE_KERNELS"
 KERNEL_MODES = ("scene", "general")
 #: Features that are not switches with a neutral value: the two families and the friction
 #: caps on the total normal force (another convention).
 NOT_NEUTRAL = (*FAMILY_FEATURES, "normal_cap", "wall_normal_cap")
-#: Features a general kernel keeps as the scene has them: those, and the periodic axes (a
-#: minimum image along an axis without a period would be meaningless).
-KEPT_IN_GENERAL = (*NOT_NEUTRAL, "periodic_x", "periodic_y", "periodic_z")
+#: Features a general kernel keeps as the scene has them: those, the periodic axes (a
+#: minimum image along an axis without a period would be meaningless) and the meshes (a
+#: neutral switch, but the triangle contacts are two fifths of a kernel's compile time,
+#: 25 s of CPU against 15 s without them, measured 2026-12-07: the many scenes of planes
+#: only pay them for the few of meshes).
+KEPT_IN_GENERAL = (*NOT_NEUTRAL, "periodic_x", "periodic_y", "periodic_z", "meshes")
 
 
 def kernel_mode() -> str:

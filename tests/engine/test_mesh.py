@@ -29,6 +29,7 @@ import numpy as np
 import pytest
 
 import engine
+import engine.simulation.simulation
 from engine.contact.hertz import hertz_contact_time, hertz_impact_overlap
 from engine.kernel import specialise
 
@@ -172,7 +173,7 @@ def test_a_flat_mesh_of_many_triangles_is_the_plane(tilted):
         np.testing.assert_array_equal(a.wall_forces, b.mesh_forces)
 
 
-def test_a_mesh_across_a_periodic_face_is_the_plane():
+def test_a_mesh_across_a_periodic_face_is_the_plane(monkeypatch):
     """Periodic along y, the mesh reaching beyond both faces (as the walls of a slot hopper
     extruded along its depth): particles rolling and sliding across the periodic face keep
     meeting it (wrapped into the box at each list build, a little past a face between two)
@@ -184,7 +185,14 @@ def test_a_mesh_across_a_periodic_face_is_the_plane():
     omg = np.array([[-0.3 / R, 0.0, 0.0], [40.0, 10.0, -20.0], [0.0, 0.0, 30.0]])
     kw = {"box": box, "periodic": (False, True, False)}
     plane = [engine.Plane((0, 0, 0), (0, 0, 1))]
-    a = engine.Simulation(scene(pos, vel, omg, walls=plane, **kw), dt=1e-6)
+    with monkeypatch.context() as m:
+        # the plane's run on a kernel with the meshes' switch on (a neutral switch: no mesh
+        # in its scene), the kernel of the mesh's run and the slot hopper's, instead of one
+        # of its own to compile (about 15 s of CPU on a cold cache)
+        meshes_on = lambda f, mode=None: {**specialise.kernel_features(f, mode), "meshes": True}  # noqa: E731
+        m.setattr(engine.simulation.simulation, "kernel_features", meshes_on)
+        a = engine.Simulation(scene(pos, vel, omg, walls=plane, **kw), dt=1e-6)
+    assert a.features["meshes"] and not a.scene.meshes
     b = engine.Simulation(scene(pos, vel, omg, meshes=[grid_mesh(28)], **kw), dt=1e-6)
     with pytest.raises(engine.ParameterError, match=r"Scene.meshes\[0\].*periodic axis y"):
         engine.Simulation(scene(pos, vel, omg, meshes=[grid_mesh(24)], **kw), dt=1e-6)

@@ -37,14 +37,19 @@ K1, K2 = 5e3, 2.5e4
 
 def _pair(law, vn0: float, vt0: float) -> engine.Scene:
     """Two equal spheres on the x axis 1 um apart; relative velocity (vn0, vt0, 0) of
-    particle 0 against particle 1 (approaching along x, sliding along y)."""
+    particle 0 against particle 1 (approaching along x, sliding along y), in a box periodic
+    along x and y 100 radii wide (no image within reach), as tests/engine/helpers.py's
+    pair_scene: the kernel of the suite's other pair tests, none of its own to compile."""
     x = R + 0.5e-6
     vel = np.array([[0.5 * vn0, 0.5 * vt0, 0.0], [-0.5 * vn0, -0.5 * vt0, 0.0]])
+    h = 50.0 * x
     return engine.Scene(
         np.array([[-x, 0.0, 0.0], [x, 0.0, 0.0]]),
         R,
         RHO,
         velocities=vel,
+        box=((-h, h), (-h, h), (-h, h)),
+        periodic=(True, True, False),
         gravity=(0, 0, 0),
         pair_law=law,
     )

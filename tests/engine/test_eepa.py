@@ -80,9 +80,9 @@ def test_kernel_function_returns_tangent_stiffness_and_adhesive_pull():
 def test_n_and_chi_of_one_is_the_bilinear_law_to_the_last_bit(case):
     """A bed with walls, gravity, friction, rolling, damping and adhesion: the EEPA law with
     n = chi = 1 (its own kernel branches, pow included) gives the bilinear trajectory."""
-    from tests.engine.test_kernels import CASES, _trajectory
+    from tests.engine.test_kernels import BEDS, _trajectory
 
-    bilinear, wall_law, gravity = CASES[case]
+    bilinear, wall_law, gravity = BEDS[case]
     fields = {
         k: getattr(bilinear, k)
         for k in ("k1", "k2", "f0", "kadh", "kt_ratio", "mu_s", "mu_r", "restitution")

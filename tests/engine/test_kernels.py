@@ -77,11 +77,16 @@ def _trajectory(scene, monkeypatch=None):
     return sim, contacts
 
 
-#: Scenes whose own kernel differs from the general one in the switches it leaves out. (A
-#: case with every switch on, "full", was one until the general kernels kept the scene's
-#: meshes: its kernel is now the general one. The meshes' switch is held neutral by
-#: tests/engine/test_mesh.py, whose plane runs beside a mesh on the mesh's kernel.)
-CASES = {
+#: The beds' laws: each case's pair law, wall law and gravity (tests/engine/test_eepa.py runs
+#: the EEPA with n = chi = 1 on three of them).
+BEDS = {
+    "full": (
+        engine.BilinearAdhesive(
+            k1=5e3, k2=2.5e4, f0=-0.2, kadh=1e3, mu_s=0.5, mu_r=0.002, restitution=0.4
+        ),
+        engine.HertzMindlin(E=1e8, nu=0.25, restitution=0.5, mu=0.3, mu_r=0.002),
+        (0.0, 0.0, -9.81),
+    ),
     "plain": (
         engine.BilinearAdhesive(k1=5e3, k2=5e3, mu_s=0, mu_r=0, restitution=1),
         None,
@@ -105,6 +110,11 @@ CASES = {
         (0.0, 0.0, -9.81),
     ),
 }
+#: The beds whose own kernel differs from the general one in the switches it leaves out.
+#: ("full", every switch on, was one until the general kernels kept the scene's meshes: its
+#: kernel is now the general one. The meshes' switch is held neutral by
+#: tests/engine/test_mesh.py, whose plane runs beside a mesh on the mesh's kernel.)
+CASES = {k: v for k, v in BEDS.items() if k != "full"}
 
 
 @pytest.mark.parametrize("case", list(CASES))

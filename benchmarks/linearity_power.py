@@ -1,0 +1,148 @@
+"""How large a departure from the line the size series' linearity check sees, in the designs
+the free surface's strength was fitted on (issue 50; docs/PHYSICS.md section 7.5).
+
+The check (``engine.study.resolution.linearity``) holds each size's standardised residual
+to Student's t at 1 - 0.05 / (2 G) on the degrees of freedom of ``sources_df``, which is
+the smallest source's wherever a source has fewer than two (a size of two seeds outside
+the pool). In ``bond1``'s strength series the 25-diameter size has two failed seeds and
+sits outside the pool, so every residual is held to t on one degree of freedom (89 at
+seven sizes), and the 5-diameter column, whose strength is a quarter of the next size's,
+stays in the fit. This simulation says what that check can see there; it changes no rule
+and no stored answer.
+
+Simulated (``python -m benchmarks.linearity_power``, about a minute): the truth is the line
+fitted without the 5-diameter column (the six sizes with a core), each size's seeds drawn
+around it with the spread the rule assumes (the pooled variance of those six sizes,
+scaled as (d / L)^2, ``engine.study.resolution.SPREAD_EXPONENT``), at the stored sizes and
+seed counts (the stored design) and with three seeds at every size of fewer (the design
+a third seed would give). The 5-diameter mean is then moved off the line by a fraction of
+its stored departure (0: the false alarms; 1: as far as the stored column lies). Per
+design and departure: how often the seven sizes are called not linear (the check's
+power), and how often ``asymptotic_curve`` then leaves the 5-diameter size out. Stored in
+benchmarks/results/linearity_power/; docs/RESOLUTION.md prints it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks import size_report as R
+from engine.study.resolution import SPREAD_EXPONENT, asymptotic_curve, fit_curve
+
+OUT = Path(__file__).resolve().parent / "results" / "linearity_power"
+#: Fractions of the stored 5-diameter departure simulated.
+FRACTIONS = (0.0, 0.1, 0.25, 0.5, 1.0)
+#: Simulated series per design and fraction.
+REPLICATES = 2000
+COARSEST = 5.0
+
+
+def stored_sizes(law_name: str) -> tuple[list[dict], float]:
+    """The strength series as the report fits it: per size the seeds' log strengths (those
+    that failed at a peak), and the reference size."""
+    kind, names, _, ref_size = R.FEATURES["free_surface"]
+    out = []
+    for size, ds in sorted(R.digests(kind, law_name).items(), reverse=True):
+        have = [(d.scalars["thickness_diameters"], R._values(d, names).get("strength")) for d in ds]
+        have = [(z, float(np.mean(v))) for z, v in have if v is not None]
+        vals = [v for _, v in have]
+        if len(vals) >= 2:
+            across = float(np.mean([z for z, _ in have]))
+            out.append(
+                {
+                    "size": size,
+                    "x": 1.0 / across,
+                    "logs": np.log(vals),
+                    "reference": size == ref_size,
+                }
+            )
+    return out, ref_size
+
+
+def truth(sizes: list[dict]) -> dict:
+    """The line through the sizes with a core and the spread the pooled rule assumes."""
+    cored = [s for s in sizes if s["size"] != COARSEST]
+    c = fit_curve(cored, 0.95, pooled=True)
+    a, b = math.log(c["bulk"]), c["slope"]
+    xr = next(s["x"] for s in sizes if s["reference"])
+    # the pooled variance at the reference's size: each size's own, scaled to it, weighted
+    # by its degrees of freedom (the pool's estimate before the screen)
+    dof = np.array([len(s["logs"]) - 1 for s in cored], dtype=float)
+    var = (
+        np.array([np.var(s["logs"], ddof=1) for s in cored])
+        / (np.array([s["x"] for s in cored]) / xr) ** SPREAD_EXPONENT
+    )
+    sigma = math.sqrt(float(np.sum(dof * var) / dof.sum()))
+    five = next(s for s in sizes if s["size"] == COARSEST)
+    departure = float(np.mean(five["logs"]) - (a + b * five["x"]))
+    return {"a": a, "b": b, "sigma_ref": sigma, "x_ref": xr, "departure": departure}
+
+
+def simulate(sizes: list[dict], t: dict, counts: list[int], fraction: float, seed: int) -> dict:
+    rng = np.random.default_rng(seed)
+    called = left_out = 0
+    for _ in range(REPLICATES):
+        sim = []
+        for s, n in zip(sizes, counts):
+            sd = t["sigma_ref"] * (s["x"] / t["x_ref"]) ** (SPREAD_EXPONENT / 2)
+            mean = t["a"] + t["b"] * s["x"]
+            if s["size"] == COARSEST:
+                mean += fraction * t["departure"]
+            sim.append({"x": s["x"], "logs": rng.normal(mean, sd, n), "reference": s["reference"]})
+        called += fit_curve(sim, 0.95, pooled=True)["linear"] is False
+        c = asymptotic_curve(sim, 0.95, pooled=True)
+        left_out += any(abs(z - COARSEST) < 0.5 for z in c["left_out"])
+    return {
+        "fraction": fraction,
+        "called_not_linear": called / REPLICATES,
+        "coarsest_left_out": left_out / REPLICATES,
+    }
+
+
+def run(law_name: str) -> dict:
+    sizes, ref_size = stored_sizes(law_name)
+    t = truth(sizes)
+    stored = [len(s["logs"]) for s in sizes]
+    designs = {"stored": stored, "three_seeds_at_least": [max(3, n) for n in stored]}
+    out = {
+        "law": law_name,
+        "property": "strength",
+        "sizes": [s["size"] for s in sizes],
+        "reference_size": ref_size,
+        "truth": t,
+        "departure_in_standard_errors": t["departure"]
+        / (
+            t["sigma_ref"]
+            * (next(s["x"] for s in sizes if s["size"] == COARSEST) / t["x_ref"])
+            ** (SPREAD_EXPONENT / 2)
+            / math.sqrt(next(len(s["logs"]) for s in sizes if s["size"] == COARSEST))
+        ),
+        "replicates": REPLICATES,
+        "designs": {},
+    }
+    for k, (name, counts) in enumerate(designs.items()):
+        out["designs"][name] = {
+            "seeds": counts,
+            "rows": [simulate(sizes, t, counts, f, 1000 * k + i) for i, f in enumerate(FRACTIONS)],
+        }
+    return out
+
+
+def main(argv=None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("laws", nargs="*", default=["bond1"])
+    args = p.parse_args(argv)
+    OUT.mkdir(parents=True, exist_ok=True)
+    for law in args.laws:
+        got = run(law)
+        (OUT / f"{law}_strength.json").write_text(json.dumps(got, indent=1) + "\n")
+        print(json.dumps(got, indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -145,7 +145,11 @@ COLUMN_SIZES = {
     # fit. Fixed before it runs: whatever seed 3 gives, it is stored and counted, and no
     # fourth seed follows.
     "bond1": {5.0: 4, 20.0 / 3.0: 4, 8.0: 4, 10.0: 4, 15.0: 3, 20.0: 2, 25.0: 3},
-    "bond3": {5.0: 4, 20.0 / 3.0: 4, 8.0: 4, 10.0: 4, 15.0: 2},
+    # bond3 15 d seed 3: added 2026-12-07 after seed 2 had stopped at the overlap guard
+    # (one run left at the size, none in the fits), as 25 d's seed 3 above. Fixed before it
+    # runs: whatever it gives (a run stopped at the guard included), it is stored and
+    # counted, and no fourth seed follows.
+    "bond3": {5.0: 4, 20.0 / 3.0: 4, 8.0: 4, 10.0: 4, 15.0: 3},
 }
 #: Shear cell sizes [diameters across its thin periodic width] and seeds per size.
 SHEAR_SIZES = {

@@ -582,6 +582,17 @@ def _linearity_power(law_name: str) -> list[str]:
         return f"{seeds}: {rates}"
 
     top = max(r["called_not_linear"] for r in got["designs"]["stored"]["rows"] if r["fraction"])
+    fit = feature_curves("free_surface", law_name)["metrics"].get("strength")
+    stored_case = ""
+    if fit is not None:
+        few = [s["diameters_across"] for s in fit["sizes"] if s["seeds"] < 3]
+        pooled = all(any(abs(z - p) < 1e-6 for p in fit["pooled_sizes"]) for z in few)
+        limit = fit["lack_of_fit_limit"]
+        stored_case = (
+            f"; in the stored fit the pool took it (its limit {limit:.3g})"
+            if pooled
+            else f", as in the stored fit (its limit {limit:.3g})"
+        )
     quarter = next(
         r["called_not_linear"]
         for r in got["designs"]["three_seeds_at_least"]["rows"]
@@ -611,7 +622,7 @@ def _linearity_power(law_name: str) -> list[str]:
                 "the size lies: a two-seed size screened out of the pool (one degree of "
                 "freedom of its own) holds every residual to Student's t on one degree of "
                 "freedom (`engine.study.resolution.sources_df`'s floor, whatever that "
-                "size's share), as in the stored fit. With three seeds there it is "
+                f"size's share){stored_case}. With three seeds there it is "
                 f"{quarter:.2f} at a quarter of the stored departure. Noticed, not changed: "
                 "the rule was fixed before the runs and its answer stands; a rule without "
                 "that floor needs its own coverage simulated before it judges any series."

@@ -10,16 +10,19 @@ seven sizes), and the 5-diameter column, whose strength is a quarter of the next
 stays in the fit. This simulation says what that check can see there; it changes no rule
 and no stored answer.
 
-Simulated (``python -m benchmarks.linearity_power``, about a minute): the truth is the line
-fitted without the 5-diameter column (the six sizes with a core), each size's seeds drawn
-around it with the spread the rule assumes (the pooled variance of those six sizes,
-scaled as (d / L)^2, ``engine.study.resolution.SPREAD_EXPONENT``), at the stored sizes and
-seed counts (the stored design) and with three seeds at every size of fewer (the design
-a third seed would give). The 5-diameter mean is then moved off the line by a fraction of
-its stored departure (0: the false alarms; 1: as far as the stored column lies). Per
-design and departure: how often the seven sizes are called not linear (the check's
-power), and how often ``asymptotic_curve`` then leaves the 5-diameter size out. Stored in
-benchmarks/results/linearity_power/; docs/RESOLUTION.md prints it.
+Simulated (``python -m benchmarks.linearity_power``, about a minute a law): the truth is the
+line fitted without the 5-diameter column (the sizes with a core), each size's seeds drawn
+around it with the larger of the spread the pooled rule assumes (the pooled variance of
+those sizes, scaled as (d / L)^2, ``engine.study.resolution.SPREAD_EXPONENT``) and the
+size's own stored spread (the rule never takes less), at the stored sizes and seed counts
+(the stored design) and with three seeds at every size of fewer (the design a third seed
+would give). The 5-diameter mean is then moved off the line by a fraction of its stored
+departure (0: the false alarms; 1: as far as the stored column lies), the same draws at
+every fraction. Per design and departure: how often the sizes are called not linear (the
+check's power), and how often ``asymptotic_curve`` then leaves the 5-diameter size out;
+per design, how often a size's spread is a source of fewer than two degrees of freedom (the
+floor, the power's ceiling). Stored in benchmarks/results/linearity_power/;
+docs/RESOLUTION.md prints it.
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks import size_report as R
-from engine.study.resolution import SPREAD_EXPONENT, asymptotic_curve, fit_curve
+from engine.study.resolution import SPREAD_EXPONENT, asymptotic_curve, fit_curve, size_noise
 
 OUT = Path(__file__).resolve().parent / "results" / "linearity_power"
 #: Fractions of the stored 5-diameter departure simulated.
@@ -65,7 +68,10 @@ def stored_sizes(law_name: str) -> tuple[list[dict], float]:
 
 
 def truth(sizes: list[dict]) -> dict:
-    """The line through the sizes with a core and the spread the pooled rule assumes."""
+    """The line through the sizes with a core, the spread the pooled rule assumes at the
+    reference's size, and each size's spread: the larger of that (scaled as (d / L)^2) and
+    the size's own (the rule never takes less than a size's own spread, and a size that
+    scatters more keeps it in the pool's screen)."""
     cored = [s for s in sizes if s["size"] != COARSEST]
     c = fit_curve(cored, 0.95, pooled=True)
     a, b = math.log(c["bulk"]), c["slope"]
@@ -78,29 +84,63 @@ def truth(sizes: list[dict]) -> dict:
         / (np.array([s["x"] for s in cored]) / xr) ** SPREAD_EXPONENT
     )
     sigma = math.sqrt(float(np.sum(dof * var) / dof.sum()))
+    sd = {
+        s["size"]: max(
+            sigma * (s["x"] / xr) ** (SPREAD_EXPONENT / 2), float(np.std(s["logs"], ddof=1))
+        )
+        for s in sizes
+    }
     five = next(s for s in sizes if s["size"] == COARSEST)
     departure = float(np.mean(five["logs"]) - (a + b * five["x"]))
-    return {"a": a, "b": b, "sigma_ref": sigma, "x_ref": xr, "departure": departure}
-
-
-def simulate(sizes: list[dict], t: dict, counts: list[int], fraction: float, seed: int) -> dict:
-    rng = np.random.default_rng(seed)
-    called = left_out = 0
-    for _ in range(REPLICATES):
-        sim = []
-        for s, n in zip(sizes, counts):
-            sd = t["sigma_ref"] * (s["x"] / t["x_ref"]) ** (SPREAD_EXPONENT / 2)
-            mean = t["a"] + t["b"] * s["x"]
-            if s["size"] == COARSEST:
-                mean += fraction * t["departure"]
-            sim.append({"x": s["x"], "logs": rng.normal(mean, sd, n), "reference": s["reference"]})
-        called += fit_curve(sim, 0.95, pooled=True)["linear"] is False
-        c = asymptotic_curve(sim, 0.95, pooled=True)
-        left_out += any(abs(z - COARSEST) < 0.5 for z in c["left_out"])
+    # the departure in the standard errors the rule gives the coarsest size's mean
+    k = sizes.index(five)
+    se = math.sqrt(float(size_noise(sizes, True).var_of_mean[k]))
     return {
-        "fraction": fraction,
-        "called_not_linear": called / REPLICATES,
-        "coarsest_left_out": left_out / REPLICATES,
+        "a": a,
+        "b": b,
+        "sigma_ref": sigma,
+        "x_ref": xr,
+        "sd": {f"{z:.4g}": v for z, v in sd.items()},
+        "departure": departure,
+        "departure_in_standard_errors": departure / se,
+    }
+
+
+def simulate(sizes: list[dict], t: dict, counts: list[int], seed: int) -> dict:
+    """Per fraction of the departure: how often the sizes are called not linear, and how
+    often the coarsest is left out; and how often a size's spread is a source of fewer than
+    two degrees of freedom (a two-seed size out of the pool: the floor every residual then
+    gets, the ceiling of the power). The same draws at every fraction (common random
+    numbers), so that the rates differ by the departure alone."""
+    rng = np.random.default_rng(seed)
+    called = dict.fromkeys(FRACTIONS, 0)
+    left_out = dict.fromkeys(FRACTIONS, 0)
+    floored = 0
+    sd = [t["sd"][f"{s['size']:.4g}"] for s in sizes]
+    for _ in range(REPLICATES):
+        noise = [rng.normal(0.0, q, n) for q, n in zip(sd, counts)]
+        for f in FRACTIONS:
+            sim = []
+            for s, e in zip(sizes, noise):
+                mean = t["a"] + t["b"] * s["x"]
+                if s["size"] == COARSEST:
+                    mean += f * t["departure"]
+                sim.append({"x": s["x"], "logs": mean + e, "reference": s["reference"]})
+            if f == 0.0:
+                floored += min(d for d, _ in size_noise(sim, True).sources) < 2
+            called[f] += fit_curve(sim, 0.95, pooled=True)["linear"] is False
+            c = asymptotic_curve(sim, 0.95, pooled=True)
+            left_out[f] += any(abs(z - COARSEST) < 0.5 for z in c["left_out"])
+    return {
+        "floored": floored / REPLICATES,
+        "rows": [
+            {
+                "fraction": f,
+                "called_not_linear": called[f] / REPLICATES,
+                "coarsest_left_out": left_out[f] / REPLICATES,
+            }
+            for f in FRACTIONS
+        ],
     }
 
 
@@ -115,21 +155,12 @@ def run(law_name: str) -> dict:
         "sizes": [s["size"] for s in sizes],
         "reference_size": ref_size,
         "truth": t,
-        "departure_in_standard_errors": t["departure"]
-        / (
-            t["sigma_ref"]
-            * (next(s["x"] for s in sizes if s["size"] == COARSEST) / t["x_ref"])
-            ** (SPREAD_EXPONENT / 2)
-            / math.sqrt(next(len(s["logs"]) for s in sizes if s["size"] == COARSEST))
-        ),
+        "departure_in_standard_errors": t["departure_in_standard_errors"],
         "replicates": REPLICATES,
         "designs": {},
     }
     for k, (name, counts) in enumerate(designs.items()):
-        out["designs"][name] = {
-            "seeds": counts,
-            "rows": [simulate(sizes, t, counts, f, 1000 * k + i) for i, f in enumerate(FRACTIONS)],
-        }
+        out["designs"][name] = {"seeds": counts, **simulate(sizes, t, counts, 1000 * (k + 1))}
     return out
 
 

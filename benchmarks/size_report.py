@@ -166,6 +166,18 @@ def series_curves(
         c["needed"] = diameters_needed(c, tols[n])
     out["sizes"] = sorted(runs)
     out["missing"] = [n for n in names if n not in out["metrics"]]
+    # why a property has no curve: a size of two or more runs with a non-positive value (a
+    # stiffness secant with no elastic branch: no logarithm, resolution_curves drops the
+    # property), or too few runs that have it
+    out["nonpositive"] = {
+        n: sorted(
+            z
+            for z, rs in values.items()
+            if len([v for _, v in rs if n in v]) >= 2
+            and min(min(v[n]) for _, v in rs if n in v) <= 0
+        )
+        for n in out["missing"]
+    }
     return out
 
 
@@ -568,72 +580,87 @@ def _coreless_sensitivity(law_name: str, t_fit: float) -> list[str]:
 
 def _linearity_power(law_name: str) -> list[str]:
     """What the linearity check can see in the strength's stored design: the stored
-    simulation of benchmarks/linearity_power.py (none: nothing said)."""
+    simulation of benchmarks/linearity_power.py (none: nothing said; one made on another
+    design than the stored runs': said to be stale)."""
     path = S.STORE.parent / "linearity_power" / f"{law_name}_strength.json"
     if not path.exists():
         return []
     got = json.loads(path.read_text())
+    fit = feature_curves("free_surface", law_name)["metrics"].get("strength")
+    if fit is None:
+        return []
+    design = sorted((round(s["diameters_across"], 2), s["seeds"]) for s in fit["sizes"])
+    simulated = sorted(
+        (round(1.0 / x, 2), n)
+        for x, n in zip(
+            [1.0 / z for z in got["sizes"]], got["designs"]["stored"]["seeds"], strict=True
+        )
+    )
+    cmd = f"`python -m benchmarks.linearity_power {law_name}`"
+    if [n for _, n in design] != [n for _, n in simulated] or len(design) != len(simulated):
+        return ["", f"The linearity check's power: stale (simulated on another design); {cmd}."]
     coarsest = min(got["sizes"])
 
     def row(name: str) -> str:
         d = got["designs"][name]
         seeds = ", ".join(f"{n} at {z:.3g} d" for z, n in zip(got["sizes"], d["seeds"]))
         rates = ", ".join(f"{r['called_not_linear']:.3f} at {r['fraction']:g}" for r in d["rows"])
-        return f"{seeds}: {rates}"
+        return f"{seeds}: {rates}; a source of one degree of freedom in {d['floored']:.3f}"
 
-    top = max(r["called_not_linear"] for r in got["designs"]["stored"]["rows"] if r["fraction"])
-    fit = feature_curves("free_surface", law_name)["metrics"].get("strength")
-    stored_case = ""
-    if fit is not None:
-        few = [s["diameters_across"] for s in fit["sizes"] if s["seeds"] < 3]
-        pooled = all(any(abs(z - p) < 1e-6 for p in fit["pooled_sizes"]) for z in few)
-        limit = fit["lack_of_fit_limit"]
-        stored_case = (
-            f"; in the stored fit the pool took it (its limit {limit:.3g})"
-            if pooled
-            else f", as in the stored fit (its limit {limit:.3g})"
-        )
-    quarter = next(
-        r["called_not_linear"]
-        for r in got["designs"]["three_seeds_at_least"]["rows"]
-        if r["fraction"] == 0.25
-    )
-    return [
+    stored = got["designs"]["stored"]
+    top = max(r["called_not_linear"] for r in stored["rows"])
+    few = [s["diameters_across"] for s in fit["sizes"] if s["seeds"] < 3]
+    pooled = all(any(abs(z - p) < 1e-6 for p in fit["pooled_sizes"]) for z in few)
+    limit = fit["lack_of_fit_limit"]
+    three = got["designs"]["three_seeds_at_least"]
+    quarter = next(r["called_not_linear"] for r in three["rows"] if r["fraction"] == 0.25)
+    lines = [
         "",
-        f"What the linearity check can see here (`python -m benchmarks.linearity_power "
-        f"{law_name}`, {got['replicates']} simulated series a case; stored in "
-        "benchmarks/results/linearity_power/): the truth the line without the "
-        f"{coarsest:.3g} d size, the seeds' spread the pooled rule's, the {coarsest:.3g} d "
-        f"mean moved off it by a fraction of its stored departure "
-        f"({got['departure_in_standard_errors']:.0f} of its standard errors). How often "
-        f"the sizes are called not linear (and the {coarsest:.3g} d size left out) at "
-        "each fraction, in the stored design (and with three seeds at the sizes of fewer):",
+        f"What the linearity check can see here ({cmd}, {got['replicates']} simulated "
+        "series a case; stored in benchmarks/results/linearity_power/): the truth the line "
+        f"without the {coarsest:.3g} d size, each size's seeds drawn with the larger of the "
+        "pooled rule's spread and its own, the same draws moved off the line at the "
+        f"{coarsest:.3g} d size by a fraction of its stored departure "
+        f"({got['departure_in_standard_errors']:.1f} of the standard errors the rule gives "
+        f"its mean). How often the sizes are called not linear (and the {coarsest:.3g} d "
+        "size left out) at each fraction, and how often a two-seed size is a source of one "
+        "degree of freedom of its own (screened out of the pool):",
         "",
-        f"- stored, {row('stored')}",
-        *(
-            [f"- three seeds at least, {row('three_seeds_at_least')}"]
-            if got["designs"]["three_seeds_at_least"]["seeds"] != got["designs"]["stored"]["seeds"]
-            else []
-        ),
-        "",
-        *(
-            [
-                f"In the stored design the check's power is at most {top:.2f} however far "
-                "the size lies: a two-seed size screened out of the pool (one degree of "
-                "freedom of its own) holds every residual to Student's t on one degree of "
-                "freedom (`engine.study.resolution.sources_df`'s floor, whatever that "
-                f"size's share){stored_case}. With three seeds there it is "
-                f"{quarter:.2f} at a quarter of the stored departure. Noticed, not changed: "
-                "the rule was fixed before the runs and its answer stands; a rule without "
-                "that floor needs its own coverage simulated before it judges any series."
-            ]
-            if min(got["designs"]["stored"]["seeds"]) < 3
-            else [
-                "Every size has three seeds or more: no source of one degree of freedom "
-                f"floors the check, whose power reaches {top:.2f}."
-            ]
-        ),
+        f"- stored design, {row('stored')}",
     ]
+    if three["seeds"] != stored["seeds"]:
+        lines.append(f"- three seeds at least, {row('three_seeds_at_least')}")
+    lines.append("")
+    if stored["floored"] > 0 and abs(top - (1.0 - stored["floored"])) < 0.05:
+        lines.append(
+            f"The power stops at {top:.2f} however far the size lies, one minus the draws "
+            "with a two-seed size out of the pool: such a size holds every residual to "
+            "Student's t on one degree of freedom (`engine.study.resolution.sources_df`'s "
+            "floor, whatever its share of the residual's variance)"
+            + (
+                f"; in the stored fit the pool took it (limit {limit:.3g})"
+                if pooled
+                else f", as in the stored fit (its largest standardised residual "
+                f"{fit['lack_of_fit']:.3g} against a limit of {limit:.3g})"
+            )
+            + f". With three seeds at those sizes it is {quarter:.2f} at a quarter of the "
+            "stored departure. Noticed, not changed: the rule was fixed before the runs and "
+            "its answer stands; a rule without that floor needs its own coverage simulated "
+            "before it judges any series."
+        )
+    else:
+        lines.append(
+            f"The power reaches {top:.2f} at the stored departure: set by the sizes' "
+            f"spreads (the departure is {abs(got['departure_in_standard_errors']):.1f} "
+            "standard errors), not by the one-degree-of-freedom floor "
+            f"(in {stored['floored']:.3f} of the draws)"
+            + (
+                f"; the stored fit pooled its two-seed size (limit {limit:.3g})."
+                if few and pooled
+                else "."
+            )
+        )
+    return lines
 
 
 def _skin_check(law_name: str, rows: list[tuple]) -> list[str]:
@@ -1251,7 +1278,15 @@ def _curve_lines(c: dict) -> list[str]:
             f"[{lo:+.2f}, {hi:+.2f}] (sizes {sizes} d{left_t}){linear}: {need_t}"
         )
     for n in c.get("missing", []) or []:
-        out.append(f"- {n}: no curve (too few seeds, or samples that did not fail at a peak)")
+        bad = (c.get("nonpositive") or {}).get(n)
+        if bad:
+            sizes = ", ".join(f"{z:.3g}" for z in bad)
+            out.append(
+                f"- {n}: no curve (non-positive values at {sizes} d: a secant with no "
+                "elastic branch has no logarithm, so no line through the sizes)"
+            )
+        else:
+            out.append(f"- {n}: no curve (too few seeds, or samples that did not fail at a peak)")
     if not out:
         out.append(
             "- not measured yet (a curve needs its reference size and another, two seeds each)"

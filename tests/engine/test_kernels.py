@@ -57,8 +57,8 @@ def _scene_kernels(monkeypatch):
 def _all_features(scene, periodic=None):
     """Every switch of the scene's two kernel families on (with the neutral parameters of
     those the scene does not use they must not change a bit): the general kernel, whose
-    periodic axes and friction caps are the scene's (a minimum image along an axis without
-    a period is no neutral switch), and which the suite's other tests compile too."""
+    periodic axes, friction caps and meshes are the scene's (a minimum image along an axis
+    without a period is no neutral switch), and which the suite's other tests compile too."""
     return kernels.kernel_features(kernels.scene_features(scene, periodic), "general")
 
 
@@ -112,8 +112,9 @@ BEDS = {
 }
 #: The beds whose own kernel differs from the general one in the switches it leaves out.
 #: ("full", every switch on, was one until the general kernels kept the scene's meshes: its
-#: kernel is now the general one. The meshes' switch is held neutral by
-#: tests/engine/test_mesh.py, whose plane runs beside a mesh on the mesh's kernel.)
+#: kernel is now the general one. No kernel now runs a scene without meshes with the
+#: meshes' switch on, except test_mesh.py's periodic plane run, held there to the mesh's
+#: trajectory bit for bit.)
 CASES = {k: v for k, v in BEDS.items() if k != "full"}
 
 
@@ -136,7 +137,8 @@ def test_all_features_kernel_with_neutral_parameters_is_bit_identical(case, monk
 
 def test_a_general_kernel_gives_the_scene_kernel_s_bits(monkeypatch):
     """DEMSCALE_KERNELS=general (the test suite's mode, tests/conftest.py): the kernel with
-    every neutral switch on, the families, friction caps and periodic axes the scene's; the
+    every neutral switch on, the families, friction caps, periodic axes and meshes the
+    scene's; the
     default study's laws (engine.UniaxialTest's) give the bits of their own kernel."""
     t = engine.UniaxialTest()
     scene = _bed(t.pair_law, t.wall_law, (0.0, 0.0, -t.gravity))

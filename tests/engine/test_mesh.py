@@ -186,9 +186,10 @@ def test_a_mesh_across_a_periodic_face_is_the_plane(monkeypatch):
     kw = {"box": box, "periodic": (False, True, False)}
     plane = [engine.Plane((0, 0, 0), (0, 0, 1))]
     with monkeypatch.context() as m:
-        # the plane's run on a kernel with the meshes' switch on (a neutral switch: no mesh
-        # in its scene), the kernel of the mesh's run and the slot hopper's, instead of one
-        # of its own to compile (about 15 s of CPU on a cold cache)
+        # the plane's run on a kernel with the meshes' switch on (no mesh in its scene),
+        # the kernel of the mesh's run and the slot hopper's, instead of one of its own to
+        # compile (about 15 s of CPU on a cold cache); the bit-for-bit positions below
+        # then also hold that switch neutral here
         meshes_on = lambda f, mode=None: {**specialise.kernel_features(f, mode), "meshes": True}  # noqa: E731
         m.setattr(engine.simulation.simulation, "kernel_features", meshes_on)
         a = engine.Simulation(scene(pos, vel, omg, walls=plane, **kw), dt=1e-6)

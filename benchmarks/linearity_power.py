@@ -12,9 +12,9 @@ and no stored answer.
 
 Simulated (``python -m benchmarks.linearity_power``, about a minute a law): the truth is the
 line fitted without the 5-diameter column (the sizes with a core), each size's seeds drawn
-around it with the larger of the spread the pooled rule assumes (the pooled variance of
-those sizes, scaled as (d / L)^2, ``engine.study.resolution.SPREAD_EXPONENT``) and the
-size's own stored spread (the rule never takes less), at the stored sizes and seed counts
+around it with the spread the rule gives each stored size (``size_noise``, pooled: the
+larger of the pool's, scaled as (d / L)^2, and the size's own), at the stored sizes and
+seed counts
 (the stored design) and with three seeds at every size of fewer (the design a third seed
 would give). The 5-diameter mean is then moved off the line by a fraction of its stored
 departure (0: the false alarms; 1: as far as the stored column lies), the same draws at
@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks import size_report as R
-from engine.study.resolution import SPREAD_EXPONENT, asymptotic_curve, fit_curve, size_noise
+from engine.study.resolution import asymptotic_curve, fit_curve, size_noise
 
 OUT = Path(__file__).resolve().parent / "results" / "linearity_power"
 #: Fractions of the stored 5-diameter departure simulated.
@@ -46,63 +46,38 @@ COARSEST = 5.0
 
 
 def stored_sizes(law_name: str) -> tuple[list[dict], float]:
-    """The strength series as the report fits it: per size the seeds' log strengths (those
-    that failed at a peak), and the reference size."""
-    kind, names, _, ref_size = R.FEATURES["free_surface"]
-    out = []
-    for size, ds in sorted(R.digests(kind, law_name).items(), reverse=True):
-        have = [(d.scalars["thickness_diameters"], R._values(d, names).get("strength")) for d in ds]
-        have = [(z, float(np.mean(v))) for z, v in have if v is not None]
-        vals = [v for _, v in have]
-        if len(vals) >= 2:
-            across = float(np.mean([z for z, _ in have]))
-            out.append(
-                {
-                    "size": size,
-                    "x": 1.0 / across,
-                    "logs": np.log(vals),
-                    "reference": size == ref_size,
-                }
-            )
+    """The strength series as the report fits it (``size_report.strength_runs``): per size
+    the seeds' log strengths and its d / L, finest first; and the reference size."""
+    ref_size = R.FEATURES["free_surface"][3]
+    out = [
+        {
+            "size": size,
+            "x": 1.0 / float(np.mean([z for z, _ in rs])),
+            "logs": np.log([float(np.mean(v["strength"])) for _, v in rs]),
+            "reference": size == ref_size,
+        }
+        for size, rs in sorted(R.strength_runs(law_name).items(), reverse=True)
+    ]
     return out, ref_size
 
 
 def truth(sizes: list[dict]) -> dict:
-    """The line through the sizes with a core, the spread the pooled rule assumes at the
-    reference's size, and each size's spread: the larger of that (scaled as (d / L)^2) and
-    the size's own (the rule never takes less than a size's own spread, and a size that
-    scatters more keeps it in the pool's screen)."""
-    cored = [s for s in sizes if s["size"] != COARSEST]
-    c = fit_curve(cored, 0.95, pooled=True)
+    """The line through the sizes with a core, and each size's spread as the rule models
+    the stored sizes (``size_noise``, pooled: the larger of the pool's, scaled as
+    (d / L)^2, and the size's own)."""
+    c = fit_curve([s for s in sizes if s["size"] != COARSEST], 0.95, pooled=True)
     a, b = math.log(c["bulk"]), c["slope"]
-    xr = next(s["x"] for s in sizes if s["reference"])
-    # the pooled variance at the reference's size: each size's own, scaled to it, weighted
-    # by its degrees of freedom (the pool's estimate before the screen)
-    dof = np.array([len(s["logs"]) - 1 for s in cored], dtype=float)
-    var = (
-        np.array([np.var(s["logs"], ddof=1) for s in cored])
-        / (np.array([s["x"] for s in cored]) / xr) ** SPREAD_EXPONENT
-    )
-    sigma = math.sqrt(float(np.sum(dof * var) / dof.sum()))
-    sd = {
-        s["size"]: max(
-            sigma * (s["x"] / xr) ** (SPREAD_EXPONENT / 2), float(np.std(s["logs"], ddof=1))
-        )
-        for s in sizes
-    }
-    five = next(s for s in sizes if s["size"] == COARSEST)
-    departure = float(np.mean(five["logs"]) - (a + b * five["x"]))
-    # the departure in the standard errors the rule gives the coarsest size's mean
-    k = sizes.index(five)
-    se = math.sqrt(float(size_noise(sizes, True).var_of_mean[k]))
+    counts = np.array([len(s["logs"]) for s in sizes])
+    var_of_mean = size_noise(sizes, True).var_of_mean
+    k = next(i for i, s in enumerate(sizes) if s["size"] == COARSEST)
+    departure = float(np.mean(sizes[k]["logs"]) - (a + b * sizes[k]["x"]))
     return {
         "a": a,
         "b": b,
-        "sigma_ref": sigma,
-        "x_ref": xr,
-        "sd": {f"{z:.4g}": v for z, v in sd.items()},
+        "sd": {f"{s['size']:.4g}": math.sqrt(v * n) for s, v, n in zip(sizes, var_of_mean, counts)},
         "departure": departure,
-        "departure_in_standard_errors": departure / se,
+        # in the standard errors the rule gives the coarsest size's mean
+        "departure_in_standard_errors": departure / math.sqrt(float(var_of_mean[k])),
     }
 
 

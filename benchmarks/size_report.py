@@ -134,6 +134,41 @@ def series_curves(
     """:func:`feature_curves` for any series kind and properties; ``positive``: a
     non-positive value (a stiffness secant with no elastic branch) is no value, its seed
     missing from its size."""
+    values = series_values(kind, names, law_name, without, instead, positive)
+    if len(values.get(ref_size, [])) < 2:
+        return {"metrics": {}, "sizes": sorted(values)}
+    out = {"metrics": {}, "confidence": 0.95, "nonpositive": {}}
+    for n in names:
+        have = property_runs(values, n)
+        if len(have.get(ref_size, [])) < 2:
+            continue
+        controls = {z: rs for z, rs in have.items() if z != ref_size}
+        one = resolution_curves(have[ref_size], controls, [n], 0.95, pooled=True)
+        out["metrics"].update(one["metrics"])
+        if n not in one["metrics"]:
+            # why no curve: a size with a non-positive mean (a stiffness secant with no
+            # elastic branch has no logarithm: resolution_curves drops the property)
+            out["nonpositive"][n] = sorted(
+                z for z, rs in have.items() if min(float(np.mean(v[n])) for _, v in rs) <= 0
+            )
+    for n, c in out["metrics"].items():
+        c["needed"] = diameters_needed(c, tols[n])
+    out["sizes"] = sorted(values)
+    out["missing"] = [n for n in names if n not in out["metrics"]]
+    return out
+
+
+def series_values(
+    kind: str,
+    names,
+    law_name: str,
+    without: tuple = (),
+    instead: dict | None = None,
+    positive: bool = False,
+) -> dict:
+    """Per size of a series, per run that ended well: (its thickness in diameters, its
+    values of ``names``), a strength only where the run failed at a peak (:func:`_values`);
+    ``without``, ``instead`` and ``positive`` as in :func:`series_curves`."""
     runs = {z: ds for z, ds in digests(kind, law_name).items() if z not in without}
     for z, ds in (instead or {}).items():
         ok = [d for d in ds if d.ok]
@@ -141,10 +176,6 @@ def series_curves(
             runs[z] = ok
         else:
             runs.pop(z, None)
-    if ref_size not in runs or len(runs[ref_size]) < 2:
-        return {"metrics": {}, "sizes": sorted(runs)}
-    # per property, the runs that have it (a strength: the samples that failed at a peak),
-    # and the sizes where at least two do
     values = {
         z: [(d.scalars["thickness_diameters"], _values(d, names)) for d in ds]
         for z, ds in runs.items()
@@ -154,31 +185,21 @@ def series_curves(
             z: [(x, {n: v for n, v in vs.items() if min(v) > 0}) for x, vs in rs]
             for z, rs in values.items()
         }
-    out = {"metrics": {}, "confidence": 0.95}
-    for n in names:
-        have = {z: [(x, v) for x, v in rs if n in v] for z, rs in values.items()}
-        if len(have.get(ref_size, [])) < 2:
-            continue
-        controls = {z: rs for z, rs in have.items() if z != ref_size and len(rs) >= 2}
-        one = resolution_curves(have[ref_size], controls, [n], 0.95, pooled=True)
-        out["metrics"].update(one["metrics"])
-    for n, c in out["metrics"].items():
-        c["needed"] = diameters_needed(c, tols[n])
-    out["sizes"] = sorted(runs)
-    out["missing"] = [n for n in names if n not in out["metrics"]]
-    # why a property has no curve: a size of two or more runs with a non-positive value (a
-    # stiffness secant with no elastic branch: no logarithm, resolution_curves drops the
-    # property), or too few runs that have it
-    out["nonpositive"] = {
-        n: sorted(
-            z
-            for z, rs in values.items()
-            if len([v for _, v in rs if n in v]) >= 2
-            and min(min(v[n]) for _, v in rs if n in v) <= 0
-        )
-        for n in out["missing"]
-    }
-    return out
+    return values
+
+
+def strength_runs(law_name: str) -> dict:
+    """The free surface's strength series as its curve is fitted: per size of two or more
+    failed runs, (thickness in diameters, values) per run."""
+    kind, names, _, _ = FEATURES["free_surface"]
+    return property_runs(series_values(kind, names, law_name), "strength")
+
+
+def property_runs(values: dict, name: str) -> dict:
+    """From :func:`series_values`, per size the runs that have ``name`` (thickness, values),
+    the sizes where at least two do: those a curve is fitted through."""
+    have = {z: [(x, v) for x, v in rs if name in v] for z, rs in values.items()}
+    return {z: rs for z, rs in have.items() if len(rs) >= 2}
 
 
 #: Properties whose size series is confounded with a group the series did not hold, and
@@ -589,14 +610,8 @@ def _linearity_power(law_name: str) -> list[str]:
     fit = feature_curves("free_surface", law_name)["metrics"].get("strength")
     if fit is None:
         return []
-    # the stored design: per size the runs with a strength (those that failed at a peak),
-    # sizes of two or more, as benchmarks.linearity_power.stored_sizes reads them
-    kind, names, _, _ = FEATURES["free_surface"]
-    design = {
-        size: n
-        for size, ds in digests(kind, law_name).items()
-        if (n := sum("strength" in _values(d, names) for d in ds)) >= 2
-    }
+    # the stored design: per size the runs with a strength, as the simulation read it
+    design = {z: len(rs) for z, rs in strength_runs(law_name).items()}
     simulated = dict(zip(got["sizes"], got["designs"]["stored"]["seeds"], strict=True))
     cmd = f"`python -m benchmarks.linearity_power {law_name}`"
     if design != simulated:

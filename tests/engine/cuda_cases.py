@@ -152,7 +152,7 @@ def case(name: str) -> dict:
         at_edit = {}
 
         def open_axes(sim):
-            at_edit[type(sim).__name__] = sim.n_rebuilds
+            at_edit[sim.backend] = sim.n_rebuilds
             sim.set_periodic((False, False, False))
 
         edits = {
@@ -163,7 +163,7 @@ def case(name: str) -> dict:
         }
         cpu, gpu, rb = run_pair(scene(FULL, speed=0.3), 6, 4, cmp, edits=edits, skin=0.1 * R)
         # the lists built with every axis open (the device's bounds reduction), on each side
-        out["rebuilds_open"] = [sim.n_rebuilds - at_edit[type(sim).__name__] for sim in (cpu, gpu)]
+        out["rebuilds_open"] = [sim.n_rebuilds - at_edit[sim.backend] for sim in (cpu, gpu)]
     elif name == "periodic-rebuilds":
         # fully periodic, no walls, no gravity, fast particles and a thin skin: rebuilds (4
         # in 30 steps; a skin of 0.02 R made 14, each a hundred-odd launches in the

@@ -1,7 +1,12 @@
 """Differential cases of the CUDA backend against the CPU kernel, run under numba-cuda's
 simulator in a process of their own (tests/engine/test_cuda.py starts it):
 
-    NUMBA_ENABLE_CUDASIM=1 python -m tests.engine.cuda_cases CASE
+    NUMBA_ENABLE_CUDASIM=1 python -m tests.engine.cuda_cases CASE:LAUNCH:KERNELS ...
+
+Several cases run in one process, one after the other (``python -m tests.engine.cuda_cases
+bilinear-walls:passes:general eepa:persistent:general ...``: NAME:LAUNCH:KERNELS, the launch
+and kernel mode set for each case, :func:`run_cases`); it prints one JSON object, each case's
+result (or its error) under its spec.
 
 Each case builds a tiny scene (a few dozen particles), steps a CPU and a CUDA simulation side
 by side in short runs and compares them after every run: positions, velocities, angular
@@ -15,7 +20,9 @@ instability both raised.
 from __future__ import annotations
 
 import json
+import os
 import sys
+import traceback
 
 import numpy as np
 
@@ -290,7 +297,29 @@ def _shared_arrays_once_per_block() -> None:
     cls._demscale_locked = True
 
 
-if __name__ == "__main__":
+def run_cases(case_fn, specs: list[str]) -> dict:
+    """Each ``NAME:LAUNCH:KERNELS`` of ``specs`` run by ``case_fn(NAME)`` in this process in
+    turn, with ``DEMSCALE_CUDA_LAUNCH`` and ``DEMSCALE_KERNELS`` set for it (both are read
+    where a Simulation is made): {spec: its result, or {"error": its traceback}}, so that one
+    case's failure hides no other's."""
+    out = {}
+    for spec in specs:
+        name, launch, kernels = spec.split(":")
+        os.environ["DEMSCALE_CUDA_LAUNCH"] = launch
+        os.environ["DEMSCALE_KERNELS"] = kernels
+        try:
+            out[spec] = case_fn(name)
+        except Exception:
+            out[spec] = {"error": traceback.format_exc()[-4000:]}
+    return out
+
+
+def main(case_fn) -> None:
+    """The cases named on the command line, under the simulator, as one JSON line."""
     sys.setswitchinterval(5e-5)  # the simulator's threads hand the GIL over faster
     _shared_arrays_once_per_block()
-    print(json.dumps(case(sys.argv[1])))
+    print(json.dumps(run_cases(case_fn, sys.argv[1:])))
+
+
+if __name__ == "__main__":
+    main(case)

@@ -10,14 +10,11 @@ in x and y), a few steps each. Prints one JSON line.
 
 from __future__ import annotations
 
-import json
-import sys
-
 import numpy as np
 
 import engine
 from engine.uniaxial.driver import cap_speed, sample_measures
-from tests.engine.cuda_cases import FULL, R, _rel, _shared_arrays_once_per_block, scene
+from tests.engine.cuda_cases import FULL, R, _rel, scene
 
 KEYS = ("coordination", "por_in", "coord_in", "s_lat", "s_ver", "s_in", "ke")
 
@@ -153,6 +150,6 @@ def batch_case() -> dict:
 CASES = {"measures": measures_case, "batch": batch_case}
 
 if __name__ == "__main__":
-    sys.setswitchinterval(5e-5)  # the simulator's threads hand the GIL over faster
-    _shared_arrays_once_per_block()
-    print(json.dumps(CASES[sys.argv[1]]()))
+    from tests.engine.cuda_cases import main
+
+    main(lambda name: CASES[name]())

@@ -242,3 +242,29 @@ def assert_same_to_round_off(got, want, rel: float = 1e-9, path: str = "") -> No
         assert math.isclose(got, want, rel_tol=rel, abs_tol=0.0), (path, got, want)
     else:
         assert got == want and type(got) is type(want), (path, got, want)
+
+
+def computed_once(tmp_path_factory, name: str, make) -> dict:
+    """``make()`` (a JSON-able dict) computed once for the whole test session, however many
+    pytest-xdist workers ask: the first to ask computes it holding an exclusive lock on a
+    file in the session's shared temporary folder and stores it there; the others wait on
+    the lock and read it. (The CUDA simulator's cases run in one process this way instead of
+    one process each: its start, engine and numba.cuda imported, CPU kernels loaded, was
+    about 1.5 s of CPU a case.)"""
+    import fcntl
+    import json
+    import os
+
+    base = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        base = base.parent  # the folder every worker's basetemp lies in
+    path = base / f"{name}.json"
+    with open(base / f"{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if path.exists():
+            return json.loads(path.read_text())
+        out = make()
+        tmp = path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(out))
+        tmp.replace(path)
+        return out

@@ -1,9 +1,10 @@
 """The CUDA backend (engine.cuda) against the CPU kernel, under numba-cuda's simulator.
 
-The simulator must be switched on before numba.cuda is first imported, so every case runs in
-a process of its own (``python -m tests.engine.cuda_cases CASE`` with
-``NUMBA_ENABLE_CUDASIM=1``): this process, and the CPU tests beside it under ``pytest -n``,
-never import numba.cuda. Tiny scenes, tens of steps; see tests/engine/cuda_cases.py.
+The simulator must be switched on before numba.cuda is first imported, so the cases run in a
+process of their own (``python -m tests.engine.cuda_cases CASE:LAUNCH:KERNELS ...`` with
+``NUMBA_ENABLE_CUDASIM=1``), all of them in one, once a session (``cases``): this process,
+and the CPU tests beside it under ``pytest -n``, never import numba.cuda. Tiny scenes, tens
+of steps; see tests/engine/cuda_cases.py.
 Skipped, with the reason, when numba-cuda (the ``gpu`` extra) is not installed.
 """
 
@@ -17,6 +18,8 @@ import sys
 from pathlib import Path
 
 import pytest
+
+from tests.engine.helpers import computed_once
 
 ROOT = Path(__file__).resolve().parents[2]
 HAS_NUMBA_CUDA = importlib.util.find_spec("numba_cuda") is not None
@@ -46,15 +49,6 @@ def _python(
     )
 
 
-def _case(name: str, launch: str = "persistent", kernels: str | None = None) -> dict:
-    env = {"DEMSCALE_CUDA_LAUNCH": launch}
-    if kernels is not None:
-        env["DEMSCALE_KERNELS"] = kernels
-    proc = _python(["-m", "tests.engine.cuda_cases", name], simulator=True, extra_env=env)
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    return json.loads(proc.stdout.strip().splitlines()[-1])
-
-
 DIFFERENTIAL = {
     # case: features it must have exercised
     "bilinear-walls": ("adhesion", "plastic", "friction", "rolling", "walls", "wall_friction"),
@@ -76,11 +70,39 @@ CASES = [(name, "persistent") for name in DIFFERENTIAL] + [("bilinear-walls", "p
 SCENE_KERNELS = {("eepa-normal-cap", "persistent")}
 
 
+#: Every case the tests below read (NAME:LAUNCH:KERNELS), run in one process.
+SPECS = (
+    *(f"{n}:{la}:{'scene' if (n, la) in SCENE_KERNELS else 'general'}" for n, la in CASES),
+    "determinism:persistent:general",
+    "instability:persistent:general",
+)
+
+
+@pytest.fixture(scope="module")
+def cases(tmp_path_factory) -> dict:
+    """The results of :data:`SPECS` (tests/engine/cuda_cases.py's ``run_cases``), computed
+    once for the whole session however many workers ask."""
+
+    def run() -> dict:
+        proc = _python(["-m", "tests.engine.cuda_cases", *SPECS], simulator=True, timeout=900)
+        if proc.returncode != 0:
+            return {key: {"error": proc.stderr[-4000:]} for key in SPECS}
+        return json.loads(proc.stdout.strip().splitlines()[-1])
+
+    return computed_once(tmp_path_factory, "cuda_cases", run)
+
+
+def _case(cases: dict, name: str, launch: str = "persistent", kernels: str = "general") -> dict:
+    r = cases[f"{name}:{launch}:{kernels}"]
+    assert "error" not in r, r["error"]
+    return r
+
+
 @needs_numba_cuda
 @pytest.mark.parametrize(("name", "launch"), CASES)
-def test_cuda_kernels_follow_the_cpu_kernel(name, launch):
+def test_cuda_kernels_follow_the_cpu_kernel(cases, name, launch):
     mode = "scene" if (name, launch) in SCENE_KERNELS else "general"
-    r = _case(name, launch, mode)
+    r = _case(cases, name, launch, mode)
     assert r["launch"] == launch and r["kernel_mode"] == mode
     for quantity, rel in r["rel"].items():
         assert rel <= REL, (quantity, rel, r)
@@ -100,15 +122,15 @@ def test_cuda_kernels_follow_the_cpu_kernel(name, launch):
 
 
 @needs_numba_cuda
-def test_cuda_run_twice_is_bit_identical():
-    r = _case("determinism")
+def test_cuda_run_twice_is_bit_identical(cases):
+    r = _case(cases, "determinism")
     assert r["bit_identical_twice"] and r["launch"] == "persistent", r
     assert r["rebuilds"][0] == r["rebuilds"][1] >= 2, r
 
 
 @needs_numba_cuda
-def test_cuda_reports_the_instability_the_cpu_reports():
-    r = _case("instability")
+def test_cuda_reports_the_instability_the_cpu_reports(cases):
+    r = _case(cases, "instability")
     assert r["errors"][0] is not None and r["errors"][0][0] == "speed", r
     assert r["errors"][1] == r["errors"][0], r
 

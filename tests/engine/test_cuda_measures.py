@@ -1,7 +1,7 @@
 """A curve sample's measures on the device (engine.cuda.measures) and simulations stepped side
-by side on one device (engine.cuda.batch), under numba-cuda's simulator: each case runs in a
-process of its own (tests/engine/cuda_measure_cases.py), as tests/engine/test_cuda.py runs its
-cases. Tiny scenes, a few steps."""
+by side on one device (engine.cuda.batch), under numba-cuda's simulator: the two cases run in
+one process of their own, once a session (tests/engine/cuda_measure_cases.py), as
+tests/engine/test_cuda.py runs its cases. Tiny scenes, a few steps."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import json
 
 import pytest
 
+from tests.engine.helpers import computed_once
 from tests.engine.test_cuda import _python, needs_numba_cuda
 
 #: The device sums the host's terms in another order (per particle, then per chunk of 64, then
@@ -18,15 +19,29 @@ from tests.engine.test_cuda import _python, needs_numba_cuda
 REL = 1e-12
 
 
-def _case(name: str) -> dict:
-    proc = _python(["-m", "tests.engine.cuda_measure_cases", name], simulator=True)
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+SPECS = ("measures:persistent:general", "batch:persistent:general")
+
+
+@pytest.fixture(scope="module")
+def cases(tmp_path_factory) -> dict:
+    def run() -> dict:
+        proc = _python(["-m", "tests.engine.cuda_measure_cases", *SPECS], simulator=True)
+        if proc.returncode != 0:
+            return {key: {"error": proc.stderr[-4000:]} for key in SPECS}
+        return json.loads(proc.stdout.strip().splitlines()[-1])
+
+    return computed_once(tmp_path_factory, "cuda_measure_cases", run)
+
+
+def _case(cases: dict, name: str) -> dict:
+    r = cases[f"{name}:persistent:general"]
+    assert "error" not in r, r["error"]
+    return r
 
 
 @needs_numba_cuda
-def test_device_measures_equal_the_host_measures_without_pulling_the_state():
-    r = _case("measures")
+def test_device_measures_equal_the_host_measures_without_pulling_the_state(cases):
+    r = _case(cases, "measures")
     assert r["samples"] == 2
     for k, rel in r["rel"].items():
         assert rel <= REL, (k, rel, r)
@@ -52,8 +67,8 @@ def test_device_measures_equal_the_host_measures_without_pulling_the_state():
 
 
 @needs_numba_cuda
-def test_three_scenes_side_by_side_equal_the_three_alone():
-    r = _case("batch")
+def test_three_scenes_side_by_side_equal_the_three_alone(cases):
+    r = _case(cases, "batch")
     assert r["n"] == [24, 34, 28] and r["steps"] == [8, 8, 8], r
     assert r["streams_distinct"], r
     assert r["bit_identical"] and r["rel"] == 0.0, r

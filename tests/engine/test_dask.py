@@ -65,7 +65,7 @@ def test_dask_cluster_gives_the_in_process_table(cluster):
 @pytest.mark.timeout(600)
 def test_a_dask_worker_killed_mid_run_costs_a_retry_not_the_study(cluster):
     _, client = cluster
-    spec = _spec(dt=2e-6)  # long enough (seconds per run) to be killed mid-run
+    spec = _spec(dt=5e-6)  # about 84,000 steps, a second or two per run: killed mid-run
     seen = []
     executor = client.get_executor()
     result = {}

@@ -1,12 +1,13 @@
 """Mesh walls on the CUDA backend against the CPU kernel, under numba-cuda's simulator.
 
-Each case runs in a process of its own (``python -m tests.engine.test_mesh_cuda CASE`` with
-``NUMBA_ENABLE_CUDASIM=1``, as tests/engine/test_cuda.py runs tests/engine/cuda_cases.py):
-a dozen particles in a V-shaped trough of triangles (concave edges: two contacts at once)
-with a plane at each end and a gate mesh moving under them, stepped side by side on both
-backends in short runs; positions, velocities, spins, the forces on the planes and the
-meshes, and every mesh contact are compared after each run. Small on purpose: the
-simulator runs every GPU thread as a Python thread.
+The cases run in one process of their own, once a session (``python -m
+tests.engine.test_mesh_cuda CASE:LAUNCH:KERNELS ...`` with ``NUMBA_ENABLE_CUDASIM=1``, as
+tests/engine/test_cuda.py runs tests/engine/cuda_cases.py): a dozen particles in a V-shaped
+trough of triangles (concave edges: two contacts at once) with a plane at each end and a
+gate mesh moving under them, stepped side by side on both backends in short runs;
+positions, velocities, spins, the forces on the planes and the meshes, and every mesh
+contact are compared after each run. Small on purpose: the simulator runs every GPU thread
+as a Python thread.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import numpy as np
 import pytest
 
 import engine
-from tests.engine.helpers import rel_diff
+from tests.engine.helpers import computed_once, rel_diff
 
 ROOT = Path(__file__).resolve().parents[2]
 HAS_NUMBA_CUDA = importlib.util.find_spec("numba_cuda") is not None
@@ -90,28 +91,44 @@ QUANTITIES = (
 )
 
 
-def _run_case(name: str, launch: str) -> dict:
-    """The case in a process of its own under the simulator (it must be on before numba.cuda
-    is first imported; this process never imports it)."""
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_ENABLE_CUDASIM": "1"}
-    env.pop("DEMSCALE_BACKEND", None)
-    env["DEMSCALE_CUDA_LAUNCH"] = launch
-    proc = subprocess.run(
-        [sys.executable, "-m", "tests.engine.test_mesh_cuda", name],
-        cwd=ROOT,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+#: The module's cases (NAME:LAUNCH:KERNELS), run in one process (tests/engine/cuda_cases.py's
+#: ``run_cases``), once for the whole session.
+SPECS = ("trough:persistent:general", "trough:passes:general", "hopper:persistent:general")
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory) -> dict:
+    """Every case of :data:`SPECS` in a process of their own under the simulator (it must be
+    on before numba.cuda is first imported; this process never imports it)."""
+
+    def run() -> dict:
+        env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_ENABLE_CUDASIM": "1"}
+        env.pop("DEMSCALE_BACKEND", None)
+        proc = subprocess.run(
+            [sys.executable, "-m", "tests.engine.test_mesh_cuda", *SPECS],
+            cwd=ROOT,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
+        if proc.returncode != 0:
+            return {key: {"error": proc.stderr[-4000:]} for key in SPECS}
+        return json.loads(proc.stdout.strip().splitlines()[-1])
+
+    return computed_once(tmp_path_factory, "mesh_cuda_cases", run)
+
+
+def _run_case(results: dict, name: str, launch: str) -> dict:
+    r = results[f"{name}:{launch}:general"]
+    assert "error" not in r, r["error"]
+    return r
 
 
 @pytest.mark.skipif(not HAS_NUMBA_CUDA, reason="numba-cuda is not installed")
 @pytest.mark.parametrize("launch", ["persistent", "passes"])
-def test_cuda_meshes_follow_the_cpu(launch):
-    r = _run_case("trough", launch)
+def test_cuda_meshes_follow_the_cpu(results, launch):
+    r = _run_case(results, "trough", launch)
     assert r["launch"] == launch
     for quantity, rel in r["rel"].items():
         assert rel <= REL, (quantity, rel, r)
@@ -123,12 +140,12 @@ def test_cuda_meshes_follow_the_cpu(launch):
 
 
 @pytest.mark.skipif(not HAS_NUMBA_CUDA, reason="numba-cuda is not installed")
-def test_a_settled_hopper_discharges_on_the_device_as_on_the_cpu():
+def test_a_settled_hopper_discharges_on_the_device_as_on_the_cpu(results):
     """The hopper's driver on the CUDA backend: a fill settled on the CPU, carried to the
     device (the state of a checkpoint), opened and discharged for a few samples on each
     backend side by side; the sink (``park_below``, a kernel on the device) on the fill's
     lowest grains."""
-    r = _run_case("hopper", "persistent")
+    r = _run_case(results, "hopper", "persistent")
     for quantity, rel in r["rel"].items():
         assert rel <= REL, (quantity, rel, r)
     assert r["parked"] == [12, 12] and r["wall_contacts"] > 10, r  # the sink and the walls
@@ -253,8 +270,6 @@ def case(name: str) -> dict:
 
 
 if __name__ == "__main__":
-    from tests.engine.cuda_cases import _shared_arrays_once_per_block
+    from tests.engine.cuda_cases import main
 
-    sys.setswitchinterval(5e-5)  # the simulator's threads hand the GIL over faster
-    _shared_arrays_once_per_block()
-    print(json.dumps(case(sys.argv[1])))
+    main(case)

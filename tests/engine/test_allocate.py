@@ -141,3 +141,39 @@ def test_each_kind_s_headline_is_its_own():
     assert headline(("density", "loading_stiffness", "strength")) == "strength"
     assert headline(("density", "loading_stiffness")) == "loading_stiffness"
     assert headline(("sigma_c", "ffc", "bulk_density")) == "ffc"
+
+
+def test_the_one_level_chance_is_the_array_path(monkeypatch):
+    """Comparison.chance's path for one level (numbers, its terms converted once) gives the
+    same doubles as the array path every metric takes: unpaired, paired and pooled (shared)
+    comparisons, projected seed counts, a given truth."""
+    from engine.study.comparison import Comparison, Space
+    from engine.study.pooling import Spread
+
+    rng = np.random.default_rng(5)
+    comps = []
+    for i in range(300):
+        nc, nr = int(rng.integers(2, 7)), int(rng.integers(2, 7))
+        c = rng.normal(0.05 * rng.normal(), 0.1, (nc, 1))
+        r = rng.normal(0.0, 0.05, (nr, 1))
+        kind = i % 3
+        if kind == 2:  # paired
+            r = rng.normal(0.0, 0.05, (nc, 1))
+            comps.append(Comparison(Space("log"), c, r, None, None, 0.15, paired=True))
+            continue
+        pool = ("a", "b") if kind == 1 else ("a",)
+        vc, vr = float(rng.uniform(1e-4, 0.02)), float(rng.uniform(1e-4, 0.02))
+        sc = Spread(np.array([vc]), vc, float(nc - 1 + 3 * kind), kind == 1, pool)
+        sr = Spread(np.array([vr]), vr, float(nr - 1 + 3 * kind), kind == 1, pool)
+        comps.append(Comparison(Space("log"), c, r, sc, sr, 0.15))
+    cases = [
+        (comp, int(comp.nc + rng.integers(0, 4)), int(comp.nr + rng.integers(0, 3)), truth)
+        for comp in comps
+        for truth in (None, 0.0, float(rng.normal(0, 0.1)))
+    ]
+    fast = [comp.chance(n, m, 0.025, 0.005, truth) for comp, n, m, truth in cases]
+    assert sum(comp._terms != () for comp in comps) == len(comps)  # the path was taken
+    monkeypatch.setattr(Comparison, "_one_level", lambda self, *a: None)
+    slow = [comp.chance(n, m, 0.025, 0.005, truth) for comp, n, m, truth in cases]
+    assert fast == slow
+    assert len({p for p, _ in fast}) > 100  # chances of all sizes, not a few constants

@@ -6,6 +6,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import multiprocessing as mp
 import pickle
+import time
 
 import pytest
 
@@ -70,8 +71,12 @@ def test_a_resumed_run_counts_the_wall_time_of_its_earlier_attempts(tmp_path):
 
     with pytest.raises(Killed):
         engine.run_uniaxial(test, progress=stop, checkpoint=ck)
+    t0 = time.perf_counter()
     stored = engine.Checkpoint(ck.path).load(test)
-    before = stored.wall_time()
+    # the stored attempts' wall time less this load's (the clock runs on from the state's
+    # unpickling, and a loaded machine may pause this process in between: a lower bound,
+    # where wall_time() alone made the assertion below fail by 4 ms under the suite's load)
+    before = stored.wall_time() - (time.perf_counter() - t0)
     assert before > 0
     with pytest.raises(engine.WallTimeExceeded) as e:
         engine.run_uniaxial(
@@ -80,7 +85,7 @@ def test_a_resumed_run_counts_the_wall_time_of_its_earlier_attempts(tmp_path):
             checkpoint=engine.Checkpoint(ck.path),
             max_wall_time=0.9 * before,
         )
-    assert e.value.elapsed >= 0.99 * before and seen == []  # refused at its first report
+    assert e.value.elapsed >= before and seen == []  # refused at its first report
 
 
 def test_how_to_run_is_one_record():

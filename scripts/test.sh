@@ -17,7 +17,7 @@ bash scripts/setup_env.sh
 # PYTHONDONTWRITEBYTECODE is set (as on the project's machines) no process writes them, and
 # each of the suite's hundred-odd Python processes (workers, CLI runs, service workers, the
 # simulator's cases) compiled engine/ and service/ again, about 0.15 s of CPU each.
-.venv/bin/python -m compileall -q engine service demscale tests benchmarks >/dev/null
+.venv/bin/python -m compileall -q engine service demscale tests benchmarks
 # Plugins named, not autoloaded: pytest rewrites the asserts of every module of an autoloaded
 # plugin's distribution (schemathesis's, hypothesis's, anyio's: 263 modules), 3.5 s of CPU in
 # each of the workers' collections (measured 2026-12-07); named, only the plugin module is.

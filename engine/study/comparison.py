@@ -200,8 +200,8 @@ class Comparison:
         """:meth:`interval` (``alpha``, ``nc``, ``nr``)'s difference, upper end and standard
         error as numbers where the metric has one level, else None: the path
         :func:`difference_interval` takes for one level, its conversions made once per
-        comparison (the seed allocator asks for these tens of thousands of times in a
-        simulated study)."""
+        comparison (the seed allocator asks for these hundreds of thousands of times in
+        the coverage simulations)."""
         terms = self.__dict__.get("_terms")
         if terms is None:
             terms = self._terms = self._one_level_terms()

@@ -1,19 +1,18 @@
 """Differential cases of the CUDA backend against the CPU kernel, run under numba-cuda's
-simulator in a process of their own (tests/engine/test_cuda.py starts it):
+simulator in a process of their own (tests/engine/test_cuda.py starts it, once a session):
 
-    NUMBA_ENABLE_CUDASIM=1 python -m tests.engine.cuda_cases CASE:LAUNCH:KERNELS ...
+    NUMBA_ENABLE_CUDASIM=1 python -m tests.engine.cuda_cases NAME:LAUNCH:KERNELS ...
 
-Several cases run in one process, one after the other (``python -m tests.engine.cuda_cases
-bilinear-walls:passes:general eepa:persistent:general ...``: NAME:LAUNCH:KERNELS, the launch
-and kernel mode set for each case, :func:`run_cases`); it prints one JSON object, each case's
-result (or its error) under its spec.
+The cases named run one after the other, each with its launch and kernel mode
+(:func:`run_cases`), and the process prints one JSON object: each case's result, or its
+error, under its spec.
 
 Each case builds a tiny scene (a few dozen particles), steps a CPU and a CUDA simulation side
 by side in short runs and compares them after every run: positions, velocities, angular
 velocities, wall forces and positions, the contacts with their history (largest overlap,
-tangential spring). It prints one JSON line: the largest difference of each quantity relative
-to its largest magnitude, the counts that show the case exercised what it names (contacts,
-wall contacts, rebuilds), and for some cases a second CUDA run (bit-identical?) or the
+tangential spring). Its result: the largest difference of each quantity relative to its
+largest magnitude, the counts that show the case exercised what it names (contacts, wall
+contacts, rebuilds), and for some cases a second CUDA run (bit-identical?) or the
 instability both raised.
 """
 
@@ -299,9 +298,11 @@ def _shared_arrays_once_per_block() -> None:
 
 def run_cases(case_fn, specs: list[str]) -> dict:
     """Each ``NAME:LAUNCH:KERNELS`` of ``specs`` run by ``case_fn(NAME)`` in this process in
-    turn, with ``DEMSCALE_CUDA_LAUNCH`` and ``DEMSCALE_KERNELS`` set for it (both are read
-    where a Simulation is made): {spec: its result, or {"error": its traceback}}, so that one
-    case's failure hides no other's."""
+    turn, with ``DEMSCALE_CUDA_LAUNCH`` and ``DEMSCALE_KERNELS`` set for it (read where a
+    simulation is made or its device launch chosen, within the case): {spec: its result, or
+    {"error": its traceback}}, so that one case's exception hides no other's (a hang or a
+    crash of the process loses them all: tests/engine/test_cuda.py's ``simulator_cases``
+    then gives each the process's error)."""
     out = {}
     for spec in specs:
         name, launch, kernels = spec.split(":")

@@ -1,11 +1,12 @@
 """Cases of the device measures (engine.cuda.measures) and of simulations stepped side by side
 on one device (engine.cuda.batch), run under numba-cuda's simulator in a process of their own
-(tests/engine/test_cuda_measures.py starts it):
+(tests/engine/test_cuda_measures.py starts it, once a session):
 
-    NUMBA_ENABLE_CUDASIM=1 python -m tests.engine.cuda_measure_cases CASE
+    NUMBA_ENABLE_CUDASIM=1 python -m tests.engine.cuda_measure_cases NAME:LAUNCH:KERNELS ...
 
-Tiny scenes of tests/engine/cuda_cases.py (a few dozen particles between two platens, periodic
-in x and y), a few steps each. Prints one JSON line.
+(tests/engine/cuda_cases.py's ``run_cases``: one JSON object, each case's result under its
+spec.) Tiny scenes of tests/engine/cuda_cases.py (a few dozen particles between two platens,
+periodic in x and y), a few steps each.
 """
 
 from __future__ import annotations

@@ -78,24 +78,41 @@ SPECS = (
 )
 
 
-@pytest.fixture(scope="module")
-def cases(tmp_path_factory) -> dict:
-    """The results of :data:`SPECS` (tests/engine/cuda_cases.py's ``run_cases``), computed
-    once for the whole session however many workers ask."""
+def simulator_cases(tmp_path_factory, module: str, specs, timeout: float = 480.0) -> dict:
+    """Every case of ``specs`` (NAME:LAUNCH:KERNELS) run by ``module`` (its ``__main__``:
+    tests/engine/cuda_cases.py's ``main``) in one process under the simulator, once for the
+    whole session however many workers ask (``computed_once``). A process that fails or
+    outlives ``timeout`` [s] gives every case its error, stored like a result, so that no
+    waiting worker starts it again; the timeout stays under pytest's 600 s a test, which
+    counts a fixture's set-up (a worker waiting for another's run included)."""
 
     def run() -> dict:
-        proc = _python(["-m", "tests.engine.cuda_cases", *SPECS], simulator=True, timeout=900)
+        try:
+            proc = _python(["-m", module, *specs], simulator=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            return {key: {"error": f"{module}: not done in {timeout:g} s"} for key in specs}
         if proc.returncode != 0:
-            return {key: {"error": proc.stderr[-4000:]} for key in SPECS}
+            return {key: {"error": proc.stderr[-4000:]} for key in specs}
         return json.loads(proc.stdout.strip().splitlines()[-1])
 
-    return computed_once(tmp_path_factory, "cuda_cases", run)
+    return computed_once(tmp_path_factory, module, run)
+
+
+def case_result(cases: dict, spec: str) -> dict:
+    """One case's result from :func:`simulator_cases`, its error raised as the test's."""
+    r = cases[spec]
+    assert "error" not in r, r["error"]
+    return r
+
+
+@pytest.fixture(scope="module")
+def cases(tmp_path_factory) -> dict:
+    """The results of :data:`SPECS`."""
+    return simulator_cases(tmp_path_factory, "tests.engine.cuda_cases", SPECS)
 
 
 def _case(cases: dict, name: str, launch: str = "persistent", kernels: str = "general") -> dict:
-    r = cases[f"{name}:{launch}:{kernels}"]
-    assert "error" not in r, r["error"]
-    return r
+    return case_result(cases, f"{name}:{launch}:{kernels}")
 
 
 @needs_numba_cuda

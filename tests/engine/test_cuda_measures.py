@@ -5,12 +5,9 @@ tests/engine/test_cuda.py runs its cases. Tiny scenes, a few steps."""
 
 from __future__ import annotations
 
-import json
-
 import pytest
 
-from tests.engine.helpers import computed_once
-from tests.engine.test_cuda import _python, needs_numba_cuda
+from tests.engine.test_cuda import _python, case_result, needs_numba_cuda, simulator_cases
 
 #: The device sums the host's terms in another order (per particle, then per chunk of 64, then
 #: a fixed tree, against contact by contact in the host's order): each sum differs by a few
@@ -24,19 +21,11 @@ SPECS = ("measures:persistent:general", "batch:persistent:general")
 
 @pytest.fixture(scope="module")
 def cases(tmp_path_factory) -> dict:
-    def run() -> dict:
-        proc = _python(["-m", "tests.engine.cuda_measure_cases", *SPECS], simulator=True)
-        if proc.returncode != 0:
-            return {key: {"error": proc.stderr[-4000:]} for key in SPECS}
-        return json.loads(proc.stdout.strip().splitlines()[-1])
-
-    return computed_once(tmp_path_factory, "cuda_measure_cases", run)
+    return simulator_cases(tmp_path_factory, "tests.engine.cuda_measure_cases", SPECS)
 
 
 def _case(cases: dict, name: str) -> dict:
-    r = cases[f"{name}:persistent:general"]
-    assert "error" not in r, r["error"]
-    return r
+    return case_result(cases, f"{name}:persistent:general")
 
 
 @needs_numba_cuda

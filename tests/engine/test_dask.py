@@ -75,16 +75,30 @@ def test_a_dask_worker_killed_mid_run_costs_a_retry_not_the_study(cluster):
         )
     )
     t.start()
-    # wait until both workers are busy with a run, then kill one of them
+
+    def suspicious() -> int:
+        # tasks that were running on a worker when it died: the scheduler's count per task
+        # prefix, kept after the tasks themselves are forgotten
+        return client.run_on_scheduler(
+            lambda dask_scheduler: sum(p.suspicious for p in dask_scheduler.task_prefixes.values())
+        )
+
+    # kill a busy worker (first when both are busy) until a kill lands in a running task: a
+    # run may end between the look at the workers and the kill (a second or two a run here)
+    before, kills = suspicious(), 0
     deadline = time.monotonic() + 120
-    while time.monotonic() < deadline:
+    while t.is_alive() and suspicious() == before and time.monotonic() < deadline:
         busy = [w for w, tasks in client.processing().items() if tasks]
-        if len(busy) == 2:
-            break
-        time.sleep(0.2)
-    assert busy, "no task started"
-    pid = client.run(os.getpid, workers=[busy[0]])[busy[0]]
-    os.kill(pid, signal.SIGKILL)
+        if len(busy) < (1 if kills else 2):
+            time.sleep(0.2)
+            continue
+        pid = client.run(os.getpid, workers=[busy[0]])[busy[0]]
+        os.kill(pid, signal.SIGKILL)
+        kills += 1
+        gone = time.monotonic() + 30  # until the scheduler has seen the worker go
+        while busy[0] in client.scheduler_info()["workers"] and time.monotonic() < gone:
+            time.sleep(0.1)
+    assert suspicious() > before, f"no kill landed in a running task ({kills} kills)"
     t.join(500)
     assert not t.is_alive()
     study = result["study"]

@@ -13,19 +13,14 @@ as a Python thread.
 from __future__ import annotations
 
 import importlib.util
-import json
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import engine
-from tests.engine.helpers import computed_once, rel_diff
+from tests.engine.helpers import rel_diff
+from tests.engine.test_cuda import case_result, simulator_cases
 
-ROOT = Path(__file__).resolve().parents[2]
 HAS_NUMBA_CUDA = importlib.util.find_spec("numba_cuda") is not None
 #: the tolerance of tests/engine/test_cuda.py (issue 21): relative to each quantity's largest
 REL = 1e-12
@@ -98,31 +93,13 @@ SPECS = ("trough:persistent:general", "trough:passes:general", "hopper:persisten
 
 @pytest.fixture(scope="module")
 def results(tmp_path_factory) -> dict:
-    """Every case of :data:`SPECS` in a process of their own under the simulator (it must be
+    """Every case of :data:`SPECS`, in a process of their own under the simulator (it must be
     on before numba.cuda is first imported; this process never imports it)."""
-
-    def run() -> dict:
-        env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_ENABLE_CUDASIM": "1"}
-        env.pop("DEMSCALE_BACKEND", None)
-        proc = subprocess.run(
-            [sys.executable, "-m", "tests.engine.test_mesh_cuda", *SPECS],
-            cwd=ROOT,
-            env=env,
-            capture_output=True,
-            text=True,
-            timeout=600,
-        )
-        if proc.returncode != 0:
-            return {key: {"error": proc.stderr[-4000:]} for key in SPECS}
-        return json.loads(proc.stdout.strip().splitlines()[-1])
-
-    return computed_once(tmp_path_factory, "mesh_cuda_cases", run)
+    return simulator_cases(tmp_path_factory, "tests.engine.test_mesh_cuda", SPECS)
 
 
 def _run_case(results: dict, name: str, launch: str) -> dict:
-    r = results[f"{name}:{launch}:general"]
-    assert "error" not in r, r["error"]
-    return r
+    return case_result(results, f"{name}:{launch}:general")
 
 
 @pytest.mark.skipif(not HAS_NUMBA_CUDA, reason="numba-cuda is not installed")

@@ -19,6 +19,8 @@ from pydantic import BaseModel, Field
 from engine.contact.registry import LAWS
 from engine.study.spec import TEST_TYPES
 
+from .jsonsafe import finite
+
 
 class ErrorMessage(BaseModel):
     """An error: what went wrong, in words."""
@@ -62,20 +64,6 @@ _ANSWERS: dict[int, dict] = {
 def answers(*statuses: int) -> dict[int | str, dict]:
     """The OpenAPI ``responses`` of the given error statuses, each with :class:`ErrorMessage`."""
     return {s: {**_ANSWERS[s], "model": ErrorMessage} for s in statuses}
-
-
-def finite(value: Any) -> Any:
-    """``value`` as strict JSON (RFC 8259) can carry it: every non-finite float becomes the
-    text JSON5 would write (``"NaN"``, ``"Infinity"``, ``"-Infinity"``), recursively. The
-    422 answer echoes the input, and a body sent as ``{"name": NaN}`` must not make that
-    answer itself unserialisable (Starlette's JSONResponse refuses NaN)."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return "NaN" if math.isnan(value) else ("Infinity" if value > 0 else "-Infinity")
-    if isinstance(value, dict):
-        return {str(k): finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [finite(v) for v in value]
-    return value
 
 
 def _non_finite_paths(value: Any, loc: tuple = ()) -> list[tuple]:

@@ -26,8 +26,8 @@ from engine.study.run import ADDED, Eta
 
 from . import checkpoints, transitions
 from .db import engine_for
-from .errors import finite
 from .h5store import NotOurs, write_results
+from .jsonsafe import finite
 from .models import Kind, Status, Study, utcnow
 from .pools import run_executor
 from .settings import Settings
@@ -452,7 +452,7 @@ class CalibrationExecution(StudyExecution):
         path = self.settings.calibration_path(self.study_id)
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        # strict JSON: a failed check run's NaN values as text (service.errors.finite)
+        # strict JSON: a failed check run's NaN values as text (service.jsonsafe.finite)
         tmp.write_text(json.dumps(finite(summary), allow_nan=False, default=_plain_number))
         if not self._still_ours():
             tmp.unlink(missing_ok=True)

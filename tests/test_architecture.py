@@ -171,6 +171,26 @@ def test_import_engine_and_a_run_load_nothing_else():
     assert proc.stdout.strip() == "[] []", proc.stdout
 
 
+def test_the_worker_imports_no_web_stack_and_no_plots():
+    """A worker process (started anew for each claim after a crash, and in the test suite
+    dozens of times) needs neither the API's stack nor matplotlib: FastAPI alone was a tenth
+    of its start (service/jsonsafe.py)."""
+    code = (
+        "import sys, service.worker\n"
+        "print(sorted({m.split('.')[0] for m in sys.modules} & set(sys.argv[1:])))\n"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", code, "fastapi", "starlette", "matplotlib", "uvicorn"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "[]", proc.stdout
+
+
 #: A study flows one way (ARCHITECTURE.md, docs/PHYSICS.md section 7.1): each module of
 #: engine/study imports at module level only the modules before it in this order.
 STUDY_FLOW = (

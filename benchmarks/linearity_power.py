@@ -130,7 +130,6 @@ def run(law_name: str) -> dict:
         "sizes": [s["size"] for s in sizes],
         "reference_size": ref_size,
         "truth": t,
-        "departure_in_standard_errors": t["departure_in_standard_errors"],
         "replicates": REPLICATES,
         "designs": {},
     }

@@ -631,6 +631,7 @@ def _linearity_power(law_name: str) -> list[str]:
     limit = fit["lack_of_fit_limit"]
     three = got["designs"]["three_seeds_at_least"]
     quarter = next(r["called_not_linear"] for r in three["rows"] if r["fraction"] == 0.25)
+    departure = got["truth"]["departure_in_standard_errors"]
     lines = [
         "",
         f"What the linearity check can see here ({cmd}, {got['replicates']} simulated "
@@ -638,7 +639,7 @@ def _linearity_power(law_name: str) -> list[str]:
         f"without the {coarsest:.3g} d size, each size's seeds drawn with the larger of the "
         "pooled rule's spread and its own, the same draws moved off the line at the "
         f"{coarsest:.3g} d size by a fraction of its stored departure "
-        f"({got['departure_in_standard_errors']:.1f} of the standard errors the rule gives "
+        f"({departure:.1f} of the standard errors the rule gives "
         f"its mean). How often the sizes are called not linear (and the {coarsest:.3g} d "
         "size left out) at each fraction, and how often a two-seed size is a source of one "
         "degree of freedom of its own (screened out of the pool):",
@@ -668,7 +669,7 @@ def _linearity_power(law_name: str) -> list[str]:
     else:
         lines.append(
             f"The power reaches {top:.2f} at the stored departure: set by the sizes' "
-            f"spreads (the departure is {abs(got['departure_in_standard_errors']):.1f} "
+            f"spreads (the departure is {abs(departure):.1f} "
             "standard errors), not by the one-degree-of-freedom floor "
             f"(in {stored['floored']:.3f} of the draws)"
             + (

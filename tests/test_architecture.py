@@ -145,6 +145,21 @@ def test_the_service_never_imports_the_command(path):
     assert "demscale" not in {name for name, _ in imports(path)}, path.name
 
 
+def _python_prints(code: str, *args: str) -> str:
+    """What ``code`` prints, run with ``args`` in a fresh interpreter from the repository
+    (a process of its own: what a module imports is seen from an empty ``sys.modules``)."""
+    proc = subprocess.run(
+        [sys.executable, "-c", code, *args],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+    assert proc.returncode == 0, proc.stderr
+    return proc.stdout.strip()
+
+
 def test_import_engine_and_a_run_load_nothing_else():
     code = (
         "import sys, engine\n"
@@ -159,16 +174,8 @@ def test_import_engine_and_a_run_load_nothing_else():
     # numba itself imports scipy's top package where scipy is installed (for its LAPACK
     # bindings); the engine's statistics (scipy.stats, .special, .optimize) load on first use
     forbidden = sorted(ABOVE | {"h5py", "matplotlib", "distributed", "pandas"})
-    proc = subprocess.run(
-        [sys.executable, "-c", code, *forbidden],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=300,
-        env={**os.environ, "PYTHONPATH": str(ROOT)},
-    )
-    assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.strip() == "[] []", proc.stdout
+    out = _python_prints(code, *forbidden)
+    assert out == "[] []", out
 
 
 def test_the_worker_imports_no_web_stack_and_no_plots():
@@ -179,16 +186,8 @@ def test_the_worker_imports_no_web_stack_and_no_plots():
         "import sys, service.worker\n"
         "print(sorted({m.split('.')[0] for m in sys.modules} & set(sys.argv[1:])))\n"
     )
-    proc = subprocess.run(
-        [sys.executable, "-c", code, "fastapi", "starlette", "matplotlib", "uvicorn"],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=300,
-        env={**os.environ, "PYTHONPATH": str(ROOT)},
-    )
-    assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.strip() == "[]", proc.stdout
+    out = _python_prints(code, "fastapi", "starlette", "matplotlib", "uvicorn")
+    assert out == "[]", out
 
 
 #: A study flows one way (ARCHITECTURE.md, docs/PHYSICS.md section 7.1): each module of

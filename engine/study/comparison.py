@@ -35,6 +35,7 @@ verdict over its metrics is :mod:`engine.study.judge`.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -86,8 +87,8 @@ def difference_interval(d, vc, vr, nc, nr, dfc, dfr, alpha, shared=False):
     d = np.asarray(d, dtype=float)
     if d.shape == (1,) and all(np.shape(v) in ((), (1,)) for v in (vc, vr, dfc, dfr)):
         # one level (the commonest case): the number's path, as arrays of one
-        one = [None if v is None else float(np.asarray(v).reshape(-1)[0]) for v in (vc, vr)]
-        dfs = [None if v is None else float(np.asarray(v).reshape(-1)[0]) for v in (dfc, dfr)]
+        one = [_number(v) for v in (vc, vr)]
+        dfs = [_number(v) for v in (dfc, dfr)]
         lo, hi, df, u = difference_interval(float(d[0]), *one, nc, nr, *dfs, alpha, shared)
         return np.array([lo]), np.array([hi]), np.array([float(df)]), np.array([u])
     uc = np.asarray(vc, dtype=float) / nc
@@ -177,24 +178,32 @@ class Comparison:
         (``own``: the ``differs`` test and the bias) or the pooled one (equivalence)."""
         nc = self.nc if nc is None else nc
         nr = self.nr if nr is None else nr
-        add_c, add_r = nc - self.nc, nr - self.nr
-        sc, sr = (self.sc.own, self.sr.own) if own else (self.sc, self.sr)
-        shared = self.shared and not own
+        sc, sr, n_r, dfc, dfr, shared = self._sides(nc, nr, own)
         if summed:
             d = self.mcs - self.mrs
             vc, vr = sc.var_summed, sr.var_summed
         else:
             d = self.mc - self.mr
             vc, vr = sc.var, sr.var
+        vr = 0.0 if self.paired else vr
+        lo, hi, df, u = difference_interval(d, vc, vr, nc, n_r, dfc, dfr, alpha, shared)
+        return np.asarray(d, dtype=float), lo, hi, df, u
+
+    def _sides(self, nc: int, nr: int, own: bool):
+        """The two spreads at ``nc`` and ``nr`` seeds, as :func:`difference_interval` takes
+        them: (coarse spread, reference spread, reference count, coarse and reference
+        degrees of freedom, shared). Paired: the per-seed differences against a reference
+        of no spread (one count, infinite degrees of freedom)."""
+        add_c, add_r = nc - self.nc, nr - self.nr
+        sc, sr = (self.sc.own, self.sr.own) if own else (self.sc, self.sr)
+        shared = self.shared and not own
         dfc = sc.grown(add_c)
         dfr = sr.grown(add_r)
         if shared:
             dfc = dfr = sc.df + add_c + add_r
         if self.paired:
-            lo, hi, df, u = difference_interval(d, vc, 0.0, nc, 1, dfc, math.inf, alpha)
-        else:
-            lo, hi, df, u = difference_interval(d, vc, vr, nc, nr, dfc, dfr, alpha, shared)
-        return np.asarray(d, dtype=float), lo, hi, df, u
+            return sc, sr, 1, dfc, math.inf, False
+        return sc, sr, nr, dfc, dfr, shared
 
     def _one_level(self, alpha: float, nc: int, nr: int):
         """:meth:`interval` (``alpha``, ``nc``, ``nr``)'s difference, upper end and standard
@@ -202,35 +211,19 @@ class Comparison:
         :func:`difference_interval` takes for one level, its conversions made once per
         comparison (the seed allocator asks for these hundreds of thousands of times in
         the coverage simulations)."""
-        terms = self.__dict__.get("_terms")
-        if terms is None:
-            terms = self._terms = self._one_level_terms()
-        if not terms:
+        if not self._level_terms:
             return None
-        d, vc, vr, nr_used, dfr_fixed = terms
-        dfc = self.sc.grown(nc - self.nc)
-        if self.paired:
-            dfr = dfr_fixed
-        elif self.shared:
-            dfc = dfr = self.sc.df + (nc - self.nc) + (nr - self.nr)
-        else:
-            dfr = self.sr.grown(nr - self.nr)
+        d, vc, vr = self._level_terms
+        _, _, n_r, dfc, dfr, shared = self._sides(nc, nr, own=False)
         _, hi, _, u = difference_interval(
-            d,
-            vc,
-            vr,
-            nc,
-            nr if nr_used is None else nr_used,
-            _number(dfc),
-            _number(dfr),
-            alpha,
-            self.shared and not self.paired,
+            d, vc, vr, nc, n_r, _number(dfc), _number(dfr), alpha, shared
         )
         return d, hi, u
 
-    def _one_level_terms(self):
-        """(difference, the two variances, the reference side's count and degrees of freedom
-        where fixed) as numbers for :meth:`_one_level`, or () where a level is not one."""
+    @functools.cached_property
+    def _level_terms(self) -> tuple:
+        """(difference, the two variances) as numbers for :meth:`_one_level`, or () where
+        the metric has more than one level."""
         one = ((), (1,))
         if np.shape(self.mc) != (1,) or np.shape(self.mr) != (1,):
             return ()
@@ -238,11 +231,8 @@ class Comparison:
             not self.paired and np.shape(self.sr.var) not in one
         ):
             return ()
-        d = float((self.mc - self.mr)[0])
-        vc = _number(self.sc.var)
-        if self.paired:
-            return d, vc, 0.0, 1, math.inf
-        return d, vc, _number(self.sr.var), None, None
+        vr = 0.0 if self.paired else _number(self.sr.var)
+        return float((self.mc - self.mr)[0]), _number(self.sc.var), vr
 
     def equivalent(self, alpha: float, nc=None, nr=None) -> bool:
         """Every level's interval inside the bounds."""

@@ -172,7 +172,7 @@ def test_the_one_level_chance_is_the_array_path(monkeypatch):
         for truth in (None, 0.0, float(rng.normal(0, 0.1)))
     ]
     fast = [comp.chance(n, m, 0.025, 0.005, truth) for comp, n, m, truth in cases]
-    assert sum(comp._terms != () for comp in comps) == len(comps)  # the path was taken
+    assert all(comp._level_terms for comp in comps)  # the one-level path was taken
     monkeypatch.setattr(Comparison, "_one_level", lambda self, *a: None)
     slow = [comp.chance(n, m, 0.025, 0.005, truth) for comp, n, m, truth in cases]
     assert fast == slow

@@ -31,14 +31,13 @@ REL = 1e-12
 
 
 def _python(
-    code_or_args: list[str], simulator: bool, timeout: float = 240.0, extra_env: dict | None = None
+    code_or_args: list[str], simulator: bool, timeout: float = 240.0
 ) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     env.pop("NUMBA_ENABLE_CUDASIM", None)
     env.pop("DEMSCALE_BACKEND", None)
     if simulator:
         env["NUMBA_ENABLE_CUDASIM"] = "1"
-    env.update(extra_env or {})
     return subprocess.run(
         [sys.executable, *code_or_args],
         cwd=ROOT,
@@ -70,9 +69,14 @@ CASES = [(name, "persistent") for name in DIFFERENTIAL] + [("bilinear-walls", "p
 SCENE_KERNELS = {("eepa-normal-cap", "persistent")}
 
 
+def _mode(name: str, launch: str) -> str:
+    """The kernel mode a differential case runs in (:data:`SCENE_KERNELS`)."""
+    return "scene" if (name, launch) in SCENE_KERNELS else "general"
+
+
 #: Every case the tests below read (NAME:LAUNCH:KERNELS), run in one process.
 SPECS = (
-    *(f"{n}:{la}:{'scene' if (n, la) in SCENE_KERNELS else 'general'}" for n, la in CASES),
+    *(f"{n}:{la}:{_mode(n, la)}" for n, la in CASES),
     "determinism:persistent:general",
     "instability:persistent:general",
 )
@@ -118,7 +122,7 @@ def _case(cases: dict, name: str, launch: str = "persistent", kernels: str = "ge
 @needs_numba_cuda
 @pytest.mark.parametrize(("name", "launch"), CASES)
 def test_cuda_kernels_follow_the_cpu_kernel(cases, name, launch):
-    mode = "scene" if (name, launch) in SCENE_KERNELS else "general"
+    mode = _mode(name, launch)
     r = _case(cases, name, launch, mode)
     assert r["launch"] == launch and r["kernel_mode"] == mode
     for quantity, rel in r["rel"].items():

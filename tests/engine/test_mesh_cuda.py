@@ -12,16 +12,13 @@ as a Python thread.
 
 from __future__ import annotations
 
-import importlib.util
-
 import numpy as np
 import pytest
 
 import engine
 from tests.engine.helpers import rel_diff
-from tests.engine.test_cuda import case_result, simulator_cases
+from tests.engine.test_cuda import case_result, needs_numba_cuda, simulator_cases
 
-HAS_NUMBA_CUDA = importlib.util.find_spec("numba_cuda") is not None
 #: the tolerance of tests/engine/test_cuda.py (issue 21): relative to each quantity's largest
 REL = 1e-12
 R = 2.5e-3
@@ -102,7 +99,7 @@ def _run_case(results: dict, name: str, launch: str) -> dict:
     return case_result(results, f"{name}:{launch}:general")
 
 
-@pytest.mark.skipif(not HAS_NUMBA_CUDA, reason="numba-cuda is not installed")
+@needs_numba_cuda
 @pytest.mark.parametrize("launch", ["persistent", "passes"])
 def test_cuda_meshes_follow_the_cpu(results, launch):
     r = _run_case(results, "trough", launch)
@@ -116,7 +113,7 @@ def test_cuda_meshes_follow_the_cpu(results, launch):
     assert r["rebuilds"][0] == r["rebuilds"][1] >= 3, r
 
 
-@pytest.mark.skipif(not HAS_NUMBA_CUDA, reason="numba-cuda is not installed")
+@needs_numba_cuda
 def test_a_settled_hopper_discharges_on_the_device_as_on_the_cpu(results):
     """The hopper's driver on the CUDA backend: a fill settled on the CPU, carried to the
     device (the state of a checkpoint), opened and discharged for a few samples on each

@@ -255,41 +255,88 @@ def _paired(pairs: list, names, n: int) -> dict:
     return out
 
 
-def _stored_pairs(slow_kind: str, fast_kind: str, law_name: str, table: dict):
-    """A paired check's one size, its planned seeds and the (seed, slow digest, fast
-    digest) pairs stored and run to their end; None without such a check for this law."""
-    sizes = table.get(law_name)
-    if not sizes:
-        return None
-    if len(sizes) != 1:
-        raise ValueError(f"{slow_kind} check of {law_name!r}: one size, not {sizes}")
-    ((size, n),) = sizes.items()
+def _stored_pairs(slow_kind: str, fast_kind: str, law_name: str, size: float, n: int):
+    """A paired check's (seed, slow digest, fast digest) pairs at ``size`` among its ``n``
+    planned seeds, stored and run to their end."""
     pairs = []
     for seed in range(1, n + 1):
         slow = S.stored(slow_kind, law_name, size, seed)
         fast = S.stored(fast_kind, law_name, size, seed)
         if slow is not None and fast is not None and slow.ok and fast.ok:
             pairs.append((seed, slow, fast))
-    return size, n, pairs
+    return pairs
+
+
+def _one_size(kind: str, law_name: str, table: dict) -> tuple[float, int] | None:
+    """A check made at one size: (size, planned seeds); None without one for this law."""
+    sizes = table.get(law_name)
+    if not sizes:
+        return None
+    if len(sizes) != 1:
+        raise ValueError(f"{kind} check of {law_name!r}: one size, not {sizes}")
+    ((size, n),) = sizes.items()
+    return size, n
+
+
+def same_bed(slow, fast) -> bool:
+    """Whether a pair's two runs consolidated the same bed: their loading stiffness and
+    consolidated porosity bit-equal (every stage before the unloading is the same run
+    under the same code, tests/engine/test_protocol.py)."""
+    names = ("loading_stiffness", "consolidated_porosity")
+    return all(slow.scalars.get(k) == fast.scalars.get(k) for k in names)
 
 
 def unload_check(law_name: str) -> dict | None:
-    """The slow unloading's check (benchmarks/size_series.py, kinds ``unload`` and
-    ``unload_check``, fixed before their runs): the unloading stiffness of the 5-diameter
-    runs unloaded three times slower again against ``unload``'s, paired by seed, as
-    :func:`rate_check` judges; None without such a check for this law."""
-    got = _stored_pairs("unload_check", "unload", law_name, S.UNLOAD_CHECK_SIZES)
-    if got is None:
+    """The slow unloading's checks (benchmarks/size_series.py, kinds ``unload`` and
+    ``unload_check``, fixed before their runs), one per size of ``UNLOAD_CHECK_SIZES`` (5
+    and 20 diameters): the unloading stiffness of the runs unloaded three times slower again
+    against ``unload``'s, paired by seed, as :func:`rate_check` judges, each pair's bed
+    compared (:func:`same_bed`). ``decided``: every size's check equivalent (the rule's
+    consequence: the ``unload`` curve's need counts only then). None without a check."""
+    sizes = S.UNLOAD_CHECK_SIZES.get(law_name)
+    if not sizes:
         return None
-    size, n, pairs = got
-    rows = _paired(pairs, ("unloading_stiffness",), n)
-    return {
-        "size": size,
-        "seeds": [p[0] for p in pairs],
-        "planned": n,
-        "stiffness": rows,
-        "decided": rows["unloading_stiffness"]["verdict"] == "equivalent",
-    }
+    checks = []
+    for size, n in sorted(sizes.items()):
+        pairs = _stored_pairs("unload_check", "unload", law_name, size, n)
+        rows = _paired(pairs, ("unloading_stiffness",), n)
+        checks.append(
+            {
+                "size": size,
+                "seeds": [p[0] for p in pairs],
+                "planned": n,
+                "same_bed": [same_bed(p[1], p[2]) for p in pairs],
+                "stiffness": rows,
+                "verdict": rows["unloading_stiffness"]["verdict"],
+            }
+        )
+    return {"checks": checks, "decided": all(c["verdict"] == "equivalent" for c in checks)}
+
+
+def paired_rule_power(
+    n: int, spreads=(0.004, 0.01, 0.02), truths=(0.0, 0.05, 0.08), draws: int = 200_000
+) -> dict:
+    """The paired rule's behaviour with ``n`` pairs (the 90 % t interval of the mean
+    relative difference against +-``RATE_EQUIVALENCE``), simulated with normal paired
+    differences of each true mean in ``truths`` and spread in ``spreads``: per (truth,
+    spread) the fraction of draws it calls equivalent, differs, and the interval's
+    coverage. Seeded: the same numbers every call."""
+    from engine.study.intervals import t_quantile
+
+    rng = np.random.default_rng(50)
+    q, e = t_quantile(0.95, n - 1), S.RATE_EQUIVALENCE
+    out = {}
+    for mu in truths:
+        for sd in spreads:
+            x = rng.normal(mu, sd, (draws, n))
+            m = x.mean(axis=1)
+            h = q * x.std(axis=1, ddof=1) / math.sqrt(n)
+            out[(mu, sd)] = {
+                "equivalent": float(np.mean((m - h > -e) & (m + h < e))),
+                "differs": float(np.mean((m - h > e) | (m + h < -e))),
+                "coverage": float(np.mean((m - h <= mu) & (mu <= m + h))),
+            }
+    return out
 
 
 def _stiffness_mean(values) -> str:
@@ -303,6 +350,54 @@ def _stiffness_mean(values) -> str:
     return f"{np.mean(values) / 1e6:.3f}"
 
 
+def _unload_check_lines(k: dict) -> list[str]:
+    """One size's slow-unloading check in words."""
+    r = k["stiffness"]["unloading_stiffness"]
+    diffs = ", ".join(f"{100 * x:+.1f} %" for x in r["differences"]) or "none"
+    lo, hi = r["interval"]
+    mean = (
+        f"{100 * r['mean']:+.1f} % [{100 * lo:+.1f} %, {100 * hi:+.1f} %]"
+        if math.isfinite(r["mean"])
+        else "-"
+    )
+    bad = (
+        f" (no elastic branch: seeds {', '.join(map(str, r['unresolved']))})"
+        if r["unresolved"]
+        else ""
+    )
+    beds = k["same_bed"]
+    bed = (
+        f"; the same consolidated bed in {sum(beds)} of {len(beds)} pairs (loading stiffness "
+        "and consolidated porosity bit-equal)"
+        if beds
+        else ""
+    )
+    return [
+        f"The check at {k['size']:g} diameters: {len(k['seeds'])} of {k['planned']} "
+        f"pairs stored{bad}{bed}; paired differences {diffs}; mean {mean}: {k['verdict']}."
+    ]
+
+
+def _power_lines(n: int) -> list[str]:
+    """The paired rule's simulated behaviour with ``n`` pairs (:func:`paired_rule_power`)."""
+    got = paired_rule_power(n)
+    spreads = sorted({sd for _, sd in got})
+
+    def row(mu: float, what: str) -> str:
+        return ", ".join(f"{got[(mu, sd)][what]:.2f}" for sd in spreads)
+
+    cov = min(v["coverage"] for v in got.values())
+    sds = ", ".join(f"{100 * sd:g} %" for sd in spreads)
+    e = 100 * S.RATE_EQUIVALENCE
+    return [
+        f"The rule with {n} pairs (simulated, normal paired differences of spread {sds}; "
+        "`paired_rule_power`): equivalent with probability "
+        f"{row(0.0, 'equivalent')} at no true difference; {row(0.05, 'equivalent')} at "
+        f"+{e:g} % (the margin); differs {row(0.08, 'differs')} at +8 %; the interval's "
+        f"coverage at least {cov:.3f} (nominal 0.90)."
+    ]
+
+
 def unload_lines() -> list[str]:
     """The report's account of the slow unloading (benchmarks/size_series.py)."""
     out = [
@@ -313,13 +408,20 @@ def unload_lines() -> list[str]:
         f"`unloading_inertial_number` = {S.UNLOAD_INERTIAL_NUMBER:g} x 5 / size (the "
         "platen's unloading speed, hence the lag as a fraction of the branch, held at every "
         "size at the rate check's 5-diameter value); every stage before the unloading runs as "
-        "the held series' test does. Checked at 5 diameters against three times slower "
-        "again, paired "
-        f"by seed, +-{100 * S.RATE_EQUIVALENCE:g} % on the 90 % interval; equivalent: its "
-        "unloading-stiffness curve gives that stiffness's need (below, once its reference "
-        "size has two seeds). A non-positive secant (no elastic branch) is no value. The "
-        "loading stiffness stays as the rate check left it, so the bulk in compression stays "
-        "undecided with this series.",
+        "the held series' test does. Checked against three times slower again, paired "
+        f"by seed, +-{100 * S.RATE_EQUIVALENCE:g} % on the 90 % interval, at 5 diameters "
+        "(four pairs) and at 20 (two pairs; added after the 20-diameter seeds were seen, both "
+        "below every seed of 5-15 d, and fixed before its runs, which stop once the "
+        f"stiffness is read: no unconfined stage, the unloading ended below "
+        f"{S.UNLOAD_CHECK_STOP:g} of the consolidation stress). Every check equivalent: the "
+        "unloading-stiffness curve gives that stiffness's need (once its reference size has "
+        "two seeds); otherwise that need is undecided. A non-positive secant (no elastic "
+        "branch) is no value. The loading stiffness stays as the rate check left it, so the "
+        "bulk in compression stays undecided with this series.",
+        "",
+        *_power_lines(4),
+        "",
+        *_power_lines(2),
         "",
     ]
     for law_name, sizes in S.UNLOAD_SIZES.items():
@@ -346,40 +448,24 @@ def unload_lines() -> list[str]:
             out.append(f"| {size:.3g} | {len(ds)} of {n} | {med}, {target:.3g} | {ks} | {khs} |")
         c = unload_check(law_name)
         if c is not None:
-            r = c["stiffness"]["unloading_stiffness"]
-            diffs = ", ".join(f"{100 * x:+.1f} %" for x in r["differences"]) or "none"
-            lo, hi = r["interval"]
-            mean = (
-                f"{100 * r['mean']:+.1f} % [{100 * lo:+.1f} %, {100 * hi:+.1f} %]"
-                if math.isfinite(r["mean"])
-                else "-"
+            for k in c["checks"]:
+                out += ["", *_unload_check_lines(k)]
+            curve = series_curves(
+                "unload",
+                ("unloading_stiffness",),
+                DEFAULT_TOLERANCES,
+                FEATURES["bulk_compression"][3],
+                law_name,
+                positive=True,
             )
-            bad = (
-                f" (no elastic branch: seeds {', '.join(map(str, r['unresolved']))})"
-                if r["unresolved"]
-                else ""
+            head = (
+                "Its unloading-stiffness curve (the rule's: every check equivalent; the bulk "
+                "in compression stays undecided by its loading stiffness):"
+                if c["decided"]
+                else "Its unloading-stiffness curve as it stands; the need it gives is not "
+                "the rule's (undecided) until every check is equivalent:"
             )
-            out += [
-                "",
-                f"The check at {c['size']:g} diameters: {len(c['seeds'])} of {c['planned']} "
-                f"pairs stored{bad}; paired differences {diffs}; mean {mean}: {r['verdict']}.",
-            ]
-            if c["decided"]:
-                curve = series_curves(
-                    "unload",
-                    ("unloading_stiffness",),
-                    DEFAULT_TOLERANCES,
-                    FEATURES["bulk_compression"][3],
-                    law_name,
-                    positive=True,
-                )
-                out += [
-                    "",
-                    "Its unloading-stiffness curve (the rule's; the bulk in compression stays "
-                    "undecided by its loading stiffness):",
-                    "",
-                    *_curve_lines(curve),
-                ]
+            out += ["", head, "", *_curve_lines(curve)]
         out.append("")
     return out
 
@@ -391,10 +477,11 @@ def rate_check(law_name: str) -> dict | None:
     (``equivalent`` inside +-``RATE_EQUIVALENCE``, ``differs`` wholly outside, else
     ``undecided``: :func:`_paired`); ``decided``: every stiffness equivalent. None without a
     check of this law."""
-    got = _stored_pairs("rate", "column", law_name, S.RATE_SIZES)
-    if got is None:
+    one = _one_size("rate", law_name, S.RATE_SIZES)
+    if one is None:
         return None
-    size, n, pairs = got
+    size, n = one
+    pairs = _stored_pairs("rate", "column", law_name, size, n)
     out = {
         "size": size,
         "seeds": [p[0] for p in pairs],

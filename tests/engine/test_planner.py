@@ -260,9 +260,57 @@ def test_the_rate_check_decides_by_its_stated_rule(monkeypatch, slow, verdicts, 
             "column" if kind == "unload" else kind, law, size, seed
         ),
     )
+    monkeypatch.setattr(S, "UNLOAD_CHECK_SIZES", {"bond1": {5.0: 4}})
     u = R.unload_check("bond1")
-    assert u["stiffness"]["unloading_stiffness"]["verdict"] == verdicts[1]
+    assert u["checks"][0]["stiffness"]["unloading_stiffness"]["verdict"] == verdicts[1]
     assert u["decided"] is (verdicts[1] == "equivalent")
+
+
+@pytest.mark.parametrize(
+    ("twenty", "verdict", "decided"),
+    [
+        # not stored yet: undecided, and so is the curve's need, the 5 d check equivalent
+        ((None, None), "undecided (0 of 2 pairs stored, run to their end and resolved)", False),
+        # two pairs within 0.5 %: inside +-5 % even at t(1 df) = 6.31
+        ((1.003, 0.998), "equivalent", True),
+        # two pairs +1 % and -1 %: the interval +-6.3 % crosses the margin
+        ((1.01, 0.99), "undecided", False),
+        # the slow unloading 12 % stiffer in both pairs: wholly outside, differs
+        ((1.12, 1.125), "differs", False),
+    ],
+)
+def test_the_slow_unloadings_need_counts_only_with_every_sizes_check_equivalent(
+    monkeypatch, twenty, verdict, decided
+):
+    """benchmarks/size_report.unload_check with the 5- and 20-diameter checks (stand-in
+    digests): the 5 d check equivalent, the 20 d one as ``twenty`` gives it; ``decided``
+    (the unloading-stiffness need is the rule's) only when both are equivalent; a pair whose
+    loading stiffness differs is flagged as not the same consolidated bed."""
+    from types import SimpleNamespace
+
+    from benchmarks import size_report as R
+    from benchmarks import size_series as S
+
+    def digest(k_load, k_unload):
+        return SimpleNamespace(
+            ok=True,
+            metrics={"unloading_stiffness": [k_unload]},
+            scalars={"loading_stiffness": k_load, "consolidated_porosity": 0.43},
+        )
+
+    def stored(kind, law, size, seed):
+        if kind == "unload":
+            return digest(2e5, 9e5)
+        f = 1.0 + 0.001 * (seed - 2) if size == 5.0 else twenty[seed - 1]
+        return None if f is None else digest(2e5 if seed == 1 else 2.1e5, 9e5 * f)
+
+    monkeypatch.setattr(S, "UNLOAD_CHECK_SIZES", {"bond1": {5.0: 4, 20.0: 2}})
+    monkeypatch.setattr(S, "stored", stored)
+    five, other = R.unload_check("bond1")["checks"]
+    assert (five["size"], five["verdict"], other["size"]) == (5.0, "equivalent", 20.0)
+    assert other["verdict"] == verdict
+    assert R.unload_check("bond1")["decided"] is decided
+    assert five["same_bed"] == [True, False, False, False]
 
 
 def test_a_decided_rate_check_takes_the_stiffnesses_from_the_capped_series(monkeypatch):

@@ -119,6 +119,23 @@ def test_a_slower_unloading_holds_its_own_inertial_number_and_changes_nothing_be
     assert slow.scalars["inertial_number_held"] == pytest.approx(1e-3, rel=0.15)
 
 
+def test_an_unloading_cut_short_is_the_full_ones_prefix_and_reads_the_same_stiffness(held):
+    """The size series' 20-diameter unloading check (benchmarks/size_series.py) stops below
+    a fifth of the consolidation stress with no release or unconfined stage: its unloading
+    curve is the full run's up to that point bit for bit (the stage's end acts on nothing
+    before it), so the secant over the samples above half the peak is the same number."""
+    short = engine.run_uniaxial(replace(held.test, unconfined=False, unloaded_stress=0.2))
+    assert set(short.stages) == {"fill", "pre_compression", "consolidation", "unloading"}
+    full, cut = held.stages["unloading"].curves, short.stages["unloading"].curves
+    n = len(cut["time"])
+    assert 2 < n < len(full["time"])
+    assert cut["stress_top"][-1] <= 0.2 * held.test.consolidation_stress
+    for k, v in full.items():
+        assert cut[k].tobytes() == v[:n].tobytes(), k
+    for k in ("loading_stiffness", "unloading_stiffness", "consolidated_porosity"):
+        assert short.scalars[k] == held.scalars[k], k
+
+
 def test_the_unloading_inertial_number_is_a_field_like_the_others():
     t = tiny(inertial_number=5e-4, unloading_inertial_number=1e-4)
     assert t.stage_inertial_number("unloading") == 1e-4

@@ -283,7 +283,7 @@ def same_bed(slow, fast) -> bool:
     consolidated porosity bit-equal (every stage before the unloading is the same run
     under the same code, tests/engine/test_protocol.py)."""
     names = ("loading_stiffness", "consolidated_porosity")
-    return all(slow.scalars.get(k) == fast.scalars.get(k) for k in names)
+    return all(k in slow.scalars and slow.scalars[k] == fast.scalars.get(k) for k in names)
 
 
 def unload_check(law_name: str) -> dict | None:

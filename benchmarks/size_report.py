@@ -23,7 +23,7 @@ from benchmarks import outlet_report
 from benchmarks import size_series as S
 from engine.core.records import to_dict
 from engine.study.metrics import DEFAULT_TOLERANCES, SHEAR_TOLERANCES
-from engine.study.resolution import diameters_needed, resolution_curves
+from engine.study.resolution import diameters_needed, point_words, resolution_curves
 from engine.uniaxial.measures import skin_thickness
 
 ROOT = S.ROOT
@@ -832,7 +832,7 @@ def _fmt_need(need: dict | None) -> str:
         return f"at most {b:.3g} (every property holds at the coarsest size run; point {p:.2g})"
     if need["bound"] == "more_than":
         return f"more than {b:.3g} (the finest size measured; point estimate {p:.3g})"
-    return f"{p:.3g} (95 % bound {b:.3g})"
+    return f"{point_words(p, min(need['sizes']))} (95 % bound {b:.3g})"
 
 
 def _size_table(kind: str, law_name: str) -> list[str]:
@@ -876,6 +876,10 @@ def _size_table(kind: str, law_name: str) -> list[str]:
             use = [d for d in ds if name != "strength" or _failed(d)]
             xs = [float(np.mean(d.metrics[name])) for d in use if name in d.metrics]
             none = "no peak" if name == "strength" and any(name in d.metrics for d in ds) else ""
+            if name in STIFFNESSES and xs:
+                # a non-positive secant (no elastic branch) is no value: no mean over it
+                vals.append(_stiffness_mean([x * scale * 1e6 for x in xs]))
+                continue
             vals.append(format(np.mean(xs) * scale, fmt) if xs else none)
         wall = float(np.mean([d.scalars.get("wall_time", math.nan) for d in ds]))
         if kind == "column":
@@ -1290,8 +1294,11 @@ def confound_lines() -> list[str]:
             sig, rho, i_star = t["consolidation_stress"], t["density"], t["inertial_number"]
             h_d = float(np.mean([d.scalars["height_diameters"] for d in ds]))
             phi = 1.0 - float(np.mean([d.scalars["consolidated_porosity"] for d in ds]))
-            e_unl = float(np.mean([d.scalars["unloading_stiffness"] for d in ds]))
-            e_ld = float(np.mean([d.scalars["loading_stiffness"] for d in ds]))
+            unls = [d.scalars["unloading_stiffness"] for d in ds]
+            lds = [d.scalars["loading_stiffness"] for d in ds]
+            # a non-positive secant (no elastic branch) is no value: no mean over it
+            e_unl = float(np.mean(unls)) if min(unls) > 0 else math.nan
+            e_ld = float(np.mean(lds)) if min(lds) > 0 else math.nan
             v = i_star * h_d * math.sqrt(sig / rho)
             c_ld = math.sqrt(e_ld / (rho * phi)) if e_ld > 0 else math.nan
             lag_ld = (v / c_ld) / (0.5 * sig / e_ld) if e_ld > 0 else math.nan
@@ -1301,7 +1308,8 @@ def confound_lines() -> list[str]:
             else:  # the secant's stress fell while the strain did not: no elastic branch
                 unl = "no elastic branch | | "
             out.append(
-                f"| {law_name} | {size:.3g} | {v:.3f} | {unl} | {lag_ld:.2f} | {e_unl / 1e6:.3f} |"
+                f"| {law_name} | {size:.3g} | {v:.3f} | {unl} | {lag_ld:.2f} | "
+                f"{_stiffness_mean(unls)} |"
             )
     return [*out, "", *rate_lines(), *unload_lines()]
 
@@ -1376,7 +1384,11 @@ def _curve_lines(c: dict) -> list[str]:
                 f"{need['point']:.3g} d"
             )
         else:
-            need_t = f"needs {need['point']:.3g} d (95 % bound {need['diameters']:.3g} d)"
+            coarsest = min(s["diameters_across"] for s in v["sizes"])
+            need_t = (
+                f"needs {point_words(need['point'], coarsest, ' d')} (95 % bound "
+                f"{need['diameters']:.3g} d)"
+            )
         out.append(
             f"- {n}: bulk {v['bulk']:.4g} [{v['bulk_interval'][0]:.4g}, "
             f"{v['bulk_interval'][1]:.4g}], slope of log value in d / L {v['slope']:+.2f} "
@@ -1428,7 +1440,7 @@ def _need_words(need: dict | None) -> str:
         return f"more than {b:.3g} (the finest size measured; point estimate {p:.2g})"
     if need["bound"] == "at_most":
         return f"at most {b:.3g} (every size stored held)"
-    return f"{p:.2g} (95 % bound {b:.3g})"
+    return f"{point_words(p, min(need['sizes']), digits=2)} (95 % bound {b:.3g})"
 
 
 def _property_words(need: dict) -> str:

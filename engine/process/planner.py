@@ -35,6 +35,7 @@ from ..core.errors import ParameterError
 from ..core.records import Record, check_fields, from_dict, param, to_dict
 from ..core.similarity import similar
 from ..io.liggghts import to_liggghts
+from ..study.resolution import point_words
 
 EVIDENCE = Path(__file__).with_name("evidence.json")
 
@@ -192,7 +193,9 @@ class FeaturePlan:
     kind but a property off its line or confounded), "not_measured"; ``n_req_point``
     and ``n_req_bound`` [particles across], ``bound`` as the series reports it;
     ``s_max_point`` and ``s_max`` [-] the factors they give (``s_max`` the one to use: from
-    the 95 % bound; for "more_than" an upper limit: the admissible factor is below it);
+    the 95 % bound; for "more_than" an upper limit: the admissible factor is below it;
+    ``s_max_point`` no larger than the coarsest size run gives, where the point estimate
+    lies below it: coarser is not measured);
     ``evidence`` the series' law name and the property that sets the need; ``why`` in words.
     """
 
@@ -379,12 +382,13 @@ def plan_process(process: Process, evidence: dict | None = None) -> ProcessPlan:
             features.append(FeaturePlan(kind, status, why, evidence=series))
             continue
         npt, nb, bound = entry["n_req_point"], entry["n_req_bound"], entry["bound"]
-        s_pt, s_b = L / (npt * d0), L / (nb * d0)
+        coarsest = min(entry.get("sizes") or [npt])
+        s_pt, s_b = L / (max(npt, coarsest) * d0), L / (nb * d0)
         if bound == "needs":
             status = "decided"
             why = (
-                f"N_req = {npt:.3g} particles across (95 % bound {nb:.3g}), set by "
-                f"{entry['limited_by']} (series {series})"
+                f"N_req: {point_words(npt, coarsest, ' particles across')} (95 % bound "
+                f"{nb:.3g}), set by {entry['limited_by']} (series {series})"
             )
         elif bound == "more_than":
             status = "bounded"

@@ -313,6 +313,17 @@ def point_need(slope: float, tolerance: float) -> float:
     return max(1.0, 1.0 / x)
 
 
+def point_words(point: float, coarsest: float, unit: str = "", digits: int = 3) -> str:
+    """A need's point estimate [diameters across] in words, ``unit`` after the number: the
+    number to ``digits`` significant digits, or, where it lies below ``coarsest`` (the
+    coarsest size run), "below" that size (coarser is not measured): a line extrapolated
+    to fewer diameters than were run is not a measurement (:func:`point_need` floors it
+    at 1, not at the sizes run)."""
+    if point < coarsest:
+        return f"below {coarsest:.3g}{unit}, the coarsest size run"
+    return f"{point:.{digits}g}{unit}"
+
+
 def needed_words(needed: dict | None) -> str:
     """The clause of :func:`curve_lines` for :func:`diameters_needed`'s answer."""
     if not needed or needed["diameters"] is None:
@@ -453,6 +464,7 @@ __all__ = [
     "fit_curve",
     "linearity",
     "needed_words",
+    "point_words",
     "resolution_curves",
     "size_noise",
     "sources_df",

@@ -46,6 +46,24 @@ EVIDENCE_FAKE = {
 }
 
 
+def test_a_point_estimate_below_the_coarsest_size_run_is_not_a_number_of_particles():
+    """The fitted line's point need is floored at 1 diameter, not at the sizes run: below
+    the coarsest size run it is worded "below" that size and its factor is no larger than
+    that size gives (coarser is not measured); the bound is unchanged."""
+    from copy import deepcopy
+
+    from engine.study.resolution import point_words
+
+    assert point_words(1.01, 2.5) == "below 2.5, the coarsest size run"
+    assert point_words(8.0, 2.5, " d") == "8 d"
+    ev = deepcopy(EVIDENCE_FAKE)
+    ev["laws"]["fake"]["features"]["bulk_shear"].update(n_req_point=1.01, sizes=[2.5, 5.0])
+    f = plan_process(_process(), ev).answer
+    assert "N_req: below 2.5 particles across, the coarsest size run (95 % bound 12)" in f.why
+    assert f.s_max_point == pytest.approx(0.2 / (2.5 * 5e-5))
+    assert f.s_max == pytest.approx(0.2 / (12.0 * 5e-5)) and f.n_req_point == 1.01
+
+
 def _process(**kw):
     base = dict(pair_law=engine.similar(LAW, 0.01), diameter=5e-5, feature_width=0.2, stress=2e4)
     return engine.Process(**{**base, **kw})

@@ -267,17 +267,6 @@ def _stored_pairs(slow_kind: str, fast_kind: str, law_name: str, size: float, n:
     return pairs
 
 
-def _one_size(kind: str, law_name: str, table: dict) -> tuple[float, int] | None:
-    """A check made at one size: (size, planned seeds); None without one for this law."""
-    sizes = table.get(law_name)
-    if not sizes:
-        return None
-    if len(sizes) != 1:
-        raise ValueError(f"{kind} check of {law_name!r}: one size, not {sizes}")
-    ((size, n),) = sizes.items()
-    return size, n
-
-
 def same_bed(slow, fast) -> bool:
     """Whether a pair's two runs consolidated the same bed: their loading stiffness and
     consolidated porosity bit-equal (every stage before the unloading is the same run
@@ -470,18 +459,21 @@ def unload_lines() -> list[str]:
     return out
 
 
-def rate_check(law_name: str) -> dict | None:
-    """The rate check (benchmarks/size_series.py, fixed before its runs): per stiffness,
-    the mean paired relative difference of the runs at I = ``RATE_INERTIAL_NUMBER`` against
-    the held series' runs of the same size and seed, its 90 % t interval and the verdict
-    (``equivalent`` inside +-``RATE_EQUIVALENCE``, ``differs`` wholly outside, else
-    ``undecided``: :func:`_paired`); ``decided``: every stiffness equivalent. None without a
-    check of this law."""
-    one = _one_size("rate", law_name, S.RATE_SIZES)
-    if one is None:
+def rate_check(law_name: str, size: float | None = None) -> dict | None:
+    """The rate check at ``size`` (benchmarks/size_series.py, fixed before its runs;
+    default ``RATE_REFERENCE_SIZE``, 5 diameters): per stiffness judged (both at 5 d; the
+    loading stiffness alone at the sizes of ``RATE_SHORT``, whose runs stop after the
+    consolidation), the mean paired relative difference of the runs at I =
+    ``RATE_INERTIAL_NUMBER`` against the held series' runs of the same size and seed, its
+    90 % t interval and the verdict (``equivalent`` inside +-``RATE_EQUIVALENCE``,
+    ``differs`` wholly outside, else ``undecided``: :func:`_paired`); ``decided``: every
+    stiffness judged equivalent. None without a check of this law at that size."""
+    size = S.RATE_REFERENCE_SIZE if size is None else size
+    n = S.RATE_SIZES.get(law_name, {}).get(size)
+    if n is None:
         return None
-    size, n = one
     pairs = _stored_pairs("rate", "column", law_name, size, n)
+    names = ("loading_stiffness",) if size in S.RATE_SHORT else STIFFNESSES
     out = {
         "size": size,
         "seeds": [p[0] for p in pairs],
@@ -489,10 +481,23 @@ def rate_check(law_name: str) -> dict | None:
         "inertial_number": S.RATE_INERTIAL_NUMBER,
         "held": [p[1].scalars.get("inertial_number_held", math.nan) for p in pairs],
         "margin": S.RATE_EQUIVALENCE,
-        "stiffness": _paired(pairs, STIFFNESSES, n),
+        "stiffness": _paired(pairs, names, n),
     }
     out["decided"] = all(r["verdict"] == "equivalent" for r in out["stiffness"].values())
     return out
+
+
+def loading_checked(law_name: str) -> bool:
+    """Whether the held series' loading stiffness is the rule's (benchmarks/size_series.py,
+    ``rate`` at 25 diameters): equivalent in the 5-diameter rate check and in every
+    check of ``RATE_SHORT``'s sizes (at least one planned)."""
+    first = rate_check(law_name)
+    short = [rate_check(law_name, z) for z in S.RATE_SHORT]
+    short = [c for c in short if c is not None]
+    if first is None or not short:
+        return False
+    ok = first["stiffness"]["loading_stiffness"]["verdict"] == "equivalent"
+    return ok and all(c["decided"] for c in short)
 
 
 def capped_stiffness_curves() -> dict:
@@ -511,17 +516,58 @@ def capped_stiffness_curves() -> dict:
 
 def compression_curves(law_name: str) -> dict:
     """The bulk in compression's curves: the held series' density and coordination, and
-    where the rate check decided (:func:`rate_check`) the capped series' stiffnesses;
-    ``stiffness_from``: "capped" or "held" (confounded: :func:`feature_need` says so)."""
+    its stiffnesses as the checks decide (benchmarks/size_series.py): where the
+    5-diameter rate check decided (:func:`rate_check`), the capped series' stiffnesses
+    (``stiffness_from`` "capped"); else, where the loading stiffness is checked at 5 and
+    25 diameters (:func:`loading_checked`), the held series' loading stiffness and, where
+    every slow-unloading check is equivalent (:func:`unload_check`), the ``unload``
+    series' unloading stiffness ("checked"; ``confounded`` names a stiffness left
+    confounded, which :func:`feature_need` says); else "held" (both confounded)."""
     held = feature_curves("bulk_compression", law_name)
     check = rate_check(law_name)
-    if check is None or not check["decided"] or law_name != resolution_law():
+    if check is not None and check["decided"] and law_name == resolution_law():
+        capped = capped_stiffness_curves()
+        metrics = {n: v for n, v in held["metrics"].items() if n not in STIFFNESSES}
+        metrics.update(capped["metrics"])
+        sizes = sorted(set(held["sizes"]) | set(capped["sizes"]))
+        return {**held, "metrics": metrics, "sizes": sizes, "stiffness_from": "capped"}
+    if not loading_checked(law_name):
         return {**held, "stiffness_from": "held"}
-    capped = capped_stiffness_curves()
-    metrics = {n: v for n, v in held["metrics"].items() if n not in STIFFNESSES}
-    metrics.update(capped["metrics"])
-    sizes = sorted(set(held["sizes"]) | set(capped["sizes"]))
-    return {**held, "metrics": metrics, "sizes": sizes, "stiffness_from": "capped"}
+    metrics = {n: v for n, v in held["metrics"].items() if n != "unloading_stiffness"}
+    missing = [n for n in held.get("missing", []) if n != "unloading_stiffness"]
+    u = unload_check(law_name)
+    if u is None or not u["decided"]:
+        return {
+            **held,
+            "metrics": metrics,
+            "missing": missing,
+            "stiffness_from": "checked",
+            "confounded": ["unloading_stiffness"],
+        }
+    slow = series_curves(
+        "unload",
+        ("unloading_stiffness",),
+        DEFAULT_TOLERANCES,
+        FEATURES["bulk_compression"][3],
+        law_name,
+        positive=True,
+    )
+    metrics.update(slow.get("metrics", {}))
+    missing += list(slow.get("missing", []))
+    sizes = sorted(set(held["sizes"]) | set(slow.get("sizes", [])))
+    nonpositive = {
+        **{n: v for n, v in held.get("nonpositive", {}).items() if n != "unloading_stiffness"},
+        **slow.get("nonpositive", {}),
+    }
+    return {
+        **held,
+        "metrics": metrics,
+        "missing": missing,
+        "nonpositive": nonpositive,
+        "sizes": sizes,
+        "stiffness_from": "checked",
+        "confounded": [],
+    }
 
 
 def curves_of(feature: str, law_name: str) -> dict:
@@ -549,11 +595,14 @@ def feature_need(curves: dict, kind: str | None = None) -> dict | None:
     needs = {n: c["needed"] for n, c in curves.get("metrics", {}).items()}
     if not needs:
         return None
-    confounded = [
-        n
-        for n in needs
-        if kind == "column" and n in CONFOUNDED and curves.get("stiffness_from") != "capped"
-    ]
+    if kind == "column" and curves.get("confounded") is not None:
+        confounded = list(curves["confounded"])  # the checks' account (compression_curves)
+    else:
+        confounded = [
+            n
+            for n in needs
+            if kind == "column" and n in CONFOUNDED and curves.get("stiffness_from") != "capped"
+        ]
     if confounded:
         return {
             "limited_by": confounded[0],
@@ -1315,7 +1364,7 @@ def confound_lines() -> list[str]:
 
 
 def rate_lines() -> list[str]:
-    """The report's account of the rate check (benchmarks/size_series.py)."""
+    """The report's account of the rate checks (benchmarks/size_series.py)."""
     out = [
         "### The rate check",
         "",
@@ -1330,35 +1379,49 @@ def rate_lines() -> list[str]:
         f"+-{100 * S.RATE_EQUIVALENCE:g} % (a third of the 15 % tolerance) decides. Assumed, "
         "not tested: that an effect of I at the capped series' lag does not grow with L.",
         "",
+        "At 25 diameters (added after the 5-diameter check was seen, fixed before its runs): "
+        "the loading stiffness alone, where the held series' lag is largest (five times the "
+        "5-diameter one), the same rule with two pairs, the runs stopped after the "
+        "consolidation. Equivalent there and at 5 diameters: the held series' "
+        "loading-stiffness curve is the rule's, and the bulk in compression is judged on it "
+        "with the slow unloading's stiffness where every check of that is equivalent "
+        "(otherwise the unloading stiffness stays confounded).",
+        "",
     ]
     for law_name in S.LAWS:
-        c = rate_check(law_name)
-        if c is None:
-            continue
-        held = ", ".join(f"{h:.3g}" for h in c["held"]) or "none"
-        out += [
-            f"Law {law_name}, {c['size']:g} diameters: {len(c['seeds'])} of {c['planned']} "
-            f"pairs stored (seeds {', '.join(map(str, c['seeds'])) or 'none'}; inertial "
-            f"number held {held}).",
-            "",
-            "| stiffness | paired differences | mean [90 % interval] | verdict |",
-            "|---|---|---|---|",
-        ]
-        for name, r in c["stiffness"].items():
-            diffs = ", ".join(f"{100 * x:+.1f} %" for x in r["differences"])
-            lo, hi = r["interval"]
-            mean = (
-                f"{100 * r['mean']:+.1f} % [{100 * lo:+.1f} %, {100 * hi:+.1f} %]"
-                if math.isfinite(r["mean"])
-                else ""
-            )
-            out.append(f"| {name} | {diffs} | {mean} | {r['verdict']} |")
-        what = (
-            "the capped series decides the bulk in compression's stiffnesses"
-            if c["decided"]
-            else "the stiffnesses stay undecided (confounded)"
-        )
-        out += ["", f"So {what}.", ""]
+        for size in sorted(S.RATE_SIZES.get(law_name, {})):
+            c = rate_check(law_name, size)
+            held = ", ".join(f"{h:.3g}" for h in c["held"]) or "none"
+            out += [
+                f"Law {law_name}, {c['size']:g} diameters: {len(c['seeds'])} of {c['planned']} "
+                f"pairs stored (seeds {', '.join(map(str, c['seeds'])) or 'none'}; inertial "
+                f"number held {held}).",
+                "",
+                "| stiffness | paired differences | mean [90 % interval] | verdict |",
+                "|---|---|---|---|",
+            ]
+            for name, r in c["stiffness"].items():
+                diffs = ", ".join(f"{100 * x:+.1f} %" for x in r["differences"])
+                lo, hi = r["interval"]
+                mean = (
+                    f"{100 * r['mean']:+.1f} % [{100 * lo:+.1f} %, {100 * hi:+.1f} %]"
+                    if math.isfinite(r["mean"])
+                    else ""
+                )
+                out.append(f"| {name} | {diffs} | {mean} | {r['verdict']} |")
+            if size == S.RATE_REFERENCE_SIZE:
+                what = (
+                    "the capped series decides the bulk in compression's stiffnesses"
+                    if c["decided"]
+                    else "the capped series' stiffnesses are not taken"
+                )
+            else:
+                what = (
+                    "the held series' loading stiffness is the rule's"
+                    if loading_checked(law_name)
+                    else "the held series' loading stiffness stays confounded"
+                )
+            out += ["", f"So {what}.", ""]
     return out
 
 

@@ -337,7 +337,7 @@ def test_a_decided_rate_check_takes_the_stiffnesses_from_the_capped_series(monke
     then judged, not marked confounded."""
     from benchmarks import size_report as R
 
-    monkeypatch.setattr(R, "rate_check", lambda law: {"decided": True})
+    monkeypatch.setattr(R, "rate_check", lambda law, size=None: {"decided": True})
     held = R.feature_curves("bulk_compression", "bond1")
     capped = R.capped_stiffness_curves()
     c = R.compression_curves("bond1")
@@ -348,8 +348,66 @@ def test_a_decided_rate_check_takes_the_stiffnesses_from_the_capped_series(monke
         assert c["metrics"][name]["needed"] == held["metrics"][name]["needed"]
     assert R.feature_need(c, "column")["bound"] != "confounded"
     assert R.feature_need(held, "column")["bound"] == "confounded"
-    monkeypatch.setattr(R, "rate_check", lambda law: {"decided": False})
+    monkeypatch.setattr(R, "rate_check", lambda law, size=None: {"decided": False})
+    monkeypatch.setattr(R, "loading_checked", lambda law: False)
     assert R.compression_curves("bond1")["stiffness_from"] == "held"
+
+
+@pytest.mark.parametrize(
+    ("five", "twenty_five", "checked"),
+    [
+        ("equivalent", "equivalent", True),
+        ("equivalent", "undecided", False),
+        ("equivalent", None, False),  # no 25-d check planned: nothing checked there
+        ("undecided", "equivalent", False),
+    ],
+)
+def test_the_held_loading_stiffness_counts_only_checked_at_5_and_25_diameters(
+    monkeypatch, five, twenty_five, checked
+):
+    """benchmarks/size_report.loading_checked (the rule fixed in size_series.py for
+    ``rate`` at 25 d): the 5-d check's loading-stiffness verdict and the 25-d check's."""
+    from benchmarks import size_report as R
+
+    def rate_check(law, size=None):
+        if size is None:
+            return {"stiffness": {"loading_stiffness": {"verdict": five}}, "decided": False}
+        if twenty_five is None:
+            return None
+        return {"decided": twenty_five == "equivalent"}
+
+    monkeypatch.setattr(R, "rate_check", rate_check)
+    assert R.loading_checked("bond1") is checked
+
+
+def test_the_bulk_in_compression_takes_each_stiffness_only_once_checked(monkeypatch):
+    """compression_curves (stand-in checks): the loading stiffness not checked -> both
+    stiffnesses confounded, as before; checked and the slow unloading not decided -> the
+    kind undecided by the unloading stiffness alone; both decided -> the held series'
+    loading stiffness and the slow series' unloading stiffness, and the kind judged."""
+    from benchmarks import size_report as R
+
+    monkeypatch.setattr(R, "rate_check", lambda law, size=None: {"decided": False})
+    monkeypatch.setattr(R, "loading_checked", lambda law: False)
+    held = R.compression_curves("bond1")
+    assert held["stiffness_from"] == "held"
+    assert R.feature_need(held, "column")["bound"] == "confounded"
+    monkeypatch.setattr(R, "loading_checked", lambda law: True)
+    monkeypatch.setattr(R, "unload_check", lambda law: {"decided": False})
+    c = R.compression_curves("bond1")
+    need = R.feature_need(c, "column")
+    assert need["bound"] == "confounded" and need["confounded"] == ["unloading_stiffness"]
+    assert c["metrics"]["loading_stiffness"] == held["metrics"]["loading_stiffness"]
+    monkeypatch.setattr(R, "unload_check", lambda law: {"decided": True})
+    c = R.compression_curves("bond1")
+    slow = R.series_curves(
+        "unload", ("unloading_stiffness",), R.DEFAULT_TOLERANCES, 10.0, "bond1", positive=True
+    )
+    assert c["metrics"]["unloading_stiffness"] == slow["metrics"]["unloading_stiffness"]
+    assert c["metrics"]["density"] == held["metrics"]["density"]
+    need = R.feature_need(c, "column")
+    assert need["bound"] not in ("confounded", "not_linear")
+    assert set(need["per_property"]) == set(R.FEATURES["bulk_compression"][1])
 
 
 def test_a_sample_that_did_not_fail_leaves_only_its_own_strength_out():

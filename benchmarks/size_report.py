@@ -295,6 +295,7 @@ def unload_check(law_name: str) -> dict | None:
                 "seeds": [p[0] for p in pairs],
                 "planned": n,
                 "same_bed": [same_bed(p[1], p[2]) for p in pairs],
+                "slow": [p[1].metrics["unloading_stiffness"][0] for p in pairs],
                 "stiffness": rows,
                 "verdict": rows["unloading_stiffness"]["verdict"],
             }
@@ -361,9 +362,12 @@ def _unload_check_lines(k: dict) -> list[str]:
         if beds
         else ""
     )
+    slow = ", ".join(f"{x / 1e6:.3f}" for x in k["slow"])
+    slow = f" (the slower unloading's: {slow} MPa)" if slow else ""
     return [
         f"The check at {k['size']:g} diameters: {len(k['seeds'])} of {k['planned']} "
-        f"pairs stored{bad}{bed}; paired differences {diffs}; mean {mean}: {k['verdict']}."
+        f"pairs stored{bad}{bed}; paired differences {diffs}{slow}; mean {mean}: "
+        f"{k['verdict']}."
     ]
 
 

@@ -518,6 +518,20 @@ def capped_stiffness_curves() -> dict:
     }
 
 
+#: compression_curves' account of an unloading stiffness not cleared by the slow series'
+#: checks (or with no curve there): the kind undecided, and why, in the planner's words
+#: and the report's short form.
+UNLOADING_UNCHECKED = {
+    "confounded": ["unloading_stiffness"],
+    "confounded_why": (
+        "the loading stiffness is checked (the rate checks at 5 and 25 diameters), the "
+        "unloading stiffness is not: the slow unloading's checks are not all equivalent or "
+        "its series gives no curve",
+        "its unloading stiffness not checked slow enough",
+    ),
+}
+
+
 def compression_curves(law_name: str) -> dict:
     """The bulk in compression's curves: the held series' density and coordination, and
     its stiffnesses as the checks decide (benchmarks/size_series.py): where the
@@ -537,17 +551,12 @@ def compression_curves(law_name: str) -> dict:
         return {**held, "metrics": metrics, "sizes": sizes, "stiffness_from": "capped"}
     if not loading_checked(law_name):
         return {**held, "stiffness_from": "held"}
-    metrics = {n: v for n, v in held["metrics"].items() if n != "unloading_stiffness"}
-    missing = [n for n in held.get("missing", []) if n != "unloading_stiffness"]
     u = unload_check(law_name)
     if u is None or not u["decided"]:
-        return {
-            **held,
-            "metrics": metrics,
-            "missing": missing,
-            "stiffness_from": "checked",
-            "confounded": ["unloading_stiffness"],
-        }
+        # the held series' unloading stiffness shown as it is, and not used
+        return {**held, "stiffness_from": "checked", **UNLOADING_UNCHECKED}
+    metrics = {n: v for n, v in held["metrics"].items() if n != "unloading_stiffness"}
+    missing = [n for n in held.get("missing", []) if n != "unloading_stiffness"]
     slow = series_curves(
         "unload",
         ("unloading_stiffness",),
@@ -556,7 +565,11 @@ def compression_curves(law_name: str) -> dict:
         law_name,
         positive=True,
     )
-    metrics.update(slow.get("metrics", {}))
+    if "unloading_stiffness" not in slow.get("metrics", {}):
+        # the slow series gives no curve (too few seeds at its reference size, or a
+        # non-positive secant): the kind is not judged without it
+        return {**held, "stiffness_from": "checked", **UNLOADING_UNCHECKED}
+    metrics.update(slow["metrics"])
     missing += list(slow.get("missing", []))
     sizes = sorted(set(held["sizes"]) | set(slow.get("sizes", [])))
     nonpositive = {
@@ -608,12 +621,16 @@ def feature_need(curves: dict, kind: str | None = None) -> dict | None:
             if kind == "column" and n in CONFOUNDED and curves.get("stiffness_from") != "capped"
         ]
     if confounded:
+        reason = curves.get("confounded_why")  # the checks' words, where they left one
         return {
             "limited_by": confounded[0],
             "bound": "confounded",
             "confounded": confounded,
-            "why": "the stiffnesses are read over a strain branch that the sample's elastic "
+            "why": reason[0]
+            if reason
+            else "the stiffnesses are read over a strain branch that the sample's elastic "
             "transit lags by a fraction growing with L at a held inertial number",
+            **({"short": reason[1]} if reason else {}),
             "per_property": {
                 n: {k: x.get(k) for k in ("diameters", "bound", "point", "tolerance")}
                 for n, x in needs.items()
@@ -1152,6 +1169,19 @@ def report() -> str:
                     "density and coordination are this series'.",
                     "",
                 ]
+            elif c.get("stiffness_from") == "checked":
+                unl = (
+                    "the unloading stiffness's is the slow unloading series' (every check "
+                    "of it equivalent)"
+                    if not c.get("confounded")
+                    else "the unloading stiffness stays confounded (shown as this series "
+                    "gives it; the slow unloading's checks are not all equivalent)"
+                )
+                lines += [
+                    "The loading stiffness's curve is this series', checked at 5 and 25 "
+                    f"diameters (Confounds, the rate check); {unl}.",
+                    "",
+                ]
             lines += _curve_lines(c)
         rows = skin_rows(law_name)
         lines += ["", "### The released column's skin, measured", ""]
@@ -1499,7 +1529,8 @@ def _need_words(need: dict | None) -> str:
     if need is None:
         return "not decided yet"
     if need["bound"] == "confounded":
-        return "undecided (its stiffnesses confounded with the sample's elastic transit)"
+        short = need.get("short", "its stiffnesses confounded with the sample's elastic transit")
+        return f"undecided ({short})"
     if need["bound"] == "not_linear":
         return "undecided (a property off its line)"
     b, p = need["n_req_bound"], need["n_req_point"]

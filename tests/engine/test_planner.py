@@ -353,6 +353,40 @@ def test_a_decided_rate_check_takes_the_stiffnesses_from_the_capped_series(monke
     assert R.compression_curves("bond1")["stiffness_from"] == "held"
 
 
+def test_the_25_diameter_rate_check_judges_the_loading_stiffness_of_runs_cut_short(
+    monkeypatch,
+):
+    """``rate`` at 25 d (fixed in benchmarks/size_series.py): a third of the inertial
+    number, no unconfined stage, the unloading ended below 0.2 sigma_c; its check judges
+    the loading stiffness alone (stand-in digests: the unloading stiffness 30 % off, which
+    would make the 5-d check's both-stiffness rule undecided, is not read)."""
+    from types import SimpleNamespace
+
+    from benchmarks import size_report as R
+    from benchmarks import size_series as S
+
+    t = S.test_of("rate", "bond1", 25.0, 1)
+    assert (t.inertial_number, t.unconfined, t.unloaded_stress) == (1.63e-4, False, 0.2)
+    five = S.test_of("rate", "bond1", 5.0, 1)
+    assert five.unconfined and five.unloaded_stress == 0.01
+
+    def stored(kind, law, size, seed):
+        f = 1.0 if kind == "column" else 1.0 + 0.002 * (seed - 1.5)
+        u = 1.0 if kind == "column" else 1.3
+        return SimpleNamespace(
+            ok=True,
+            metrics={"loading_stiffness": [2e5 * f], "unloading_stiffness": [9e5 * u]},
+            scalars={"inertial_number_held": 1.6e-4},
+        )
+
+    monkeypatch.setattr(S, "stored", stored)
+    c = R.rate_check("bond1", 25.0)
+    assert list(c["stiffness"]) == ["loading_stiffness"] and c["decided"]
+    assert c["stiffness"]["loading_stiffness"]["verdict"] == "equivalent"
+    assert R.rate_check("bond1")["stiffness"]["unloading_stiffness"]["verdict"] == "differs"
+    assert R.rate_check("bond1", 7.0) is None
+
+
 @pytest.mark.parametrize(
     ("five", "twenty_five", "checked"),
     [
@@ -397,8 +431,21 @@ def test_the_bulk_in_compression_takes_each_stiffness_only_once_checked(monkeypa
     c = R.compression_curves("bond1")
     need = R.feature_need(c, "column")
     assert need["bound"] == "confounded" and need["confounded"] == ["unloading_stiffness"]
-    assert c["metrics"]["loading_stiffness"] == held["metrics"]["loading_stiffness"]
+    assert "unloading stiffness not checked" in R._need_words(need)
+    # the held series' curves shown as they are (its unloading stiffness not used)
+    assert c["metrics"] == held["metrics"] and c["missing"] == held["missing"]
     monkeypatch.setattr(R, "unload_check", lambda law: {"decided": True})
+    real = R.series_curves
+    monkeypatch.setattr(
+        R,
+        "series_curves",
+        lambda kind, *a, **k: (
+            {"metrics": {}, "sizes": []} if kind == "unload" else real(kind, *a, **k)
+        ),
+    )
+    # the slow series checked but giving no curve: the kind is not judged without it
+    assert R.feature_need(R.compression_curves("bond1"), "column")["bound"] == "confounded"
+    monkeypatch.setattr(R, "series_curves", real)
     c = R.compression_curves("bond1")
     slow = R.series_curves(
         "unload", ("unloading_stiffness",), R.DEFAULT_TOLERANCES, 10.0, "bond1", positive=True

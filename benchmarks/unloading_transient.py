@@ -1,0 +1,129 @@
+"""The top platen's stress at the start of the unloading, read from the stored full files of
+the size series' slow-unloading runs (kinds ``unload`` and ``unload_check``,
+benchmarks/size_series.py): how much of the consolidation stress the top platen loses in
+the first curve sample, against the interior's, and whether that drop is the stress wave a
+velocity jump launches into an elastic medium, Delta sigma = rho_b c Delta v.
+
+    python -m benchmarks.unloading_transient      # the table, and its JSON stored
+
+At the end of the consolidation the top platen moves down at the loading speed, which at a
+held inertial number grows with the sample's height (v = I (h / d) sqrt(sigma / rho)); the
+unloading reverses it. A reversal by Delta v = v_load + v_unload unloads the layer at the
+platen at once, by rho_b c Delta v (rho_b the bulk density, c the sample's wave speed),
+while the interior learns of it only after the wave's transit. The unloading stiffness is a
+secant over the samples between half and all of the peak stress of the top platen's curve
+(``engine.uniaxial.measures.secant_slope``), so such a drop, where it is a sizeable share
+of the consolidation stress, sits inside the secant's window. This module measures, per
+run: v_load (the platen's speed over the consolidation's last sample) and v_unload (over
+the unloading's first) [m/s], the top stress's drop over that first sample [Pa] and as a
+share of its start, the interior virial stress's share, the bulk density rho_b = rho (1 -
+porosity, interior) [kg/m^3], and c_eff = drop / (rho_b Delta v) [m/s]: a constant c_eff
+across sizes says the drop is the wave's. The full files live outside git
+(``var/size_series/``, regenerable from the digests' tests); a file whose sha256 is not
+its digest's is skipped. Stored: benchmarks/results/unloading_transient/summary.json.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from benchmarks import size_series as S
+from engine.io.digest import sha256_of
+
+STORE = S.ROOT / "benchmarks" / "results" / "unloading_transient"
+KINDS = ("unload", "unload_check")
+
+
+def run_row(path: Path, density: float) -> dict:
+    """One run's first unloading sample against its consolidation's last (module
+    docstring), from its full file; ``density`` the particles' [kg/m^3]."""
+    with h5py.File(path) as f:
+        c, u = f["stages/consolidation"], f["stages/unloading"]
+        gap, t = c["platen_gap"][-2:], c["time"][-2:]
+        ug, ut = u["platen_gap"][:2], u["time"][:2]
+        top, inner = u["stress_top"][:2], u["stress_interior"][:2]
+        porosity = float(c["porosity_interior"][-1])
+    v_load = float((gap[0] - gap[1]) / (t[1] - t[0]))
+    v_unload = float((ug[1] - ug[0]) / (ut[1] - ut[0]))
+    rho_b = density * (1.0 - porosity)
+    drop = float(top[0] - top[1])
+    return {
+        "v_load": v_load,
+        "v_unload": v_unload,
+        "top_drop": drop,
+        "top_share_left": float(top[1] / top[0]),
+        "interior_share_left": float(inner[1] / inner[0]),
+        "bulk_density": rho_b,
+        "c_eff": drop / (rho_b * (v_load + v_unload)),
+    }
+
+
+def rows(law_name: str = "bond1") -> dict:
+    """Per kind and size, the stored runs' rows (:func:`run_row`) whose full file is here
+    and is the one the digest names."""
+    out: dict = {}
+    for kind in KINDS:
+        for size, n in sorted(S.TABLES[kind].get(law_name, {}).items()):
+            got = []
+            for seed in range(1, n + 1):
+                d, full = (
+                    S.stored(kind, law_name, size, seed),
+                    S.full_path_of(kind, law_name, size, seed),
+                )
+                if d is None or not full.exists() or sha256_of(full) != d.full_sha256:
+                    continue
+                got.append({"seed": seed, **run_row(full, d.test["density"])})
+            if got:
+                out.setdefault(kind, {})[f"{size:.3g}"] = got
+    return out
+
+
+def table(data: dict) -> list[str]:
+    """The size means as a markdown table."""
+    lines = [
+        "| kind | size [d] | runs | v_load [m/s] | v_unload [m/s] | top drop [Pa] | top left "
+        "| interior left | c_eff [m/s] |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for kind, sizes in data.items():
+        for size, rs in sizes.items():
+
+            def m(k, rs=rs):
+                return float(np.mean([r[k] for r in rs]))
+
+            lines.append(
+                f"| {kind} | {size} | {len(rs)} | {m('v_load'):.4f} | {m('v_unload'):.4f} | "
+                f"{m('top_drop'):.0f} | {m('top_share_left'):.3f} | "
+                f"{m('interior_share_left'):.3f} | {m('c_eff'):.1f} |"
+            )
+    return lines
+
+
+def main() -> int:
+    data = rows()
+    if not data:
+        print("no full files here (var/size_series/): run benchmarks.size_series first")
+        return 1
+    c = [r["c_eff"] for sizes in data.values() for rs in sizes.values() for r in rs]
+    summary = {
+        "what": __doc__.splitlines()[0],
+        "runs": data,
+        "c_eff_range": [min(c), max(c)],
+        "c_eff_mean": float(np.mean(c)),
+    }
+    STORE.mkdir(parents=True, exist_ok=True)
+    (STORE / "summary.json").write_text(json.dumps(summary, indent=1, allow_nan=False) + "\n")
+    print("\n".join(table(data)))
+    lo, hi = summary["c_eff_range"]
+    print(f"c_eff over {len(c)} runs: {lo:.1f} to {hi:.1f} m/s (mean {np.mean(c):.1f})")
+    assert all(math.isfinite(x) for x in c)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

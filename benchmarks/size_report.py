@@ -216,15 +216,38 @@ CONFOUNDED = {
 STIFFNESSES = ("loading_stiffness", "unloading_stiffness")
 
 
+def _paired_interval(diffs: np.ndarray) -> tuple:
+    """The mean of paired relative differences along the last axis and its 90 % t
+    interval (mean, low, high): one check's (a vector) or many simulated ones' (rows)."""
+    from engine.study.intervals import t_quantile
+
+    n = diffs.shape[-1]
+    m = diffs.mean(axis=-1)
+    half = t_quantile(0.95, n - 1) * diffs.std(axis=-1, ddof=1) / math.sqrt(n)
+    return m, m - half, m + half
+
+
+def _judged(lo, hi) -> tuple:
+    """The paired rule on an interval (numbers or arrays): (equivalent, differs), inside
+    +-``RATE_EQUIVALENCE`` or wholly outside it."""
+    e = S.RATE_EQUIVALENCE
+    return (-e < lo) & (hi < e), (lo > e) | (hi < -e)
+
+
+def _mean_words(r: dict, none: str = "-") -> str:
+    """A paired check's mean and 90 % interval in percent (``none`` without a mean)."""
+    if not math.isfinite(r["mean"]):
+        return none
+    lo, hi = r["interval"]
+    return f"{100 * r['mean']:+.1f} % [{100 * lo:+.1f} %, {100 * hi:+.1f} %]"
+
+
 def _paired(pairs: list, names, n: int) -> dict:
     """Per property of ``names``, the paired relative differences of ``pairs`` ((seed,
     slow digest, fast digest)), their mean and 90 % t interval and the verdict at
     +-``RATE_EQUIVALENCE`` (decided only when all ``n`` planned pairs are stored and
     usable). A pair with a non-positive value (a stiffness secant with no elastic branch
     resolved) is no value: left out, and named in ``unresolved``."""
-    from engine.study.intervals import t_quantile
-
-    e = S.RATE_EQUIVALENCE
     out = {}
     for name in names:
         usable = [p for p in pairs if p[1].metrics[name][0] > 0 and p[2].metrics[name][0] > 0]
@@ -237,19 +260,11 @@ def _paired(pairs: list, names, n: int) -> dict:
         }
         verdict = f"undecided ({len(diffs)} of {n} pairs stored, run to their end and resolved)"
         if len(diffs) >= 2:
-            m = float(diffs.mean())
-            half = (
-                t_quantile(0.95, len(diffs) - 1) * float(diffs.std(ddof=1)) / math.sqrt(len(diffs))
-            )
-            lo, hi = m - half, m + half
+            m, lo, hi = (float(x) for x in _paired_interval(diffs))
             row.update(mean=m, interval=[lo, hi])
             if len(diffs) == n:
-                if -e < lo and hi < e:
-                    verdict = "equivalent"
-                elif lo > e or hi < -e:
-                    verdict = "differs"
-                else:
-                    verdict = "undecided"
+                equivalent, differs = _judged(lo, hi)
+                verdict = "equivalent" if equivalent else "differs" if differs else "undecided"
         row["verdict"] = verdict
         out[name] = row
     return out
@@ -310,23 +325,33 @@ def paired_rule_power(
     relative difference against +-``RATE_EQUIVALENCE``), simulated with normal paired
     differences of each true mean in ``truths`` and spread in ``spreads``: per (truth,
     spread) the fraction of draws it calls equivalent, differs, and the interval's
-    coverage. Seeded: the same numbers every call."""
-    from engine.study.intervals import t_quantile
-
+    coverage, by the rule's own code (:func:`_paired_interval`, :func:`_judged`). Seeded:
+    the same numbers every call."""
     rng = np.random.default_rng(50)
-    q, e = t_quantile(0.95, n - 1), S.RATE_EQUIVALENCE
     out = {}
     for mu in truths:
         for sd in spreads:
-            x = rng.normal(mu, sd, (draws, n))
-            m = x.mean(axis=1)
-            h = q * x.std(axis=1, ddof=1) / math.sqrt(n)
+            _, lo, hi = _paired_interval(rng.normal(mu, sd, (draws, n)))
+            equivalent, differs = _judged(lo, hi)
             out[(mu, sd)] = {
-                "equivalent": float(np.mean((m - h > -e) & (m + h < e))),
-                "differs": float(np.mean((m - h > e) | (m + h < -e))),
-                "coverage": float(np.mean((m - h <= mu) & (mu <= m + h))),
+                "equivalent": float(np.mean(equivalent)),
+                "differs": float(np.mean(differs)),
+                "coverage": float(np.mean((lo <= mu) & (mu <= hi))),
             }
     return out
+
+
+def unload_curves(law_name: str) -> dict:
+    """The slow unloading series' unloading-stiffness curve (``unload``; a non-positive
+    secant is no value), with the bulk in compression's tolerance and reference size."""
+    return series_curves(
+        "unload",
+        ("unloading_stiffness",),
+        DEFAULT_TOLERANCES,
+        FEATURES["bulk_compression"][3],
+        law_name,
+        positive=True,
+    )
 
 
 def _stiffness_mean(values) -> str:
@@ -344,12 +369,7 @@ def _unload_check_lines(k: dict) -> list[str]:
     """One size's slow-unloading check in words."""
     r = k["stiffness"]["unloading_stiffness"]
     diffs = ", ".join(f"{100 * x:+.1f} %" for x in r["differences"]) or "none"
-    lo, hi = r["interval"]
-    mean = (
-        f"{100 * r['mean']:+.1f} % [{100 * lo:+.1f} %, {100 * hi:+.1f} %]"
-        if math.isfinite(r["mean"])
-        else "-"
-    )
+    mean = _mean_words(r)
     bad = (
         f" (no elastic branch: seeds {', '.join(map(str, r['unresolved']))})"
         if r["unresolved"]
@@ -443,14 +463,7 @@ def unload_lines() -> list[str]:
         if c is not None:
             for k in c["checks"]:
                 out += ["", *_unload_check_lines(k)]
-            curve = series_curves(
-                "unload",
-                ("unloading_stiffness",),
-                DEFAULT_TOLERANCES,
-                FEATURES["bulk_compression"][3],
-                law_name,
-                positive=True,
-            )
+            curve = unload_curves(law_name)
             head = (
                 "Its unloading-stiffness curve (the rule's: every check equivalent; the bulk "
                 "in compression stays undecided by its loading stiffness):"
@@ -555,33 +568,18 @@ def compression_curves(law_name: str) -> dict:
     if u is None or not u["decided"]:
         # the held series' unloading stiffness shown as it is, and not used
         return {**held, "stiffness_from": "checked", **UNLOADING_UNCHECKED}
-    metrics = {n: v for n, v in held["metrics"].items() if n != "unloading_stiffness"}
-    missing = [n for n in held.get("missing", []) if n != "unloading_stiffness"]
-    slow = series_curves(
-        "unload",
-        ("unloading_stiffness",),
-        DEFAULT_TOLERANCES,
-        FEATURES["bulk_compression"][3],
-        law_name,
-        positive=True,
-    )
-    if "unloading_stiffness" not in slow.get("metrics", {}):
+    slow = unload_curves(law_name)
+    if "unloading_stiffness" not in slow["metrics"]:
         # the slow series gives no curve (too few seeds at its reference size, or a
         # non-positive secant): the kind is not judged without it
         return {**held, "stiffness_from": "checked", **UNLOADING_UNCHECKED}
-    metrics.update(slow["metrics"])
-    missing += list(slow.get("missing", []))
-    sizes = sorted(set(held["sizes"]) | set(slow.get("sizes", [])))
-    nonpositive = {
-        **{n: v for n, v in held.get("nonpositive", {}).items() if n != "unloading_stiffness"},
-        **slow.get("nonpositive", {}),
-    }
+    drop = "unloading_stiffness"  # the held series' own, replaced by the slow series'
     return {
         **held,
-        "metrics": metrics,
-        "missing": missing,
-        "nonpositive": nonpositive,
-        "sizes": sizes,
+        "metrics": {**{n: v for n, v in held["metrics"].items() if n != drop}, **slow["metrics"]},
+        "missing": [n for n in held.get("missing", []) if n != drop],
+        "nonpositive": {n: v for n, v in held.get("nonpositive", {}).items() if n != drop},
+        "sizes": sorted(set(held["sizes"]) | set(slow["sizes"])),
         "stiffness_from": "checked",
         "confounded": [],
     }
@@ -1436,13 +1434,7 @@ def rate_lines() -> list[str]:
             ]
             for name, r in c["stiffness"].items():
                 diffs = ", ".join(f"{100 * x:+.1f} %" for x in r["differences"])
-                lo, hi = r["interval"]
-                mean = (
-                    f"{100 * r['mean']:+.1f} % [{100 * lo:+.1f} %, {100 * hi:+.1f} %]"
-                    if math.isfinite(r["mean"])
-                    else ""
-                )
-                out.append(f"| {name} | {diffs} | {mean} | {r['verdict']} |")
+                out.append(f"| {name} | {diffs} | {_mean_words(r, '')} | {r['verdict']} |")
             if size == S.RATE_REFERENCE_SIZE:
                 what = (
                     "the capped series decides the bulk in compression's stiffnesses"

@@ -350,19 +350,21 @@ def full_path_of(kind: str, law_name: str, size: float, seed: int) -> Path:
     return FULL / kind / law_name / f"{label(size)}-s{seed}.h5"
 
 
+def cut_short(test: engine.UniaxialTest) -> engine.UniaxialTest:
+    """A check's run stopped once its stiffnesses are read (module docstring): no release
+    or unconfined stage, the unloading ended below :data:`UNLOAD_CHECK_STOP` of the
+    consolidation stress (the curve above it unchanged, tests/engine/test_protocol.py)."""
+    return replace(test, unconfined=False, unloaded_stress=UNLOAD_CHECK_STOP)
+
+
 def test_of(kind: str, law_name: str, size: float, seed: int):
     if kind == "rate":
-        column = column_test(law_name, size, seed)
-        test = replace(column, inertial_number=RATE_INERTIAL_NUMBER)
-        if size in RATE_SHORT:
-            test = replace(test, unconfined=False, unloaded_stress=UNLOAD_CHECK_STOP)
-        return test
+        test = replace(column_test(law_name, size, seed), inertial_number=RATE_INERTIAL_NUMBER)
+        return cut_short(test) if size in RATE_SHORT else test
     if kind in ("unload", "unload_check"):
         slow = UNLOAD_INERTIAL_NUMBER * 5.0 / size / (3.0 if kind == "unload_check" else 1.0)
         test = replace(column_test(law_name, size, seed), unloading_inertial_number=slow)
-        if kind == "unload_check" and size in UNLOAD_CHECK_SHORT:
-            test = replace(test, unconfined=False, unloaded_stress=UNLOAD_CHECK_STOP)
-        return test
+        return cut_short(test) if kind == "unload_check" and size in UNLOAD_CHECK_SHORT else test
     return (column_test if kind == "column" else shear_test)(law_name, size, seed)
 
 

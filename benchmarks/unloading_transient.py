@@ -26,7 +26,6 @@ its digest's is skipped. Stored: benchmarks/results/unloading_transient/summary.
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
 import h5py
@@ -121,7 +120,6 @@ def main() -> int:
     print("\n".join(table(data)))
     lo, hi = summary["c_eff_range"]
     print(f"c_eff over {len(c)} runs: {lo:.1f} to {hi:.1f} m/s (mean {np.mean(c):.1f})")
-    assert all(math.isfinite(x) for x in c)
     return 0
 
 

@@ -447,9 +447,7 @@ def test_the_bulk_in_compression_takes_each_stiffness_only_once_checked(monkeypa
     assert R.feature_need(R.compression_curves("bond1"), "column")["bound"] == "confounded"
     monkeypatch.setattr(R, "series_curves", real)
     c = R.compression_curves("bond1")
-    slow = R.series_curves(
-        "unload", ("unloading_stiffness",), R.DEFAULT_TOLERANCES, 10.0, "bond1", positive=True
-    )
+    slow = R.unload_curves("bond1")
     assert c["metrics"]["unloading_stiffness"] == slow["metrics"]["unloading_stiffness"]
     assert c["metrics"]["density"] == held["metrics"]["density"]
     need = R.feature_need(c, "column")

@@ -120,11 +120,13 @@ def test_a_slower_unloading_holds_its_own_inertial_number_and_changes_nothing_be
 
 
 def test_an_unloading_cut_short_is_the_full_ones_prefix_and_reads_the_same_stiffness(held):
-    """The size series' 20-diameter unloading check (benchmarks/size_series.py) stops below
-    a fifth of the consolidation stress with no release or unconfined stage: its unloading
+    """The size series' cut checks (benchmarks/size_series.cut_short) stop below a fifth of
+    the consolidation stress with no release or unconfined stage: their unloading
     curve is the full run's up to that point bit for bit (the stage's end acts on nothing
     before it), so the secant over the samples above half the peak is the same number."""
-    short = engine.run_uniaxial(replace(held.test, unconfined=False, unloaded_stress=0.2))
+    from benchmarks.size_series import cut_short
+
+    short = engine.run_uniaxial(cut_short(held.test))
     assert set(short.stages) == {"fill", "pre_compression", "consolidation", "unloading"}
     full, cut = held.stages["unloading"].curves, short.stages["unloading"].curves
     n = len(cut["time"])

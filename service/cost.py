@@ -170,9 +170,9 @@ def worst_stage_times(test: engine.UniaxialTest) -> dict[str, float]:
     physics ends it sooner. The fill ends only by settling: ``max_stage_time``. The platen
     of pre-compression and consolidation cannot travel further than the pour column
     (the stress would rise without bound first); unloading cannot take longer than that
-    travel back; the release ends at ``release_time`` (or a few particle fall times);
-    unconfined compression at ``max_unconfined_strain`` of a sample at most the pour
-    column tall."""
+    travel back; a hold ends only by coming to rest; the release ends at ``release_time``
+    (or a few particle fall times); unconfined compression at ``max_unconfined_strain`` of a
+    sample at most the pour column tall."""
     cap = test.max_stage_time
     travel = test.pour_height / test.platen_speed
     out = {
@@ -181,6 +181,8 @@ def worst_stage_times(test: engine.UniaxialTest) -> dict[str, float]:
         "consolidation": min(cap, travel),
         "unloading": min(cap, travel),
     }
+    if test.hold_time is not None:  # ends by coming to rest: max_stage_time
+        out["hold"] = cap
     if test.unconfined:
         t_min = 5 * math.sqrt(2 * test.radius / test.gravity)
         out["release"] = min(cap, max(t_min, test.release_time))

@@ -33,6 +33,7 @@ from engine.io.liggghts_read import (
     save_output,
 )
 from engine.io.store import load_run
+from engine.uniaxial.driver import stages_of
 from engine.uniaxial.measures import FailureDetector, interior_measures
 
 DATA = Path(__file__).resolve().parent / "data" / "liggghts"
@@ -141,6 +142,27 @@ def test_the_deck_holds_the_tests_numbers():
     )
 
 
+def test_a_hold_stage_is_written_between_consolidation_and_unloading():
+    # hold_time: the plate stopped after the consolidation, the stage over once hold_time
+    # has passed and the kinetic energy is below the settle energy (the driver's rule);
+    # its code in curves.txt is the last, so files written before it read the same
+    t = replace(plastic_test(), hold_time=0.0125)
+    text = ld.deck(t)
+    assert "loop_hold" not in ld.deck(plastic_test())
+    assert text.index("end_consolidation") < text.index("loop_hold") < text.index("loop_unloading")
+    done = [x for x in lines(text, "variable done equal")]
+    assert len(done) == 7
+    hold = done[3]
+    m = t.density * 4 / 3 * math.pi * t.radius**3
+    e_settle = t.settle_ke * t.n_particles * m * t.gravity * t.radius
+    rest, energy = (float(x) for x in re.findall(r"[<>]=([-0-9.e+]+)\)", hold))
+    assert rest == t.hold_time and energy == pytest.approx(e_settle, rel=1e-12)
+    speeds = [numbers(x)[0] for x in lines(text, "variable vplaten equal")]
+    v = t.platen_speed
+    assert speeds == [0.0, -v, 0.0, v, 0.0, 0.0, -v, 0.0]
+    assert ld.STAGES[-1] == "hold" and ld.STAGES.index("unloading") == 3
+
+
 def test_the_deck_folder_holds_demscales_cloud_to_the_last_bit(tmp_path):
     t = plastic_test()
     ld.write_deck(t, tmp_path)
@@ -220,7 +242,7 @@ def test_a_stored_liggghts_run_is_read_back_with_every_stopping_rule_honoured():
     r = read_output(TINY)
     t = r.test
     assert t == tiny_test()
-    assert list(r.stages) == list(ld.STAGES)
+    assert list(r.stages) == list(stages_of(t))
     S = round(t.output_interval / t.resolved_dt())
     area = t.cell[0] * t.cell[1]
     for name, st in r.stages.items():

@@ -28,6 +28,8 @@ fill               run until the free-fall time has passed and the kinetic energ
                    every faster particle after each sample)
 pre-compression,   the plate placed 0.05 R above the highest sphere, moved down at
 consolidation      ``platen_speed`` until its stress reaches each target
+hold               (``hold_time`` set) the plate stopped for ``hold_time``, then until the
+                   kinetic energy is below ``settle_ke N m g R``
 unloading          moved up until the stress is below ``unloaded_stress`` sigma_c
 release            ``change_box all boundary f f f`` (contacts across the faces go), the
                    box widened, the wide plate put where the plate was; settle or
@@ -77,8 +79,18 @@ CURVES = "curves.txt"
 LOG = "log.liggghts"
 STAGE_DUMP = "stage_{}.dump"
 
-#: The stages, in order (engine.uniaxial.driver.STAGES).
-STAGES = ("fill", "pre_compression", "consolidation", "unloading", "release", "unconfined")
+#: The stages' codes in ``curves.txt`` (a line's first value is its stage's index here):
+#: engine.uniaxial.driver.STAGES, with the hold stage last so that a file written before it
+#: reads the same (the run order is engine.uniaxial.driver.stages_of).
+STAGES = (
+    "fill",
+    "pre_compression",
+    "consolidation",
+    "unloading",
+    "release",
+    "unconfined",
+    "hold",
+)
 
 #: The columns of a sample line of ``curves.txt``, with units: the stage's index in
 #: :data:`STAGES`, the step, the top platen's height (the bottom one is at z = 0) [m], the z
@@ -753,6 +765,17 @@ class _Deck:
         self.start_stage("consolidation")
         self.loop("consolidation", f"v_stop>={_num(t.consolidation_stress)}")
         self.end("consolidation")
+
+        if t.hold_time is not None:
+            self.begin("hold")
+            self.velocity(0.0)
+            self.start_stage("hold")
+            self.loop(
+                "hold",
+                f"((v_n-v_t0)*{_num(self.dt)}>={_num(t.hold_time)})"
+                f"*(v_kin<={_num(settle_energy(t))})",
+            )
+            self.end("hold")
 
         self.begin("unloading")
         self.velocity(t.platen_speed)

@@ -49,7 +49,15 @@ from .results import (
 )
 from .spec import UniaxialTest
 
-STAGES = ("fill", "pre_compression", "consolidation", "unloading", "release", "unconfined")
+STAGES = (
+    "fill",
+    "pre_compression",
+    "consolidation",
+    "hold",
+    "unloading",
+    "release",
+    "unconfined",
+)
 
 #: The stages whose top platen moves: at ``inertial_number`` each holds it (the unloading its
 #: own where ``unloading_inertial_number`` is set; docs/PHYSICS.md section 4, "Loading rate").
@@ -61,10 +69,22 @@ _WEIGHTS = {
     "fill": 0.3,
     "pre_compression": 0.05,
     "consolidation": 0.25,
+    "hold": 0.05,
     "unloading": 0.1,
     "release": 0.1,
     "unconfined": 0.2,
 }
+
+
+def stages_of(test: UniaxialTest) -> tuple[str, ...]:
+    """The stages ``test`` runs, in order: :data:`STAGES` less the hold where ``hold_time``
+    is None and less the release and unconfined compression where ``unconfined`` is False."""
+    return tuple(
+        s
+        for s in STAGES
+        if (s != "hold" or test.hold_time is not None)
+        and (test.unconfined or s not in ("release", "unconfined"))
+    )
 
 
 class StageError(RuntimeError):
@@ -409,16 +429,9 @@ class _Driver:
                 raise WallTimeExceeded(self.max_wall_time, elapsed, self.wall_time_setting)
         if self.progress is None:
             return
-        done = 0.0
-        for s in STAGES:
-            if s == stage:
-                break
-            done += _WEIGHTS[s]
-        total = sum(
-            _WEIGHTS[s]
-            for s in STAGES
-            if self.test.unconfined or s not in ("release", "unconfined")
-        )
+        run = stages_of(self.test)
+        done = sum(_WEIGHTS[s] for s in run[: run.index(stage)])
+        total = sum(_WEIGHTS[s] for s in run)
         frac = min(1.0, (done + _WEIGHTS[stage] * min(max(stage_fraction, 0.0), 1.0)) / total)
         # stress fluctuates: never report less progress than before
         frac = self.last_fraction = max(frac, self.last_fraction)
@@ -472,9 +485,7 @@ class _Driver:
     # ------------------------------------------------------------------ the stage machine
     def run(self) -> UniaxialResult:
         """Run (or, resumed from a checkpoint, go on with) the stages, then the scalars."""
-        for stage in STAGES:
-            if stage in ("release", "unconfined") and not self.test.unconfined:
-                break
+        for stage in stages_of(self.test):
             if stage in self.stages:
                 continue
             if self.current is None or self.current.stage != stage:
@@ -498,6 +509,8 @@ class _Driver:
             self.drive(stage, self.gap(), 0.5 * self.bottom_stress())
         elif stage == "consolidation":
             self.h_consolidation = self.gap()
+        elif stage == "hold":
+            self.move_top(0.0)  # the platen stopped where the consolidation left it
         elif stage == "unloading":
             self.drive(stage, self.gap(), self.mean_stress())
             h0 = self.h_consolidation
@@ -552,6 +565,12 @@ class _Driver:
                 lambda r: r[2] <= low,
                 lambda r: 1.0 - r[2] / target,
                 f"relax the stress below {low:g} Pa",
+            )
+        if stage == "hold":
+            return (
+                lambda r: self.settled(r, t.hold_time, t0),
+                lambda r: min(1.0, (r[0] - t0) / t.hold_time),
+                "come to rest (hold_time, then kinetic energy below settle_ke x N m g R)",
             )
         if stage == "release":
             t_min = 5 * math.sqrt(2 * t.radius / t.gravity)  # a few particle fall times

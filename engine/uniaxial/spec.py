@@ -221,6 +221,13 @@ class UniaxialTest(Record):
             an unloading branch read more slowly than the loading, so that the sample's
             elastic response keeps up with its platen (docs/RESOLUTION.md, "Confounds"). Left
             out of the JSON form while None (a test made before the field keeps its form).
+        hold_time: a hold stage between the consolidation and the unloading [s]: the top
+            platen stopped where the consolidation left it for at least this long, then
+            until the kinetic energy is below ``settle_ke`` x N m g R (at most
+            ``max_stage_time``), so that the unloading starts from rest rather than by
+            reversing a moving platen (the stress wave of that reversal, rho_b c Delta v,
+            grows with the sample's height at a held inertial number: docs/PHYSICS.md
+            section 7.5). None: no hold stage (left out of the JSON form while None).
         unloaded_stress: unloading ends when the top stress is below this fraction of the
             consolidation stress [-].
         unconfined: run the release and unconfined compression stages.
@@ -310,6 +317,17 @@ class UniaxialTest(Record):
         nullable=True,
         omit_default=True,
         doc="inertial number the unloading stage holds (None: inertial_number)",
+    )
+    hold_time: float | None = param(
+        None,
+        unit="s",
+        gt=0,
+        le=100.0,
+        nullable=True,
+        omit_default=True,
+        doc="a hold stage between consolidation and unloading: the top platen still for at "
+        "least this long, then until the kinetic energy is below settle_ke x N m g R "
+        "(None: no hold)",
     )
     unloaded_stress: float = param(
         0.01,

@@ -138,6 +138,37 @@ def test_an_unloading_cut_short_is_the_full_ones_prefix_and_reads_the_same_stiff
         assert short.scalars[k] == held.scalars[k], k
 
 
+def test_a_hold_stops_the_platen_until_rest_and_the_unloading_starts_from_there(held):
+    """``hold_time``: a stage between consolidation and unloading with the top platen still
+    for at least hold_time, then until the kinetic energy is below settle_ke N m g R; what
+    came before is the run without it bit for bit, and the unloading starts where the hold
+    ended."""
+    from benchmarks.size_series import cut_short
+
+    t = replace(cut_short(held.test), hold_time=5e-3)
+    res = engine.run_uniaxial(t)
+    assert list(res.stages) == ["fill", "pre_compression", "consolidation", "hold", "unloading"]
+    plain = held.stages["consolidation"].curves
+    for k, v in res.stages["consolidation"].curves.items():
+        assert v.tobytes() == plain[k].tobytes(), k
+    h, u = res.stages["hold"].curves, res.stages["unloading"].curves
+    assert np.all(h["platen_gap"] == h["platen_gap"][0])  # the platen did not move
+    assert h["time"][-1] - h["time"][0] >= t.hold_time
+    m = t.density * sphere_volume(t.radius)
+    assert h["kinetic_energy"][-1] <= t.settle_ke * t.n_particles * m * t.gravity * t.radius
+    assert h["kinetic_energy"][0] > h["kinetic_energy"][-1]  # it came to rest in the hold
+    assert u["stress_top"][0] == h["stress_top"][-1] and u["time"][0] == h["time"][-1]
+    assert u["platen_gap"][-1] > u["platen_gap"][0]  # then the unloading lifts the platen
+    assert res.scalars["loading_stiffness"] == held.scalars["loading_stiffness"]
+    assert math.isfinite(res.scalars["unloading_stiffness"])
+    # the JSON form: left out while None, so a test made before the field keeps its form
+    assert "hold_time" not in held.test.to_dict()
+    assert engine.UniaxialTest.from_dict(t.to_dict()) == t
+    for value in (0.0, -1e-3, 1e3):
+        with pytest.raises(engine.ParameterError, match="hold_time"):
+            replace(t, hold_time=value)
+
+
 def test_the_unloading_inertial_number_is_a_field_like_the_others():
     t = tiny(inertial_number=5e-4, unloading_inertial_number=1e-4)
     assert t.stage_inertial_number("unloading") == 1e-4

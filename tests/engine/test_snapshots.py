@@ -12,7 +12,7 @@ import pytest
 import engine
 from engine.io.vtkhdf import FIELD_UNITS, SnapshotWriter
 from engine.simulation.snapshot import particle_fields
-from engine.uniaxial.driver import STAGES
+from engine.uniaxial.driver import stages_of
 
 h5py = pytest.importorskip("h5py")
 
@@ -50,7 +50,7 @@ def _step(f, k: int, group: str, name: str, offsets: str, count):
 
 def test_every_stage_end_keeps_a_consistent_snapshot(run):
     res = run[0]
-    assert list(res.stages) == list(STAGES)
+    assert list(res.stages) == list(stages_of(res.test))
     t_prev = -1.0
     for name, st in res.stages.items():
         s = st.snapshot
@@ -110,7 +110,7 @@ def test_stage_files_read_back_with_h5py(run):
         "particles.pvd",
         "contacts.pvd",
         *(f"{kind}-{k:04d}.vtu" for k in range(len(snaps)) for kind in ("particles", "contacts")),
-        *(f"{s}.png" for s in STAGES),
+        *(f"{s}.png" for s in stages_of(res.test)),
     }
     with h5py.File(d / "stages" / "particles.vtkhdf", "r") as f:
         root = f["VTKHDF"]
@@ -118,7 +118,7 @@ def test_stage_files_read_back_with_h5py(run):
         assert tuple(root.attrs["Version"]) == (2, 0)
         assert int(root["Steps"].attrs["NSteps"]) == len(snaps)
         np.testing.assert_allclose(root["Steps/Values"][()], [s.time for s in snaps])
-        assert json.loads(f["demscale"].attrs["stages"]) == list(STAGES)
+        assert json.loads(f["demscale"].attrs["stages"]) == list(stages_of(res.test))
         assert json.loads(f["demscale"].attrs["units"]) == FIELD_UNITS
         for k, s in enumerate(snaps):
             n = len(s.radii)

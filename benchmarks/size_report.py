@@ -290,6 +290,29 @@ def same_bed(slow, fast) -> bool:
     return all(k in slow.scalars and slow.scalars[k] == fast.scalars.get(k) for k in names)
 
 
+def _stiffness_checks(kind: str, against: str, law_name: str, sizes: dict) -> list[dict]:
+    """Per size of ``sizes`` ({size: planned pairs}), the unloading stiffness of ``kind``'s
+    runs against ``against``'s, paired by seed (:func:`_paired`), each pair's bed compared
+    (:func:`same_bed`); ``slow`` and ``fast`` the two sides' values, in pair order."""
+    checks = []
+    for size, n in sorted(sizes.items()):
+        pairs = _stored_pairs(kind, against, law_name, size, n)
+        rows = _paired(pairs, ("unloading_stiffness",), n)
+        checks.append(
+            {
+                "size": size,
+                "seeds": [p[0] for p in pairs],
+                "planned": n,
+                "same_bed": [same_bed(p[1], p[2]) for p in pairs],
+                "slow": [p[1].metrics["unloading_stiffness"][0] for p in pairs],
+                "fast": [p[2].metrics["unloading_stiffness"][0] for p in pairs],
+                "stiffness": rows,
+                "verdict": rows["unloading_stiffness"]["verdict"],
+            }
+        )
+    return checks
+
+
 def unload_check(law_name: str) -> dict | None:
     """The slow unloading's checks (benchmarks/size_series.py, kinds ``unload`` and
     ``unload_check``, fixed before their runs), one per size of ``UNLOAD_CHECK_SIZES`` (5
@@ -300,21 +323,7 @@ def unload_check(law_name: str) -> dict | None:
     sizes = S.UNLOAD_CHECK_SIZES.get(law_name)
     if not sizes:
         return None
-    checks = []
-    for size, n in sorted(sizes.items()):
-        pairs = _stored_pairs("unload_check", "unload", law_name, size, n)
-        rows = _paired(pairs, ("unloading_stiffness",), n)
-        checks.append(
-            {
-                "size": size,
-                "seeds": [p[0] for p in pairs],
-                "planned": n,
-                "same_bed": [same_bed(p[1], p[2]) for p in pairs],
-                "slow": [p[1].metrics["unloading_stiffness"][0] for p in pairs],
-                "stiffness": rows,
-                "verdict": rows["unloading_stiffness"]["verdict"],
-            }
-        )
+    checks = _stiffness_checks("unload_check", "unload", law_name, sizes)
     return {"checks": checks, "decided": all(c["verdict"] == "equivalent" for c in checks)}
 
 
@@ -473,6 +482,82 @@ def unload_lines() -> list[str]:
             )
             out += ["", head, "", *_curve_lines(curve)]
         out.append("")
+    return out
+
+
+def rest_check(law_name: str) -> dict | None:
+    """The unloading from rest (benchmarks/size_series.py, kind ``unload_rest``, fixed
+    before its runs), rule (1): per size of ``UNLOAD_REST_SIZES``, its unloading stiffness
+    against the slow series' (``unload``), paired by seed as :func:`unload_check` pairs
+    (``slow``: from rest, ``fast``: reversed), each pair's bed compared (:func:`same_bed`).
+    None without the series."""
+    sizes = S.UNLOAD_REST_SIZES.get(law_name)
+    if not sizes:
+        return None
+    checks = _stiffness_checks("unload_rest", "unload", law_name, sizes)
+    return {"checks": checks}
+
+
+def rest_curves(law_name: str) -> dict:
+    """The unloading from rest's unloading-stiffness curve (rule (2) of ``unload_rest``;
+    a non-positive secant is no value), with the bulk in compression's tolerance and
+    reference size."""
+    return series_curves(
+        "unload_rest",
+        ("unloading_stiffness",),
+        DEFAULT_TOLERANCES,
+        FEATURES["bulk_compression"][3],
+        law_name,
+        positive=True,
+    )
+
+
+def rest_lines() -> list[str]:
+    """The report's account of the unloading from rest (benchmarks/size_series.py)."""
+    out = [
+        "### The unloading from rest",
+        "",
+        "Fixed before its runs (benchmarks/size_series.py, kind `unload_rest`): the slow "
+        "unloading's test with a hold stage between the consolidation and the unloading "
+        f"(`hold_time` = {S.HOLD_TIME:g} s x size / 20, about five periods of the bed's lowest "
+        "axial mode, then until the kinetic energy is below settle_ke N m g R), so that the "
+        "unloading starts from rest instead of reversing a platen that moves at the loading "
+        "speed (`python -m benchmarks.unloading_transient`: that reversal's stress wave takes "
+        "11 % to 34 % of the consolidation stress off the top platen in the first "
+        "millisecond, 5 to 20 d); the runs stop once the stiffness is read, as the 20-d "
+        "check's. Rule (1), per size: the unloading stiffness from rest against the slow "
+        "series' on the same consolidated bed, paired by seed, "
+        f"+-{100 * S.RATE_EQUIVALENCE:g} % on the 90 % interval. Rule (2): the curve of the "
+        "unloading stiffness from rest and its need, that property's own line; it does not "
+        "enter the bulk in compression's need or the planner (the kind stays undecided by "
+        "its loading stiffness, and the rest series' unloading rate is assumed, not checked, "
+        "slow enough).",
+        "",
+    ]
+    for law_name in S.UNLOAD_REST_SIZES:
+        c = rest_check(law_name)
+        out += [
+            f"Law {law_name}:",
+            "",
+            "| size [d across] | pairs stored of planned | same bed | from rest [MPa] | "
+            "reversed (the slow series') [MPa] | paired difference (mean, 90 %) | verdict |",
+            "|---:|---:|---:|---:|---:|---|---|",
+        ]
+        for k in c["checks"]:
+            r = k["stiffness"]["unloading_stiffness"]
+            out.append(
+                f"| {k['size']:.3g} | {len(k['seeds'])} of {k['planned']} | "
+                f"{sum(k['same_bed'])} of {len(k['same_bed'])} | "
+                f"{_stiffness_mean(k['slow'])} | {_stiffness_mean(k['fast'])} | "
+                f"{_mean_words(r)} | {k['verdict']} |"
+            )
+        out += [
+            "",
+            "Its unloading-stiffness curve (rule (2): that property's own need, not the kind's):",
+            "",
+            *_curve_lines(rest_curves(law_name)),
+            "",
+        ]
     return out
 
 
@@ -1392,7 +1477,7 @@ def confound_lines() -> list[str]:
                 f"| {law_name} | {size:.3g} | {v:.3f} | {unl} | {lag_ld:.2f} | "
                 f"{_stiffness_mean(unls)} |"
             )
-    return [*out, "", *rate_lines(), *unload_lines()]
+    return [*out, "", *rate_lines(), *unload_lines(), *rest_lines()]
 
 
 def rate_lines() -> list[str]:

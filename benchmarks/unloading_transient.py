@@ -1,26 +1,28 @@
 """The top platen's stress at the start of the unloading, read from the stored full files of
-the size series' slow-unloading runs (kinds ``unload`` and ``unload_check``,
-benchmarks/size_series.py): how much of the consolidation stress the top platen loses in
-the first curve sample, against the interior's, and whether that drop is the stress wave a
-velocity jump launches into an elastic medium, Delta sigma = rho_b c Delta v.
+the size series' slow-unloading runs (kinds ``unload``, ``unload_check`` and
+``unload_rest``, benchmarks/size_series.py): how much of the consolidation stress the top
+platen loses in the first curve sample, against the interior's, and whether that drop is the
+stress wave a velocity jump launches into an elastic medium, Delta sigma = rho_b c Delta v.
 
     python -m benchmarks.unloading_transient      # the table, and its JSON stored
 
 At the end of the consolidation the top platen moves down at the loading speed, which at a
 held inertial number grows with the sample's height (v = I (h / d) sqrt(sigma / rho)); the
-unloading reverses it. A reversal by Delta v = v_load + v_unload unloads the layer at the
-platen at once, by rho_b c Delta v (rho_b the bulk density, c the sample's wave speed),
-while the interior learns of it only after the wave's transit. The unloading stiffness is a
-secant over the samples between half and all of the peak stress of the top platen's curve
-(``engine.uniaxial.measures.secant_slope``), so such a drop, where it is a sizeable share
-of the consolidation stress, sits inside the secant's window. This module measures, per
-run: v_load (the platen's speed over the consolidation's last sample) and v_unload (over
-the unloading's first) [m/s], the top stress's drop over that first sample [Pa] and as a
-share of its start, the interior virial stress's share, the bulk density rho_b = rho (1 -
-porosity, interior) [kg/m^3], and c_eff = drop / (rho_b Delta v) [m/s]: a constant c_eff
-across sizes says the drop is the wave's. The full files live outside git
-(``var/size_series/``, regenerable from the digests' tests); a file whose sha256 is not
-its digest's is skipped. Stored: benchmarks/results/unloading_transient/summary.json.
+unloading reverses it (``unload_rest``: a hold stops it first, so the unloading starts from
+rest and Delta v is v_unload alone). A reversal by Delta v = v_load + v_unload unloads the
+layer at the platen at once, by rho_b c Delta v (rho_b the bulk density, c the sample's wave
+speed), while the interior learns of it only after the wave's transit. The unloading
+stiffness is a secant over the samples between half and all of the peak stress of the top
+platen's curve (``engine.uniaxial.measures.secant_slope``), so such a drop, where it is a
+sizeable share of the consolidation stress, sits inside the secant's window. This module
+measures, per run: v_load (the platen's speed over the last sample of the stage before the
+unloading, the consolidation's or the hold's, 0) and v_unload (over the unloading's first)
+[m/s], the top stress's drop over that first sample [Pa] and as a share of its start, the
+interior virial stress's share, the bulk density rho_b = rho (1 - porosity, interior)
+[kg/m^3], and c_eff = drop / (rho_b Delta v) [m/s]: a constant c_eff across sizes says the
+drop is the wave's. The full files live outside git (``var/size_series/``, regenerable from
+the digests' tests); a file whose sha256 is not its digest's is skipped. Stored:
+benchmarks/results/unloading_transient/summary.json.
 """
 
 from __future__ import annotations
@@ -35,15 +37,17 @@ from benchmarks import size_series as S
 from engine.io.digest import sha256_of
 
 STORE = S.ROOT / "benchmarks" / "results" / "unloading_transient"
-KINDS = ("unload", "unload_check")
+KINDS = ("unload", "unload_check", "unload_rest")
 
 
 def run_row(path: Path, density: float) -> dict:
-    """One run's first unloading sample against its consolidation's last (module
-    docstring), from its full file; ``density`` the particles' [kg/m^3]."""
+    """One run's first unloading sample against the last of the stage before it (the
+    consolidation, or the hold where the run has one: module docstring), from its full
+    file; ``density`` the particles' [kg/m^3]."""
     with h5py.File(path) as f:
         c, u = f["stages/consolidation"], f["stages/unloading"]
-        gap, t = c["platen_gap"][-2:], c["time"][-2:]
+        before = f["stages/hold"] if "hold" in f["stages"] else c
+        gap, t = before["platen_gap"][-2:], before["time"][-2:]
         ug, ut = u["platen_gap"][:2], u["time"][:2]
         top, inner = u["stress_top"][:2], u["stress_interior"][:2]
         porosity = float(c["porosity_interior"][-1])

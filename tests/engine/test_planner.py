@@ -331,6 +331,34 @@ def test_the_slow_unloadings_need_counts_only_with_every_sizes_check_equivalent(
     assert five["same_bed"] == [True, False, False, False]
 
 
+def test_the_unloading_from_rest_is_judged_against_the_reversed_one_on_the_same_bed(
+    monkeypatch,
+):
+    """benchmarks/size_report.rest_check (stand-in digests): per size of the rest series,
+    the rest run over the slow series' reversed run of the same seed, by the paired rule;
+    ``slow`` holds the rest values, ``fast`` the reversed ones."""
+    from types import SimpleNamespace
+
+    from benchmarks import size_report as R
+    from benchmarks import size_series as S
+
+    def stored(kind, law, size, seed):
+        f = {"unload": 1.0, "unload_rest": 1.15 + 0.002 * seed if size == 20.0 else 1.0}[kind]
+        return SimpleNamespace(
+            ok=True,
+            metrics={"unloading_stiffness": [8e5 * f]},
+            scalars={"loading_stiffness": 2e5, "consolidated_porosity": 0.43},
+        )
+
+    monkeypatch.setattr(S, "UNLOAD_REST_SIZES", {"bond1": {5.0: 4, 20.0: 2}})
+    monkeypatch.setattr(S, "stored", stored)
+    five, twenty = R.rest_check("bond1")["checks"]
+    assert five["stiffness"]["unloading_stiffness"]["differences"] == [0.0] * 4
+    assert twenty["verdict"] == "differs" and twenty["same_bed"] == [True, True]
+    assert twenty["slow"] == [8e5 * 1.152, 8e5 * 1.154] and twenty["fast"] == [8e5, 8e5]
+    assert R.rest_check("bond3") is None
+
+
 def test_a_decided_rate_check_takes_the_stiffnesses_from_the_capped_series(monkeypatch):
     """Where the rate check decides (stand-in), the bulk in compression's stiffness curves
     are the capped series' and its density and coordination the held series'; the kind is

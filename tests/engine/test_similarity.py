@@ -78,6 +78,7 @@ def test_similar_scales_every_dimensional_field_of_a_test():
     assert u.radius == 4 * t.radius and u.gravity == t.gravity / 4
     assert u.dt == 4 * t.dt and u.output_interval == 4 * t.output_interval
     assert u.release_time == 4 * t.release_time and u.max_stage_time == 4 * t.max_stage_time
+    assert similar(replace(t, hold_time=0.01), 4.0).hold_time == 0.04
     # velocities, stresses, densities and dimensionless fields are unchanged
     for k in ("platen_speed", "max_platen_speed", "pour_speed", "pre_stress", "density"):
         assert getattr(u, k) == getattr(t, k), k
@@ -88,13 +89,18 @@ def test_similar_scales_every_dimensional_field_of_a_test():
 
 
 def _tiny() -> engine.UniaxialTest:
-    # 3.5 x 3.5 x 10.5 diameters (about 140 particles): the whole test, cohesive. Its time
+    # 3.5 x 3.5 x 10.5 diameters (about 140 particles): the whole test, cohesive, with a
+    # hold stage before the unloading (its time in seconds, its rest in joules). Its time
     # step is given (the automatic one, 0.4 of the critical time), so that it scales exactly:
     # the automatic step's Hertz limit takes fractional powers, exact to round-off only
     # (test_the_automatic_time_step_follows_the_similarity)
     d = 2 * 2.5e-3
     t = engine.UniaxialTest(
-        cell=(3.5 * d, 3.5 * d, 10.5 * d), pair_law=LAW, seed=3, max_unconfined_strain=0.04
+        cell=(3.5 * d, 3.5 * d, 10.5 * d),
+        pair_law=LAW,
+        seed=3,
+        max_unconfined_strain=0.04,
+        hold_time=4e-3,
     )
     return replace(t, dt=t.resolved_dt())
 
@@ -117,7 +123,7 @@ def runs():
 @pytest.mark.parametrize("s", [4, 16])
 def test_a_whole_test_in_other_units_is_the_same_run_bit_for_bit(runs, s):
     a, b = runs[1], runs[s]
-    assert list(a.stages) == list(b.stages)
+    assert list(a.stages) == list(b.stages) and "hold" in a.stages
     for stage, ra in a.stages.items():
         rb = b.stages[stage]
         assert ra.steps == rb.steps, stage

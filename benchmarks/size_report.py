@@ -551,6 +551,18 @@ def rest_lines() -> list[str]:
                 f"{_stiffness_mean(k['slow'])} | {_stiffness_mean(k['fast'])} | "
                 f"{_mean_words(r)} | {k['verdict']} |"
             )
+        out.append("")
+        for k in c["checks"]:
+            diffs = ", ".join(
+                f"{100 * x:+.1f} %" for x in k["stiffness"]["unloading_stiffness"]["differences"]
+            )
+            rest = ", ".join(f"{x / 1e6:.3f}" for x in k["slow"])
+            rev = ", ".join(f"{x / 1e6:.3f}" for x in k["fast"])
+            if diffs:
+                out.append(
+                    f"- {k['size']:g} d, seeds {', '.join(map(str, k['seeds']))}: from rest "
+                    f"{rest} MPa, reversed {rev} MPa; paired differences {diffs}"
+                )
         out += [
             "",
             "Its unloading-stiffness curve (rule (2): that property's own need, not the kind's):",

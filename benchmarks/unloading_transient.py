@@ -20,9 +20,11 @@ unloading, the consolidation's or the hold's, 0) and v_unload (over the unloadin
 [m/s], the top stress's drop over that first sample [Pa] and as a share of its start, the
 interior virial stress's share, the bulk density rho_b = rho (1 - porosity, interior)
 [kg/m^3], and c_eff = drop / (rho_b Delta v) [m/s]: a constant c_eff across sizes says the
-drop is the wave's. The full files live outside git (``var/size_series/``, regenerable from
-the digests' tests); a file whose sha256 is not its digest's is skipped. Stored:
-benchmarks/results/unloading_transient/summary.json.
+drop is the wave's. For a run with a hold stage it also stores the hold's length [s] and the
+top and interior stresses left at its end, as shares of their values at its start (the
+relaxation once the platen stops). The full files live outside git (``var/size_series/``,
+regenerable from the digests' tests); a file whose sha256 is not its digest's is skipped.
+Stored: benchmarks/results/unloading_transient/summary.json.
 """
 
 from __future__ import annotations
@@ -51,6 +53,14 @@ def run_row(path: Path, density: float) -> dict:
         ug, ut = u["platen_gap"][:2], u["time"][:2]
         top, inner = u["stress_top"][:2], u["stress_interior"][:2]
         porosity = float(c["porosity_interior"][-1])
+        hold = {}
+        if "hold" in f["stages"]:
+            h = f["stages/hold"]
+            hold = {
+                "hold_time": float(h["time"][-1] - h["time"][0]),
+                "hold_top_left": float(h["stress_top"][-1] / h["stress_top"][0]),
+                "hold_interior_left": float(h["stress_interior"][-1] / h["stress_interior"][0]),
+            }
     v_load = float((gap[0] - gap[1]) / (t[1] - t[0]))
     v_unload = float((ug[1] - ug[0]) / (ut[1] - ut[0]))
     rho_b = density * (1.0 - porosity)
@@ -63,6 +73,7 @@ def run_row(path: Path, density: float) -> dict:
         "interior_share_left": float(inner[1] / inner[0]),
         "bulk_density": rho_b,
         "c_eff": drop / (rho_b * (v_load + v_unload)),
+        **hold,
     }
 
 
@@ -107,6 +118,29 @@ def table(data: dict) -> list[str]:
     return lines
 
 
+def hold_table(data: dict) -> list[str]:
+    """The hold's size means (runs with a hold stage) as a markdown table: its length and
+    the top and interior stresses left at its end, as shares of their values at its start."""
+    lines = [
+        "| kind | size [d] | runs | hold [s] | top stress left | interior stress left |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
+    for kind, sizes in data.items():
+        for size, rs in sizes.items():
+            rs = [r for r in rs if "hold_time" in r]
+            if not rs:
+                continue
+
+            def m(k, rs=rs):
+                return float(np.mean([r[k] for r in rs]))
+
+            lines.append(
+                f"| {kind} | {size} | {len(rs)} | {m('hold_time'):.4f} | "
+                f"{m('hold_top_left'):.3f} | {m('hold_interior_left'):.3f} |"
+            )
+    return lines if len(lines) > 2 else []
+
+
 def main() -> int:
     data = rows()
     if not data:
@@ -122,6 +156,10 @@ def main() -> int:
     STORE.mkdir(parents=True, exist_ok=True)
     (STORE / "summary.json").write_text(json.dumps(summary, indent=1, allow_nan=False) + "\n")
     print("\n".join(table(data)))
+    held = hold_table(data)
+    if held:
+        print("\nThe hold (runs that start the unloading from rest):")
+        print("\n".join(held))
     lo, hi = summary["c_eff_range"]
     print(f"c_eff over {len(c)} runs: {lo:.1f} to {hi:.1f} m/s (mean {np.mean(c):.1f})")
     return 0

@@ -350,11 +350,12 @@ def paired_rule_power(
     return out
 
 
-def unload_curves(law_name: str) -> dict:
-    """The slow unloading series' unloading-stiffness curve (``unload``; a non-positive
-    secant is no value), with the bulk in compression's tolerance and reference size."""
+def unload_curves(law_name: str, kind: str = "unload") -> dict:
+    """The slow unloading series' unloading-stiffness curve (``unload``, or ``kind``: the
+    unloading from rest's, ``unload_rest``; a non-positive secant is no value), with the
+    bulk in compression's tolerance and reference size."""
     return series_curves(
-        "unload",
+        kind,
         ("unloading_stiffness",),
         DEFAULT_TOLERANCES,
         FEATURES["bulk_compression"][3],
@@ -498,20 +499,6 @@ def rest_check(law_name: str) -> dict | None:
     return {"checks": checks}
 
 
-def rest_curves(law_name: str) -> dict:
-    """The unloading from rest's unloading-stiffness curve (rule (2) of ``unload_rest``;
-    a non-positive secant is no value), with the bulk in compression's tolerance and
-    reference size."""
-    return series_curves(
-        "unload_rest",
-        ("unloading_stiffness",),
-        DEFAULT_TOLERANCES,
-        FEATURES["bulk_compression"][3],
-        law_name,
-        positive=True,
-    )
-
-
 def rest_lines() -> list[str]:
     """The report's account of the unloading from rest (benchmarks/size_series.py)."""
     out = [
@@ -522,11 +509,12 @@ def rest_lines() -> list[str]:
         f"(`hold_time` = {S.HOLD_TIME:g} s x size / 20, about five periods of the bed's lowest "
         "axial mode, then until the kinetic energy is below settle_ke N m g R), so that the "
         "unloading starts from rest instead of reversing a platen that moves at the loading "
-        "speed (`python -m benchmarks.unloading_transient`: that reversal's stress wave takes "
-        "11 % to 34 % of the consolidation stress off the top platen in the first "
-        "millisecond, 5 to 20 d); the runs stop once the stiffness is read, as the 20-d "
-        "check's. Rule (1), per size: the unloading stiffness from rest against the slow "
-        "series' on the same consolidated bed, paired by seed, "
+        "speed (that reversal's stress wave: `python -m benchmarks.unloading_transient`, "
+        "which also measures what the hold leaves: at 20 d the bed's lowest mode still "
+        "rings at the hold's end, docs/PHYSICS.md section 7.5); the runs stop once the "
+        "stiffness is read, as the 20-d check's. Rule (1), per size: the unloading "
+        "stiffness from rest against the slow series' on the same consolidated bed, paired "
+        "by seed, "
         f"+-{100 * S.RATE_EQUIVALENCE:g} % on the 90 % interval. Rule (2): the curve of the "
         "unloading stiffness from rest and its need, that property's own line; it does not "
         "enter the bulk in compression's need or the planner (the kind stays undecided by "
@@ -567,7 +555,7 @@ def rest_lines() -> list[str]:
             "",
             "Its unloading-stiffness curve (rule (2): that property's own need, not the kind's):",
             "",
-            *_curve_lines(rest_curves(law_name)),
+            *_curve_lines(unload_curves(law_name, "unload_rest")),
             "",
         ]
     return out

@@ -22,9 +22,14 @@ interior virial stress's share, the bulk density rho_b = rho (1 - porosity, inte
 [kg/m^3], and c_eff = drop / (rho_b Delta v) [m/s]: a constant c_eff across sizes says the
 drop is the wave's. For a run with a hold stage it also stores the hold's length [s] and the
 top and interior stresses left at its end, as shares of their values at its start (the
-relaxation once the platen stops). The full files live outside git (``var/size_series/``,
-regenerable from the digests' tests); a file whose sha256 is not its digest's is skipped.
-Stored: benchmarks/results/unloading_transient/summary.json.
+relaxation once the platen stops), and how much the top and interior stresses still swing
+over the hold's last fifth (peak to peak, as a share of their start) with the kinetic energy
+at its end as a share of that fifth's largest: a bed whose lowest axial mode still rings has
+a large top swing, a small interior one (the mode's stress is antisymmetric about the
+middle, which the interior window straddles) and its energy ending near a turning point. The
+full files live outside git (``var/size_series/``, regenerable from the digests' tests); a
+file whose sha256 is not its digest's is skipped. Stored:
+benchmarks/results/unloading_transient/summary.json.
 """
 
 from __future__ import annotations
@@ -56,10 +61,17 @@ def run_row(path: Path, density: float) -> dict:
         hold = {}
         if "hold" in f["stages"]:
             h = f["stages/hold"]
+            top_h, ke = h["stress_top"][:], h["kinetic_energy"][:]
+            tail = slice(len(top_h) - max(2, len(top_h) // 5), None)  # the last fifth
             hold = {
                 "hold_time": float(h["time"][-1] - h["time"][0]),
-                "hold_top_left": float(h["stress_top"][-1] / h["stress_top"][0]),
+                "hold_top_left": float(top_h[-1] / top_h[0]),
                 "hold_interior_left": float(h["stress_interior"][-1] / h["stress_interior"][0]),
+                "hold_top_swing": float(np.ptp(top_h[tail]) / top_h[0]),
+                "hold_interior_swing": float(
+                    np.ptp(h["stress_interior"][tail]) / h["stress_interior"][0]
+                ),
+                "hold_end_ke_share": float(ke[-1] / ke[tail].max()),
             }
     v_load = float((gap[0] - gap[1]) / (t[1] - t[0]))
     v_unload = float((ug[1] - ug[0]) / (ut[1] - ut[0]))
@@ -122,8 +134,9 @@ def hold_table(data: dict) -> list[str]:
     """The hold's size means (runs with a hold stage) as a markdown table: its length and
     the top and interior stresses left at its end, as shares of their values at its start."""
     lines = [
-        "| kind | size [d] | runs | hold [s] | top stress left | interior stress left |",
-        "|---|---:|---:|---:|---:|---:|",
+        "| kind | size [d] | runs | hold [s] | top stress left | interior stress left | "
+        "top swing, last fifth | interior swing, last fifth | end KE / max KE, last fifth |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for kind, sizes in data.items():
         for size, rs in sizes.items():
@@ -136,7 +149,9 @@ def hold_table(data: dict) -> list[str]:
 
             lines.append(
                 f"| {kind} | {size} | {len(rs)} | {m('hold_time'):.4f} | "
-                f"{m('hold_top_left'):.3f} | {m('hold_interior_left'):.3f} |"
+                f"{m('hold_top_left'):.3f} | {m('hold_interior_left'):.3f} | "
+                f"{m('hold_top_swing'):.3f} | {m('hold_interior_swing'):.4f} | "
+                f"{m('hold_end_ke_share'):.3f} |"
             )
     return lines if len(lines) > 2 else []
 
@@ -147,21 +162,33 @@ def main() -> int:
         print("no full files here (var/size_series/): run benchmarks.size_series first")
         return 1
     c = [r["c_eff"] for sizes in data.values() for rs in sizes.values() for r in rs]
+    by_kind = {
+        kind: [r["c_eff"] for rs in sizes.values() for r in rs] for kind, sizes in data.items()
+    }
     summary = {
         "what": __doc__.splitlines()[0],
         "runs": data,
         "c_eff_range": [min(c), max(c)],
         "c_eff_mean": float(np.mean(c)),
+        "c_eff_by_kind": {
+            k: {"runs": len(v), "range": [min(v), max(v)], "mean": float(np.mean(v))}
+            for k, v in by_kind.items()
+        },
     }
     STORE.mkdir(parents=True, exist_ok=True)
     (STORE / "summary.json").write_text(json.dumps(summary, indent=1, allow_nan=False) + "\n")
     print("\n".join(table(data)))
     held = hold_table(data)
     if held:
-        print("\nThe hold (runs that start the unloading from rest):")
+        print("\nThe hold (runs with a hold stage):")
         print("\n".join(held))
     lo, hi = summary["c_eff_range"]
     print(f"c_eff over {len(c)} runs: {lo:.1f} to {hi:.1f} m/s (mean {np.mean(c):.1f})")
+    for k, v in summary["c_eff_by_kind"].items():
+        print(
+            f"  {k}: {v['runs']} runs, {v['range'][0]:.1f} to {v['range'][1]:.1f} m/s "
+            f"(mean {v['mean']:.1f})"
+        )
     return 0
 
 

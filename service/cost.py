@@ -11,7 +11,8 @@ microseconds per run). Everything here works on the request's fields and on *pro
   to its time step and to its stages' physics (:data:`BOUNDS`);
 - :func:`worst_stage_times`: the longest simulated time each stage can take, as the engine
   bounds it (``max_stage_time`` for every stage, and what each stage's physics adds: the
-  platen cannot travel further than the pour column, the release ends at ``release_time``,
+  platen cannot travel further than the pour column, a hold ends only by coming to rest
+  (``max_stage_time``), the release ends at ``release_time``,
   unconfined compression at ``max_unconfined_strain``);
 - :func:`worst_case`: particle-steps and curve samples of every planned run at those times,
   which the admission caps compare (``DEMSCALE_MAX_PARTICLE_STEPS``,

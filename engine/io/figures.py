@@ -70,7 +70,6 @@ FIGURES_VERSION = 9
 #: Kinds drawn from the report on a whole figure (several panels), not from the curves.
 _WHOLE_FIGURE = ("error_vs_runtime", "resolution")
 
-_CONFINED = ("consolidation", "unloading")
 #: Verdict metrics: table column (engine.study.metrics.METRIC_COLUMNS) and panel title.
 _TITLES = {
     "density": "bulk density (interior)",

@@ -224,10 +224,13 @@ class UniaxialTest(Record):
         hold_time: a hold stage between the consolidation and the unloading [s]: the top
             platen stopped where the consolidation left it for at least this long, then
             until the kinetic energy is below ``settle_ke`` x N m g R (at most
-            ``max_stage_time``), so that the unloading starts from rest rather than by
-            reversing a moving platen (the stress wave of that reversal, rho_b c Delta v,
-            grows with the sample's height at a held inertial number: docs/PHYSICS.md
-            section 7.5). None: no hold stage (left out of the JSON form while None).
+            ``max_stage_time``; < ``max_stage_time``), so that the unloading starts with the
+            platen at rest rather than by reversing a moving one; the rest is judged on one
+            curve sample's kinetic energy, which a still-ringing bed can pass at a turning
+            point (docs/PHYSICS.md section 7.5). The stress wave of reversing a moving
+            platen, rho_b c Delta v, grows with the sample's height at a held inertial
+            number (same section). None: no hold stage (left out of the JSON form while
+            None).
         unloaded_stress: unloading ends when the top stress is below this fraction of the
             consolidation stress [-].
         unconfined: run the release and unconfined compression stages.
@@ -385,6 +388,13 @@ class UniaxialTest(Record):
                 f"{o}.unloading_inertial_number",
                 self.unloading_inertial_number,
                 "None where inertial_number is None (the constant platen_speed)",
+            )
+        if self.hold_time is not None and self.hold_time >= self.max_stage_time:
+            raise ParameterError(
+                f"{o}.hold_time",
+                self.hold_time,
+                f"< max_stage_time = {self.max_stage_time:g} s",
+                "the hold also waits for the bed to come to rest, within the stage bound",
             )
         if self.consolidation_stress <= self.pre_stress:
             raise ParameterError(

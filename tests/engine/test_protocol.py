@@ -18,6 +18,7 @@ import engine
 from engine.contact.hertz import hertz_damping_factor, hertz_impact_overlap
 from engine.contact.limits import damping_ratio
 from engine.simulation.packing import sphere_volume
+from engine.uniaxial.driver import stages_of
 from engine.uniaxial.measures import (
     SAMPLES_PER_WINDOW,
     SHEAR_BAND_DIAMETERS,
@@ -164,9 +165,20 @@ def test_a_hold_stops_the_platen_until_rest_and_the_unloading_starts_from_there(
     # the JSON form: left out while None, so a test made before the field keeps its form
     assert "hold_time" not in held.test.to_dict()
     assert engine.UniaxialTest.from_dict(t.to_dict()) == t
-    for value in (0.0, -1e-3, 1e3):
+    for value in (0.0, -1e-3, 1e3, t.max_stage_time):
         with pytest.raises(engine.ParameterError, match="hold_time"):
             replace(t, hold_time=value)
+    # the run order with every stage: the hold after the consolidation, before the unloading
+    assert stages_of(replace(t, unconfined=True)) == (
+        "fill",
+        "pre_compression",
+        "consolidation",
+        "hold",
+        "unloading",
+        "release",
+        "unconfined",
+    )
+    assert "hold" not in stages_of(held.test)
 
 
 def test_the_unloading_inertial_number_is_a_field_like_the_others():

@@ -161,6 +161,12 @@ def test_a_hold_stage_is_written_between_consolidation_and_unloading():
     v = t.platen_speed
     assert speeds == [0.0, -v, 0.0, v, 0.0, 0.0, -v, 0.0]
     assert ld.STAGES[-1] == "hold" and ld.STAGES.index("unloading") == 3
+    # hold_quiet: the step of the last sample above the energy kept in tq, from the start
+    q = ld.deck(replace(t, hold_quiet=0.005))
+    hold = [x for x in lines(q, "variable done equal")][3]
+    assert hold.endswith(f"*((v_n-v_tq)*{t.resolved_dt()!r}>={0.005!r})")
+    assert "variable tq equal ${t0}" in q
+    assert one(q, 'if "${kin} >').endswith('then "variable tq equal ${n}"')
 
 
 def test_the_deck_folder_holds_demscales_cloud_to_the_last_bit(tmp_path):

@@ -29,7 +29,8 @@ fill               run until the free-fall time has passed and the kinetic energ
 pre-compression,   the plate placed 0.05 R above the highest sphere, moved down at
 consolidation      ``platen_speed`` until its stress reaches each target
 hold               (``hold_time`` set) the plate stopped for ``hold_time``, then until the
-                   kinetic energy is below ``settle_ke N m g R``
+                   kinetic energy is below ``settle_ke N m g R`` (``hold_quiet``: at every
+                   sample for that long, the step of the last louder one kept in a variable)
 unloading          moved up until the stress is below ``unloaded_stress`` sigma_c
 release            ``change_box all boundary f f f`` (contacts across the faces go), the
                    box widened, the wide plate put where the plate was; settle or
@@ -770,11 +771,16 @@ class _Deck:
             self.begin("hold")
             self.velocity(0.0)
             self.start_stage("hold")
-            self.loop(
-                "hold",
-                f"((v_n-v_t0)*{_num(self.dt)}>={_num(t.hold_time)})"
-                f"*(v_kin<={_num(settle_energy(t))})",
-            )
+            rest = f"*(v_kin<={_num(settle_energy(t))})"
+            after: tuple[str, ...] = ()
+            if t.hold_quiet is not None:
+                # the step of the last sample above the energy (the stage's start at first)
+                self.add("variable tq equal ${t0}")
+                after = (
+                    f'if "${{kin}} > {_num(settle_energy(t))}" then "variable tq equal ${{n}}"',
+                )
+                rest = f"*((v_n-v_tq)*{_num(self.dt)}>={_num(t.hold_quiet)})"
+            self.loop("hold", f"((v_n-v_t0)*{_num(self.dt)}>={_num(t.hold_time)}){rest}", after)
             self.end("hold")
 
         self.begin("unloading")

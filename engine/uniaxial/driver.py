@@ -567,6 +567,22 @@ class _Driver:
                 f"relax the stress below {low:g} Pa",
             )
         if stage == "hold":
+            if t.hold_quiet is not None:
+
+                def quiet(r) -> bool:
+                    # the last sample above the energy (the stage's start where none was)
+                    loud = next(
+                        (row[0] for row in reversed(rec.rows) if row[6] > self.settle_energy),
+                        t0,
+                    )
+                    return r[0] - t0 >= t.hold_time and r[0] - max(loud, t0) >= t.hold_quiet
+
+                return (
+                    quiet,
+                    lambda r: min(1.0, (r[0] - t0) / max(t.hold_time, t.hold_quiet)),
+                    "come to rest (hold_time, then the kinetic energy below settle_ke x N m "
+                    "g R at every sample for hold_quiet)",
+                )
             return (
                 lambda r: self.settled(r, t.hold_time, t0),
                 lambda r: min(1.0, (r[0] - t0) / t.hold_time),

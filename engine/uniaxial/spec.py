@@ -231,6 +231,11 @@ class UniaxialTest(Record):
             platen, rho_b c Delta v, grows with the sample's height at a held inertial
             number (same section). None: no hold stage (left out of the JSON form while
             None).
+        hold_quiet: with ``hold_time``, the hold ends only once no curve sample's kinetic
+            energy has been above ``settle_ke`` x N m g R for this long [s] (the stage's
+            start counting as one that was): a window of samples, which a bed still ringing
+            in its lowest mode does not pass at a turning point, as one sample can. None: one
+            sample below it (left out of the JSON form while None).
         unloaded_stress: unloading ends when the top stress is below this fraction of the
             consolidation stress [-].
         unconfined: run the release and unconfined compression stages.
@@ -332,6 +337,16 @@ class UniaxialTest(Record):
         "least this long, then until the kinetic energy is below settle_ke x N m g R "
         "(None: no hold)",
     )
+    hold_quiet: float | None = param(
+        None,
+        unit="s",
+        gt=0,
+        le=100.0,
+        nullable=True,
+        omit_default=True,
+        doc="with hold_time: the hold ends only once no curve sample's kinetic energy has "
+        "been above settle_ke x N m g R for this long (None: one sample below it)",
+    )
     unloaded_stress: float = param(
         0.01,
         unit="1",
@@ -389,12 +404,18 @@ class UniaxialTest(Record):
                 self.unloading_inertial_number,
                 "None where inertial_number is None (the constant platen_speed)",
             )
-        if self.hold_time is not None and self.hold_time >= self.max_stage_time:
+        for name in ("hold_time", "hold_quiet"):
+            value = getattr(self, name)
+            if value is not None and value >= self.max_stage_time:
+                raise ParameterError(
+                    f"{o}.{name}",
+                    value,
+                    f"< max_stage_time = {self.max_stage_time:g} s",
+                    "the hold also waits for the bed to come to rest, within the stage bound",
+                )
+        if self.hold_quiet is not None and self.hold_time is None:
             raise ParameterError(
-                f"{o}.hold_time",
-                self.hold_time,
-                f"< max_stage_time = {self.max_stage_time:g} s",
-                "the hold also waits for the bed to come to rest, within the stage bound",
+                f"{o}.hold_quiet", self.hold_quiet, "None where hold_time is None (no hold)"
             )
         if self.consolidation_stress <= self.pre_stress:
             raise ParameterError(

@@ -486,21 +486,97 @@ def unload_lines() -> list[str]:
     return out
 
 
-def rest_check(law_name: str) -> dict | None:
-    """The unloading from rest (benchmarks/size_series.py, kind ``unload_rest``, fixed
-    before its runs), rule (1): per size of ``UNLOAD_REST_SIZES``, its unloading stiffness
-    against the slow series' (``unload``), paired by seed as :func:`unload_check` pairs
-    (``slow``: from rest, ``fast``: reversed), each pair's bed compared (:func:`same_bed`).
-    None without the series."""
-    sizes = S.UNLOAD_REST_SIZES.get(law_name)
+#: The unloadings from a hold (benchmarks/size_series.py): kind -> (its sizes per law, its
+#: rate check's kind, or None where none is run).
+FROM_REST = {
+    "unload_rest": ("UNLOAD_REST_SIZES", None),
+    "unload_quiet": ("UNLOAD_QUIET_SIZES", "unload_quiet_check"),
+}
+
+
+def rest_check(law_name: str, kind: str = "unload_rest") -> dict | None:
+    """An unloading from a hold (benchmarks/size_series.py, kinds ``unload_rest`` and
+    ``unload_quiet``, fixed before their runs), rule (1): per size of its table, its
+    unloading stiffness against the slow series' (``unload``), paired by seed as
+    :func:`unload_check` pairs (``slow``: from the hold, ``fast``: reversed), each pair's bed
+    compared (:func:`same_bed`); ``rate_checks``: its check three times slower again from
+    the same hold, where the kind has one, and ``decided``: such checks planned and every
+    one equivalent (rule (2)'s need is then that property's). None without the series."""
+    table, check_kind = FROM_REST[kind]
+    sizes = getattr(S, table).get(law_name)
     if not sizes:
         return None
-    checks = _stiffness_checks("unload_rest", "unload", law_name, sizes)
-    return {"checks": checks}
+    checks = _stiffness_checks(kind, "unload", law_name, sizes)
+    rate = []
+    if check_kind is not None:
+        rate = _stiffness_checks(check_kind, kind, law_name, S.TABLES[check_kind].get(law_name, {}))
+    return {
+        "checks": checks,
+        "rate_checks": rate,
+        "decided": bool(rate) and all(c["verdict"] == "equivalent" for c in rate),
+    }
+
+
+def _from_rest_law_lines(law_name: str, kind: str, what: str) -> list[str]:
+    """One law's account of an unloading from a hold (:func:`rest_check`): the paired
+    table, the pairs, the rate check where run, and the curve with whose need it is."""
+    c = rest_check(law_name, kind)
+    out = [
+        f"Law {law_name}:",
+        "",
+        f"| size [d across] | pairs stored of planned | same bed | {what} [MPa] | "
+        "reversed (the slow series') [MPa] | paired difference (mean, 90 %) | verdict |",
+        "|---:|---:|---:|---:|---:|---|---|",
+    ]
+    for k in c["checks"]:
+        r = k["stiffness"]["unloading_stiffness"]
+        out.append(
+            f"| {k['size']:.3g} | {len(k['seeds'])} of {k['planned']} | "
+            f"{sum(k['same_bed'])} of {len(k['same_bed'])} | "
+            f"{_stiffness_mean(k['slow'])} | {_stiffness_mean(k['fast'])} | "
+            f"{_mean_words(r)} | {k['verdict']} |"
+        )
+    out.append("")
+    for k in c["checks"]:
+        diffs = ", ".join(
+            f"{100 * x:+.1f} %" for x in k["stiffness"]["unloading_stiffness"]["differences"]
+        )
+        held = ", ".join(f"{x / 1e6:.3f}" for x in k["slow"])
+        rev = ", ".join(f"{x / 1e6:.3f}" for x in k["fast"])
+        if diffs:
+            out.append(
+                f"- {k['size']:g} d, seeds {', '.join(map(str, k['seeds']))}: {what} "
+                f"{held} MPa, reversed {rev} MPa; paired differences {diffs}"
+            )
+    for k in c["rate_checks"]:
+        r = k["stiffness"]["unloading_stiffness"]
+        diffs = ", ".join(f"{100 * x:+.1f} %" for x in r["differences"]) or "none"
+        slow = ", ".join(f"{x / 1e6:.3f}" for x in k["slow"])
+        slow = f" (three times slower: {slow} MPa)" if slow else ""
+        out += [
+            "",
+            f"The check at {k['size']:g} diameters (three times slower again from the same "
+            f"hold, paired by seed): {len(k['seeds'])} of {k['planned']} pairs stored, the "
+            f"same bed in {sum(k['same_bed'])}; paired differences {diffs}{slow}; mean "
+            f"{_mean_words(r)}: {k['verdict']}.",
+        ]
+    if FROM_REST[kind][1] is None:
+        head = "Its unloading-stiffness curve (rule (2): that property's own line, not the kind's):"
+    elif c["decided"]:
+        head = (
+            "Its unloading-stiffness curve (rule (2), its rate checked: that property's "
+            "need; not the kind's):"
+        )
+    else:
+        head = (
+            "Its unloading-stiffness curve (rule (2)); its need is not the rule's "
+            "(undecided) until the check is equivalent, and is never the kind's:"
+        )
+    return [*out, "", head, "", *_curve_lines(unload_curves(law_name, kind)), ""]
 
 
 def rest_lines() -> list[str]:
-    """The report's account of the unloading from rest (benchmarks/size_series.py)."""
+    """The report's account of the unloadings from a hold (benchmarks/size_series.py)."""
     out = [
         "### The unloading from rest",
         "",
@@ -514,50 +590,48 @@ def rest_lines() -> list[str]:
         "rings at the hold's end, docs/PHYSICS.md section 7.5); the runs stop once the "
         "stiffness is read, as the 20-d check's. Rule (1), per size: the unloading "
         "stiffness from rest against the slow series' on the same consolidated bed, paired "
-        "by seed, "
-        f"+-{100 * S.RATE_EQUIVALENCE:g} % on the 90 % interval. Rule (2): the curve of the "
-        "unloading stiffness from rest and its need, that property's own line; it does not "
-        "enter the bulk in compression's need or the planner (the kind stays undecided by "
-        "its loading stiffness, and the rest series' unloading rate is assumed, not checked, "
-        "slow enough).",
+        f"by seed, +-{100 * S.RATE_EQUIVALENCE:g} % on the 90 % interval. Rule (2): the "
+        "curve of the unloading stiffness from rest and its need, that property's own line; "
+        "it does not enter the bulk in compression's need or the planner (the kind stays "
+        "undecided by its loading stiffness, and the rest series' unloading rate is assumed, "
+        "not checked, slow enough).",
         "",
     ]
     for law_name in S.UNLOAD_REST_SIZES:
-        c = rest_check(law_name)
-        out += [
-            f"Law {law_name}:",
-            "",
-            "| size [d across] | pairs stored of planned | same bed | from rest [MPa] | "
-            "reversed (the slow series') [MPa] | paired difference (mean, 90 %) | verdict |",
-            "|---:|---:|---:|---:|---:|---|---|",
-        ]
-        for k in c["checks"]:
-            r = k["stiffness"]["unloading_stiffness"]
-            out.append(
-                f"| {k['size']:.3g} | {len(k['seeds'])} of {k['planned']} | "
-                f"{sum(k['same_bed'])} of {len(k['same_bed'])} | "
-                f"{_stiffness_mean(k['slow'])} | {_stiffness_mean(k['fast'])} | "
-                f"{_mean_words(r)} | {k['verdict']} |"
+        out += _from_rest_law_lines(law_name, "unload_rest", "from rest")
+    out += [
+        "### The unloading from a quiet rest",
+        "",
+        "Fixed before its runs (benchmarks/size_series.py, kinds `unload_quiet` and "
+        "`unload_quiet_check`, after the finding above): the unloading from rest made again "
+        f"with a hold that also waits for a quiet window (`hold_quiet` = {S.QUIET_TIME:g} s x "
+        "size / 20, about two periods of the lowest mode: no curve sample's kinetic energy "
+        "above the threshold for that long). Rule (1) as above; rule (2) its curve and need, "
+        "that property's need only when rule (3), its rate checked at 20 d three times slower "
+        "again from the same hold, is equivalent; the kind and the planner unchanged.",
+        "",
+    ]
+    for law_name in S.UNLOAD_QUIET_SIZES:
+        out += _from_rest_law_lines(law_name, "unload_quiet", "from a quiet rest")
+        pairs = [
+            (
+                z,
+                seed,
+                S.stored("unload_quiet", law_name, z, seed),
+                S.stored("unload_rest", law_name, z, seed),
             )
-        out.append("")
-        for k in c["checks"]:
-            diffs = ", ".join(
-                f"{100 * x:+.1f} %" for x in k["stiffness"]["unloading_stiffness"]["differences"]
-            )
-            rest = ", ".join(f"{x / 1e6:.3f}" for x in k["slow"])
-            rev = ", ".join(f"{x / 1e6:.3f}" for x in k["fast"])
-            if diffs:
-                out.append(
-                    f"- {k['size']:g} d, seeds {', '.join(map(str, k['seeds']))}: from rest "
-                    f"{rest} MPa, reversed {rev} MPa; paired differences {diffs}"
-                )
-        out += [
-            "",
-            "Its unloading-stiffness curve (rule (2): that property's own need, not the kind's):",
-            "",
-            *_curve_lines(unload_curves(law_name, "unload_rest")),
-            "",
+            for z, n in sorted(S.UNLOAD_QUIET_SIZES[law_name].items())
+            for seed in range(1, n + 1)
         ]
+        rows = [
+            f"- {z:g} d, seed {seed}: {q.metrics['unloading_stiffness'][0] / 1e6:.3f} MPa "
+            f"from a quiet rest, {r.metrics['unloading_stiffness'][0] / 1e6:.3f} from the "
+            "single-sample hold"
+            for z, seed, q, r in pairs
+            if q is not None and r is not None and q.ok and r.ok
+        ]
+        if rows:
+            out += ["Against the single-sample hold (a description, no rule):", "", *rows, ""]
     return out
 
 

@@ -177,6 +177,27 @@ Feature kinds (the functional form of each fit is fixed here, before the runs):
   stress swinging 7.7 % peak to peak over the hold's last fifth), so those two runs do not
   unload from rest; the rules above are applied to them as fixed, with that caveat printed.
 
+- ``unload_quiet`` and ``unload_quiet_check`` (added 2026-12-07 after the ``unload_rest``
+  runs and that finding; fixed here before their runs): the unloading from rest made again
+  with a hold that waits for a quiet window (``engine.UniaxialTest.hold_quiet`` =
+  :data:`QUIET_TIME` x size / 20: no curve sample above settle_ke N m g R for about two
+  periods of the bed's lowest axial mode, whose top-stress swing repeats about every 40 ms in
+  the stored ``unload_rest`` d20 holds, proportional to the height), the ``unload_rest`` test
+  otherwise. Sizes 5 (seeds 1-4), 10 (1-4) and 20 d (1-2). Rules, fixed now: (1) as
+  ``unload_rest``'s: the unloading stiffness against the reversed one (``unload``, the same
+  consolidated bed), paired by seed, per size, 90 % t interval against
+  +-:data:`RATE_EQUIVALENCE`. (2) Its curve across 5, 10 and 20 d (the log linear in d / L,
+  the 15 % tolerance) and its need: that property's need only when (3) is equivalent,
+  otherwise undecided. (3) ``unload_quiet_check``: the 20-d seeds 1-2 unloaded three times
+  slower again (``unloading_inertial_number`` / 3), paired by seed with ``unload_quiet``'s
+  (every stage to the end of the hold the same run), the same rule (one degree of freedom);
+  at 5 d the rate is taken as checked through the reversed series (its 5-d check
+  equivalent, and rest against reversed equivalent there). The bulk in compression's
+  kind-level need and the planner are unchanged whatever these give (its loading stiffness
+  keeps it undecided). The runs are cut short as the other checks; the 20-d ones are run
+  first. The report also prints, as a description, each ``unload_quiet`` run against the
+  ``unload_rest`` one of the same seed.
+
 Laws: ``bond1`` the default powder (f0 = -0.4 N, the main job's reference), ``bond3`` the
 same law three times as adhesive (f0 = -1.2 N: granular Bond number at the consolidation
 stress |f0| / (sigma_c d^2) = 2.4 against 0.8).
@@ -276,6 +297,11 @@ UNLOAD_CHECK_STOP = 0.2
 #: diameters [s] (x size / 20 at the others).
 UNLOAD_REST_SIZES = {"bond1": {5.0: 4, 10.0: 4, 20.0: 2}}
 HOLD_TIME = 0.25
+#: The unloading from a quiet rest (module docstring): its sizes and seeds, its check's, and
+#: its quiet window at 20 diameters [s] (x size / 20 at the others).
+UNLOAD_QUIET_SIZES = {"bond1": {5.0: 4, 10.0: 4, 20.0: 2}}
+UNLOAD_QUIET_CHECK_SIZES = {"bond1": {20.0: 2}}
+QUIET_TIME = 0.08
 #: Each kind's sizes and seeds per law.
 TABLES = {
     "column": COLUMN_SIZES,
@@ -283,6 +309,8 @@ TABLES = {
     "unload": UNLOAD_SIZES,
     "unload_check": UNLOAD_CHECK_SIZES,
     "unload_rest": UNLOAD_REST_SIZES,
+    "unload_quiet": UNLOAD_QUIET_SIZES,
+    "unload_quiet_check": UNLOAD_QUIET_CHECK_SIZES,
     "shear": SHEAR_SIZES,
 }
 RATE_INERTIAL_NUMBER = 1.63e-4
@@ -336,6 +364,8 @@ def keys(only=None) -> list[tuple[str, str, float, int]]:
         ("unload", UNLOAD_SIZES),
         ("unload_check", UNLOAD_CHECK_SIZES),
         ("unload_rest", UNLOAD_REST_SIZES),
+        ("unload_quiet", UNLOAD_QUIET_SIZES),
+        ("unload_quiet_check", UNLOAD_QUIET_CHECK_SIZES),
         ("shear", SHEAR_SIZES),
     ):
         for law_name, sizes in table.items():
@@ -407,6 +437,12 @@ def test_of(kind: str, law_name: str, size: float, seed: int):
     if kind == "unload_rest":
         test = test_of("unload", law_name, size, seed)
         return cut_short(replace(test, hold_time=HOLD_TIME * size / 20.0))
+    if kind == "unload_quiet":
+        test = test_of("unload_rest", law_name, size, seed)
+        return replace(test, hold_quiet=QUIET_TIME * size / 20.0)
+    if kind == "unload_quiet_check":
+        test = test_of("unload_quiet", law_name, size, seed)
+        return replace(test, unloading_inertial_number=test.unloading_inertial_number / 3.0)
     return (column_test if kind == "column" else shear_test)(law_name, size, seed)
 
 

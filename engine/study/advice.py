@@ -117,6 +117,9 @@ def resolution_lines(
             # docs/PHYSICS.md section 5.1: for this law the coarse run is its control in
             # other units, so the comparison can only see what the rule leaves unscaled
             fixed = kind_of(spec.reference).clock_constants
+            held = [n for n in ("hold_time", "hold_quiet") if getattr(spec.reference, n, None)]
+            if held:  # a hold's times are in seconds too
+                fixed += f", and the hold's {' and '.join(held)} in seconds"
             text += (
                 "; a check of units, not evidence for the rule: for this law the rule is an "
                 "exact similarity (the coarse run is its control in other units), so this "

@@ -298,7 +298,7 @@ def uniaxial_steps(test: UniaxialTest) -> float:
     ``inertial_number`` I* the strain rate is I* sqrt(p / rho) / d (at most
     ``max_platen_speed`` / height), taken at a quarter of the consolidation stress as the
     stages' typical stress (engine.uniaxial.measures.loading_speed); a hold stage counted at
-    twice its ``hold_time``."""
+    twice its ``hold_time`` and ``hold_quiet``."""
     dt = test.resolved_dt()
     height = test.cell[2]
     if test.inertial_number is None:
@@ -312,7 +312,7 @@ def uniaxial_steps(test: UniaxialTest) -> float:
         )
     t = 2 * test.fall_time + 0.2 / rate
     if test.hold_time is not None:  # at least hold_time, then until the bed is at rest
-        t += 2 * test.hold_time
+        t += 2 * (test.hold_time + (test.hold_quiet or 0.0))
     if test.unloading_inertial_number is not None:  # the unloading's share, about half
         t += 0.1 / rate * (test.inertial_number / test.unloading_inertial_number - 1.0)
     if test.unconfined:
@@ -368,8 +368,7 @@ UNIAXIAL = register(
         snapshots=True,
         stage_time_scales=False,
         window=True,
-        clock_constants="the constants left in seconds (output_interval, release_time, "
-        "hold_time) and "
+        clock_constants="the constants left in seconds (output_interval, release_time) and "
         "the runs' chaos",
         write_group=_stored("write_uniaxial_group"),
         read_group=_stored("read_uniaxial_group"),

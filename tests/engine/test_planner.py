@@ -357,6 +357,39 @@ def test_the_unloading_from_rest_is_judged_against_the_reversed_one_on_the_same_
     assert twenty["verdict"] == "differs" and twenty["same_bed"] == [True, True]
     assert twenty["slow"] == [8e5 * 1.152, 8e5 * 1.154] and twenty["fast"] == [8e5, 8e5]
     assert R.rest_check("bond3") is None
+    assert R.rest_check("bond1")["rate_checks"] == [] and not R.rest_check("bond1")["decided"]
+
+
+@pytest.mark.parametrize(("slower", "decided"), [((1.002, 1.004), True), ((1.01, 0.99), False)])
+def test_the_quiet_unloadings_need_counts_only_with_its_rate_check_equivalent(
+    monkeypatch, slower, decided
+):
+    """benchmarks/size_report.rest_check for ``unload_quiet`` (stand-in digests): its rate
+    check (three times slower from the same hold) paired with it by seed; ``decided`` only
+    when that check is equivalent (within 0.5 %: inside +-5 % at one degree of freedom;
+    +-1 %: the interval crosses the margin)."""
+    from types import SimpleNamespace
+
+    from benchmarks import size_report as R
+    from benchmarks import size_series as S
+
+    def stored(kind, law, size, seed):
+        f = {"unload": 1.0, "unload_quiet": 1.1}.get(kind, 1.1 * slower[seed - 1])
+        return SimpleNamespace(
+            ok=True,
+            metrics={"unloading_stiffness": [8e5 * f]},
+            scalars={"loading_stiffness": 2e5, "consolidated_porosity": 0.43},
+        )
+
+    monkeypatch.setattr(S, "UNLOAD_QUIET_SIZES", {"bond1": {20.0: 2}})
+    monkeypatch.setitem(S.TABLES, "unload_quiet_check", {"bond1": {20.0: 2}})
+    monkeypatch.setattr(S, "stored", stored)
+    c = R.rest_check("bond1", "unload_quiet")
+    (rate,) = c["rate_checks"]
+    assert rate["slow"] == pytest.approx([8e5 * 1.1 * x for x in slower], rel=1e-12)
+    assert rate["fast"] == pytest.approx([8e5 * 1.1] * 2, rel=1e-12)
+    assert c["decided"] is decided
+    assert c["checks"][0]["verdict"] == "differs"  # +10 % in both pairs against reversed
 
 
 def test_a_decided_rate_check_takes_the_stiffnesses_from_the_capped_series(monkeypatch):

@@ -1,8 +1,9 @@
 """The top platen's stress at the start of the unloading, read from the stored full files of
-the size series' slow-unloading runs (kinds ``unload``, ``unload_check`` and
-``unload_rest``, benchmarks/size_series.py): how much of the consolidation stress the top
-platen loses in the first curve sample, against the interior's, and whether that drop is the
-stress wave a velocity jump launches into an elastic medium, Delta sigma = rho_b c Delta v.
+the size series' slow-unloading runs (kinds ``unload``, ``unload_check``, ``unload_rest``
+and ``unload_quiet``, benchmarks/size_series.py): how much of the consolidation stress the
+top platen loses in the first curve sample, against the interior's, and whether that drop is
+the stress wave a velocity jump launches into an elastic medium, Delta sigma = rho_b c Delta
+v.
 
     python -m benchmarks.unloading_transient      # the table, and its JSON stored
 
@@ -44,7 +45,7 @@ from benchmarks import size_series as S
 from engine.io.digest import sha256_of
 
 STORE = S.ROOT / "benchmarks" / "results" / "unloading_transient"
-KINDS = ("unload", "unload_check", "unload_rest")
+KINDS = ("unload", "unload_check", "unload_rest", "unload_quiet")
 
 
 def run_row(path: Path, density: float) -> dict:

@@ -312,6 +312,21 @@ def test_parse_curves_marks_errors_and_refuses_torn_lines():
         parse_curves(head + "0 100 0.05\n")
 
 
+def test_a_hold_stages_samples_read_back_under_its_code():
+    # the hold's code in curves.txt is the last of ld.STAGES: a sample line starting with it
+    # belongs to the hold, the other stages' codes unchanged
+    text = (TINY / ld.CURVES).read_text()
+    head, _, _ = text.partition("# begin unloading")
+    last = [x for x in head.splitlines() if x and not x.startswith("#")][-1].split()
+    code = ld.STAGES.index("hold")
+    row = " ".join([str(code), *last[1:]])
+    hold = f"# begin hold {last[1]} 0.05\n{row}\n{row}\n# end hold {last[1]}\n"
+    p = parse_curves(head + hold)
+    assert list(p["stages"])[-2:] == ["consolidation", "hold"]
+    assert p["stages"]["hold"]["rows"].shape == (2, len(ld.COLUMNS))
+    assert p["stages"]["hold"]["rows"][0, 0] == code == 6
+
+
 def test_a_run_that_stopped_at_a_stage_bound_is_a_stage_error(tmp_path):
     folder = tmp_path / "deck"
     shutil.copytree(TINY, folder)

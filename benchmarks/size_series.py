@@ -195,8 +195,9 @@ Feature kinds (the functional form of each fit is fixed here, before the runs):
   equivalent, and rest against reversed equivalent there). The bulk in compression's
   kind-level need and the planner are unchanged whatever these give (its loading stiffness
   keeps it undecided). The runs are cut short as the other checks; the 20-d ones are run
-  first. The report also prints, as a description, each ``unload_quiet`` run against the
-  ``unload_rest`` one of the same seed.
+  first (as run: 20-d seed 1 from the start on one core, the 5- and 10-d runs on the other,
+  then 20-d seed 2 there: the small sizes are minutes). The report also prints, as a
+  description, each ``unload_quiet`` run against the ``unload_rest`` one of the same seed.
 
 Laws: ``bond1`` the default powder (f0 = -0.4 N, the main job's reference), ``bond3`` the
 same law three times as adhesive (f0 = -1.2 N: granular Bond number at the consolidation

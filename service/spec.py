@@ -85,6 +85,7 @@ CROSS_FIELD_RULES: dict[tuple[str, str], str] = {
     ("UniaxialTest", "pour_fraction"): "<= solid_fraction",
     ("UniaxialTest", "unloading_inertial_number"): "null where inertial_number is null",
     ("UniaxialTest", "hold_time"): "< max_stage_time",
+    ("UniaxialTest", "hold_quiet"): "< max_stage_time; null where hold_time is null",
     ("UniaxialTest", "cell"): "x and y >= 4.8 largest radii, z >= 4 largest radii",
     ("UniaxialTest", "dt"): "<= the stable limit of the laws for the smallest particles "
     "(engine.UniaxialTest.time_step_limit; the 422 names the limit)",

@@ -167,6 +167,11 @@ def test_a_hold_stage_is_written_between_consolidation_and_unloading():
     assert hold.endswith(f"*((v_n-v_tq)*{t.resolved_dt()!r}>={0.005!r})")
     assert "variable tq equal ${t0}" in q
     assert one(q, 'if "${kin} >').endswith('then "variable tq equal ${n}"')
+    # in order: the stage's start, tq from it, the loop: a run, then tq from its sample
+    tq = q.index("variable tq equal ${t0}")
+    assert q.rindex("variable t0 equal", 0, tq) > q.index("label end_consolidation")
+    run = q.index("run ", q.index("label loop_hold"))
+    assert tq < run < q.index('if "${kin} >') < q.index("jump SELF loop_hold")
 
 
 def test_the_deck_folder_holds_demscales_cloud_to_the_last_bit(tmp_path):

@@ -375,8 +375,11 @@ def _stiffness_mean(values) -> str:
     return f"{np.mean(values) / 1e6:.3f}"
 
 
-def _unload_check_lines(k: dict) -> list[str]:
-    """One size's slow-unloading check in words."""
+def _unload_check_lines(
+    k: dict, slower: str = "the slower unloading's", how: str = ""
+) -> list[str]:
+    """One size's paired check of a slower unloading in words (``slower`` names the slower
+    side's values, ``how`` says how it was made)."""
     r = k["stiffness"]["unloading_stiffness"]
     diffs = ", ".join(f"{100 * x:+.1f} %" for x in r["differences"]) or "none"
     mean = _mean_words(r)
@@ -393,9 +396,9 @@ def _unload_check_lines(k: dict) -> list[str]:
         else ""
     )
     slow = ", ".join(f"{x / 1e6:.3f}" for x in k["slow"])
-    slow = f" (the slower unloading's: {slow} MPa)" if slow else ""
+    slow = f" ({slower}: {slow} MPa)" if slow else ""
     return [
-        f"The check at {k['size']:g} diameters: {len(k['seeds'])} of {k['planned']} "
+        f"The check at {k['size']:g} diameters{how}: {len(k['seeds'])} of {k['planned']} "
         f"pairs stored{bad}{bed}; paired differences {diffs}{slow}; mean {mean}: "
         f"{k['verdict']}."
     ]
@@ -549,17 +552,8 @@ def _from_rest_law_lines(law_name: str, kind: str, what: str) -> list[str]:
                 f"{held} MPa, reversed {rev} MPa; paired differences {diffs}"
             )
     for k in c["rate_checks"]:
-        r = k["stiffness"]["unloading_stiffness"]
-        diffs = ", ".join(f"{100 * x:+.1f} %" for x in r["differences"]) or "none"
-        slow = ", ".join(f"{x / 1e6:.3f}" for x in k["slow"])
-        slow = f" (three times slower: {slow} MPa)" if slow else ""
-        out += [
-            "",
-            f"The check at {k['size']:g} diameters (three times slower again from the same "
-            f"hold, paired by seed): {len(k['seeds'])} of {k['planned']} pairs stored, the "
-            f"same bed in {sum(k['same_bed'])}; paired differences {diffs}{slow}; mean "
-            f"{_mean_words(r)}: {k['verdict']}.",
-        ]
+        how = " (three times slower again from the same hold, paired by seed)"
+        out += ["", *_unload_check_lines(k, "three times slower", how)]
     if FROM_REST[kind][1] is None:
         head = "Its unloading-stiffness curve (rule (2): that property's own line, not the kind's):"
     elif c["decided"]:

@@ -110,51 +110,57 @@ def rows(law_name: str = "bond1") -> dict:
     return out
 
 
-def table(data: dict) -> list[str]:
-    """The size means as a markdown table."""
-    lines = [
-        "| kind | size [d] | runs | v_load [m/s] | v_unload [m/s] | top drop [Pa] | top left "
-        "| interior left | c_eff [m/s] |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
-    ]
+def _means_table(data: dict, header: str, columns: tuple) -> list[str]:
+    """Per kind and size, the runs' means of ``columns`` ((key, format) pairs) as rows under
+    the markdown ``header``; runs without the first key left out, a size without any such
+    run too; no table where no size has one."""
+    lines = [header, "|---|---:|---:|" + "---:|" * len(columns)]
     for kind, sizes in data.items():
         for size, rs in sizes.items():
+            rs = [r for r in rs if columns[0][0] in r]
+            if rs:
+                cells = " | ".join(
+                    f"{float(np.mean([r[k] for r in rs])):{fmt}}" for k, fmt in columns
+                )
+                lines.append(f"| {kind} | {size} | {len(rs)} | {cells} |")
+    return lines if len(lines) > 2 else []
 
-            def m(k, rs=rs):
-                return float(np.mean([r[k] for r in rs]))
 
-            lines.append(
-                f"| {kind} | {size} | {len(rs)} | {m('v_load'):.4f} | {m('v_unload'):.4f} | "
-                f"{m('top_drop'):.0f} | {m('top_share_left'):.3f} | "
-                f"{m('interior_share_left'):.3f} | {m('c_eff'):.1f} |"
-            )
-    return lines
+def table(data: dict) -> list[str]:
+    """The size means as a markdown table."""
+    return _means_table(
+        data,
+        "| kind | size [d] | runs | v_load [m/s] | v_unload [m/s] | top drop [Pa] | top left "
+        "| interior left | c_eff [m/s] |",
+        (
+            ("v_load", ".4f"),
+            ("v_unload", ".4f"),
+            ("top_drop", ".0f"),
+            ("top_share_left", ".3f"),
+            ("interior_share_left", ".3f"),
+            ("c_eff", ".1f"),
+        ),
+    )
 
 
 def hold_table(data: dict) -> list[str]:
-    """The hold's size means (runs with a hold stage) as a markdown table: its length and
-    the top and interior stresses left at its end, as shares of their values at its start."""
-    lines = [
+    """The hold's size means (runs with a hold stage) as a markdown table: its length, the
+    top and interior stresses left at its end and their swings over its last fifth, as
+    shares of their values at its start, and the end energy's share of that fifth's
+    largest."""
+    return _means_table(
+        data,
         "| kind | size [d] | runs | hold [s] | top stress left | interior stress left | "
         "top swing, last fifth | interior swing, last fifth | end KE / max KE, last fifth |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
-    ]
-    for kind, sizes in data.items():
-        for size, rs in sizes.items():
-            rs = [r for r in rs if "hold_time" in r]
-            if not rs:
-                continue
-
-            def m(k, rs=rs):
-                return float(np.mean([r[k] for r in rs]))
-
-            lines.append(
-                f"| {kind} | {size} | {len(rs)} | {m('hold_time'):.4f} | "
-                f"{m('hold_top_left'):.3f} | {m('hold_interior_left'):.3f} | "
-                f"{m('hold_top_swing'):.3f} | {m('hold_interior_swing'):.4f} | "
-                f"{m('hold_end_ke_share'):.3f} |"
-            )
-    return lines if len(lines) > 2 else []
+        (
+            ("hold_time", ".4f"),
+            ("hold_top_left", ".3f"),
+            ("hold_interior_left", ".3f"),
+            ("hold_top_swing", ".3f"),
+            ("hold_interior_swing", ".4f"),
+            ("hold_end_ke_share", ".3f"),
+        ),
+    )
 
 
 def main() -> int:

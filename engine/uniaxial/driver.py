@@ -446,8 +446,17 @@ class _Driver:
         its last sample (so the fraction never goes back), the stop request heard."""
         self.report(self.stage_now, self.stage_fraction, "running")
 
-    def settled(self, row, t_min: float, t0: float) -> bool:
-        return row[0] - t0 >= t_min and row[6] <= self.settle_energy
+    def settled(self, row, t_min: float, t0: float, quiet: float | None = None, rows=()) -> bool:
+        """Whether a settling stage that began at ``t0`` [s] is over at sample ``row``: at
+        least ``t_min`` [s] in, the kinetic energy below settle_ke N m g R, and with
+        ``quiet`` [s] no sample of ``rows`` (the stage's so far) above it for that long, the
+        stage's start counting as one that was."""
+        if not (row[0] - t0 >= t_min and row[6] <= self.settle_energy):
+            return False
+        if quiet is None:
+            return True
+        loud = next((r[0] for r in reversed(rows) if r[6] > self.settle_energy), t0)
+        return row[0] - loud >= quiet
 
     def platen_virial(self, wall_forces: np.ndarray) -> float:
         """The platens' part of the vertical contact virial [N m] (:func:`platen_virial`)."""
@@ -567,26 +576,12 @@ class _Driver:
                 f"relax the stress below {low:g} Pa",
             )
         if stage == "hold":
-            if t.hold_quiet is not None:
-
-                def quiet(r) -> bool:
-                    # the last sample above the energy (the stage's start where none was)
-                    loud = next(
-                        (row[0] for row in reversed(rec.rows) if row[6] > self.settle_energy),
-                        t0,
-                    )
-                    return r[0] - t0 >= t.hold_time and r[0] - max(loud, t0) >= t.hold_quiet
-
-                return (
-                    quiet,
-                    lambda r: min(1.0, (r[0] - t0) / max(t.hold_time, t.hold_quiet)),
-                    "come to rest (hold_time, then the kinetic energy below settle_ke x N m "
-                    "g R at every sample for hold_quiet)",
-                )
+            longest = max(t.hold_time, t.hold_quiet or 0.0)
             return (
-                lambda r: self.settled(r, t.hold_time, t0),
-                lambda r: min(1.0, (r[0] - t0) / t.hold_time),
-                "come to rest (hold_time, then kinetic energy below settle_ke x N m g R)",
+                lambda r: self.settled(r, t.hold_time, t0, t.hold_quiet, rec.rows),
+                lambda r: min(1.0, (r[0] - t0) / longest),
+                "come to rest (hold_time, then kinetic energy below settle_ke x N m g R, "
+                "at every sample for hold_quiet where set)",
             )
         if stage == "release":
             t_min = 5 * math.sqrt(2 * t.radius / t.gravity)  # a few particle fall times

@@ -41,7 +41,9 @@ exit {1 if pip_fails else 0}
     return path
 
 
-def setup(tmp_path: Path, pip_fails: bool = False, uv_fails: bool = False) -> tuple[Path, callable]:
+def setup(
+    tmp_path: Path, pip_fails: bool = False, uv_fails: bool = False, env: dict | None = None
+) -> tuple[Path, callable]:
     repo = tmp_path / "repo"
     (repo / "scripts").mkdir(parents=True)
     shutil.copy(ROOT / "scripts" / "setup_env.sh", repo / "scripts")
@@ -52,7 +54,7 @@ def setup(tmp_path: Path, pip_fails: bool = False, uv_fails: bool = False) -> tu
         return subprocess.run(
             ["bash", "scripts/setup_env.sh"],
             cwd=repo,
-            env={"PATH": "/usr/bin:/bin", "PYTHON": str(python)},
+            env={"PATH": "/usr/bin:/bin", "PYTHON": str(python), **(env or {})},
             capture_output=True,
             text=True,
             timeout=60,
@@ -94,6 +96,30 @@ def test_pip_installs_where_uv_cannot(tmp_path):
     assert "uv: no index reachable" in (repo / ".venv" / "setup.log.uv").read_text()
     assert "running pip -m pip install --quiet -e" in (repo / ".venv" / "setup.log").read_text()
     assert (repo / ".venv" / ".demscale-installed").exists()
+
+
+@pytest.mark.skipif(shutil.which("bash") is None, reason="needs bash")
+@pytest.mark.parametrize("uv_fails", [False, True])
+def test_bytecode_is_compiled_at_install_unless_lazy(tmp_path, uv_fails):
+    """By default every installed module is compiled (uv's --compile-bytecode; pip compiles
+    by default); DEMSCALE_BYTECODE=lazy (scripts/test.sh) leaves it to the run (pip's
+    --no-compile); any other value is refused naming the variable."""
+    said = {}
+    for mode in ("all", "lazy"):
+        repo, run = setup(tmp_path / mode, uv_fails=uv_fails, env={"DEMSCALE_BYTECODE": mode})
+        done = run()
+        assert done.returncode == 0, done.stdout + done.stderr
+        said[mode] = (repo / ".venv" / "setup.log").read_text()
+    install = [ln for ln in said["all"].splitlines() if "-e" in ln.split()]
+    lazy = [ln for ln in said["lazy"].splitlines() if "-e" in ln.split()]
+    assert len(install) == len(lazy) == 1, said
+    if uv_fails:
+        assert "--no-compile" not in install[0] and "--no-compile" in lazy[0]
+    else:
+        assert "--compile-bytecode" in install[0] and "--compile-bytecode" not in lazy[0]
+    _, run = setup(tmp_path / "bad", env={"DEMSCALE_BYTECODE": "some"})
+    bad = run()
+    assert bad.returncode == 2 and "DEMSCALE_BYTECODE must be 'all' or 'lazy'" in bad.stderr
 
 
 @pytest.mark.parametrize("doc", ["docs/COMMAND_LINE.md", "docs/SERVICE.md"])

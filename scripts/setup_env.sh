@@ -9,13 +9,25 @@
 # DEMSCALE_BYTECODE=lazy (scripts/test.sh) installs without compiling every installed module
 # to bytecode (about 28 s of CPU on 2 cores, most of the install): the test run writes the
 # bytecode of the modules it imports instead. By default (all) every module is compiled, so
-# that on a machine where PYTHONDONTWRITEBYTECODE is set no process compiles them again.
+# that on a machine where PYTHONDONTWRITEBYTECODE is set no process compiles them again; a
+# venv installed lazily is compiled then (the stamp keeps the mode). Any other value is
+# refused, installed or not.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 PY=${PYTHON:-python3}
 if [ ! -x .venv/bin/python ]; then
   "$PY" -m venv .venv
 fi
+mode=${DEMSCALE_BYTECODE:-all}
+case "$mode" in
+  all) bytecode=(--compile-bytecode) pip_bytecode=() ;;
+  lazy) bytecode=() pip_bytecode=(--no-compile) ;;
+  *)
+    echo "setup: DEMSCALE_BYTECODE must be 'all' or 'lazy', not '$mode'" >&2
+    exit 2
+    ;;
+esac
+# The stamp holds the mode of the install (empty in stamps written before the modes: all).
 stamp=.venv/.demscale-installed
 log=.venv/setup.log
 if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
@@ -28,21 +40,13 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
   if [ -n "${PIP_EXTRA_INDEX_URL:-}" ]; then
     export UV_EXTRA_INDEX_URL="${UV_EXTRA_INDEX_URL:-$PIP_EXTRA_INDEX_URL}"
   fi
-  case "${DEMSCALE_BYTECODE:-all}" in
-    all) bytecode=(--compile-bytecode) pip_bytecode=() ;;
-    lazy) bytecode=() pip_bytecode=(--no-compile) ;;
-    *)
-      echo "setup: DEMSCALE_BYTECODE must be 'all' or 'lazy', not '${DEMSCALE_BYTECODE}'" >&2
-      exit 2
-      ;;
-  esac
   install_uv() {
     .venv/bin/python -m pip install --quiet uv &&
-      .venv/bin/python -m uv pip install --quiet "${bytecode[@]}" --python .venv/bin/python -e '.[service,test,cli]'
+      .venv/bin/python -m uv pip install --quiet ${bytecode[@]+"${bytecode[@]}"} --python .venv/bin/python -e '.[service,test,cli]'
   }
   install_pip() {
     .venv/bin/python -m pip install --quiet --upgrade pip &&
-      .venv/bin/python -m pip install --quiet "${pip_bytecode[@]}" -e '.[service,test,cli]'
+      .venv/bin/python -m pip install --quiet ${pip_bytecode[@]+"${pip_bytecode[@]}"} -e '.[service,test,cli]'
   }
   rm -f "$log.uv"
   if ! install_uv >"$log" 2>&1; then
@@ -54,7 +58,12 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
       exit 1
     fi
   fi
-  touch "$stamp"
+  echo "$mode" >"$stamp"
   echo "setup: done. The demscale command is in ./.venv/bin: run 'source .venv/bin/activate'"
   echo "       in each new shell (or call .venv/bin/demscale), then e.g. 'demscale --help'."
+elif [ "$mode" = all ] && [ "$(cat "$stamp")" = lazy ]; then
+  # installed lazily (by scripts/test.sh): every module compiled now, as an install would
+  echo "setup: compiling the installed modules to bytecode (installed without) ..."
+  .venv/bin/python -m compileall -q -j 0 .venv/lib >>"$log" 2>&1 || true
+  echo all >"$stamp"
 fi

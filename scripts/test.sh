@@ -29,11 +29,12 @@ plugins=(-p xdist.plugin -p pytest_timeout -p schemathesis.pytest.plugin -p _hyp
 # test modules, so that the three workers, which collect together, do not each compile the
 # same modules (measured 2026-12-07 under load: set-up and the workers' collections 81 s of
 # wall time and 79 s of CPU against 101 s and 107 s with every module compiled at install).
-# Its output is dropped: the run below reports any collection error. The schemathesis
+# Its output goes to .venv/warmup-{1,2}.log, and neither its failure nor its time limit
+# (300 s) stops the suite: the run below reports any collection error. The schemathesis
 # module's cases, built at collection, are left to the workers (nothing to compile).
-.venv/bin/python -m pytest "${plugins[@]}" --collect-only -q -p no:cacheprovider tests/engine \
-  >/dev/null 2>&1 &
-.venv/bin/python -m pytest "${plugins[@]}" --collect-only -q -p no:cacheprovider tests \
-  --ignore=tests/engine --ignore=tests/service/test_schemathesis.py >/dev/null 2>&1 &
-wait || true
+warm=(timeout 300 .venv/bin/python -m pytest "${plugins[@]}" --collect-only -q -p no:cacheprovider)
+"${warm[@]}" tests/engine >.venv/warmup-1.log 2>&1 &
+"${warm[@]}" tests --ignore=tests/engine --ignore=tests/service/test_schemathesis.py \
+  >.venv/warmup-2.log 2>&1 &
+wait
 exec .venv/bin/python -m pytest "${plugins[@]}" -n 3 --dist worksteal --timeout 600 "$@"

@@ -50,11 +50,17 @@ def setup(
     (repo / "pyproject.toml").write_text("[project]\nname = 'demscale'\n")
     python = stand_in_python(tmp_path / "python3", pip_fails, uv_fails)
 
-    def run() -> subprocess.CompletedProcess:
+    def run(again_with: dict | None = None) -> subprocess.CompletedProcess:
+        """The set-up in ``repo``; ``again_with`` replaces ``env`` (the same repository,
+        another mode)."""
         return subprocess.run(
             ["bash", "scripts/setup_env.sh"],
             cwd=repo,
-            env={"PATH": "/usr/bin:/bin", "PYTHON": str(python), **(env or {})},
+            env={
+                "PATH": "/usr/bin:/bin",
+                "PYTHON": str(python),
+                **(env or {} if again_with is None else again_with),
+            },
             capture_output=True,
             text=True,
             timeout=60,
@@ -117,9 +123,38 @@ def test_bytecode_is_compiled_at_install_unless_lazy(tmp_path, uv_fails):
         assert "--no-compile" not in install[0] and "--no-compile" in lazy[0]
     else:
         assert "--compile-bytecode" in install[0] and "--compile-bytecode" not in lazy[0]
-    _, run = setup(tmp_path / "bad", env={"DEMSCALE_BYTECODE": "some"})
-    bad = run()
-    assert bad.returncode == 2 and "DEMSCALE_BYTECODE must be 'all' or 'lazy'" in bad.stderr
+    # unset: all
+    repo, run = setup(tmp_path / "default", uv_fails=uv_fails)
+    assert run().returncode == 0
+    default = [ln for ln in (repo / ".venv" / "setup.log").read_text().splitlines() if "-e" in ln]
+    assert default == install, (default, install)
+
+
+@pytest.mark.skipif(shutil.which("bash") is None, reason="needs bash")
+def test_a_lazy_venv_is_compiled_when_all_is_asked_and_bad_modes_are_refused(tmp_path):
+    repo, run = setup(tmp_path, env={"DEMSCALE_BYTECODE": "lazy"})
+    assert run().returncode == 0
+    assert (repo / ".venv" / ".demscale-installed").read_text().strip() == "lazy"
+    assert "compileall" not in (repo / ".venv" / "setup.log").read_text()
+    done = run(again_with={})  # the default mode
+    assert done.returncode == 0 and "compiling the installed modules" in done.stdout
+    assert "-m compileall -q -j 0 .venv/lib" in (repo / ".venv" / "setup.log").read_text()
+    assert (repo / ".venv" / ".demscale-installed").read_text().strip() == "all"
+    again = run(again_with={})  # compiled: nothing to say
+    assert again.returncode == 0 and again.stdout + again.stderr == ""
+    # refused when installed too; an empty value is the default
+    bad = run(again_with={"DEMSCALE_BYTECODE": "some"})
+    assert bad.returncode == 2, bad
+    assert "DEMSCALE_BYTECODE must be 'all' or 'lazy', not 'some'" in bad.stderr
+    empty = run(again_with={"DEMSCALE_BYTECODE": ""})
+    assert empty.returncode == 0 and empty.stdout + empty.stderr == ""
+
+
+def test_the_test_script_installs_lazily_and_writes_bytecode():
+    text = (ROOT / "scripts" / "test.sh").read_text()
+    assert "DEMSCALE_BYTECODE=lazy bash scripts/setup_env.sh" in text
+    assert "unset PYTHONDONTWRITEBYTECODE" in text
+    assert text.index("unset PYTHONDONTWRITEBYTECODE") < text.index("--collect-only")
 
 
 @pytest.mark.parametrize("doc", ["docs/COMMAND_LINE.md", "docs/SERVICE.md"])

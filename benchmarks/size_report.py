@@ -670,6 +670,53 @@ def loading_checked(law_name: str) -> bool:
     return ok and all(c["decided"] for c in short)
 
 
+def capped_check(law_name: str) -> dict | None:
+    """The capped series' rate check (benchmarks/size_series.py, kind ``capped_check``,
+    fixed before its runs): per planned seed at its size, the run at a third of the capped
+    series' speed against the stored capped run of the same seed
+    (:mod:`benchmarks.resolution`), the loading stiffness's paired relative difference, its
+    90 % t interval and the verdict (:func:`_paired`); ``decided``: equivalent. None
+    without a check of this law."""
+    from benchmarks import resolution
+
+    planned = S.CAPPED_CHECK_SIZES.get(law_name, {})
+    if not planned:
+        return None
+    ((size, n),) = planned.items()
+    pairs = []
+    for seed in range(1, n + 1):
+        slow = S.stored("capped_check", law_name, size, seed)
+        capped = resolution.stored(size, seed)
+        if slow is None or not slow.ok or capped is None or isinstance(capped, str):
+            continue
+        value = metric_values_of(capped)["loading_stiffness"]
+        fast = _Digestlike({"loading_stiffness": [value]})
+        pairs.append((seed, slow, fast))
+    out = {
+        "size": size,
+        "seeds": [p[0] for p in pairs],
+        "planned": n,
+        "margin": S.RATE_EQUIVALENCE,
+        "stiffness": _paired(pairs, ("loading_stiffness",), n),
+    }
+    out["decided"] = out["stiffness"]["loading_stiffness"]["verdict"] == "equivalent"
+    return out
+
+
+def metric_values_of(outcome) -> dict[str, float]:
+    """A stored run's metrics (:func:`engine.study.metrics.metric_values`) as numbers."""
+    from engine.study.metrics import metric_values
+
+    return {k: float(np.asarray(v).ravel()[0]) for k, v in metric_values(outcome).items()}
+
+
+class _Digestlike:
+    """A stored run's metrics in a digest's form ({name: [value]}), for :func:`_paired`."""
+
+    def __init__(self, metrics: dict):
+        self.metrics = metrics
+
+
 def capped_stiffness_curves() -> dict:
     """The stiffnesses' resolution curves of the capped series (benchmarks.resolution, the
     bond1 column with the platen's speed held; docs/RESOLUTION_capped.md), each with its
@@ -703,7 +750,9 @@ def compression_curves(law_name: str) -> dict:
     its stiffnesses as the checks decide (benchmarks/size_series.py): where the
     5-diameter rate check decided (:func:`rate_check`), the capped series' stiffnesses
     (``stiffness_from`` "capped"); else, where the loading stiffness is checked at 5 and
-    25 diameters (:func:`loading_checked`), the held series' loading stiffness and, where
+    25 diameters (:func:`loading_checked`), the held series' loading stiffness, or where
+    the capped series' 20-d rate check is equivalent (:func:`capped_check`), the capped
+    series' (``loading_from`` "capped"), and, where
     every slow-unloading check is equivalent (:func:`unload_check`), the ``unload``
     series' unloading stiffness ("checked"; ``confounded`` names a stiffness left
     confounded, which :func:`feature_need` says); else "held" (both confounded)."""
@@ -715,17 +764,45 @@ def compression_curves(law_name: str) -> dict:
         metrics.update(capped["metrics"])
         sizes = sorted(set(held["sizes"]) | set(capped["sizes"]))
         return {**held, "metrics": metrics, "sizes": sizes, "stiffness_from": "capped"}
-    if not loading_checked(law_name):
+    capped_loading = None
+    if law_name == resolution_law():
+        cc = capped_check(law_name)
+        if cc is not None and cc["decided"]:
+            capped_loading = capped_stiffness_curves()["metrics"].get("loading_stiffness")
+    unchecked = UNLOADING_UNCHECKED
+    if capped_loading is not None:
+        # the capped series' loading stiffness, cleared by its 20-d rate check
+        keep = "loading_stiffness"
+        held = {
+            **held,
+            "metrics": {**held["metrics"], keep: capped_loading},
+            "missing": [n for n in held.get("missing", []) if n != keep],
+            "nonpositive": {n: v for n, v in held.get("nonpositive", {}).items() if n != keep},
+            "sizes": sorted(set(held["sizes"]) | set(capped_stiffness_curves()["sizes"])),
+            "loading_from": "capped",
+        }
+        why = unchecked["confounded_why"]
+        unchecked = {
+            **unchecked,
+            "confounded_why": (
+                why[0].replace(
+                    "(the rate checks at 5 and 25 diameters)",
+                    "(the capped series' loading stiffness, its 20-diameter rate check)",
+                ),
+                why[1],
+            ),
+        }
+    elif not loading_checked(law_name):
         return {**held, "stiffness_from": "held"}
     u = unload_check(law_name)
     if u is None or not u["decided"]:
         # the held series' unloading stiffness shown as it is, and not used
-        return {**held, "stiffness_from": "checked", **UNLOADING_UNCHECKED}
+        return {**held, "stiffness_from": "checked", **unchecked}
     slow = unload_curves(law_name)
     if "unloading_stiffness" not in slow["metrics"]:
         # the slow series gives no curve (too few seeds at its reference size, or a
         # non-positive secant): the kind is not judged without it
-        return {**held, "stiffness_from": "checked", **UNLOADING_UNCHECKED}
+        return {**held, "stiffness_from": "checked", **unchecked}
     drop = "unloading_stiffness"  # the held series' own, replaced by the slow series'
     return {
         **held,
@@ -1328,11 +1405,13 @@ def report() -> str:
                     else "the unloading stiffness stays confounded (shown as this series "
                     "gives it; the slow unloading's checks are not all equivalent)"
                 )
-                lines += [
-                    "The loading stiffness's curve is this series', checked at 5 and 25 "
-                    f"diameters (Confounds, the rate check); {unl}.",
-                    "",
-                ]
+                load = (
+                    "the capped series' (docs/RESOLUTION_capped.md), its 20-diameter rate "
+                    "check equivalent (Confounds, the capped series' rate check)"
+                    if c.get("loading_from") == "capped"
+                    else "this series', checked at 5 and 25 diameters (Confounds, the rate check)"
+                )
+                lines += [f"The loading stiffness's curve is {load}; {unl}.", ""]
             lines += _curve_lines(c)
         rows = skin_rows(law_name)
         lines += ["", "### The released column's skin, measured", ""]
@@ -1601,6 +1680,40 @@ def rate_lines() -> list[str]:
                     else "the held series' loading stiffness stays confounded"
                 )
             out += ["", f"So {what}.", ""]
+    out += capped_check_lines()
+    return out
+
+
+def capped_check_lines() -> list[str]:
+    """The report's account of the capped series' rate check (benchmarks/size_series.py,
+    kind ``capped_check``)."""
+    out = [
+        "### The capped series' rate check",
+        "",
+        "Fixed before its runs (benchmarks/size_series.py, kind `capped_check`; made after "
+        "the capped series' curve and the 25-diameter rate check above were seen): the "
+        "capped series' 20-diameter seeds 1-2 loaded at a third of its speed (the inertial "
+        "number and the cap / 3), stopped after the consolidation, paired by seed with the "
+        "stored capped runs; the loading stiffness's 90 % t interval of the mean paired "
+        f"relative difference inside +-{100 * S.RATE_EQUIVALENCE:g} % decides. Equivalent: "
+        "the bulk in compression takes the capped series' loading-stiffness curve (its "
+        "unloading stiffness as the slow unloading's checks decide).",
+        "",
+    ]
+    for law_name in S.LAWS:
+        c = capped_check(law_name)
+        if c is None:
+            continue
+        diffs = ", ".join(
+            f"{100 * x:+.1f} %" for x in c["stiffness"]["loading_stiffness"]["differences"]
+        )
+        r = c["stiffness"]["loading_stiffness"]
+        out += [
+            f"Law {law_name}, {c['size']:g} diameters: {len(c['seeds'])} of {c['planned']} "
+            f"pairs stored; paired differences {diffs or 'none'}; mean "
+            f"{_mean_words(r)}: {r['verdict']}.",
+            "",
+        ]
     return out
 
 

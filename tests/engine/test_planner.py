@@ -516,6 +516,70 @@ def test_the_bulk_in_compression_takes_each_stiffness_only_once_checked(monkeypa
     assert set(need["per_property"]) == set(R.FEATURES["bulk_compression"][1])
 
 
+def test_the_capped_series_rate_check_clears_its_loading_stiffness_only(monkeypatch):
+    """``capped_check`` (fixed in benchmarks/size_series.py): the capped series' 20-d test at
+    a third of its speed, cut short; its check pairs the loading stiffness with the stored
+    capped runs (stand-in digests); equivalent, the bulk in compression takes the capped
+    series' loading-stiffness curve and its unloading stiffness as the slow unloading's
+    checks decide (undecided here: the kind stays confounded by it alone)."""
+    from types import SimpleNamespace
+
+    from benchmarks import resolution
+    from benchmarks import size_report as R
+    from benchmarks import size_series as S
+
+    capped = resolution.size_test(20.0, 1)
+    t = S.test_of("capped_check", "bond1", 20.0, 1)
+    assert t.inertial_number == capped.inertial_number / 3
+    assert t.max_platen_speed == capped.max_platen_speed / 3
+    assert (t.unconfined, t.unloaded_stress, t.seed) == (False, 0.2, 1)
+    assert S.test_of("capped_check", "bond1", 20.0, 2).seed == 2
+    assert R.capped_check("bond3") is None
+
+    stored_capped = [R.metric_values_of(resolution.stored(20.0, s)) for s in (1, 2)]
+    real = S.stored
+
+    def slower(factors):
+        def stored(kind, law, size, seed):
+            if kind != "capped_check":
+                return real(kind, law, size, seed)
+            assert size == 20.0
+            value = stored_capped[seed - 1]["loading_stiffness"] * factors[seed - 1]
+            return SimpleNamespace(ok=True, metrics={"loading_stiffness": [value]})
+
+        return stored
+
+    monkeypatch.setattr(S, "stored", slower((1.01, 1.012)))
+    c = R.capped_check("bond1")
+    assert c["seeds"] == [1, 2] and c["decided"]
+    assert c["stiffness"]["loading_stiffness"]["differences"] == pytest.approx([0.01, 0.012])
+    monkeypatch.setattr(R, "rate_check", lambda law, size=None: {"decided": False})
+    monkeypatch.setattr(R, "loading_checked", lambda law: False)
+    monkeypatch.setattr(R, "unload_check", lambda law: {"decided": False})
+    got = R.compression_curves("bond1")
+    caps = R.capped_stiffness_curves()["metrics"]["loading_stiffness"]
+    assert got["loading_from"] == "capped" and got["metrics"]["loading_stiffness"] == caps
+    held = R.feature_curves("bulk_compression", "bond1")
+    assert got["metrics"]["density"] == held["metrics"]["density"]
+    need = R.feature_need(got, "column")
+    assert need["bound"] == "confounded" and need["confounded"] == ["unloading_stiffness"]
+    assert "20-diameter rate check" in need["why"]
+    # a slower run 8 % stiffer: differs, and the held series' account stands
+    monkeypatch.setattr(S, "stored", slower((1.08, 1.081)))
+    assert R.capped_check("bond1")["stiffness"]["loading_stiffness"]["verdict"] == "differs"
+    assert R.compression_curves("bond1")["stiffness_from"] == "held"
+    # one pair stored: undecided
+    two = slower((1.0, 1.0))
+    monkeypatch.setattr(
+        S,
+        "stored",
+        lambda kind, law, size, seed: (
+            None if kind == "capped_check" and seed == 2 else two(kind, law, size, seed)
+        ),
+    )
+    assert not R.capped_check("bond1")["decided"]
+
+
 def test_a_sample_that_did_not_fail_leaves_only_its_own_strength_out():
     """The stored 25 d column: seeds 2 and 3 failed at a peak, seed 1 did not
     (docs/RESOLUTION.md). A strength counts only samples that failed at a peak: the

@@ -704,7 +704,8 @@ def capped_check(law_name: str) -> dict | None:
 
 
 def metric_values_of(outcome) -> dict[str, float]:
-    """A stored run's metrics (:func:`engine.study.metrics.metric_values`) as numbers."""
+    """A stored run's metrics (:func:`engine.study.metrics.metric_values`) as numbers: the
+    first value of each (a property's value at its first level; the stiffnesses have one)."""
     from engine.study.metrics import metric_values
 
     return {k: float(np.asarray(v).ravel()[0]) for k, v in metric_values(outcome).items()}
@@ -750,9 +751,10 @@ def compression_curves(law_name: str) -> dict:
     its stiffnesses as the checks decide (benchmarks/size_series.py): where the
     5-diameter rate check decided (:func:`rate_check`), the capped series' stiffnesses
     (``stiffness_from`` "capped"); else, where the loading stiffness is checked at 5 and
-    25 diameters (:func:`loading_checked`), the held series' loading stiffness, or where
-    the capped series' 20-d rate check is equivalent (:func:`capped_check`), the capped
-    series' (``loading_from`` "capped"), and, where
+    25 diameters (:func:`loading_checked`), the held series' loading stiffness, but where
+    the capped series' 20-d rate check is equivalent (:func:`capped_check`) the capped
+    series' instead, whether or not the held one is checked (``loading_from`` "capped"),
+    and, where
     every slow-unloading check is equivalent (:func:`unload_check`), the ``unload``
     series' unloading stiffness ("checked"; ``confounded`` names a stiffness left
     confounded, which :func:`feature_need` says); else "held" (both confounded)."""
@@ -1693,7 +1695,8 @@ def capped_check_lines() -> list[str]:
         "Fixed before its runs (benchmarks/size_series.py, kind `capped_check`; made after "
         "the capped series' curve and the 25-diameter rate check above were seen): the "
         "capped series' 20-diameter seeds 1-2 loaded at a third of its speed (the inertial "
-        "number and the cap / 3), stopped after the consolidation, paired by seed with the "
+        "number and the cap / 3), cut short (no unconfined stage, the unloading ended "
+        "below 0.2 of the consolidation stress), paired by seed with the "
         "stored capped runs; the loading stiffness's 90 % t interval of the mean paired "
         f"relative difference inside +-{100 * S.RATE_EQUIVALENCE:g} % decides. Equivalent: "
         "the bulk in compression takes the capped series' loading-stiffness curve (its "

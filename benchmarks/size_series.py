@@ -205,15 +205,18 @@ Feature kinds (the functional form of each fit is fixed here, before the runs):
   the lag is largest: its 20-d seeds 1-2 loaded at a third of the speed (the inertial number
   and the cap both / 3), cut short as the other checks (:func:`cut_short`), paired by seed
   with the stored capped runs (benchmarks/results/quick/resolution/d20-s1.h5, -s2; the same
-  packed bed: the fill is the same run), the same rule (90 % t interval of the paired
-  relative difference against +-:data:`RATE_EQUIVALENCE`, one degree of freedom). Why 20 d
-  stands for the series: from 6.7 d up the cap binds (the inertial number held by the stored
-  seed-1 runs 5.0e-4 at 5 d, 4.1e-4 at 6.7, 4.3e-4 at 8, 3.5e-4 at 10, 1.6e-4 at 20), the
-  platen at the cap's speed wherever it binds, and at a given speed the lag's share of the
-  loading branch grows with the sample's height (the held series: its 5-d check equivalent,
-  its 25-d one +11 %); at 5 d the capped runs are held ones (the 5-d rate check's loading
-  stiffness equivalent). Consequence: equivalent clears the capped series' loading
-  stiffness, and the bulk in compression then takes that curve for its loading stiffness
+  seed and fill protocol, the fill's time step and speeds unchanged; the capped runs were
+  made under an older engine, so the packed beds are not shown bit-equal), the same rule (90
+  % t interval of the paired relative difference against +-:data:`RATE_EQUIVALENCE`, one
+  degree of freedom). Why 20 d stands for the series: from 6.7 d up the cap binds (the
+  consolidation's median inertial number in the stored runs, seeds 1-2,
+  engine.uniaxial.measures.held_inertial_numbers: 5.0e-4 at 5 d, 4.2e-4 at 6.7, 3.4e-4 at 8,
+  2.8e-4 at 10, 1.4e-4 at 20), the platen at the cap's speed wherever it binds, and at a
+  given speed the lag's share of the loading branch grows with the sample's height (the held
+  series: its 5-d check equivalent, its 25-d one +11 %); at 5 d the capped runs are held
+  ones (the 5-d rate check's loading stiffness equivalent). Consequence: equivalent clears
+  the capped series' loading stiffness, and the bulk in compression then takes that curve
+  for its loading stiffness (before the held series' own, even where that is checked too)
   (:func:`benchmarks.size_report.compression_curves`), its density and coordination the held
   series', its unloading stiffness as before (the reversed slow series where its checks are
   all equivalent, else confounded: the kind undecided; the rest series never enter the

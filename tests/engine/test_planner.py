@@ -564,6 +564,16 @@ def test_the_capped_series_rate_check_clears_its_loading_stiffness_only(monkeypa
     need = R.feature_need(got, "column")
     assert need["bound"] == "confounded" and need["confounded"] == ["unloading_stiffness"]
     assert "20-diameter rate check" in need["why"]
+    # the held loading stiffness checked too: the capped curve still taken; the slow
+    # unloading decided: its unloading curve, nothing confounded
+    monkeypatch.setattr(R, "loading_checked", lambda law: True)
+    monkeypatch.setattr(R, "unload_check", lambda law: {"decided": True})
+    both = R.compression_curves("bond1")
+    assert both["loading_from"] == "capped" and both["metrics"]["loading_stiffness"] == caps
+    slow = R.unload_curves("bond1")["metrics"]["unloading_stiffness"]
+    assert both["metrics"]["unloading_stiffness"] == slow and both["confounded"] == []
+    monkeypatch.setattr(R, "loading_checked", lambda law: False)
+    monkeypatch.setattr(R, "unload_check", lambda law: {"decided": False})
     # a slower run 8 % stiffer: differs, and the held series' account stands
     monkeypatch.setattr(S, "stored", slower((1.08, 1.081)))
     assert R.capped_check("bond1")["stiffness"]["loading_stiffness"]["verdict"] == "differs"

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import math
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -690,7 +691,7 @@ def capped_check(law_name: str) -> dict | None:
         if slow is None or not slow.ok or capped is None or isinstance(capped, str):
             continue
         value = metric_values_of(capped)["loading_stiffness"]
-        fast = _Digestlike({"loading_stiffness": [value]})
+        fast = SimpleNamespace(metrics={"loading_stiffness": [value]})  # a digest's form
         pairs.append((seed, slow, fast))
     out = {
         "size": size,
@@ -709,13 +710,6 @@ def metric_values_of(outcome) -> dict[str, float]:
     from engine.study.metrics import metric_values
 
     return {k: float(np.asarray(v).ravel()[0]) for k, v in metric_values(outcome).items()}
-
-
-class _Digestlike:
-    """A stored run's metrics in a digest's form ({name: [value]}), for :func:`_paired`."""
-
-    def __init__(self, metrics: dict):
-        self.metrics = metrics
 
 
 def capped_stiffness_curves() -> dict:
@@ -766,11 +760,15 @@ def compression_curves(law_name: str) -> dict:
         metrics.update(capped["metrics"])
         sizes = sorted(set(held["sizes"]) | set(capped["sizes"]))
         return {**held, "metrics": metrics, "sizes": sizes, "stiffness_from": "capped"}
-    capped_loading = None
+    capped_loading, capped_sizes = None, []
     if law_name == resolution_law():
         cc = capped_check(law_name)
         if cc is not None and cc["decided"]:
-            capped_loading = capped_stiffness_curves()["metrics"].get("loading_stiffness")
+            capped = capped_stiffness_curves()  # reads every stored capped run: once
+            capped_loading, capped_sizes = (
+                capped["metrics"].get("loading_stiffness"),
+                capped["sizes"],
+            )
     unchecked = UNLOADING_UNCHECKED
     if capped_loading is not None:
         # the capped series' loading stiffness, cleared by its 20-d rate check
@@ -780,7 +778,7 @@ def compression_curves(law_name: str) -> dict:
             "metrics": {**held["metrics"], keep: capped_loading},
             "missing": [n for n in held.get("missing", []) if n != keep],
             "nonpositive": {n: v for n, v in held.get("nonpositive", {}).items() if n != keep},
-            "sizes": sorted(set(held["sizes"]) | set(capped_stiffness_curves()["sizes"])),
+            "sizes": sorted(set(held["sizes"]) | set(capped_sizes)),
             "loading_from": "capped",
         }
         why = unchecked["confounded_why"]
